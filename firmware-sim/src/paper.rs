@@ -1,0 +1,111 @@
+//! The reference paper's calibration protocol: soaked temperatures × rate-table rates.
+//!
+//! For each of the 10 chamber temperatures (−30 … 60 °C, in ascending order as a chamber would run
+//! them) the gyro soaks for two hours; then for each of the 14 rates (±1, 2, 5, 10, 20, 40, 80 °/s)
+//! a zero-rate position test of 120 s precedes a 120 s rate test, both sampled at 1 Hz. A rate point is
+//! the mean of its 120 samples; `rate_dps` is the true inertial rate (table rate plus earth rate).
+//! Position tests are written only when asked for (they are separate tests in the paper, and the
+//! paper's 140 points hold none), as rows with zero table rate.
+
+use crate::plant::{GyroParams, Noise};
+
+/// Chamber setpoints of the paper, °C.
+pub const TEMPERATURES_C: [f64; 10] = [-30.0, -20.0, -10.0, -5.0, 0.0, 5.0, 10.0, 20.0, 40.0, 60.0];
+/// Table rates of the paper, °/s.
+pub const RATES_DPS: [f64; 14] = [
+    -80.0, -40.0, -20.0, -10.0, -5.0, -2.0, -1.0, 1.0, 2.0, 5.0, 10.0, 20.0, 40.0, 80.0,
+];
+/// Samples per point (2 min at 1 Hz).
+pub const SAMPLES_PER_POINT: u32 = 120;
+/// Soak before the first test at each temperature, s.
+const SOAK_S: f64 = 7200.0;
+
+/// One averaged rate-table point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// Mean temperature-sensor reading, °C.
+    pub temp_c: f64,
+    /// Mean gyro output, V.
+    pub voltage_v: f64,
+    /// True inertial rate (table rate plus earth rate), °/s.
+    pub rate_dps: f64,
+    /// Chamber setpoint, °C.
+    pub setpoint_c: f64,
+    /// Table rate commanded, °/s (0 for a position test).
+    pub table_rate_dps: f64,
+}
+
+/// Runs the paper protocol on one gyro; noise from `seed`.
+pub fn run(params: &GyroParams, seed: u64, position_tests: bool) -> Vec<Point> {
+    let mut noise = Noise::new(params, seed);
+    let earth = params.earth_rate_dps();
+    let mut points = Vec::new();
+    for &setpoint in &TEMPERATURES_C {
+        noise.advance(params, SOAK_S);
+        // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
+        let t_gyro = setpoint + params.self_heating_c;
+        let average = |table_rate: f64, noise: &mut Noise| {
+            let rate = table_rate + earth;
+            let (mut t, mut v) = (0.0, 0.0);
+            for _ in 0..SAMPLES_PER_POINT {
+                let s = noise.sample(params, t_gyro, t_gyro, rate, 0.0);
+                t += s.temp_c;
+                v += s.voltage_v;
+            }
+            let n = f64::from(SAMPLES_PER_POINT);
+            Point {
+                temp_c: t / n,
+                voltage_v: v / n,
+                rate_dps: rate,
+                setpoint_c: setpoint,
+                table_rate_dps: table_rate,
+            }
+        };
+        for &table_rate in &RATES_DPS {
+            let position = average(0.0, &mut noise);
+            if position_tests {
+                points.push(position);
+            }
+            points.push(average(table_rate, &mut noise));
+        }
+    }
+    points
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn protocol_has_140_points_and_optional_position_tests() {
+        let p = GyroParams::nominal();
+        assert_eq!(run(&p, 1, false).len(), 140);
+        let with = run(&p, 1, true);
+        assert_eq!(with.len(), 280);
+        assert_eq!(
+            with.iter().filter(|pt| pt.table_rate_dps == 0.0).count(),
+            140
+        );
+    }
+
+    #[test]
+    fn same_seed_same_points_other_seed_other_noise() {
+        let p = GyroParams::nominal();
+        assert_eq!(run(&p, 3, false), run(&p, 3, false));
+        assert_ne!(run(&p, 3, false), run(&p, 4, false));
+    }
+
+    #[test]
+    fn points_follow_the_scale_factor() {
+        let p = GyroParams::nominal();
+        let pts = run(&p, 5, false);
+        for pt in &pts {
+            let t = pt.setpoint_c + p.self_heating_c;
+            let expected = p.output_voltage(t, pt.rate_dps + p.bias_dps(t));
+            // 2-min mean noise ≈ 0.6 °/h plus bias instability and rate random walk, a few °/h:
+            // far below 0.01 °/s.
+            assert!((pt.voltage_v - expected).abs() < 0.01 * p.scale_factor_v_per_dps);
+            assert!((pt.temp_c - pt.setpoint_c - p.self_heating_c).abs() < 0.05);
+        }
+    }
+}

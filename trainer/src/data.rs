@@ -1,0 +1,489 @@
+//! Loading measured data from CSV (DESIGN §3), with the checks that keep a bad file from becoming a
+//! silently wrong model.
+//!
+//! Files keep their own names, units and delimiters: `--map NAME=SOURCE` maps a canonical column
+//! (`temp_c`, `voltage_v`, `rate_dps`, …) onto a source column, a source column times a factor
+//! (`imu.gyro.x*57.29577951`) or a constant (`rate_dps=0`). Comma or tab is detected from the header.
+//! A UTF-8 byte-order mark and CRLF line ends are accepted. Every error names the file, and where it
+//! can, the line (1-based, header is line 1) and the column.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// Errors while loading data; each names the file and, where it applies, line and column.
+#[derive(Debug, thiserror::Error)]
+pub enum DataError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The file has no header line.
+    #[error("{path}: empty file (expected a header line)")]
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file has a header but no data rows.
+    #[error("{path}: no data rows after the header")]
+    NoRows {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A required column is absent and not mapped.
+    #[error(
+        "{path}: missing column '{column}' (header has: {available}); map one with --map {column}=SOURCE"
+    )]
+    MissingColumn {
+        /// The file.
+        path: PathBuf,
+        /// The canonical or source column looked for.
+        column: String,
+        /// The header's columns, comma-separated.
+        available: String,
+    },
+    /// A row has a different number of fields than the header.
+    #[error("{path} line {line}: {found} fields, but the header has {expected}")]
+    RowLength {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// Fields in the row.
+        found: usize,
+        /// Fields in the header.
+        expected: usize,
+    },
+    /// A field is not a number.
+    #[error("{path} line {line}, column {column}: '{value}' is not a number")]
+    NotANumber {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The source column.
+        column: String,
+        /// The offending text.
+        value: String,
+    },
+    /// A field is NaN or infinite.
+    #[error("{path} line {line}, column {column}: {value} is not a finite number")]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The source column.
+        column: String,
+        /// The offending text.
+        value: String,
+    },
+    /// A column that must vary is constant over the whole file.
+    #[error("{path}, column {column}: constant ({value}) over all {rows} rows: {why}")]
+    ConstantColumn {
+        /// The file.
+        path: PathBuf,
+        /// The canonical column.
+        column: String,
+        /// Its only value.
+        value: f64,
+        /// Number of rows.
+        rows: usize,
+        /// What a constant column makes impossible.
+        why: &'static str,
+    },
+    /// The file is not valid CSV (e.g. broken quoting or invalid UTF-8).
+    #[error("{path} line {line}: {message}")]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The CSV reader's message.
+        message: String,
+    },
+}
+
+/// An invalid `--map` argument.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "invalid --map '{0}': expected NAME=SOURCE, where SOURCE is a column, COLUMN*FACTOR or a number"
+)]
+pub struct BadMap(pub String);
+
+/// Where a canonical column's values come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// A source column, scaled by a factor (1 when none is given).
+    Column {
+        /// Source column name.
+        name: String,
+        /// Multiplier applied to every value.
+        factor: f64,
+    },
+    /// The same value on every row (e.g. `rate_dps=0` for a static log).
+    Constant(f64),
+}
+
+/// One `--map NAME=SOURCE` argument.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnMap {
+    /// Canonical name (`temp_c`, `voltage_v`, `rate_dps`, …).
+    pub name: String,
+    /// Where its values come from.
+    pub source: Source,
+}
+
+impl FromStr for ColumnMap {
+    type Err = BadMap;
+
+    fn from_str(s: &str) -> Result<Self, BadMap> {
+        let bad = || BadMap(s.to_owned());
+        let (name, source) = s.split_once('=').ok_or_else(bad)?;
+        let (name, source) = (name.trim(), source.trim());
+        if name.is_empty() || source.is_empty() {
+            return Err(bad());
+        }
+        let source = if let Ok(v) = source.parse::<f64>() {
+            if !v.is_finite() {
+                return Err(bad());
+            }
+            Source::Constant(v)
+        } else if let Some((col, factor)) = source.rsplit_once('*') {
+            let factor: f64 = factor.trim().parse().map_err(|_| bad())?;
+            if !factor.is_finite() || col.trim().is_empty() {
+                return Err(bad());
+            }
+            Source::Column {
+                name: col.trim().to_owned(),
+                factor,
+            }
+        } else {
+            Source::Column {
+                name: source.to_owned(),
+                factor: 1.0,
+            }
+        };
+        Ok(Self {
+            name: name.to_owned(),
+            source,
+        })
+    }
+}
+
+/// Numeric columns read from one file, by canonical name, with each row's line number.
+#[derive(Debug, Clone)]
+pub struct Columns {
+    /// The file they came from.
+    pub path: PathBuf,
+    /// Values per canonical column.
+    pub values: HashMap<String, Vec<f64>>,
+    /// Raw text of columns requested as labels (e.g. a `--group` column).
+    pub labels: HashMap<String, Vec<String>>,
+    /// 1-based line number of each row.
+    pub lines: Vec<u64>,
+}
+
+impl Columns {
+    /// The values of a column that was requested (present by construction).
+    pub fn get(&self, name: &str) -> &[f64] {
+        self.values.get(name).map_or(&[], Vec::as_slice)
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// True when there are no rows.
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty()
+    }
+}
+
+/// Reads the `numeric` canonical columns (and `label` columns as text) from a CSV file.
+pub fn read_columns(
+    path: &Path,
+    numeric: &[&str],
+    label: &[&str],
+    maps: &[ColumnMap],
+) -> Result<Columns, DataError> {
+    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+    // The csv reader's line numbers drift on CRLF files; plain LF keeps them exact.
+    let text: Vec<u8> = if text.contains(&b'\r') {
+        let mut out = Vec::with_capacity(text.len());
+        for (i, &b) in text.iter().enumerate() {
+            if !(b == b'\r' && text.get(i + 1) == Some(&b'\n')) {
+                out.push(b);
+            }
+        }
+        out
+    } else {
+        text.to_vec()
+    };
+    let text = text.as_slice();
+    let header_line = text.split(|&b| b == b'\n').next().unwrap_or_default();
+    if header_line.iter().all(u8::is_ascii_whitespace) {
+        return Err(DataError::Empty {
+            path: path.to_owned(),
+        });
+    }
+    let delimiter = if header_line.contains(&b'\t') {
+        b'\t'
+    } else {
+        b','
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .delimiter(delimiter)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(text);
+    let malformed = |e: csv::Error| DataError::Malformed {
+        path: path.to_owned(),
+        line: e.position().map_or(1, csv::Position::line),
+        message: e.to_string(),
+    };
+    let headers: Vec<String> = reader
+        .headers()
+        .map_err(malformed)?
+        .iter()
+        .map(str::to_owned)
+        .collect();
+    let index_of = |name: &str| headers.iter().position(|h| h == name);
+    let missing = |column: &str| DataError::MissingColumn {
+        path: path.to_owned(),
+        column: column.to_owned(),
+        available: headers.join(", "),
+    };
+
+    // Resolve each requested canonical column to (source column index, factor) or a constant.
+    enum Resolved {
+        Column(usize, String, f64),
+        Constant(f64),
+    }
+    let resolve = |name: &str| -> Result<Resolved, DataError> {
+        match maps
+            .iter()
+            .rev()
+            .find(|m| m.name == name)
+            .map(|m| &m.source)
+        {
+            Some(Source::Constant(v)) => Ok(Resolved::Constant(*v)),
+            Some(Source::Column { name: col, factor }) => index_of(col)
+                .map(|i| Resolved::Column(i, col.clone(), *factor))
+                .ok_or_else(|| missing(col)),
+            None => index_of(name)
+                .map(|i| Resolved::Column(i, name.to_owned(), 1.0))
+                .ok_or_else(|| missing(name)),
+        }
+    };
+    let numeric_sources = numeric
+        .iter()
+        .map(|n| resolve(n))
+        .collect::<Result<Vec<_>, _>>()?;
+    let label_sources = label
+        .iter()
+        .map(|n| index_of(n).ok_or_else(|| missing(n)))
+        .collect::<Result<Vec<_>, _>>()?;
+
+    let mut values: Vec<Vec<f64>> = vec![Vec::new(); numeric.len()];
+    let mut labels: Vec<Vec<String>> = vec![Vec::new(); label.len()];
+    let mut lines = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(malformed)?;
+        let line = record.position().map_or(0, csv::Position::line);
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        if record.len() != headers.len() {
+            return Err(DataError::RowLength {
+                path: path.to_owned(),
+                line,
+                found: record.len(),
+                expected: headers.len(),
+            });
+        }
+        for (out, source) in values.iter_mut().zip(&numeric_sources) {
+            let v = match source {
+                Resolved::Constant(v) => *v,
+                Resolved::Column(i, col, factor) => {
+                    let field = record.get(*i).unwrap_or_default();
+                    let v: f64 = field.parse().map_err(|_| DataError::NotANumber {
+                        path: path.to_owned(),
+                        line,
+                        column: col.clone(),
+                        value: field.to_owned(),
+                    })?;
+                    let v = v * factor;
+                    if !v.is_finite() {
+                        return Err(DataError::NonFinite {
+                            path: path.to_owned(),
+                            line,
+                            column: col.clone(),
+                            value: field.to_owned(),
+                        });
+                    }
+                    v
+                }
+            };
+            out.push(v);
+        }
+        for (out, &i) in labels.iter_mut().zip(&label_sources) {
+            out.push(record.get(i).unwrap_or_default().to_owned());
+        }
+        lines.push(line);
+    }
+    if lines.is_empty() {
+        return Err(DataError::NoRows {
+            path: path.to_owned(),
+        });
+    }
+    Ok(Columns {
+        path: path.to_owned(),
+        values: numeric.iter().map(|n| n.to_string()).zip(values).collect(),
+        labels: label.iter().map(|n| n.to_string()).zip(labels).collect(),
+        lines,
+    })
+}
+
+/// Fails with [`DataError::ConstantColumn`] when `column` holds one value only.
+pub fn require_varying(
+    columns: &Columns,
+    column: &str,
+    why: &'static str,
+) -> Result<(), DataError> {
+    let v = columns.get(column);
+    match v.first() {
+        Some(&first) if v.iter().all(|&x| x == first) => Err(DataError::ConstantColumn {
+            path: columns.path.clone(),
+            column: column.to_owned(),
+            value: first,
+            rows: v.len(),
+            why,
+        }),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn file(contents: &str) -> tempfile::NamedTempFile {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        f.write_all(contents.as_bytes()).unwrap();
+        f
+    }
+
+    #[test]
+    fn map_parses_columns_factors_and_constants() {
+        let m: ColumnMap = "rate_dps=0".parse().unwrap();
+        assert_eq!(m.source, Source::Constant(0.0));
+        let m: ColumnMap = "voltage_v=imu.gyro.x*57.29577951".parse().unwrap();
+        assert_eq!(
+            m.source,
+            Source::Column {
+                name: "imu.gyro.x".into(),
+                factor: 57.29577951
+            }
+        );
+        let m: ColumnMap = "temp_c=T".parse().unwrap();
+        assert_eq!(
+            m.source,
+            Source::Column {
+                name: "T".into(),
+                factor: 1.0
+            }
+        );
+        assert!("nonsense".parse::<ColumnMap>().is_err());
+        assert!("a=".parse::<ColumnMap>().is_err());
+        assert!("a=b*x".parse::<ColumnMap>().is_err());
+    }
+
+    #[test]
+    fn tab_bom_crlf_and_maps_are_read() {
+        let f = file("\u{feff}t\tcounts\tus\r\n1.5\t10\t1000000\r\n2.5\t20\t2000000\r\n");
+        let maps: Vec<ColumnMap> = [
+            "temp_c=t",
+            "voltage_v=counts*0.5",
+            "time_s=us*1e-6",
+            "rate_dps=0",
+        ]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+        let c = read_columns(
+            f.path(),
+            &["temp_c", "voltage_v", "time_s", "rate_dps"],
+            &[],
+            &maps,
+        )
+        .unwrap();
+        assert_eq!(c.get("temp_c"), &[1.5, 2.5]);
+        assert_eq!(c.get("voltage_v"), &[5.0, 10.0]);
+        assert_eq!(c.get("time_s"), &[1.0, 2.0]);
+        assert_eq!(c.get("rate_dps"), &[0.0, 0.0]);
+        assert_eq!(c.lines, vec![2, 3]);
+    }
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let f = file("temp_c,voltage_v,rate_dps\n1,2,3\n1,abc,3\n");
+        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("line 3, column voltage_v: 'abc' is not a number"),
+            "{msg}"
+        );
+
+        let f = file("temp_c,voltage_v,rate_dps\n1,NaN,3\n");
+        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        assert!(matches!(e, DataError::NonFinite { line: 2, .. }), "{e}");
+
+        let f = file("temp_c,voltage_v\n1,2\n");
+        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        assert!(e.to_string().contains("missing column 'rate_dps'"), "{e}");
+
+        let f = file("temp_c,voltage_v,rate_dps\n1,2\n");
+        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                DataError::RowLength {
+                    line: 2,
+                    found: 2,
+                    expected: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+
+        let f = file("");
+        let e = read_columns(f.path(), &["temp_c"], &[], &[]).unwrap_err();
+        assert!(matches!(e, DataError::Empty { .. }), "{e}");
+
+        let f = file("temp_c\n");
+        let e = read_columns(f.path(), &["temp_c"], &[], &[]).unwrap_err();
+        assert!(matches!(e, DataError::NoRows { .. }), "{e}");
+    }
+
+    #[test]
+    fn constant_column_is_refused_with_the_reason() {
+        let f = file("temp_c,voltage_v\n1,2\n1,3\n");
+        let c = read_columns(f.path(), &["temp_c", "voltage_v"], &[], &[]).unwrap();
+        assert!(require_varying(&c, "voltage_v", "x").is_ok());
+        let e =
+            require_varying(&c, "temp_c", "no temperature dependence can be learnt").unwrap_err();
+        assert!(e.to_string().contains("column temp_c: constant (1)"), "{e}");
+    }
+}

@@ -1,0 +1,411 @@
+//! The paper's evaluation: leave-one-out RMSE over all points, leave-one-temperature-out RMSE per
+//! temperature (its Table 1), the first-order V-vs-T check per rate (its Fig. 2) and the normality
+//! of residuals (its Q-Q plot, Fig. 4, as a correlation coefficient).
+//!
+//! LOO is closed-form for the GP (R&W eq. 5.12) and LS-SVR (Cawley & Talbot), with the fitted
+//! hyperparameters, prior mean and normalization held fixed; the two-step model is cheap enough to
+//! refit for every point. Leave-one-temperature-out always refits everything, hyperparameters
+//! included, on the remaining temperatures: it is the honest test of interpolation in T.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, Normal};
+
+use crate::dataset::Points;
+use crate::gp::{GpConfig, GpError, GpModel};
+use crate::lssvr::{LssvrError, LssvrModel};
+use crate::two_step::{TwoStepError, TwoStepModel};
+
+/// Seconds per hour: rates are also reported in °/h, the unit gyro datasheets use.
+pub const DPH_PER_DPS: f64 = 3600.0;
+
+/// The compared methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Gaussian-process regression (the paper's method).
+    Gpr,
+    /// Least-squares support-vector regression.
+    Lssvr,
+    /// Traditional two-step bias and scale-factor polynomials.
+    TwoStep,
+}
+
+impl Method {
+    /// The CLI / JSON name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Gpr => "gpr",
+            Self::Lssvr => "lssvr",
+            Self::TwoStep => "two-step",
+        }
+    }
+}
+
+/// Settings shared by all methods.
+#[derive(Debug, Clone, Serialize)]
+pub struct EvalConfig {
+    /// GP settings (its prior degree is also LS-SVR's).
+    pub gp: GpConfig,
+    /// Polynomial degree of the two-step model's B(T) and S(T).
+    pub two_step_degree: usize,
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            gp: GpConfig::default(),
+            two_step_degree: 3,
+        }
+    }
+}
+
+/// Errors of an evaluation.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// GP failure.
+    #[error(transparent)]
+    Gp(#[from] GpError),
+    /// LS-SVR failure.
+    #[error(transparent)]
+    Lssvr(#[from] LssvrError),
+    /// Two-step failure.
+    #[error(transparent)]
+    TwoStep(#[from] TwoStepError),
+    /// Leaving a group out leaves too little to fit.
+    #[error(
+        "leaving out group '{group}' leaves {remaining} points in {plateaus} temperature plateau(s): too few to fit"
+    )]
+    FoldTooSmall {
+        /// The group left out.
+        group: String,
+        /// Points left.
+        remaining: usize,
+        /// Plateaus left.
+        plateaus: usize,
+    },
+}
+
+/// A model of any method, fitted.
+#[derive(Debug, Clone)]
+pub enum Fitted {
+    /// GP.
+    Gpr(Box<GpModel>),
+    /// LS-SVR.
+    Lssvr(Box<LssvrModel>),
+    /// Two-step.
+    TwoStep(TwoStepModel),
+}
+
+impl Fitted {
+    /// Fits `method` to points.
+    pub fn fit(points: &Points, method: Method, cfg: &EvalConfig) -> Result<Self, EvalError> {
+        Ok(match method {
+            Method::Gpr => Self::Gpr(Box::new(GpModel::fit(
+                &points.inputs(),
+                &points.target(),
+                &cfg.gp,
+            )?)),
+            Method::Lssvr => Self::Lssvr(Box::new(LssvrModel::fit(
+                &points.inputs(),
+                &points.target(),
+                cfg.gp.prior_degree,
+            )?)),
+            Method::TwoStep => Self::TwoStep(TwoStepModel::fit(
+                &points.temp_c,
+                &points.voltage_v,
+                &points.rate_dps,
+                cfg.two_step_degree,
+            )?),
+        })
+    }
+
+    /// Compensated rate at (T, V).
+    pub fn predict(&self, temp_c: f64, voltage: f64) -> f64 {
+        match self {
+            Self::Gpr(m) => m.predict(&[temp_c, voltage]).mean,
+            Self::Lssvr(m) => m.predict(&[temp_c, voltage]),
+            Self::TwoStep(m) => m.predict(temp_c, voltage),
+        }
+    }
+
+    /// Hyperparameters or coefficients, for the JSON report.
+    pub fn parameters(&self) -> serde_json::Value {
+        match self {
+            Self::Gpr(m) => serde_json::json!(m.posterior.hyper),
+            Self::Lssvr(m) => serde_json::json!(m.hyper()),
+            Self::TwoStep(m) => serde_json::json!(m),
+        }
+    }
+}
+
+/// LOO errors (prediction − reference) for every point, °/s.
+fn loo_errors(
+    points: &Points,
+    fitted: &Fitted,
+    method: Method,
+    cfg: &EvalConfig,
+) -> Result<Vec<f64>, EvalError> {
+    Ok(match fitted {
+        Fitted::Gpr(m) => m.loo_errors(),
+        Fitted::Lssvr(m) => m.loo_errors(),
+        Fitted::TwoStep(_) => (0..points.len())
+            .map(|i| {
+                let keep: Vec<usize> = (0..points.len()).filter(|&j| j != i).collect();
+                let m = Fitted::fit(&points.select(&keep), method, cfg)?;
+                Ok(m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
+            })
+            .collect::<Result<Vec<_>, EvalError>>()?,
+    })
+}
+
+/// RMSE of one left-out group.
+#[derive(Debug, Clone, Serialize)]
+pub struct GroupRmse {
+    /// Group label (plateau index, or the `--group` column's value).
+    pub group: String,
+    /// Mean temperature of the group, °C.
+    pub temp_c: f64,
+    /// Points in the group.
+    pub n: usize,
+    /// RMSE of the refitted model on the group, °/s.
+    pub rmse_dps: f64,
+    /// Same, °/h.
+    pub rmse_dph: f64,
+}
+
+/// One method's evaluation.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evaluation {
+    /// Method name.
+    pub method: &'static str,
+    /// Number of points.
+    pub n: usize,
+    /// Leave-one-out RMSE, °/s.
+    pub rmse_dps: f64,
+    /// Leave-one-out RMSE, °/h.
+    pub rmse_dph: f64,
+    /// Leave-one-group-out (default: temperature) RMSE per group.
+    pub per_temperature: Vec<GroupRmse>,
+    /// Correlation of sorted LOO errors with normal quantiles (1 = perfectly normal).
+    pub qq_correlation: f64,
+    /// LOO error of every point, °/s, in file order.
+    pub loo_errors_dps: Vec<f64>,
+    /// Fit on all points, s.
+    pub fit_seconds: f64,
+    /// LOO computation after the fit, s.
+    pub loo_seconds: f64,
+    /// Fitted hyperparameters or coefficients.
+    pub parameters: serde_json::Value,
+}
+
+fn rmse(e: &[f64]) -> f64 {
+    (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt()
+}
+
+/// Q-Q correlation: Pearson correlation of the sorted values with the normal quantiles at Blom's
+/// plotting positions (i − 3/8)/(n + 1/4). About 0.99+ for normal samples of this size.
+pub fn qq_correlation(values: &[f64]) -> f64 {
+    let n = values.len();
+    if n < 3 {
+        return f64::NAN;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let Ok(normal) = Normal::new(0.0, 1.0) else {
+        return f64::NAN;
+    };
+    let q: Vec<f64> = (0..n)
+        .map(|i| normal.inverse_cdf((i as f64 + 1.0 - 0.375) / (n as f64 + 0.25)))
+        .collect();
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    let (mv, mq) = (mean(&v), mean(&q));
+    let cov: f64 = v.iter().zip(&q).map(|(a, b)| (a - mv) * (b - mq)).sum();
+    let sv: f64 = v.iter().map(|a| (a - mv).powi(2)).sum::<f64>().sqrt();
+    let sq: f64 = q.iter().map(|b| (b - mq).powi(2)).sum::<f64>().sqrt();
+    cov / (sv * sq)
+}
+
+/// Evaluates one method on the points.
+pub fn evaluate(
+    points: &Points,
+    method: Method,
+    cfg: &EvalConfig,
+) -> Result<Evaluation, EvalError> {
+    let t0 = Instant::now();
+    let fitted = Fitted::fit(points, method, cfg)?;
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let errors = loo_errors(points, &fitted, method, cfg)?;
+    let loo_seconds = t1.elapsed().as_secs_f64();
+    let per_temperature = points
+        .groups()
+        .into_par_iter()
+        .map(|(group, members)| {
+            let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
+            let train = points.select(&keep);
+            let plateaus = crate::dataset::plateaus(&train.temp_c)
+                .into_iter()
+                .max()
+                .map_or(0, |m| m + 1);
+            if plateaus < 2 || keep.len() < 4 {
+                return Err(EvalError::FoldTooSmall {
+                    group,
+                    remaining: keep.len(),
+                    plateaus,
+                });
+            }
+            let m = Fitted::fit(&train, method, cfg)?;
+            let e: Vec<f64> = members
+                .iter()
+                .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
+                .collect();
+            let r = rmse(&e);
+            Ok(GroupRmse {
+                group,
+                temp_c: members.iter().map(|&i| points.temp_c[i]).sum::<f64>()
+                    / members.len() as f64,
+                n: members.len(),
+                rmse_dps: r,
+                rmse_dph: r * DPH_PER_DPS,
+            })
+        })
+        .collect::<Result<Vec<_>, EvalError>>()?;
+    let r = rmse(&errors);
+    Ok(Evaluation {
+        method: method.name(),
+        n: points.len(),
+        rmse_dps: r,
+        rmse_dph: r * DPH_PER_DPS,
+        per_temperature,
+        qq_correlation: qq_correlation(&errors),
+        loo_errors_dps: errors,
+        fit_seconds,
+        loo_seconds,
+        parameters: fitted.parameters(),
+    })
+}
+
+/// The paper's Fig. 2 check at one rate.
+#[derive(Debug, Clone, Serialize)]
+pub struct RateLineFit {
+    /// Reference rate, °/s.
+    pub rate_dps: f64,
+    /// Worst |V − line(T)|, mV (output units × 1000).
+    pub worst_mv: f64,
+    /// Same, divided by the mean scale factor, °/s.
+    pub worst_dps: f64,
+}
+
+/// The paper's Fig. 2 check: per rate, a first-order fit of V against T.
+#[derive(Debug, Clone, Serialize)]
+pub struct Fig2 {
+    /// Least-squares scale factor over all points, mV per °/s.
+    pub scale_factor_mv_per_dps: f64,
+    /// Per rate.
+    pub per_rate: Vec<RateLineFit>,
+    /// The worst rate's figures.
+    pub worst: Option<RateLineFit>,
+}
+
+/// Runs the Fig. 2 check (rates grouped when equal to 1e-6 °/s).
+pub fn fig2(points: &Points) -> Fig2 {
+    let n = points.len() as f64;
+    let mw = points.rate_dps.iter().sum::<f64>() / n;
+    let mv = points.voltage_v.iter().sum::<f64>() / n;
+    let sww: f64 = points.rate_dps.iter().map(|w| (w - mw).powi(2)).sum();
+    let swv: f64 = points
+        .rate_dps
+        .iter()
+        .zip(&points.voltage_v)
+        .map(|(w, v)| (w - mw) * (v - mv))
+        .sum();
+    let sf = swv / sww;
+    let mut rates: Vec<f64> = Vec::new();
+    for &w in &points.rate_dps {
+        if !rates.iter().any(|r| (r - w).abs() < 1e-6) {
+            rates.push(w);
+        }
+    }
+    rates.sort_by(f64::total_cmp);
+    let per_rate: Vec<RateLineFit> = rates
+        .iter()
+        .filter_map(|&w| {
+            let idx: Vec<usize> = (0..points.len())
+                .filter(|&i| (points.rate_dps[i] - w).abs() < 1e-6)
+                .collect();
+            let m = idx.len() as f64;
+            let mt = idx.iter().map(|&i| points.temp_c[i]).sum::<f64>() / m;
+            let mvv = idx.iter().map(|&i| points.voltage_v[i]).sum::<f64>() / m;
+            let stt: f64 = idx.iter().map(|&i| (points.temp_c[i] - mt).powi(2)).sum();
+            if idx.len() < 3 || stt == 0.0 {
+                return None;
+            }
+            let stv: f64 = idx
+                .iter()
+                .map(|&i| (points.temp_c[i] - mt) * (points.voltage_v[i] - mvv))
+                .sum();
+            let slope = stv / stt;
+            let worst = idx
+                .iter()
+                .map(|&i| (points.voltage_v[i] - mvv - slope * (points.temp_c[i] - mt)).abs())
+                .fold(0.0, f64::max);
+            Some(RateLineFit {
+                rate_dps: w,
+                worst_mv: worst * 1e3,
+                worst_dps: worst / sf.abs(),
+            })
+        })
+        .collect();
+    let worst = per_rate
+        .iter()
+        .max_by(|a, b| a.worst_mv.total_cmp(&b.worst_mv))
+        .cloned();
+    Fig2 {
+        scale_factor_mv_per_dps: sf * 1e3,
+        per_rate,
+        worst,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    #[test]
+    fn qq_correlation_separates_normal_from_skewed() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let normal: Vec<f64> = (0..140).map(|_| StandardNormal.sample(&mut rng)).collect();
+        let skewed: Vec<f64> = normal.iter().map(|v: &f64| v.exp()).collect();
+        let (qn, qs) = (qq_correlation(&normal), qq_correlation(&skewed));
+        assert!(qn > 0.97, "normal {qn}");
+        assert!(qs < 0.93, "log-normal {qs}");
+    }
+
+    #[test]
+    fn fig2_finds_the_curvature_of_a_quadratic_temperature_response() {
+        let mut p = Points {
+            temp_c: vec![],
+            voltage_v: vec![],
+            rate_dps: vec![],
+            group: vec![],
+        };
+        for &t in &[-30.0, 0.0, 30.0, 60.0] {
+            for &w in &[-10.0, 10.0] {
+                p.temp_c.push(t);
+                p.rate_dps.push(w);
+                p.voltage_v.push(0.04 * w + 1e-6 * t * t);
+                p.group.push(String::new());
+            }
+        }
+        let f = fig2(&p);
+        assert!((f.scale_factor_mv_per_dps - 40.0).abs() < 1e-9);
+        // A line through 1e-6·t² at t = −30, 0, 30, 60 (slope 3e-5 V/°C) misses by ±0.9 mV.
+        let worst = f.worst.unwrap();
+        assert!((worst.worst_mv - 0.9).abs() < 1e-9, "{}", worst.worst_mv);
+    }
+}

@@ -1,0 +1,74 @@
+//! Output files are written atomically: a temporary file beside the target, then a rename, so an
+//! interrupted run never leaves a half-written model or report. Commands also refuse to write over
+//! one of their own inputs.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Errors while writing outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The file could not be created, written or renamed into place.
+    #[error("writing {path}: {source}")]
+    Io {
+        /// The target file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The output would replace an input of the same command.
+    #[error("refusing to write {path}: it is also an input of this command")]
+    WouldOverwriteInput {
+        /// The target file.
+        path: PathBuf,
+    },
+}
+
+/// Writes `contents` to `path` through a temporary file in the same directory.
+pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), OutputError> {
+    let err = |source| OutputError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(err)?;
+    tmp.write_all(contents).map_err(err)?;
+    tmp.as_file().sync_all().map_err(err)?;
+    tmp.persist(path).map_err(|e| err(e.error))?;
+    Ok(())
+}
+
+/// Fails if `output` names the same file as any of `inputs`.
+pub fn ensure_not_input(output: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+    let canon = |p: &Path| std::fs::canonicalize(p).ok();
+    let out = canon(output);
+    if out.is_some() && inputs.iter().any(|i| canon(i) == out) {
+        return Err(OutputError::WouldOverwriteInput {
+            path: output.to_owned(),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_and_refuses_to_overwrite_an_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.csv");
+        write_atomically(&p, b"x").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"x");
+        assert!(ensure_not_input(&p, &[&p]).is_err());
+        assert!(ensure_not_input(&dir.path().join("b"), &[&p]).is_ok());
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary left"
+        );
+    }
+}

@@ -1,0 +1,46 @@
+//! The ARD squared-exponential kernel (paper eq. 10), shared by the GP and LS-SVR.
+//!
+//! `k(x, x') = σ_f² · exp(−½ Σ_k (x_k − x'_k)² / ℓ_k²)` on normalized inputs, one length scale per
+//! input (automatic relevance determination: an irrelevant input gets a long ℓ).
+
+use nalgebra::{DMatrix, DVector};
+
+/// Divides each input column by its length scale, so the kernel needs only squared distances.
+pub fn scale_inputs(x: &DMatrix<f64>, length_scales: &[f64]) -> DMatrix<f64> {
+    DMatrix::from_fn(x.nrows(), x.ncols(), |i, j| x[(i, j)] / length_scales[j])
+}
+
+/// Squared distance between row `i` of `a` and row `j` of `b` (both already scaled).
+fn sq_dist(a: &DMatrix<f64>, i: usize, b: &DMatrix<f64>, j: usize) -> f64 {
+    (0..a.ncols())
+        .map(|k| (a[(i, k)] - b[(j, k)]).powi(2))
+        .sum()
+}
+
+/// The n×n kernel matrix of scaled inputs with unit signal variance: `exp(−½ r²)`.
+pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
+    let (n, d) = xs.shape();
+    // Row-major copy: the distance loop then reads contiguous memory.
+    let rows: Vec<f64> = (0..n)
+        .flat_map(|i| (0..d).map(move |k| xs[(i, k)]))
+        .collect();
+    let mut k = DMatrix::zeros(n, n);
+    for j in 0..n {
+        k[(j, j)] = 1.0;
+        let rj = &rows[j * d..(j + 1) * d];
+        for i in (j + 1)..n {
+            let ri = &rows[i * d..(i + 1) * d];
+            let r2: f64 = ri.iter().zip(rj).map(|(a, b)| (a - b) * (a - b)).sum();
+            let v = (-0.5 * r2).exp();
+            k[(i, j)] = v;
+            k[(j, i)] = v;
+        }
+    }
+    k
+}
+
+/// Kernel values between one scaled sample and every row of scaled `xs`, unit signal variance.
+pub fn cross(xs: &DMatrix<f64>, z_scaled: &[f64]) -> DVector<f64> {
+    let one = DMatrix::from_row_slice(1, z_scaled.len(), z_scaled);
+    DVector::from_fn(xs.nrows(), |i, _| (-0.5 * sq_dist(xs, i, &one, 0)).exp())
+}

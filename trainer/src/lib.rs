@@ -1,0 +1,15 @@
+//! Host trainer for FOG temperature-drift compensation: loads rate-table data, fits the reference
+//! paper's Gaussian-process map ω = f(T, V) and its rivals (LS-SVR, the traditional two-step
+//! bias/scale-factor model), and evaluates them the way the paper does.
+
+pub mod data;
+pub mod dataset;
+pub mod evaluate;
+pub mod gp;
+pub mod io;
+pub mod kernel;
+pub mod lssvr;
+pub mod normalize;
+pub mod prior;
+pub mod reproduce;
+pub mod two_step;
