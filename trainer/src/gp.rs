@@ -23,7 +23,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use argmin::core::{CostFunction, Executor, Gradient, State};
-use argmin::solver::linesearch::HagerZhangLineSearch;
+use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rand::{RngExt, SeedableRng};
@@ -68,7 +68,7 @@ impl Default for Bounds {
         Self {
             log_length: (1e-2f64.ln(), 1e3f64.ln()),
             log_signal: (1e-3f64.ln(), 1e3f64.ln()),
-            log_noise: (1e-5f64.ln(), 1e1f64.ln()),
+            log_noise: (1e-6f64.ln(), 1e1f64.ln()),
         }
     }
 }
@@ -115,9 +115,9 @@ impl Default for GpConfig {
         Self {
             random_starts: 2,
             seed: 0,
-            prior_degree: 1,
+            prior_degree: 0,
             bounds: Bounds::default(),
-            max_iters: 200,
+            max_iters: 100,
         }
     }
 }
@@ -440,11 +440,11 @@ fn optimize_from(
         bounds: cfg.bounds,
         cache: Mutex::new(None),
         track: &track,
-        budget: 5 * cfg.max_iters,
+        budget: 2 * cfg.max_iters,
     };
-    let solver = LBFGS::new(HagerZhangLineSearch::new(), 7)
-        .with_tolerance_grad(1e-4)
-        .and_then(|s| s.with_tolerance_cost(1e-8));
+    let solver = LBFGS::new(MoreThuenteLineSearch::new(), 7)
+        .with_tolerance_grad(1e-3)
+        .and_then(|s| s.with_tolerance_cost(1e-7));
     let result = solver.and_then(|solver| {
         Executor::new(problem, solver)
             .configure(|state| state.param(start.clone()).max_iters(cfg.max_iters))

@@ -2,6 +2,7 @@
 //! paper's Gaussian-process map ω = f(T, V) and its rivals (LS-SVR, the traditional two-step
 //! bias/scale-factor model), and evaluates them the way the paper does.
 
+pub mod cli;
 pub mod data;
 pub mod dataset;
 pub mod evaluate;

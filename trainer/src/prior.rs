@@ -5,9 +5,10 @@
 //! low-order polynomial; leaving it to the GP makes the GP part large, which costs extrapolation
 //! (the GP falls back to its prior mean away from data, e.g. near zero rate between ±1 °/s) and f32
 //! precision in firmware (large weights α that cancel). All monomials of total degree ≤ `degree`
-//! are used; degree 0 is a constant mean. The default is degree 1 (a linear function of T and V):
-//! on paper-protocol data it matches the best leave-one-out error of any degree within a few
-//! percent, converges cleanly, and keeps the GP part small (README, "Choosing the prior mean").
+//! are used; degree 0 is a constant mean, the default. Measured on paper-protocol units (README,
+//! "Choosing the prior mean"): higher degrees give the GP a smaller, better-conditioned residual,
+//! but their leave-one-out error varies from unit to unit (up to 30× worse on one), while the
+//! constant mean was never beaten by more than a few percent.
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;

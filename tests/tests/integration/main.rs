@@ -1,0 +1,31 @@
+//! Cross-crate integration tests: one binary, one module per capability.
+
+mod cli;
+mod paper;
+
+use std::path::{Path, PathBuf};
+
+/// Runs `firmware-sim` with these arguments, in process.
+pub fn sim(args: &[&str]) -> anyhow::Result<()> {
+    use clap::Parser;
+    let argv = std::iter::once("firmware-sim").chain(args.iter().copied());
+    firmware_sim::cli::run(firmware_sim::cli::Cli::try_parse_from(argv)?)
+}
+
+/// Runs `trainer` with these arguments, in process.
+pub fn trainer(args: &[&str]) -> anyhow::Result<()> {
+    use clap::Parser;
+    let argv = std::iter::once("trainer").chain(args.iter().copied());
+    trainer::cli::run(trainer::cli::Cli::try_parse_from(argv)?)
+}
+
+/// A path inside `dir`, as a string for argument lists.
+pub fn at(dir: &Path, name: &str) -> String {
+    dir.join(name).display().to_string()
+}
+
+/// Reads a JSON file.
+pub fn json(path: impl Into<PathBuf>) -> serde_json::Value {
+    let text = std::fs::read_to_string(path.into()).expect("JSON output exists");
+    serde_json::from_str(&text).expect("valid JSON")
+}

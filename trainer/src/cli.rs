@@ -1,0 +1,226 @@
+//! The `trainer` command line: flags are parsed into checked settings, then dispatched to the
+//! library. `main.rs` only calls [`run`]; tests call it too, with arguments of their own.
+
+use std::path::{Path, PathBuf};
+
+use crate::data::ColumnMap;
+use crate::dataset::Points;
+use crate::evaluate::{self, EvalConfig, Method};
+use crate::gp::{GpConfig, GpModel};
+use crate::io::{ensure_not_input, write_atomically};
+use crate::reproduce::Reproduction;
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
+#[derive(Parser)]
+#[command(version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    /// The subcommand.
+    command: Command,
+}
+
+#[derive(Args, Clone)]
+struct Input {
+    /// Points CSV: temp_c,voltage_v,rate_dps (extra columns ignored).
+    #[arg(long)]
+    points: PathBuf,
+    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+    #[arg(long = "map", value_name = "NAME=SOURCE")]
+    maps: Vec<ColumnMap>,
+}
+
+#[derive(Args, Clone)]
+struct FitOptions {
+    /// Random optimizer starts, besides the paper's (all log-hyperparameters 0) and a
+    /// data-informed one.
+    #[arg(long, default_value_t = GpConfig::default().random_starts)]
+    restarts: usize,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Total degree of the polynomial prior mean (0 = constant).
+    #[arg(long, default_value_t = GpConfig::default().prior_degree)]
+    prior_degree: u8,
+}
+
+impl FitOptions {
+    fn gp(&self) -> GpConfig {
+        GpConfig {
+            random_starts: self.restarts,
+            seed: self.seed,
+            prior_degree: self.prior_degree,
+            ..GpConfig::default()
+        }
+    }
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fit the GP map ω = f(T, V) to rate-table points.
+    ///
+    /// Example: trainer fit --points points.csv --out model.json --json fit.json
+    Fit {
+        #[command(flatten)]
+        input: Input,
+        #[command(flatten)]
+        fit: FitOptions,
+        /// Model file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Write the fit summary as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Leave-one-out and leave-one-temperature-out evaluation of one method.
+    ///
+    /// Example: trainer loo --points points.csv --method gpr --json loo.json
+    Loo {
+        #[command(flatten)]
+        input: Input,
+        #[command(flatten)]
+        fit: FitOptions,
+        /// Method to evaluate.
+        #[arg(long, value_enum, default_value_t = MethodArg::Gpr)]
+        method: MethodArg,
+        /// Leave out one group of this column at a time (default: temperature plateaus).
+        #[arg(long)]
+        group: Option<String>,
+        /// Write the evaluation as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
+    ///
+    /// Example: trainer reproduce --points points.csv
+    Reproduce {
+        #[command(flatten)]
+        input: Input,
+        #[command(flatten)]
+        fit: FitOptions,
+        /// Write all figures as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MethodArg {
+    Gpr,
+    Lssvr,
+    TwoStep,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Gpr => Method::Gpr,
+            MethodArg::Lssvr => Method::Lssvr,
+            MethodArg::TwoStep => Method::TwoStep,
+        }
+    }
+}
+
+fn write_json(path: &Path, inputs: &[&Path], value: &impl serde::Serialize) -> anyhow::Result<()> {
+    ensure_not_input(path, inputs)?;
+    let text = serde_json::to_string_pretty(value).context("encoding JSON")?;
+    write_atomically(path, text.as_bytes())?;
+    Ok(())
+}
+
+fn fit_summary(m: &GpModel) -> serde_json::Value {
+    serde_json::json!({
+        "log_marginal_likelihood": m.log_marginal_likelihood(),
+        "hyperparameters": m.posterior.hyper,
+        "fit_seconds": m.fit_seconds,
+        "n_train": m.y.len(),
+        "features": ["temp_c", "voltage_v"],
+        "prior_mean": m.prior,
+        "output_scale": m.output_scale,
+        "jitter": m.posterior.jitter,
+        "starts": m.starts,
+    })
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Fit {
+            input,
+            fit,
+            out,
+            json,
+        } => {
+            let inputs = [input.points.as_path()];
+            ensure_not_input(&out, &inputs)?;
+            let points = Points::load(&input.points, &input.maps, None)?;
+            let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
+            let summary = fit_summary(&model);
+            let host_model =
+                serde_json::json!({ "format": "fog-gp-host-json", "model": model.export() });
+            write_json(&out, &inputs, &host_model)?;
+            if let Some(path) = json {
+                write_json(&path, &inputs, &summary)?;
+            }
+            println!(
+                "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
+                points.len(),
+                model.log_marginal_likelihood(),
+                model.posterior.hyper.length_scales,
+                model.posterior.hyper.signal_std,
+                model.posterior.hyper.noise_std,
+                model.posterior.jitter,
+                model.fit_seconds * 1e3
+            );
+            Ok(())
+        }
+        Command::Loo {
+            input,
+            fit,
+            method,
+            group,
+            json,
+        } => {
+            let points = Points::load(&input.points, &input.maps, group.as_deref())?;
+            let cfg = EvalConfig {
+                gp: fit.gp(),
+                ..EvalConfig::default()
+            };
+            let e = evaluate::evaluate(&points, method.into(), &cfg)?;
+            println!(
+                "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
+                e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation
+            );
+            println!("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
+            for g in &e.per_temperature {
+                println!(
+                    "                     {:>6}  {:>7.2}  {:>4}   {:>10.3e}   {:>10.2}",
+                    g.group, g.temp_c, g.n, g.rmse_dps, g.rmse_dph
+                );
+            }
+            if let Some(path) = json {
+                write_json(&path, &[input.points.as_path()], &e)?;
+            }
+            Ok(())
+        }
+        Command::Reproduce { input, fit, json } => {
+            let points = Points::load(&input.points, &input.maps, None)?;
+            let cfg = EvalConfig {
+                gp: fit.gp(),
+                ..EvalConfig::default()
+            };
+            let r = Reproduction {
+                gpr: evaluate::evaluate(&points, Method::Gpr, &cfg)?,
+                lssvr: evaluate::evaluate(&points, Method::Lssvr, &cfg)?,
+                two_step: evaluate::evaluate(&points, Method::TwoStep, &cfg)?,
+                fig2: evaluate::fig2(&points),
+            };
+            print!("{}", r.render(&input.points.display().to_string()));
+            if let Some(path) = json {
+                write_json(&path, &[input.points.as_path()], &r)?;
+            }
+            Ok(())
+        }
+    }
+}
