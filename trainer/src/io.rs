@@ -24,7 +24,9 @@ pub enum OutputError {
     },
 }
 
-/// Writes `contents` to `path` through a temporary file in the same directory.
+/// Writes `contents` to `path` through a temporary file in the same directory. The temporary is
+/// created like any new file (permissions from the umask, not the private mode of a temp-file
+/// crate), so the result looks like a file written directly.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), OutputError> {
     let err = |source| OutputError::Io {
         path: path.to_owned(),
@@ -34,11 +36,21 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), OutputError>
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(err)?;
-    tmp.write_all(contents).map_err(err)?;
-    tmp.as_file().sync_all().map_err(err)?;
-    tmp.persist(path).map_err(|e| err(e.error))?;
-    Ok(())
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let written = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .and_then(|mut f| f.write_all(contents).and_then(|()| f.sync_all()))
+        .and_then(|()| std::fs::rename(&tmp, path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.map_err(err)
 }
 
 /// Fails if `output` names the same file as any of `inputs`.
