@@ -13,11 +13,13 @@
 //! LOO       y_i − μ_{−i} = α_i / [K⁻¹]_ii,  σ²_{−i} = 1/[K⁻¹]_ii   (R&W eq. 5.12)
 //! ```
 //!
-//! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin) from several starts, the
-//! paper's (all zero) among them, inside box bounds enforced by a quadratic penalty outside them and
-//! a final clamp. The prior mean m is a least-squares polynomial (prior.rs); it and the
-//! normalization are fixed before the hyperparameters are fitted, and the closed-form LOO holds them
-//! fixed as it holds θ fixed (as R&W §5.4.2 does).
+//! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin, Moré–Thuente line search)
+//! from several starts in parallel, the paper's (all zero) among them, at a loose tolerance; then a
+//! short polish from the best at a tight one. Box bounds: the likelihood is evaluated at the clamped
+//! θ, with a quadratic wall outside, so no trial step builds a non-finite K. The prior mean m is a
+//! least-squares polynomial (prior.rs); it and the normalization are fixed before the
+//! hyperparameters are fitted, and the closed-form LOO holds them fixed as it holds θ fixed (as R&W
+//! §5.4.2 does).
 
 use std::sync::Mutex;
 use std::time::Instant;
@@ -256,13 +258,8 @@ impl Posterior {
 
     /// Predictive mean and latent variance at one normalized sample (normalized units).
     pub fn predict(&self, z: &[f64]) -> (f64, f64) {
-        let zs: Vec<f64> = z
-            .iter()
-            .zip(&self.hyper.length_scales)
-            .map(|(v, l)| v / l)
-            .collect();
         let sf2 = self.hyper.signal_std.powi(2);
-        let kstar = kernel::cross(&self.xs, &zs) * sf2;
+        let kstar = kernel::cross(&self.xs, z, &self.hyper.length_scales) * sf2;
         let mean = kstar.dot(&self.alpha);
         let v = self
             .chol

@@ -39,8 +39,10 @@ pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
     k
 }
 
-/// Kernel values between one scaled sample and every row of scaled `xs`, unit signal variance.
-pub fn cross(xs: &DMatrix<f64>, z_scaled: &[f64]) -> DVector<f64> {
-    let one = DMatrix::from_row_slice(1, z_scaled.len(), z_scaled);
+/// Kernel values between one normalized sample `z` and every row of `xs` (training inputs already
+/// divided by `length_scales`), unit signal variance.
+pub fn cross(xs: &DMatrix<f64>, z: &[f64], length_scales: &[f64]) -> DVector<f64> {
+    let scaled: Vec<f64> = z.iter().zip(length_scales).map(|(v, l)| v / l).collect();
+    let one = DMatrix::from_row_slice(1, scaled.len(), &scaled);
     DVector::from_fn(xs.nrows(), |i, _| (-0.5 * sq_dist(xs, i, &one, 0)).exp())
 }

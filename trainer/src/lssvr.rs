@@ -88,12 +88,7 @@ pub fn solve(z: &DMatrix<f64>, y: &DVector<f64>, theta: &[f64]) -> Result<Solved
 impl Solved {
     /// Prediction at one normalized sample.
     pub fn predict(&self, z: &[f64]) -> f64 {
-        let zs: Vec<f64> = z
-            .iter()
-            .zip(&self.length_scales)
-            .map(|(v, l)| v / l)
-            .collect();
-        kernel::cross(&self.xs, &zs).dot(&self.alpha) + self.bias
+        kernel::cross(&self.xs, z, &self.length_scales).dot(&self.alpha) + self.bias
     }
 }
 
