@@ -1,4 +1,16 @@
 //! Evaluates FOG temperature-drift compensation models on the gyro's microcontroller.
 //!
-//! `no_std`, no allocation: everything lives in fixed-size storage chosen by the integrator.
+//! `no_std`, no allocation, no `unsafe`, no panics on data paths: a model is decoded from a blob
+//! ([`blob`]) into fixed-size storage whose capacities the integrator chooses ([`model::Model`]),
+//! and evaluated in f32. The host trainer builds its blobs with these same types.
 #![cfg_attr(not(test), no_std)]
+
+pub mod blob;
+pub mod error;
+pub mod model;
+#[cfg(test)]
+mod testing;
+
+pub use blob::{Dims, Feature};
+pub use error::{BlobError, PredictError};
+pub use model::{Mean, Model, Prediction, Status};

@@ -1,0 +1,303 @@
+//! The model blob: the one definition of what the trainer exports and the firmware loads.
+//!
+//! # Layout (format version 1)
+//!
+//! ```text
+//! offset size  field
+//!  0      4    magic "FOGB"
+//!  4      2    format version, u16 little-endian (1)
+//!  6      2    m: number of centres, u16 LE
+//!  8      1    d: number of inputs
+//!  9      1    p: number of prior-mean monomials
+//! 10      4    payload length in bytes, u32 LE
+//! 14      4    CRC-32/ISO-HDLC of the payload, u32 LE
+//! 18      …    payload: postcard encoding of [`Payload`]
+//! ```
+//!
+//! The dimensions sit in the header so that a blob too large for the integrator's capacities is
+//! refused by a typed error before anything is decoded. The payload is three postcard sequences
+//! (each a varint length, then the elements): the `d` input features (enum indices), the `p·d`
+//! prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32:
+//!
+//! ```text
+//! input_offset[d] input_scale[d]  z = (x − offset) / scale
+//! input_min[d] input_max[d]       trained range, raw units (beyond it: extrapolating)
+//! length_scales[d]                ARD length scales on z
+//! prior[p]                        mean(z) = Σ_j prior_j Π_k z_k^e_jk, output units
+//! signal_var noise_var            σ_f², σ_n² in output units²
+//! centres[m·d]                    z of each centre divided by the length scales, row-major
+//! weights[m]                      mean += Σ_i w_i exp(−½ |z/ℓ − c_i|²)
+//! factor[m(m+1)/2]                packed rows of L = chol(K/σ_f²), for the variance
+//! ```
+//!
+//! Latent variance: `σ_f² (1 − |v|²)` with `L v = k̃` (forward substitution; DESIGN §4). A change of
+//! this layout bumps [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BlobError;
+
+/// First four bytes of every blob.
+pub const MAGIC: [u8; 4] = *b"FOGB";
+/// The format version this crate reads and writes.
+pub const FORMAT_VERSION: u16 = 1;
+/// Header bytes before the payload.
+pub const HEADER_LEN: usize = 18;
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// One model input, computed from the raw sample by the feature pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Feature {
+    /// Temperature-sensor reading, °C.
+    Temperature,
+    /// Gyro output (V for an analog FOG, counts or a rate for a digital one).
+    Voltage,
+}
+
+/// The sizes of a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Dims {
+    /// Centres (training points of an exact GP, inducing points of a sparse one).
+    pub m: usize,
+    /// Inputs.
+    pub d: usize,
+    /// Prior-mean monomials.
+    pub p: usize,
+}
+
+impl Dims {
+    /// Length of the flat f32 array: `5d + p + 2 + m·d + m + m(m+1)/2`.
+    pub const fn floats(&self) -> usize {
+        5 * self.d + self.p + 2 + self.m * self.d + self.m + self.m * (self.m + 1) / 2
+    }
+
+    /// Length of the exponent array: `p·d`.
+    pub const fn exponents(&self) -> usize {
+        self.p * self.d
+    }
+}
+
+/// The payload, generic over its containers: heapless vectors in the firmware, slices or vectors
+/// on the host. All encode to the same bytes, so this is the only definition of the format.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Payload<Fe, Ex, Fl> {
+    /// Input features, in input order.
+    pub features: Fe,
+    /// Prior-mean exponents, `p` rows of `d`.
+    pub exponents: Ex,
+    /// All numbers, in the layout of the module doc.
+    pub floats: Fl,
+}
+
+/// Writes a blob for `payload` into `buf`; returns the number of bytes written.
+pub fn encode<Fe, Ex, Fl>(
+    dims: Dims,
+    payload: &Payload<Fe, Ex, Fl>,
+    buf: &mut [u8],
+) -> Result<usize, BlobError>
+where
+    Fe: Serialize,
+    Ex: Serialize,
+    Fl: Serialize,
+{
+    let (m, d, p) = (
+        u16::try_from(dims.m).map_err(|_| BlobError::InvalidParameter)?,
+        u8::try_from(dims.d).map_err(|_| BlobError::InvalidParameter)?,
+        u8::try_from(dims.p).map_err(|_| BlobError::InvalidParameter)?,
+    );
+    let (header, body) = buf
+        .split_at_mut_checked(HEADER_LEN)
+        .ok_or(BlobError::BufferTooSmall)?;
+    let len = postcard::to_slice(payload, body)
+        .map_err(|_| BlobError::BufferTooSmall)?
+        .len();
+    let payload_bytes = body.get(..len).ok_or(BlobError::BufferTooSmall)?;
+    let crc = CRC32.checksum(payload_bytes);
+    let len32 = u32::try_from(len).map_err(|_| BlobError::BufferTooSmall)?;
+    let mut h = [0u8; HEADER_LEN];
+    let fields: [&[u8]; 7] = [
+        &MAGIC,
+        &FORMAT_VERSION.to_le_bytes(),
+        &m.to_le_bytes(),
+        &[d],
+        &[p],
+        &len32.to_le_bytes(),
+        &crc.to_le_bytes(),
+    ];
+    let mut at = 0;
+    for f in fields {
+        if let Some(dst) = h.get_mut(at..at + f.len()) {
+            dst.copy_from_slice(f);
+        }
+        at += f.len();
+    }
+    header.copy_from_slice(&h);
+    Ok(HEADER_LEN + len)
+}
+
+/// A checked header: dimensions and the payload bytes it covers.
+pub struct Header<'a> {
+    /// Model sizes.
+    pub dims: Dims,
+    /// The CRC-checked payload.
+    pub payload: &'a [u8],
+}
+
+fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
+    bytes
+        .get(at..at + N)
+        .and_then(|s| <[u8; N]>::try_from(s).ok())
+        .ok_or(BlobError::Truncated)
+}
+
+/// Checks magic, version, payload length and CRC; returns the dimensions and the payload.
+pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
+    if bytes.len() < HEADER_LEN {
+        return Err(BlobError::Truncated);
+    }
+    if le::<4>(bytes, 0)? != MAGIC {
+        return Err(BlobError::BadMagic);
+    }
+    let version = u16::from_le_bytes(le(bytes, 4)?);
+    if version != FORMAT_VERSION {
+        return Err(BlobError::UnsupportedVersion(version));
+    }
+    let dims = Dims {
+        m: usize::from(u16::from_le_bytes(le(bytes, 6)?)),
+        d: usize::from(le::<1>(bytes, 8)?[0]),
+        p: usize::from(le::<1>(bytes, 9)?[0]),
+    };
+    let len =
+        usize::try_from(u32::from_le_bytes(le(bytes, 10)?)).map_err(|_| BlobError::Truncated)?;
+    let crc = u32::from_le_bytes(le(bytes, 14)?);
+    let payload = bytes.get(HEADER_LEN..).ok_or(BlobError::Truncated)?;
+    match payload.len().cmp(&len) {
+        core::cmp::Ordering::Less => return Err(BlobError::Truncated),
+        core::cmp::Ordering::Greater => return Err(BlobError::TrailingBytes),
+        core::cmp::Ordering::Equal => {}
+    }
+    if CRC32.checksum(payload) != crc {
+        return Err(BlobError::CrcMismatch);
+    }
+    if dims.d == 0 {
+        return Err(BlobError::InconsistentDimensions);
+    }
+    Ok(Header { dims, payload })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Storage;
+    use crate::model::Model;
+    use crate::testing::Reference;
+
+    type Small = Model<2, 6, 64>;
+
+    /// Re-seals a hand-edited blob: payload length and CRC made consistent again.
+    fn reseal(mut b: Vec<u8>) -> Vec<u8> {
+        let len = u32::try_from(b.len() - HEADER_LEN).unwrap();
+        b[10..14].copy_from_slice(&len.to_le_bytes());
+        let crc = CRC32.checksum(&b[HEADER_LEN..]);
+        b[14..18].copy_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn golden_bytes_pin_the_encoding() {
+        let payload = Payload {
+            features: [Feature::Temperature].as_slice(),
+            exponents: [0u8].as_slice(),
+            floats: [0.0f32, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 0.01, 0.0, 3.0, 1.0].as_slice(),
+        };
+        let dims = Dims { m: 1, d: 1, p: 1 };
+        assert_eq!(dims.floats(), 11);
+        let mut buf = [0u8; 128];
+        let n = encode(dims, &payload, &mut buf).unwrap();
+        let crc = CRC32.checksum(&buf[HEADER_LEN..n]).to_le_bytes();
+        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 1, 0, 1, 0, 1, 1, 49, 0, 0, 0];
+        expected.extend(crc);
+        // features: len 1, variant 0; exponents: len 1, 0; floats: len 11, then f32 LE.
+        expected.extend([1, 0, 1, 0, 11]);
+        for v in [0.0f32, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 0.01, 0.0, 3.0, 1.0] {
+            expected.extend(v.to_le_bytes());
+        }
+        assert_eq!(&buf[..n], expected.as_slice());
+        // CRC-32/ISO-HDLC check value, so the flavour cannot drift.
+        assert_eq!(CRC32.checksum(b"123456789"), 0xCBF4_3926);
+    }
+
+    #[test]
+    fn a_good_blob_decodes() {
+        let m = Small::decode(&Reference::small().blob()).unwrap();
+        assert_eq!(m.dims(), Dims { m: 5, d: 2, p: 3 });
+        assert_eq!(m.features(), &[Feature::Temperature, Feature::Voltage]);
+    }
+
+    #[test]
+    fn every_defect_has_its_error() {
+        let good = Reference::small().blob();
+        let with = |f: &dyn Fn(&mut Vec<u8>)| {
+            let mut b = good.clone();
+            f(&mut b);
+            Small::decode(&b).unwrap_err()
+        };
+        assert_eq!(with(&|b| b[0] = b'X'), BlobError::BadMagic);
+        assert_eq!(with(&|b| b[4] = 2), BlobError::UnsupportedVersion(2));
+        assert_eq!(with(&|b| b.truncate(b.len() - 1)), BlobError::Truncated);
+        assert_eq!(with(&|b| b.truncate(10)), BlobError::Truncated);
+        assert_eq!(with(&|b| b.push(0)), BlobError::TrailingBytes);
+        assert_eq!(with(&|b| b[40] ^= 0x10), BlobError::CrcMismatch);
+        let garbage = reseal([&good[..HEADER_LEN], &[0xFF; 8]].concat());
+        assert_eq!(Small::decode(&garbage).unwrap_err(), BlobError::Malformed);
+        let mut wrong_m = good.clone();
+        wrong_m[6] = 4;
+        assert_eq!(
+            Small::decode(&wrong_m).unwrap_err(),
+            BlobError::InconsistentDimensions
+        );
+        let nan = Reference::small().blob_with(|f| f[7] = f32::NAN);
+        assert_eq!(Small::decode(&nan).unwrap_err(), BlobError::NonFinite(7));
+        let zero_scale = Reference::small().blob_with(|f| f[2] = 0.0);
+        assert_eq!(
+            Small::decode(&zero_scale).unwrap_err(),
+            BlobError::InvalidParameter
+        );
+        let bad_diag = Reference::small().blob_with(|f| *f.last_mut().unwrap() = -1.0);
+        assert_eq!(
+            Small::decode(&bad_diag).unwrap_err(),
+            BlobError::InvalidParameter
+        );
+    }
+
+    #[test]
+    fn a_blob_larger_than_the_capacity_is_refused_not_truncated() {
+        let b = Reference::small().blob();
+        let needed = Dims { m: 5, d: 2, p: 3 }.floats();
+        assert_eq!(
+            Model::<2, 6, 32>::decode(&b).unwrap_err(),
+            BlobError::CapacityExceeded {
+                what: Storage::Floats,
+                needed,
+                capacity: 32
+            }
+        );
+        assert!(matches!(
+            Model::<1, 6, 64>::decode(&b).unwrap_err(),
+            BlobError::CapacityExceeded {
+                what: Storage::Inputs,
+                ..
+            }
+        ));
+        assert!(matches!(
+            Model::<2, 4, 64>::decode(&b).unwrap_err(),
+            BlobError::CapacityExceeded {
+                what: Storage::Exponents,
+                ..
+            }
+        ));
+    }
+}

@@ -1,0 +1,382 @@
+//! A decoded model in fixed-size storage, and its predictive mean and variance in f32.
+//!
+//! Capacities are const generics chosen by the integrator: `D` inputs, `E` prior-mean exponents
+//! (`p·d`), `N` numbers in the flat array ([`Dims::floats`]). For the paper's 140-point model on
+//! (T, V) with a constant prior mean (m = 140, d = 2, p = 1): `Model<2, 2, 10_303>`, about 41 KB.
+//!
+//! Evaluation (module doc of [`crate::blob`] for the layout):
+//!
+//! ```text
+//! z_k  = (x_k − offset_k) / scale_k,   s_k = z_k / ℓ_k
+//! k̃_i  = exp(−½ Σ_k (s_k − c_ik)²)
+//! mean = Σ_j prior_j Π_k z_k^e_jk + Σ_i w_i k̃_i        (compensated summation)
+//! var  = σ_f² · max(0, 1 − |v|²),  L v = k̃             (forward substitution, packed rows)
+//! ```
+//!
+//! Never panics, never returns NaN: non-finite or missing inputs give a `Fault` status with mean 0
+//! and the prior variance σ_f²; inputs outside the trained range give `Extrapolating`.
+
+use heapless::Vec;
+
+use crate::blob::{self, Dims, Feature, Payload};
+use crate::error::{BlobError, PredictError, Storage};
+
+/// Validity of a prediction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Status {
+    /// Inputs inside the trained range.
+    Valid,
+    /// An input lies outside the trained range: the model extrapolates.
+    Extrapolating,
+    /// An input is NaN or infinite (or missing): the output is not a compensation.
+    Fault,
+}
+
+/// Predictive mean (output units, e.g. °/s) and its status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Mean {
+    /// Compensated rate.
+    pub mean: f32,
+    /// Validity.
+    pub status: Status,
+}
+
+/// Predictive mean, latent variance (output units², never negative) and status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prediction {
+    /// Compensated rate.
+    pub mean: f32,
+    /// Latent (model) variance, without observation noise.
+    pub variance: f32,
+    /// Validity.
+    pub status: Status,
+}
+
+/// A model decoded from a blob into fixed-size storage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model<const D: usize, const E: usize, const N: usize> {
+    dims: Dims,
+    features: Vec<Feature, D>,
+    exponents: Vec<u8, E>,
+    floats: Vec<f32, N>,
+}
+
+/// Offsets of the sections of the flat array.
+struct Sections {
+    scale: usize,
+    min: usize,
+    max: usize,
+    length: usize,
+    prior: usize,
+    signal: usize,
+    centres: usize,
+    weights: usize,
+    factor: usize,
+}
+
+impl Sections {
+    const fn of(d: Dims) -> Self {
+        let scale = d.d;
+        let min = scale + d.d;
+        let max = min + d.d;
+        let length = max + d.d;
+        let prior = length + d.d;
+        let signal = prior + d.p;
+        let centres = signal + 2;
+        let weights = centres + d.m * d.d;
+        let factor = weights + d.m;
+        Self {
+            scale,
+            min,
+            max,
+            length,
+            prior,
+            signal,
+            centres,
+            weights,
+            factor,
+        }
+    }
+}
+
+fn capacity(what: Storage, needed: usize, capacity: usize) -> Result<(), BlobError> {
+    if needed > capacity {
+        Err(BlobError::CapacityExceeded {
+            what,
+            needed,
+            capacity,
+        })
+    } else {
+        Ok(())
+    }
+}
+
+impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
+    /// Decodes and validates a blob. Every way a blob can be wrong is a [`BlobError`].
+    pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
+        let header = blob::read_header(bytes)?;
+        let dims = header.dims;
+        capacity(Storage::Inputs, dims.d, D)?;
+        capacity(Storage::Exponents, dims.exponents(), E)?;
+        capacity(Storage::Floats, dims.floats(), N)?;
+        let payload: Payload<Vec<Feature, D>, Vec<u8, E>, Vec<f32, N>> =
+            postcard::from_bytes(header.payload).map_err(|_| BlobError::Malformed)?;
+        if payload.features.len() != dims.d
+            || payload.exponents.len() != dims.exponents()
+            || payload.floats.len() != dims.floats()
+        {
+            return Err(BlobError::InconsistentDimensions);
+        }
+        if let Some(i) = payload.floats.iter().position(|v| !v.is_finite()) {
+            return Err(BlobError::NonFinite(i));
+        }
+        let model = Self {
+            dims,
+            features: payload.features,
+            exponents: payload.exponents,
+            floats: payload.floats,
+        };
+        model.check_domains()?;
+        Ok(model)
+    }
+
+    fn section(&self, start: usize, len: usize) -> &[f32] {
+        self.floats.get(start..start + len).unwrap_or(&[])
+    }
+
+    fn check_domains(&self) -> Result<(), BlobError> {
+        let s = Sections::of(self.dims);
+        let d = self.dims.d;
+        let positive = |v: &f32| *v > 0.0;
+        let ranges_ok = self
+            .section(s.min, d)
+            .iter()
+            .zip(self.section(s.max, d))
+            .all(|(lo, hi)| lo <= hi);
+        let [signal, noise] = self.variances();
+        let diagonal_ok = (0..self.dims.m).all(|i| {
+            self.floats
+                .get(s.factor + i * (i + 1) / 2 + i)
+                .is_some_and(positive)
+        });
+        if self.section(s.scale, d).iter().all(positive)
+            && self.section(s.length, d).iter().all(positive)
+            && ranges_ok
+            && signal >= 0.0
+            && noise >= 0.0
+            && diagonal_ok
+        {
+            Ok(())
+        } else {
+            Err(BlobError::InvalidParameter)
+        }
+    }
+
+    /// Model sizes.
+    pub fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    /// Input features, in order.
+    pub fn features(&self) -> &[Feature] {
+        &self.features
+    }
+
+    /// (σ_f², σ_n²) in output units².
+    pub fn variances(&self) -> [f32; 2] {
+        let s = Sections::of(self.dims);
+        let v = self.section(s.signal, 2);
+        [
+            v.first().copied().unwrap_or(0.0),
+            v.get(1).copied().unwrap_or(0.0),
+        ]
+    }
+
+    /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs.
+    fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> Status {
+        let sec = Sections::of(self.dims);
+        let d = self.dims.d;
+        if x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
+            return Status::Fault;
+        }
+        let mut status = Status::Valid;
+        let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
+        for (k, (zk, sk)) in z.iter_mut().zip(s.iter_mut()).take(d).enumerate() {
+            let xk = x.get(k).copied().unwrap_or(0.0);
+            if xk < at(sec.min, k) || xk > at(sec.max, k) {
+                status = Status::Extrapolating;
+            }
+            *zk = (xk - at(0, k)) / at(sec.scale, k);
+            *sk = *zk / at(sec.length, k);
+        }
+        status
+    }
+
+    fn prior_mean(&self, z: &[f32]) -> f32 {
+        let sec = Sections::of(self.dims);
+        let d = self.dims.d;
+        self.section(sec.prior, self.dims.p)
+            .iter()
+            .zip(self.exponents.chunks(d))
+            .map(|(c, e)| {
+                e.iter()
+                    .zip(z)
+                    .fold(*c, |acc, (&k, &zk)| (0..k).fold(acc, |a, _| a * zk))
+            })
+            .sum()
+    }
+
+    /// Kernel value between the scaled input and centre `i`'s row.
+    fn kernel(s: &[f32], centre: &[f32]) -> f32 {
+        let r2: f32 = s.iter().zip(centre).map(|(a, b)| (a - b) * (a - b)).sum();
+        libm::expf(-0.5 * r2)
+    }
+
+    /// Mean and status; the kernel values go to `k` when it is long enough.
+    fn mean_into(&self, x: &[f32], mut k: Option<&mut [f32]>) -> Mean {
+        let mut z = [0.0f32; D];
+        let mut s = [0.0f32; D];
+        let status = self.normalize(x, &mut z, &mut s);
+        if status == Status::Fault {
+            return Mean { mean: 0.0, status };
+        }
+        let sec = Sections::of(self.dims);
+        let (m, d) = (self.dims.m, self.dims.d);
+        let zd = z.get(..d).unwrap_or(&[]);
+        let sd = s.get(..d).unwrap_or(&[]);
+        // Neumaier summation: the weights of a GP alternate in sign, their sum cancels.
+        let (mut sum, mut carry) = (self.prior_mean(zd), 0.0f32);
+        let centres = self.section(sec.centres, m * d).chunks(d);
+        for (i, (c, w)) in centres.zip(self.section(sec.weights, m)).enumerate() {
+            let kv = Self::kernel(sd, c);
+            if let Some(slot) = k.as_deref_mut().and_then(|k| k.get_mut(i)) {
+                *slot = kv;
+            }
+            let term = w * kv;
+            let t = sum + term;
+            carry += if sum.abs() >= term.abs() {
+                (sum - t) + term
+            } else {
+                (term - t) + sum
+            };
+            sum = t;
+        }
+        Mean {
+            mean: sum + carry,
+            status,
+        }
+    }
+
+    /// Predictive mean only: the cheap path (one exp and about 3·d operations per centre).
+    pub fn predict_mean(&self, x: &[f32]) -> Mean {
+        self.mean_into(x, None)
+    }
+
+    /// Predictive mean and latent variance. `scratch` must hold at least `m` numbers.
+    pub fn predict(&self, x: &[f32], scratch: &mut [f32]) -> Result<Prediction, PredictError> {
+        let m = self.dims.m;
+        let v = scratch
+            .get_mut(..m)
+            .ok_or(PredictError::ScratchTooSmall { needed: m })?;
+        let Mean { mean, status } = self.mean_into(x, Some(v));
+        let [signal, _] = self.variances();
+        if status == Status::Fault {
+            return Ok(Prediction {
+                mean,
+                variance: signal,
+                status,
+            });
+        }
+        // Forward substitution L v = k̃ on packed rows: row i holds L_i0 … L_ii.
+        let factor = self.section(Sections::of(self.dims).factor, m * (m + 1) / 2);
+        let mut norm2 = 0.0f32;
+        for i in 0..m {
+            let row = factor
+                .get(i * (i + 1) / 2..(i + 1) * (i + 2) / 2)
+                .unwrap_or(&[]);
+            let (before, diag) = row.split_at(row.len().saturating_sub(1));
+            let dot: f32 = before.iter().zip(v.iter()).map(|(l, vj)| l * vj).sum();
+            let vi = match (v.get(i), diag.first()) {
+                (Some(ki), Some(lii)) => (ki - dot) / lii,
+                _ => 0.0,
+            };
+            if let Some(slot) = v.get_mut(i) {
+                *slot = vi;
+            }
+            norm2 += vi * vi;
+        }
+        Ok(Prediction {
+            mean,
+            variance: signal * (1.0 - norm2).max(0.0),
+            status,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::Reference;
+
+    type Small = Model<2, 6, 64>;
+
+    #[test]
+    fn f32_mean_and_variance_follow_the_f64_reference() {
+        let r = Reference::small();
+        let m = Small::decode(&r.blob()).unwrap();
+        let mut scratch = [0.0f32; 8];
+        for t in [-30.0f32, -5.0, 12.5, 40.0, 60.0] {
+            for v in [-3.0f32, -0.7, 0.0, 0.4, 2.9] {
+                let (mean, var) = r.predict([f64::from(t), f64::from(v)]);
+                let p = m.predict(&[t, v], &mut scratch).unwrap();
+                assert_eq!(p.status, Status::Valid);
+                assert!((f64::from(p.mean) - mean).abs() < 2e-5 * mean.abs().max(1.0));
+                assert!(p.variance >= 0.0);
+                assert!((f64::from(p.variance) - var).abs() < 1e-3 * r.signal_var);
+                assert_eq!(m.predict_mean(&[t, v]).mean, p.mean);
+            }
+        }
+    }
+
+    #[test]
+    fn variance_vanishes_at_a_centre_and_returns_to_the_prior_far_away() {
+        let r = Reference::small();
+        let m = Small::decode(&r.blob()).unwrap();
+        let mut scratch = [0.0f32; 5];
+        let c = r.centres[2];
+        let x = [
+            (c[0] * r.scale[0] + r.offset[0]) as f32,
+            (c[1] * r.scale[1] + r.offset[1]) as f32,
+        ];
+        let at_centre = m.predict(&x, &mut scratch).unwrap().variance;
+        assert!(at_centre < 1e-3 * r.signal_var as f32, "{at_centre}");
+        let far = m.predict(&[500.0, 40.0], &mut scratch).unwrap().variance;
+        assert!((far - r.signal_var as f32).abs() < 0.05 * r.signal_var as f32);
+    }
+
+    #[test]
+    fn bad_inputs_are_flagged_never_nan() {
+        let m = Small::decode(&Reference::small().blob()).unwrap();
+        let mut scratch = [0.0f32; 5];
+        for x in [
+            [f32::NAN, 0.0],
+            [20.0, f32::INFINITY],
+            [f32::NEG_INFINITY, 0.0],
+        ] {
+            let p = m.predict(&x, &mut scratch).unwrap();
+            assert_eq!(p.status, Status::Fault);
+            assert!(p.mean.is_finite() && p.variance.is_finite());
+        }
+        assert_eq!(m.predict_mean(&[20.0]).status, Status::Fault);
+        let out = m.predict(&[70.0, 0.0], &mut scratch).unwrap();
+        assert_eq!(out.status, Status::Extrapolating);
+        assert!(out.mean.is_finite());
+        assert_eq!(
+            m.predict(&[20.0, 0.0], &mut [0.0; 4]),
+            Err(PredictError::ScratchTooSmall { needed: 5 })
+        );
+    }
+}

@@ -1,0 +1,147 @@
+//! Test helpers: a small model built in f64 exactly as the trainer would, its blob, and an f64
+//! reference evaluator to compare the f32 one against.
+
+use std::vec::Vec;
+
+use crate::blob::{self, Dims, Feature, Payload};
+
+/// A model in f64, before it is rounded into a blob.
+pub struct Reference {
+    pub dims: Dims,
+    pub offset: Vec<f64>,
+    pub scale: Vec<f64>,
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    pub length: Vec<f64>,
+    pub exponents: Vec<u8>,
+    pub prior: Vec<f64>,
+    pub signal_var: f64,
+    pub noise_var: f64,
+    /// Centres in z (not divided by the length scales).
+    pub centres: Vec<[f64; 2]>,
+    pub weights: Vec<f64>,
+}
+
+fn kernel(a: [f64; 2], b: [f64; 2], l: &[f64]) -> f64 {
+    let r2: f64 = (0..2).map(|k| ((a[k] - b[k]) / l[k]).powi(2)).sum();
+    (-0.5 * r2).exp()
+}
+
+impl Reference {
+    /// A 2-input model with 5 centres and a linear prior mean.
+    pub fn small() -> Self {
+        let centres = vec![
+            [-1.0, -0.5],
+            [-0.3, 0.8],
+            [0.2, -1.1],
+            [0.9, 0.4],
+            [1.4, 1.2],
+        ];
+        Self {
+            dims: Dims { m: 5, d: 2, p: 3 },
+            offset: vec![15.0, 0.1],
+            scale: vec![25.0, 1.5],
+            min: vec![-30.0, -3.0],
+            max: vec![60.0, 3.0],
+            length: vec![1.3, 0.7],
+            exponents: vec![0, 0, 1, 0, 0, 1],
+            prior: vec![0.01, -0.02, 39.5],
+            signal_var: 0.04,
+            noise_var: 1e-6,
+            centres,
+            weights: vec![0.3, -0.7, 0.45, -0.2, 0.6],
+        }
+    }
+
+    fn z(&self, x: [f64; 2]) -> [f64; 2] {
+        [
+            (x[0] - self.offset[0]) / self.scale[0],
+            (x[1] - self.offset[1]) / self.scale[1],
+        ]
+    }
+
+    /// Packed rows of chol(K/σ_f²) at the centres.
+    pub fn factor(&self) -> Vec<f64> {
+        let m = self.dims.m;
+        let ratio = self.noise_var / self.signal_var;
+        let mut l = vec![vec![0.0; m]; m];
+        for i in 0..m {
+            for j in 0..=i {
+                let mut s = kernel(self.centres[i], self.centres[j], &self.length);
+                if i == j {
+                    s += ratio;
+                }
+                s -= (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+                l[i][j] = if i == j { s.sqrt() } else { s / l[j][j] };
+            }
+        }
+        (0..m).flat_map(|i| l[i][..=i].to_vec()).collect()
+    }
+
+    /// Mean and latent variance in f64.
+    pub fn predict(&self, x: [f64; 2]) -> (f64, f64) {
+        let z = self.z(x);
+        let mut mean = 0.0;
+        for (j, c) in self.prior.iter().enumerate() {
+            let e = &self.exponents[j * 2..j * 2 + 2];
+            mean += c * z[0].powi(i32::from(e[0])) * z[1].powi(i32::from(e[1]));
+        }
+        let k: Vec<f64> = self
+            .centres
+            .iter()
+            .map(|c| kernel(z, *c, &self.length))
+            .collect();
+        mean += k.iter().zip(&self.weights).map(|(a, b)| a * b).sum::<f64>();
+        let f = self.factor();
+        let mut v = vec![0.0; k.len()];
+        for i in 0..k.len() {
+            let row = &f[i * (i + 1) / 2..(i + 1) * (i + 2) / 2];
+            let dot: f64 = (0..i).map(|j| row[j] * v[j]).sum();
+            v[i] = (k[i] - dot) / row[i];
+        }
+        let var = self.signal_var * (1.0 - v.iter().map(|a| a * a).sum::<f64>()).max(0.0);
+        (mean, var)
+    }
+
+    /// The flat f32 array of the blob layout.
+    pub fn floats(&self) -> Vec<f32> {
+        let mut out: Vec<f64> = Vec::new();
+        for part in [
+            &self.offset,
+            &self.scale,
+            &self.min,
+            &self.max,
+            &self.length,
+            &self.prior,
+        ] {
+            out.extend(part.iter());
+        }
+        out.extend([self.signal_var, self.noise_var]);
+        for c in &self.centres {
+            out.extend([c[0] / self.length[0], c[1] / self.length[1]]);
+        }
+        out.extend(&self.weights);
+        out.extend(self.factor());
+        out.into_iter().map(|v| v as f32).collect()
+    }
+
+    /// The blob, with the flat array passed through `edit` first (to corrupt it on purpose).
+    pub fn blob_with(&self, edit: impl FnOnce(&mut Vec<f32>)) -> Vec<u8> {
+        let mut floats = self.floats();
+        edit(&mut floats);
+        let payload = Payload {
+            features: [Feature::Temperature, Feature::Voltage].as_slice(),
+            exponents: self.exponents.as_slice(),
+            floats: floats.as_slice(),
+        };
+        let mut buf = vec![0u8; 4096];
+        let n = blob::encode(self.dims, &payload, &mut buf).unwrap();
+        buf.truncate(n);
+        buf
+    }
+
+    /// The blob as the trainer would write it.
+    pub fn blob(&self) -> Vec<u8> {
+        self.blob_with(|_| {})
+    }
+}
