@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::data::ColumnMap;
 use crate::dataset::Points;
 use crate::evaluate::{self, EvalConfig, Method};
+use crate::export;
 use crate::gp::{GpConfig, GpModel};
 use crate::io::{ensure_not_input, write_atomically};
 use crate::reproduce::Reproduction;
@@ -58,18 +59,28 @@ impl FitOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit the GP map ω = f(T, V) to rate-table points.
+    /// Fit the GP map ω = f(T, V) to rate-table points and export the firmware blob.
     ///
-    /// Example: trainer fit --points points.csv --out model.json --json fit.json
+    /// Example: trainer fit --points points.csv --out model.bin --json fit.json
     Fit {
         #[command(flatten)]
         input: Input,
         #[command(flatten)]
         fit: FitOptions,
-        /// Model file to write.
+        /// Model blob to write (firmware-core format).
         #[arg(long)]
         out: PathBuf,
         /// Write the fit summary as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Size and static memory of a model blob on the firmware, with the formula.
+    ///
+    /// Example: trainer inspect model.bin
+    Inspect {
+        /// The model blob.
+        model: PathBuf,
+        /// Write the figures as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -156,10 +167,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ensure_not_input(&out, &inputs)?;
             let points = Points::load(&input.points, &input.maps, None)?;
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
-            let summary = fit_summary(&model);
-            let host_model =
-                serde_json::json!({ "format": "fog-gp-host-json", "model": model.export() });
-            write_json(&out, &inputs, &host_model)?;
+            let blob = export::to_blob(&model)?;
+            let firmware = export::decode(&blob)?;
+            let f32_diff = (0..points.len())
+                .map(|i| {
+                    let (t, v) = (points.temp_c[i], points.voltage_v[i]);
+                    let host = model.predict(&[t, v]).mean;
+                    let fw = firmware.predict_mean(&[t as f32, v as f32]).mean;
+                    (f64::from(fw) - host).abs()
+                })
+                .fold(0.0, f64::max);
+            let mut summary = fit_summary(&model);
+            summary["blob_bytes"] = blob.len().into();
+            summary["f32_max_abs_diff_dps"] = f32_diff.into();
+            write_atomically(&out, &blob)?;
             if let Some(path) = json {
                 write_json(&path, &inputs, &summary)?;
             }
@@ -173,6 +194,41 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 model.posterior.jitter,
                 model.fit_seconds * 1e3
             );
+            println!(
+                "wrote {} ({} bytes); firmware f32 mean vs host f64 on the training points: max |Δ| {:.3e} °/s",
+                out.display(),
+                blob.len(),
+                f32_diff
+            );
+            Ok(())
+        }
+        Command::Inspect { model, json } => {
+            let bytes =
+                std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+            let f = export::footprint(&bytes)?;
+            export::decode(&bytes)?;
+            println!(
+                "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
+                 blob: {} bytes (18-byte header + postcard payload)\n\
+                 flat f32 array: 5d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
+                 static memory of Model<{}, {}, {}>: 4·{} + p·d + d + 24 = {} bytes (32-bit target)\n\
+                 variance scratch: 4·m = {} bytes",
+                model.display(),
+                f.m,
+                f.d,
+                f.p,
+                f.blob_bytes,
+                f.floats,
+                f.d,
+                f.p * f.d,
+                f.floats,
+                f.floats,
+                f.model_bytes,
+                f.scratch_bytes
+            );
+            if let Some(path) = json {
+                write_json(&path, &[model.as_path()], &f)?;
+            }
             Ok(())
         }
         Command::Loo {

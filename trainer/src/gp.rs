@@ -504,6 +504,8 @@ fn starts(d: usize, cfg: &GpConfig) -> Vec<Vec<f64>> {
 pub struct GpModel {
     /// Input normalization.
     pub input_norm: Normalizer,
+    /// Trained range (min, max) of each raw input: beyond it the model extrapolates.
+    pub input_range: Vec<(f64, f64)>,
     /// Prior mean over normalized inputs, in output units.
     pub prior: PolyPrior,
     /// Output scale s_y: the GP models (ω − m) / s_y.
@@ -578,8 +580,10 @@ impl GpModel {
         reports.push(optimize_from(&z, &y, searched.0.clone(), cfg, POLISH));
         let best = best_of(&reports).map_or(searched.0, |b| b.0);
         let posterior = Posterior::new(&z, &y, Hyperparameters::from_log(&best))?;
+        let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
         Ok(Self {
             input_norm,
+            input_range,
             prior,
             output_scale,
             posterior,
@@ -608,27 +612,6 @@ impl GpModel {
             .into_iter()
             .map(|(e, _)| e * self.output_scale)
             .collect()
-    }
-
-    /// Everything prediction needs, as a host-side JSON model: normalization, prior mean, output
-    /// scale, hyperparameters, centres (normalized inputs) and weights α.
-    pub fn export(&self) -> serde_json::Value {
-        let h = &self.posterior.hyper;
-        let centres: Vec<Vec<f64>> = (0..self.posterior.xs.nrows())
-            .map(|i| {
-                (0..self.posterior.xs.ncols())
-                    .map(|k| self.posterior.xs[(i, k)] * h.length_scales[k])
-                    .collect()
-            })
-            .collect();
-        serde_json::json!({
-            "input_norm": self.input_norm,
-            "prior": self.prior,
-            "output_scale": self.output_scale,
-            "hyperparameters": h,
-            "centres": centres,
-            "alpha": self.posterior.alpha.as_slice(),
-        })
     }
 
     /// Log marginal likelihood of the normalized data at the fitted hyperparameters.

@@ -6,6 +6,7 @@ pub mod cli;
 pub mod data;
 pub mod dataset;
 pub mod evaluate;
+pub mod export;
 pub mod gp;
 pub mod io;
 pub mod kernel;

@@ -17,7 +17,7 @@ fn generate_fit_loo_reproduce_end_to_end() {
     );
     assert_eq!(bytes.iter().filter(|&&b| b == b'\n').count(), 141);
 
-    let (model, fit) = (at(dir.path(), "model.json"), at(dir.path(), "fit.json"));
+    let (model, fit) = (at(dir.path(), "model.bin"), at(dir.path(), "fit.json"));
     trainer(&["fit", "--points", &points, "--out", &model, "--json", &fit]).unwrap();
     let f = json(&fit);
     assert_eq!(f["n_train"], 140);
@@ -31,7 +31,18 @@ fn generate_fit_loo_reproduce_end_to_end() {
         2
     );
     assert!(f["fit_seconds"].as_f64().unwrap() > 0.0);
-    assert!(std::path::Path::new(&model).exists());
+    let blob = std::fs::read(&model).unwrap();
+    assert_eq!(&blob[..4], b"FOGB");
+    assert_eq!(f["blob_bytes"], blob.len());
+    assert!(f["f32_max_abs_diff_dps"].as_f64().unwrap().is_finite());
+    let inspect = at(dir.path(), "inspect.json");
+    trainer(&["inspect", &model, "--json", &inspect]).unwrap();
+    let i = json(&inspect);
+    assert_eq!(
+        (i["m"].as_u64(), i["d"].as_u64(), i["p"].as_u64()),
+        (Some(140), Some(2), Some(1))
+    );
+    assert_eq!(i["floats"], 5 * 2 + 1 + 2 + 140 * 2 + 140 + 140 * 141 / 2);
 
     let mut rmse = std::collections::HashMap::new();
     for method in ["gpr", "lssvr", "two-step"] {
@@ -65,7 +76,7 @@ fn bad_points(contents: &str) -> (tempfile::TempDir, String, String) {
     let dir = tempfile::tempdir().unwrap();
     let points = at(dir.path(), "bad.csv");
     std::fs::write(&points, contents).unwrap();
-    let out = at(dir.path(), "model.json");
+    let out = at(dir.path(), "model.bin");
     (dir, points, out)
 }
 
