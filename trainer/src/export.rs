@@ -49,7 +49,8 @@ pub fn to_blob(model: &GpModel) -> Result<Vec<u8>, ExportError> {
     let p = model.prior.coefficients.len();
     if m > MAX_CENTRES || d > MAX_INPUTS {
         return Err(ExportError::TooLarge(format!(
-            "{m} centres × {d} inputs; at most {MAX_CENTRES} × {MAX_INPUTS}"
+            "{m} centres × {d} inputs; a firmware model holds at most {MAX_CENTRES} centres \
+             (about 132 KB of f32 on the microcontroller) and {MAX_INPUTS} inputs: fit on fewer points"
         )));
     }
     let dims = Dims { m, d, p };
