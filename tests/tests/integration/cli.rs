@@ -167,3 +167,53 @@ fn mapped_columns_and_tabs_load_like_canonical_ones() {
     );
     assert!((ra - rb).abs() < 1e-9 * ra, "{ra} vs {rb}");
 }
+
+#[test]
+fn leave_one_group_out_uses_the_named_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = at(dir.path(), "points.csv");
+    sim(&["generate", "paper", "--seed", "7", "--out", &points]).unwrap();
+    let out = at(dir.path(), "loo.json");
+    let args = [
+        "loo",
+        "--points",
+        &points,
+        "--method",
+        "two-step",
+        "--group",
+        "setpoint_c",
+    ];
+    trainer(&[&args[..], &["--json", &out]].concat()).unwrap();
+    let groups: Vec<String> = json(&out)["per_temperature"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["group"].as_str().unwrap().to_owned())
+        .collect();
+    assert_eq!(
+        groups,
+        ["-30", "-20", "-10", "-5", "0", "5", "10", "20", "40", "60"]
+    );
+}
+
+#[test]
+fn a_model_too_large_for_the_firmware_is_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = at(dir.path(), "points.csv");
+    // 140 rate points and 140 position tests: 280 centres.
+    sim(&[
+        "generate",
+        "paper",
+        "--seed",
+        "8",
+        "--position-tests",
+        "--out",
+        &points,
+    ])
+    .unwrap();
+    let out = at(dir.path(), "model.bin");
+    let e = trainer(&["fit", "--points", &points, "--out", &out]).unwrap_err();
+    assert!(format!("{e:#}").contains("280 centres"), "{e:#}");
+    assert!(format!("{e:#}").contains("at most 256 centres"), "{e:#}");
+    assert!(!std::path::Path::new(&out).exists());
+}
