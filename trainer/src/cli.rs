@@ -169,14 +169,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
             let blob = export::to_blob(&model)?;
             let firmware = export::decode(&blob)?;
-            let f32_diff = (0..points.len())
-                .map(|i| {
-                    let (t, v) = (points.temp_c[i], points.voltage_v[i]);
-                    let host = model.predict(&[t, v]).mean;
-                    let fw = firmware.predict_mean(&[t as f32, v as f32]).mean;
-                    (f64::from(fw) - host).abs()
-                })
-                .fold(0.0, f64::max);
+            let f32_diff = export::f32_fidelity(&model, &firmware, &points.inputs());
             let mut summary = fit_summary(&model);
             summary["blob_bytes"] = blob.len().into();
             summary["f32_max_abs_diff_dps"] = f32_diff.into();

@@ -95,6 +95,18 @@ pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, ExportError> {
         .map_err(ExportError::Blob)
 }
 
+/// Largest |firmware f32 mean − host f64 mean| over samples of raw inputs (rows of `x`), output
+/// units: how faithfully the blob carries the model.
+pub fn f32_fidelity(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f64>) -> f64 {
+    x.row_iter()
+        .map(|row| {
+            let host = model.predict(&row.iter().copied().collect::<Vec<_>>()).mean;
+            let raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
+            (f64::from(firmware.predict_mean(&raw).mean) - host).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
 /// Size and static memory of a blob's model on the firmware.
 #[derive(Debug, Clone, Serialize)]
 pub struct Footprint {

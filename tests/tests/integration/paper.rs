@@ -53,12 +53,6 @@ fn exported_blob_decodes_and_tracks_the_host_model() {
     let blob = trainer::export::to_blob(&m).unwrap();
     let fw = trainer::export::decode(&blob).unwrap();
     assert_eq!(fw.dims().m, 140);
-    let worst = (0..train.len())
-        .map(|i| {
-            let (t, v) = (train.temp_c[i], train.voltage_v[i]);
-            let host = m.predict(&[t, v]).mean;
-            (f64::from(fw.predict_mean(&[t as f32, v as f32]).mean) - host).abs()
-        })
-        .fold(0.0, f64::max);
+    let worst = trainer::export::f32_fidelity(&m, &fw, &train.inputs());
     assert!(worst < 1e-4, "f32 vs f64 {worst} °/s");
 }
