@@ -77,14 +77,6 @@ impl PolyPrior {
         }
     }
 
-    /// A zero mean over `d` inputs.
-    pub fn zero(d: usize) -> Self {
-        Self {
-            exponents: vec![vec![0; d]],
-            coefficients: vec![0.0],
-        }
-    }
-
     /// The mean at one normalized sample.
     pub fn eval(&self, z: &[f64]) -> f64 {
         self.exponents

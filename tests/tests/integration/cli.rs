@@ -2,11 +2,17 @@
 
 use super::{at, json, sim, trainer};
 
-#[test]
-fn generate_fit_loo_reproduce_end_to_end() {
+/// A temporary directory holding `points.csv`: the paper protocol on the nominal unit.
+fn paper_points(seed: &str) -> (tempfile::TempDir, String) {
     let dir = tempfile::tempdir().unwrap();
     let points = at(dir.path(), "points.csv");
-    sim(&["generate", "paper", "--seed", "3", "--out", &points]).unwrap();
+    sim(&["generate", "paper", "--seed", seed, "--out", &points]).unwrap();
+    (dir, points)
+}
+
+#[test]
+fn generate_fit_loo_reproduce_end_to_end() {
+    let (dir, points) = paper_points("3");
     let again = at(dir.path(), "again.csv");
     sim(&["generate", "paper", "--seed", "3", "--out", &again]).unwrap();
     let bytes = std::fs::read(&points).unwrap();
@@ -131,9 +137,7 @@ fn a_command_never_writes_over_its_input() {
 
 #[test]
 fn mapped_columns_and_tabs_load_like_canonical_ones() {
-    let dir = tempfile::tempdir().unwrap();
-    let points = at(dir.path(), "points.csv");
-    sim(&["generate", "paper", "--seed", "5", "--out", &points]).unwrap();
+    let (dir, points) = paper_points("5");
     // The same data with other names, millivolts and tabs.
     let text = std::fs::read_to_string(&points).unwrap();
     let mut mapped = String::from("T\tout_mv\tw\n");
@@ -170,9 +174,7 @@ fn mapped_columns_and_tabs_load_like_canonical_ones() {
 
 #[test]
 fn leave_one_group_out_uses_the_named_column() {
-    let dir = tempfile::tempdir().unwrap();
-    let points = at(dir.path(), "points.csv");
-    sim(&["generate", "paper", "--seed", "7", "--out", &points]).unwrap();
+    let (dir, points) = paper_points("7");
     let out = at(dir.path(), "loo.json");
     let args = [
         "loo",
