@@ -1,11 +1,11 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 1)
+//! # Layout (format version 2)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (1)
+//!  4      2    format version, u16 little-endian (2)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
@@ -24,14 +24,24 @@
 //! input_min[d] input_max[d]       trained range, raw units (beyond it: extrapolating)
 //! length_scales[d]                ARD length scales on z
 //! prior[p]                        mean(z) = Σ_j prior_j Π_k z_k^e_jk, output units
+//! raw_hi[d] raw_lo[d]             mean += Σ_k (hi_k + lo_k)·x_k on the raw inputs
 //! signal_var noise_var            σ_f², σ_n² in output units²
 //! centres[m·d]                    z of each centre divided by the length scales, row-major
 //! weights[m]                      mean += Σ_i w_i exp(−½ |z/ℓ − c_i|²)
 //! factor[m(m+1)/2]                packed rows of L = chol(K/σ_f²), for the variance
 //! ```
 //!
-//! Latent variance: `σ_f² (1 − |v|²)` with `L v = k̃` (forward substitution; DESIGN §4). A change of
-//! this layout bumps [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
+//! Latent variance: `σ_f² (1 − |v|²)` with `L v = k̃` (forward substitution; DESIGN §4). Forward
+//! substitution rather than multiplying by L⁻¹: the same cost, and the factor of a well-conditioned
+//! K rounds to f32 without amplifying anything (L⁻¹ grows like 1/σ_n).
+//!
+//! Why the raw linear terms (version 2): the output is dominated by V/S (±80 °/s), which in f32 is
+//! already 5e-6 °/s per rounding. Computed on z, its coefficient, the normalization and the product
+//! round three times; on the raw input, with the coefficient split into `hi + lo` (two f32 whose sum
+//! carries 48 bits) and `hi·x` split exactly by an FMA, the term rounds once, when it is added
+//! last. The trainer moves every pure linear monomial of the prior mean here (measured in
+//! `trainer/benches/f32_study`: 1.2–2e-5 → 4e-6 °/s). A change of this layout bumps
+//! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
 use serde::{Deserialize, Serialize};
 
@@ -40,7 +50,7 @@ use crate::error::BlobError;
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
 /// The format version this crate reads and writes.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 /// Header bytes before the payload.
 pub const HEADER_LEN: usize = 18;
 
@@ -69,9 +79,9 @@ pub struct Dims {
 }
 
 impl Dims {
-    /// Length of the flat f32 array: `5d + p + 2 + m·d + m + m(m+1)/2`.
+    /// Length of the flat f32 array: `7d + p + 2 + m·d + m + m(m+1)/2`.
     pub const fn floats(&self) -> usize {
-        5 * self.d + self.p + 2 + self.m * self.d + self.m + self.m * (self.m + 1) / 2
+        7 * self.d + self.p + 2 + self.m * self.d + self.m + self.m * (self.m + 1) / 2
     }
 
     /// Length of the exponent array: `p·d`.
@@ -206,23 +216,28 @@ mod tests {
         b
     }
 
+    /// offset scale min max length prior raw_hi raw_lo σf² σn² centre weight factor.
+    const GOLDEN: [f32; 13] = [
+        0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
+    ];
+
     #[test]
     fn golden_bytes_pin_the_encoding() {
         let payload = Payload {
             features: [Feature::Temperature].as_slice(),
             exponents: [0u8].as_slice(),
-            floats: [0.0f32, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 0.01, 0.0, 3.0, 1.0].as_slice(),
+            floats: GOLDEN.as_slice(),
         };
         let dims = Dims { m: 1, d: 1, p: 1 };
-        assert_eq!(dims.floats(), 11);
+        assert_eq!(dims.floats(), 13);
         let mut buf = [0u8; 128];
         let n = encode(dims, &payload, &mut buf).unwrap();
         let crc = CRC32.checksum(&buf[HEADER_LEN..n]).to_le_bytes();
-        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 1, 0, 1, 0, 1, 1, 49, 0, 0, 0];
+        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 2, 0, 1, 0, 1, 1, 57, 0, 0, 0];
         expected.extend(crc);
-        // features: len 1, variant 0; exponents: len 1, 0; floats: len 11, then f32 LE.
-        expected.extend([1, 0, 1, 0, 11]);
-        for v in [0.0f32, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 0.01, 0.0, 3.0, 1.0] {
+        // features: len 1, variant 0; exponents: len 1, 0; floats: len 13, then f32 LE.
+        expected.extend([1, 0, 1, 0, 13]);
+        for v in GOLDEN {
             expected.extend(v.to_le_bytes());
         }
         assert_eq!(&buf[..n], expected.as_slice());
@@ -246,7 +261,7 @@ mod tests {
             Small::decode(&b).unwrap_err()
         };
         assert_eq!(with(&|b| b[0] = b'X'), BlobError::BadMagic);
-        assert_eq!(with(&|b| b[4] = 2), BlobError::UnsupportedVersion(2));
+        assert_eq!(with(&|b| b[4] = 1), BlobError::UnsupportedVersion(1));
         assert_eq!(with(&|b| b.truncate(b.len() - 1)), BlobError::Truncated);
         assert_eq!(with(&|b| b.truncate(10)), BlobError::Truncated);
         assert_eq!(with(&|b| b.push(0)), BlobError::TrailingBytes);

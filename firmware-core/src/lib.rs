@@ -7,10 +7,12 @@
 
 pub mod blob;
 pub mod error;
+pub mod features;
 pub mod model;
 #[cfg(test)]
 mod testing;
 
 pub use blob::{Dims, Feature};
 pub use error::{BlobError, PredictError};
+pub use features::{FeatureState, Sample};
 pub use model::{Mean, Model, Prediction, Status};

@@ -15,6 +15,8 @@ pub struct Reference {
     pub length: Vec<f64>,
     pub exponents: Vec<u8>,
     pub prior: Vec<f64>,
+    /// Coefficients of the raw linear terms (output units per raw input unit).
+    pub raw: Vec<f64>,
     pub signal_var: f64,
     pub noise_var: f64,
     /// Centres in z (not divided by the length scales).
@@ -45,7 +47,8 @@ impl Reference {
             max: vec![60.0, 3.0],
             length: vec![1.3, 0.7],
             exponents: vec![0, 0, 1, 0, 0, 1],
-            prior: vec![0.01, -0.02, 39.5],
+            prior: vec![0.01, -0.02, 0.5],
+            raw: vec![-0.003, 26.31578947368421],
             signal_var: 0.04,
             noise_var: 1e-6,
             centres,
@@ -86,6 +89,7 @@ impl Reference {
             let e = &self.exponents[j * 2..j * 2 + 2];
             mean += c * z[0].powi(i32::from(e[0])) * z[1].powi(i32::from(e[1]));
         }
+        mean += self.raw[0] * x[0] + self.raw[1] * x[1];
         let k: Vec<f64> = self
             .centres
             .iter()
@@ -116,13 +120,23 @@ impl Reference {
         ] {
             out.extend(part.iter());
         }
-        out.extend([self.signal_var, self.noise_var]);
+        let mut out: Vec<f32> = out.into_iter().map(|v| v as f32).collect();
+        let hi: Vec<f32> = self.raw.iter().map(|&r| r as f32).collect();
+        out.extend(&hi);
+        out.extend(
+            self.raw
+                .iter()
+                .zip(&hi)
+                .map(|(r, h)| (r - f64::from(*h)) as f32),
+        );
+        let mut rest = vec![self.signal_var, self.noise_var];
         for c in &self.centres {
-            out.extend([c[0] / self.length[0], c[1] / self.length[1]]);
+            rest.extend([c[0] / self.length[0], c[1] / self.length[1]]);
         }
-        out.extend(&self.weights);
-        out.extend(self.factor());
-        out.into_iter().map(|v| v as f32).collect()
+        rest.extend(&self.weights);
+        rest.extend(self.factor());
+        out.extend(rest.into_iter().map(|v| v as f32));
+        out
     }
 
     /// The blob, with the flat array passed through `edit` first (to corrupt it on purpose).

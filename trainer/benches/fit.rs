@@ -6,7 +6,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
-use trainer::gp::{GpConfig, GpModel, lml_and_gradient, prepare};
+use trainer::gp::{GpConfig, GpModel, Prepared, lml_and_gradient};
 use trainer::lssvr::LssvrModel;
 
 fn paper_like() -> (DMatrix<f64>, DVector<f64>) {
@@ -41,13 +41,13 @@ fn benches(c: &mut Criterion) {
     });
     let model = GpModel::fit(&x, &y, &cfg).unwrap();
     c.bench_function("gp_closed_form_loo_140", |b| b.iter(|| model.loo_errors()));
-    let (_, _, _, z, yn) = prepare(&x, &y, cfg.prior_degree);
+    let data = Prepared::new(&x, &y, cfg.mean);
     let theta = model.posterior.hyper.to_log();
     c.bench_function("gp_lml_and_gradient_140", |b| {
-        b.iter(|| lml_and_gradient(&z, &yn, &theta).unwrap())
+        b.iter(|| lml_and_gradient(&data.z, &data.y, &data.h, &theta).unwrap())
     });
     c.bench_function("lssvr_tuned_fit_140", |b| {
-        b.iter(|| LssvrModel::fit(&x, &y, cfg.prior_degree).unwrap())
+        b.iter(|| LssvrModel::fit(&x, &y, cfg.mean).unwrap())
     });
 }
 

@@ -4,11 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use crate::data::ColumnMap;
-use crate::dataset::Points;
+use crate::dataset::{POINT_FEATURES, Points};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export;
 use crate::gp::{GpConfig, GpModel};
 use crate::io::{ensure_not_input, write_atomically};
+use crate::prior::MeanBasis;
 use crate::reproduce::Reproduction;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -41,9 +42,10 @@ struct FitOptions {
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Total degree of the polynomial prior mean (0 = constant).
-    #[arg(long, default_value_t = GpConfig::default().prior_degree)]
-    prior_degree: u8,
+    /// Prior-mean basis: physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all
+    /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
+    #[arg(long, default_value_t = GpConfig::default().mean)]
+    mean: MeanBasis,
 }
 
 impl FitOptions {
@@ -51,7 +53,7 @@ impl FitOptions {
         GpConfig {
             random_starts: self.restarts,
             seed: self.seed,
-            prior_degree: self.prior_degree,
+            mean: self.mean,
             ..GpConfig::default()
         }
     }
@@ -147,6 +149,7 @@ fn fit_summary(m: &GpModel) -> serde_json::Value {
         "fit_seconds": m.fit_seconds,
         "n_train": m.y.len(),
         "features": ["temp_c", "voltage_v"],
+        "mean_basis": m.basis,
         "prior_mean": m.prior,
         "output_scale": m.output_scale,
         "jitter": m.posterior.jitter,
@@ -167,12 +170,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             ensure_not_input(&out, &inputs)?;
             let points = Points::load(&input.points, &input.maps, None)?;
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
-            let blob = export::to_blob(&model)?;
+            let blob = export::to_blob(&model, &POINT_FEATURES)?;
             let firmware = export::decode(&blob)?;
-            let f32_diff = export::f32_fidelity(&model, &firmware, &points.inputs());
+            let agreement = export::agreement_report(&model, &firmware, &points.inputs());
             let mut summary = fit_summary(&model);
             summary["blob_bytes"] = blob.len().into();
-            summary["f32_max_abs_diff_dps"] = f32_diff.into();
+            summary["firmware_agreement"] = serde_json::to_value(agreement)?;
             write_atomically(&out, &blob)?;
             if let Some(path) = json {
                 write_json(&path, &inputs, &summary)?;
@@ -187,12 +190,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 model.posterior.jitter,
                 model.fit_seconds * 1e3
             );
+            println!("wrote {} ({} bytes)", out.display(), blob.len());
             println!(
-                "wrote {} ({} bytes); firmware f32 mean vs host f64 on the training points: max |Δ| {:.3e} °/s",
-                out.display(),
-                blob.len(),
-                f32_diff
+                "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating"
             );
+            for (name, a) in [
+                ("training points", agreement.training),
+                ("grid, trained range", agreement.grid_inside),
+                ("grid, 10% beyond", agreement.grid_beyond),
+            ] {
+                println!(
+                    "  {name:<22} {:>7}   {:>17.3e}   {:>12.3e}   {:>13}",
+                    a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
+                );
+            }
             Ok(())
         }
         Command::Inspect { model, json } => {
@@ -203,7 +214,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             println!(
                 "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
                  blob: {} bytes (18-byte header + postcard payload)\n\
-                 flat f32 array: 5d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
+                 flat f32 array: 7d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
                  static memory of Model<{}, {}, {}>: 4·{} + p·d + d + 24 = {} bytes (32-bit target)\n\
                  variance scratch: 4·m = {} bytes",
                 model.display(),

@@ -3,9 +3,14 @@
 
 use std::path::Path;
 
+use firmware_core::Feature;
+use firmware_core::features::{self, FeatureState, Sample};
 use nalgebra::{DMatrix, DVector};
 
 use crate::data::{self, ColumnMap, DataError};
+
+/// The inputs of a rate-table model, in order: the paper's (T, V).
+pub const POINT_FEATURES: [Feature; 2] = [Feature::Temperature, Feature::Voltage];
 
 /// Gap between sorted temperatures that separates two plateaus, °C. Soaked plateaus of a thermal
 /// chamber are ≥ 5 °C apart; readings within one plateau scatter by hundredths of a degree.
@@ -103,15 +108,30 @@ impl Points {
         self.temp_c.is_empty()
     }
 
-    /// Model inputs, one row per point: (temperature, output).
+    /// Model inputs, one row per point, in the order of [`POINT_FEATURES`]: computed by
+    /// firmware-core's feature pipeline, so they are exactly what the firmware computes (each
+    /// point is a soaked, independent sample: a fresh pipeline state).
     pub fn inputs(&self) -> DMatrix<f64> {
-        DMatrix::from_fn(self.len(), 2, |i, j| {
-            if j == 0 {
-                self.temp_c[i]
-            } else {
-                self.voltage_v[i]
+        let d = POINT_FEATURES.len();
+        let mut x = DMatrix::zeros(self.len(), d);
+        let mut row = [0.0f32; POINT_FEATURES.len()];
+        for i in 0..self.len() {
+            let sample = Sample {
+                time_s: 0.0,
+                temp_c: self.temp_c[i] as f32,
+                output: self.voltage_v[i] as f32,
+            };
+            features::compute(
+                &POINT_FEATURES,
+                &sample,
+                &mut FeatureState::default(),
+                &mut row,
+            );
+            for (k, v) in row.iter().enumerate() {
+                x[(i, k)] = f64::from(*v);
             }
-        })
+        }
+        x
     }
 
     /// Targets: the reference rate.

@@ -111,7 +111,7 @@ impl Fitted {
             Method::Lssvr => Self::Lssvr(Box::new(LssvrModel::fit(
                 &points.inputs(),
                 &points.target(),
-                cfg.gp.prior_degree,
+                cfg.gp.mean,
             )?)),
             Method::TwoStep => Self::TwoStep(TwoStepModel::fit(
                 &points.temp_c,

@@ -3,7 +3,10 @@
 //!
 //! Everything is computed in f64 and rounded once: weights `w = α·σ_f²·s_y`, variances in output
 //! units², centres divided by the length scales, and the variance factor `L/σ_f` (the Cholesky
-//! factor of K/σ_f²), packed by rows.
+//! factor of K/σ_f²), packed by rows. Pure linear monomials of the prior mean move to the raw
+//! linear terms (`c·z_k = (c/s_k)·x_k − c·o_k/s_k`, the constant absorbing the offset), with the
+//! coefficient split into an f32 `hi` and the f32 rounding of its remainder `lo` (why: blob module
+//! doc of firmware-core).
 
 use firmware_core::blob::{self, Dims, Feature, HEADER_LEN, Payload};
 use firmware_core::model::Model;
@@ -36,17 +39,66 @@ pub enum ExportError {
     /// The model is too large for the blob format or the host capacities.
     #[error("model too large to export: {0}")]
     TooLarge(String),
+    /// The feature spec does not match the model's inputs.
+    #[error("{features} features named for a model of {inputs} inputs")]
+    FeatureMismatch {
+        /// Features named.
+        features: usize,
+        /// Model inputs.
+        inputs: usize,
+    },
     /// The firmware encoder or decoder refused the blob.
     #[error("blob: {0}")]
     Blob(firmware_core::BlobError),
 }
 
-/// Builds the blob of a fitted GP with inputs (temperature, voltage).
-pub fn to_blob(model: &GpModel) -> Result<Vec<u8>, ExportError> {
+/// The prior mean with its pure linear monomials moved onto the raw inputs: (exponents,
+/// coefficients, raw coefficient per input). Needs a constant monomial to absorb the offsets.
+fn split_raw_linear(model: &GpModel) -> (Vec<Vec<u8>>, Vec<f64>, Vec<f64>) {
+    let prior = &model.prior;
+    let d = model.input_norm.offset.len();
+    let mut coefficients = prior.coefficients.clone();
+    let mut raw = vec![0.0; d];
+    let mut moved = vec![false; coefficients.len()];
+    if let Some(constant) = prior
+        .exponents
+        .iter()
+        .position(|e| e.iter().all(|&k| k == 0))
+    {
+        for (j, e) in prior.exponents.iter().enumerate() {
+            let unit = e.iter().filter(|&&k| k == 1).count() == 1 && e.iter().sum::<u8>() == 1;
+            if let (true, Some(k)) = (unit, e.iter().position(|&k| k == 1)) {
+                raw[k] = coefficients[j] / model.input_norm.scale[k];
+                coefficients[constant] -= raw[k] * model.input_norm.offset[k];
+                moved[j] = true;
+            }
+        }
+    }
+    let keep = |j: &usize| !moved[*j];
+    let exponents = (0..coefficients.len())
+        .filter(keep)
+        .map(|j| prior.exponents[j].clone())
+        .collect();
+    let coefficients = (0..coefficients.len())
+        .filter(keep)
+        .map(|j| coefficients[j])
+        .collect();
+    (exponents, coefficients, raw)
+}
+
+/// Builds the blob of a fitted GP whose inputs are `features`, in order.
+pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportError> {
     let post = &model.posterior;
     let h = &post.hyper;
     let (m, d) = post.xs.shape();
-    let p = model.prior.coefficients.len();
+    if features.len() != d {
+        return Err(ExportError::FeatureMismatch {
+            features: features.len(),
+            inputs: d,
+        });
+    }
+    let (exponents, coefficients, raw) = split_raw_linear(model);
+    let p = coefficients.len();
     if m > MAX_CENTRES || d > MAX_INPUTS {
         return Err(ExportError::TooLarge(format!(
             "{m} centres × {d} inputs; a firmware model holds at most {MAX_CENTRES} centres \
@@ -62,7 +114,11 @@ pub fn to_blob(model: &GpModel) -> Result<Vec<u8>, ExportError> {
     floats.extend(model.input_range.iter().map(|r| r.0));
     floats.extend(model.input_range.iter().map(|r| r.1));
     floats.extend(&h.length_scales);
-    floats.extend(&model.prior.coefficients);
+    floats.extend(&coefficients);
+    // hi is an f32 (so exact in f64); lo is what it misses, rounded once below.
+    let hi: Vec<f64> = raw.iter().map(|&r| f64::from(r as f32)).collect();
+    floats.extend(&hi);
+    floats.extend(raw.iter().zip(&hi).map(|(r, h)| r - h));
     floats.extend([sf2 * sy * sy, h.noise_std.powi(2) * sy * sy]);
     for i in 0..m {
         floats.extend((0..d).map(|k| post.xs[(i, k)]));
@@ -74,11 +130,9 @@ pub fn to_blob(model: &GpModel) -> Result<Vec<u8>, ExportError> {
         floats.extend((0..=i).map(|j| l[(i, j)] / sf));
     }
     let floats: Vec<f32> = floats.into_iter().map(|v| v as f32).collect();
-    let exponents: Vec<u8> = model.prior.exponents.iter().flatten().copied().collect();
+    let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
     let payload = Payload {
-        features: [Feature::Temperature, Feature::Voltage]
-            .get(..d)
-            .unwrap_or(&[]),
+        features,
         exponents: exponents.as_slice(),
         floats: floats.as_slice(),
     };
@@ -95,16 +149,119 @@ pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, ExportError> {
         .map_err(ExportError::Blob)
 }
 
-/// Largest |firmware f32 mean − host f64 mean| over samples of raw inputs (rows of `x`), output
-/// units: how faithfully the blob carries the model.
-pub fn f32_fidelity(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f64>) -> f64 {
-    x.row_iter()
-        .map(|row| {
-            let host = model.predict(&row.iter().copied().collect::<Vec<_>>()).mean;
-            let raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
-            (f64::from(firmware.predict_mean(&raw).mean) - host).abs()
+/// How closely the firmware (f32) follows the host (f64) over one set of inputs.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Agreement {
+    /// Inputs compared.
+    pub n: usize,
+    /// Largest |firmware mean − host mean|, output units.
+    pub max_abs_mean_diff: f64,
+    /// Largest |firmware variance − host variance| / host variance where the host's latent
+    /// variance exceeds 1e-3 of the signal variance (below that, it is rounding noise of a
+    /// near-zero number).
+    pub max_rel_var_diff: f64,
+    /// Inputs the relative variance figure covers.
+    pub n_var: usize,
+    /// Inputs the firmware flagged as extrapolating.
+    pub n_extrapolating: usize,
+    /// Every firmware output was finite.
+    pub all_finite: bool,
+}
+
+/// The agreement figures of a blob: on the training inputs, on a dense grid over the trained
+/// range, and on the band 10% of the range beyond it.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct AgreementReport {
+    /// The training inputs.
+    pub training: Agreement,
+    /// A grid over the trained range (`GRID` points per input).
+    pub grid_inside: Agreement,
+    /// The grid over the range widened by 10% each side, outside the trained range only.
+    pub grid_beyond: Agreement,
+}
+
+/// Grid points per input of the agreement check.
+pub const GRID: usize = 61;
+
+/// Compares the firmware with the host on rows of raw inputs `x`. Inputs are rounded to f32
+/// first, so both sides see the same numbers.
+pub fn agreement(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f64>) -> Agreement {
+    let mut scratch = vec![0.0f32; firmware.dims().m];
+    let threshold = 1e-3 * model.posterior.hyper.signal_std.powi(2) * model.output_scale.powi(2);
+    let mut a = Agreement {
+        all_finite: true,
+        ..Agreement::default()
+    };
+    for row in x.row_iter() {
+        let raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
+        let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
+        let host = model.predict(&exact);
+        let Ok(fw) = firmware.predict(&raw, &mut scratch) else {
+            a.all_finite = false;
+            continue;
+        };
+        a.n += 1;
+        a.all_finite &= fw.mean.is_finite() && fw.variance.is_finite();
+        a.n_extrapolating += usize::from(fw.status == firmware_core::Status::Extrapolating);
+        a.max_abs_mean_diff = a
+            .max_abs_mean_diff
+            .max((f64::from(fw.mean) - host.mean).abs());
+        if host.latent_var > threshold {
+            a.n_var += 1;
+            let rel = (f64::from(fw.variance) - host.latent_var).abs() / host.latent_var;
+            a.max_rel_var_diff = a.max_rel_var_diff.max(rel);
+        }
+    }
+    a
+}
+
+/// Rows of a `GRID`ⁿ grid over `range` widened by `widen` of its width each side; with
+/// `outside_only`, only the rows that leave `range` in some input.
+fn grid(range: &[(f64, f64)], widen: f64, outside_only: bool) -> nalgebra::DMatrix<f64> {
+    let d = range.len();
+    let axes: Vec<Vec<f64>> = range
+        .iter()
+        .map(|&(lo, hi)| {
+            let (a, b) = (lo - widen * (hi - lo), hi + widen * (hi - lo));
+            (0..GRID)
+                .map(|i| a + (b - a) * i as f64 / (GRID - 1) as f64)
+                .collect()
         })
-        .fold(0.0, f64::max)
+        .collect();
+    let total = GRID.pow(u32::try_from(d).unwrap_or(u32::MAX));
+    let rows: Vec<Vec<f64>> = (0..total)
+        .map(|mut i| {
+            axes.iter()
+                .map(|axis| {
+                    let v = axis[i % GRID];
+                    i /= GRID;
+                    v
+                })
+                .collect()
+        })
+        .filter(|r: &Vec<f64>| {
+            // Compared as the firmware does: in f32.
+            let f = |v: f64| v as f32;
+            !outside_only
+                || r.iter()
+                    .zip(range)
+                    .any(|(v, &(lo, hi))| f(*v) < f(lo) || f(*v) > f(hi))
+        })
+        .collect();
+    nalgebra::DMatrix::from_fn(rows.len(), d, |i, k| rows[i][k])
+}
+
+/// The agreement report of a blob against the model it was exported from.
+pub fn agreement_report(
+    model: &GpModel,
+    firmware: &HostModel,
+    training: &nalgebra::DMatrix<f64>,
+) -> AgreementReport {
+    AgreementReport {
+        training: agreement(model, firmware, training),
+        grid_inside: agreement(model, firmware, &grid(&model.input_range, 0.0, false)),
+        grid_beyond: agreement(model, firmware, &grid(&model.input_range, 0.1, true)),
+    }
 }
 
 /// Size and static memory of a blob's model on the firmware.
@@ -118,7 +275,7 @@ pub struct Footprint {
     pub p: usize,
     /// Blob size, bytes.
     pub blob_bytes: usize,
-    /// Numbers in the flat array: 5d + p + 2 + m·d + m + m(m+1)/2.
+    /// Numbers in the flat array: 7d + p + 2 + m·d + m + m(m+1)/2.
     pub floats: usize,
     /// Static memory of `Model<d, p·d, floats>` on a 32-bit target, bytes:
     /// 4·floats + p·d + d, three 4-byte vector lengths and 12 bytes of dimensions, rounded up to 4.

@@ -1,25 +1,31 @@
 //! Exact Gaussian-process regression as in the reference paper (He et al.), with the numerics of
 //! Rasmussen & Williams (R&W), *Gaussian Processes for Machine Learning*, 2006.
 //!
-//! Model, on normalized inputs z and normalized output y = (ω − m(z)) / s_y:
+//! Model, on normalized inputs z and output y = (ω − H c₀) / s_y (c₀: ordinary least squares of
+//! the prior-mean basis H, prior.rs; s_y: the spread of its residual):
 //!
 //! ```text
-//! y = f(z) + ε,  f ~ GP(0, k),  ε ~ N(0, σ_n²),   k = ARD squared exponential (kernel.rs)
-//! K = k(Z, Z) + σ_n² I = L Lᵀ,  α = K⁻¹ y
-//! mean      μ(z*) = k*ᵀ α                                   (paper eq. 8, R&W eq. 2.25)
-//! variance  σ²(z*) = k(z*, z*) − vᵀv,  L v = k*             (paper eq. 9, R&W eq. 2.26)
-//! log ML    log p(y|θ) = −½ yᵀα − Σ log L_ii − n/2 log 2π   (paper eq. 11, R&W eq. 2.30)
-//! gradient  ∂/∂θ_j = ½ tr((ααᵀ − K⁻¹) ∂K/∂θ_j)              (paper eq. 12, R&W eq. 5.9)
-//! LOO       y_i − μ_{−i} = α_i / [K⁻¹]_ii,  σ²_{−i} = 1/[K⁻¹]_ii   (R&W eq. 5.12)
+//! y = Hβ + f(z) + ε,  f ~ GP(0, k),  ε ~ N(0, σ_n²),  β with a vague prior (R&W §2.7)
+//! K = k(Z, Z) + σ_n² I = L Lᵀ,   L⁻¹H = QR,   P = K⁻¹ − K⁻¹H (HᵀK⁻¹H)⁻¹ HᵀK⁻¹
+//! β̂ = R⁻¹ Qᵀ L⁻¹ y  (generalized least squares),   α = P y = K⁻¹ (y − Hβ̂)
+//! mean      μ(z*) = h*ᵀβ̂ + k*ᵀ α                          (paper eq. 8 with the basis, R&W eq. 2.41)
+//! variance  σ²(z*) = k(z*, z*) − vᵀv,  L v = k*            (paper eq. 9, R&W eq. 2.26)
+//! log ML    −½ yᵀα − Σ log L_ii − Σ log |R_ii| − (n−p)/2 log 2π   (restricted, R&W eq. 2.45)
+//! gradient  ∂/∂θ_j = ½ tr((ααᵀ − P) ∂K/∂θ_j)              (paper eq. 12 with K⁻¹ → P)
+//! LOO       y_i − μ_{−i} = α_i / P_ii,  σ²_{−i} = 1/P_ii    (R&W eq. 5.12, β̂ re-estimated per fold)
 //! ```
+//!
+//! Without a basis (p = 0) P = K⁻¹ and these are the paper's equations. The variance leaves out
+//! the uncertainty of β̂ (R&W eq. 2.42's extra term): it is what the firmware evaluates, and inside
+//! the trained range it is small next to the GP's.
 //!
 //! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin, Moré–Thuente line search)
 //! from several starts in parallel, the paper's (all zero) among them, at a loose tolerance; then a
 //! short polish from the best at a tight one. Box bounds: the likelihood is evaluated at the clamped
-//! θ, with a quadratic wall outside, so no trial step builds a non-finite K. The prior mean m is a
-//! least-squares polynomial (prior.rs); it and the normalization are fixed before the
-//! hyperparameters are fitted, and the closed-form LOO holds them fixed as it holds θ fixed (as R&W
-//! §5.4.2 does).
+//! θ, with a quadratic wall outside, so no trial step builds a non-finite K. The bounds keep ℓ ≥ 0.1
+//! and σ_f ≤ 10 (normalized units): below 0.1 each rate level becomes its own independent GP, and
+//! above 10 the GP and the basis trade off along a ridge with huge cancelling weights (f32 study).
+//! The closed-form LOO holds θ fixed (as R&W §5.4.2 does).
 
 use std::sync::Mutex;
 use std::time::Instant;
@@ -35,7 +41,7 @@ use serde::Serialize;
 
 use crate::kernel;
 use crate::normalize::Normalizer;
-use crate::prior::PolyPrior;
+use crate::prior::{MeanBasis, PolyPrior, design};
 
 /// Errors of GP fitting.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +58,12 @@ pub enum GpError {
     /// Too few samples to fit.
     #[error("{0} training samples; at least 3 are needed")]
     TooFewSamples(usize),
+    /// The prior-mean basis is rank-deficient on the training inputs.
+    #[error(
+        "the prior-mean basis is degenerate on these inputs (collinear monomials): \
+         choose a smaller one with --mean"
+    )]
+    DegenerateBasis,
 }
 
 /// Box bounds on the log-hyperparameters (normalized units).
@@ -68,8 +80,8 @@ pub struct Bounds {
 impl Default for Bounds {
     fn default() -> Self {
         Self {
-            log_length: (1e-2f64.ln(), 1e3f64.ln()),
-            log_signal: (1e-3f64.ln(), 1e3f64.ln()),
+            log_length: (0.1f64.ln(), 1e3f64.ln()),
+            log_signal: (1e-3f64.ln(), 10f64.ln()),
             log_noise: (1e-6f64.ln(), 1e1f64.ln()),
         }
     }
@@ -104,8 +116,8 @@ pub struct GpConfig {
     pub random_starts: usize,
     /// Seed of the random starts.
     pub seed: u64,
-    /// Total degree of the polynomial prior mean.
-    pub prior_degree: u8,
+    /// Basis of the prior mean.
+    pub mean: MeanBasis,
     /// Hyperparameter bounds.
     pub bounds: Bounds,
     /// L-BFGS iteration cap per start.
@@ -117,7 +129,7 @@ impl Default for GpConfig {
         Self {
             random_starts: 2,
             seed: 0,
-            prior_degree: 0,
+            mean: MeanBasis::default(),
             bounds: Bounds::default(),
             max_iters: 100,
         }
@@ -210,8 +222,13 @@ pub struct Posterior {
     pub xs: DMatrix<f64>,
     /// Cholesky factor of K (with jitter).
     pub chol: Cholesky<f64, Dyn>,
-    /// K⁻¹ y.
+    /// P y = K⁻¹ (y − Hβ̂).
     pub alpha: DVector<f64>,
+    /// Generalized-least-squares basis coefficients (normalized output units; empty without a
+    /// basis).
+    pub beta: DVector<f64>,
+    /// M = L⁻ᵀQ, so that P = K⁻¹ − M Mᵀ (n × p).
+    basis_factor: DMatrix<f64>,
     /// Diagonal jitter that the factorization needed.
     pub jitter: f64,
     /// Log marginal likelihood of the normalized data.
@@ -219,15 +236,17 @@ pub struct Posterior {
 }
 
 impl Posterior {
-    /// Conditions the GP on normalized inputs `z` and outputs `y`.
+    /// Conditions the GP on normalized inputs `z`, outputs `y` and the prior-mean basis `h`
+    /// evaluated at `z` (n × p; p = 0 for a zero mean).
     pub fn new(
         z: &DMatrix<f64>,
         y: &DVector<f64>,
+        h: &DMatrix<f64>,
         hyper: Hyperparameters,
     ) -> Result<Self, GpError> {
         let xs = kernel::scale_inputs(z, &hyper.length_scales);
         let gram = kernel::gram(&xs);
-        Self::from_gram(xs, &gram, y, hyper)
+        Self::from_gram(xs, &gram, y, h, hyper)
     }
 
     /// Conditions on scaled inputs whose unit-variance Gram matrix is already known.
@@ -235,6 +254,7 @@ impl Posterior {
         xs: DMatrix<f64>,
         gram: &DMatrix<f64>,
         y: &DVector<f64>,
+        h: &DMatrix<f64>,
         hyper: Hyperparameters,
     ) -> Result<Self, GpError> {
         let mut k = gram * hyper.signal_std.powi(2);
@@ -242,18 +262,59 @@ impl Posterior {
             k[(i, i)] += hyper.noise_std.powi(2);
         }
         let (chol, jitter) = cholesky_with_jitter(k)?;
-        let alpha = chol.solve(y);
-        let n = y.len() as f64;
-        let log_det_half: f64 = chol.l_dirty().diagonal().iter().map(|v| v.ln()).sum();
-        let lml = -0.5 * y.dot(&alpha) - log_det_half - 0.5 * n * (2.0 * std::f64::consts::PI).ln();
+        let l = chol.l_dirty();
+        let n = y.len();
+        let p = h.ncols();
+        let lower = |b: &DMatrix<f64>| l.solve_lower_triangular(b).ok_or(GpError::DegenerateBasis);
+        let ys = lower(&DMatrix::from_column_slice(n, 1, y.as_slice()))?
+            .column(0)
+            .into_owned();
+        let (resid, beta, basis_factor, log_det_r) = if p == 0 {
+            (ys, DVector::zeros(0), DMatrix::zeros(n, 0), 0.0)
+        } else {
+            let qr = lower(h)?.qr();
+            let (q, r) = (qr.q(), qr.r());
+            let qty = q.tr_mul(&ys);
+            let beta = r
+                .solve_upper_triangular(&qty)
+                .filter(|b| b.iter().all(|v| v.is_finite()))
+                .ok_or(GpError::DegenerateBasis)?;
+            let log_det_r: f64 = r.diagonal().iter().map(|v| v.abs().ln()).sum();
+            if !log_det_r.is_finite() {
+                return Err(GpError::DegenerateBasis);
+            }
+            let m = l
+                .tr_solve_lower_triangular(&q)
+                .ok_or(GpError::DegenerateBasis)?;
+            (&ys - &q * qty, beta, m, log_det_r)
+        };
+        let alpha = l
+            .tr_solve_lower_triangular(&resid)
+            .ok_or(GpError::NotPositiveDefinite { jitter })?;
+        let log_det_half: f64 = l.diagonal().iter().map(|v| v.ln()).sum();
+        let lml = -0.5 * resid.norm_squared()
+            - log_det_half
+            - log_det_r
+            - 0.5 * (n - p) as f64 * (2.0 * std::f64::consts::PI).ln();
         Ok(Self {
             hyper,
             xs,
             chol,
             alpha,
+            beta,
+            basis_factor,
             jitter,
             log_marginal_likelihood: lml,
         })
+    }
+
+    /// P = K⁻¹ − M Mᵀ.
+    fn projected_inverse(&self) -> DMatrix<f64> {
+        let mut p = inverse_from_cholesky(&self.chol);
+        if self.basis_factor.ncols() > 0 {
+            p -= &self.basis_factor * self.basis_factor.transpose();
+        }
+        p
     }
 
     /// Predictive mean and latent variance at one normalized sample (normalized units).
@@ -272,7 +333,7 @@ impl Posterior {
     /// Closed-form leave-one-out (R&W eq. 5.12): for each sample, (prediction − target, predictive
     /// variance including noise), normalized units.
     pub fn loo(&self) -> Vec<(f64, f64)> {
-        let kinv = inverse_from_cholesky(&self.chol);
+        let kinv = self.projected_inverse();
         self.alpha
             .iter()
             .enumerate()
@@ -284,23 +345,24 @@ impl Posterior {
     }
 }
 
-/// Log marginal likelihood and its gradient w.r.t. θ (paper eq. 11–12).
+/// (Restricted) log marginal likelihood and its gradient w.r.t. θ (paper eq. 11–12).
 pub fn lml_and_gradient(
     z: &DMatrix<f64>,
     y: &DVector<f64>,
+    h: &DMatrix<f64>,
     theta: &[f64],
 ) -> Result<(f64, Vec<f64>), GpError> {
     let d = z.ncols();
     let hyper = Hyperparameters::from_log(theta);
     let xs = kernel::scale_inputs(z, &hyper.length_scales);
     let gram = kernel::gram(&xs);
-    let post = Posterior::from_gram(xs, &gram, y, hyper)?;
+    let post = Posterior::from_gram(xs, &gram, y, h, hyper)?;
     let sf2 = post.hyper.signal_std.powi(2);
     let sn2 = post.hyper.noise_std.powi(2);
-    let kinv = inverse_from_cholesky(&post.chol);
+    let kinv = post.projected_inverse();
     let n = y.len();
     let mut grad = vec![0.0; d + 2];
-    // W = ααᵀ − K⁻¹; ∂K/∂ln ℓ_k = K_se ∘ (Δz_k/ℓ_k)², ∂K/∂ln σ_f = 2 K_se, ∂K/∂ln σ_n = 2 σ_n² I.
+    // W = ααᵀ − P; ∂K/∂ln ℓ_k = K_se ∘ (Δz_k/ℓ_k)², ∂K/∂ln σ_f = 2 K_se, ∂K/∂ln σ_n = 2 σ_n² I.
     // Both W and ∂K are symmetric: the strict lower triangle counts twice, the diagonal once.
     for j in 0..n {
         for i in j..n {
@@ -325,8 +387,7 @@ pub fn lml_and_gradient(
 /// is numerically rough (tiny noise, jitter switching on) a line search can stall; an evaluation
 /// budget stops it, and the best point seen is kept either way.
 struct Objective<'a> {
-    z: &'a DMatrix<f64>,
-    y: &'a DVector<f64>,
+    data: &'a Prepared,
     bounds: Bounds,
     cache: Mutex<Option<Evaluated>>,
     track: &'a Mutex<Track>,
@@ -365,8 +426,9 @@ impl Objective<'_> {
         // line search tries; outside the bounds a quadratic wall pulls back. Costs are per sample so
         // that gradients are O(1) whatever n is, which keeps L-BFGS's first steps sane.
         let inside = self.bounds.clamp(theta);
-        let (lml, grad) = lml_and_gradient(self.z, self.y, &inside)?;
-        let n = self.y.len() as f64;
+        let data = self.data;
+        let (lml, grad) = lml_and_gradient(&data.z, &data.y, &data.h, &inside)?;
+        let n = data.y.len() as f64;
         let mut cost = -lml / n;
         let mut g: Vec<f64> = grad.iter().map(|v| -v / n).collect();
         let mut outside = false;
@@ -432,16 +494,14 @@ const SEARCH: (f64, u64) = (1e-3, 120);
 const POLISH: (f64, u64) = (1e-5, 40);
 
 fn optimize_from(
-    z: &DMatrix<f64>,
-    y: &DVector<f64>,
+    data: &Prepared,
     start: Vec<f64>,
     cfg: &GpConfig,
     (tolerance, budget): (f64, u64),
 ) -> StartReport {
     let track = Mutex::new(Track::default());
     let problem = Objective {
-        z,
-        y,
+        data,
         bounds: cfg.bounds,
         cache: Mutex::new(None),
         track: &track,
@@ -470,7 +530,7 @@ fn optimize_from(
     let end = best.map(|(_, t)| cfg.bounds.clamp(&t));
     let lml = end
         .as_ref()
-        .and_then(|t| Posterior::new(z, y, Hyperparameters::from_log(t)).ok())
+        .and_then(|t| data.condition(Hyperparameters::from_log(t)).ok())
         .map(|p| p.log_marginal_likelihood);
     StartReport {
         start,
@@ -506,7 +566,9 @@ pub struct GpModel {
     pub input_norm: Normalizer,
     /// Trained range (min, max) of each raw input: beyond it the model extrapolates.
     pub input_range: Vec<(f64, f64)>,
-    /// Prior mean over normalized inputs, in output units.
+    /// Basis of the prior mean.
+    pub basis: MeanBasis,
+    /// Prior mean over normalized inputs, in output units, with the GLS coefficients.
     pub prior: PolyPrior,
     /// Output scale s_y: the GP models (ω − m) / s_y.
     pub output_scale: f64,
@@ -531,22 +593,56 @@ pub struct Prediction {
     pub noise_var: f64,
 }
 
-/// Normalizes the data and fits the prior mean: returns (normalizer, prior, s_y, z, y).
-pub fn prepare(
-    x: &DMatrix<f64>,
-    target: &DVector<f64>,
-    prior_degree: u8,
-) -> (Normalizer, PolyPrior, f64, DMatrix<f64>, DVector<f64>) {
-    let norm = Normalizer::fit(x);
-    let z = norm.apply(x);
-    let prior = PolyPrior::fit(&z, target, prior_degree);
-    let resid = target - prior.eval_all(&z);
-    let n = resid.len().max(1) as f64;
-    let mean = resid.sum() / n;
-    let sd = (resid.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let scale_floor = 1e-12 * target.amax().max(1.0);
-    let s = sd.max(scale_floor);
-    (norm, prior, s, z, resid / s)
+/// Training data in the model's normalized coordinates.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Input normalization.
+    pub norm: Normalizer,
+    /// Ordinary-least-squares prior mean c₀ (output units).
+    pub prior: PolyPrior,
+    /// Output scale s_y: the spread of the residual from `prior`.
+    pub scale: f64,
+    /// Normalized inputs.
+    pub z: DMatrix<f64>,
+    /// Normalized outputs (target − prior) / s_y.
+    pub y: DVector<f64>,
+    /// The basis at `z` (n × p).
+    pub h: DMatrix<f64>,
+}
+
+impl Prepared {
+    /// Normalizes the data and fits the basis by ordinary least squares.
+    pub fn new(x: &DMatrix<f64>, target: &DVector<f64>, basis: MeanBasis) -> Self {
+        let norm = Normalizer::fit(x);
+        let z = norm.apply(x);
+        let prior = PolyPrior::fit(&z, target, basis);
+        let resid = target - prior.eval_all(&z);
+        let n = resid.len().max(1) as f64;
+        let mean = resid.sum() / n;
+        let sd = (resid.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let scale_floor = 1e-12 * target.amax().max(1.0);
+        let scale = sd.max(scale_floor);
+        // The paper's constant mean is the data's mean, fixed (scikit-learn's `normalize_y`), so
+        // that model stays exactly the paper's; richer bases are marginalized.
+        let h = if basis == MeanBasis::Constant {
+            DMatrix::zeros(z.nrows(), 0)
+        } else {
+            design(&z, &prior.exponents)
+        };
+        Self {
+            norm,
+            prior,
+            scale,
+            z,
+            y: resid / scale,
+            h,
+        }
+    }
+
+    /// The GP conditioned on this data at `hyper`.
+    pub fn condition(&self, hyper: Hyperparameters) -> Result<Posterior, GpError> {
+        Posterior::new(&self.z, &self.y, &self.h, hyper)
+    }
 }
 
 impl GpModel {
@@ -556,10 +652,10 @@ impl GpModel {
             return Err(GpError::TooFewSamples(x.nrows()));
         }
         let t0 = Instant::now();
-        let (input_norm, prior, output_scale, z, y) = prepare(x, target, cfg.prior_degree);
-        let reports: Vec<StartReport> = starts(z.ncols(), cfg)
+        let data = Prepared::new(x, target, cfg.mean);
+        let reports: Vec<StartReport> = starts(data.z.ncols(), cfg)
             .into_par_iter()
-            .map(|s| optimize_from(&z, &y, s, cfg, SEARCH))
+            .map(|s| optimize_from(&data, s, cfg, SEARCH))
             .collect();
         let best_of = |reports: &[StartReport]| {
             reports
@@ -577,17 +673,23 @@ impl GpModel {
             )
         })?;
         let mut reports = reports;
-        reports.push(optimize_from(&z, &y, searched.0.clone(), cfg, POLISH));
+        reports.push(optimize_from(&data, searched.0.clone(), cfg, POLISH));
         let best = best_of(&reports).map_or(searched.0, |b| b.0);
-        let posterior = Posterior::new(&z, &y, Hyperparameters::from_log(&best))?;
+        let posterior = data.condition(Hyperparameters::from_log(&best))?;
         let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
+        // The mean in output units: c₀ + s_y β̂.
+        let mut prior = data.prior;
+        for (c, b) in prior.coefficients.iter_mut().zip(&posterior.beta) {
+            *c += data.scale * b;
+        }
         Ok(Self {
-            input_norm,
+            input_norm: data.norm,
             input_range,
+            basis: cfg.mean,
             prior,
-            output_scale,
+            output_scale: data.scale,
             posterior,
-            y,
+            y: data.y,
             starts: reports,
             fit_seconds: t0.elapsed().as_secs_f64(),
         })
@@ -631,21 +733,34 @@ mod tests {
         (x, y)
     }
 
+    /// No basis, and the linear basis {1, z₀, z₁}.
+    fn bases(z: &DMatrix<f64>) -> [DMatrix<f64>; 2] {
+        [
+            DMatrix::zeros(z.nrows(), 0),
+            design(z, &MeanBasis::Poly(1).exponents(2)),
+        ]
+    }
+
     #[test]
     fn analytic_gradient_matches_finite_differences() {
         let (z, y) = toy(25, 1);
         let y = y.map(|v| v + 0.01);
-        for theta in [vec![0.0, 0.0, 0.0, 0.0], vec![-0.3, 0.7, 0.2, -2.5]] {
-            let (_, g) = lml_and_gradient(&z, &y, &theta).unwrap();
+        for (h, theta) in bases(&z).iter().flat_map(|h| {
+            [
+                (h, vec![0.0, 0.0, 0.0, 0.0]),
+                (h, vec![-0.3, 0.7, 0.2, -2.5]),
+            ]
+        }) {
+            let (_, g) = lml_and_gradient(&z, &y, h, &theta).unwrap();
             for j in 0..theta.len() {
-                let h = 1e-5;
+                let step = 1e-5;
                 let mut tp = theta.clone();
-                tp[j] += h;
+                tp[j] += step;
                 let mut tm = theta.clone();
-                tm[j] -= h;
-                let fd = (lml_and_gradient(&z, &y, &tp).unwrap().0
-                    - lml_and_gradient(&z, &y, &tm).unwrap().0)
-                    / (2.0 * h);
+                tm[j] -= step;
+                let fd = (lml_and_gradient(&z, &y, h, &tp).unwrap().0
+                    - lml_and_gradient(&z, &y, h, &tm).unwrap().0)
+                    / (2.0 * step);
                 assert!(
                     (fd - g[j]).abs() < 1e-5 * (1.0 + fd.abs()),
                     "θ {theta:?} j {j}: analytic {} fd {fd}",
@@ -661,7 +776,8 @@ mod tests {
         // K = [[2, e^{-1/2}], [e^{-1/2}, 2]], |K| = 4 − e^{-1}, yᵀK⁻¹y = 2(2 + e^{-1/2}) / |K|.
         let z = DMatrix::from_row_slice(2, 1, &[0.0, 1.0]);
         let y = DVector::from_row_slice(&[1.0, -1.0]);
-        let p = Posterior::new(&z, &y, Hyperparameters::from_log(&[0.0, 0.0, 0.0])).unwrap();
+        let none = DMatrix::zeros(2, 0);
+        let p = Posterior::new(&z, &y, &none, Hyperparameters::from_log(&[0.0, 0.0, 0.0])).unwrap();
         let c = (-0.5f64).exp();
         let det = 4.0 - c * c;
         let quad = 2.0 * (2.0 + c) / det;
@@ -678,19 +794,50 @@ mod tests {
             signal_std: 1.2,
             noise_std: 0.05,
         };
-        let full = Posterior::new(&z, &y, hyper.clone()).unwrap();
-        let loo = full.loo();
-        for i in 0..z.nrows() {
-            let keep: Vec<usize> = (0..z.nrows()).filter(|&j| j != i).collect();
-            let zi = z.select_rows(&keep);
-            let yi = y.select_rows(&keep);
-            let p = Posterior::new(&zi, &yi, hyper.clone()).unwrap();
-            let (m, v) = p.predict(&[z[(i, 0)], z[(i, 1)]]);
-            assert!((m - y[i] - loo[i].0).abs() < 1e-9, "point {i}");
-            assert!(
-                (v + hyper.noise_std.powi(2) - loo[i].1).abs() < 1e-9,
-                "point {i}"
-            );
+        for h in bases(&z) {
+            let full = Posterior::new(&z, &y, &h, hyper.clone()).unwrap();
+            let loo = full.loo();
+            for i in 0..z.nrows() {
+                let keep: Vec<usize> = (0..z.nrows()).filter(|&j| j != i).collect();
+                let (zi, yi, hi) = (
+                    z.select_rows(&keep),
+                    y.select_rows(&keep),
+                    h.select_rows(&keep),
+                );
+                let p = Posterior::new(&zi, &yi, &hi, hyper.clone()).unwrap();
+                let (m, v) = p.predict(&[z[(i, 0)], z[(i, 1)]]);
+                let m = m + h.row(i).dot(&p.beta.transpose());
+                assert!((m - y[i] - loo[i].0).abs() < 1e-9, "point {i}");
+                // Without a basis 1/P_ii is the predictive variance; with one it adds β̂'s.
+                if h.ncols() == 0 {
+                    let noisy = v + hyper.noise_std.powi(2);
+                    assert!((noisy - loo[i].1).abs() < 1e-9, "point {i}");
+                } else {
+                    assert!(loo[i].1 >= v + hyper.noise_std.powi(2) - 1e-12, "point {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn gls_recovers_a_linear_trend_under_the_gp() {
+        let (z, f) = toy(40, 5);
+        let h = bases(&z)[1].clone();
+        let beta = DVector::from_row_slice(&[0.5, -2.0, 3.0]);
+        let y = &f + &h * &beta;
+        let hyper = Hyperparameters {
+            length_scales: vec![0.8, 1.5],
+            signal_std: 1.0,
+            noise_std: 0.01,
+        };
+        let with = Posterior::new(&z, &y, &h, hyper.clone()).unwrap();
+        let without = Posterior::new(&z, &f, &DMatrix::zeros(40, 0), hyper).unwrap();
+        // The trend goes into β̂, the rest into the GP as before.
+        for i in 0..40 {
+            let zi = [z[(i, 0)], z[(i, 1)]];
+            let a = with.predict(&zi).0 + h.row(i).dot(&with.beta.transpose());
+            let b = without.predict(&zi).0 + h.row(i).dot(&beta.transpose());
+            assert!((a - b).abs() < 0.05, "{i}: {a} vs {b}");
         }
     }
 
@@ -702,7 +849,7 @@ mod tests {
             (1.5 * x[(i, 0)]).sin() + 0.01 * rng.random::<f64>()
         });
         let cfg = GpConfig {
-            prior_degree: 0,
+            mean: MeanBasis::Constant,
             ..GpConfig::default()
         };
         let m = GpModel::fit(&x, &y, &cfg).unwrap();

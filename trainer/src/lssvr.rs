@@ -16,10 +16,10 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::gp::prepare;
+use crate::gp::Prepared;
 use crate::kernel;
 use crate::normalize::Normalizer;
-use crate::prior::PolyPrior;
+use crate::prior::{MeanBasis, PolyPrior};
 
 /// Errors of LS-SVR fitting.
 #[derive(Debug, thiserror::Error)]
@@ -142,9 +142,16 @@ impl LssvrModel {
     pub fn fit(
         x: &DMatrix<f64>,
         target: &DVector<f64>,
-        prior_degree: u8,
+        basis: MeanBasis,
     ) -> Result<Self, LssvrError> {
-        let (input_norm, prior, output_scale, z, y) = prepare(x, target, prior_degree);
+        let Prepared {
+            norm: input_norm,
+            prior,
+            scale: output_scale,
+            z,
+            y,
+            ..
+        } = Prepared::new(x, target, basis);
         let d = z.ncols();
         let starts: Vec<Vec<f64>> = [(0.0, 2.0), (1.0, 6.0), (-1.0, 10.0), (2.0, 14.0)]
             .iter()
@@ -247,18 +254,15 @@ mod tests {
     #[test]
     fn tuning_beats_the_untuned_start() {
         let (z, y) = toy();
-        let m = LssvrModel::fit(&z, &y, 0).unwrap();
+        let m = LssvrModel::fit(&z, &y, MeanBasis::Constant).unwrap();
         let tuned: f64 = m.solved.loo.iter().map(|e| e * e).sum();
-        let start: f64 = solve(
-            &prepare(&z, &y, 0).3,
-            &prepare(&z, &y, 0).4,
-            &[0.0, 0.0, 2.0],
-        )
-        .unwrap()
-        .loo
-        .iter()
-        .map(|e| e * e)
-        .sum();
+        let data = Prepared::new(&z, &y, MeanBasis::Constant);
+        let start: f64 = solve(&data.z, &data.y, &[0.0, 0.0, 2.0])
+            .unwrap()
+            .loo
+            .iter()
+            .map(|e| e * e)
+            .sum();
         assert!(tuned < start, "{tuned} vs {start}");
     }
 }

@@ -1,25 +1,102 @@
-//! The prior mean: a least-squares polynomial in the normalized inputs, fitted before the GP.
+//! The prior mean: a polynomial in the normalized inputs, with the GP modelling what it misses.
 //!
-//! Why: the GP then models only what the polynomial misses. On rate-table data the bulk of
-//! ω(T, V) — the scale factor, its temperature coefficient, the cubic of the sine response — is a
-//! low-order polynomial; leaving it to the GP makes the GP part large, which costs extrapolation
-//! (the GP falls back to its prior mean away from data, e.g. near zero rate between ±1 °/s) and f32
-//! precision in firmware (large weights α that cancel). All monomials of total degree ≤ `degree`
-//! are used; degree 0 is a constant mean, the default. Measured on paper-protocol units (README,
-//! "Choosing the prior mean"): higher degrees give the GP a smaller, better-conditioned residual,
-//! but their leave-one-out error varies from unit to unit (up to 30× worse on one), while the
-//! constant mean was never beaten by more than a few percent.
+//! Why a polynomial mean, and why the physics basis by default: on rate-table data the bulk of
+//! ω(T, V) — the scale factor, its temperature coefficients, the cubic of the sine response — is a
+//! low-order polynomial. Left to the GP (a constant mean), that ±80 °/s signal is carried by weights
+//! of 1e5 that cancel to 1e-5 relative; in the firmware's f32 they cost degrees per second
+//! (README, "Measured for the firmware"). With the basis {1, t, t²} × {1, v, v³} (bias and scale
+//! factor quadratic in temperature, the sine response's cubic with them) the weights stay below
+//! 10 °/s and f32 carries the model to 4e-6 °/s, at a leave-one-out error within 0.95–1.2× of the
+//! constant mean (f32 study, `trainer/benches/f32_study`).
+//!
+//! The basis coefficients are not fixed beforehand: the GP marginalizes them (Rasmussen & Williams
+//! §2.7, vague prior), so they are estimated by generalized least squares with the GP's covariance
+//! and the hyperparameters maximize the restricted likelihood (gp.rs). Ordinary least squares
+//! gives the starting point and the output scale. The constant basis stays the paper's fixed mean.
+
+use std::fmt;
+use std::str::FromStr;
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-/// A fitted polynomial mean over normalized inputs.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PolyPrior {
-    /// Exponents of each monomial, one entry per input.
-    pub exponents: Vec<Vec<u8>>,
-    /// Coefficient of each monomial.
-    pub coefficients: Vec<f64>,
+/// Which monomials make up the prior mean. Inputs 0 and 1 are temperature and gyro output.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(into = "String")]
+pub enum MeanBasis {
+    /// A constant, the data's mean, fixed rather than marginalized: exactly the paper's model.
+    Constant,
+    /// {1, t, t²} × {1, v, v³} over temperature t and output v (the default).
+    #[default]
+    Physics,
+    /// All monomials of total degree ≤ N over every input.
+    Poly(u8),
+}
+
+impl fmt::Display for MeanBasis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Constant => write!(f, "constant"),
+            Self::Physics => write!(f, "physics"),
+            Self::Poly(n) => write!(f, "poly{n}"),
+        }
+    }
+}
+
+impl From<MeanBasis> for String {
+    fn from(b: MeanBasis) -> Self {
+        b.to_string()
+    }
+}
+
+impl FromStr for MeanBasis {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "constant" => Ok(Self::Constant),
+            "physics" => Ok(Self::Physics),
+            _ => s
+                .strip_prefix("poly")
+                .and_then(|n| n.parse::<u8>().ok())
+                .filter(|n| *n <= 5)
+                .map(Self::Poly)
+                .ok_or_else(|| {
+                    format!("'{s}': expected constant, physics or polyN with N in 0..=5")
+                }),
+        }
+    }
+}
+
+impl MeanBasis {
+    /// Exponent vectors over `d` inputs, constant first, then in increasing degree. With fewer
+    /// than two inputs the physics basis reduces to {1, t, t²}.
+    pub fn exponents(self, d: usize) -> Vec<Vec<u8>> {
+        match self {
+            Self::Constant => vec![vec![0; d]],
+            Self::Poly(n) => monomials(d, n),
+            Self::Physics => {
+                let v_powers: &[u8] = if d >= 2 { &[0, 1, 3] } else { &[0] };
+                let mut out = Vec::new();
+                for &j in v_powers {
+                    for i in 0..3u8 {
+                        let mut e = vec![0u8; d];
+                        if let Some(t) = e.first_mut() {
+                            *t = i;
+                        }
+                        if let Some(v) = e.get_mut(1) {
+                            *v = j;
+                        }
+                        if d > 0 {
+                            out.push(e);
+                        }
+                    }
+                }
+                out.sort_by_key(|e| e.iter().map(|&k| u32::from(k)).sum::<u32>());
+                out.dedup();
+                out
+            }
+        }
+    }
 }
 
 /// All exponent vectors over `d` inputs with total degree ≤ `degree`, in graded order.
@@ -44,27 +121,36 @@ fn monomials(d: usize, degree: u8) -> Vec<Vec<u8>> {
     out
 }
 
-fn design(x: &DMatrix<f64>, exponents: &[Vec<u8>]) -> DMatrix<f64> {
+/// The design matrix: one column per monomial, one row per sample of normalized `x`.
+pub fn design(x: &DMatrix<f64>, exponents: &[Vec<u8>]) -> DMatrix<f64> {
     DMatrix::from_fn(x.nrows(), exponents.len(), |i, j| {
-        exponents[j]
-            .iter()
-            .enumerate()
-            .map(|(k, &e)| x[(i, k)].powi(i32::from(e)))
-            .product()
+        monomial(&exponents[j], x.row(i).iter().copied())
     })
 }
 
+fn monomial(e: &[u8], z: impl Iterator<Item = f64>) -> f64 {
+    e.iter()
+        .zip(z)
+        .map(|(&k, v)| v.powi(i32::from(k)))
+        .product()
+}
+
+/// A polynomial mean over normalized inputs, in output units.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PolyPrior {
+    /// Exponents of each monomial, one entry per input.
+    pub exponents: Vec<Vec<u8>>,
+    /// Coefficient of each monomial.
+    pub coefficients: Vec<f64>,
+}
+
 impl PolyPrior {
-    /// Fits all monomials of total degree ≤ `degree` to `y` by least squares (SVD, so a
-    /// rank-deficient design still gives the minimum-norm solution rather than garbage). The degree
-    /// is lowered until there are at least twice as many samples as coefficients.
-    pub fn fit(x: &DMatrix<f64>, y: &DVector<f64>, degree: u8) -> Self {
-        let mut degree = degree;
-        let mut exponents = monomials(x.ncols(), degree);
-        while degree > 0 && 2 * exponents.len() > x.nrows() {
-            degree -= 1;
-            exponents = monomials(x.ncols(), degree);
-        }
+    /// Ordinary least squares of `basis` on `y` (SVD, so a rank-deficient design still gives the
+    /// minimum-norm solution). Monomials are dropped from the top until there are at least twice
+    /// as many samples as coefficients.
+    pub fn fit(x: &DMatrix<f64>, y: &DVector<f64>, basis: MeanBasis) -> Self {
+        let mut exponents = basis.exponents(x.ncols());
+        exponents.truncate((x.nrows() / 2).max(1));
         let a = design(x, &exponents);
         let coefficients = a
             .svd(true, true)
@@ -82,20 +168,13 @@ impl PolyPrior {
         self.exponents
             .iter()
             .zip(&self.coefficients)
-            .map(|(e, c)| {
-                c * e
-                    .iter()
-                    .zip(z)
-                    .map(|(&k, v)| v.powi(i32::from(k)))
-                    .product::<f64>()
-            })
+            .map(|(e, c)| c * monomial(e, z.iter().copied()))
             .sum()
     }
 
     /// The mean at every row of normalized `x`.
     pub fn eval_all(&self, x: &DMatrix<f64>) -> DVector<f64> {
-        let row = |i: usize| x.row(i).iter().copied().collect::<Vec<_>>();
-        DVector::from_fn(x.nrows(), |i, _| self.eval(&row(i)))
+        &design(x, &self.exponents) * DVector::from_column_slice(&self.coefficients)
     }
 }
 
@@ -104,12 +183,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn monomial_count_is_binomial() {
-        assert_eq!(monomials(2, 0).len(), 1);
-        assert_eq!(monomials(2, 1).len(), 3);
+    fn bases_have_the_documented_monomials() {
         assert_eq!(monomials(2, 3).len(), 10);
         assert_eq!(monomials(3, 2).len(), 10);
         assert!(monomials(2, 3).iter().all(|e| e.iter().sum::<u8>() <= 3));
+        let phys = MeanBasis::Physics.exponents(2);
+        assert_eq!(phys.len(), 9);
+        assert_eq!(phys[0], vec![0, 0]);
+        for e in [
+            [1, 0],
+            [0, 1],
+            [2, 0],
+            [1, 1],
+            [2, 1],
+            [0, 3],
+            [1, 3],
+            [2, 3],
+        ] {
+            assert!(phys.contains(&e.to_vec()), "{e:?}");
+        }
+        assert_eq!(MeanBasis::Physics.exponents(3)[1], vec![1, 0, 0]);
+        assert_eq!(MeanBasis::Constant.exponents(2), vec![vec![0, 0]]);
+        for s in ["constant", "physics", "poly3"] {
+            assert_eq!(s.parse::<MeanBasis>().unwrap().to_string(), s);
+        }
+        assert!("poly9".parse::<MeanBasis>().is_err());
+        assert!("cubic".parse::<MeanBasis>().is_err());
     }
 
     #[test]
@@ -117,9 +216,11 @@ mod tests {
         let x = DMatrix::from_fn(30, 2, |i, j| ((i * 7 + j * 3) % 11) as f64 / 5.0 - 1.0);
         let f = |t: f64, v: f64| 0.5 - t + 2.0 * v + 0.3 * t * v * v - 0.1 * v.powi(3);
         let y = DVector::from_fn(30, |i, _| f(x[(i, 0)], x[(i, 1)]));
-        let p = PolyPrior::fit(&x, &y, 3);
+        let p = PolyPrior::fit(&x, &y, MeanBasis::Poly(3));
+        let all = p.eval_all(&x);
         for (i, yi) in y.iter().enumerate() {
             assert!((p.eval(&[x[(i, 0)], x[(i, 1)]]) - yi).abs() < 1e-10);
+            assert!((all[i] - yi).abs() < 1e-10);
         }
     }
 }

@@ -40,15 +40,16 @@ fn generate_fit_loo_reproduce_end_to_end() {
     let blob = std::fs::read(&model).unwrap();
     assert_eq!(&blob[..4], b"FOGB");
     assert_eq!(f["blob_bytes"], blob.len());
-    assert!(f["f32_max_abs_diff_dps"].as_f64().unwrap().is_finite());
+    let agreement = &f["firmware_agreement"]["grid_inside"];
+    assert!(agreement["max_abs_mean_diff"].as_f64().unwrap() < 1e-5);
     let inspect = at(dir.path(), "inspect.json");
     trainer(&["inspect", &model, "--json", &inspect]).unwrap();
     let i = json(&inspect);
     assert_eq!(
         (i["m"].as_u64(), i["d"].as_u64(), i["p"].as_u64()),
-        (Some(140), Some(2), Some(1))
+        (Some(140), Some(2), Some(7))
     );
-    assert_eq!(i["floats"], 5 * 2 + 1 + 2 + 140 * 2 + 140 + 140 * 141 / 2);
+    assert_eq!(i["floats"], 7 * 2 + 7 + 2 + 140 * 2 + 140 + 140 * 141 / 2);
 
     let mut rmse = std::collections::HashMap::new();
     for method in ["gpr", "lssvr", "two-step"] {

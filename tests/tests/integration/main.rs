@@ -1,6 +1,7 @@
 //! Cross-crate integration tests: one binary, one module per capability.
 
 mod cli;
+mod firmware;
 mod paper;
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,45 @@
+//! The exported blob is the model: firmware-core (f32) against the trainer (f64), issue 3's
+//! must-show figures, on units the trainer has not been tuned on.
+
+use firmware_sim::{paper, plant::GyroParams};
+use trainer::dataset::POINT_FEATURES;
+use trainer::export::{self, Agreement};
+use trainer::gp::{GpConfig, GpModel};
+
+use crate::paper::points;
+
+fn check(label: &str, a: &Agreement, inside: bool) {
+    assert!(a.all_finite, "{label}: non-finite firmware output");
+    assert!(a.n > 0, "{label}: nothing compared");
+    if inside {
+        assert!(a.max_abs_mean_diff <= 1e-5, "{label}: mean {a:?}");
+        assert!(a.max_rel_var_diff <= 1e-3, "{label}: variance {a:?}");
+        assert_eq!(a.n_extrapolating, 0, "{label}: {a:?}");
+    } else {
+        // Beyond the range the figures may be worse, but every input must be flagged.
+        assert_eq!(a.n_extrapolating, a.n, "{label}: {a:?}");
+        assert!(a.max_abs_mean_diff < 1e-3, "{label}: mean {a:?}");
+    }
+}
+
+#[test]
+fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() {
+    let units = [
+        ("nominal", GyroParams::nominal(), 13),
+        ("random 31", GyroParams::random_unit(31), 31),
+        ("random 32", GyroParams::random_unit(32), 32),
+    ];
+    for (name, params, seed) in units {
+        let train = points(&paper::run(&params, seed, false));
+        let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+        let blob = export::to_blob(&m, &POINT_FEATURES).unwrap();
+        let fw = export::decode(&blob).unwrap();
+        assert_eq!(fw.dims().m, 140);
+        assert_eq!(fw.features(), &POINT_FEATURES);
+        let r = export::agreement_report(&m, &fw, &train.inputs());
+        check(&format!("{name} training"), &r.training, true);
+        check(&format!("{name} grid"), &r.grid_inside, true);
+        assert!(r.grid_inside.n_var > 0, "{name}: no variance compared");
+        check(&format!("{name} beyond"), &r.grid_beyond, false);
+    }
+}
