@@ -1,6 +1,7 @@
 //! Renders simulated data in the project's CSV formats (DESIGN §3).
 
 use crate::paper::Point;
+use crate::stream::Row;
 
 /// Renders paper-protocol points as a points CSV (`temp_c,voltage_v,rate_dps` plus the setpoint and
 /// the commanded table rate, which loaders ignore unless asked for).
@@ -10,6 +11,19 @@ pub fn points_csv(points: &[Point]) -> String {
         s.push_str(&format!(
             "{:.5},{:.9},{:.9},{},{}\n",
             p.temp_c, p.voltage_v, p.rate_dps, p.setpoint_c, p.table_rate_dps
+        ));
+    }
+    s
+}
+
+/// Renders a stream as a stream CSV (`time_s,temp_c,voltage_v,rate_dps`, then the truth behind it:
+/// chamber air, coil temperature and commanded table rate, which loaders ignore).
+pub fn stream_csv(rows: &[Row]) -> String {
+    let mut s = String::from("time_s,temp_c,voltage_v,rate_dps,air_c,coil_c,table_rate_dps\n");
+    for r in rows {
+        s.push_str(&format!(
+            "{},{:.4},{:.9},{:.9},{:.4},{:.4},{}\n",
+            r.time_s, r.temp_c, r.voltage_v, r.rate_dps, r.air_c, r.coil_c, r.table_rate_dps
         ));
     }
     s

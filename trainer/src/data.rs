@@ -205,10 +205,13 @@ impl Columns {
     }
 }
 
-/// Reads the `numeric` canonical columns (and `label` columns as text) from a CSV file.
+/// Reads the `numeric` canonical columns (and `label` columns as text) from a CSV file. Columns
+/// named in `nullable` may have empty cells, read as NaN (e.g. a stream's reference rate where it
+/// is unknown); everywhere else an empty or non-finite cell is an error.
 pub fn read_columns(
     path: &Path,
     numeric: &[&str],
+    nullable: &[&str],
     label: &[&str],
     maps: &[ColumnMap],
 ) -> Result<Columns, DataError> {
@@ -297,6 +300,7 @@ pub fn read_columns(
     let mut values: Vec<Vec<f64>> = vec![Vec::new(); numeric.len()];
     let mut labels: Vec<Vec<String>> = vec![Vec::new(); label.len()];
     let mut lines = Vec::new();
+    let may_be_empty: Vec<bool> = numeric.iter().map(|n| nullable.contains(n)).collect();
     for record in reader.records() {
         let record = record.map_err(malformed)?;
         let line = record.position().map_or(0, csv::Position::line);
@@ -311,9 +315,15 @@ pub fn read_columns(
                 expected: headers.len(),
             });
         }
-        for (out, source) in values.iter_mut().zip(&numeric_sources) {
+        for ((out, source), &empty_ok) in values.iter_mut().zip(&numeric_sources).zip(&may_be_empty)
+        {
             let v = match source {
                 Resolved::Constant(v) => *v,
+                Resolved::Column(i, _, _)
+                    if empty_ok && record.get(*i).unwrap_or_default().is_empty() =>
+                {
+                    f64::NAN
+                }
                 Resolved::Column(i, col, factor) => {
                     let field = record.get(*i).unwrap_or_default();
                     let v: f64 = field.parse().map_err(|_| DataError::NotANumber {
@@ -425,6 +435,7 @@ mod tests {
             f.path(),
             &["temp_c", "voltage_v", "time_s", "rate_dps"],
             &[],
+            &[],
             &maps,
         )
         .unwrap();
@@ -438,7 +449,14 @@ mod tests {
     #[test]
     fn errors_name_line_and_column() {
         let f = file("temp_c,voltage_v,rate_dps\n1,2,3\n1,abc,3\n");
-        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        let e = read_columns(
+            f.path(),
+            &["temp_c", "voltage_v", "rate_dps"],
+            &[],
+            &[],
+            &[],
+        )
+        .unwrap_err();
         let msg = e.to_string();
         assert!(
             msg.contains("line 3, column voltage_v: 'abc' is not a number"),
@@ -446,15 +464,36 @@ mod tests {
         );
 
         let f = file("temp_c,voltage_v,rate_dps\n1,NaN,3\n");
-        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        let e = read_columns(
+            f.path(),
+            &["temp_c", "voltage_v", "rate_dps"],
+            &[],
+            &[],
+            &[],
+        )
+        .unwrap_err();
         assert!(matches!(e, DataError::NonFinite { line: 2, .. }), "{e}");
 
         let f = file("temp_c,voltage_v\n1,2\n");
-        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        let e = read_columns(
+            f.path(),
+            &["temp_c", "voltage_v", "rate_dps"],
+            &[],
+            &[],
+            &[],
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("missing column 'rate_dps'"), "{e}");
 
         let f = file("temp_c,voltage_v,rate_dps\n1,2\n");
-        let e = read_columns(f.path(), &["temp_c", "voltage_v", "rate_dps"], &[], &[]).unwrap_err();
+        let e = read_columns(
+            f.path(),
+            &["temp_c", "voltage_v", "rate_dps"],
+            &[],
+            &[],
+            &[],
+        )
+        .unwrap_err();
         assert!(
             matches!(
                 e,
@@ -469,18 +508,18 @@ mod tests {
         );
 
         let f = file("");
-        let e = read_columns(f.path(), &["temp_c"], &[], &[]).unwrap_err();
+        let e = read_columns(f.path(), &["temp_c"], &[], &[], &[]).unwrap_err();
         assert!(matches!(e, DataError::Empty { .. }), "{e}");
 
         let f = file("temp_c\n");
-        let e = read_columns(f.path(), &["temp_c"], &[], &[]).unwrap_err();
+        let e = read_columns(f.path(), &["temp_c"], &[], &[], &[]).unwrap_err();
         assert!(matches!(e, DataError::NoRows { .. }), "{e}");
     }
 
     #[test]
     fn constant_column_is_refused_with_the_reason() {
         let f = file("temp_c,voltage_v\n1,2\n1,3\n");
-        let c = read_columns(f.path(), &["temp_c", "voltage_v"], &[], &[]).unwrap();
+        let c = read_columns(f.path(), &["temp_c", "voltage_v"], &[], &[], &[]).unwrap();
         assert!(require_varying(&c, "voltage_v", "x").is_ok());
         let e =
             require_varying(&c, "temp_c", "no temperature dependence can be learnt").unwrap_err();

@@ -70,7 +70,13 @@ impl Points {
     /// leave-one-group-out (default: temperature plateaus).
     pub fn load(path: &Path, maps: &[ColumnMap], group: Option<&str>) -> Result<Self, PointsError> {
         let labels: Vec<&str> = group.into_iter().collect();
-        let c = data::read_columns(path, &["temp_c", "voltage_v", "rate_dps"], &labels, maps)?;
+        let c = data::read_columns(
+            path,
+            &["temp_c", "voltage_v", "rate_dps"],
+            &[],
+            &labels,
+            maps,
+        )?;
         data::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
         data::require_varying(
             &c,

@@ -13,5 +13,7 @@ pub mod kernel;
 pub mod lssvr;
 pub mod normalize;
 pub mod prior;
+pub mod replay;
 pub mod reproduce;
+pub mod stream;
 pub mod two_step;
