@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use crate::{output, paper, plant::GyroParams, stream};
+use crate::{output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use trainer::data::ColumnMap;
 use trainer::io::{ensure_not_input, write_atomically};
 use trainer::replay;
@@ -29,15 +29,8 @@ enum Command {
     ///
     /// Example: firmware-sim replay --model model.bin --stream s.csv --out comp.csv --json r.json
     Replay {
-        /// Model blob (from `trainer fit --out`).
-        #[arg(long)]
-        model: PathBuf,
-        /// Stream CSV: time_s,temp_c,voltage_v,rate_dps (rate_dps may be empty where unknown).
-        #[arg(long)]
-        stream: PathBuf,
-        /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-        #[arg(long = "map", value_name = "NAME=SOURCE")]
-        maps: Vec<ColumnMap>,
+        #[command(flatten)]
+        input: ReplayInput,
         /// Compensated CSV to write: the stream's columns, comp_rate_dps, comp_std_dps, status.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -45,6 +38,60 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Replay a stream on the Cortex-M4F build of the firmware under qemu-system-arm, compare with
+    /// the host replay, and measure instructions per prediction.
+    ///
+    /// Example: firmware-sim qemu --model model.bin --stream s.csv --out m4.csv --json q.json
+    Qemu {
+        #[command(flatten)]
+        input: ReplayInput,
+        /// Compensated CSV of the M4 run.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Scores, agreement with the host replay and cost as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+}
+
+/// What a replay reads: a model and a stream.
+#[derive(Args)]
+struct ReplayInput {
+    /// Model blob (from `trainer fit --out`).
+    #[arg(long)]
+    model: PathBuf,
+    /// Stream CSV: time_s,temp_c,voltage_v,rate_dps (rate_dps may be empty where unknown).
+    #[arg(long)]
+    stream: PathBuf,
+    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+    #[arg(long = "map", value_name = "NAME=SOURCE")]
+    maps: Vec<ColumnMap>,
+}
+
+impl ReplayInput {
+    /// Refuses outputs over the inputs, then loads both.
+    fn load(
+        &self,
+        outputs: &[&PathBuf],
+    ) -> anyhow::Result<(
+        Vec<u8>,
+        Box<trainer::export::HostModel>,
+        trainer::stream::Stream,
+    )> {
+        let inputs = [self.model.as_path(), self.stream.as_path()];
+        for o in outputs {
+            ensure_not_input(o, &inputs)?;
+        }
+        let blob = std::fs::read(&self.model)
+            .with_context(|| format!("reading {}", self.model.display()))?;
+        let firmware = trainer::export::decode(&blob)
+            .with_context(|| format!("decoding {}", self.model.display()))?;
+        let data = trainer::stream::Stream::load(&self.stream, &self.maps)?;
+        for issue in &data.time_issues {
+            eprintln!("{}: time issue {issue:?}", self.stream.display());
+        }
+        Ok((blob, firmware, data))
+    }
 }
 
 #[derive(Subcommand)]
@@ -70,7 +117,7 @@ enum Generate {
         json: Option<PathBuf>,
     },
     /// A stream from power-on at 1 Hz: chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min,
-    /// the rate table stepping through the paper's rates and zero (about 9.5 hours).
+    /// the rate table stepping through the paper's rates and zero (about 10.4 hours).
     ///
     /// Example: firmware-sim generate stream --seed 2 --out s.csv
     Stream {
@@ -133,22 +180,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Replay {
-            model,
-            stream,
-            maps,
-            out,
-            json,
-        } => {
-            let inputs = [model.as_path(), stream.as_path()];
-            for o in out.iter().chain(&json) {
-                ensure_not_input(o, &inputs)?;
-            }
-            let firmware = load_model(&model)?;
-            let data = trainer::stream::Stream::load(&stream, &maps)?;
-            for issue in &data.time_issues {
-                eprintln!("{}: time issue {issue:?}", stream.display());
-            }
+        Command::Replay { input, out, json } => {
+            let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;
             let comp = replay::replay(&firmware, &data);
             let score = replay::score(&data, &comp);
             if let Some(path) = out {
@@ -173,6 +206,42 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             );
             Ok(())
         }
+        Command::Qemu { input, out, json } => {
+            let (blob, firmware, data) =
+                input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;
+            eprintln!(
+                "building the Cortex-M4 image and running {} samples under QEMU…",
+                data.len()
+            );
+            let image = qemu::build_image()?;
+            let m4 = qemu::run(&image, &blob, &data)?;
+            let host = replay::replay(&firmware, &data);
+            let agreement = qemu::compare(&host, &m4.compensated);
+            let score = replay::score(&data, &m4.compensated);
+            if let Some(path) = out {
+                write_atomically(&path, replay::to_csv(&data, &m4.compensated).as_bytes())?;
+            }
+            if let Some(path) = json {
+                let mut v = serde_json::to_value(&score)?;
+                v["agreement_with_host"] = serde_json::to_value(agreement)?;
+                v["cost"] = serde_json::to_value(m4.cost)?;
+                write_json(&path, &v)?;
+            }
+            println!(
+                "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \
+                 bit-identical, statuses equal: {}",
+                data.len(),
+                agreement.max_abs_mean_diff,
+                agreement.identical,
+                data.len(),
+                agreement.statuses_equal
+            );
+            println!(
+                "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
+                score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
+            );
+            Ok(())
+        }
     }
 }
 
@@ -189,9 +258,4 @@ fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyhow::
     let text = serde_json::to_string_pretty(value).context("encoding JSON")?;
     write_atomically(path, text.as_bytes())?;
     Ok(())
-}
-
-fn load_model(path: &std::path::Path) -> anyhow::Result<Box<trainer::export::HostModel>> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    trainer::export::decode(&bytes).with_context(|| format!("decoding {}", path.display()))
 }

@@ -8,4 +8,5 @@ pub mod cli;
 pub mod output;
 pub mod paper;
 pub mod plant;
+pub mod qemu;
 pub mod stream;

@@ -58,7 +58,7 @@ pub struct StreamConfig {
 }
 
 impl Default for StreamConfig {
-    /// About 9.5 hours: soak at 25 °C, cool to −30 at 1 °C/min, heat to 60 at 0.5 °C/min, cool to 0 at
+    /// About 10.4 hours: soak at 25 °C, cool to −30 at 1 °C/min, heat to 60 at 0.5 °C/min, cool to 0 at
     /// 0.75 °C/min, heat to 40 at 1 °C/min, each followed by a soak.
     fn default() -> Self {
         let seg = |target_c, rate_c_per_min, soak_min| Segment {

@@ -2,6 +2,7 @@
 
 mod cli;
 mod firmware;
+mod m4;
 mod paper;
 
 use std::path::{Path, PathBuf};

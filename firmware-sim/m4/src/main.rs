@@ -1,0 +1,160 @@
+//! firmware-core on a Cortex-M4F, run under QEMU (`mps2-an386`) by `firmware-sim qemu`.
+//!
+//! The host puts three files in QEMU's working directory and the image reaches them over
+//! semihosting: `model.bin` (the blob), `samples.bin` (16 bytes per sample: time f64, temperature
+//! f32, output f32, little-endian). The image decodes the model into fixed capacities, runs every
+//! sample through the feature pipeline and the evaluator, and writes `out.bin` (9 bytes per
+//! sample: mean f32, variance f32, status u8). Then it measures its own cost: SysTick ticks over
+//! the first samples for an empty loop, the mean path and the mean + variance path, written to
+//! `cost.bin` as four u32 (samples, empty, mean, mean + variance). Under `-icount shift=0` QEMU
+//! advances its clock by 1 ns per instruction and SysTick counts the 25 MHz system clock, so one
+//! tick is 40 instructions; the host converts.
+//!
+//! Exit code 0 on success; a failure prints its reason and exits with 1.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+
+use cortex_m::peripheral::{SYST, syst::SystClkSource};
+use cortex_m_rt::entry;
+use firmware_core::{FeatureState, Model, Sample, Status, features};
+use semihosting::io::{Read, Write};
+use semihosting::{c, eprintln, fs, process};
+
+/// Capacities: up to 4 inputs, 16 prior monomials and 256 centres (as the trainer's export limit).
+const D: usize = 4;
+const E: usize = 16 * D;
+const N: usize = 7 * D + 16 + 2 + 256 * D + 256 + 256 * 257 / 2;
+/// Largest blob the image reads: header, postcard lengths, and 5 bytes per number at most.
+const BLOB_MAX: usize = 64 + E + D + 5 * N;
+/// Samples whose cost is measured.
+const COST_SAMPLES: usize = 64;
+const SAMPLE_BYTES: usize = 16;
+const OUT_BYTES: usize = 9;
+/// Samples read and written per semihosting call.
+const CHUNK: usize = 256;
+
+type M4Model = Model<D, E, N>;
+
+fn fail(what: &str) -> ! {
+    eprintln!("fog-m4: {what}");
+    process::exit(1)
+}
+
+fn read_full(file: &mut fs::File, buf: &mut [u8]) -> usize {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match file.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(_) => fail("read error"),
+        }
+    }
+    filled
+}
+
+fn parse(chunk: &[u8]) -> Sample {
+    let f64_at = |a: usize| f64::from_le_bytes(chunk[a..a + 8].try_into().unwrap_or([0; 8]));
+    let f32_at = |a: usize| f32::from_le_bytes(chunk[a..a + 4].try_into().unwrap_or([0; 4]));
+    Sample {
+        time_s: f64_at(0),
+        temp_c: f32_at(8),
+        output: f32_at(12),
+    }
+}
+
+/// SysTick ticks elapsed while `work` runs (the counter counts down from its 24-bit reload).
+fn ticks(syst: &mut SYST, work: impl FnOnce()) -> u32 {
+    syst.clear_current();
+    let start = SYST::get_current();
+    work();
+    let end = SYST::get_current();
+    start.wrapping_sub(end) & 0x00FF_FFFF
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(peripherals) = cortex_m::Peripherals::take() else {
+        fail("peripherals taken twice")
+    };
+    let mut syst = peripherals.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(0x00FF_FFFF);
+    syst.enable_counter();
+
+    let mut blob = [0u8; BLOB_MAX];
+    let mut model_file = fs::File::open(c!("model.bin")).unwrap_or_else(|_| fail("no model.bin"));
+    let len = read_full(&mut model_file, &mut blob);
+    let model = M4Model::decode(&blob[..len]).unwrap_or_else(|_| fail("blob refused"));
+    let m = model.dims().m;
+    let mut scratch = [0.0f32; 256];
+
+    let mut input = fs::File::open(c!("samples.bin")).unwrap_or_else(|_| fail("no samples.bin"));
+    let mut output = fs::File::create(c!("out.bin")).unwrap_or_else(|_| fail("cannot write"));
+    let mut state = FeatureState::default();
+    let mut inbuf = [0u8; CHUNK * SAMPLE_BYTES];
+    let mut outbuf = [0u8; CHUNK * OUT_BYTES];
+    let mut first = [Sample {
+        time_s: 0.0,
+        temp_c: 0.0,
+        output: 0.0,
+    }; COST_SAMPLES];
+    let mut seen = 0usize;
+    loop {
+        let got = read_full(&mut input, &mut inbuf) / SAMPLE_BYTES;
+        if got == 0 {
+            break;
+        }
+        for i in 0..got {
+            let sample = parse(&inbuf[i * SAMPLE_BYTES..(i + 1) * SAMPLE_BYTES]);
+            if let Some(slot) = first.get_mut(seen + i) {
+                *slot = sample;
+            }
+            let (mean, var, status) = match model.compensate(&sample, &mut state, &mut scratch[..m])
+            {
+                Ok(p) => (p.mean, p.variance, p.status),
+                Err(_) => (0.0, f32::INFINITY, Status::Fault),
+            };
+            let rec = &mut outbuf[i * OUT_BYTES..(i + 1) * OUT_BYTES];
+            rec[..4].copy_from_slice(&mean.to_le_bytes());
+            rec[4..8].copy_from_slice(&var.to_le_bytes());
+            rec[8] = status as u8;
+        }
+        if output.write_all(&outbuf[..got * OUT_BYTES]).is_err() {
+            fail("write error");
+        }
+        seen += got;
+    }
+
+    // Cost of the evaluator alone: the inputs are computed beforehand.
+    let k = seen.min(COST_SAMPLES);
+    let d = model.dims().d;
+    let mut xs = [[0.0f32; D]; COST_SAMPLES];
+    for (x, s) in xs.iter_mut().zip(&first[..k]) {
+        features::compute(model.features(), s, &mut FeatureState::default(), x);
+    }
+    let empty = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            black_box(black_box(x).get(..d));
+        }
+    });
+    let mean = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            black_box(model.predict_mean(&black_box(x)[..d]));
+        }
+    });
+    let full = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            black_box(model.predict(&black_box(x)[..d], &mut scratch[..m]).ok());
+        }
+    });
+    let mut cost = [0u8; 16];
+    for (i, v) in [k as u32, empty, mean, full].iter().enumerate() {
+        cost[4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    if fs::write(c!("cost.bin"), cost).is_err() {
+        fail("cannot write cost.bin");
+    }
+    process::exit(0)
+}

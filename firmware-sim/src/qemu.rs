@@ -1,0 +1,219 @@
+//! Runs firmware-core's Cortex-M4F build (the `m4/` image) under `qemu-system-arm` on a stream, and
+//! reads back what it computed and what it cost.
+//!
+//! The image and the host exchange files over semihosting in a temporary directory (the image's
+//! module doc has the formats). QEMU runs with `-icount shift=0`, so its virtual clock advances
+//! 1 ns per executed instruction; the image counts SysTick ticks of the 25 MHz system clock, so one
+//! tick is [`INSTRUCTIONS_PER_TICK`] instructions.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use firmware_core::Status;
+use serde::Serialize;
+use trainer::replay::Compensated;
+use trainer::stream::Stream;
+
+/// Instructions per SysTick tick under `-icount shift=0` on `mps2-an386` (1 ns per instruction,
+/// 25 MHz SysTick clock).
+pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
+/// QEMU is stopped after this long.
+pub const TIMEOUT: Duration = Duration::from_secs(900);
+
+/// Errors of a QEMU run.
+#[derive(Debug, thiserror::Error)]
+pub enum QemuError {
+    /// `qemu-system-arm` could not be started.
+    #[error(
+        "cannot run qemu-system-arm ({0}); install it (Debian: apt-get install qemu-system-arm)"
+    )]
+    NotInstalled(std::io::Error),
+    /// The image could not be built.
+    #[error("building the Cortex-M4 image failed: {0}")]
+    Build(String),
+    /// The image exited with an error.
+    #[error("the Cortex-M4 image failed: {0}")]
+    Image(String),
+    /// QEMU ran longer than [`TIMEOUT`].
+    #[error("QEMU did not finish within {0:?}")]
+    Timeout(Duration),
+    /// File exchange failed.
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// The image's cost measurement, converted to instructions.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Cost {
+    /// Predictions timed per path.
+    pub samples: u32,
+    /// Instructions per prediction, mean only (loop overhead removed).
+    pub mean_instructions: f64,
+    /// Instructions per prediction, mean and variance.
+    pub full_instructions: f64,
+}
+
+/// What the image computed.
+#[derive(Debug, Clone)]
+pub struct QemuRun {
+    /// Per-sample output, as the host replay's.
+    pub compensated: Compensated,
+    /// Cost per prediction.
+    pub cost: Cost,
+}
+
+/// Directory of the image's crate.
+pub fn image_crate() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("m4")
+}
+
+/// The release ELF of the image.
+pub fn image_path() -> PathBuf {
+    image_crate().join("target/thumbv7em-none-eabihf/release/fog-m4")
+}
+
+/// Builds the image (cargo, release, its own target directory); cheap when it is up to date.
+pub fn build_image() -> Result<PathBuf, QemuError> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["build", "--release", "--quiet"])
+        .current_dir(image_crate())
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_TARGET_DIR")
+        .output()?;
+    if !out.status.success() {
+        return Err(QemuError::Build(
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        ));
+    }
+    Ok(image_path())
+}
+
+/// Runs `image` on `blob` and every sample of `stream`.
+pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuError> {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(dir.path().join("model.bin"), blob)?;
+    let mut samples = Vec::with_capacity(16 * stream.len());
+    for i in 0..stream.len() {
+        samples.extend(stream.time_s[i].to_le_bytes());
+        samples.extend((stream.temp_c[i] as f32).to_le_bytes());
+        samples.extend((stream.voltage_v[i] as f32).to_le_bytes());
+    }
+    std::fs::write(dir.path().join("samples.bin"), samples)?;
+    let mut child = Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            "mps2-an386",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+            "-serial",
+            "none",
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-icount",
+            "shift=0",
+            "-kernel",
+        ])
+        .arg(image)
+        .current_dir(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .map_err(QemuError::NotInstalled)?;
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait()? {
+            break status;
+        }
+        if start.elapsed() > TIMEOUT {
+            child.kill()?;
+            return Err(QemuError::Timeout(TIMEOUT));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let out = child.wait_with_output()?;
+    if !status.success() {
+        return Err(QemuError::Image(format!(
+            "{status}: {}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )));
+    }
+    let bytes = std::fs::read(dir.path().join("out.bin"))?;
+    let [_, noise_var] = trainer::export::decode(blob)
+        .map(|m| m.variances())
+        .unwrap_or([0.0, 0.0]);
+    let mut compensated = Compensated::default();
+    for rec in bytes.chunks_exact(9) {
+        let f = |a: usize| f32::from_le_bytes([rec[a], rec[a + 1], rec[a + 2], rec[a + 3]]);
+        compensated.rate_dps.push(f(0));
+        compensated.std_dps.push((f(4) + noise_var).sqrt());
+        compensated.status.push(match rec[8] {
+            0 => Status::Valid,
+            1 => Status::Extrapolating,
+            _ => Status::Fault,
+        });
+    }
+    if compensated.rate_dps.len() != stream.len() {
+        return Err(QemuError::Image(format!(
+            "{} results for {} samples",
+            compensated.rate_dps.len(),
+            stream.len()
+        )));
+    }
+    let cost = std::fs::read(dir.path().join("cost.bin"))?;
+    if cost.len() != 16 {
+        return Err(QemuError::Image(format!(
+            "cost.bin has {} bytes",
+            cost.len()
+        )));
+    }
+    let word = |i: usize| {
+        f64::from(u32::from_le_bytes([
+            cost[4 * i],
+            cost[4 * i + 1],
+            cost[4 * i + 2],
+            cost[4 * i + 3],
+        ]))
+    };
+    let samples = word(0).max(1.0);
+    let per = |ticks: f64| (ticks - word(1)) * INSTRUCTIONS_PER_TICK / samples;
+    Ok(QemuRun {
+        compensated,
+        cost: Cost {
+            samples: word(0) as u32,
+            mean_instructions: per(word(2)),
+            full_instructions: per(word(3)),
+        },
+    })
+}
+
+/// How the M4 run and the host replay compare.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Agreement {
+    /// Largest |M4 mean − host mean|, °/s.
+    pub max_abs_mean_diff: f64,
+    /// Samples whose mean and standard deviation are bit-identical.
+    pub identical: usize,
+    /// Every status equal.
+    pub statuses_equal: bool,
+}
+
+/// Compares two replays of the same stream.
+pub fn compare(host: &Compensated, m4: &Compensated) -> Agreement {
+    let pairs = || host.rate_dps.iter().zip(&m4.rate_dps);
+    Agreement {
+        max_abs_mean_diff: pairs()
+            .map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs())
+            .fold(0.0, f64::max),
+        identical: pairs()
+            .zip(host.std_dps.iter().zip(&m4.std_dps))
+            .filter(|((a, b), (sa, sb))| a.to_bits() == b.to_bits() && sa.to_bits() == sb.to_bits())
+            .count(),
+        statuses_equal: host.status == m4.status,
+    }
+}

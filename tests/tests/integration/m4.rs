@@ -1,0 +1,41 @@
+//! The Cortex-M4F build under QEMU against the host replay, over a full simulated stream (issue 4).
+//! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`.ci/run` installs both).
+
+use firmware_sim::{paper, plant::GyroParams, qemu, stream};
+use trainer::dataset::POINT_FEATURES;
+use trainer::gp::{GpConfig, GpModel};
+use trainer::replay;
+
+use crate::paper::points;
+
+#[test]
+fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
+    let params = GyroParams::nominal();
+    let train = points(&paper::run(&params, 41, false));
+    let model = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+    let blob = trainer::export::to_blob(&model, &POINT_FEATURES).unwrap();
+    let firmware = trainer::export::decode(&blob).unwrap();
+
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("s.csv");
+    let rows = stream::run(&params, &stream::StreamConfig::default(), 42);
+    std::fs::write(&csv, firmware_sim::output::stream_csv(&rows)).unwrap();
+    let data = trainer::stream::Stream::load(&csv, &[]).unwrap();
+    assert!(data.len() > 30_000, "a full stream: {} samples", data.len());
+
+    let host = replay::replay(&firmware, &data);
+    let image = qemu::build_image().unwrap();
+    let m4 = qemu::run(&image, &blob, &data).unwrap();
+    let agreement = qemu::compare(&host, &m4.compensated);
+    assert!(agreement.max_abs_mean_diff <= 1e-6, "{agreement:?}");
+    assert_eq!(agreement.identical, data.len(), "{agreement:?}");
+    assert!(agreement.statuses_equal);
+    // The cost figures are measured, not invented: the mean path costs at least an exp per centre.
+    let m = firmware.dims().m as f64;
+    assert!(m4.cost.mean_instructions > 20.0 * m, "{:?}", m4.cost);
+    assert!(
+        m4.cost.full_instructions > m4.cost.mean_instructions,
+        "{:?}",
+        m4.cost
+    );
+}
