@@ -100,40 +100,51 @@ enum Generate {
     ///
     /// Example: firmware-sim generate paper --seed 1 --out points.csv
     Paper {
-        /// Seed of the noise (and of the unit, with --unit random). Same seed, same bytes.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output points CSV.
-        #[arg(long)]
-        out: PathBuf,
-        /// Which gyro: the nominal unit of PHYSICS.md, or one drawn from its published ranges.
-        #[arg(long, value_enum, default_value_t = Unit::Nominal)]
-        unit: Unit,
+        #[command(flatten)]
+        common: GenerateCommon,
         /// Also write the zero-rate position test before each rate test (table_rate_dps = 0).
         #[arg(long)]
         position_tests: bool,
-        /// Write a JSON summary (the unit's parameters and the point count) here.
-        #[arg(long)]
-        json: Option<PathBuf>,
     },
     /// A stream from power-on at 1 Hz: chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min,
     /// the rate table stepping through the paper's rates and zero (about 10.4 hours).
     ///
     /// Example: firmware-sim generate stream --seed 2 --out s.csv
     Stream {
-        /// Seed of the noise and the rate order (and of the unit, with --unit random).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output stream CSV.
-        #[arg(long)]
-        out: PathBuf,
-        /// Which gyro: the nominal unit of PHYSICS.md, or one drawn from its published ranges.
-        #[arg(long, value_enum, default_value_t = Unit::Nominal)]
-        unit: Unit,
-        /// Write a JSON summary (the unit's parameters and the sample count) here.
-        #[arg(long)]
-        json: Option<PathBuf>,
+        #[command(flatten)]
+        common: GenerateCommon,
     },
+}
+
+/// What every generator takes.
+#[derive(Args)]
+struct GenerateCommon {
+    /// Seed of the noise (and of the unit, with --unit random). Same seed, same bytes.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV.
+    #[arg(long)]
+    out: PathBuf,
+    /// Which gyro: the nominal unit of PHYSICS.md, or one drawn from its published ranges.
+    #[arg(long, value_enum, default_value_t = Unit::Nominal)]
+    unit: Unit,
+    /// Write a JSON summary (the unit's parameters and the row count) here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+impl GenerateCommon {
+    /// Writes the CSV and, when asked, the JSON summary of `n` rows.
+    fn write(&self, params: &GyroParams, csv: &str, n: usize) -> anyhow::Result<()> {
+        write_atomically(&self.out, csv.as_bytes())?;
+        if let Some(path) = &self.json {
+            write_json(
+                path,
+                &serde_json::json!({ "n": n, "seed": self.seed, "unit": params }),
+            )?;
+        }
+        Ok(())
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -146,39 +157,17 @@ enum Unit {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Generate(Generate::Paper {
-            seed,
-            out,
-            unit,
+            common,
             position_tests,
-            json,
         }) => {
-            let params = unit.params(seed);
-            let points = paper::run(&params, seed, position_tests);
-            write_atomically(&out, output::points_csv(&points).as_bytes())?;
-            if let Some(path) = json {
-                write_json(
-                    &path,
-                    &serde_json::json!({ "n": points.len(), "seed": seed, "unit": params }),
-                )?;
-            }
-            Ok(())
+            let params = common.unit.params(common.seed);
+            let points = paper::run(&params, common.seed, position_tests);
+            common.write(&params, &output::points_csv(&points), points.len())
         }
-        Command::Generate(Generate::Stream {
-            seed,
-            out,
-            unit,
-            json,
-        }) => {
-            let params = unit.params(seed);
-            let rows = stream::run(&params, &stream::StreamConfig::default(), seed);
-            write_atomically(&out, output::stream_csv(&rows).as_bytes())?;
-            if let Some(path) = json {
-                write_json(
-                    &path,
-                    &serde_json::json!({ "n": rows.len(), "seed": seed, "unit": params }),
-                )?;
-            }
-            Ok(())
+        Command::Generate(Generate::Stream { common }) => {
+            let params = common.unit.params(common.seed);
+            let rows = stream::run(&params, &stream::StreamConfig::default(), common.seed);
+            common.write(&params, &output::stream_csv(&rows), rows.len())
         }
         Command::Replay { input, out, json } => {
             let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;

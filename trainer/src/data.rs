@@ -446,17 +446,15 @@ mod tests {
         assert_eq!(c.lines, vec![2, 3]);
     }
 
+    /// Canonical columns, none nullable, no labels, no maps.
+    fn read_plain(f: &tempfile::NamedTempFile, numeric: &[&str]) -> Result<Columns, DataError> {
+        read_columns(f.path(), numeric, &[], &[], &[])
+    }
+
     #[test]
     fn errors_name_line_and_column() {
         let f = file("temp_c,voltage_v,rate_dps\n1,2,3\n1,abc,3\n");
-        let e = read_columns(
-            f.path(),
-            &["temp_c", "voltage_v", "rate_dps"],
-            &[],
-            &[],
-            &[],
-        )
-        .unwrap_err();
+        let e = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap_err();
         let msg = e.to_string();
         assert!(
             msg.contains("line 3, column voltage_v: 'abc' is not a number"),
@@ -464,36 +462,15 @@ mod tests {
         );
 
         let f = file("temp_c,voltage_v,rate_dps\n1,NaN,3\n");
-        let e = read_columns(
-            f.path(),
-            &["temp_c", "voltage_v", "rate_dps"],
-            &[],
-            &[],
-            &[],
-        )
-        .unwrap_err();
+        let e = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap_err();
         assert!(matches!(e, DataError::NonFinite { line: 2, .. }), "{e}");
 
         let f = file("temp_c,voltage_v\n1,2\n");
-        let e = read_columns(
-            f.path(),
-            &["temp_c", "voltage_v", "rate_dps"],
-            &[],
-            &[],
-            &[],
-        )
-        .unwrap_err();
+        let e = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap_err();
         assert!(e.to_string().contains("missing column 'rate_dps'"), "{e}");
 
         let f = file("temp_c,voltage_v,rate_dps\n1,2\n");
-        let e = read_columns(
-            f.path(),
-            &["temp_c", "voltage_v", "rate_dps"],
-            &[],
-            &[],
-            &[],
-        )
-        .unwrap_err();
+        let e = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap_err();
         assert!(
             matches!(
                 e,
@@ -508,18 +485,18 @@ mod tests {
         );
 
         let f = file("");
-        let e = read_columns(f.path(), &["temp_c"], &[], &[], &[]).unwrap_err();
+        let e = read_plain(&f, &["temp_c"]).unwrap_err();
         assert!(matches!(e, DataError::Empty { .. }), "{e}");
 
         let f = file("temp_c\n");
-        let e = read_columns(f.path(), &["temp_c"], &[], &[], &[]).unwrap_err();
+        let e = read_plain(&f, &["temp_c"]).unwrap_err();
         assert!(matches!(e, DataError::NoRows { .. }), "{e}");
     }
 
     #[test]
     fn constant_column_is_refused_with_the_reason() {
         let f = file("temp_c,voltage_v\n1,2\n1,3\n");
-        let c = read_columns(f.path(), &["temp_c", "voltage_v"], &[], &[], &[]).unwrap();
+        let c = read_plain(&f, &["temp_c", "voltage_v"]).unwrap();
         assert!(require_varying(&c, "voltage_v", "x").is_ok());
         let e =
             require_varying(&c, "temp_c", "no temperature dependence can be learnt").unwrap_err();
