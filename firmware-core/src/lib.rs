@@ -15,4 +15,4 @@ mod testing;
 pub use blob::{Dims, Feature};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, Sample};
-pub use model::{Mean, Model, Prediction, Status};
+pub use model::{MAX_INPUTS, Mean, Model, Prediction, Status};

@@ -225,9 +225,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 data.len(),
                 agreement.statuses_equal
             );
+            let dims = firmware.dims();
+            let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
             println!(
                 "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
                 score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
+            );
+            println!(
+                "arithmetic minimum of the mean path: {} centres × (expf {:.0} + 3·{} multiply-adds) = \
+                 {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions per SysTick tick)",
+                dims.m,
+                m4.cost.exp_instructions,
+                dims.d,
+                m4.cost.mean_instructions / minimum,
+                m4.cost.instructions_per_tick
             );
             Ok(())
         }

@@ -4,7 +4,8 @@
 //! The image and the host exchange files over semihosting in a temporary directory (the image's
 //! module doc has the formats). QEMU runs with `-icount shift=0`, so its virtual clock advances
 //! 1 ns per executed instruction; the image counts SysTick ticks of the 25 MHz system clock, so one
-//! tick is [`INSTRUCTIONS_PER_TICK`] instructions.
+//! tick should be 40 instructions. The image also times a loop of known instruction count, and the
+//! ticks are converted with that measured ratio.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,9 +16,6 @@ use serde::Serialize;
 use trainer::replay::Compensated;
 use trainer::stream::Stream;
 
-/// Instructions per SysTick tick under `-icount shift=0` on `mps2-an386` (1 ns per instruction,
-/// 25 MHz SysTick clock).
-pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
 /// QEMU is stopped after this long.
 pub const TIMEOUT: Duration = Duration::from_secs(900);
 
@@ -52,6 +50,17 @@ pub struct Cost {
     pub mean_instructions: f64,
     /// Instructions per prediction, mean and variance.
     pub full_instructions: f64,
+    /// Instructions per `libm::expf` call (the transcendental of each centre).
+    pub exp_instructions: f64,
+    /// Instructions per SysTick tick, measured on the calibration loop.
+    pub instructions_per_tick: f64,
+}
+
+impl Cost {
+    /// The arithmetic minimum of the mean path per centre: one `expf` and 3·d multiply-adds.
+    pub fn minimum_per_centre(&self, d: usize) -> f64 {
+        self.exp_instructions + 3.0 * d as f64
+    }
 }
 
 /// What the image computed.
@@ -166,7 +175,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         )));
     }
     let cost = std::fs::read(dir.path().join("cost.bin"))?;
-    if cost.len() != 16 {
+    if cost.len() != 32 {
         return Err(QemuError::Image(format!(
             "cost.bin has {} bytes",
             cost.len()
@@ -181,13 +190,16 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         ]))
     };
     let samples = word(0).max(1.0);
-    let per = |ticks: f64| (ticks - word(1)) * INSTRUCTIONS_PER_TICK / samples;
+    let instructions_per_tick = word(6) / word(7).max(1.0);
+    let per = |ticks: f64| (ticks - word(1)) * instructions_per_tick / samples;
     Ok(QemuRun {
         compensated,
         cost: Cost {
             samples: word(0) as u32,
             mean_instructions: per(word(2)),
             full_instructions: per(word(3)),
+            exp_instructions: word(5) * instructions_per_tick / word(4).max(1.0),
+            instructions_per_tick,
         },
     })
 }

@@ -18,8 +18,8 @@ use crate::gp::GpModel;
 /// microcontroller, the top of a Cortex-M4's RAM. The host decodes blobs back into these
 /// capacities (heapless storage is inline, so they also bound the host's stack use).
 pub const MAX_CENTRES: usize = 256;
-/// Host-side input capacity.
-pub const MAX_INPUTS: usize = 8;
+/// Host-side input capacity: all the evaluator accepts.
+pub use firmware_core::MAX_INPUTS;
 /// Host-side exponent capacity.
 pub const MAX_EXPONENTS: usize = 8 * 165;
 /// Host-side float capacity, for MAX_CENTRES centres.

@@ -5,10 +5,17 @@
 //! f32, output f32, little-endian). The image decodes the model into fixed capacities, runs every
 //! sample through the feature pipeline and the evaluator, and writes `out.bin` (9 bytes per
 //! sample: mean f32, variance f32, status u8). Then it measures its own cost: SysTick ticks over
-//! the first samples for an empty loop, the mean path and the mean + variance path, written to
-//! `cost.bin` as four u32 (samples, empty, mean, mean + variance). Under `-icount shift=0` QEMU
-//! advances its clock by 1 ns per instruction and SysTick counts the 25 MHz system clock, so one
-//! tick is 40 instructions; the host converts.
+//! the first samples for an empty loop, the mean path and the mean + variance path; ticks for
+//! [`EXP_CALLS`] calls of `libm::expf` (the one transcendental per centre) less their empty loop;
+//! and ticks for a calibration loop of known length (`cortex_m::asm::delay(n)` executes exactly
+//! `2(n + 1)` instructions: `subs` and `bne` per pass). All go to `cost.bin` as eight u32: samples,
+//! empty, mean, mean + variance, expf calls, expf ticks, calibration instructions, calibration
+//! ticks. Under `-icount shift=0` QEMU advances its clock by 1 ns per instruction and SysTick counts
+//! the 25 MHz system clock, so one tick should be 40 instructions; the calibration loop measures it
+//! rather than trusting that, and the host converts with the measured ratio.
+//!
+//! With the `embedded-model` feature the blob is compiled in instead (`FOG_M4_MODEL=path/model.bin`
+//! at build time), which is how the README measures flash and RAM with a model.
 //!
 //! Exit code 0 on success; a failure prints its reason and exits with 1.
 #![no_std]
@@ -27,11 +34,16 @@ const D: usize = 4;
 const E: usize = 16 * D;
 const N: usize = 7 * D + 16 + 2 + 256 * D + 256 + 256 * 257 / 2;
 /// Largest blob the image reads: header, postcard lengths, and 5 bytes per number at most.
+#[cfg(not(feature = "embedded-model"))]
 const BLOB_MAX: usize = 64 + E + D + 5 * N;
 /// Samples whose cost is measured.
 const COST_SAMPLES: usize = 64;
 const SAMPLE_BYTES: usize = 16;
 const OUT_BYTES: usize = 9;
+/// `expf` calls timed.
+const EXP_CALLS: usize = 256;
+/// Passes of the calibration loop (2 instructions each).
+const CALIBRATION_PASSES: u32 = 100_000;
 /// Samples read and written per semihosting call.
 const CHUNK: usize = 256;
 
@@ -73,6 +85,23 @@ fn ticks(syst: &mut SYST, work: impl FnOnce()) -> u32 {
     start.wrapping_sub(end) & 0x00FF_FFFF
 }
 
+/// The model read from `model.bin` over semihosting.
+#[cfg(not(feature = "embedded-model"))]
+fn load_model() -> M4Model {
+    let mut blob = [0u8; BLOB_MAX];
+    let mut model_file = fs::File::open(c!("model.bin")).unwrap_or_else(|_| fail("no model.bin"));
+    let len = read_full(&mut model_file, &mut blob);
+    M4Model::decode(&blob[..len]).unwrap_or_else(|_| fail("blob refused"))
+}
+
+/// The model flashed with the image, as an integrator would ship it: the blob named by
+/// `FOG_M4_MODEL` at build time.
+#[cfg(feature = "embedded-model")]
+fn load_model() -> M4Model {
+    static BLOB: &[u8] = include_bytes!(env!("FOG_M4_MODEL"));
+    M4Model::decode(BLOB).unwrap_or_else(|_| fail("blob refused"))
+}
+
 #[entry]
 fn main() -> ! {
     let Some(peripherals) = cortex_m::Peripherals::take() else {
@@ -83,10 +112,7 @@ fn main() -> ! {
     syst.set_reload(0x00FF_FFFF);
     syst.enable_counter();
 
-    let mut blob = [0u8; BLOB_MAX];
-    let mut model_file = fs::File::open(c!("model.bin")).unwrap_or_else(|_| fail("no model.bin"));
-    let len = read_full(&mut model_file, &mut blob);
-    let model = M4Model::decode(&blob[..len]).unwrap_or_else(|_| fail("blob refused"));
+    let model = load_model();
     let m = model.dims().m;
     let mut scratch = [0.0f32; 256];
 
@@ -149,8 +175,36 @@ fn main() -> ! {
             black_box(model.predict(&black_box(x)[..d], &mut scratch[..m]).ok());
         }
     });
-    let mut cost = [0u8; 16];
-    for (i, v) in [k as u32, empty, mean, full].iter().enumerate() {
+    // Arguments as the kernel sees them: −r²/2 over the range the centres produce.
+    let mut args = [0.0f32; EXP_CALLS];
+    for (i, a) in args.iter_mut().enumerate() {
+        *a = -0.05 * i as f32;
+    }
+    let exp_empty = ticks(&mut syst, || {
+        for a in &args {
+            black_box(black_box(*a));
+        }
+    });
+    let exp = ticks(&mut syst, || {
+        for a in &args {
+            black_box(libm::expf(black_box(*a)));
+        }
+    });
+    let calibration = ticks(&mut syst, || {
+        cortex_m::asm::delay(black_box(CALIBRATION_PASSES - 1));
+    });
+    let mut cost = [0u8; 32];
+    let words = [
+        k as u32,
+        empty,
+        mean,
+        full,
+        EXP_CALLS as u32,
+        exp.saturating_sub(exp_empty),
+        2 * CALIBRATION_PASSES,
+        calibration,
+    ];
+    for (i, v) in words.iter().enumerate() {
         cost[4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());
     }
     if fs::write(c!("cost.bin"), cost).is_err() {
