@@ -1,11 +1,11 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 2)
+//! # Layout (format version 3)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (2)
+//!  4      2    format version, u16 little-endian (3)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
@@ -16,7 +16,8 @@
 //!
 //! The dimensions sit in the header so that a blob too large for the integrator's capacities is
 //! refused by a typed error before anything is decoded. The payload is three postcard sequences
-//! (each a varint length, then the elements): the `d` input features (enum indices), the `p·d`
+//! (each a varint length, then the elements): the `d` input features (enum index, then the f32
+//! parameter of the stateful ones), the `p·d`
 //! prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32:
 //!
 //! ```text
@@ -40,7 +41,12 @@
 //! round three times; on the raw input, with the coefficient split into `hi + lo` (two f32 whose sum
 //! carries 48 bits) and `hi·x` split exactly by an FMA, the term rounds once, when it is added
 //! last. The trainer moves every pure linear monomial of the prior mean here (measured in
-//! `trainer/benches/f32_study`: 1.2–2e-5 → 4e-6 °/s). A change of this layout bumps
+//! `trainer/benches/f32_study`: 1.2–2e-5 → 4e-6 °/s).
+//!
+//! Version 3 adds the stateful features. An input the kernel ignores (one that enters only through
+//! its raw linear term, as the additive terms of an extended model do) has length scale
+//! [`IGNORED_LENGTH_SCALE`] and centre coordinate 0: its distance term underflows to exactly 0 in
+//! f32, so the kernel is the static model's. A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
 use serde::{Deserialize, Serialize};
@@ -50,20 +56,58 @@ use crate::error::BlobError;
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
 /// The format version this crate reads and writes.
-pub const FORMAT_VERSION: u16 = 2;
+pub const FORMAT_VERSION: u16 = 3;
+/// Length scale of an input the kernel ignores (module doc).
+pub const IGNORED_LENGTH_SCALE: f32 = 1e30;
 /// Header bytes before the payload.
 pub const HEADER_LEN: usize = 18;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
-/// One model input, computed from the raw sample by the feature pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// One model input, computed from the raw sample by the feature pipeline
+/// ([`crate::features`] has the equations). Time constants are in seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Feature {
     /// Temperature-sensor reading, °C.
     Temperature,
     /// Gyro output (V for an analog FOG, counts or a rate for a digital one).
     Voltage,
+    /// Temperature rate, °C/min: the sensor reading differentiated through a first-order filter.
+    TemperatureRate {
+        /// Filter time constant, s.
+        tau_s: f32,
+    },
+    /// Coil-temperature estimate, °C: the sensor reading through a first-order lag.
+    CoilTemperature {
+        /// Lag time constant, s.
+        tau_s: f32,
+    },
+    /// Warm-up shape: exp(−t_on/τ), t_on the time since power-on.
+    PowerOnDecay {
+        /// Decay time constant, s.
+        tau_s: f32,
+    },
+    /// Time since power-on, h.
+    TimeOn,
+    /// Heating/cooling state in [−1, 1]: a play (backlash) operator on the sensor reading.
+    ThermalState {
+        /// Half-width of the play, °C.
+        width_c: f32,
+    },
+}
+
+impl Feature {
+    /// Whether its parameter is usable (finite and positive).
+    pub fn is_valid(&self) -> bool {
+        match *self {
+            Feature::Temperature | Feature::Voltage | Feature::TimeOn => true,
+            Feature::TemperatureRate { tau_s }
+            | Feature::CoilTemperature { tau_s }
+            | Feature::PowerOnDecay { tau_s } => tau_s.is_finite() && tau_s > 0.0,
+            Feature::ThermalState { width_c } => width_c.is_finite() && width_c > 0.0,
+        }
+    }
 }
 
 /// The sizes of a model.
@@ -224,7 +268,7 @@ mod tests {
     #[test]
     fn golden_bytes_pin_the_encoding() {
         let payload = Payload {
-            features: [Feature::Temperature].as_slice(),
+            features: [Feature::TemperatureRate { tau_s: 60.0 }].as_slice(),
             exponents: [0u8].as_slice(),
             floats: GOLDEN.as_slice(),
         };
@@ -233,10 +277,13 @@ mod tests {
         let mut buf = [0u8; 128];
         let n = encode(dims, &payload, &mut buf).unwrap();
         let crc = CRC32.checksum(&buf[HEADER_LEN..n]).to_le_bytes();
-        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 2, 0, 1, 0, 1, 1, 57, 0, 0, 0];
+        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 3, 0, 1, 0, 1, 1, 61, 0, 0, 0];
         expected.extend(crc);
-        // features: len 1, variant 0; exponents: len 1, 0; floats: len 13, then f32 LE.
-        expected.extend([1, 0, 1, 0, 13]);
+        // features: len 1, variant 2 with its f32 parameter; exponents: len 1, 0; floats: len 13,
+        // then f32 LE.
+        expected.extend([1, 2]);
+        expected.extend(60.0f32.to_le_bytes());
+        expected.extend([1, 0, 13]);
         for v in GOLDEN {
             expected.extend(v.to_le_bytes());
         }

@@ -204,7 +204,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
                 .get(s.factor + i * (i + 1) / 2 + i)
                 .is_some_and(positive)
         });
-        if self.section(s.scale, d).iter().all(positive)
+        if self.features.iter().all(Feature::is_valid)
+            && self.section(s.scale, d).iter().all(positive)
             && self.section(s.length, d).iter().all(positive)
             && ranges_ok
             && signal >= 0.0

@@ -3,9 +3,11 @@
 
 use std::path::PathBuf;
 
+use crate::effects::Effect;
 use crate::{output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use trainer::cause::Cause;
 use trainer::data::ColumnMap;
 use trainer::io::{ensure_not_input, write_atomically};
 use trainer::replay;
@@ -107,9 +109,9 @@ enum Generate {
         position_tests: bool,
     },
     /// A stream from power-on at 1 Hz: chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min,
-    /// the rate table stepping through the paper's rates and zero (about 10.4 hours).
+    /// the rate table stepping through the paper's rates and zero, three power cycles (8.75 hours).
     ///
-    /// Example: firmware-sim generate stream --seed 2 --out s.csv
+    /// Example: firmware-sim generate stream --seed 2 --effect thermal-rate --strength 10 --out s.csv
     Stream {
         #[command(flatten)]
         common: GenerateCommon,
@@ -119,7 +121,7 @@ enum Generate {
 /// What every generator takes.
 #[derive(Args)]
 struct GenerateCommon {
-    /// Seed of the noise (and of the unit, with --unit random). Same seed, same bytes.
+    /// Seed of the noise. Same seed, same bytes.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Output CSV.
@@ -128,19 +130,37 @@ struct GenerateCommon {
     /// Which gyro: the nominal unit of PHYSICS.md, or one drawn from its published ranges.
     #[arg(long, value_enum, default_value_t = Unit::Nominal)]
     unit: Unit,
-    /// Write a JSON summary (the unit's parameters and the row count) here.
+    /// Seed of the unit drawn with --unit random (default: --seed). Give points and streams of one
+    /// gyro the same unit seed.
+    #[arg(long)]
+    unit_seed: Option<u64>,
+    /// Hidden physical effect (DESIGN §5): none, thermal-rate, sensor-lag, warm-up, hysteresis,
+    /// time-drift. It acts on the paper protocol and on streams alike.
+    #[arg(long, default_value_t = Cause::None)]
+    effect: Cause,
+    /// Strength of the effect, in its unit: thermal-rate (°/h)/(°C/min), sensor-lag min, warm-up
+    /// °/h, hysteresis °/h, time-drift (°/h)/h. Default: the middle of its documented range.
+    #[arg(long)]
+    strength: Option<f64>,
+    /// Write a JSON summary (the unit's parameters, the effect and the row count) here.
     #[arg(long)]
     json: Option<PathBuf>,
 }
 
 impl GenerateCommon {
+    /// The gyro and its effect.
+    fn gyro(&self) -> anyhow::Result<(GyroParams, Effect)> {
+        let params = self.unit.params(self.unit_seed.unwrap_or(self.seed));
+        Ok((params, Effect::new(self.effect, self.strength)?))
+    }
+
     /// Writes the CSV and, when asked, the JSON summary of `n` rows.
-    fn write(&self, params: &GyroParams, csv: &str, n: usize) -> anyhow::Result<()> {
+    fn write(&self, params: &GyroParams, effect: Effect, csv: &str, n: usize) -> anyhow::Result<()> {
         write_atomically(&self.out, csv.as_bytes())?;
         if let Some(path) = &self.json {
             write_json(
                 path,
-                &serde_json::json!({ "n": n, "seed": self.seed, "unit": params }),
+                &serde_json::json!({ "n": n, "seed": self.seed, "unit": params, "effect": effect }),
             )?;
         }
         Ok(())
@@ -160,14 +180,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             common,
             position_tests,
         }) => {
-            let params = common.unit.params(common.seed);
-            let points = paper::run(&params, common.seed, position_tests);
-            common.write(&params, &output::points_csv(&points), points.len())
+            let (params, effect) = common.gyro()?;
+            let points = paper::run(&params, effect, common.seed, position_tests);
+            common.write(&params, effect, &output::points_csv(&points), points.len())
         }
         Command::Generate(Generate::Stream { common }) => {
-            let params = common.unit.params(common.seed);
-            let rows = stream::run(&params, &stream::StreamConfig::default(), common.seed);
-            common.write(&params, &output::stream_csv(&rows), rows.len())
+            let (params, effect) = common.gyro()?;
+            let cfg = stream::StreamConfig::default();
+            let rows = stream::run(&params, &cfg, effect, common.seed);
+            common.write(&params, effect, &output::stream_csv(&rows), rows.len())
         }
         Command::Replay { input, out, json } => {
             let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;

@@ -5,6 +5,7 @@
 //! reproduced from a seed, and the physics behind it is documented in [`plant`].
 
 pub mod cli;
+pub mod effects;
 pub mod output;
 pub mod paper;
 pub mod plant;

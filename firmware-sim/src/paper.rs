@@ -6,7 +6,15 @@
 //! the mean of its 120 samples; `rate_dps` is the true inertial rate (table rate plus earth rate).
 //! Position tests are written only when asked for (they are separate tests in the paper, and the
 //! paper's 140 points hold none), as rows with zero table rate.
+//!
+//! A hidden effect ([`crate::effects`]) acts here as it would in a real calibration, so a static
+//! model fitted on these points is what a user would have today: the gyro is switched on at the
+//! start of each soak (so the tests run 2–3 h after power-on: warm-up has decayed, in-run drift has
+//! not), the coil is soaked (no temperature rate, no lag), and the hysteresis state is the one the
+//! chamber's last move left (−30 °C is reached by cooling from the ambient 25 °C, every later
+//! setpoint by heating).
 
+use crate::effects::{Effect, EffectPlant};
 use crate::plant::{GyroParams, Noise};
 
 /// Chamber setpoints of the paper, °C.
@@ -19,6 +27,8 @@ pub const RATES_DPS: [f64; 14] = [
 pub const SAMPLES_PER_POINT: u32 = 120;
 /// Soak before the first test at each temperature, s.
 const SOAK_S: f64 = 7200.0;
+/// Chamber temperature before the protocol starts, °C.
+const AMBIENT_C: f64 = 25.0;
 
 /// One averaged rate-table point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,20 +45,26 @@ pub struct Point {
     pub table_rate_dps: f64,
 }
 
-/// Runs the paper protocol on one gyro; noise from `seed`.
-pub fn run(params: &GyroParams, seed: u64, position_tests: bool) -> Vec<Point> {
+/// Runs the paper protocol on one gyro with a hidden `effect`; noise from `seed`.
+pub fn run(params: &GyroParams, effect: Effect, seed: u64, position_tests: bool) -> Vec<Point> {
     let mut noise = Noise::new(params, seed);
     let earth = params.earth_rate_dps();
     let mut points = Vec::new();
+    let mut plant = EffectPlant::new(effect, AMBIENT_C);
+    let mut previous = AMBIENT_C;
     for &setpoint in &TEMPERATURES_C {
         noise.advance(params, SOAK_S);
         // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
         let t_gyro = setpoint + params.self_heating_c;
-        let average = |table_rate: f64, noise: &mut Noise| {
+        plant.soak(t_gyro, setpoint > previous);
+        previous = setpoint;
+        let mut t_on = SOAK_S;
+        let mut average = |table_rate: f64, noise: &mut Noise| {
             let rate = table_rate + earth;
             let (mut t, mut v) = (0.0, 0.0);
             for _ in 0..SAMPLES_PER_POINT {
-                let s = noise.sample(params, t_gyro, t_gyro, rate, 0.0);
+                let s = noise.sample(params, t_gyro, t_gyro, rate, plant.bias_dps(t_on));
+                t_on += 1.0;
                 t += s.temp_c;
                 v += s.voltage_v;
             }
@@ -79,8 +95,8 @@ mod tests {
     #[test]
     fn protocol_has_140_points_and_optional_position_tests() {
         let p = GyroParams::nominal();
-        assert_eq!(run(&p, 1, false).len(), 140);
-        let with = run(&p, 1, true);
+        assert_eq!(run(&p, Effect::None, 1, false).len(), 140);
+        let with = run(&p, Effect::None, 1, true);
         assert_eq!(with.len(), 280);
         assert_eq!(
             with.iter().filter(|pt| pt.table_rate_dps == 0.0).count(),
@@ -91,14 +107,14 @@ mod tests {
     #[test]
     fn same_seed_same_points_other_seed_other_noise() {
         let p = GyroParams::nominal();
-        assert_eq!(run(&p, 3, false), run(&p, 3, false));
-        assert_ne!(run(&p, 3, false), run(&p, 4, false));
+        assert_eq!(run(&p, Effect::None, 3, false), run(&p, Effect::None, 3, false));
+        assert_ne!(run(&p, Effect::None, 3, false), run(&p, Effect::None, 4, false));
     }
 
     #[test]
     fn points_follow_the_scale_factor() {
         let p = GyroParams::nominal();
-        let pts = run(&p, 5, false);
+        let pts = run(&p, Effect::None, 5, false);
         for pt in &pts {
             let t = pt.setpoint_c + p.self_heating_c;
             let expected = p.output_voltage(t, pt.rate_dps + p.bias_dps(t));

@@ -1,30 +1,31 @@
 //! A stream from power-on: the gyro in a thermal chamber running soaks and ramps, on a rate table
-//! stepping through the paper's rates and zero, sampled at 1 Hz.
+//! stepping through the paper's rates and zero, sampled at 1 Hz, switched off and on a few times.
 //!
-//! Thermal model (first order, Euler steps of 1 s; time constants from PHYSICS.md's simulator
-//! table): the housing follows the chamber air with τ_h, warmed by the electronics' self-heating H,
-//! which builds up after power-on with τ_w:
+//! Thermal model (first order, steps of 1 s; time constants from PHYSICS.md's simulator table): the
+//! housing follows the chamber air with τ_h, warmed by the electronics' self-heating, which follows
+//! H while the gyro is on and 0 while it is off, with τ_w:
 //!
 //! ```text
-//! dT_h/dt = (T_air + H·(1 − e^{−t/τ_w}) − T_h) / τ_h
+//! dT_h/dt = (T_air + Q − T_h) / τ_h        dQ/dt = (H·on − Q) / τ_w
 //! ```
 //!
-//! The temperature sensor reads the housing and the coil is at the housing temperature: this base
-//! stream holds no transient effect, so a static model's residual on it is noise. Every lag between
-//! what the sensor reads and what the coil feels is an effect of its own (`sensor-lag`, with Shupe
-//! drift and the others, DESIGN §5): even PHYSICS.md's 1-minute sensor lag makes an error of
-//! ∂ω/∂T·τ·Ṫ ≈ 0.024 °/s at 80 °/s on a 1 °C/min ramp, 50× the model's own error. Soaked, this gives
-//! the same temperatures as the paper protocol.
+//! The temperature sensor reads the housing; without an effect the coil is at the housing
+//! temperature, so a static model's residual is noise. Every transient error is an effect of its own
+//! ([`crate::effects`], DESIGN §5): the coil lagging the housing (`sensor-lag`), a bias from the
+//! coil's temperature rate (`thermal-rate`), a warm-up after each power-on, hysteresis, in-run drift.
 //!
 //! The chamber program (−30…60 °C at 0.5–1 °C/min, heating and cooling, soaks between) and the rate
 //! program (each of the paper's 14 rates and zero, 90 s each, in an order shuffled per cycle by the
 //! seed) are fixed by `StreamConfig`; a thermal chamber's air tracks its setpoint closely, so the
-//! air temperature is the program itself.
+//! air temperature is the program itself. While the gyro is off nothing is logged: the stream's
+//! `time_s` (the chamber clock) jumps, which is how a log shows a power cycle, and the firmware's
+//! stateful inputs restart there.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
+use crate::effects::{Effect, EffectPlant};
 use crate::paper::RATES_DPS;
 use crate::plant::{GyroParams, Noise};
 
@@ -46,6 +47,15 @@ pub struct Segment {
     pub soak_min: f64,
 }
 
+/// The gyro switched off at `at_min` (program time) for `off_min` minutes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PowerOff {
+    /// When, minutes into the program.
+    pub at_min: f64,
+    /// For how long, minutes.
+    pub off_min: f64,
+}
+
 /// The chamber program, starting from `start_c` at power-on.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StreamConfig {
@@ -55,26 +65,31 @@ pub struct StreamConfig {
     pub initial_soak_min: f64,
     /// Ramps and soaks, in order.
     pub segments: Vec<Segment>,
+    /// Power cycles.
+    pub power_offs: Vec<PowerOff>,
 }
 
 impl Default for StreamConfig {
-    /// About 10.4 hours: soak at 25 °C, cool to −30 at 1 °C/min, heat to 60 at 0.5 °C/min, cool to 0 at
-    /// 0.75 °C/min, heat to 40 at 1 °C/min, each followed by a soak.
+    /// 8.75 hours: soak at 25 °C, cool to −30 at 1 °C/min, heat to 60 at 0.5 °C/min, cool to 0 at
+    /// 0.75 °C/min, heat to 40 at 1 °C/min, each followed by a soak; switched off for 15–20 min in
+    /// three of the soaks, so there are four power-ons.
     fn default() -> Self {
         let seg = |target_c, rate_c_per_min, soak_min| Segment {
             target_c,
             rate_c_per_min,
             soak_min,
         };
+        let off = |at_min, off_min| PowerOff { at_min, off_min };
         Self {
             start_c: 25.0,
-            initial_soak_min: 60.0,
+            initial_soak_min: 30.0,
             segments: vec![
-                seg(-30.0, 1.0, 60.0),
-                seg(60.0, 0.5, 60.0),
-                seg(0.0, 0.75, 45.0),
-                seg(40.0, 1.0, 45.0),
+                seg(-30.0, 1.0, 40.0),
+                seg(60.0, 0.5, 40.0),
+                seg(0.0, 0.75, 30.0),
+                seg(40.0, 1.0, 30.0),
             ],
+            power_offs: vec![off(95.0, 20.0), off(310.0, 15.0), off(427.0, 13.0)],
         }
     }
 }
@@ -102,6 +117,14 @@ impl StreamConfig {
         temp
     }
 
+    /// Whether the gyro is on at time `t` s.
+    pub fn powered(&self, t: f64) -> bool {
+        !self
+            .power_offs
+            .iter()
+            .any(|p| t >= p.at_min * 60.0 && t < (p.at_min + p.off_min) * 60.0)
+    }
+
     /// Length of the program, s.
     pub fn duration_s(&self) -> f64 {
         let mut temp = self.start_c;
@@ -117,7 +140,7 @@ impl StreamConfig {
 /// One 1 Hz row of a stream, with the truth behind it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
-    /// Time since power-on, s.
+    /// Time on the chamber's clock, s (jumps over power-offs).
     pub time_s: f64,
     /// Temperature-sensor reading, °C.
     pub temp_c: f64,
@@ -133,14 +156,17 @@ pub struct Row {
     pub table_rate_dps: f64,
 }
 
-/// Simulates the stream; noise and rate order from `seed`.
-pub fn run(params: &GyroParams, cfg: &StreamConfig, seed: u64) -> Vec<Row> {
+/// Simulates the stream with a hidden `effect`; noise and rate order from `seed`.
+pub fn run(params: &GyroParams, cfg: &StreamConfig, effect: Effect, seed: u64) -> Vec<Row> {
     let mut noise = Noise::new(params, seed);
     let mut order_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7261_7465);
     let earth = params.earth_rate_dps();
     let mut rates: Vec<f64> = Vec::new();
     let n = cfg.duration_s().floor() as u64;
     let mut housing = cfg.start_c;
+    let mut heat = 0.0;
+    let mut plant = EffectPlant::new(effect, cfg.start_c);
+    let mut t_on = 0.0;
     let mut rows = Vec::with_capacity(n as usize + 1);
     for k in 0..=n {
         let t = k as f64;
@@ -153,19 +179,29 @@ pub fn run(params: &GyroParams, cfg: &StreamConfig, seed: u64) -> Vec<Row> {
         if k % u64::from(RATE_HOLD_S) == u64::from(RATE_HOLD_S) - 1 {
             rates.pop();
         }
-        let rate = table + earth;
-        let s = noise.sample(params, housing, housing, rate, 0.0);
-        rows.push(Row {
-            time_s: t,
-            temp_c: s.temp_c,
-            voltage_v: s.voltage_v,
-            rate_dps: rate,
-            air_c: air,
-            coil_c: housing,
-            table_rate_dps: table,
-        });
-        let heat = params.self_heating_c * (1.0 - (-t / SELF_HEATING_TAU_S).exp());
+        let on = cfg.powered(t);
+        if on {
+            let rate = table + earth;
+            let coil = plant.coil_c();
+            let s = noise.sample(params, coil, housing, rate, plant.bias_dps(t_on));
+            rows.push(Row {
+                time_s: t,
+                temp_c: s.temp_c,
+                voltage_v: s.voltage_v,
+                rate_dps: rate,
+                air_c: air,
+                coil_c: coil,
+                table_rate_dps: table,
+            });
+            t_on += 1.0;
+        } else {
+            noise.advance(params, 1.0);
+            t_on = 0.0;
+        }
+        let target = if on { params.self_heating_c } else { 0.0 };
+        heat += (target - heat) / SELF_HEATING_TAU_S;
         housing += (air + heat - housing) / HOUSING_TAU_S;
+        plant.step(housing, 1.0);
     }
     rows
 }
@@ -178,11 +214,12 @@ mod tests {
     fn chamber_program_ramps_and_soaks() {
         let c = StreamConfig::default();
         assert_eq!(c.air_c(0.0), 25.0);
-        assert_eq!(c.air_c(3600.0), 25.0);
-        assert!((c.air_c(3600.0 + 600.0) - 15.0).abs() < 1e-9);
-        assert_eq!(c.air_c(3600.0 + 55.0 * 60.0 + 1800.0), -30.0);
+        assert_eq!(c.air_c(1800.0), 25.0);
+        assert!((c.air_c(1800.0 + 600.0) - 15.0).abs() < 1e-9);
+        assert_eq!(c.air_c(1800.0 + 55.0 * 60.0 + 1200.0), -30.0);
         let hours = c.duration_s() / 3600.0;
-        assert!((9.0..10.5).contains(&hours), "{hours} h");
+        assert!((8.0..9.0).contains(&hours), "{hours} h");
+        assert!(c.powered(0.0) && !c.powered(100.0 * 60.0) && c.powered(115.0 * 60.0));
         assert_eq!(c.air_c(c.duration_s() + 10.0), 40.0);
     }
 
@@ -197,9 +234,10 @@ mod tests {
                 rate_c_per_min: 1.0,
                 soak_min: 30.0,
             }],
+            power_offs: Vec::new(),
         };
-        let a = run(&p, &cfg, 4);
-        assert_eq!(a, run(&p, &cfg, 4));
+        let a = run(&p, &cfg, Effect::None, 4);
+        assert_eq!(a, run(&p, &cfg, Effect::None, 4));
         assert_eq!(a.len(), 45 * 60 + 1);
         let mut seen: Vec<f64> = a.iter().map(|r| r.table_rate_dps).collect();
         seen.sort_by(f64::total_cmp);

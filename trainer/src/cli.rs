@@ -5,12 +5,16 @@ use std::path::{Path, PathBuf};
 
 use crate::data::ColumnMap;
 use crate::dataset::{POINT_FEATURES, Points};
+use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export;
+use crate::extend;
+use crate::investigate;
 use crate::gp::{GpConfig, GpModel};
 use crate::io::{ensure_not_input, write_atomically};
 use crate::prior::MeanBasis;
 use crate::reproduce::Reproduction;
+use crate::stream::Stream;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -61,18 +65,72 @@ impl FitOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit the GP map ω = f(T, V) to rate-table points and export the firmware blob.
+    /// Fit the GP map ω = f(T, V) to rate-table points and export the firmware blob; with a
+    /// stream, extend it by the inputs named (or by what the diagnosis names: auto).
     ///
     /// Example: trainer fit --points points.csv --out model.bin --json fit.json
+    ///
+    /// Example: trainer fit --points points.csv --stream ramp.csv --features auto --out ext.bin
     Fit {
         #[command(flatten)]
         input: Input,
         #[command(flatten)]
         fit: FitOptions,
+        /// Stream that excites the added inputs (ramps, power-ons): time_s,temp_c,voltage_v,rate_dps.
+        #[arg(long, requires = "features")]
+        stream: Option<PathBuf>,
+        /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
+        /// calls for) or a list of temperature-rate, coil-temperature, power-on-decay,
+        /// thermal-state, time-on.
+        #[arg(long, requires = "stream")]
+        features: Option<String>,
         /// Model blob to write (firmware-core format).
         #[arg(long)]
         out: PathBuf,
         /// Write the fit summary as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Replay a stream through a model, and name the physical cause of what it gets wrong
+    /// (DESIGN §5 cause ids), with the evidence and the runner-up.
+    ///
+    /// Example: trainer diagnose --model model.bin --stream s.csv --json d.json
+    Diagnose {
+        /// Model blob.
+        #[arg(long)]
+        model: PathBuf,
+        /// Stream CSV: time_s,temp_c,voltage_v,rate_dps.
+        #[arg(long)]
+        stream: PathBuf,
+        /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+        #[arg(long = "map", value_name = "NAME=SOURCE")]
+        maps: Vec<ColumnMap>,
+        /// Write the diagnosis as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Static fit → replay on the held-out stream → diagnosis → extended fit on the points and the
+    /// training stream → replay on the held-out stream → gain.
+    ///
+    /// Example: trainer investigate --points p.csv --train-stream a.csv --valid-stream b.csv --json i.json
+    Investigate {
+        #[command(flatten)]
+        input: Input,
+        #[command(flatten)]
+        fit: FitOptions,
+        /// Stream the extension is fitted on.
+        #[arg(long)]
+        train_stream: PathBuf,
+        /// Held-out stream: diagnosed and scored.
+        #[arg(long)]
+        valid_stream: PathBuf,
+        /// Write the extended model's blob here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Write the static model's blob here.
+        #[arg(long)]
+        out_static: Option<PathBuf>,
+        /// Write the investigation as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -142,6 +200,30 @@ fn write_json(path: &Path, inputs: &[&Path], value: &impl serde::Serialize) -> a
     Ok(())
 }
 
+/// The diagnosis as a terminal reads it: the verdict, then every candidate.
+fn render_diagnosis(d: &Diagnosis) -> String {
+    let mut s = format!(
+        "cause: {} — {}\nresidual rmse_60s {:.3e} °/s ({:.2} °/h) over {} blocks of 60 s\n\
+         candidate       score   parameter   correlation   amplitude (°/h)\n",
+        d.cause,
+        d.explanation,
+        d.residual_rmse_60s_dps,
+        d.residual_rmse_60s_dps * 3600.0,
+        d.n_blocks
+    );
+    for c in &d.candidates {
+        s.push_str(&format!(
+            "{:<14} {:>6.3}   {:>9.1}   {:>11.3}   {:>15.2}\n",
+            c.id.id(),
+            c.score,
+            c.parameter,
+            c.correlation,
+            c.amplitude_dph
+        ));
+    }
+    s
+}
+
 fn fit_summary(m: &GpModel) -> serde_json::Value {
     serde_json::json!({
         "log_marginal_likelihood": m.log_marginal_likelihood(),
@@ -163,19 +245,45 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit {
             input,
             fit,
+            stream,
+            features,
             out,
             json,
         } => {
-            let inputs = [input.points.as_path()];
+            let mut inputs = vec![input.points.as_path()];
+            inputs.extend(stream.as_deref());
             ensure_not_input(&out, &inputs)?;
             let points = Points::load(&input.points, &input.maps, None)?;
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
-            let blob = export::to_blob(&model, &POINT_FEATURES)?;
+            let mut blob = export::to_blob(&model, &POINT_FEATURES)?;
             let firmware = export::decode(&blob)?;
             let agreement = export::agreement_report(&model, &firmware, &points.inputs());
             let mut summary = fit_summary(&model);
-            summary["blob_bytes"] = blob.len().into();
             summary["firmware_agreement"] = serde_json::to_value(agreement)?;
+            if let (Some(path), Some(list)) = (&stream, &features) {
+                let data = Stream::load(path, &input.maps)?;
+                let causes = if list == "auto" {
+                    let d = diagnose::diagnose(&firmware, &data);
+                    println!("diagnosis of {}: {} — {}", path.display(), d.cause, d.explanation);
+                    summary["diagnosis"] = serde_json::to_value(&d)?;
+                    vec![d.cause]
+                } else {
+                    extend::parse_features(list)?
+                };
+                let fitted = extend::fit(&firmware, &data, &causes)?;
+                blob = export::to_blob_extended(&model, &POINT_FEATURES, &fitted.extension)?;
+                let ext = export::decode(&blob)?;
+                println!(
+                    "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
+                    ext.features(),
+                    path.display(),
+                    fitted.train_rmse_60s_dps[0],
+                    fitted.train_rmse_60s_dps[1]
+                );
+                summary["extension"] = serde_json::to_value(&fitted)?;
+                summary["features"] = serde_json::to_value(ext.features())?;
+            }
+            summary["blob_bytes"] = blob.len().into();
             write_atomically(&out, &blob)?;
             if let Some(path) = json {
                 write_json(&path, &inputs, &summary)?;
@@ -203,6 +311,72 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     "  {name:<22} {:>7}   {:>17.3e}   {:>12.3e}   {:>13}",
                     a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
                 );
+            }
+            Ok(())
+        }
+        Command::Diagnose {
+            model,
+            stream,
+            maps,
+            json,
+        } => {
+            let bytes =
+                std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+            let fw = export::decode(&bytes)
+                .with_context(|| format!("decoding {}", model.display()))?;
+            let data = Stream::load(&stream, &maps)?;
+            let d = diagnose::diagnose(&fw, &data);
+            print!("{}", render_diagnosis(&d));
+            if let Some(path) = json {
+                write_json(&path, &[model.as_path(), stream.as_path()], &d)?;
+            }
+            Ok(())
+        }
+        Command::Investigate {
+            input,
+            fit,
+            train_stream,
+            valid_stream,
+            out,
+            out_static,
+            json,
+        } => {
+            let inputs = [
+                input.points.as_path(),
+                train_stream.as_path(),
+                valid_stream.as_path(),
+            ];
+            for o in out.iter().chain(&out_static).chain(&json) {
+                ensure_not_input(o, &inputs)?;
+            }
+            let points = Points::load(&input.points, &input.maps, None)?;
+            let train = Stream::load(&train_stream, &input.maps)?;
+            let valid = Stream::load(&valid_stream, &input.maps)?;
+            let (inv, blobs) = investigate::investigate(&points, &train, &valid, &fit.gp())?;
+            print!("{}", render_diagnosis(&inv.diagnosis));
+            println!(
+                "static rmse_60s {:.3e} °/s ({:.2} °/h) | cause {} | added {} | extended rmse_60s \
+                 {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
+                inv.static_score.rmse_60s_dps,
+                inv.static_score.rmse_60s_dps * 3600.0,
+                inv.cause(),
+                if inv.added_inputs.is_empty() {
+                    "nothing".to_owned()
+                } else {
+                    inv.added_inputs.join(", ")
+                },
+                inv.extended_score.rmse_60s_dps,
+                inv.extended_score.rmse_60s_dps * 3600.0,
+                inv.gain
+            );
+            if let Some(path) = out {
+                write_atomically(&path, &blobs.extended_blob)?;
+            }
+            if let Some(path) = out_static {
+                write_atomically(&path, &blobs.static_blob)?;
+            }
+            if let Some(path) = json {
+                write_json(&path, &inputs, &inv)?;
             }
             Ok(())
         }

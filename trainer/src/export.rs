@@ -86,18 +86,70 @@ fn split_raw_linear(model: &GpModel) -> (Vec<Vec<u8>>, Vec<f64>, Vec<f64>) {
     (exponents, coefficients, raw)
 }
 
+/// What an extended model adds to a static GP (DESIGN §5: keep the static GP, add the new inputs'
+/// contribution as a term of its own). The kernel and its weights stay the static model's.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Extension {
+    /// Replaces the `Temperature` input (a lag-compensated coil temperature).
+    pub temperature: Option<Feature>,
+    /// Inputs that enter only linearly, with their coefficients.
+    pub terms: Vec<Term>,
+    /// Added to the mean, output units.
+    pub offset: f64,
+}
+
+/// One additive input of an [`Extension`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Term {
+    /// The input.
+    pub feature: Feature,
+    /// Mean += coefficient · input, output units per input unit.
+    pub coefficient: f64,
+    /// Range of the input in the training data (beyond it the firmware flags extrapolation).
+    pub range: (f64, f64),
+}
+
 /// Builds the blob of a fitted GP whose inputs are `features`, in order.
 pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportError> {
+    to_blob_extended(model, features, &Extension::default())
+}
+
+/// Builds the blob of a fitted GP with an [`Extension`]: the additive inputs follow the GP's
+/// inputs, with the kernel ignoring them (blob module doc, `IGNORED_LENGTH_SCALE`).
+pub fn to_blob_extended(
+    model: &GpModel,
+    features: &[Feature],
+    extension: &Extension,
+) -> Result<Vec<u8>, ExportError> {
     let post = &model.posterior;
     let h = &post.hyper;
-    let (m, d) = post.xs.shape();
-    if features.len() != d {
+    let (m, d0) = post.xs.shape();
+    if features.len() != d0 {
         return Err(ExportError::FeatureMismatch {
             features: features.len(),
-            inputs: d,
+            inputs: d0,
         });
     }
-    let (exponents, coefficients, raw) = split_raw_linear(model);
+    let mut features: Vec<Feature> = features.to_vec();
+    if let Some(t) = extension.temperature {
+        for f in features.iter_mut().filter(|f| **f == Feature::Temperature) {
+            *f = t;
+        }
+    }
+    features.extend(extension.terms.iter().map(|t| t.feature));
+    let d = features.len();
+    let (mut exponents, mut coefficients, mut raw) = split_raw_linear(model);
+    for e in &mut exponents {
+        e.resize(d, 0);
+    }
+    match exponents.iter().position(|e| e.iter().all(|&k| k == 0)) {
+        Some(c) => coefficients[c] += extension.offset,
+        None => {
+            exponents.push(vec![0; d]);
+            coefficients.push(extension.offset);
+        }
+    }
+    raw.extend(extension.terms.iter().map(|t| t.coefficient));
     let p = coefficients.len();
     if m > MAX_CENTRES || d > MAX_INPUTS {
         return Err(ExportError::TooLarge(format!(
@@ -108,12 +160,18 @@ pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportE
     let dims = Dims { m, d, p };
     let sf2 = h.signal_std.powi(2);
     let sy = model.output_scale;
+    let extra = |f: &dyn Fn(&Term) -> f64| extension.terms.iter().map(f).collect::<Vec<f64>>();
     let mut floats: Vec<f64> = Vec::with_capacity(dims.floats());
     floats.extend(&model.input_norm.offset);
+    floats.extend(extra(&|_| 0.0));
     floats.extend(&model.input_norm.scale);
+    floats.extend(extra(&|_| 1.0));
     floats.extend(model.input_range.iter().map(|r| r.0));
+    floats.extend(extra(&|t| t.range.0));
     floats.extend(model.input_range.iter().map(|r| r.1));
+    floats.extend(extra(&|t| t.range.1));
     floats.extend(&h.length_scales);
+    floats.extend(extra(&|_| f64::from(blob::IGNORED_LENGTH_SCALE)));
     floats.extend(&coefficients);
     // hi is an f32 (so exact in f64); lo is what it misses, rounded once below.
     let hi: Vec<f64> = raw.iter().map(|&r| f64::from(r as f32)).collect();
@@ -121,7 +179,7 @@ pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportE
     floats.extend(raw.iter().zip(&hi).map(|(r, h)| r - h));
     floats.extend([sf2 * sy * sy, h.noise_std.powi(2) * sy * sy]);
     for i in 0..m {
-        floats.extend((0..d).map(|k| post.xs[(i, k)]));
+        floats.extend((0..d).map(|k| if k < d0 { post.xs[(i, k)] } else { 0.0 }));
     }
     floats.extend(post.alpha.iter().map(|a| a * sf2 * sy));
     let l = post.chol.l_dirty();
@@ -132,11 +190,11 @@ pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportE
     let floats: Vec<f32> = floats.into_iter().map(|v| v as f32).collect();
     let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
     let payload = Payload {
-        features,
+        features: features.as_slice(),
         exponents: exponents.as_slice(),
         floats: floats.as_slice(),
     };
-    let mut buf = vec![0u8; HEADER_LEN + 16 + exponents.len() + 5 * floats.len()];
+    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + exponents.len() + 5 * floats.len()];
     let n = blob::encode(dims, &payload, &mut buf).map_err(ExportError::Blob)?;
     buf.truncate(n);
     Ok(buf)

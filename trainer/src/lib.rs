@@ -2,12 +2,16 @@
 //! paper's Gaussian-process map ω = f(T, V) and its rivals (LS-SVR, the traditional two-step
 //! bias/scale-factor model), and evaluates them the way the paper does.
 
+pub mod cause;
 pub mod cli;
 pub mod data;
+pub mod diagnose;
 pub mod dataset;
 pub mod evaluate;
+pub mod extend;
 pub mod export;
 pub mod gp;
+pub mod investigate;
 pub mod io;
 pub mod kernel;
 pub mod lssvr;

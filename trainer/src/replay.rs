@@ -40,28 +40,38 @@ pub fn status_word(s: Status) -> &'static str {
     }
 }
 
-/// Runs every sample through the firmware. The feature state restarts where time jumps back or
-/// leaves a gap, as firmware would after a reset.
-pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
-    let mut scratch = vec![0.0f32; model.dims().m];
-    let [_, noise_var] = model.variances();
-    let mut state = FeatureState::default();
-    let restarts: std::collections::HashSet<u64> = stream
+/// Per sample: whether the firmware restarts there (time jumps back or leaves a gap: a power
+/// cycle, or a reset the firmware would make), so its stateful features start afresh.
+pub fn restarts(stream: &Stream) -> Vec<bool> {
+    let at: std::collections::HashSet<u64> = stream
         .time_issues
         .iter()
         .filter(|i| !matches!(i, TimeIssue::Duplicate { .. }))
         .map(TimeIssue::line)
         .collect();
+    stream.lines.iter().map(|l| at.contains(l)).collect()
+}
+
+/// Sample `i` as the firmware sees it.
+pub fn sample(stream: &Stream, i: usize) -> Sample {
+    Sample {
+        time_s: stream.time_s[i],
+        temp_c: stream.temp_c[i] as f32,
+        output: stream.voltage_v[i] as f32,
+    }
+}
+
+/// Runs every sample through the firmware, restarting its feature state at [`restarts`].
+pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
+    let mut scratch = vec![0.0f32; model.dims().m];
+    let [_, noise_var] = model.variances();
+    let mut state = FeatureState::default();
     let mut out = Compensated::default();
-    for i in 0..stream.len() {
-        if restarts.contains(&stream.lines[i]) {
-            state = FeatureState::default();
+    for (i, restart) in restarts(stream).into_iter().enumerate() {
+        if restart {
+            state.reset();
         }
-        let sample = Sample {
-            time_s: stream.time_s[i],
-            temp_c: stream.temp_c[i] as f32,
-            output: stream.voltage_v[i] as f32,
-        };
+        let sample = sample(stream, i);
         let (rate, var, status) = match model.compensate(&sample, &mut state, &mut scratch) {
             Ok(p) => (p.mean, p.variance, p.status),
             Err(_) => (0.0, f32::INFINITY, Status::Fault),
@@ -117,20 +127,9 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .iter()
         .filter(|&&i| err(i).abs() <= 2.0 * f64::from(comp.std_dps[i]))
         .count();
-    // 60 s blocks from the first sample; a block counts when at least half of it is scored.
-    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
-    let need = (0.5 * BLOCK_S / stream.step_s).ceil().max(1.0) as usize;
-    let mut blocks: std::collections::BTreeMap<i64, (f64, usize)> = Default::default();
-    for &i in &scored {
-        let b = ((stream.time_s[i] - t0) / BLOCK_S).floor() as i64;
-        let e = blocks.entry(b).or_default();
-        e.0 += err(i);
-        e.1 += 1;
-    }
-    let means: Vec<f64> = blocks
-        .values()
-        .filter(|(_, c)| *c >= need)
-        .map(|(s, c)| s / *c as f64)
+    let means: Vec<f64> = blocks(stream, &scored)
+        .iter()
+        .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
         .collect();
     Score {
         n,
@@ -152,6 +151,19 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         n_fault: comp.status.iter().filter(|s| **s == Status::Fault).count(),
         time_issues: stream.time_issues.clone(),
     }
+}
+
+/// The samples `scored` grouped into 60 s blocks, counted from the first sample of the stream, in
+/// time order; a block counts when at least half of it is there.
+pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
+    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+    let need = (0.5 * BLOCK_S / stream.step_s).ceil().max(1.0) as usize;
+    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
+    for &i in scored {
+        let b = ((stream.time_s[i] - t0) / BLOCK_S).floor() as i64;
+        blocks.entry(b).or_default().push(i);
+    }
+    blocks.into_values().filter(|b| b.len() >= need).collect()
 }
 
 /// The compensated CSV (DESIGN §3): the stream's canonical columns, then `comp_rate_dps`,

@@ -1,7 +1,7 @@
 //! The exported blob is the model: firmware-core (f32) against the trainer (f64), issue 3's
 //! must-show figures, on units the trainer has not been tuned on.
 
-use firmware_sim::{paper, plant::GyroParams};
+use firmware_sim::{effects::Effect, paper, plant::GyroParams};
 use trainer::dataset::POINT_FEATURES;
 use trainer::export::{self, Agreement};
 use trainer::gp::{GpConfig, GpModel};
@@ -30,7 +30,7 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
         ("random 32", GyroParams::random_unit(32), 32),
     ];
     for (name, params, seed) in units {
-        let train = points(&paper::run(&params, seed, false));
+        let train = points(&paper::run(&params, Effect::None, seed, false));
         let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let blob = export::to_blob(&m, &POINT_FEATURES).unwrap();
         let fw = export::decode(&blob).unwrap();

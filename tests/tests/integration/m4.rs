@@ -1,7 +1,7 @@
 //! The Cortex-M4F build under QEMU against the host replay, over a full simulated stream (issue 4).
 //! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`.ci/run` installs both).
 
-use firmware_sim::{paper, plant::GyroParams, qemu, stream};
+use firmware_sim::{effects::Effect, paper, plant::GyroParams, qemu, stream};
 use trainer::dataset::POINT_FEATURES;
 use trainer::gp::{GpConfig, GpModel};
 use trainer::replay;
@@ -11,14 +11,14 @@ use crate::paper::points;
 #[test]
 fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
     let params = GyroParams::nominal();
-    let train = points(&paper::run(&params, 41, false));
+    let train = points(&paper::run(&params, Effect::None, 41, false));
     let model = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
     let blob = trainer::export::to_blob(&model, &POINT_FEATURES).unwrap();
     let firmware = trainer::export::decode(&blob).unwrap();
 
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("s.csv");
-    let rows = stream::run(&params, &stream::StreamConfig::default(), 42);
+    let rows = stream::run(&params, &stream::StreamConfig::default(), Effect::None, 42);
     std::fs::write(&csv, firmware_sim::output::stream_csv(&rows)).unwrap();
     let data = trainer::stream::Stream::load(&csv, &[]).unwrap();
     assert!(data.len() > 30_000, "a full stream: {} samples", data.len());

@@ -1,6 +1,6 @@
 //! The GP on the simulated paper protocol: the model a user would have today.
 
-use firmware_sim::{paper, plant::GyroParams};
+use firmware_sim::{effects::Effect, paper, plant::GyroParams};
 use trainer::dataset::Points;
 use trainer::gp::{GpConfig, GpModel};
 
@@ -17,7 +17,7 @@ pub fn points(p: &[paper::Point]) -> Points {
 /// fitted on them must still compensate the zero-rate position tests.
 #[test]
 fn model_holds_at_zero_rate_between_the_trained_rates() {
-    let all = paper::run(&GyroParams::nominal(), 11, true);
+    let all = paper::run(&GyroParams::nominal(), Effect::None, 11, true);
     let (zero, rates): (Vec<_>, Vec<_>) = all.into_iter().partition(|p| p.table_rate_dps == 0.0);
     let train = points(&rates);
     let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
@@ -31,7 +31,7 @@ fn model_holds_at_zero_rate_between_the_trained_rates() {
 #[test]
 fn gp_fits_units_drawn_from_the_published_ranges() {
     for seed in [21, 22, 23] {
-        let train = points(&paper::run(&GyroParams::random_unit(seed), seed, false));
+        let train = points(&paper::run(&GyroParams::random_unit(seed), Effect::None, seed, false));
         let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let e = m.loo_errors();
         let rmse = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
