@@ -132,7 +132,12 @@ mod tests {
         let features = [Feature::Voltage, Feature::Temperature];
         assert!(compute(&features, &at(3.0, 21.5), &mut state, &mut out));
         assert_eq!(out, [-0.25, 21.5, 0.0]);
-        assert!(!compute(&features, &at(3.0, 21.5), &mut state, &mut out[..1]));
+        assert!(!compute(
+            &features,
+            &at(3.0, 21.5),
+            &mut state,
+            &mut out[..1]
+        ));
     }
 
     /// Runs a 1 Hz ramp of `rate` °C/min from 20 °C for `n` samples; returns the last inputs.
@@ -159,7 +164,10 @@ mod tests {
     #[test]
     fn coil_estimate_trails_a_ramp_by_its_lag() {
         let out = ramp(
-            &[Feature::CoilTemperature { tau_s: 300.0 }, Feature::Temperature],
+            &[
+                Feature::CoilTemperature { tau_s: 300.0 },
+                Feature::Temperature,
+            ],
             1.0,
             3600,
         );

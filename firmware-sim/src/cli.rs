@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use crate::effects::Effect;
-use crate::{output, paper, plant::GyroParams, qemu, stream};
+use crate::{challenge, output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use trainer::cause::Cause;
@@ -37,6 +37,21 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Scores as JSON: n, rmse_dps, rmse_60s_dps, max_abs_err_dps, coverage_2sigma, ….
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Hidden-effect cases through the investigation (static fit → diagnosis → extension → gain):
+    /// the confusion matrix of hidden vs named cause and the gain per case.
+    ///
+    /// Example: firmware-sim challenge --seeds 10 --json challenge.json
+    Challenge {
+        /// Seeds per cause.
+        #[arg(long, default_value_t = 10)]
+        seeds: u64,
+        /// First seed.
+        #[arg(long, default_value_t = 1000)]
+        first_seed: u64,
+        /// Write every case and the matrix as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -155,7 +170,13 @@ impl GenerateCommon {
     }
 
     /// Writes the CSV and, when asked, the JSON summary of `n` rows.
-    fn write(&self, params: &GyroParams, effect: Effect, csv: &str, n: usize) -> anyhow::Result<()> {
+    fn write(
+        &self,
+        params: &GyroParams,
+        effect: Effect,
+        csv: &str,
+        n: usize,
+    ) -> anyhow::Result<()> {
         write_atomically(&self.out, csv.as_bytes())?;
         if let Some(path) = &self.json {
             write_json(
@@ -189,6 +210,54 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let cfg = stream::StreamConfig::default();
             let rows = stream::run(&params, &cfg, effect, common.seed);
             common.write(&params, effect, &output::stream_csv(&rows), rows.len())
+        }
+        Command::Challenge {
+            seeds,
+            first_seed,
+            json,
+        } => {
+            eprintln!(
+                "{} cases ({seeds} seeds × 6 causes), each: points + two 8.75 h streams → investigate…",
+                6 * seeds
+            );
+            let cases = challenge::run(seeds, first_seed)?;
+            for c in &cases {
+                println!(
+                    "{:<14} strength {:>6.2} seed {:>5} → {:<14} static {:.3e} extended {:.3e} °/s gain {:.2}×",
+                    c.hidden.cause().id(),
+                    c.hidden.strength(),
+                    c.seed,
+                    c.named.id(),
+                    c.static_rmse_60s_dps,
+                    c.extended_rmse_60s_dps,
+                    c.gain
+                );
+            }
+            let (matrix, table) = challenge::confusion(&cases);
+            let correct = (0..6).map(|i| matrix[i][i]).sum::<usize>();
+            let false_alarms = cases
+                .iter()
+                .filter(|c| c.hidden.cause() == Cause::None && c.named != Cause::None)
+                .count();
+            print!("{table}");
+            println!(
+                "accuracy {correct}/{} = {:.1}%; false alarms on none: {false_alarms}",
+                cases.len(),
+                100.0 * correct as f64 / cases.len().max(1) as f64
+            );
+            if let Some(path) = json {
+                write_json(
+                    &path,
+                    &serde_json::json!({
+                        "cases": cases,
+                        "confusion": matrix,
+                        "order": Cause::ALL,
+                        "accuracy": correct as f64 / cases.len().max(1) as f64,
+                        "false_alarms_none": false_alarms,
+                    }),
+                )?;
+            }
+            Ok(())
         }
         Command::Replay { input, out, json } => {
             let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;

@@ -4,6 +4,7 @@
 //! The simulator is the ground truth of the project's tests: every number it produces can be
 //! reproduced from a seed, and the physics behind it is documented in [`plant`].
 
+pub mod challenge;
 pub mod cli;
 pub mod effects;
 pub mod output;

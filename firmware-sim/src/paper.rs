@@ -107,8 +107,14 @@ mod tests {
     #[test]
     fn same_seed_same_points_other_seed_other_noise() {
         let p = GyroParams::nominal();
-        assert_eq!(run(&p, Effect::None, 3, false), run(&p, Effect::None, 3, false));
-        assert_ne!(run(&p, Effect::None, 3, false), run(&p, Effect::None, 4, false));
+        assert_eq!(
+            run(&p, Effect::None, 3, false),
+            run(&p, Effect::None, 3, false)
+        );
+        assert_ne!(
+            run(&p, Effect::None, 3, false),
+            run(&p, Effect::None, 4, false)
+        );
     }
 
     #[test]

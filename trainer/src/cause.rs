@@ -80,7 +80,10 @@ mod tests {
     fn ids_round_trip_through_text_and_json() {
         for c in Cause::ALL {
             assert_eq!(c.id().parse::<Cause>().unwrap(), c);
-            assert_eq!(serde_json::to_string(&c).unwrap(), format!("\"{}\"", c.id()));
+            assert_eq!(
+                serde_json::to_string(&c).unwrap(),
+                format!("\"{}\"", c.id())
+            );
         }
         assert!("shupe".parse::<Cause>().is_err());
     }

@@ -9,8 +9,8 @@ use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export;
 use crate::extend;
-use crate::investigate;
 use crate::gp::{GpConfig, GpModel};
+use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically};
 use crate::prior::MeanBasis;
 use crate::reproduce::Reproduction;
@@ -264,7 +264,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 let data = Stream::load(path, &input.maps)?;
                 let causes = if list == "auto" {
                     let d = diagnose::diagnose(&firmware, &data);
-                    println!("diagnosis of {}: {} — {}", path.display(), d.cause, d.explanation);
+                    println!(
+                        "diagnosis of {}: {} — {}",
+                        path.display(),
+                        d.cause,
+                        d.explanation
+                    );
                     summary["diagnosis"] = serde_json::to_value(&d)?;
                     vec![d.cause]
                 } else {
@@ -322,8 +327,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let bytes =
                 std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
-            let fw = export::decode(&bytes)
-                .with_context(|| format!("decoding {}", model.display()))?;
+            let fw =
+                export::decode(&bytes).with_context(|| format!("decoding {}", model.display()))?;
             let data = Stream::load(&stream, &maps)?;
             let d = diagnose::diagnose(&fw, &data);
             print!("{}", render_diagnosis(&d));

@@ -52,11 +52,14 @@ const FOLDS: usize = 5;
 /// Filter time constants tried for the temperature rate, s.
 const RATE_TAUS_S: [f32; 5] = [30.0, 60.0, 120.0, 240.0, 480.0];
 /// Coil lags tried, s.
-pub const LAG_TAUS_S: [f32; 8] = [60.0, 120.0, 240.0, 420.0, 600.0, 900.0, 1200.0, 1800.0];
+pub const LAG_TAUS_S: [f32; 16] = [
+    60.0, 90.0, 120.0, 180.0, 240.0, 300.0, 360.0, 420.0, 510.0, 600.0, 720.0, 840.0, 960.0,
+    1200.0, 1500.0, 1800.0,
+];
 /// Warm-up time constants tried, s.
 const WARM_UP_TAUS_S: [f32; 7] = [180.0, 300.0, 600.0, 900.0, 1200.0, 1800.0, 2700.0];
 /// Play half-widths tried, °C.
-const PLAY_WIDTHS_C: [f32; 5] = [0.5, 1.0, 2.0, 4.0, 8.0];
+const PLAY_WIDTHS_C: [f32; 9] = [0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0];
 
 /// What the model lacks for each cause: the input that corrects it, at parameter `p`.
 pub fn feature_for(cause: Cause, p: f32) -> Option<Feature> {
@@ -277,9 +280,7 @@ pub fn fit_cause(res: &Residual<'_>, cause: Cause) -> Option<CauseFit> {
     for f in 0..FOLDS {
         let train: Vec<usize> = (0..n).filter(|&i| folds[i] != f).collect();
         let test: Vec<usize> = (0..n).filter(|&i| folds[i] == f).collect();
-        let Some((_, x, (a, b, _))) = best_on(&train) else {
-            return None;
-        };
+        let (_, x, (a, b, _)) = best_on(&train)?;
         let (m, _, _) = ols(None, y, &train);
         for &i in &test {
             let pred = a + b * x.map_or(0.0, |x| x[i]);
@@ -374,7 +375,11 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
 
 fn explain(cause: Cause, named: Option<&CauseFit>, other: Option<&CauseFit>, rmse: f64) -> String {
     let rival = other.map_or(String::new(), |o| {
-        format!("; runner-up {} predicts {:.0}%", o.id, 100.0 * o.score.max(0.0))
+        format!(
+            "; runner-up {} predicts {:.0}%",
+            o.id,
+            100.0 * o.score.max(0.0)
+        )
     });
     let Some(c) = named.filter(|_| cause != Cause::None) else {
         return format!(

@@ -5,11 +5,11 @@
 pub mod cause;
 pub mod cli;
 pub mod data;
-pub mod diagnose;
 pub mod dataset;
+pub mod diagnose;
 pub mod evaluate;
-pub mod extend;
 pub mod export;
+pub mod extend;
 pub mod gp;
 pub mod investigate;
 pub mod io;

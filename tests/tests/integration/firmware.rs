@@ -43,3 +43,45 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
         check(&format!("{name} beyond"), &r.grid_beyond, false);
     }
 }
+
+#[test]
+fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
+    use firmware_core::{Feature, FeatureState, Sample};
+    use trainer::export::{Extension, Term};
+    let train = points(&paper::run(&GyroParams::nominal(), Effect::None, 5, false));
+    let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+    let fw = export::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
+    let extension = Extension {
+        temperature: None,
+        terms: vec![Term {
+            feature: Feature::TimeOn,
+            coefficient: -2e-3,
+            range: (0.0, 10.0),
+        }],
+        offset: 1e-3,
+    };
+    let blob = export::to_blob_extended(&m, &POINT_FEATURES, &extension).unwrap();
+    let ext = export::decode(&blob).unwrap();
+    assert_eq!(
+        ext.features(),
+        &[Feature::Temperature, Feature::Voltage, Feature::TimeOn]
+    );
+    let (mut s0, mut s1) = (FeatureState::default(), FeatureState::default());
+    let mut scratch = vec![0.0f32; 140];
+    for (k, hours) in [0.0f64, 1.0, 5.0].into_iter().enumerate() {
+        let sample = Sample {
+            time_s: hours * 3600.0,
+            temp_c: 10.0 + 5.0 * k as f32,
+            output: 0.5 - 0.3 * k as f32,
+        };
+        let a = fw.compensate(&sample, &mut s0, &mut scratch).unwrap();
+        let b = ext.compensate(&sample, &mut s1, &mut scratch).unwrap();
+        let expected = f64::from(a.mean) + 1e-3 - 2e-3 * hours;
+        assert!(
+            (f64::from(b.mean) - expected).abs() < 2e-6,
+            "{hours} h: {b:?} vs {expected}"
+        );
+        // The kernel ignores the added input: the variance is the static model's.
+        assert!((b.variance - a.variance).abs() <= 1e-6 * a.variance.abs().max(1e-12));
+    }
+}

@@ -1,6 +1,7 @@
 //! Cross-crate integration tests: one binary, one module per capability.
 
 mod cli;
+mod diagnosis;
 mod firmware;
 mod m4;
 mod paper;

@@ -31,7 +31,12 @@ fn model_holds_at_zero_rate_between_the_trained_rates() {
 #[test]
 fn gp_fits_units_drawn_from_the_published_ranges() {
     for seed in [21, 22, 23] {
-        let train = points(&paper::run(&GyroParams::random_unit(seed), Effect::None, seed, false));
+        let train = points(&paper::run(
+            &GyroParams::random_unit(seed),
+            Effect::None,
+            seed,
+            false,
+        ));
         let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let e = m.loo_errors();
         let rmse = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
