@@ -103,11 +103,13 @@ pub fn build_image() -> Result<PathBuf, QemuError> {
 pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuError> {
     let dir = tempfile::tempdir()?;
     std::fs::write(dir.path().join("model.bin"), blob)?;
-    let mut samples = Vec::with_capacity(16 * stream.len());
-    for i in 0..stream.len() {
+    // The image's record (its module doc): the host replay's restarts become power-on flags.
+    let mut samples = Vec::with_capacity(20 * stream.len());
+    for (i, power_on) in trainer::replay::restarts(stream).into_iter().enumerate() {
         samples.extend(stream.time_s[i].to_le_bytes());
         samples.extend((stream.temp_c[i] as f32).to_le_bytes());
         samples.extend((stream.voltage_v[i] as f32).to_le_bytes());
+        samples.extend(u32::from(power_on).to_le_bytes());
     }
     std::fs::write(dir.path().join("samples.bin"), samples)?;
     let mut child = Command::new("qemu-system-arm")

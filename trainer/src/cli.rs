@@ -275,8 +275,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 } else {
                     extend::parse_features(list)?
                 };
-                let fitted = extend::fit(&firmware, &data, &causes)?;
-                blob = export::to_blob_extended(&model, &POINT_FEATURES, &fitted.extension)?;
+                let extended = extend::fit(&model, &points, &data, &causes)?;
+                let fitted = extended.fitted;
+                blob = extended.blob;
                 let ext = export::decode(&blob)?;
                 println!(
                     "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",

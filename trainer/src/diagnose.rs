@@ -150,6 +150,11 @@ impl<'a> Residual<'a> {
             .collect()
     }
 
+    /// Block means of the sensor temperature, °C.
+    pub fn temperature(&self) -> Vec<f64> {
+        self.block_means(&self.stream.temp_c)
+    }
+
     /// One feature along the stream, as the firmware computes it (state restarted at restarts).
     fn series(&self, feature: Feature) -> Vec<f64> {
         let mut state = FeatureState::default();
@@ -253,18 +258,33 @@ pub struct CauseFit {
     pub amplitude_dph: f64,
 }
 
+/// A cause's regressor at each parameter of its grid (one absent regressor for `none`).
+pub type Candidates = Vec<(f32, Option<Vec<f64>>)>;
+
+/// The regressors of `cause` over its parameter grid.
+pub fn candidates(res: &Residual<'_>, cause: Cause) -> Candidates {
+    if cause == Cause::None {
+        return vec![(0.0, None)];
+    }
+    grid(cause)
+        .iter()
+        .filter_map(|&p| res.regressor(cause, p).map(|x| (p, Some(x))))
+        .collect()
+}
+
 /// Fits `cause` on all blocks and scores it out of sample.
 pub fn fit_cause(res: &Residual<'_>, cause: Cause) -> Option<CauseFit> {
+    fit_candidates(res, cause, &candidates(res, cause))
+}
+
+/// [`fit_cause`] over regressors already computed by [`candidates`].
+pub fn fit_candidates(
+    res: &Residual<'_>,
+    cause: Cause,
+    candidates: &Candidates,
+) -> Option<CauseFit> {
     let n = res.len();
     let folds: Vec<usize> = (0..n).map(|b| (b / CHUNK_BLOCKS) % FOLDS).collect();
-    let candidates: Vec<(f32, Option<Vec<f64>>)> = if cause == Cause::None {
-        vec![(0.0, None)]
-    } else {
-        grid(cause)
-            .iter()
-            .filter_map(|&p| res.regressor(cause, p).map(|x| (p, Some(x))))
-            .collect()
-    };
     if candidates.is_empty() || n < 2 * FOLDS {
         return None;
     }

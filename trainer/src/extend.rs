@@ -1,10 +1,11 @@
 //! Extending a static model with the inputs a diagnosed cause calls for, fitted on a stream that
 //! excites them.
 //!
-//! Structure (DESIGN §5's measured lesson): the static GP stays as it was fitted on the soaked
-//! points; the new inputs enter as an additive term learned from the training stream's residual
-//! under that GP — linear in each new input, whose own parameter (filter, lag, decay time constant,
-//! play width) is chosen by grid on the same residual — plus an offset. A sensor lag is corrected
+//! Structure (DESIGN §5's measured lesson): the static GP keeps the kernel it was fitted with on
+//! the soaked points; the new inputs enter as an additive term learned from the training stream's
+//! residual under that GP — linear in each new input, whose own parameter (filter, lag, decay time
+//! constant, play width) is chosen by grid on the same residual — plus an offset. A thermal state
+//! also corrects the points' targets for the state they were soaked in ([`fit`]). A sensor lag is corrected
 //! where it arises: the temperature input becomes a coil-temperature estimate with the fitted lag,
 //! and the GP is evaluated there. All inputs are computed by firmware-core's feature pipeline, so
 //! the blob runs on the gyro as it was fitted.
@@ -20,8 +21,10 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use crate::cause::Cause;
-use crate::diagnose::{self, CauseFit, Residual};
-use crate::export::{Extension, HostModel, Term};
+use crate::dataset::{POINT_FEATURES, Points, plateaus};
+use crate::diagnose::{self, Candidates, CauseFit, Residual};
+use crate::export::{self, ExportError, Extension, Term};
+use crate::gp::{GpError, GpModel};
 use crate::stream::Stream;
 
 /// Names of the inputs `--features` accepts, with the cause each corrects.
@@ -56,6 +59,12 @@ pub enum ExtendError {
     /// A cause whose input does not apply to this model (a lag without a temperature input).
     #[error("{0} does not apply to this model (it has no temperature input)")]
     NotApplicable(Cause),
+    /// Conditioning the GP on the corrected points failed.
+    #[error(transparent)]
+    Gp(#[from] GpError),
+    /// The blob could not be built or read back.
+    #[error(transparent)]
+    Export(#[from] ExportError),
 }
 
 /// Parses a `--features` list (comma-separated input names) into causes.
@@ -82,11 +91,47 @@ pub struct Fitted {
     pub fits: Vec<CauseFit>,
     /// RMS of the training residual's block means before and after, °/s.
     pub train_rmse_60s_dps: [f64; 2],
+    /// For a thermal state: the offset the points carried at each plateau temperature, removed
+    /// from their targets before the GP was conditioned again (empty otherwise).
+    pub point_offsets: Vec<PointOffset>,
 }
 
-/// Fits the inputs for `causes` on `stream`'s residual under the static model `fw`.
-pub fn fit(fw: &HostModel, stream: &Stream, causes: &[Cause]) -> Result<Fitted, ExtendError> {
-    let res = Residual::new(fw, stream);
+/// The offset the static GP absorbed from the points at one plateau temperature.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PointOffset {
+    /// Plateau temperature, °C.
+    pub temp_c: f64,
+    /// Offset removed from the points' targets there, °/s.
+    pub offset_dps: f64,
+}
+
+/// An extended model: the fit and its blob.
+pub struct Extended {
+    /// The fit.
+    pub fitted: Fitted,
+    /// The extended model's blob.
+    pub blob: Vec<u8>,
+}
+
+/// Fits the inputs for `causes` on `stream`'s residual under the static GP `model` fitted on
+/// `points`, and builds the extended blob.
+///
+/// A thermal state needs one more step. The points were soaked in one state per temperature —
+/// whichever way the chamber reached it — and the static GP absorbed that state's offset there;
+/// a state term on top would count it twice where the points' state differs from the stream's.
+/// So with a thermal state the constant of the regression becomes a piecewise-linear function of
+/// temperature over the points' plateaus (hat functions, a weak penalty on neighbouring
+/// differences where the stream leaves a plateau unvisited): at each plateau it is the offset the
+/// points carried, which is taken out of their targets before the GP is conditioned again at the
+/// hyperparameters the marginal likelihood chose.
+pub fn fit(
+    model: &GpModel,
+    points: &Points,
+    stream: &Stream,
+    causes: &[Cause],
+) -> Result<Extended, ExtendError> {
+    let fw = export::decode(&export::to_blob(model, &POINT_FEATURES)?)?;
+    let res = Residual::new(&fw, stream);
     if res.len() < 30 {
         return Err(ExtendError::TooShort(res.len()));
     }
@@ -95,63 +140,169 @@ pub fn fit(fw: &HostModel, stream: &Stream, causes: &[Cause]) -> Result<Fitted, 
     let mut fits = Vec::new();
     let mut columns: Vec<(Feature, Vec<f64>)> = Vec::new();
     for &cause in causes.iter().filter(|c| **c != Cause::None) {
-        let fit = diagnose::fit_cause(&res, cause).ok_or(ExtendError::NotApplicable(cause))?;
-        let p = fit.parameter as f32;
-        let feature = diagnose::feature_for(cause, p).ok_or(ExtendError::NotApplicable(cause))?;
+        let candidates = diagnose::candidates(&res, cause);
+        let fit = diagnose::fit_candidates(&res, cause, &candidates)
+            .ok_or(ExtendError::NotApplicable(cause))?;
         if cause == Cause::SensorLag {
             // r = f(T_s) − f(T_c) ≈ −x: the coil estimate removes x from the residual itself.
-            let lag = best_lag(&res).ok_or(ExtendError::NotApplicable(cause))?;
-            let x = res
-                .regressor(cause, lag)
-                .ok_or(ExtendError::NotApplicable(cause))?;
-            y.iter_mut().zip(&x).for_each(|(y, x)| *y += x);
+            let (lag, x) =
+                best_lag(&res.r, &candidates).ok_or(ExtendError::NotApplicable(cause))?;
+            y.iter_mut().zip(x).for_each(|(y, x)| *y += x);
             extension.temperature = diagnose::feature_for(cause, lag);
         } else {
-            let x = res
-                .regressor(cause, p)
+            let p = fit.parameter as f32;
+            let feature =
+                diagnose::feature_for(cause, p).ok_or(ExtendError::NotApplicable(cause))?;
+            let x = candidates
+                .into_iter()
+                .find(|(q, _)| *q == p)
+                .and_then(|(_, x)| x)
                 .ok_or(ExtendError::NotApplicable(cause))?;
             columns.push((feature, x));
         }
         fits.push(fit);
     }
-    // Joint least squares of the residual on [1, x_1 … x_k]; the model subtracts the fit.
+    let knots = if causes.contains(&Cause::Hysteresis) {
+        plateau_temperatures(&points.temp_c)
+    } else {
+        Vec::new()
+    };
+    // Least squares of the residual on [constant part, x_1 … x_k]; the model subtracts the fit.
     let n = y.len();
-    let mut a = DMatrix::from_element(n, columns.len() + 1, 1.0);
-    for (j, (_, x)) in columns.iter().enumerate() {
-        a.set_column(j + 1, &DVector::from_column_slice(x));
+    let k = knots.len().max(1);
+    let penalties = knots.len().saturating_sub(1);
+    let mut a = DMatrix::zeros(n + penalties, k + columns.len());
+    if knots.is_empty() {
+        a.view_mut((0, 0), (n, 1)).fill(1.0);
+    } else {
+        for (i, t) in res.temperature().iter().enumerate() {
+            for (j, w) in hat_weights(&knots, *t) {
+                a[(i, j)] += w;
+            }
+        }
+        for j in 0..penalties {
+            a[(n + j, j)] = PENALTY_WEIGHT;
+            a[(n + j, j + 1)] = -PENALTY_WEIGHT;
+        }
     }
-    let b = DVector::from_column_slice(&y);
+    for (j, (_, x)) in columns.iter().enumerate() {
+        a.view_mut((0, k + j), (n, 1))
+            .copy_from(&DVector::from_column_slice(x));
+    }
+    let mut b = DVector::zeros(n + penalties);
+    b.rows_mut(0, n).copy_from_slice(&y);
     let beta = a
         .clone()
         .svd(true, true)
         .solve(&b, 1e-12)
-        .unwrap_or_else(|_| DVector::zeros(columns.len() + 1));
-    let after = &b - &a * &beta;
-    extension.offset = -beta[0];
+        .unwrap_or_else(|_| DVector::zeros(a.ncols()));
+    let after = (&b - &a * &beta).rows(0, n).norm_squared();
     for (j, (feature, _)) in columns.iter().enumerate() {
         extension.terms.push(Term {
             feature: *feature,
-            coefficient: -beta[j + 1],
+            coefficient: -beta[k + j],
             range: res.range(*feature),
         });
     }
-    Ok(Fitted {
-        extension,
-        fits,
-        train_rmse_60s_dps: [res.rmse_60s(), (after.norm_squared() / n as f64).sqrt()],
+    let (model, point_offsets) = if knots.is_empty() {
+        extension.offset = -beta[0];
+        (model.clone(), Vec::new())
+    } else {
+        let offsets: Vec<f64> = beta.rows(0, k).iter().copied().collect();
+        let target =
+            points
+                .target()
+                .zip_map(&DVector::from_column_slice(&points.temp_c), |w, t| {
+                    w - hat_weights(&knots, t)
+                        .map(|(j, h)| h * offsets[j])
+                        .sum::<f64>()
+                });
+        let refit = model.refit_targets(&points.inputs(), &target)?;
+        let table = knots
+            .iter()
+            .zip(&offsets)
+            .map(|(&temp_c, &offset_dps)| PointOffset { temp_c, offset_dps })
+            .collect();
+        (refit, table)
+    };
+    let blob = export::to_blob_extended(&model, &POINT_FEATURES, &extension)?;
+    Ok(Extended {
+        fitted: Fitted {
+            extension,
+            fits,
+            train_rmse_60s_dps: [res.rmse_60s(), (after / n as f64).sqrt()],
+            point_offsets,
+        },
+        blob,
     })
 }
 
-/// The coil lag whose estimate best removes the residual (least squares with an offset).
-fn best_lag(res: &Residual<'_>) -> Option<f32> {
-    diagnose::LAG_TAUS_S
+/// Weight of a difference between neighbouring plateau offsets against one 60 s block's
+/// residual: weak, so that it only decides offsets the stream does not visit.
+const PENALTY_WEIGHT: f64 = 1.0;
+
+/// Mean temperature of each of the points' plateaus, ascending.
+fn plateau_temperatures(temps: &[f64]) -> Vec<f64> {
+    let id = plateaus(temps);
+    let count = id.iter().max().map_or(0, |m| m + 1);
+    let mut sum = vec![(0.0, 0usize); count];
+    for (&p, &t) in id.iter().zip(temps) {
+        sum[p].0 += t;
+        sum[p].1 += 1;
+    }
+    sum.into_iter().map(|(s, n)| s / n as f64).collect()
+}
+
+/// Piecewise-linear interpolation weights of `t` on ascending `knots` (held constant beyond the
+/// ends): at most two (index, weight) pairs summing to one.
+fn hat_weights(knots: &[f64], t: f64) -> impl Iterator<Item = (usize, f64)> {
+    let last = knots.len() - 1;
+    let j = knots.partition_point(|&k| k <= t);
+    let pair = if j == 0 {
+        [(0, 1.0), (0, 0.0)]
+    } else if j > last {
+        [(last, 1.0), (last, 0.0)]
+    } else {
+        let w = (t - knots[j - 1]) / (knots[j] - knots[j - 1]);
+        [(j - 1, 1.0 - w), (j, w)]
+    };
+    pair.into_iter()
+}
+
+/// The coil lag whose estimate best removes the residual (least squares with an offset), with
+/// its regressor.
+fn best_lag<'c>(r: &[f64], candidates: &'c Candidates) -> Option<(f32, &'c [f64])> {
+    candidates
         .iter()
-        .filter_map(|&tau| {
-            let x = res.regressor(Cause::SensorLag, tau)?;
-            let z: Vec<f64> = res.r.iter().zip(&x).map(|(r, x)| r + x).collect();
+        .filter_map(|(tau, x)| {
+            let x = x.as_deref()?;
+            let z: Vec<f64> = r.iter().zip(x).map(|(r, x)| r + x).collect();
             let m = z.iter().sum::<f64>() / z.len() as f64;
-            Some((tau, z.iter().map(|v| (v - m).powi(2)).sum::<f64>()))
+            Some((*tau, x, z.iter().map(|v| (v - m).powi(2)).sum::<f64>()))
         })
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(tau, _)| tau)
+        .min_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|(tau, x, _)| (tau, x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hat_weights_interpolate_and_hold_at_the_ends() {
+        let knots = [-30.0, -20.0, 0.0];
+        let w = |t| hat_weights(&knots, t).collect::<Vec<_>>();
+        assert_eq!(w(-40.0)[0], (0, 1.0));
+        assert_eq!(w(5.0)[0], (2, 1.0));
+        assert_eq!(w(-25.0), vec![(0, 0.5), (1, 0.5)]);
+        assert_eq!(w(-5.0), vec![(1, 0.25), (2, 0.75)]);
+        assert_eq!(w(0.0)[0], (2, 1.0));
+    }
+
+    #[test]
+    fn plateau_temperatures_are_means_ascending() {
+        let t = plateau_temperatures(&[20.1, -9.9, 19.9, -10.1, 40.0]);
+        assert_eq!(t.len(), 3);
+        assert!((t[0] + 10.0).abs() < 1e-12 && (t[1] - 20.0).abs() < 1e-12 && t[2] == 40.0);
+    }
 }

@@ -676,23 +676,51 @@ impl GpModel {
         reports.push(optimize_from(&data, searched.0.clone(), cfg, POLISH));
         let best = best_of(&reports).map_or(searched.0, |b| b.0);
         let posterior = data.condition(Hyperparameters::from_log(&best))?;
+        Ok(Self::assemble(x, cfg.mean, data, posterior, reports, t0))
+    }
+
+    /// The GP with this model's hyperparameters and mean basis conditioned on other targets at
+    /// the same inputs `x`: no optimization (an extension corrects the points' targets and keeps
+    /// the kernel the marginal likelihood chose).
+    pub fn refit_targets(&self, x: &DMatrix<f64>, target: &DVector<f64>) -> Result<Self, GpError> {
+        let t0 = Instant::now();
+        let data = Prepared::new(x, target, self.basis);
+        let posterior = data.condition(self.posterior.hyper.clone())?;
+        Ok(Self::assemble(
+            x,
+            self.basis,
+            data,
+            posterior,
+            Vec::new(),
+            t0,
+        ))
+    }
+
+    fn assemble(
+        x: &DMatrix<f64>,
+        basis: MeanBasis,
+        data: Prepared,
+        posterior: Posterior,
+        starts: Vec<StartReport>,
+        t0: Instant,
+    ) -> Self {
         let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
         // The mean in output units: c₀ + s_y β̂.
         let mut prior = data.prior;
         for (c, b) in prior.coefficients.iter_mut().zip(&posterior.beta) {
             *c += data.scale * b;
         }
-        Ok(Self {
+        Self {
             input_norm: data.norm,
             input_range,
-            basis: cfg.mean,
+            basis,
             prior,
             output_scale: data.scale,
             posterior,
             y: data.y,
-            starts: reports,
+            starts,
             fit_seconds: t0.elapsed().as_secs_f64(),
-        })
+        }
     }
 
     /// Prediction at one raw sample.

@@ -62,9 +62,8 @@ pub fn investigate(
     let (extension, extended_blob) = if cause == Cause::None {
         (None, static_blob.clone())
     } else {
-        let fitted = extend::fit(&fw, train, &[cause])?;
-        let blob = export::to_blob_extended(&model, &POINT_FEATURES, &fitted.extension)?;
-        (Some(fitted), blob)
+        let ext = extend::fit(&model, points, train, &[cause])?;
+        (Some(ext.fitted), ext.blob)
     };
     let ext = export::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&ext, valid));

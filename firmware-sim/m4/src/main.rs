@@ -1,8 +1,9 @@
 //! firmware-core on a Cortex-M4F, run under QEMU (`mps2-an386`) by `firmware-sim qemu`.
 //!
 //! The host puts three files in QEMU's working directory and the image reaches them over
-//! semihosting: `model.bin` (the blob), `samples.bin` (16 bytes per sample: time f64, temperature
-//! f32, output f32, little-endian). The image decodes the model into fixed capacities, runs every
+//! semihosting: `model.bin` (the blob), `samples.bin` (20 bytes per sample: time f64, temperature
+//! f32, output f32, flags u32, little-endian; flag bit 0 marks a power-on, where a gyro's
+//! firmware would boot with a fresh feature state). The image decodes the model into fixed capacities, runs every
 //! sample through the feature pipeline and the evaluator, and writes `out.bin` (9 bytes per
 //! sample: mean f32, variance f32, status u8). Then it measures its own cost: SysTick ticks over
 //! the first samples for an empty loop, the mean path and the mean + variance path; ticks for
@@ -38,7 +39,9 @@ const N: usize = 7 * D + 16 + 2 + 256 * D + 256 + 256 * 257 / 2;
 const BLOB_MAX: usize = 64 + E + D + 5 * N;
 /// Samples whose cost is measured.
 const COST_SAMPLES: usize = 64;
-const SAMPLE_BYTES: usize = 16;
+const SAMPLE_BYTES: usize = 20;
+/// Flag bit of a power-on sample.
+const POWER_ON: u32 = 1;
 const OUT_BYTES: usize = 9;
 /// `expf` calls timed.
 const EXP_CALLS: usize = 256;
@@ -66,14 +69,17 @@ fn read_full(file: &mut fs::File, buf: &mut [u8]) -> usize {
     filled
 }
 
-fn parse(chunk: &[u8]) -> Sample {
+/// One sample record, and whether it is a power-on.
+fn parse(chunk: &[u8]) -> (Sample, bool) {
     let f64_at = |a: usize| f64::from_le_bytes(chunk[a..a + 8].try_into().unwrap_or([0; 8]));
     let f32_at = |a: usize| f32::from_le_bytes(chunk[a..a + 4].try_into().unwrap_or([0; 4]));
-    Sample {
+    let flags = u32::from_le_bytes(chunk[16..20].try_into().unwrap_or([0; 4]));
+    let sample = Sample {
         time_s: f64_at(0),
         temp_c: f32_at(8),
         output: f32_at(12),
-    }
+    };
+    (sample, flags & POWER_ON != 0)
 }
 
 /// SysTick ticks elapsed while `work` runs (the counter counts down from its 24-bit reload).
@@ -133,7 +139,10 @@ fn main() -> ! {
             break;
         }
         for i in 0..got {
-            let sample = parse(&inbuf[i * SAMPLE_BYTES..(i + 1) * SAMPLE_BYTES]);
+            let (sample, power_on) = parse(&inbuf[i * SAMPLE_BYTES..(i + 1) * SAMPLE_BYTES]);
+            if power_on {
+                state.reset();
+            }
             if let Some(slot) = first.get_mut(seen + i) {
                 *slot = sample;
             }

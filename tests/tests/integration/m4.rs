@@ -53,3 +53,80 @@ fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
         m4.cost
     );
 }
+
+/// The command-line path of an extension (static fit, `diagnose`, `fit --features`) and its blob on
+/// the Cortex-M4F: a stateful input and a refitted GP run there as they do on the host.
+#[test]
+fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
+    use crate::{at, json, sim};
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name| at(dir.path(), name);
+    let effect = ["--effect", "hysteresis", "--strength", "20"];
+    sim(&[
+        &["generate", "paper", "--seed", "5", "--out", &p("p.csv")][..],
+        &effect,
+    ]
+    .concat())
+    .unwrap();
+    sim(&[
+        &["generate", "stream", "--seed", "6", "--out", &p("s.csv")][..],
+        &effect,
+    ]
+    .concat())
+    .unwrap();
+    crate::trainer(&["fit", "--points", &p("p.csv"), "--out", &p("static.bin")]).unwrap();
+    crate::trainer(&[
+        "diagnose",
+        "--model",
+        &p("static.bin"),
+        "--stream",
+        &p("s.csv"),
+        "--json",
+        &p("d.json"),
+    ])
+    .unwrap();
+    assert_eq!(json(p("d.json"))["cause"], "hysteresis");
+    crate::trainer(&[
+        "fit",
+        "--points",
+        &p("p.csv"),
+        "--stream",
+        &p("s.csv"),
+        "--features",
+        "thermal-state",
+        "--out",
+        &p("ext.bin"),
+        "--json",
+        &p("ext.json"),
+    ])
+    .unwrap();
+    let summary = json(p("ext.json"));
+    let rmse = &summary["extension"]["train_rmse_60s_dps"];
+    assert!(
+        rmse[1].as_f64().unwrap() < rmse[0].as_f64().unwrap() / 3.0,
+        "{rmse}"
+    );
+    assert!(
+        summary["extension"]["point_offsets"]
+            .as_array()
+            .unwrap()
+            .len()
+            >= 8
+    );
+
+    let blob = std::fs::read(p("ext.bin")).unwrap();
+    let firmware = trainer::export::decode(&blob).unwrap();
+    assert!(
+        firmware
+            .features()
+            .iter()
+            .any(|f| matches!(f, firmware_core::Feature::ThermalState { .. }))
+    );
+    let data = trainer::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
+    let host = replay::replay(&firmware, &data);
+    let image = qemu::build_image().unwrap();
+    let m4 = qemu::run(&image, &blob, &data).unwrap();
+    let agreement = qemu::compare(&host, &m4.compensated);
+    assert_eq!(agreement.identical, data.len(), "{agreement:?}");
+    assert!(agreement.statuses_equal);
+}
