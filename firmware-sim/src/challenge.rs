@@ -56,10 +56,10 @@ pub fn run_case(cause: Cause, seed: u64) -> anyhow::Result<Case> {
         &valid_path,
         output::stream_csv(&stream::run(&params, &cfg, hidden, seed + 2)),
     )?;
-    let points = Points::load(&points_path, &[], None)?;
+    let points = Points::load(&points_path, &[], None, None)?;
     let train = Stream::load(&train_path, &[])?;
     let valid = Stream::load(&valid_path, &[])?;
-    let (inv, _) = investigate::investigate(&points, &train, &valid, &GpConfig::default())?;
+    let (inv, _) = investigate::investigate(&points, &train, &valid, &GpConfig::default(), None)?;
     Ok(Case {
         hidden,
         seed,

@@ -13,7 +13,7 @@ fn main() -> anyhow::Result<()> {
         .next()
         .ok_or_else(|| anyhow::anyhow!("usage: fit_timing POINTS [REPEATS]"))?;
     let repeats: usize = args.next().map_or(Ok(11), |s| s.parse())?;
-    let points = Points::load(std::path::Path::new(&path), &[], None)?;
+    let points = Points::load(std::path::Path::new(&path), &[], None, None)?;
     let (x, y) = (points.inputs(), points.target());
     let cfg = GpConfig {
         mean: MeanBasis::Constant,

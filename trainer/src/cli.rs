@@ -4,19 +4,20 @@
 use std::path::{Path, PathBuf};
 
 use crate::data::ColumnMap;
-use crate::dataset::{POINT_FEATURES, Points};
+use crate::dataset::Points;
 use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
-use crate::export;
+use crate::export::{self, Extension};
 use crate::extend;
 use crate::gp::{GpConfig, GpModel};
 use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically};
 use crate::prior::MeanBasis;
 use crate::reproduce::Reproduction;
-use crate::stream::Stream;
+use crate::stream::{Stream, Window};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use firmware_core::Feature;
 
 /// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
 #[derive(Parser)]
@@ -35,6 +36,49 @@ struct Input {
     /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
     #[arg(long = "map", value_name = "NAME=SOURCE")]
     maps: Vec<ColumnMap>,
+}
+
+/// Where the static model comes from, for the commands that can fit it on a stream.
+#[derive(Args, Clone)]
+struct ModelInput {
+    /// Rate-table points CSV: temp_c,voltage_v,rate_dps. Without it the static model is fitted on
+    /// the (training) stream's 60 s block means.
+    #[arg(long)]
+    points: Option<PathBuf>,
+    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+    #[arg(long = "map", value_name = "NAME=SOURCE")]
+    maps: Vec<ColumnMap>,
+    /// Nominal scale factor K, output units per °/s: learn the bias (output/K − rate) from
+    /// temperature instead of the map ω = f(T, output) — all a static log allows.
+    #[arg(long, value_name = "K")]
+    scale_factor: Option<f64>,
+}
+
+impl ModelInput {
+    /// The points of the static model: the rate table when given, else `stream`'s block means.
+    fn static_points(&self, stream: Option<(&Path, &Stream)>) -> anyhow::Result<Points> {
+        Ok(match (&self.points, stream) {
+            (Some(path), _) => Points::load(path, &self.maps, None, self.scale_factor)?,
+            (None, Some((path, s))) => Points::from_stream(path, s, self.scale_factor)?,
+            (None, None) => anyhow::bail!("give --points (a rate table) or --stream to fit on"),
+        })
+    }
+}
+
+/// Loads a stream and keeps the part inside `window`.
+fn load_stream(path: &Path, maps: &[ColumnMap], window: Option<Window>) -> anyhow::Result<Stream> {
+    let s = Stream::load(path, maps)?;
+    let Some(w) = window else { return Ok(s) };
+    let part = s.window(w);
+    anyhow::ensure!(
+        part.len() >= 2,
+        "{}: the window {:?}..{:?} s holds {} samples",
+        path.display(),
+        w.start_s,
+        w.end_s,
+        part.len()
+    );
+    Ok(part)
 }
 
 #[derive(Args, Clone)]
@@ -65,20 +109,29 @@ impl FitOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit the GP map ω = f(T, V) to rate-table points and export the firmware blob; with a
-    /// stream, extend it by the inputs named (or by what the diagnosis names: auto).
+    /// Fit the GP map ω = f(T, V) to rate-table points (or to a stream's 60 s block means) and
+    /// export the firmware blob; with --features, extend it by the inputs named (or by what the
+    /// diagnosis names: auto), fitted on the stream.
     ///
     /// Example: trainer fit --points points.csv --out model.bin --json fit.json
     ///
     /// Example: trainer fit --points points.csv --stream ramp.csv --features auto --out ext.bin
+    ///
+    /// Example (a static log, gyro output in °/s): trainer fit --stream imu.tsv --map
+    /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
+    /// --map rate_dps=0 --scale-factor 1 --out bias.bin
     Fit {
         #[command(flatten)]
-        input: Input,
+        input: ModelInput,
         #[command(flatten)]
         fit: FitOptions,
-        /// Stream that excites the added inputs (ramps, power-ons): time_s,temp_c,voltage_v,rate_dps.
-        #[arg(long, requires = "features")]
+        /// Stream: time_s,temp_c,voltage_v,rate_dps. The static model is fitted on it when there
+        /// are no --points; --features are fitted on it (it must excite them: ramps, power-ons).
+        #[arg(long)]
         stream: Option<PathBuf>,
+        /// Use only this part of the stream: START:END, s from its first sample.
+        #[arg(long, requires = "stream")]
+        window: Option<Window>,
         /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
         /// calls for) or a list of temperature-rate, coil-temperature, power-on-decay,
         /// thermal-state, time-on.
@@ -105,6 +158,9 @@ enum Command {
         /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
         #[arg(long = "map", value_name = "NAME=SOURCE")]
         maps: Vec<ColumnMap>,
+        /// Use only this part of the stream: START:END, s from its first sample.
+        #[arg(long)]
+        window: Option<Window>,
         /// Write the diagnosis as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -113,17 +169,29 @@ enum Command {
     /// training stream → replay on the held-out stream → gain.
     ///
     /// Example: trainer investigate --points p.csv --train-stream a.csv --valid-stream b.csv --json i.json
+    ///
+    /// Example (one static log, forward in time): trainer investigate --train-stream imu.tsv
+    /// --train-window :2400 --valid-stream imu.tsv --valid-window 2400: --scale-factor 1 --map …
     Investigate {
         #[command(flatten)]
-        input: Input,
+        input: ModelInput,
         #[command(flatten)]
         fit: FitOptions,
-        /// Stream the extension is fitted on.
+        /// Stream the extension is fitted on (and the static model, without --points).
         #[arg(long)]
         train_stream: PathBuf,
+        /// Use only this part of the training stream: START:END, s from its first sample.
+        #[arg(long)]
+        train_window: Option<Window>,
         /// Held-out stream: diagnosed and scored.
         #[arg(long)]
         valid_stream: PathBuf,
+        /// Use only this part of the held-out stream: START:END, s from its first sample.
+        #[arg(long)]
+        valid_window: Option<Window>,
+        /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
+        #[arg(long, default_value = "auto")]
+        features: String,
         /// Write the extended model's blob here.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -158,6 +226,10 @@ enum Command {
         /// Leave out one group of this column at a time (default: temperature plateaus).
         #[arg(long)]
         group: Option<String>,
+        /// Another run: also fit on all of --points and score on these, inside the temperature
+        /// and rate range both cover.
+        #[arg(long)]
+        test_points: Option<PathBuf>,
         /// Write the evaluation as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -181,6 +253,7 @@ enum MethodArg {
     Gpr,
     Lssvr,
     TwoStep,
+    Poly,
 }
 
 impl From<MethodArg> for Method {
@@ -189,6 +262,7 @@ impl From<MethodArg> for Method {
             MethodArg::Gpr => Method::Gpr,
             MethodArg::Lssvr => Method::Lssvr,
             MethodArg::TwoStep => Method::TwoStep,
+            MethodArg::Poly => Method::Poly,
         }
     }
 }
@@ -224,13 +298,22 @@ fn render_diagnosis(d: &Diagnosis) -> String {
     s
 }
 
-fn fit_summary(m: &GpModel) -> serde_json::Value {
+fn fit_summary(m: &GpModel, points: &Points) -> serde_json::Value {
+    let names: Vec<&str> = points
+        .features()
+        .iter()
+        .map(|f| match f {
+            Feature::Temperature => "temp_c",
+            _ => "voltage_v",
+        })
+        .collect();
     serde_json::json!({
+        "scale_factor": points.scale_factor,
         "log_marginal_likelihood": m.log_marginal_likelihood(),
         "hyperparameters": m.posterior.hyper,
         "fit_seconds": m.fit_seconds,
         "n_train": m.y.len(),
-        "features": ["temp_c", "voltage_v"],
+        "features": names,
         "mean_basis": m.basis,
         "prior_mean": m.prior,
         "output_scale": m.output_scale,
@@ -246,24 +329,28 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             input,
             fit,
             stream,
+            window,
             features,
             out,
             json,
         } => {
-            let mut inputs = vec![input.points.as_path()];
+            let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend(stream.as_deref());
             ensure_not_input(&out, &inputs)?;
-            let points = Points::load(&input.points, &input.maps, None)?;
+            let data = match &stream {
+                Some(path) => Some((path.as_path(), load_stream(path, &input.maps, window)?)),
+                None => None,
+            };
+            let points = input.static_points(data.as_ref().map(|(p, s)| (*p, s)))?;
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
-            let mut blob = export::to_blob(&model, &POINT_FEATURES)?;
+            let mut blob = export::points_blob(&model, &points, &Extension::default())?;
             let firmware = export::decode(&blob)?;
             let agreement = export::agreement_report(&model, &firmware, &points.inputs());
-            let mut summary = fit_summary(&model);
+            let mut summary = fit_summary(&model, &points);
             summary["firmware_agreement"] = serde_json::to_value(agreement)?;
-            if let (Some(path), Some(list)) = (&stream, &features) {
-                let data = Stream::load(path, &input.maps)?;
+            if let (Some((path, data)), Some(list)) = (&data, &features) {
                 let causes = if list == "auto" {
-                    let d = diagnose::diagnose(&firmware, &data);
+                    let d = diagnose::diagnose(&firmware, data);
                     println!(
                         "diagnosis of {}: {} — {}",
                         path.display(),
@@ -275,7 +362,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 } else {
                     extend::parse_features(list)?
                 };
-                let extended = extend::fit(&model, &points, &data, &causes)?;
+                let extended = extend::fit(&model, &points, data, &causes)?;
                 let fitted = extended.fitted;
                 blob = extended.blob;
                 let ext = export::decode(&blob)?;
@@ -324,13 +411,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             model,
             stream,
             maps,
+            window,
             json,
         } => {
             let bytes =
                 std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
             let fw =
                 export::decode(&bytes).with_context(|| format!("decoding {}", model.display()))?;
-            let data = Stream::load(&stream, &maps)?;
+            let data = load_stream(&stream, &maps, window)?;
             let d = diagnose::diagnose(&fw, &data);
             print!("{}", render_diagnosis(&d));
             if let Some(path) = json {
@@ -342,23 +430,28 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             input,
             fit,
             train_stream,
+            train_window,
             valid_stream,
+            valid_window,
+            features,
             out,
             out_static,
             json,
         } => {
-            let inputs = [
-                input.points.as_path(),
-                train_stream.as_path(),
-                valid_stream.as_path(),
-            ];
+            let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+            inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
             for o in out.iter().chain(&out_static).chain(&json) {
                 ensure_not_input(o, &inputs)?;
             }
-            let points = Points::load(&input.points, &input.maps, None)?;
-            let train = Stream::load(&train_stream, &input.maps)?;
-            let valid = Stream::load(&valid_stream, &input.maps)?;
-            let (inv, blobs) = investigate::investigate(&points, &train, &valid, &fit.gp())?;
+            let train = load_stream(&train_stream, &input.maps, train_window)?;
+            let valid = load_stream(&valid_stream, &input.maps, valid_window)?;
+            let points = input.static_points(Some((&train_stream, &train)))?;
+            let chosen = match features.as_str() {
+                "auto" => None,
+                list => Some(extend::parse_features(list)?),
+            };
+            let (inv, blobs) =
+                investigate::investigate(&points, &train, &valid, &fit.gp(), chosen.as_deref())?;
             print!("{}", render_diagnosis(&inv.diagnosis));
             println!(
                 "static rmse_60s {:.3e} °/s ({:.2} °/h) | cause {} | added {} | extended rmse_60s \
@@ -420,17 +513,46 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             fit,
             method,
             group,
+            test_points,
             json,
         } => {
-            let points = Points::load(&input.points, &input.maps, group.as_deref())?;
+            let points = Points::load(&input.points, &input.maps, group.as_deref(), None)?;
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()
+            };
+            let cross = match &test_points {
+                Some(path) => {
+                    let test = Points::load(path, &input.maps, None, None)?;
+                    let c = evaluate::cross_run(&points, &test, method.into(), &cfg)?;
+                    println!(
+                        "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
+                         in {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
+                        c.method,
+                        input.points.display(),
+                        path.display(),
+                        c.rmse_dps,
+                        c.rmse_dph,
+                        c.n,
+                        c.temp_range_c.0,
+                        c.temp_range_c.1,
+                        c.max_abs_rate_dps,
+                        c.n_outside
+                    );
+                    Some(c)
+                }
+                None => None,
             };
             let e = evaluate::evaluate(&points, method.into(), &cfg)?;
             println!(
                 "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
                 e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation
+            );
+            println!(
+                "leave-one-group-out RMSE {:.3e} °/s ({:.2} °/h) over {} groups",
+                e.group_rmse_dps,
+                e.group_rmse_dph,
+                e.per_temperature.len()
             );
             println!("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
             for g in &e.per_temperature {
@@ -440,12 +562,16 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             }
             if let Some(path) = json {
-                write_json(&path, &[input.points.as_path()], &e)?;
+                let mut inputs = vec![input.points.as_path()];
+                inputs.extend(test_points.as_deref());
+                let mut value = serde_json::to_value(&e)?;
+                value["cross_run"] = serde_json::to_value(&cross)?;
+                write_json(&path, &inputs, &value)?;
             }
             Ok(())
         }
         Command::Reproduce { input, fit, json } => {
-            let points = Points::load(&input.points, &input.maps, None)?;
+            let points = Points::load(&input.points, &input.maps, None, None)?;
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()

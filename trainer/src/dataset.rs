@@ -8,6 +8,8 @@ use firmware_core::features::{self, FeatureState, Sample};
 use nalgebra::{DMatrix, DVector};
 
 use crate::data::{self, ColumnMap, DataError};
+use crate::replay;
+use crate::stream::Stream;
 
 /// The inputs of a rate-table model, in order: the paper's (T, V).
 pub const POINT_FEATURES: [Feature; 2] = [Feature::Temperature, Feature::Voltage];
@@ -27,6 +29,13 @@ pub struct Points {
     pub rate_dps: Vec<f64>,
     /// Group of each point (plateau index, or the `--group` column's label), as labels.
     pub group: Vec<String>,
+    /// Nominal scale factor K (output units per °/s) of a bias model: the GP learns
+    /// ω − output/K from temperature alone and the firmware adds output/K back (the form a static
+    /// log allows); `None` for the paper's rate model ω = f(T, output).
+    pub scale_factor: Option<f64>,
+    /// Whether each point was soaked at its temperature (a rate table), rather than the mean of a
+    /// stream block taken while the temperature moved.
+    pub soaked: bool,
 }
 
 /// Errors specific to rate-table points.
@@ -35,16 +44,40 @@ pub enum PointsError {
     /// Loading failed.
     #[error(transparent)]
     Data(#[from] DataError),
+    /// One reference rate and no scale factor: nothing to learn a rate model from.
+    #[error(
+        "{path}: every reference rate is {rate} °/s — a static log carries no scale-factor \
+         information, so no rate model can be learnt from it. Give the gyro's nominal scale factor \
+         (--scale-factor K, output units per °/s): the model then learns the bias \
+         (output/K − rate) from temperature and compensates by subtracting it"
+    )]
+    StaticLog {
+        /// The file.
+        path: String,
+        /// The one rate, °/s.
+        rate: f64,
+    },
+    /// A scale factor that is zero or not finite.
+    #[error("--scale-factor {0}: must be a finite, non-zero number of output units per °/s")]
+    BadScaleFactor(f64),
+    /// A stream with too few 60 s blocks to fit a static model on.
+    #[error("{path}: {found} scored 60 s blocks; a static model from a stream needs at least 10")]
+    TooFewBlocks {
+        /// The file.
+        path: String,
+        /// Blocks found.
+        found: usize,
+    },
     /// Fewer than two temperature plateaus: no temperature dependence can be learnt or tested.
     #[error(
-        "{path}: {found} temperature plateau(s) (points closer than {gap} °C are one plateau); at least two are needed to learn a temperature dependence"
+        "{path}: temperatures span only {span:.3} °C; at least {gap} °C is needed to learn a temperature dependence"
     )]
     TooFewTemperatures {
         /// The file.
         path: String,
-        /// Plateaus found.
-        found: usize,
-        /// The plateau gap, °C.
+        /// Span of the temperatures, °C.
+        span: f64,
+        /// The least span, °C ([`PLATEAU_GAP_C`]).
         gap: f64,
     },
 }
@@ -67,8 +100,14 @@ pub fn plateaus(temps: &[f64]) -> Vec<usize> {
 
 impl Points {
     /// Loads a points CSV; `group` names a column whose values define the groups for
-    /// leave-one-group-out (default: temperature plateaus).
-    pub fn load(path: &Path, maps: &[ColumnMap], group: Option<&str>) -> Result<Self, PointsError> {
+    /// leave-one-group-out (default: temperature plateaus); `scale_factor` makes a bias model
+    /// ([`Self::scale_factor`]).
+    pub fn load(
+        path: &Path,
+        maps: &[ColumnMap],
+        group: Option<&str>,
+        scale_factor: Option<f64>,
+    ) -> Result<Self, PointsError> {
         let labels: Vec<&str> = group.into_iter().collect();
         let c = data::read_columns(
             path,
@@ -78,17 +117,16 @@ impl Points {
             maps,
         )?;
         data::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
-        data::require_varying(
-            &c,
-            "rate_dps",
-            "a single rate carries no scale-factor information",
-        )?;
+        check_scale_factor(path, c.get("rate_dps"), scale_factor)?;
         let temp_c = c.get("temp_c").to_vec();
-        let found = plateaus(&temp_c).into_iter().max().map_or(0, |m| m + 1);
-        if found < 2 {
+        // Two soaked plateaus, or a temperature that drifts over a range (a heated turntable that
+        // never settles): either way the span must exceed what one plateau scatters.
+        let span = temp_c.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - temp_c.iter().copied().fold(f64::INFINITY, f64::min);
+        if span <= PLATEAU_GAP_C {
             return Err(PointsError::TooFewTemperatures {
                 path: path.display().to_string(),
-                found,
+                span,
                 gap: PLATEAU_GAP_C,
             });
         }
@@ -101,7 +139,47 @@ impl Points {
             rate_dps: c.get("rate_dps").to_vec(),
             temp_c,
             group,
+            scale_factor,
+            soaked: true,
         })
+    }
+
+    /// The 60 s block means of a stream's samples with a reference, as points (a static model
+    /// fitted on a ramp or a static log, without a rate table). Groups are 10-minute chunks.
+    pub fn from_stream(
+        path: &Path,
+        stream: &Stream,
+        scale_factor: Option<f64>,
+    ) -> Result<Self, PointsError> {
+        let scored: Vec<usize> = (0..stream.len())
+            .filter(|&i| stream.rate_dps[i].is_finite())
+            .collect();
+        let blocks = replay::blocks(stream, &scored);
+        if blocks.len() < 10 {
+            return Err(PointsError::TooFewBlocks {
+                path: path.display().to_string(),
+                found: blocks.len(),
+            });
+        }
+        let mean = |v: &[f64], b: &[usize]| b.iter().map(|&i| v[i]).sum::<f64>() / b.len() as f64;
+        let rate_dps: Vec<f64> = blocks.iter().map(|b| mean(&stream.rate_dps, b)).collect();
+        check_scale_factor(path, &rate_dps, scale_factor)?;
+        Ok(Self {
+            temp_c: blocks.iter().map(|b| mean(&stream.temp_c, b)).collect(),
+            voltage_v: blocks.iter().map(|b| mean(&stream.voltage_v, b)).collect(),
+            rate_dps,
+            group: (0..blocks.len()).map(|b| (b / 10).to_string()).collect(),
+            scale_factor,
+            soaked: false,
+        })
+    }
+
+    /// The model's inputs: (T, V) for a rate model, T for a bias model.
+    pub fn features(&self) -> &'static [Feature] {
+        match self.scale_factor {
+            None => &POINT_FEATURES,
+            Some(_) => &POINT_FEATURES[..1],
+        }
     }
 
     /// Number of points.
@@ -118,7 +196,8 @@ impl Points {
     /// firmware-core's feature pipeline, so they are exactly what the firmware computes (each
     /// point is a soaked, independent sample: a fresh pipeline state).
     pub fn inputs(&self) -> DMatrix<f64> {
-        let d = POINT_FEATURES.len();
+        let features = self.features();
+        let d = features.len();
         let mut x = DMatrix::zeros(self.len(), d);
         let mut row = [0.0f32; POINT_FEATURES.len()];
         for i in 0..self.len() {
@@ -127,22 +206,24 @@ impl Points {
                 temp_c: self.temp_c[i] as f32,
                 output: self.voltage_v[i] as f32,
             };
-            features::compute(
-                &POINT_FEATURES,
-                &sample,
-                &mut FeatureState::default(),
-                &mut row,
-            );
-            for (k, v) in row.iter().enumerate() {
+            features::compute(features, &sample, &mut FeatureState::default(), &mut row);
+            for (k, v) in row[..d].iter().enumerate() {
                 x[(i, k)] = f64::from(*v);
             }
         }
         x
     }
 
-    /// Targets: the reference rate.
+    /// Targets: the reference rate, less output/K for a bias model.
     pub fn target(&self) -> DVector<f64> {
-        DVector::from_column_slice(&self.rate_dps)
+        let k = self.scale_factor;
+        DVector::from_iterator(
+            self.len(),
+            self.rate_dps
+                .iter()
+                .zip(&self.voltage_v)
+                .map(|(w, v)| k.map_or(*w, |k| w - v / k)),
+        )
     }
 
     /// The subset at `idx`.
@@ -153,7 +234,21 @@ impl Points {
             voltage_v: pick(&self.voltage_v),
             rate_dps: pick(&self.rate_dps),
             group: idx.iter().map(|&i| self.group[i].clone()).collect(),
+            scale_factor: self.scale_factor,
+            soaked: self.soaked,
         }
+    }
+
+    /// Index of each point's group, numbered in order of first appearance.
+    pub fn group_ids(&self) -> Vec<usize> {
+        let groups = self.groups();
+        let mut ids = vec![0; self.len()];
+        for (k, (_, members)) in groups.iter().enumerate() {
+            for &i in members {
+                ids[i] = k;
+            }
+        }
+        ids
     }
 
     /// Distinct groups in order of first appearance, with their member indices.
@@ -166,6 +261,25 @@ impl Points {
             }
         }
         out
+    }
+}
+
+/// A rate model needs more than one reference rate; a bias model needs a usable scale factor.
+fn check_scale_factor(
+    path: &Path,
+    rates: &[f64],
+    scale_factor: Option<f64>,
+) -> Result<(), PointsError> {
+    match scale_factor {
+        Some(k) if !k.is_finite() || k == 0.0 => Err(PointsError::BadScaleFactor(k)),
+        Some(_) => Ok(()),
+        None => match rates.first() {
+            Some(&rate) if rates.iter().all(|&r| r == rate) => Err(PointsError::StaticLog {
+                path: path.display().to_string(),
+                rate,
+            }),
+            _ => Ok(()),
+        },
     }
 }
 
@@ -186,7 +300,7 @@ mod tests {
         let mut f = tempfile::NamedTempFile::new().unwrap();
         std::io::Write::write_all(&mut f, b"temp_c,voltage_v,rate_dps\n20,1,1\n20.01,2,2\n")
             .unwrap();
-        let e = Points::load(f.path(), &[], None).unwrap_err();
-        assert!(e.to_string().contains("1 temperature plateau(s)"), "{e}");
+        let e = Points::load(f.path(), &[], None, None).unwrap_err();
+        assert!(e.to_string().contains("span only 0.010 °C"), "{e}");
     }
 }

@@ -13,9 +13,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
-use crate::dataset::Points;
+use crate::dataset::{PLATEAU_GAP_C, Points};
 use crate::gp::{GpConfig, GpError, GpModel};
 use crate::lssvr::{LssvrError, LssvrModel};
+use crate::poly::{PolyError, PolyModel};
 use crate::two_step::{TwoStepError, TwoStepModel};
 
 /// Seconds per hour: rates are also reported in °/h, the unit gyro datasheets use.
@@ -31,6 +32,8 @@ pub enum Method {
     Lssvr,
     /// Traditional two-step bias and scale-factor polynomials.
     TwoStep,
+    /// One least-squares polynomial in output and temperature (the parametric baseline).
+    Poly,
 }
 
 impl Method {
@@ -40,6 +43,7 @@ impl Method {
             Self::Gpr => "gpr",
             Self::Lssvr => "lssvr",
             Self::TwoStep => "two-step",
+            Self::Poly => "poly",
         }
     }
 }
@@ -74,17 +78,23 @@ pub enum EvalError {
     /// Two-step failure.
     #[error(transparent)]
     TwoStep(#[from] TwoStepError),
+    /// Polynomial failure.
+    #[error(transparent)]
+    Poly(#[from] PolyError),
+    /// Two runs share no temperature and rate range.
+    #[error("the test points share no temperature and rate range with the training points")]
+    NoOverlap,
     /// Leaving a group out leaves too little to fit.
     #[error(
-        "leaving out group '{group}' leaves {remaining} points in {plateaus} temperature plateau(s): too few to fit"
+        "leaving out group '{group}' leaves {remaining} points spanning {span:.3} °C: too few to fit"
     )]
     FoldTooSmall {
         /// The group left out.
         group: String,
         /// Points left.
         remaining: usize,
-        /// Plateaus left.
-        plateaus: usize,
+        /// Temperature span left, °C.
+        span: f64,
     },
 }
 
@@ -97,6 +107,8 @@ pub enum Fitted {
     Lssvr(Box<LssvrModel>),
     /// Two-step.
     TwoStep(TwoStepModel),
+    /// Polynomial.
+    Poly(PolyModel),
 }
 
 impl Fitted {
@@ -117,7 +129,13 @@ impl Fitted {
                 &points.temp_c,
                 &points.voltage_v,
                 &points.rate_dps,
+                &points.group_ids(),
                 cfg.two_step_degree,
+            )?),
+            Method::Poly => Self::Poly(PolyModel::fit(
+                &points.temp_c,
+                &points.voltage_v,
+                &points.rate_dps,
             )?),
         })
     }
@@ -128,6 +146,7 @@ impl Fitted {
             Self::Gpr(m) => m.predict(&[temp_c, voltage]).mean,
             Self::Lssvr(m) => m.predict(&[temp_c, voltage]),
             Self::TwoStep(m) => m.predict(temp_c, voltage),
+            Self::Poly(m) => m.predict(temp_c, voltage),
         }
     }
 
@@ -137,6 +156,7 @@ impl Fitted {
             Self::Gpr(m) => serde_json::json!(m.posterior.hyper),
             Self::Lssvr(m) => serde_json::json!(m.hyper()),
             Self::TwoStep(m) => serde_json::json!(m),
+            Self::Poly(m) => serde_json::json!(m),
         }
     }
 }
@@ -151,7 +171,7 @@ fn loo_errors(
     Ok(match fitted {
         Fitted::Gpr(m) => m.loo_errors(),
         Fitted::Lssvr(m) => m.loo_errors(),
-        Fitted::TwoStep(_) => (0..points.len())
+        Fitted::TwoStep(_) | Fitted::Poly(_) => (0..points.len())
             .map(|i| {
                 let keep: Vec<usize> = (0..points.len()).filter(|&j| j != i).collect();
                 let m = Fitted::fit(&points.select(&keep), method, cfg)?;
@@ -189,6 +209,10 @@ pub struct Evaluation {
     pub rmse_dph: f64,
     /// Leave-one-group-out (default: temperature) RMSE per group.
     pub per_temperature: Vec<GroupRmse>,
+    /// Leave-one-group-out RMSE over all points, °/s.
+    pub group_rmse_dps: f64,
+    /// Same, °/h.
+    pub group_rmse_dph: f64,
     /// Correlation of sorted LOO errors with normal quantiles (1 = perfectly normal).
     pub qq_correlation: f64,
     /// LOO error of every point, °/s, in file order.
@@ -246,15 +270,17 @@ pub fn evaluate(
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
             let train = points.select(&keep);
-            let plateaus = crate::dataset::plateaus(&train.temp_c)
-                .into_iter()
-                .max()
-                .map_or(0, |m| m + 1);
-            if plateaus < 2 || keep.len() < 4 {
+            let span = train
+                .temp_c
+                .iter()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max)
+                - train.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
+            if span <= PLATEAU_GAP_C || keep.len() < 4 {
                 return Err(EvalError::FoldTooSmall {
                     group,
                     remaining: keep.len(),
-                    plateaus,
+                    span,
                 });
             }
             let m = Fitted::fit(&train, method, cfg)?;
@@ -263,16 +289,25 @@ pub fn evaluate(
                 .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
                 .collect();
             let r = rmse(&e);
-            Ok(GroupRmse {
-                group,
-                temp_c: members.iter().map(|&i| points.temp_c[i]).sum::<f64>()
-                    / members.len() as f64,
-                n: members.len(),
-                rmse_dps: r,
-                rmse_dph: r * DPH_PER_DPS,
-            })
+            Ok((
+                e,
+                GroupRmse {
+                    group,
+                    temp_c: members.iter().map(|&i| points.temp_c[i]).sum::<f64>()
+                        / members.len() as f64,
+                    n: members.len(),
+                    rmse_dps: r,
+                    rmse_dph: r * DPH_PER_DPS,
+                },
+            ))
         })
         .collect::<Result<Vec<_>, EvalError>>()?;
+    let pooled: Vec<f64> = per_temperature
+        .iter()
+        .flat_map(|(e, _)| e.clone())
+        .collect();
+    let per_temperature: Vec<GroupRmse> = per_temperature.into_iter().map(|(_, g)| g).collect();
+    let group_rmse = rmse(&pooled);
     let r = rmse(&errors);
     Ok(Evaluation {
         method: method.name(),
@@ -280,11 +315,73 @@ pub fn evaluate(
         rmse_dps: r,
         rmse_dph: r * DPH_PER_DPS,
         per_temperature,
+        group_rmse_dps: group_rmse,
+        group_rmse_dph: group_rmse * DPH_PER_DPS,
         qq_correlation: qq_correlation(&errors),
         loo_errors_dps: errors,
         fit_seconds,
         loo_seconds,
         parameters: fitted.parameters(),
+    })
+}
+
+/// A model fitted on one run and tested on another, inside the range both cover.
+#[derive(Debug, Clone, Serialize)]
+pub struct CrossRun {
+    /// Method name.
+    pub method: &'static str,
+    /// Test points inside the shared range.
+    pub n: usize,
+    /// Test points outside it (not scored).
+    pub n_outside: usize,
+    /// Shared temperature range, °C.
+    pub temp_range_c: (f64, f64),
+    /// Largest |rate| both runs cover, °/s.
+    pub max_abs_rate_dps: f64,
+    /// RMSE on the shared range, °/s.
+    pub rmse_dps: f64,
+    /// Same, °/h.
+    pub rmse_dph: f64,
+}
+
+/// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
+/// and the |rate| range both runs cover (a model is not asked to extrapolate here).
+pub fn cross_run(
+    train: &Points,
+    test: &Points,
+    method: Method,
+    cfg: &EvalConfig,
+) -> Result<CrossRun, EvalError> {
+    let range = |p: &Points| {
+        let lo = p.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = p.temp_c.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let w = p.rate_dps.iter().fold(0.0f64, |m, r| m.max(r.abs()));
+        (lo, hi, w)
+    };
+    let (a, b) = (range(train), range(test));
+    let (lo, hi, w) = (a.0.max(b.0), a.1.min(b.1), a.2.min(b.2));
+    let inside: Vec<usize> = (0..test.len())
+        .filter(|&i| {
+            (lo..=hi).contains(&test.temp_c[i]) && test.rate_dps[i].abs() <= w * (1.0 + 1e-9)
+        })
+        .collect();
+    if inside.is_empty() {
+        return Err(EvalError::NoOverlap);
+    }
+    let m = Fitted::fit(train, method, cfg)?;
+    let e: Vec<f64> = inside
+        .iter()
+        .map(|&i| m.predict(test.temp_c[i], test.voltage_v[i]) - test.rate_dps[i])
+        .collect();
+    let r = rmse(&e);
+    Ok(CrossRun {
+        method: method.name(),
+        n: inside.len(),
+        n_outside: test.len() - inside.len(),
+        temp_range_c: (lo, hi),
+        max_abs_rate_dps: w,
+        rmse_dps: r,
+        rmse_dph: r * DPH_PER_DPS,
     })
 }
 
@@ -393,6 +490,8 @@ mod tests {
             voltage_v: vec![],
             rate_dps: vec![],
             group: vec![],
+            scale_factor: None,
+            soaked: true,
         };
         for &t in &[-30.0, 0.0, 30.0, 60.0] {
             for &w in &[-10.0, 10.0] {

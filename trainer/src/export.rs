@@ -12,6 +12,7 @@ use firmware_core::blob::{self, Dims, Feature, HEADER_LEN, Payload};
 use firmware_core::model::Model;
 use serde::Serialize;
 
+use crate::dataset::Points;
 use crate::gp::GpModel;
 
 /// The largest model the trainer exports: 256 centres already need about 132 KB of f32 on the
@@ -112,6 +113,31 @@ pub struct Term {
 /// Builds the blob of a fitted GP whose inputs are `features`, in order.
 pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportError> {
     to_blob_extended(model, features, &Extension::default())
+}
+
+/// Raw-input range of an input that is valid at any value (the output of a bias model).
+const UNBOUNDED: f64 = 1e30;
+
+/// The blob of a GP fitted on `points` with an extension: for a bias model
+/// ([`Points::scale_factor`]) the output enters as ω = output/K + GP(T, …) through its raw linear
+/// term alone, valid at any rate.
+pub fn points_blob(
+    model: &GpModel,
+    points: &Points,
+    extension: &Extension,
+) -> Result<Vec<u8>, ExportError> {
+    let mut extension = extension.clone();
+    if let Some(k) = points.scale_factor {
+        extension.terms.insert(
+            0,
+            Term {
+                feature: Feature::Voltage,
+                coefficient: 1.0 / k,
+                range: (-UNBOUNDED, UNBOUNDED),
+            },
+        );
+    }
+    to_blob_extended(model, points.features(), &extension)
 }
 
 /// Builds the blob of a fitted GP with an [`Extension`]: the additive inputs follow the GP's

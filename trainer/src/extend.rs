@@ -21,7 +21,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use crate::cause::Cause;
-use crate::dataset::{POINT_FEATURES, Points, plateaus};
+use crate::dataset::{Points, plateaus};
 use crate::diagnose::{self, Candidates, CauseFit, Residual};
 use crate::export::{self, ExportError, Extension, Term};
 use crate::gp::{GpError, GpModel};
@@ -123,14 +123,15 @@ pub struct Extended {
 /// temperature over the points' plateaus (hat functions, a weak penalty on neighbouring
 /// differences where the stream leaves a plateau unvisited): at each plateau it is the offset the
 /// points carried, which is taken out of their targets before the GP is conditioned again at the
-/// hyperparameters the marginal likelihood chose.
+/// hyperparameters the marginal likelihood chose. Points that are a stream's block means were not
+/// soaked, and the GP fitted on them saw both states; they keep a plain offset.
 pub fn fit(
     model: &GpModel,
     points: &Points,
     stream: &Stream,
     causes: &[Cause],
 ) -> Result<Extended, ExtendError> {
-    let fw = export::decode(&export::to_blob(model, &POINT_FEATURES)?)?;
+    let fw = export::decode(&export::points_blob(model, points, &Extension::default())?)?;
     let res = Residual::new(&fw, stream);
     if res.len() < 30 {
         return Err(ExtendError::TooShort(res.len()));
@@ -162,7 +163,7 @@ pub fn fit(
         }
         fits.push(fit);
     }
-    let knots = if causes.contains(&Cause::Hysteresis) {
+    let knots = if causes.contains(&Cause::Hysteresis) && points.soaked {
         plateau_temperatures(&points.temp_c)
     } else {
         Vec::new()
@@ -225,7 +226,7 @@ pub fn fit(
             .collect();
         (refit, table)
     };
-    let blob = export::to_blob_extended(&model, &POINT_FEATURES, &extension)?;
+    let blob = export::points_blob(&model, points, &extension)?;
     Ok(Extended {
         fitted: Fitted {
             extension,

@@ -5,9 +5,9 @@
 use serde::Serialize;
 
 use crate::cause::Cause;
-use crate::dataset::{POINT_FEATURES, Points};
+use crate::dataset::Points;
 use crate::diagnose::{self, Diagnosis, Residual};
-use crate::export;
+use crate::export::{self, Extension};
 use crate::extend::{self, Fitted};
 use crate::gp::{GpConfig, GpModel};
 use crate::replay::{self, Score};
@@ -45,24 +45,31 @@ pub struct Blobs {
     pub extended_blob: Vec<u8>,
 }
 
-/// Runs the investigation.
+/// Runs the investigation; `chosen` overrides the inputs the diagnosis calls for.
 pub fn investigate(
     points: &Points,
     train: &Stream,
     valid: &Stream,
     cfg: &GpConfig,
+    chosen: Option<&[Cause]>,
 ) -> anyhow::Result<(Investigation, Blobs)> {
     let model = GpModel::fit(&points.inputs(), &points.target(), cfg)?;
-    let static_blob = export::to_blob(&model, &POINT_FEATURES)?;
+    let static_blob = export::points_blob(&model, points, &Extension::default())?;
     let fw = export::decode(&static_blob)?;
     let comp = replay::replay(&fw, valid);
     let static_score = replay::score(valid, &comp);
     let diagnosis = diagnose::diagnose_residual(&Residual::from_replay(&fw, valid, &comp));
-    let cause = diagnosis.cause;
-    let (extension, extended_blob) = if cause == Cause::None {
+    let named = [diagnosis.cause];
+    let causes: Vec<Cause> = chosen
+        .unwrap_or(&named)
+        .iter()
+        .copied()
+        .filter(|c| *c != Cause::None)
+        .collect();
+    let (extension, extended_blob) = if causes.is_empty() {
         (None, static_blob.clone())
     } else {
-        let ext = extend::fit(&model, points, train, &[cause])?;
+        let ext = extend::fit(&model, points, train, &causes)?;
         (Some(ext.fitted), ext.blob)
     };
     let ext = export::decode(&extended_blob)?;
@@ -71,7 +78,10 @@ pub fn investigate(
     Ok((
         Investigation {
             static_score,
-            added_inputs: extend::feature_name(cause).into_iter().collect(),
+            added_inputs: causes
+                .iter()
+                .filter_map(|c| extend::feature_name(*c))
+                .collect(),
             diagnosis,
             extension,
             extended_score,

@@ -16,6 +16,7 @@ pub mod io;
 pub mod kernel;
 pub mod lssvr;
 pub mod normalize;
+pub mod poly;
 pub mod prior;
 pub mod replay;
 pub mod reproduce;

@@ -98,6 +98,10 @@ pub struct Score {
     pub coverage_2sigma: f64,
     /// 60 s blocks scored.
     pub n_blocks: usize,
+    /// RMSE of 60 s block means over the samples inside the trained range (status valid), °/s.
+    pub rmse_60s_in_range_dps: f64,
+    /// 60 s blocks inside the trained range.
+    pub n_blocks_in_range: usize,
     /// Samples without a reference (compensated, not scored).
     pub n_unscored: usize,
     /// Samples flagged extrapolating.
@@ -127,10 +131,19 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .iter()
         .filter(|&&i| err(i).abs() <= 2.0 * f64::from(comp.std_dps[i]))
         .count();
-    let means: Vec<f64> = blocks(stream, &scored)
+    let block_means = |idx: &[usize]| -> Vec<f64> {
+        blocks(stream, idx)
+            .iter()
+            .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
+            .collect()
+    };
+    let means = block_means(&scored);
+    let valid: Vec<usize> = scored
         .iter()
-        .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
+        .copied()
+        .filter(|&i| comp.status[i] == Status::Valid)
         .collect();
+    let means_in_range = block_means(&valid);
     Score {
         n,
         rmse_dps: rms(&errors),
@@ -142,6 +155,8 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             covered as f64 / n as f64
         },
         n_blocks: means.len(),
+        rmse_60s_in_range_dps: rms(&means_in_range),
+        n_blocks_in_range: means_in_range.len(),
         n_unscored: stream.len() - stream.rate_dps.iter().filter(|r| r.is_finite()).count(),
         n_extrapolating: comp
             .status

@@ -113,6 +113,32 @@ impl Stream {
         })
     }
 
+    /// The samples inside `window` (seconds from the first sample), with the time problems among
+    /// them.
+    pub fn window(&self, window: Window) -> Self {
+        let t0 = self.time_s.first().copied().unwrap_or(0.0);
+        let keep: Vec<usize> = (0..self.len())
+            .filter(|&i| window.contains(self.time_s[i] - t0))
+            .collect();
+        let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let lines: Vec<u64> = keep.iter().map(|&i| self.lines[i]).collect();
+        let first = lines.first().copied();
+        Self {
+            time_s: pick(&self.time_s),
+            temp_c: pick(&self.temp_c),
+            voltage_v: pick(&self.voltage_v),
+            rate_dps: pick(&self.rate_dps),
+            step_s: self.step_s,
+            time_issues: self
+                .time_issues
+                .iter()
+                .filter(|i| lines.contains(&i.line()) && Some(i.line()) != first)
+                .cloned()
+                .collect(),
+            lines,
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.time_s.len()
@@ -121,6 +147,57 @@ impl Stream {
     /// True when empty (never, once loaded).
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()
+    }
+}
+
+/// A span of a stream, `START:END` in seconds from its first sample; either end may be left open
+/// (`:2400`, `2400:`). The start is inside, the end outside.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Window {
+    /// Start, s (open: from the first sample).
+    pub start_s: Option<f64>,
+    /// End, s (open: to the last sample).
+    pub end_s: Option<f64>,
+}
+
+impl Window {
+    /// Whether `t` (s from the first sample) lies inside.
+    pub fn contains(&self, t: f64) -> bool {
+        self.start_s.is_none_or(|s| t >= s) && self.end_s.is_none_or(|e| t < e)
+    }
+}
+
+/// A window that does not parse.
+#[derive(Debug, thiserror::Error)]
+#[error("window '{0}': expected START:END in seconds from the first sample, e.g. 0:2400 or 2400:")]
+pub struct BadWindow(String);
+
+impl std::str::FromStr for Window {
+    type Err = BadWindow;
+
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let bad = || BadWindow(text.to_owned());
+        let (a, b) = text.split_once(':').ok_or_else(bad)?;
+        let end = |v: &str| -> Result<Option<f64>, BadWindow> {
+            let v = v.trim();
+            if v.is_empty() {
+                return Ok(None);
+            }
+            let x: f64 = v.parse().map_err(|_| bad())?;
+            if x.is_finite() {
+                Ok(Some(x))
+            } else {
+                Err(bad())
+            }
+        };
+        let w = Self {
+            start_s: end(a)?,
+            end_s: end(b)?,
+        };
+        match (w.start_s, w.end_s) {
+            (Some(s), Some(e)) if e <= s => Err(bad()),
+            _ => Ok(w),
+        }
     }
 }
 
@@ -164,5 +241,25 @@ mod tests {
     fn an_empty_temperature_is_still_an_error() {
         let e = load("time_s,temp_c,voltage_v,rate_dps\n0,,0.1,1\n").unwrap_err();
         assert!(e.to_string().contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn a_window_keeps_its_span_and_its_time_problems() {
+        let s = load(
+            "time_s,temp_c,voltage_v,rate_dps\n100,20,0.1,1\n101,20,0.1,1\n102,20,0.1,1\n\
+             110,20,0.1,1\n111,20,0.1,1\n",
+        )
+        .unwrap();
+        let w: Window = "1:".parse().unwrap();
+        let part = s.window(w);
+        assert_eq!(part.time_s, vec![101.0, 102.0, 110.0, 111.0]);
+        assert_eq!(part.lines, vec![3, 4, 5, 6]);
+        assert_eq!(part.time_issues, s.time_issues);
+        let head = s.window(":2".parse().unwrap());
+        assert_eq!(head.time_s, vec![100.0, 101.0]);
+        assert!(head.time_issues.is_empty());
+        for bad in ["", "5", "a:b", "3:1", "inf:"] {
+            assert!(bad.parse::<Window>().is_err(), "{bad}");
+        }
     }
 }

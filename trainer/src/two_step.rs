@@ -9,8 +9,6 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::dataset::plateaus;
-
 /// Errors of the two-step fit.
 #[derive(Debug, thiserror::Error)]
 pub enum TwoStepError {
@@ -48,14 +46,16 @@ fn polyval(c: &[f64], t: f64) -> f64 {
 }
 
 impl TwoStepModel {
-    /// Fits the model to points (T, V, ω); polynomials of degree `degree` (capped at plateaus − 1).
+    /// Fits the model to points (T, V, ω), step 1 per group `ids` (0-based: the temperature
+    /// plateaus, or sweeps where the temperature never settles); polynomials of degree `degree`
+    /// (capped at groups − 1).
     pub fn fit(
         temp: &[f64],
         volt: &[f64],
         rate: &[f64],
+        ids: &[usize],
         degree: usize,
     ) -> Result<Self, TwoStepError> {
-        let ids = plateaus(temp);
         let count = ids.iter().max().map_or(0, |m| m + 1);
         let (mut t_mean, mut bias, mut scale) = (Vec::new(), Vec::new(), Vec::new());
         for p in 0..count {
@@ -102,6 +102,7 @@ impl TwoStepModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dataset::plateaus;
 
     #[test]
     fn exact_on_noise_free_polynomial_data() {
@@ -115,7 +116,7 @@ mod tests {
                 volt.push(b(t) + s(t) * w);
             }
         }
-        let m = TwoStepModel::fit(&temp, &volt, &rate, 2).unwrap();
+        let m = TwoStepModel::fit(&temp, &volt, &rate, &plateaus(&temp), 2).unwrap();
         for &t in &[-25.0, 33.0, 55.0] {
             for &w in &[-60.0, 0.0, 3.0, 70.0] {
                 let e = m.predict(t, b(t) + s(t) * w) - w;

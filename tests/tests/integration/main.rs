@@ -5,6 +5,7 @@ mod diagnosis;
 mod firmware;
 mod m4;
 mod paper;
+mod real;
 
 use std::path::{Path, PathBuf};
 

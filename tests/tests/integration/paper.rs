@@ -10,6 +10,8 @@ pub fn points(p: &[paper::Point]) -> Points {
         voltage_v: p.iter().map(|x| x.voltage_v).collect(),
         rate_dps: p.iter().map(|x| x.rate_dps).collect(),
         group: p.iter().map(|x| x.setpoint_c.to_string()).collect(),
+        scale_factor: None,
+        soaked: true,
     }
 }
 
