@@ -82,6 +82,13 @@ pub enum PointsError {
     },
 }
 
+/// Span of the temperatures (max − min), °C: it must exceed [`PLATEAU_GAP_C`] for a temperature
+/// dependence to be learnt.
+pub fn span(temps: &[f64]) -> f64 {
+    temps.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - temps.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
 /// Plateau index of each temperature: sorted temperatures split where the gap exceeds
 /// [`PLATEAU_GAP_C`]; indices ascend with temperature.
 pub fn plateaus(temps: &[f64]) -> Vec<usize> {
@@ -121,8 +128,7 @@ impl Points {
         let temp_c = c.get("temp_c").to_vec();
         // Two soaked plateaus, or a temperature that drifts over a range (a heated turntable that
         // never settles): either way the span must exceed what one plateau scatters.
-        let span = temp_c.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-            - temp_c.iter().copied().fold(f64::INFINITY, f64::min);
+        let span = span(&temp_c);
         if span <= PLATEAU_GAP_C {
             return Err(PointsError::TooFewTemperatures {
                 path: path.display().to_string(),

@@ -270,12 +270,7 @@ pub fn evaluate(
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
             let train = points.select(&keep);
-            let span = train
-                .temp_c
-                .iter()
-                .copied()
-                .fold(f64::NEG_INFINITY, f64::max)
-                - train.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
+            let span = crate::dataset::span(&train.temp_c);
             if span <= PLATEAU_GAP_C || keep.len() < 4 {
                 return Err(EvalError::FoldTooSmall {
                     group,
