@@ -9,7 +9,7 @@ use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export::{self, Extension};
 use crate::extend;
-use crate::gp::{GpConfig, GpModel};
+use crate::gp::{GpConfig, GpModel, Inducing};
 use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically};
 use crate::prior::MeanBasis;
@@ -55,13 +55,28 @@ struct ModelInput {
 }
 
 impl ModelInput {
-    /// The points of the static model: the rate table when given, else `stream`'s block means.
-    fn static_points(&self, stream: Option<(&Path, &Stream)>) -> anyhow::Result<Points> {
-        Ok(match (&self.points, stream) {
-            (Some(path), _) => Points::load(path, &self.maps, None, self.scale_factor)?,
-            (None, Some((path, s))) => Points::from_stream(path, s, self.scale_factor)?,
-            (None, None) => anyhow::bail!("give --points (a rate table) or --stream to fit on"),
-        })
+    /// The points of the static model: the rate table when given, else the streams' block means;
+    /// with `pool`, every sample of the streams as well.
+    fn static_points(&self, streams: &[(&Path, Stream)], pool: bool) -> anyhow::Result<Points> {
+        let mut out = match &self.points {
+            Some(path) => Some(Points::load(path, &self.maps, None, self.scale_factor)?),
+            None => None,
+        };
+        if out.is_some() && !pool {
+            return out.context("unreachable: points were loaded");
+        }
+        for (path, s) in streams {
+            let more = if pool {
+                Points::from_stream_samples(path, s, self.scale_factor)?
+            } else {
+                Points::from_stream(path, s, self.scale_factor)?
+            };
+            out = Some(match out {
+                Some(p) => p.pooled(more)?,
+                None => more,
+            });
+        }
+        out.context("give --points (a rate table) or --stream to fit on")
     }
 }
 
@@ -94,6 +109,10 @@ struct FitOptions {
     /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = GpConfig::default().mean)]
     mean: MeanBasis,
+    /// Exact GP or sparse (variational, this many inducing points): auto fits up to
+    /// 1,000 samples exactly and sparse with 24 inducing points above.
+    #[arg(long, default_value_t = GpConfig::default().inducing, value_name = "auto|exact|M")]
+    inducing: Inducing,
 }
 
 impl FitOptions {
@@ -102,6 +121,7 @@ impl FitOptions {
             random_starts: self.restarts,
             seed: self.seed,
             mean: self.mean,
+            inducing: self.inducing,
             ..GpConfig::default()
         }
     }
@@ -125,13 +145,18 @@ enum Command {
         input: ModelInput,
         #[command(flatten)]
         fit: FitOptions,
-        /// Stream: time_s,temp_c,voltage_v,rate_dps. The static model is fitted on it when there
-        /// are no --points; --features are fitted on it (it must excite them: ramps, power-ons).
+        /// Stream: time_s,temp_c,voltage_v,rate_dps (repeatable: runs are pooled). The static model
+        /// is fitted on it when there are no --points; --features are fitted on it (one stream; it
+        /// must excite them: ramps, power-ons).
         #[arg(long)]
-        stream: Option<PathBuf>,
-        /// Use only this part of the stream: START:END, s from its first sample.
+        stream: Vec<PathBuf>,
+        /// Use only this part of each stream: START:END, s from its first sample.
         #[arg(long, requires = "stream")]
         window: Option<Window>,
+        /// Fit the static model on every sample of --stream (1 Hz, not 60 s means), pooled with
+        /// --points when given: a long stream's static model (sparse GP by size).
+        #[arg(long, requires = "stream")]
+        pool_stream: bool,
         /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
         /// calls for) or a list of temperature-rate, coil-temperature, power-on-decay,
         /// thermal-state, time-on.
@@ -318,6 +343,8 @@ fn fit_summary(m: &GpModel, points: &Points) -> serde_json::Value {
         "prior_mean": m.prior,
         "output_scale": m.output_scale,
         "jitter": m.posterior.jitter,
+        "centres": m.posterior.xs.nrows(),
+        "sparse": m.sparse,
         "starts": m.starts,
     })
 }
@@ -330,25 +357,31 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             fit,
             stream,
             window,
+            pool_stream,
             features,
             out,
             json,
         } => {
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
-            inputs.extend(stream.as_deref());
+            inputs.extend(stream.iter().map(PathBuf::as_path));
             ensure_not_input(&out, &inputs)?;
-            let data = match &stream {
-                Some(path) => Some((path.as_path(), load_stream(path, &input.maps, window)?)),
-                None => None,
-            };
-            let points = input.static_points(data.as_ref().map(|(p, s)| (*p, s)))?;
+            anyhow::ensure!(
+                features.is_none() || stream.len() == 1,
+                "--features are fitted on one stream; {} given",
+                stream.len()
+            );
+            let streams = stream
+                .iter()
+                .map(|p| Ok((p.as_path(), load_stream(p, &input.maps, window)?)))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let points = input.static_points(&streams, pool_stream)?;
             let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
             let mut blob = export::points_blob(&model, &points, &Extension::default())?;
             let firmware = export::decode(&blob)?;
             let agreement = export::agreement_report(&model, &firmware, &points.inputs());
             let mut summary = fit_summary(&model, &points);
             summary["firmware_agreement"] = serde_json::to_value(agreement)?;
-            if let (Some((path, data)), Some(list)) = (&data, &features) {
+            if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
                 let causes = if list == "auto" {
                     let d = diagnose::diagnose(&firmware, data);
                     println!(
@@ -380,6 +413,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             write_atomically(&out, &blob)?;
             if let Some(path) = json {
                 write_json(&path, &inputs, &summary)?;
+            }
+            if let Some(s) = &model.sparse {
+                println!(
+                    "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
+                    s.method, s.inducing, s.n_train, s.subset, s.bound
+                );
             }
             println!(
                 "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
@@ -443,9 +482,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             for o in out.iter().chain(&out_static).chain(&json) {
                 ensure_not_input(o, &inputs)?;
             }
-            let train = load_stream(&train_stream, &input.maps, train_window)?;
+            let train = [(
+                train_stream.as_path(),
+                load_stream(&train_stream, &input.maps, train_window)?,
+            )];
             let valid = load_stream(&valid_stream, &input.maps, valid_window)?;
-            let points = input.static_points(Some((&train_stream, &train)))?;
+            let points = input.static_points(&train, false)?;
+            let [(_, train)] = train;
             let chosen = match features.as_str() {
                 "auto" => None,
                 list => Some(extend::parse_features(list)?),

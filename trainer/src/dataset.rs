@@ -60,6 +60,11 @@ pub enum PointsError {
     /// A scale factor that is zero or not finite.
     #[error("--scale-factor {0}: must be a finite, non-zero number of output units per °/s")]
     BadScaleFactor(f64),
+    /// Pooling a rate model's data with a bias model's.
+    #[error(
+        "cannot pool a rate table with a static log: fit one model form (--scale-factor) on both"
+    )]
+    MixedForms,
     /// A stream with too few 60 s blocks to fit a static model on.
     #[error("{path}: {found} scored 60 s blocks; a static model from a stream needs at least 10")]
     TooFewBlocks {
@@ -157,9 +162,7 @@ impl Points {
         stream: &Stream,
         scale_factor: Option<f64>,
     ) -> Result<Self, PointsError> {
-        let scored: Vec<usize> = (0..stream.len())
-            .filter(|&i| stream.rate_dps[i].is_finite())
-            .collect();
+        let scored = scored(stream);
         let blocks = replay::blocks(stream, &scored);
         if blocks.len() < 10 {
             return Err(PointsError::TooFewBlocks {
@@ -178,6 +181,45 @@ impl Points {
             scale_factor,
             soaked: false,
         })
+    }
+
+    /// Every scored sample of a stream as a point (a long stream's static model, fitted by the
+    /// sparse GP), grouped by 10-minute stretch.
+    pub fn from_stream_samples(
+        path: &Path,
+        stream: &Stream,
+        scale_factor: Option<f64>,
+    ) -> Result<Self, PointsError> {
+        let scored = scored(stream);
+        let pick = |v: &[f64]| scored.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let rate_dps = pick(&stream.rate_dps);
+        check_scale_factor(path, &rate_dps, scale_factor)?;
+        let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+        Ok(Self {
+            temp_c: pick(&stream.temp_c),
+            voltage_v: pick(&stream.voltage_v),
+            rate_dps,
+            group: scored
+                .iter()
+                .map(|&i| format!("stream {}", ((stream.time_s[i] - t0) / 600.0).floor()))
+                .collect(),
+            scale_factor,
+            soaked: false,
+        })
+    }
+
+    /// These points and `other` together. Both must be the same kind of model (rate or bias with
+    /// the same scale factor); the result counts as unsoaked unless both are soaked.
+    pub fn pooled(mut self, other: Self) -> Result<Self, PointsError> {
+        if self.scale_factor != other.scale_factor {
+            return Err(PointsError::MixedForms);
+        }
+        self.temp_c.extend(other.temp_c);
+        self.voltage_v.extend(other.voltage_v);
+        self.rate_dps.extend(other.rate_dps);
+        self.group.extend(other.group);
+        self.soaked &= other.soaked;
+        Ok(self)
     }
 
     /// The model's inputs: (T, V) for a rate model, T for a bias model.
@@ -268,6 +310,13 @@ impl Points {
         }
         out
     }
+}
+
+/// Indices of a stream's samples with a reference rate.
+fn scored(stream: &Stream) -> Vec<usize> {
+    (0..stream.len())
+        .filter(|&i| stream.rate_dps[i].is_finite())
+        .collect()
 }
 
 /// A rate model needs more than one reference rate; a bias model needs a usable scale factor.

@@ -27,6 +27,8 @@
 //! above 10 the GP and the basis trade off along a ridge with huge cancelling weights (f32 study).
 //! The closed-form LOO holds θ fixed (as R&W §5.4.2 does).
 
+use std::fmt;
+use std::str::FromStr;
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -42,6 +44,7 @@ use serde::Serialize;
 use crate::kernel;
 use crate::normalize::Normalizer;
 use crate::prior::{MeanBasis, PolyPrior, design};
+use crate::sparse::{self, SparseFit};
 
 /// Errors of GP fitting.
 #[derive(Debug, thiserror::Error)]
@@ -88,6 +91,7 @@ impl Default for Bounds {
 }
 
 impl Bounds {
+    /// Range of θ's entry `j` for a model of `d` inputs.
     fn range(&self, d: usize, j: usize) -> (f64, f64) {
         match j {
             j if j < d => self.log_length,
@@ -96,8 +100,7 @@ impl Bounds {
         }
     }
 
-    fn clamp(&self, theta: &[f64]) -> Vec<f64> {
-        let d = theta.len() - 2;
+    fn clamp(&self, theta: &[f64], d: usize) -> Vec<f64> {
         theta
             .iter()
             .enumerate()
@@ -122,6 +125,76 @@ pub struct GpConfig {
     pub bounds: Bounds,
     /// L-BFGS iteration cap per start.
     pub max_iters: u64,
+    /// Exact GP or sparse (inducing points), by size unless told.
+    pub inducing: Inducing,
+}
+
+/// Exact or sparse GP. `Auto` fits an exact GP up to [`AUTO_EXACT_MAX`] samples and a sparse one
+/// with [`DEFAULT_INDUCING`] inducing points above.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(into = "String")]
+pub enum Inducing {
+    /// By size.
+    #[default]
+    Auto,
+    /// Always exact.
+    Exact,
+    /// Sparse with this many inducing points.
+    Count(usize),
+}
+
+/// The largest data set `Inducing::Auto` fits exactly: beyond it an exact fit's O(n³) likelihood
+/// evaluations take seconds each (README, "Long streams").
+pub const AUTO_EXACT_MAX: usize = 1000;
+
+/// Inducing points of an automatic sparse fit: chosen from the accuracy–cost curve (README, "Long
+/// streams").
+pub const DEFAULT_INDUCING: usize = 24;
+
+impl Inducing {
+    /// The number of inducing points for `n` samples, or `None` for an exact GP. A sparse GP with
+    /// as many inducing points as samples is the exact GP at higher cost: it is fitted exactly.
+    pub fn count(self, n: usize) -> Option<usize> {
+        match self {
+            Self::Exact => None,
+            Self::Auto if n <= AUTO_EXACT_MAX => None,
+            Self::Auto => Some(DEFAULT_INDUCING),
+            Self::Count(m) if m >= n => None,
+            Self::Count(m) => Some(m),
+        }
+    }
+}
+
+impl fmt::Display for Inducing {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Auto => write!(f, "auto"),
+            Self::Exact => write!(f, "exact"),
+            Self::Count(m) => write!(f, "{m}"),
+        }
+    }
+}
+
+impl From<Inducing> for String {
+    fn from(i: Inducing) -> Self {
+        i.to_string()
+    }
+}
+
+impl FromStr for Inducing {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "exact" => Ok(Self::Exact),
+            _ => match s.parse::<usize>() {
+                Ok(m) if m >= 2 => Ok(Self::Count(m)),
+                _ => Err(format!(
+                    "'{s}': expected auto, exact or a number of inducing points (at least 2)"
+                )),
+            },
+        }
+    }
 }
 
 impl Default for GpConfig {
@@ -132,6 +205,7 @@ impl Default for GpConfig {
             mean: MeanBasis::default(),
             bounds: Bounds::default(),
             max_iters: 100,
+            inducing: Inducing::default(),
         }
     }
 }
@@ -308,6 +382,30 @@ impl Posterior {
         })
     }
 
+    /// A posterior without a basis from its parts: centres divided by the length scales, the
+    /// factor whose inverse gives the latent variance, and the weights (how the sparse GP enters
+    /// the same prediction and export code, sparse.rs).
+    pub(crate) fn from_parts(
+        hyper: Hyperparameters,
+        xs: DMatrix<f64>,
+        chol: Cholesky<f64, Dyn>,
+        alpha: DVector<f64>,
+        jitter: f64,
+        log_marginal_likelihood: f64,
+    ) -> Self {
+        let m = xs.nrows();
+        Self {
+            hyper,
+            xs,
+            chol,
+            alpha,
+            beta: DVector::zeros(0),
+            basis_factor: DMatrix::zeros(m, 0),
+            jitter,
+            log_marginal_likelihood,
+        }
+    }
+
     /// P = K⁻¹ − M Mᵀ.
     fn projected_inverse(&self) -> DMatrix<f64> {
         let mut p = inverse_from_cholesky(&self.chol);
@@ -387,12 +485,17 @@ pub fn lml_and_gradient(
 /// is numerically rough (tiny noise, jitter switching on) a line search can stall; an evaluation
 /// budget stops it, and the best point seen is kept either way.
 struct Objective<'a> {
-    data: &'a Prepared,
+    likelihood: Likelihood<'a>,
+    n: f64,
+    inputs: usize,
     bounds: Bounds,
     cache: Mutex<Option<Evaluated>>,
     track: &'a Mutex<Track>,
     budget: u64,
 }
+
+/// A log marginal likelihood (or a bound on it) and its gradient w.r.t. θ.
+pub(crate) type Likelihood<'a> = &'a (dyn Fn(&[f64]) -> Result<(f64, Vec<f64>), GpError> + Sync);
 
 /// One objective evaluation: θ, cost, gradient.
 type Evaluated = (Vec<f64>, f64, Vec<f64>);
@@ -425,10 +528,9 @@ impl Objective<'_> {
         // The likelihood is evaluated at the clamped point, so K stays finite whatever step the
         // line search tries; outside the bounds a quadratic wall pulls back. Costs are per sample so
         // that gradients are O(1) whatever n is, which keeps L-BFGS's first steps sane.
-        let inside = self.bounds.clamp(theta);
-        let data = self.data;
-        let (lml, grad) = lml_and_gradient(&data.z, &data.y, &data.h, &inside)?;
-        let n = data.y.len() as f64;
+        let inside = self.bounds.clamp(theta, self.inputs);
+        let (lml, grad) = (self.likelihood)(&inside)?;
+        let n = self.n;
         let mut cost = -lml / n;
         let mut g: Vec<f64> = grad.iter().map(|v| -v / n).collect();
         let mut outside = false;
@@ -491,17 +593,22 @@ pub struct StartReport {
 /// polish converges in it. Near the optimum the likelihood is flat to rounding and line searches
 /// stall, so the polish gets a small budget: its gain comes in its first iterations.
 const SEARCH: (f64, u64) = (1e-3, 120);
-const POLISH: (f64, u64) = (1e-5, 40);
 
-fn optimize_from(
-    data: &Prepared,
+pub(crate) const POLISH: (f64, u64) = (1e-5, 40);
+
+/// One L-BFGS run of `likelihood` (of `n` samples with `d` inputs) from `start`.
+pub(crate) fn optimize_from(
+    likelihood: Likelihood<'_>,
+    (n, d): (usize, usize),
     start: Vec<f64>,
     cfg: &GpConfig,
     (tolerance, budget): (f64, u64),
 ) -> StartReport {
     let track = Mutex::new(Track::default());
     let problem = Objective {
-        data,
+        likelihood,
+        n: n as f64,
+        inputs: d,
         bounds: cfg.bounds,
         cache: Mutex::new(None),
         track: &track,
@@ -527,11 +634,11 @@ fn optimize_from(
         .map(|t| (t.evaluations, t.best))
         .unwrap_or_default();
     // The solver's own best point may carry the out-of-bounds penalty; the tracked best never does.
-    let end = best.map(|(_, t)| cfg.bounds.clamp(&t));
+    let end = best.map(|(_, t)| cfg.bounds.clamp(&t, d));
     let lml = end
         .as_ref()
-        .and_then(|t| data.condition(Hyperparameters::from_log(t)).ok())
-        .map(|p| p.log_marginal_likelihood);
+        .and_then(|t| likelihood(t).ok())
+        .map(|(l, _)| l);
     StartReport {
         start,
         end,
@@ -576,6 +683,9 @@ pub struct GpModel {
     pub posterior: Posterior,
     /// Normalized training targets.
     pub y: DVector<f64>,
+    /// The sparse approximation, when the GP is one (the posterior's centres are then its
+    /// inducing points).
+    pub sparse: Option<SparseFit>,
     /// What each optimizer start did; the last entry is the polish from the best of them.
     pub starts: Vec<StartReport>,
     /// Wall time of the whole fit, s.
@@ -645,6 +755,46 @@ impl Prepared {
     }
 }
 
+/// Maximizes `likelihood` over θ for data of shape (n, d): every start of [`starts`] searched in
+/// parallel, then a polish from the best. Returns the best θ and what each run did.
+pub(crate) fn search(
+    likelihood: Likelihood<'_>,
+    (n, d): (usize, usize),
+    cfg: &GpConfig,
+) -> Result<(Vec<f64>, Vec<StartReport>), GpError> {
+    let mut reports: Vec<StartReport> = starts(d, cfg)
+        .into_par_iter()
+        .map(|s| optimize_from(likelihood, (n, d), s, cfg, SEARCH))
+        .collect();
+    let searched = best_of(&reports).ok_or_else(|| {
+        GpError::OptimizerFailed(
+            reports
+                .iter()
+                .map(|r| r.status.clone())
+                .collect::<Vec<_>>()
+                .join("; "),
+        )
+    })?;
+    reports.push(optimize_from(
+        likelihood,
+        (n, d),
+        searched.clone(),
+        cfg,
+        POLISH,
+    ));
+    let best = best_of(&reports).unwrap_or(searched);
+    Ok((best, reports))
+}
+
+/// The end point of the run with the highest likelihood.
+pub(crate) fn best_of(reports: &[StartReport]) -> Option<Vec<f64>> {
+    reports
+        .iter()
+        .filter_map(|r| Some((r.end.clone()?, r.log_marginal_likelihood?)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|b| b.0)
+}
+
 impl GpModel {
     /// Fits the GP to raw inputs `x` (rows are samples) and targets.
     pub fn fit(x: &DMatrix<f64>, target: &DVector<f64>, cfg: &GpConfig) -> Result<Self, GpError> {
@@ -653,30 +803,15 @@ impl GpModel {
         }
         let t0 = Instant::now();
         let data = Prepared::new(x, target, cfg.mean);
-        let reports: Vec<StartReport> = starts(data.z.ncols(), cfg)
-            .into_par_iter()
-            .map(|s| optimize_from(&data, s, cfg, SEARCH))
-            .collect();
-        let best_of = |reports: &[StartReport]| {
-            reports
-                .iter()
-                .filter_map(|r| Some((r.end.clone()?, r.log_marginal_likelihood?)))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-        };
-        let searched = best_of(&reports).ok_or_else(|| {
-            GpError::OptimizerFailed(
-                reports
-                    .iter()
-                    .map(|r| r.status.clone())
-                    .collect::<Vec<_>>()
-                    .join("; "),
-            )
-        })?;
-        let mut reports = reports;
-        reports.push(optimize_from(&data, searched.0.clone(), cfg, POLISH));
-        let best = best_of(&reports).map_or(searched.0, |b| b.0);
+        if let Some(m) = cfg.inducing.count(x.nrows()) {
+            return sparse::fit(x, data, m, cfg, t0);
+        }
+        let likelihood = |t: &[f64]| lml_and_gradient(&data.z, &data.y, &data.h, t);
+        let (best, reports) = search(&likelihood, data.z.shape(), cfg)?;
         let posterior = data.condition(Hyperparameters::from_log(&best))?;
-        Ok(Self::assemble(x, cfg.mean, data, posterior, reports, t0))
+        Ok(Self::assemble(
+            x, cfg.mean, data, posterior, None, reports, t0,
+        ))
     }
 
     /// The GP with this model's hyperparameters and mean basis conditioned on other targets at
@@ -685,22 +820,31 @@ impl GpModel {
     pub fn refit_targets(&self, x: &DMatrix<f64>, target: &DVector<f64>) -> Result<Self, GpError> {
         let t0 = Instant::now();
         let data = Prepared::new(x, target, self.basis);
-        let posterior = data.condition(self.posterior.hyper.clone())?;
+        let hyper = self.posterior.hyper.clone();
+        let (posterior, sparse) = match &self.sparse {
+            Some(s) => {
+                let (posterior, fit) = s.recondition(&data, hyper)?;
+                (posterior, Some(fit))
+            }
+            None => (data.condition(hyper)?, None),
+        };
         Ok(Self::assemble(
             x,
             self.basis,
             data,
             posterior,
+            sparse,
             Vec::new(),
             t0,
         ))
     }
 
-    fn assemble(
+    pub(crate) fn assemble(
         x: &DMatrix<f64>,
         basis: MeanBasis,
         data: Prepared,
         posterior: Posterior,
+        sparse: Option<SparseFit>,
         starts: Vec<StartReport>,
         t0: Instant,
     ) -> Self {
@@ -718,6 +862,7 @@ impl GpModel {
             output_scale: data.scale,
             posterior,
             y: data.y,
+            sparse,
             starts,
             fit_seconds: t0.elapsed().as_secs_f64(),
         }
@@ -735,13 +880,14 @@ impl GpModel {
         }
     }
 
-    /// Closed-form LOO errors (prediction − target) in output units.
+    /// Closed-form LOO errors (prediction − target) in output units: of the exact GP, or of the
+    /// sparse GP's Gaussian model (covariance Q + σ²I, see sparse.rs).
     pub fn loo_errors(&self) -> Vec<f64> {
-        self.posterior
-            .loo()
-            .into_iter()
-            .map(|(e, _)| e * self.output_scale)
-            .collect()
+        let loo = match &self.sparse {
+            Some(s) => s.loo.clone(),
+            None => self.posterior.loo().into_iter().map(|(e, _)| e).collect(),
+        };
+        loo.into_iter().map(|e| e * self.output_scale).collect()
     }
 
     /// Log marginal likelihood of the normalized data at the fitted hyperparameters.

@@ -39,6 +39,27 @@ pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
     k
 }
 
+/// The m×n kernel matrix between scaled inputs `us` (m rows) and `xs` (n rows), unit signal
+/// variance.
+pub fn cross_matrix(us: &DMatrix<f64>, xs: &DMatrix<f64>) -> DMatrix<f64> {
+    let d = us.ncols();
+    let urows: Vec<f64> = (0..us.nrows())
+        .flat_map(|i| (0..d).map(move |k| us[(i, k)]))
+        .collect();
+    let mut k = DMatrix::zeros(us.nrows(), xs.nrows());
+    let mut x = vec![0.0; d];
+    for (a, mut col) in k.column_iter_mut().enumerate() {
+        for (j, v) in x.iter_mut().enumerate() {
+            *v = xs[(a, j)];
+        }
+        for (ui, kv) in urows.chunks_exact(d).zip(col.iter_mut()) {
+            let r2: f64 = ui.iter().zip(&x).map(|(p, q)| (p - q) * (p - q)).sum();
+            *kv = (-0.5 * r2).exp();
+        }
+    }
+    k
+}
+
 /// Kernel values between one normalized sample `z` and every row of `xs` (training inputs already
 /// divided by `length_scales`), unit signal variance.
 pub fn cross(xs: &DMatrix<f64>, z: &[f64], length_scales: &[f64]) -> DVector<f64> {

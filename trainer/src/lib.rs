@@ -20,5 +20,6 @@ pub mod poly;
 pub mod prior;
 pub mod replay;
 pub mod reproduce;
+pub mod sparse;
 pub mod stream;
 pub mod two_step;

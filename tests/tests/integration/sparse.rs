@@ -1,0 +1,83 @@
+//! Long streams (issue 7): a rate table pooled with every sample of a stream fits as a sparse GP
+//! through the command line, and its blob runs in firmware-core and on the Cortex-M4F exactly as
+//! an exact model's does, for a fraction of the instructions.
+
+use firmware_sim::qemu;
+use trainer::gp::DEFAULT_INDUCING;
+use trainer::replay;
+use trainer::stream::{Stream, Window};
+
+use crate::{at, json, sim, trainer as run_trainer};
+
+#[test]
+fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name| at(dir.path(), name);
+    sim(&["generate", "paper", "--seed", "7", "--out", &p("p.csv")]).unwrap();
+    sim(&["generate", "stream", "--seed", "8", "--out", &p("s.csv")]).unwrap();
+    sim(&["generate", "stream", "--seed", "9", "--out", &p("v.csv")]).unwrap();
+    run_trainer(&[
+        "fit",
+        "--points",
+        &p("p.csv"),
+        "--stream",
+        &p("s.csv"),
+        "--pool-stream",
+        "--out",
+        &p("sparse.bin"),
+        "--json",
+        &p("sparse.json"),
+    ])
+    .unwrap();
+    run_trainer(&["fit", "--points", &p("p.csv"), "--out", &p("exact.bin")]).unwrap();
+
+    // Chosen by size: 140 points + 28,621 samples is far beyond an exact fit.
+    let fit = json(p("sparse.json"));
+    assert_eq!(fit["sparse"]["method"], "vfe", "{fit}");
+    assert_eq!(fit["centres"], DEFAULT_INDUCING, "{fit}");
+    assert_eq!(fit["n_train"], 140 + 28_621, "{fit}");
+    // The f32 firmware follows the f64 host. Issue 3's figures for exact models are 1e-5 °/s and
+    // 1e-3; this sparse model reaches 4e-6 on its training inputs but 1.11e-5 and 1.10e-3 on the
+    // grid (README, "Long streams": open), so the grid is held to twice the exact figures.
+    for (part, mean, var) in [("training", 1e-5, 1e-3), ("grid_inside", 2e-5, 2e-3)] {
+        let a = &fit["firmware_agreement"][part];
+        assert!(
+            a["max_abs_mean_diff"].as_f64().unwrap() <= mean,
+            "{part}: {a}"
+        );
+        assert!(
+            a["max_rel_var_diff"].as_f64().unwrap() <= var,
+            "{part}: {a}"
+        );
+        assert_eq!(a["n_extrapolating"], 0, "{part}: {a}");
+        assert_eq!(a["all_finite"], true, "{part}: {a}");
+    }
+
+    // Two hours of the held-out stream on the M4, both models: identical to the host replay.
+    let held_out = Stream::load(dir.path().join("v.csv").as_path(), &[])
+        .unwrap()
+        .window(Window {
+            start_s: None,
+            end_s: Some(7200.0),
+        });
+    let image = qemu::build_image().unwrap();
+    let mut costs = Vec::new();
+    for name in ["sparse.bin", "exact.bin"] {
+        let blob = std::fs::read(dir.path().join(name)).unwrap();
+        let fw = trainer::export::decode(&blob).unwrap();
+        let host = replay::replay(&fw, &held_out);
+        let m4 = qemu::run(&image, &blob, &held_out).unwrap();
+        let agreement = qemu::compare(&host, &m4.compensated);
+        assert_eq!(agreement.identical, held_out.len(), "{name}: {agreement:?}");
+        assert!(agreement.statuses_equal, "{name}");
+        costs.push(m4.cost.mean_instructions);
+    }
+    // Instruction counts under -icount are exact: 24 centres against 140 (README, "Long
+    // streams": 3,282 against 11,815).
+    assert!(
+        3.5 * costs[0] <= costs[1],
+        "mean path: sparse {} vs exact {} instructions",
+        costs[0],
+        costs[1]
+    );
+}
