@@ -62,8 +62,8 @@ impl ModelInput {
             Some(path) => Some(Points::load(path, &self.maps, None, self.scale_factor)?),
             None => None,
         };
-        if out.is_some() && !pool {
-            return out.context("unreachable: points were loaded");
+        if !pool && let Some(points) = out {
+            return Ok(points);
         }
         for (path, s) in streams {
             let more = if pool {

@@ -358,4 +358,22 @@ mod tests {
         let e = Points::load(f.path(), &[], None, None).unwrap_err();
         assert!(e.to_string().contains("span only 0.010 °C"), "{e}");
     }
+
+    #[test]
+    fn pooling_keeps_every_point_and_refuses_mixed_forms() {
+        let points = |sf: Option<f64>, soaked: bool| Points {
+            temp_c: vec![1.0, 2.0],
+            voltage_v: vec![0.1, 0.2],
+            rate_dps: vec![5.0, 6.0],
+            group: vec!["a".into(), "b".into()],
+            scale_factor: sf,
+            soaked,
+        };
+        let p = points(None, true).pooled(points(None, false)).unwrap();
+        assert_eq!((p.len(), p.group.len(), p.soaked), (4, 4, false));
+        assert!(matches!(
+            points(None, true).pooled(points(Some(1.0), true)),
+            Err(PointsError::MixedForms)
+        ));
+    }
 }

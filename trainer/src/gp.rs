@@ -1048,6 +1048,22 @@ mod tests {
     }
 
     #[test]
+    fn inducing_parses_and_chooses_by_size() {
+        assert_eq!("auto".parse(), Ok(Inducing::Auto));
+        assert_eq!("exact".parse(), Ok(Inducing::Exact));
+        assert_eq!("24".parse(), Ok(Inducing::Count(24)));
+        assert!("1".parse::<Inducing>().is_err());
+        assert!("many".parse::<Inducing>().is_err());
+        assert_eq!(Inducing::Auto.count(AUTO_EXACT_MAX), None);
+        assert_eq!(
+            Inducing::Auto.count(AUTO_EXACT_MAX + 1),
+            Some(DEFAULT_INDUCING)
+        );
+        assert_eq!(Inducing::Count(50).count(40), None);
+        assert_eq!(Inducing::Exact.count(1_000_000), None);
+    }
+
+    #[test]
     fn jitter_escalates_on_a_singular_matrix() {
         let k = DMatrix::from_element(3, 3, 1.0);
         let (_, jitter) = cholesky_with_jitter(k).unwrap();
