@@ -31,7 +31,7 @@ fn sparse_fits(c: &mut Criterion) {
         let prepared = Prepared::new(&x, &y, GpConfig::default().mean);
         for m in [32, 64, 128] {
             let xs = trainer::kernel::scale_inputs(&prepared.z, &[0.3, 0.3]);
-            let u = prepared.z.select_rows(&sparse::select(&xs, m));
+            let u = prepared.z.select_rows(&sparse::select(&xs, &xs, m));
             let theta = [0.3f64.ln(), 0.3f64.ln(), 0.0, 0.05f64.ln()];
             group.bench_with_input(
                 BenchmarkId::new(format!("bound_and_gradient_n{n}"), m),

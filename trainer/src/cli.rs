@@ -13,6 +13,8 @@ use crate::gp::{GpConfig, GpModel, Inducing};
 use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically};
 use crate::prior::MeanBasis;
+use crate::progress;
+use crate::report;
 use crate::reproduce::Reproduction;
 use crate::stream::{Stream, Window};
 use anyhow::Context;
@@ -258,6 +260,30 @@ enum Command {
         /// Write the evaluation as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
+    },
+    /// One self-contained HTML report (inline SVG) and its figures as SVG files: the rate table,
+    /// the paper's Fig. 2, 4 and 5–6, the held-out replay (static and extended, ±2σ) and the
+    /// diagnosis, with the LOO, leave-one-temperature-out and gain tables.
+    ///
+    /// Example: trainer report --points points.csv --train-stream train.csv --valid-stream
+    /// valid.csv --out-dir report
+    Report {
+        #[command(flatten)]
+        input: ModelInput,
+        #[command(flatten)]
+        fit: FitOptions,
+        /// Stream the extension is fitted on.
+        #[arg(long)]
+        train_stream: PathBuf,
+        /// Held-out stream: replayed, diagnosed and scored.
+        #[arg(long)]
+        valid_stream: PathBuf,
+        /// Directory for report.html and the figures (created if missing).
+        #[arg(long)]
+        out_dir: PathBuf,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
     ///
@@ -610,6 +636,38 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 let mut value = serde_json::to_value(&e)?;
                 value["cross_run"] = serde_json::to_value(&cross)?;
                 write_json(&path, &inputs, &value)?;
+            }
+            Ok(())
+        }
+        Command::Report {
+            input,
+            fit,
+            train_stream,
+            valid_stream,
+            out_dir,
+            quiet,
+        } => {
+            let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+            inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
+            let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);
+            for name in names {
+                ensure_not_input(&out_dir.join(name), &inputs)?;
+            }
+            let train = [(
+                train_stream.as_path(),
+                load_stream(&train_stream, &input.maps, None)?,
+            )];
+            let valid = load_stream(&valid_stream, &input.maps, None)?;
+            let points = input.static_points(&train, false)?;
+            let source = input.points.as_deref().unwrap_or(train_stream.as_path());
+            let bar = progress::steps(report::STEPS, quiet);
+            let r = report::build(source, points, &train[0].1, valid, &fit.gp(), |step| {
+                bar.inc(1);
+                bar.set_message(step.to_owned());
+            })?;
+            bar.finish_and_clear();
+            for path in report::write(&out_dir, &r)? {
+                println!("wrote {}", path.display());
             }
             Ok(())
         }

@@ -30,9 +30,10 @@
 //!
 //! Each evaluation is O(n m²), over chunks of samples in parallel; memory O(n m).
 //!
-//! The fit: hyperparameters of an exact GP on a random subset of the samples (all the optimizer
-//! starts of gp.rs, cheap at that size); inducing points chosen greedily in that kernel's metric
-//! ([`select`]); then L-BFGS on the bound from there. The prior mean stays the ordinary least-squares
+//! The fit: hyperparameters of an exact GP on a subset of the samples, half spread over the inputs
+//! and half random ([`start_subset`]; all the optimizer starts of gp.rs, cheap at that size);
+//! inducing points chosen greedily in that kernel's metric ([`select`]); then L-BFGS on the bound
+//! from there. The prior mean stays the ordinary least-squares
 //! fit of the basis (the exact GP re-estimates it by GLS): with n ≫ m samples the two differ little,
 //! and marginalizing it through the bound would add a p×p term to every gradient for no measured gain.
 
@@ -64,6 +65,10 @@ const MIN_RESIDUAL: f64 = 10.0 * JITTER;
 const MIN_EIGENVALUE: f64 = 1e-6;
 /// Selection–refinement rounds of a sparse fit.
 const ROUNDS: usize = 2;
+/// Residual variance (relative to σ_f², in the model's own metric) below which [`select`] passes
+/// a sample over: it bounds how close to dependent K_mm's columns get, and with it the size of
+/// the mean weights against the f32 rounding of the kernel values.
+const MIN_GUARD_RESIDUAL: f64 = 1e-4;
 /// Longest length scale (normalized units) of the metric inducing points are selected in.
 const SELECTION_MAX_LENGTH: f64 = 1.0;
 /// Samples of the exact GP that gives the starting hyperparameters.
@@ -121,9 +126,7 @@ pub(crate) fn fit(
     t0: Instant,
 ) -> Result<GpModel, GpError> {
     let n = data.y.len();
-    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-    let mut subset = rand::seq::index::sample(&mut rng, n, SUBSET.min(n)).into_vec();
-    subset.sort_unstable();
+    let subset = start_subset(&data.z, cfg.seed);
     let (zs, ys) = (data.z.select_rows(&subset), data.y.select_rows(&subset));
     let none = DMatrix::zeros(subset.len(), 0);
     let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, t);
@@ -139,14 +142,13 @@ pub(crate) fn fit(
     let mut best: Option<(DMatrix<f64>, Vec<f64>, f64)> = None;
     let mut theta = start;
     for _ in 0..ROUNDS {
-        let ls: Vec<f64> = Hyperparameters::from_log(&theta)
-            .length_scales
-            .iter()
-            .map(|l| l.min(SELECTION_MAX_LENGTH))
-            .collect();
-        let u = data
-            .z
-            .select_rows(&select(&kernel::scale_inputs(&data.z, &ls), m));
+        let ls = Hyperparameters::from_log(&theta).length_scales;
+        let capped: Vec<f64> = ls.iter().map(|l| l.min(SELECTION_MAX_LENGTH)).collect();
+        let u = data.z.select_rows(&select(
+            &kernel::scale_inputs(&data.z, &capped),
+            &kernel::scale_inputs(&data.z, &ls),
+            m,
+        ));
         let bound = |t: &[f64]| bound_and_gradient(&data.z, &data.y, &u, t);
         let refined = gp::optimize_from(&bound, (n, d), theta.clone(), cfg, REFINE);
         let end = match (&refined.end, refined.log_marginal_likelihood) {
@@ -188,42 +190,99 @@ pub(crate) fn fit(
     ))
 }
 
+/// The samples of the exact GP that starts the hyperparameters: half spread over the inputs
+/// (greedy selection at unit length scales), half at random. A purely random subset of a pooled
+/// run is nearly all stream samples, which crowd around a few rates and temperatures: it saw
+/// almost none of the rate table, found temperature irrelevant (ℓ_T in the hundreds), and the bound
+/// stayed in that optimum, recovering the temperature structure only through nearly dependent
+/// inducing points. Spread over the inputs, the start keeps it: on the integration test's 28,761
+/// samples the bound rose by about 1,700, and on the README's 114,624 the held-out error at m = 24
+/// is 5.2e-4 °/s where the random start gave 8.7e-4 (README, "Long streams").
+fn start_subset(z: &DMatrix<f64>, seed: u64) -> Vec<usize> {
+    let n = z.nrows();
+    let size = SUBSET.min(n);
+    let unit = kernel::scale_inputs(z, &vec![1.0; z.ncols()]);
+    let mut subset = select(&unit, &unit, size / 2);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for i in rand::seq::index::sample(&mut rng, n, size) {
+        if subset.len() == size {
+            break;
+        }
+        if !subset.contains(&i) {
+            subset.push(i);
+        }
+    }
+    subset.sort_unstable();
+    subset
+}
+
 /// Greedy inducing-point selection: a pivoted Cholesky factorization of the unit-variance kernel
-/// on the scaled inputs `xs`, each step taking the sample the chosen ones explain worst (largest
+/// on the scaled inputs `rank`, each step taking the sample the chosen ones explain worst (largest
 /// diagonal of K − Q). That diagonal is the bound's trace term, so each pick lowers what the bound
 /// pays for the approximation. Written here because it works in the kernel's own metric. Stops
 /// early when every sample is explained (fewer distinct inputs than `m`).
-pub fn select(xs: &DMatrix<f64>, m: usize) -> Vec<usize> {
-    let n = xs.nrows();
-    let ones = vec![1.0; xs.ncols()];
-    let mut residual = vec![1.0f64; n];
-    let mut columns: Vec<DVector<f64>> = Vec::with_capacity(m);
+///
+/// `guard` holds the same samples scaled by the model's own length scales, which may be longer
+/// than the ranking metric's: a sample the chosen ones explain to within [`MIN_GUARD_RESIDUAL`]
+/// in that metric is passed over. Such a point adds a nearly dependent column to K_mm, and the
+/// mean weights turn into large alternating pairs whose cancellation the f32 firmware cannot
+/// follow (README, "Long streams").
+pub fn select(rank: &DMatrix<f64>, guard: &DMatrix<f64>, m: usize) -> Vec<usize> {
+    let n = rank.nrows();
+    let mut ranked = Pivoted::new(n);
+    let mut guarded = Pivoted::new(n);
     let mut chosen = Vec::with_capacity(m);
     while chosen.len() < m {
-        let Some((p, &r)) = residual
+        let Some((p, r)) = ranked
+            .residual
             .iter()
+            .zip(&guarded.residual)
             .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(&a.0)))
+            .filter(|(_, (_, g))| **g >= MIN_GUARD_RESIDUAL)
+            .map(|(i, (r, _))| (i, *r))
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
         else {
             break;
         };
         if r < MIN_RESIDUAL {
             break;
         }
-        let row: Vec<f64> = xs.row(p).iter().copied().collect();
-        let mut col = kernel::cross(xs, &row, &ones);
-        for c in &columns {
-            col.axpy(-c[p], c, 1.0);
-        }
-        col /= r.sqrt();
-        for (res, c) in residual.iter_mut().zip(col.iter()) {
-            *res -= c * c;
-        }
-        residual[p] = 0.0;
+        ranked.take(rank, p);
+        guarded.take(guard, p);
         chosen.push(p);
-        columns.push(col);
     }
     chosen
+}
+
+/// A pivoted Cholesky factorization of a unit-variance kernel, one pivot at a time.
+struct Pivoted {
+    /// Diagonal of K − Q for every sample.
+    residual: Vec<f64>,
+    columns: Vec<DVector<f64>>,
+}
+
+impl Pivoted {
+    fn new(n: usize) -> Self {
+        Self {
+            residual: vec![1.0; n],
+            columns: Vec::new(),
+        }
+    }
+
+    /// Adds sample `p` of the scaled inputs `xs` as a pivot.
+    fn take(&mut self, xs: &DMatrix<f64>, p: usize) {
+        let row: Vec<f64> = xs.row(p).iter().copied().collect();
+        let mut col = kernel::cross(xs, &row, &vec![1.0; xs.ncols()]);
+        for c in &self.columns {
+            col.axpy(-c[p], c, 1.0);
+        }
+        col /= self.residual[p].sqrt();
+        for (res, c) in self.residual.iter_mut().zip(col.iter()) {
+            *res -= c * c;
+        }
+        self.residual[p] = 0.0;
+        self.columns.push(col);
+    }
 }
 
 /// One chunk of samples: its rows, their scaled inputs, K_mn's columns and Φ = L⁻¹ K_mn's.
@@ -593,11 +652,24 @@ mod tests {
     #[test]
     fn greedy_selection_spreads_over_the_inputs_and_stops_at_duplicates() {
         let x = DMatrix::from_row_slice(6, 1, &[0.0, 0.0, 0.0, 5.0, 5.0, 10.0]);
-        let chosen = select(&x, 6);
+        let chosen = select(&x, &x, 6);
         assert_eq!(chosen.len(), 3, "three distinct inputs: {chosen:?}");
         let mut at: Vec<f64> = chosen.iter().map(|&i| x[(i, 0)]).collect();
         at.sort_by(f64::total_cmp);
         assert_eq!(at, vec![0.0, 5.0, 10.0]);
+    }
+
+    #[test]
+    fn selection_passes_over_samples_nearly_dependent_in_the_models_metric() {
+        // Three samples along an input the model finds irrelevant (ℓ = 1000): one apart in the
+        // ranking metric, 1e-3 apart in the model's, where each explains the next to 1 − e^(−1e-6).
+        let rank = DMatrix::from_row_slice(3, 1, &[0.0, 1.0, 2.0]);
+        let guard = &rank / 1000.0;
+        assert_eq!(select(&rank, &rank, 3).len(), 3);
+        assert_eq!(select(&rank, &guard, 3).len(), 1);
+        // Far enough apart in both metrics, all are kept.
+        let wide = DMatrix::from_row_slice(3, 1, &[0.0, 10.0, 20.0]);
+        assert_eq!(select(&wide, &(&wide / 5.0), 3).len(), 3);
     }
 
     #[test]

@@ -6,6 +6,7 @@ mod firmware;
 mod m4;
 mod paper;
 mod real;
+mod report;
 mod sparse;
 
 use std::path::{Path, PathBuf};

@@ -34,19 +34,22 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     // Chosen by size: 140 points + 28,621 samples is far beyond an exact fit.
     let fit = json(p("sparse.json"));
     assert_eq!(fit["sparse"]["method"], "vfe", "{fit}");
-    assert_eq!(fit["centres"], DEFAULT_INDUCING, "{fit}");
+    // Up to the default m: selection stops short when every remaining sample is nearly
+    // dependent on the chosen ones in the model's metric.
+    let centres = fit["centres"].as_u64().unwrap();
+    assert!((20..=DEFAULT_INDUCING as u64).contains(&centres), "{fit}");
     assert_eq!(fit["n_train"], 140 + 28_621, "{fit}");
-    // The f32 firmware follows the f64 host. Issue 3's figures for exact models are 1e-5 °/s and
-    // 1e-3; this sparse model reaches 4e-6 on its training inputs but 1.11e-5 and 1.10e-3 on the
-    // grid (README, "Long streams": open), so the grid is held to twice the exact figures.
-    for (part, mean, var) in [("training", 1e-5, 1e-3), ("grid_inside", 2e-5, 2e-3)] {
+    // The f32 firmware follows the f64 host as closely as for exact models (issue 3: 1e-5 °/s,
+    // 1e-3 relative variance). This model reaches 8.7e-6 and 7.3e-6 (README, "Long streams": how
+    // close to f32's limit a sparse model sits).
+    for part in ["training", "grid_inside"] {
         let a = &fit["firmware_agreement"][part];
         assert!(
-            a["max_abs_mean_diff"].as_f64().unwrap() <= mean,
+            a["max_abs_mean_diff"].as_f64().unwrap() <= 1e-5,
             "{part}: {a}"
         );
         assert!(
-            a["max_rel_var_diff"].as_f64().unwrap() <= var,
+            a["max_rel_var_diff"].as_f64().unwrap() <= 1e-3,
             "{part}: {a}"
         );
         assert_eq!(a["n_extrapolating"], 0, "{part}: {a}");
@@ -72,8 +75,8 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
         assert!(agreement.statuses_equal, "{name}");
         costs.push(m4.cost.mean_instructions);
     }
-    // Instruction counts under -icount are exact: 24 centres against 140 (README, "Long
-    // streams": 3,282 against 11,815).
+    // Instruction counts under -icount are exact: 23 centres against 140 (README, "Long
+    // streams": the default m against the 140-point model, more than 4×).
     assert!(
         3.5 * costs[0] <= costs[1],
         "mean path: sparse {} vs exact {} instructions",

@@ -1,0 +1,370 @@
+//! `trainer report`: one self-contained HTML page (inline SVG, no network) with the figures a
+//! calibration engineer reads first — the rate table, the paper's Fig. 2, 4 and 5–6, the replay of
+//! a held-out stream with the firmware's ±2σ band, static against extended, and the diagnosis —
+//! plus each figure as its own SVG file. The numbers come from the same library calls as
+//! `reproduce` and `investigate`; this module only runs them in order and draws.
+
+pub mod plots;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+use crate::cause::Cause;
+use crate::dataset::Points;
+use crate::diagnose::Residual;
+use crate::evaluate::{self, EvalConfig, Method};
+use crate::export;
+use crate::gp::GpConfig;
+use crate::investigate::{self, Investigation};
+use crate::io::write_atomically;
+use crate::replay::{self, Compensated};
+use crate::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
+use crate::stream::Stream;
+use plots::{DiagnosisSeries, ReplaySeries};
+
+/// The figure files, in page order: (file name, caption).
+pub const FIGURES: [(&str, &str); 6] = [
+    (
+        "rate_table.svg",
+        "Rate table: output over temperature and rate (paper Fig. 1)",
+    ),
+    (
+        "output_vs_temperature.svg",
+        "Output against temperature per rate, first-order fits (paper Fig. 2)",
+    ),
+    (
+        "qq.svg",
+        "Q-Q plot of leave-one-out residuals (paper Fig. 4)",
+    ),
+    (
+        "loo_error.svg",
+        "Leave-one-out error over (T, rate), GPR and LS-SVR (paper Fig. 5–6)",
+    ),
+    (
+        "replay.svg",
+        "Held-out stream replayed through the firmware: static and extended models",
+    ),
+    (
+        "diagnosis.svg",
+        "Diagnosis: the static model's residual against its cause and against temperature",
+    ),
+];
+
+/// Steps of [`build`], for a progress bar.
+pub const STEPS: u64 = 5;
+
+/// Everything the page shows.
+pub struct Report {
+    /// Where the rate table came from.
+    pub source: String,
+    /// The points (rate table).
+    pub points: Points,
+    /// LOO evaluations and the Fig. 2 check.
+    pub reproduction: Reproduction,
+    /// The investigation on the held-out stream.
+    pub investigation: Investigation,
+    /// The held-out stream.
+    pub valid: Stream,
+    /// Static and extended replays of it.
+    pub replays: [Compensated; 2],
+    /// The static model's 60 s residual, with the named cause's regressor and block temperature.
+    pub residual: Vec<f64>,
+    /// Regressor of the named cause (empty for `none`).
+    pub regressor: Vec<f64>,
+    /// Block-mean temperature, °C.
+    pub block_temp_c: Vec<f64>,
+}
+
+/// Runs the evaluations and the investigation; `step` is called before each of [`STEPS`] steps.
+pub fn build(
+    source: &Path,
+    points: Points,
+    train: &Stream,
+    valid: Stream,
+    cfg: &GpConfig,
+    mut step: impl FnMut(&str),
+) -> anyhow::Result<Report> {
+    let eval = EvalConfig {
+        gp: cfg.clone(),
+        ..EvalConfig::default()
+    };
+    step("GPR leave-one-out and leave-one-temperature-out");
+    let gpr = evaluate::evaluate(&points, Method::Gpr, &eval)?;
+    step("LS-SVR leave-one-out and leave-one-temperature-out");
+    let lssvr = evaluate::evaluate(&points, Method::Lssvr, &eval)?;
+    step("two-step leave-one-out");
+    let two_step = evaluate::evaluate(&points, Method::TwoStep, &eval)?;
+    let reproduction = Reproduction {
+        gpr,
+        lssvr,
+        two_step,
+        fig2: evaluate::fig2(&points),
+    };
+    step("investigation: static fit, replay, diagnosis, extended fit");
+    let (investigation, blobs) = investigate::investigate(&points, train, &valid, cfg, None)?;
+    step("replays of the held-out stream");
+    let fw_static = export::decode(&blobs.static_blob)?;
+    let fw_ext = export::decode(&blobs.extended_blob)?;
+    let replays = [
+        replay::replay(&fw_static, &valid),
+        replay::replay(&fw_ext, &valid),
+    ];
+    let res = Residual::from_replay(&fw_static, &valid, &replays[0]);
+    let cause = investigation.cause();
+    let regressor = investigation
+        .diagnosis
+        .candidates
+        .iter()
+        .find(|c| c.id == cause)
+        .and_then(|c| res.regressor(cause, c.parameter as f32))
+        .unwrap_or_default();
+    let (residual, block_temp_c) = (res.r.clone(), res.temperature());
+    Ok(Report {
+        source: source.display().to_string(),
+        points,
+        reproduction,
+        investigation,
+        valid,
+        replays,
+        residual,
+        regressor,
+        block_temp_c,
+    })
+}
+
+/// Axis label of a cause's regressor.
+fn regressor_label(cause: Cause) -> &'static str {
+    match cause {
+        Cause::ThermalRate => "filtered dT/dt (°C/min)",
+        Cause::SensorLag => "f(coil estimate) − f(sensor) (°/s)",
+        Cause::WarmUp => "exp(−t_on/τ)",
+        Cause::Hysteresis => "thermal state (−1 cooling … +1 heating)",
+        Cause::TimeDrift => "time since power-on (h)",
+        Cause::None => "",
+    }
+}
+
+/// 60 s block means of the replay error and σ, with block mid-times in hours.
+fn replay_blocks(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+    let scored: Vec<usize> = (0..valid.len())
+        .filter(|&i| valid.rate_dps[i].is_finite() && comp.rate_dps[i].is_finite())
+        .collect();
+    let blocks = replay::blocks(valid, &scored);
+    let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
+        b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
+    };
+    let t0 = valid.time_s.first().copied().unwrap_or(0.0);
+    let time_h = blocks
+        .iter()
+        .map(|b| (mean(b, &|i| valid.time_s[i]) - t0) / 3600.0)
+        .collect();
+    let temp = blocks
+        .iter()
+        .map(|b| mean(b, &|i| valid.temp_c[i]))
+        .collect();
+    let err = blocks
+        .iter()
+        .map(|b| mean(b, &|i| f64::from(comp.rate_dps[i]) - valid.rate_dps[i]))
+        .collect();
+    let std = blocks
+        .iter()
+        .map(|b| mean(b, &|i| f64::from(comp.std_dps[i])))
+        .collect();
+    (time_h, temp, err, std)
+}
+
+/// Draws every figure: (file name, SVG text), in [`FIGURES`] order.
+pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
+    let p = &r.points;
+    let rep = &r.reproduction;
+    let (time_h, temp, err_s, std_s) = replay_blocks(&r.valid, &r.replays[0]);
+    let (_, _, err_e, std_e) = replay_blocks(&r.valid, &r.replays[1]);
+    let extended = if r.investigation.added_inputs.is_empty() {
+        "extended (nothing added)".to_owned()
+    } else {
+        format!("extended (+ {})", r.investigation.added_inputs.join(", "))
+    };
+    let cause = r.investigation.cause();
+    let line = r
+        .investigation
+        .diagnosis
+        .candidates
+        .iter()
+        .find(|c| c.id == cause)
+        .map_or((0.0, 0.0), |c| (c.intercept_dps, c.slope));
+    let svgs = [
+        plots::rate_table(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
+        plots::output_vs_temperature(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
+        plots::qq(&[
+            ("GPR", &rep.gpr.loo_errors_dps, rep.gpr.qq_correlation),
+            (
+                "LS-SVR",
+                &rep.lssvr.loo_errors_dps,
+                rep.lssvr.qq_correlation,
+            ),
+        ])?,
+        plots::loo_map(
+            &p.temp_c,
+            &p.rate_dps,
+            &[
+                ("GPR", &rep.gpr.loo_errors_dps),
+                ("LS-SVR", &rep.lssvr.loo_errors_dps),
+            ],
+        )?,
+        plots::replay(
+            &time_h,
+            &temp,
+            &[
+                ReplaySeries {
+                    name: "static",
+                    error_dps: &err_s,
+                    std_dps: &std_s,
+                },
+                ReplaySeries {
+                    name: &extended,
+                    error_dps: &err_e,
+                    std_dps: &std_e,
+                },
+            ],
+        )?,
+        plots::diagnosis(&DiagnosisSeries {
+            cause: cause.id(),
+            regressor_label: regressor_label(cause),
+            regressor: &r.regressor,
+            line,
+            residual_dps: &r.residual,
+            temp_c: &r.block_temp_c,
+        })?,
+    ];
+    Ok(FIGURES.iter().map(|f| f.0).zip(svgs).collect())
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn sci(v: f64) -> String {
+    format!("{v:.2e}")
+}
+
+/// The page: summary tables beside the figures, every SVG inline.
+pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
+    let rep = &r.reproduction;
+    let inv = &r.investigation;
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <title>FOG drift compensation report</title><style>\
+         body{{font-family:sans-serif;max-width:1140px;margin:2em auto;color:#222}}\
+         table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #bbb;padding:4px 10px;text-align:right}}\
+         th{{background:#eee}}figure{{margin:2em 0}}figcaption{{font-weight:bold;margin-bottom:.5em}}\
+         svg{{max-width:100%;height:auto}}</style></head><body>\n\
+         <h1>FOG temperature-drift compensation report</h1>\n\
+         <p>Rate table: <code>{}</code>, {} points. Held-out stream: {} samples. \
+         Figures are also written as SVG files beside this page.</p>\n",
+        escape(&r.source),
+        r.points.len(),
+        r.valid.len()
+    );
+    s.push_str("<h2>How the model does on the rate table</h2>\n<table><tr><th>method</th><th>LOO RMSE (°/s)</th><th>LOO RMSE (°/h)</th><th>paper (°/s)</th><th>leave-one-temperature-out (°/s)</th><th>Q-Q r</th></tr>\n");
+    for (name, e, paper) in [
+        ("GPR", &rep.gpr, Some(PAPER_LOO_GPR)),
+        ("LS-SVR", &rep.lssvr, Some(PAPER_LOO_LSSVR)),
+        ("two-step", &rep.two_step, None),
+    ] {
+        let _ = writeln!(
+            s,
+            "<tr><td>{name}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
+            sci(e.rmse_dps),
+            e.rmse_dph,
+            paper.map_or("—".into(), sci),
+            sci(e.group_rmse_dps),
+            e.qq_correlation
+        );
+    }
+    s.push_str("</table>\n<h3>Leave-one-temperature-out beside the paper's Table 1 (°/s)</h3>\n<table><tr><th>T (°C)</th><th>GPR</th><th>GPR paper</th><th>LS-SVR</th><th>LS-SVR paper</th></tr>\n");
+    let mut order: Vec<usize> = (0..rep.gpr.per_temperature.len()).collect();
+    order.sort_by(|&a, &b| {
+        rep.gpr.per_temperature[a]
+            .temp_c
+            .total_cmp(&rep.gpr.per_temperature[b].temp_c)
+    });
+    let paired = order.len() == PAPER_LOTO.len();
+    for (rank, &i) in order.iter().enumerate() {
+        let g = &rep.gpr.per_temperature[i];
+        let lssvr = rep
+            .lssvr
+            .per_temperature
+            .iter()
+            .find(|x| x.group == g.group)
+            .map_or("—".into(), |x| sci(x.rmse_dps));
+        let (pg, pl) = if paired {
+            (sci(PAPER_LOTO[rank].2), sci(PAPER_LOTO[rank].1))
+        } else {
+            ("—".into(), "—".into())
+        };
+        let _ = writeln!(
+            s,
+            "<tr><td>{:.1}</td><td>{}</td><td>{pg}</td><td>{lssvr}</td><td>{pl}</td></tr>",
+            g.temp_c,
+            sci(g.rmse_dps)
+        );
+    }
+    let _ = write!(
+        s,
+        "</table>\n<h2>Diagnosis and gain on the held-out stream</h2>\n<p>Named cause: <b>{}</b> — {}</p>\n\
+         <table><tr><th>model</th><th>inputs added</th><th>rmse_60s (°/s)</th><th>rmse_60s (°/h)</th><th>gain</th></tr>\n\
+         <tr><td>static</td><td>—</td><td>{}</td><td>{:.2}</td><td>1.00×</td></tr>\n\
+         <tr><td>extended</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}×</td></tr></table>\n\
+         <table><tr><th>candidate cause</th><th>score</th><th>parameter</th><th>correlation</th><th>amplitude (°/h)</th></tr>\n",
+        inv.cause(),
+        escape(&inv.diagnosis.explanation),
+        sci(inv.static_score.rmse_60s_dps),
+        inv.static_score.rmse_60s_dps * 3600.0,
+        if inv.added_inputs.is_empty() {
+            "nothing".into()
+        } else {
+            inv.added_inputs.join(", ")
+        },
+        sci(inv.extended_score.rmse_60s_dps),
+        inv.extended_score.rmse_60s_dps * 3600.0,
+        inv.gain
+    );
+    for c in &inv.diagnosis.candidates {
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{:.3}</td><td>{:.1}</td><td>{:.3}</td><td>{:.2}</td></tr>",
+            c.id, c.score, c.parameter, c.correlation, c.amplitude_dph
+        );
+    }
+    s.push_str("</table>\n<h2>Figures</h2>\n");
+    for ((name, svg), (_, caption)) in figures.iter().zip(FIGURES) {
+        let _ = writeln!(
+            s,
+            "<figure id=\"{name}\"><figcaption>{caption} — <a href=\"{name}\">{name}</a></figcaption>\n{svg}\n</figure>"
+        );
+    }
+    s.push_str("</body></html>\n");
+    s
+}
+
+/// Writes `report.html` and the figure files into `dir` (created if missing); returns the paths.
+pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let figures = figures(r)?;
+    let mut written = Vec::new();
+    for (name, svg) in &figures {
+        let path = dir.join(name);
+        write_atomically(&path, svg.as_bytes())?;
+        written.push(path);
+    }
+    let page = dir.join("report.html");
+    write_atomically(&page, html(r, &figures).as_bytes())?;
+    written.push(page);
+    Ok(written)
+}

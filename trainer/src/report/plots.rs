@@ -1,0 +1,574 @@
+//! The report's figures as SVG text (plotters' SVG backend: no fonts needed at build time, the
+//! browser renders the text). Each function draws one figure from plain series, so the figures can
+//! be checked without running a fit.
+
+use std::error::Error;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// A figure that could not be drawn (plotters' error, as text).
+#[derive(Debug, thiserror::Error)]
+#[error("drawing {figure}: {message}")]
+pub struct PlotError {
+    /// The figure.
+    pub figure: &'static str,
+    /// What plotters said.
+    pub message: String,
+}
+
+type Draw<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
+
+const FONT: &str = "sans-serif";
+const TITLE: u32 = 20;
+const LABEL: u32 = 16;
+const TICK: u32 = 14;
+/// Static model, extended model, GPR, LS-SVR: one colour each across the figures.
+const BLUE: RGBColor = RGBColor(31, 119, 180);
+const ORANGE: RGBColor = RGBColor(230, 120, 20);
+const GREEN: RGBColor = RGBColor(44, 160, 44);
+const RED: RGBColor = RGBColor(214, 39, 40);
+const GREY: RGBColor = RGBColor(120, 120, 120);
+
+/// Renders `draw` on a `size` canvas and returns the SVG text.
+fn svg(
+    figure: &'static str,
+    size: (u32, u32),
+    draw: impl FnOnce(&Draw<'_>) -> DrawResult,
+) -> Result<String, PlotError> {
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        let result = root
+            .fill(&WHITE)
+            .map_err(Into::into)
+            .and_then(|()| draw(&root))
+            .and_then(|()| root.present().map_err(Into::into));
+        result.map_err(|e| PlotError {
+            figure,
+            message: e.to_string(),
+        })?;
+    }
+    Ok(text)
+}
+
+/// Low and high of a series, padded by `pad` of the span (and kept apart when constant).
+fn span(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
+    let (lo, hi) = values
+        .into_iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !lo.is_finite() {
+        return (-1.0, 1.0);
+    }
+    let width = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
+    (lo - pad * width, hi + pad * width)
+}
+
+/// Blue (cold) to red (hot) for `t` in [0, 1].
+fn cold_to_hot(t: f64) -> RGBColor {
+    let t = t.clamp(0.0, 1.0);
+    let mix = |a: u8, b: u8| (f64::from(a) + t * (f64::from(b) - f64::from(a))).round() as u8;
+    RGBColor(mix(BLUE.0, RED.0), mix(BLUE.1, RED.1), mix(BLUE.2, RED.2))
+}
+
+/// Distinct values of `xs`, sorted, merged when closer than `tol`.
+pub fn levels(xs: &[f64], tol: f64) -> Vec<f64> {
+    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup_by(|a, b| (*a - *b).abs() < tol);
+    v
+}
+
+/// Fig. 1: the rate table, output against reference rate, one colour per temperature plateau.
+pub fn rate_table(temp_c: &[f64], rate_dps: &[f64], output: &[f64]) -> Result<String, PlotError> {
+    svg("the rate table", (900, 560), |root| {
+        let (x0, x1) = span(rate_dps.iter().copied(), 0.05);
+        let (y0, y1) = span(output.iter().copied(), 0.05);
+        let (t0, t1) = span(temp_c.iter().copied(), 0.0);
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                "Rate table: gyro output over (temperature, rate)",
+                (FONT, TITLE),
+            )
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc("reference rate (°/s)")
+            .y_desc("gyro output (V or counts)")
+            .label_style((FONT, TICK))
+            .axis_desc_style((FONT, LABEL))
+            .draw()?;
+        let plateaus = levels(temp_c, 1.0);
+        let nearest = |t: f64| {
+            (0..plateaus.len())
+                .min_by(|&a, &b| (plateaus[a] - t).abs().total_cmp(&(plateaus[b] - t).abs()))
+        };
+        for (k, &level) in plateaus.iter().enumerate() {
+            let colour = cold_to_hot((level - t0) / (t1 - t0).max(1e-9));
+            let pts: Vec<(f64, f64)> = (0..temp_c.len())
+                .filter(|&i| nearest(temp_c[i]) == Some(k))
+                .map(|i| (rate_dps[i], output[i]))
+                .collect();
+            let series =
+                chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            // One legend entry per plateau up to ten; beyond, the end points only.
+            if plateaus.len() <= 10 || k == 0 || k + 1 == plateaus.len() {
+                series
+                    .label(format!("{level:.1} °C"))
+                    .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font((FONT, TICK))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// Least-squares line y = a + b·x.
+fn line(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let mx = x.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(u, v)| (u - mx) * (v - my)).sum();
+    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    (my - b * mx, b)
+}
+
+/// Fig. 2: per rate, the output against temperature with its first-order fit, as the deviation
+/// from that rate's mean output in thousandths of the output unit (mV for an analog gyro), one
+/// panel per rate so that the curvature a straight line misses is visible.
+pub fn output_vs_temperature(
+    temp_c: &[f64],
+    rate_dps: &[f64],
+    output: &[f64],
+) -> Result<String, PlotError> {
+    let rates = levels(rate_dps, 1e-6);
+    let cols = 4usize;
+    let rows = rates.len().div_ceil(cols).max(1);
+    let height = 60 + 230 * u32::try_from(rows).unwrap_or(8);
+    svg("output against temperature", (1100, height), |root| {
+        let (title, body) = root.split_vertically(50);
+        title.titled(
+            "Output against temperature per rate, with first-order fits (paper Fig. 2)",
+            (FONT, TITLE),
+        )?;
+        for (panel, &rate) in body.split_evenly((rows, cols)).iter().zip(&rates) {
+            let idx: Vec<usize> = (0..rate_dps.len())
+                .filter(|&i| (rate_dps[i] - rate).abs() < 1e-6)
+                .collect();
+            let t: Vec<f64> = idx.iter().map(|&i| temp_c[i]).collect();
+            let v: Vec<f64> = idx.iter().map(|&i| output[i]).collect();
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            let dev: Vec<f64> = v.iter().map(|x| 1e3 * (x - mean)).collect();
+            let (a, b) = line(&t, &dev);
+            let (x0, x1) = span(t.iter().copied(), 0.05);
+            let (y0, y1) = span(dev.iter().copied(), 0.1);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(format!("{rate:+.1} °/s"), (FONT, LABEL))
+                .margin(8)
+                .x_label_area_size(38)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, y0..y1)?;
+            chart
+                .configure_mesh()
+                .x_desc("T (°C)")
+                .y_desc("Δoutput (×10⁻³)")
+                .x_labels(5)
+                .y_labels(5)
+                .label_style((FONT, 12))
+                .axis_desc_style((FONT, 13))
+                .draw()?;
+            chart.draw_series(
+                t.iter()
+                    .zip(&dev)
+                    .map(|(&x, &y)| Circle::new((x, y), 3, BLUE.filled())),
+            )?;
+            chart.draw_series(LineSeries::new(
+                [x0, x1].map(|x| (x, a + b * x)),
+                ORANGE.stroke_width(2),
+            ))?;
+        }
+        Ok(())
+    })
+}
+
+/// Fig. 4: normal Q-Q plot of leave-one-out residuals, one series per method with its
+/// correlation in the legend. `methods`: (name, residuals, correlation).
+pub fn qq(methods: &[(&str, &[f64], f64)]) -> Result<String, PlotError> {
+    svg("the Q-Q plot", (760, 560), |root| {
+        let normal = statrs::distribution::Normal::standard();
+        let series: Vec<(String, Vec<(f64, f64)>)> = methods
+            .iter()
+            .map(|(name, r, corr)| {
+                let mut s = r.to_vec();
+                s.sort_by(f64::total_cmp);
+                let n = s.len() as f64;
+                let pts = s
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| {
+                        let p = (i as f64 + 1.0 - 0.375) / (n + 0.25);
+                        (
+                            statrs::distribution::ContinuousCDF::inverse_cdf(&normal, p),
+                            v,
+                        )
+                    })
+                    .collect();
+                (format!("{name} (r = {corr:.4})"), pts)
+            })
+            .collect();
+        let (x0, x1) = span(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)), 0.05);
+        let (y0, y1) = span(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)), 0.05);
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                "Leave-one-out residuals against normal quantiles (paper Fig. 4)",
+                (FONT, 18),
+            )
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc("standard normal quantile")
+            .y_desc("LOO residual (°/s)")
+            .label_style((FONT, TICK))
+            .axis_desc_style((FONT, LABEL))
+            .draw()?;
+        for ((label, pts), colour) in series.iter().zip([BLUE, ORANGE, GREEN]) {
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?
+                .label(label.as_str())
+                .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font((FONT, TICK))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// Fig. 5–6: leave-one-out error over (temperature, rate), one panel per method on a shared
+/// scale: circle area ∝ |error|, red where the model reads high, blue where low.
+/// `methods`: (name, error of every point, °/s).
+pub fn loo_map(
+    temp_c: &[f64],
+    rate_dps: &[f64],
+    methods: &[(&str, &[f64])],
+) -> Result<String, PlotError> {
+    let width = 560 * u32::try_from(methods.len()).unwrap_or(2);
+    svg("the LOO error map", (width, 620), |root| {
+        let largest = methods
+            .iter()
+            .flat_map(|m| m.1.iter().map(|e| e.abs()))
+            .fold(0.0f64, f64::max)
+            .max(f64::MIN_POSITIVE);
+        let (title, body) = root.split_vertically(50);
+        title.titled(
+            &format!(
+                "Leave-one-out error over (T, rate) (paper Fig. 5–6): area ∝ |error|, largest {largest:.2e} °/s; red = reads high, blue = low"
+            ),
+            (FONT, 16),
+        )?;
+        let (x0, x1) = span(temp_c.iter().copied(), 0.06);
+        let (y0, y1) = span(rate_dps.iter().copied(), 0.06);
+        for (panel, (name, err)) in body.split_evenly((1, methods.len())).iter().zip(methods) {
+            let rms = (err.iter().map(|e| e * e).sum::<f64>() / err.len().max(1) as f64).sqrt();
+            let mut chart = ChartBuilder::on(panel)
+                .caption(format!("{name}: RMSE {rms:.2e} °/s"), (FONT, LABEL))
+                .margin(12)
+                .x_label_area_size(50)
+                .y_label_area_size(65)
+                .build_cartesian_2d(x0..x1, y0..y1)?;
+            chart
+                .configure_mesh()
+                .x_desc("temperature (°C)")
+                .y_desc("reference rate (°/s)")
+                .label_style((FONT, TICK))
+                .axis_desc_style((FONT, LABEL))
+                .draw()?;
+            chart.draw_series((0..err.len()).map(|i| {
+                let r = (14.0 * (err[i].abs() / largest).sqrt()).max(1.0);
+                let colour = if err[i] >= 0.0 { RED } else { BLUE };
+                Circle::new(
+                    (temp_c[i], rate_dps[i]),
+                    r.round() as i32,
+                    colour.mix(0.6).filled(),
+                )
+            }))?;
+        }
+        Ok(())
+    })
+}
+
+/// One replayed model on the held-out stream, reduced to 60 s blocks.
+pub struct ReplaySeries<'a> {
+    /// Legend name.
+    pub name: &'a str,
+    /// Block mean of compensated − reference, °/s.
+    pub error_dps: &'a [f64],
+    /// Block mean of the firmware's predicted σ, °/s.
+    pub std_dps: &'a [f64],
+}
+
+/// The stream replay: temperature over time, then each model's 60 s error with its ±2σ band.
+pub fn replay(
+    time_h: &[f64],
+    temp_c: &[f64],
+    models: &[ReplaySeries<'_>],
+) -> Result<String, PlotError> {
+    svg("the replay", (1100, 760), |root| {
+        let (top, bottom) = root.split_vertically(260);
+        let (x0, x1) = span(time_h.iter().copied(), 0.0);
+        let (t0, t1) = span(temp_c.iter().copied(), 0.05);
+        let mut chart = ChartBuilder::on(&top)
+            .caption("Held-out stream: temperature", (FONT, TITLE))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, t0..t1)?;
+        chart
+            .configure_mesh()
+            .x_desc("time (h)")
+            .y_desc("sensor T (°C)")
+            .label_style((FONT, TICK))
+            .axis_desc_style((FONT, LABEL))
+            .draw()?;
+        chart.draw_series(LineSeries::new(
+            time_h.iter().copied().zip(temp_c.iter().copied()),
+            RED.stroke_width(2),
+        ))?;
+        let to_dph = 3600.0;
+        let (e0, e1) = span(
+            models.iter().flat_map(|m| {
+                m.error_dps
+                    .iter()
+                    .zip(m.std_dps)
+                    .flat_map(|(e, s)| [(e - 2.0 * s) * to_dph, (e + 2.0 * s) * to_dph])
+            }),
+            0.05,
+        );
+        let mut chart = ChartBuilder::on(&bottom)
+            .caption(
+                "Compensated rate error, 60 s means, with the firmware's ±2σ band",
+                (FONT, TITLE),
+            )
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, e0..e1)?;
+        chart
+            .configure_mesh()
+            .x_desc("time (h)")
+            .y_desc("error (°/h)")
+            .label_style((FONT, TICK))
+            .axis_desc_style((FONT, LABEL))
+            .draw()?;
+        for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
+            let band: Vec<(f64, f64)> = time_h
+                .iter()
+                .zip(m.error_dps.iter().zip(m.std_dps))
+                .map(|(&t, (e, s))| (t, (e + 2.0 * s) * to_dph))
+                .chain(
+                    time_h
+                        .iter()
+                        .zip(m.error_dps.iter().zip(m.std_dps))
+                        .rev()
+                        .map(|(&t, (e, s))| (t, (e - 2.0 * s) * to_dph)),
+                )
+                .collect();
+            chart.draw_series(std::iter::once(Polygon::new(
+                band,
+                colour.mix(0.15).filled(),
+            )))?;
+            let rms = (m.error_dps.iter().map(|e| e * e).sum::<f64>()
+                / m.error_dps.len().max(1) as f64)
+                .sqrt();
+            chart
+                .draw_series(LineSeries::new(
+                    time_h
+                        .iter()
+                        .copied()
+                        .zip(m.error_dps.iter().map(|e| e * to_dph)),
+                    colour.stroke_width(2),
+                ))?
+                .label(format!("{}: rmse_60s {:.2} °/h", m.name, rms * to_dph))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerMiddle)
+            .label_font((FONT, TICK))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+/// What the diagnosis plot shows: the static model's 60 s residuals against the named cause's
+/// regressor with the fitted line, and against temperature split by heating and cooling.
+pub struct DiagnosisSeries<'a> {
+    /// The named cause and its regressor's axis label, when it has one.
+    pub cause: &'a str,
+    /// Axis label of the regressor.
+    pub regressor_label: &'a str,
+    /// Regressor block means (empty for `none`).
+    pub regressor: &'a [f64],
+    /// Fitted intercept (°/s) and slope (°/s per regressor unit).
+    pub line: (f64, f64),
+    /// Residual block means, °/s.
+    pub residual_dps: &'a [f64],
+    /// Block-mean temperature, °C.
+    pub temp_c: &'a [f64],
+}
+
+/// The diagnosis figure: two panels.
+pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
+    svg("the diagnosis", (1100, 520), |root| {
+        let panels = root.split_evenly((1, 2));
+        let to_dph = 3600.0;
+        let r: Vec<f64> = d.residual_dps.iter().map(|v| v * to_dph).collect();
+        let (r0, r1) = span(r.iter().copied(), 0.08);
+        if !d.regressor.is_empty() {
+            let (x0, x1) = span(d.regressor.iter().copied(), 0.05);
+            let mut chart = ChartBuilder::on(&panels[0])
+                .caption(
+                    format!("Static residual against the cause: {}", d.cause),
+                    (FONT, 18),
+                )
+                .margin(12)
+                .x_label_area_size(50)
+                .y_label_area_size(80)
+                .build_cartesian_2d(x0..x1, r0..r1)?;
+            chart
+                .configure_mesh()
+                .x_desc(d.regressor_label)
+                .y_desc("residual, 60 s means (°/h)")
+                .label_style((FONT, TICK))
+                .axis_desc_style((FONT, LABEL))
+                .draw()?;
+            chart
+                .draw_series(
+                    d.regressor
+                        .iter()
+                        .zip(&r)
+                        .map(|(&x, &y)| Circle::new((x, y), 2, BLUE.mix(0.6).filled())),
+                )?
+                .label("60 s blocks")
+                .legend(|(x, y)| Circle::new((x, y), 4, BLUE.filled()));
+            let (a, b) = d.line;
+            chart
+                .draw_series(LineSeries::new(
+                    [x0, x1].map(|x| (x, (a + b * x) * to_dph)),
+                    ORANGE.stroke_width(3),
+                ))?
+                .label("fitted term")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], ORANGE.stroke_width(3)));
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .label_font((FONT, TICK))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+        } else {
+            panels[0].titled("cause: none — the residual is noise", (FONT, 18))?;
+        }
+        let t = d.temp_c;
+        let (x0, x1) = span(t.iter().copied(), 0.05);
+        let mut chart = ChartBuilder::on(&panels[1])
+            .caption("Static residual against temperature", (FONT, 18))
+            .margin(12)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, r0..r1)?;
+        chart
+            .configure_mesh()
+            .x_desc("sensor T (°C)")
+            .y_desc("residual, 60 s means (°/h)")
+            .label_style((FONT, TICK))
+            .axis_desc_style((FONT, LABEL))
+            .draw()?;
+        // Heating or cooling by the block-to-block temperature step (a hysteresis loop opens up).
+        let dir = |i: usize| {
+            let next = t.get(i + 1).copied().unwrap_or(t[i]);
+            let prev = if i > 0 { t[i - 1] } else { t[i] };
+            next - prev
+        };
+        for (label, colour, keep) in [
+            ("heating", RED, (|s: f64| s > 0.01) as fn(f64) -> bool),
+            ("cooling", BLUE, |s: f64| s < -0.01),
+            ("steady", GREY, |s: f64| s.abs() <= 0.01),
+        ] {
+            chart
+                .draw_series(
+                    (0..t.len())
+                        .filter(|&i| keep(dir(i)))
+                        .map(|i| Circle::new((t[i], r[i]), 2, colour.mix(0.6).filled())),
+                )?
+                .label(label)
+                .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::MiddleMiddle)
+            .label_font((FONT, TICK))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn figures_carry_their_labels_and_data() {
+        let t = [20.0, 20.0, 40.0, 40.0];
+        let w = [-10.0, 10.0, -10.0, 10.0];
+        let v = [-0.1, 0.1, -0.099, 0.101];
+        let fig1 = rate_table(&t, &w, &v).unwrap();
+        assert!(fig1.starts_with("<svg"), "{}", &fig1[..40]);
+        for label in ["reference rate (°/s)", "20.0 °C", "40.0 °C"] {
+            assert!(fig1.contains(label), "missing {label}");
+        }
+        let fig2 = output_vs_temperature(&t, &w, &v).unwrap();
+        assert!(fig2.contains("+10.0 °/s") && fig2.contains("-10.0 °/s"));
+        let e = [1e-3, -2e-3, 5e-4, 0.0];
+        let map = loo_map(&t, &w, &[("GPR", &e), ("LS-SVR", &e)]).unwrap();
+        assert!(map.contains("GPR: RMSE") && map.contains("LS-SVR: RMSE"));
+        assert_eq!(map.matches("<circle").count(), 8);
+        assert!(
+            qq(&[("GPR", &e, 0.99)])
+                .unwrap()
+                .contains("GPR (r = 0.9900)")
+        );
+    }
+
+    #[test]
+    fn levels_merge_readings_of_one_plateau() {
+        assert_eq!(levels(&[20.1, 39.8, 20.3, 40.2], 1.0), vec![20.1, 39.8]);
+    }
+}
