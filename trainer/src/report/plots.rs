@@ -5,6 +5,7 @@
 use std::error::Error;
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 /// A figure that could not be drawn (plotters' error, as text).
@@ -53,6 +54,33 @@ fn svg(
     Ok(text)
 }
 
+/// The charts here: f64 on both axes, drawn to SVG.
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Grid, ticks and axis titles in the report's sizes.
+fn axes<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, x: &str, y: &str) -> DrawResult {
+    chart
+        .configure_mesh()
+        .x_desc(x)
+        .y_desc(y)
+        .label_style((FONT, TICK))
+        .axis_desc_style((FONT, LABEL))
+        .draw()?;
+    Ok(())
+}
+
+/// The legend box at `position`, over a translucent white background.
+fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) -> DrawResult {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font((FONT, TICK))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 /// Low and high of a series, padded by `pad` of the span (and kept apart when constant).
 fn span(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values
@@ -98,13 +126,11 @@ pub fn rate_table(temp_c: &[f64], rate_dps: &[f64], output: &[f64]) -> Result<St
             .x_label_area_size(50)
             .y_label_area_size(80)
             .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc("reference rate (°/s)")
-            .y_desc("gyro output (V or counts)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
+        axes(
+            &mut chart,
+            "reference rate (°/s)",
+            "gyro output (V or counts)",
+        )?;
         let plateaus = levels(temp_c, 1.0);
         let nearest = |t: f64| {
             (0..plateaus.len())
@@ -125,13 +151,7 @@ pub fn rate_table(temp_c: &[f64], rate_dps: &[f64], output: &[f64]) -> Result<St
                     .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, TICK))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         Ok(())
     })
 }
@@ -241,26 +261,14 @@ pub fn qq(methods: &[(&str, &[f64], f64)]) -> Result<String, PlotError> {
             .x_label_area_size(50)
             .y_label_area_size(90)
             .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc("standard normal quantile")
-            .y_desc("LOO residual (°/s)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
+        axes(&mut chart, "standard normal quantile", "LOO residual (°/s)")?;
         for ((label, pts), colour) in series.iter().zip([BLUE, ORANGE, GREEN]) {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?
                 .label(label.as_str())
                 .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FONT, TICK))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         Ok(())
     })
 }
@@ -297,13 +305,7 @@ pub fn loo_map(
                 .x_label_area_size(50)
                 .y_label_area_size(65)
                 .build_cartesian_2d(x0..x1, y0..y1)?;
-            chart
-                .configure_mesh()
-                .x_desc("temperature (°C)")
-                .y_desc("reference rate (°/s)")
-                .label_style((FONT, TICK))
-                .axis_desc_style((FONT, LABEL))
-                .draw()?;
+            axes(&mut chart, "temperature (°C)", "reference rate (°/s)")?;
             chart.draw_series((0..err.len()).map(|i| {
                 let r = (14.0 * (err[i].abs() / largest).sqrt()).max(1.0);
                 let colour = if err[i] >= 0.0 { RED } else { BLUE };
@@ -344,13 +346,7 @@ pub fn replay(
             .x_label_area_size(40)
             .y_label_area_size(80)
             .build_cartesian_2d(x0..x1, t0..t1)?;
-        chart
-            .configure_mesh()
-            .x_desc("time (h)")
-            .y_desc("sensor T (°C)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
+        axes(&mut chart, "time (h)", "sensor T (°C)")?;
         chart.draw_series(LineSeries::new(
             time_h.iter().copied().zip(temp_c.iter().copied()),
             RED.stroke_width(2),
@@ -374,13 +370,7 @@ pub fn replay(
             .x_label_area_size(45)
             .y_label_area_size(80)
             .build_cartesian_2d(x0..x1, e0..e1)?;
-        chart
-            .configure_mesh()
-            .x_desc("time (h)")
-            .y_desc("error (°/h)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
+        axes(&mut chart, "time (h)", "error (°/h)")?;
         for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
             let band: Vec<(f64, f64)> = time_h
                 .iter()
@@ -414,13 +404,7 @@ pub fn replay(
                     PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerMiddle)
-            .label_font((FONT, TICK))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::LowerMiddle)?;
         Ok(())
     })
 }
@@ -460,13 +444,7 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
                 .x_label_area_size(50)
                 .y_label_area_size(80)
                 .build_cartesian_2d(x0..x1, r0..r1)?;
-            chart
-                .configure_mesh()
-                .x_desc(d.regressor_label)
-                .y_desc("residual, 60 s means (°/h)")
-                .label_style((FONT, TICK))
-                .axis_desc_style((FONT, LABEL))
-                .draw()?;
+            axes(&mut chart, d.regressor_label, "residual, 60 s means (°/h)")?;
             chart
                 .draw_series(
                     d.regressor
@@ -484,13 +462,7 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
                 ))?
                 .label("fitted term")
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], ORANGE.stroke_width(3)));
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .label_font((FONT, TICK))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()?;
+            legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         } else {
             panels[0].titled("cause: none — the residual is noise", (FONT, 18))?;
         }
@@ -502,13 +474,7 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
             .x_label_area_size(50)
             .y_label_area_size(80)
             .build_cartesian_2d(x0..x1, r0..r1)?;
-        chart
-            .configure_mesh()
-            .x_desc("sensor T (°C)")
-            .y_desc("residual, 60 s means (°/h)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
+        axes(&mut chart, "sensor T (°C)", "residual, 60 s means (°/h)")?;
         // Heating or cooling by the block-to-block temperature step (a hysteresis loop opens up).
         let dir = |i: usize| {
             let next = t.get(i + 1).copied().unwrap_or(t[i]);
@@ -529,13 +495,7 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
                 .label(label)
                 .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::MiddleMiddle)
-            .label_font((FONT, TICK))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::MiddleMiddle)?;
         Ok(())
     })
 }
