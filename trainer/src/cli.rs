@@ -445,6 +445,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
                     s.method, s.inducing, s.n_train, s.subset, s.bound
                 );
+                let noise = model.posterior.hyper.noise_std;
+                if s.noise_inflated(noise) {
+                    eprintln!(
+                        "warning: the sparse bound explains part of the signal as noise (σ_n {:.3e} → {noise:.3e} normalized, against the start subset's exact GP): the inducing points are too few for the structure in these data; try more (--inducing)",
+                        s.start_noise_std
+                    );
+                }
             }
             println!(
                 "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",

@@ -73,6 +73,8 @@ const MIN_GUARD_RESIDUAL: f64 = 1e-4;
 const SELECTION_MAX_LENGTH: f64 = 1.0;
 /// Samples of the exact GP that gives the starting hyperparameters.
 pub const SUBSET: usize = 300;
+/// Ratio of fitted to starting σ_n above which a sparse fit is flagged ([`SparseFit::noise_inflated`]).
+pub const NOISE_INFLATION: f64 = 3.0;
 /// Gradient tolerance and objective-call budget of the refinement on the bound (from a start that
 /// is already near the optimum).
 const REFINE: (f64, u64) = (1e-5, 60);
@@ -90,6 +92,8 @@ pub struct SparseFit {
     pub subset: usize,
     /// The variational bound at the fitted hyperparameters (normalized data).
     pub bound: f64,
+    /// σ_n of the exact GP on the start subset (normalized).
+    pub start_noise_std: f64,
     /// Inducing points in normalized input coordinates (m × d).
     #[serde(skip)]
     pub u: DMatrix<f64>,
@@ -99,6 +103,14 @@ pub struct SparseFit {
 }
 
 impl SparseFit {
+    /// Whether the bound explains signal as noise: VFE's trace term, tr(K_nn − Q)/(2σ²), grows
+    /// with n, and when m is too small for the structure the data hold the bound escapes it by
+    /// raising σ_n instead (a known trait of VFE; Bauer et al. 2016). Flagged when the fitted σ_n is
+    /// more than [`NOISE_INFLATION`] times the start subset's exact GP's.
+    pub fn noise_inflated(&self, noise_std: f64) -> bool {
+        noise_std > NOISE_INFLATION * self.start_noise_std
+    }
+
     /// The same inducing points conditioned on other data at `hyper` (no optimization).
     pub fn recondition(
         &self,
@@ -131,6 +143,7 @@ pub(crate) fn fit(
     let none = DMatrix::zeros(subset.len(), 0);
     let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, t);
     let (start, mut reports) = gp::search(&exact, zs.shape(), cfg)?;
+    let start_noise_std = Hyperparameters::from_log(&start).noise_std;
     // Inducing points are selected in the kernel's metric at the current hyperparameters, and the
     // bound refined on them; a second round reselects at the refined ones (the subset's are noisy)
     // and is kept when it raises the bound. They are selected, not optimized: moving them with the
@@ -150,7 +163,8 @@ pub(crate) fn fit(
             m,
         ));
         let bound = |t: &[f64]| bound_and_gradient(&data.z, &data.y, &u, t);
-        let refined = gp::optimize_from(&bound, (n, d), theta.clone(), cfg, REFINE);
+        let start = climb_noise(&bound, theta.clone(), cfg.bounds.log_noise.1);
+        let refined = gp::optimize_from(&bound, (n, d), start, cfg, REFINE);
         let end = match (&refined.end, refined.log_marginal_likelihood) {
             (Some(end), Some(f)) => Some((end.clone(), f)),
             _ => None,
@@ -176,6 +190,7 @@ pub(crate) fn fit(
         n_train: n,
         subset: subset.len(),
         bound: posterior.log_marginal_likelihood,
+        start_noise_std,
         u,
         loo,
     };
@@ -188,6 +203,28 @@ pub(crate) fn fit(
         reports,
         t0,
     ))
+}
+
+/// θ with σ_n doubled while that raises the bound (up to `max_log_noise`). The bound's trace term,
+/// tr(K_nn − Q)/(2σ²), grows with n: when the inducing points are too few for the structure, the
+/// start subset's σ_n sits orders of magnitude down a slope only σ_n can climb, with a gradient so
+/// steep that L-BFGS's first line search stalled there (four inducing points on fine structure,
+/// 4,000 samples: bound −1.6e8, the refinement "converged" without moving). Where the start's σ_n
+/// is right this costs one evaluation.
+fn climb_noise(bound: gp::Likelihood<'_>, mut theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
+    let last = theta.len() - 1;
+    let Ok((mut best, _)) = bound(&theta) else {
+        return theta;
+    };
+    while theta[last] < max_log_noise {
+        let mut next = theta.clone();
+        next[last] = (next[last] + std::f64::consts::LN_2).min(max_log_noise);
+        match bound(&next) {
+            Ok((f, _)) if f > best => (best, theta) = (f, next),
+            _ => break,
+        }
+    }
+    theta
 }
 
 /// The samples of the exact GP that starts the hyperparameters: half spread over the inputs
@@ -701,5 +738,28 @@ mod tests {
         let loo = sparse.loo_errors();
         let rmse = (loo.iter().map(|e| e * e).sum::<f64>() / loo.len() as f64).sqrt();
         assert!(rmse < 0.035, "LOO rmse {rmse}");
+        assert!(!fit.noise_inflated(sparse.posterior.hyper.noise_std));
+    }
+
+    #[test]
+    fn too_few_inducing_points_for_fine_structure_are_flagged() {
+        // Several periods along each input, nearly noiseless: four inducing points cannot carry
+        // it, and the bound raises σ_n to escape its trace term.
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let x = DMatrix::from_fn(4000, 2, |_, _| rng.random_range(-2.0f64..2.0));
+        let y = DVector::from_fn(4000, |i, _| {
+            (4.0 * x[(i, 0)]).sin() * (3.0 * x[(i, 1)]).cos() + 0.01 * rng.random_range(-1.0..1.0)
+        });
+        let fit_with = |m| {
+            let cfg = GpConfig {
+                inducing: gp::Inducing::Count(m),
+                ..GpConfig::default()
+            };
+            let model = GpModel::fit(&x, &y, &cfg).unwrap();
+            let noise = model.posterior.hyper.noise_std;
+            model.sparse.unwrap().noise_inflated(noise)
+        };
+        assert!(fit_with(4));
+        assert!(!fit_with(128));
     }
 }
