@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 use trainer::cause::Cause;
+use trainer::console::ProgressBar;
 use trainer::dataset::Points;
 use trainer::gp::GpConfig;
 use trainer::investigate;
@@ -59,7 +60,14 @@ pub fn run_case(cause: Cause, seed: u64) -> anyhow::Result<Case> {
     let points = Points::load(&points_path, &[], None, None)?;
     let train = Stream::load(&train_path, &[])?;
     let valid = Stream::load(&valid_path, &[])?;
-    let (inv, _) = investigate::investigate(&points, &train, &valid, &GpConfig::default(), None)?;
+    let (inv, _) = investigate::investigate(
+        &points,
+        &train,
+        &valid,
+        &GpConfig::default(),
+        None,
+        &ProgressBar::hidden(),
+    )?;
     Ok(Case {
         hidden,
         seed,
@@ -71,14 +79,32 @@ pub fn run_case(cause: Cause, seed: u64) -> anyhow::Result<Case> {
 }
 
 /// The challenge over `seeds` seeds per cause (seeds `first`, `first + 10`, …, so the three
-/// seeds of a case never overlap another's).
-pub fn run(seeds: u64, first: u64) -> anyhow::Result<Vec<Case>> {
+/// seeds of a case never overlap another's); `bar` counts the cases.
+pub fn run(seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
     let jobs: Vec<(Cause, u64)> = Cause::ALL
         .into_iter()
         .flat_map(|c| (0..seeds).map(move |k| (c, first + 10 * k)))
         .collect();
-    jobs.into_par_iter().map(|(c, s)| run_case(c, s)).collect()
+    bar.inc_length(jobs.len() as u64);
+    // Each case decodes firmware models, whose heapless storage is inline (about 140 KB at the
+    // host's capacities); an unoptimized build keeps several copies per frame and overflowed
+    // rayon's default 2 MB worker stack.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .stack_size(CASE_STACK_BYTES)
+        .build()?;
+    pool.install(|| {
+        jobs.into_par_iter()
+            .map(|(c, s)| {
+                let case = run_case(c, s);
+                bar.inc(1);
+                case
+            })
+            .collect()
+    })
 }
+
+/// Stack of each worker thread of [`run`].
+const CASE_STACK_BYTES: usize = 32 << 20;
 
 /// The confusion matrix (rows hidden, columns named, in [`Cause::ALL`] order) and the text table.
 pub fn confusion(cases: &[Case]) -> ([[usize; 6]; 6], String) {

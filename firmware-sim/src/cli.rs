@@ -8,17 +8,20 @@ use crate::{challenge, output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use trainer::cause::Cause;
+use trainer::console::{AFTER_HELP, Console, ConsoleFlags};
 use trainer::data::ColumnMap;
-use trainer::io::{ensure_not_input, write_atomically};
+use trainer::io::{ensure_not_input, write_atomically, write_json};
 use trainer::replay;
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
-#[command(version, about)]
+#[command(version, about, after_help = AFTER_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     /// The subcommand.
     command: Command,
+    #[command(flatten)]
+    console: ConsoleFlags,
 }
 
 #[derive(Subcommand)]
@@ -90,6 +93,7 @@ impl ReplayInput {
     fn load(
         &self,
         outputs: &[&PathBuf],
+        console: &Console,
     ) -> anyhow::Result<(
         Vec<u8>,
         Box<trainer::export::HostModel>,
@@ -105,7 +109,7 @@ impl ReplayInput {
             .with_context(|| format!("decoding {}", self.model.display()))?;
         let data = trainer::stream::Stream::load(&self.stream, &self.maps)?;
         for issue in &data.time_issues {
-            eprintln!("{}: time issue {issue:?}", self.stream.display());
+            console.warn(&format!("{}: time issue {issue:?}", self.stream.display()));
         }
         Ok((blob, firmware, data))
     }
@@ -176,11 +180,15 @@ impl GenerateCommon {
         effect: Effect,
         csv: &str,
         n: usize,
+        flags: ConsoleFlags,
     ) -> anyhow::Result<()> {
         write_atomically(&self.out, csv.as_bytes())?;
+        Console::new(flags, self.json.as_deref())
+            .result(&format!("wrote {} ({n} rows)", self.out.display()));
         if let Some(path) = &self.json {
             write_json(
                 path,
+                &[],
                 &serde_json::json!({ "n": n, "seed": self.seed, "unit": params, "effect": effect }),
             )?;
         }
@@ -196,6 +204,7 @@ enum Unit {
 
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    let flags = cli.console;
     match cli.command {
         Command::Generate(Generate::Paper {
             common,
@@ -203,26 +212,37 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         }) => {
             let (params, effect) = common.gyro()?;
             let points = paper::run(&params, effect, common.seed, position_tests);
-            common.write(&params, effect, &output::points_csv(&points), points.len())
+            let csv = output::points_csv(&points);
+            common.write(&params, effect, &csv, points.len(), flags)
         }
         Command::Generate(Generate::Stream { common }) => {
             let (params, effect) = common.gyro()?;
             let cfg = stream::StreamConfig::default();
             let rows = stream::run(&params, &cfg, effect, common.seed);
-            common.write(&params, effect, &output::stream_csv(&rows), rows.len())
+            common.write(
+                &params,
+                effect,
+                &output::stream_csv(&rows),
+                rows.len(),
+                flags,
+            )
         }
         Command::Challenge {
             seeds,
             first_seed,
             json,
         } => {
-            eprintln!(
-                "{} cases ({seeds} seeds × 6 causes), each: points + two 8.75 h streams → investigate…",
+            let console = Console::new(flags, json.as_deref());
+            console.detail(&format!(
+                "{} cases ({seeds} seeds × 6 causes), each: points + two 8.75 h streams → investigate",
                 6 * seeds
-            );
-            let cases = challenge::run(seeds, first_seed)?;
+            ));
+            let bar = console.bar(0);
+            bar.set_message("hidden-effect cases");
+            let cases = challenge::run(seeds, first_seed, &bar)?;
+            bar.finish_and_clear();
             for c in &cases {
-                println!(
+                console.result(&format!(
                     "{:<14} strength {:>6.2} seed {:>5} → {:<14} static {:.3e} extended {:.3e} °/s gain {:.2}×",
                     c.hidden.cause().id(),
                     c.hidden.strength(),
@@ -231,7 +251,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     c.static_rmse_60s_dps,
                     c.extended_rmse_60s_dps,
                     c.gain
-                );
+                ));
             }
             let (matrix, table) = challenge::confusion(&cases);
             let correct = (0..6).map(|i| matrix[i][i]).sum::<usize>();
@@ -239,15 +259,16 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 .iter()
                 .filter(|c| c.hidden.cause() == Cause::None && c.named != Cause::None)
                 .count();
-            print!("{table}");
-            println!(
+            console.result(table.trim_end());
+            console.result(&format!(
                 "accuracy {correct}/{} = {:.1}%; false alarms on none: {false_alarms}",
                 cases.len(),
                 100.0 * correct as f64 / cases.len().max(1) as f64
-            );
+            ));
             if let Some(path) = json {
                 write_json(
                     &path,
+                    &[],
                     &serde_json::json!({
                         "cases": cases,
                         "confusion": matrix,
@@ -260,16 +281,18 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Replay { input, out, json } => {
-            let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;
+            let console = Console::new(flags, json.as_deref());
+            let (_, firmware, data) =
+                input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
             let comp = replay::replay(&firmware, &data);
             let score = replay::score(&data, &comp);
             if let Some(path) = out {
                 write_atomically(&path, replay::to_csv(&data, &comp).as_bytes())?;
             }
             if let Some(path) = json {
-                write_json(&path, &score)?;
+                write_json(&path, &[], &score)?;
             }
-            println!(
+            console.result(&format!(
                 "replayed {} samples ({} scored, {} extrapolating, {} fault, {} time issues): \
                  rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s, 2σ coverage {:.3}",
                 data.len(),
@@ -282,19 +305,34 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 score.rmse_60s_dps * 3600.0,
                 score.max_abs_err_dps,
                 score.coverage_2sigma
-            );
+            ));
             Ok(())
         }
         Command::Qemu { input, out, json } => {
+            let console = Console::new(flags, json.as_deref());
             let (blob, firmware, data) =
-                input.load(&out.iter().chain(&json).collect::<Vec<_>>())?;
-            eprintln!(
-                "building the Cortex-M4 image and running {} samples under QEMU…",
-                data.len()
-            );
+                input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+            console.detail(&format!(
+                "cargo build --release (in {})",
+                qemu::image_crate().display()
+            ));
+            let spinner = console.spinner("building the Cortex-M4 image");
             let image = qemu::build_image()?;
+            spinner.suspend(|| {
+                console.detail(&format!(
+                    "qemu-system-arm {} {}",
+                    qemu::QEMU_ARGS.join(" "),
+                    image.display()
+                ))
+            });
+            spinner.set_message(format!(
+                "running {} samples on the Cortex-M4 under QEMU",
+                data.len()
+            ));
             let m4 = qemu::run(&image, &blob, &data)?;
+            spinner.set_message("host replay, for the comparison");
             let host = replay::replay(&firmware, &data);
+            spinner.finish_and_clear();
             let agreement = qemu::compare(&host, &m4.compensated);
             let score = replay::score(&data, &m4.compensated);
             if let Some(path) = out {
@@ -304,9 +342,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 let mut v = serde_json::to_value(&score)?;
                 v["agreement_with_host"] = serde_json::to_value(agreement)?;
                 v["cost"] = serde_json::to_value(m4.cost)?;
-                write_json(&path, &v)?;
+                write_json(&path, &[], &v)?;
             }
-            println!(
+            console.result(&format!(
                 "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \
                  bit-identical, statuses equal: {}",
                 data.len(),
@@ -314,14 +352,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 agreement.identical,
                 data.len(),
                 agreement.statuses_equal
-            );
+            ));
             let dims = firmware.dims();
             let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
-            println!(
+            console.result(&format!(
                 "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
                 score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
-            );
-            println!(
+            ));
+            console.result(&format!(
                 "arithmetic minimum of the mean path: {} centres × (expf {:.0} + 3·{} multiply-adds) = \
                  {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions per SysTick tick)",
                 dims.m,
@@ -329,7 +367,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 dims.d,
                 m4.cost.mean_instructions / minimum,
                 m4.cost.instructions_per_tick
-            );
+            ));
             Ok(())
         }
     }
@@ -342,10 +380,4 @@ impl Unit {
             Unit::Random => GyroParams::random_unit(seed),
         }
     }
-}
-
-fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(value).context("encoding JSON")?;
-    write_atomically(path, text.as_bytes())?;
-    Ok(())
 }

@@ -19,6 +19,26 @@ use trainer::stream::Stream;
 /// QEMU is stopped after this long.
 pub const TIMEOUT: Duration = Duration::from_secs(900);
 
+/// qemu-system-arm's arguments before the image: the MPS2-AN386 board (Cortex-M4F), no display,
+/// semihosting for the file exchange, and one instruction per virtual nanosecond (`-icount
+/// shift=0`), which makes the instruction counts exact. The image path follows `-kernel`.
+pub const QEMU_ARGS: [&str; 14] = [
+    "-machine",
+    "mps2-an386",
+    "-cpu",
+    "cortex-m4",
+    "-nographic",
+    "-monitor",
+    "none",
+    "-serial",
+    "none",
+    "-semihosting-config",
+    "enable=on,target=native",
+    "-icount",
+    "shift=0",
+    "-kernel",
+];
+
 /// Errors of a QEMU run.
 #[derive(Debug, thiserror::Error)]
 pub enum QemuError {
@@ -113,22 +133,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
     }
     std::fs::write(dir.path().join("samples.bin"), samples)?;
     let mut child = Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            "mps2-an386",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-            "-serial",
-            "none",
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-icount",
-            "shift=0",
-            "-kernel",
-        ])
+        .args(QEMU_ARGS)
         .arg(image)
         .current_dir(dir.path())
         .stdout(std::process::Stdio::piped())

@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::console::{AFTER_HELP, Console, ConsoleFlags};
 use crate::data::ColumnMap;
 use crate::dataset::Points;
 use crate::diagnose::{self, Diagnosis};
@@ -11,9 +12,8 @@ use crate::export::{self, Extension};
 use crate::extend;
 use crate::gp::{GpConfig, GpModel, Inducing};
 use crate::investigate;
-use crate::io::{ensure_not_input, write_atomically};
+use crate::io::{ensure_not_input, write_atomically, write_json};
 use crate::prior::MeanBasis;
-use crate::progress;
 use crate::report;
 use crate::reproduce::Reproduction;
 use crate::stream::{Stream, Window};
@@ -23,11 +23,13 @@ use firmware_core::Feature;
 
 /// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
 #[derive(Parser)]
-#[command(version, about)]
+#[command(version, about, after_help = AFTER_HELP)]
 pub struct Cli {
     #[command(subcommand)]
     /// The subcommand.
     command: Command,
+    #[command(flatten)]
+    console: ConsoleFlags,
 }
 
 #[derive(Args, Clone)]
@@ -167,7 +169,7 @@ enum Command {
         /// Model blob to write (firmware-core format).
         #[arg(long)]
         out: PathBuf,
-        /// Write the fit summary as JSON here.
+        /// Write the fit summary as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -188,7 +190,7 @@ enum Command {
         /// Use only this part of the stream: START:END, s from its first sample.
         #[arg(long)]
         window: Option<Window>,
-        /// Write the diagnosis as JSON here.
+        /// Write the diagnosis as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -225,7 +227,7 @@ enum Command {
         /// Write the static model's blob here.
         #[arg(long)]
         out_static: Option<PathBuf>,
-        /// Write the investigation as JSON here.
+        /// Write the investigation as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -235,7 +237,7 @@ enum Command {
     Inspect {
         /// The model blob.
         model: PathBuf,
-        /// Write the figures as JSON here.
+        /// Write the figures as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -257,7 +259,7 @@ enum Command {
         /// and rate range both cover.
         #[arg(long)]
         test_points: Option<PathBuf>,
-        /// Write the evaluation as JSON here.
+        /// Write the evaluation as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -281,9 +283,6 @@ enum Command {
         /// Directory for report.html and the figures (created if missing).
         #[arg(long)]
         out_dir: PathBuf,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
     },
     /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
     ///
@@ -293,7 +292,7 @@ enum Command {
         input: Input,
         #[command(flatten)]
         fit: FitOptions,
-        /// Write all figures as JSON here.
+        /// Write all figures as JSON here (`-`: stdout, alone).
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -318,11 +317,30 @@ impl From<MethodArg> for Method {
     }
 }
 
-fn write_json(path: &Path, inputs: &[&Path], value: &impl serde::Serialize) -> anyhow::Result<()> {
-    ensure_not_input(path, inputs)?;
-    let text = serde_json::to_string_pretty(value).context("encoding JSON")?;
-    write_atomically(path, text.as_bytes())?;
-    Ok(())
+/// Under --verbose: every optimizer start of a fit, where it began and ended.
+fn log_starts(console: &Console, model: &GpModel) {
+    if !console.verbose() {
+        return;
+    }
+    console.detail("optimizer starts (θ = ln ℓ…, ln σ_f, ln σ_n; normalized):");
+    for (i, s) in model.starts.iter().enumerate() {
+        let fmt = |t: &[f64]| {
+            t.iter()
+                .map(|v| format!("{v:.3}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        console.detail(&format!(
+            "  {i:>2}: [{}] → [{}]  log ML {}  {} iterations, {} evaluations: {}",
+            fmt(&s.start),
+            s.end.as_deref().map_or("failed".to_owned(), fmt),
+            s.log_marginal_likelihood
+                .map_or("—".to_owned(), |l| format!("{l:.3}")),
+            s.iterations,
+            s.evaluations,
+            s.status
+        ));
+    }
 }
 
 /// The diagnosis as a terminal reads it: the verdict, then every candidate.
@@ -377,6 +395,7 @@ fn fit_summary(m: &GpModel, points: &Points) -> serde_json::Value {
 
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    let flags = cli.console;
     match cli.command {
         Command::Fit {
             input,
@@ -388,6 +407,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             json,
         } => {
+            let console = Console::new(flags, json.as_deref());
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend(stream.iter().map(PathBuf::as_path));
             ensure_not_input(&out, &inputs)?;
@@ -401,7 +421,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 .map(|p| Ok((p.as_path(), load_stream(p, &input.maps, window)?)))
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let points = input.static_points(&streams, pool_stream)?;
-            let model = GpModel::fit(&points.inputs(), &points.target(), &fit.gp())?;
+            let gp = fit.gp();
+            let spinner = console.spinner(&match gp.inducing.count(points.len()) {
+                Some(m) => format!(
+                    "fitting a sparse GP ({m} inducing points) on {} samples",
+                    points.len()
+                ),
+                None => format!("fitting an exact GP on {} points", points.len()),
+            });
+            let model = GpModel::fit(&points.inputs(), &points.target(), &gp)?;
+            spinner.finish_and_clear();
+            log_starts(&console, &model);
             let mut blob = export::points_blob(&model, &points, &Extension::default())?;
             let firmware = export::decode(&blob)?;
             let agreement = export::agreement_report(&model, &firmware, &points.inputs());
@@ -410,12 +440,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
                 let causes = if list == "auto" {
                     let d = diagnose::diagnose(&firmware, data);
-                    println!(
+                    console.result(&format!(
                         "diagnosis of {}: {} — {}",
                         path.display(),
                         d.cause,
                         d.explanation
-                    );
+                    ));
                     summary["diagnosis"] = serde_json::to_value(&d)?;
                     vec![d.cause]
                 } else {
@@ -425,13 +455,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 let fitted = extended.fitted;
                 blob = extended.blob;
                 let ext = export::decode(&blob)?;
-                println!(
+                console.result(&format!(
                     "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
                     ext.features(),
                     path.display(),
                     fitted.train_rmse_60s_dps[0],
                     fitted.train_rmse_60s_dps[1]
-                );
+                ));
                 summary["extension"] = serde_json::to_value(&fitted)?;
                 summary["features"] = serde_json::to_value(ext.features())?;
             }
@@ -441,19 +471,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 write_json(&path, &inputs, &summary)?;
             }
             if let Some(s) = &model.sparse {
-                println!(
+                console.result(&format!(
                     "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
                     s.method, s.inducing, s.n_train, s.subset, s.bound
-                );
+                ));
                 let noise = model.posterior.hyper.noise_std;
                 if s.noise_inflated(noise) {
-                    eprintln!(
-                        "warning: the sparse bound explains part of the signal as noise (σ_n {:.3e} → {noise:.3e} normalized, against the start subset's exact GP): the inducing points are too few for the structure in these data; try more (--inducing)",
+                    console.warn(&format!(
+                        "the sparse bound explains part of the signal as noise (σ_n {:.3e} → {noise:.3e} normalized, against the start subset's exact GP): the inducing points are too few for the structure in these data; try more (--inducing)",
                         s.start_noise_std
-                    );
+                    ));
                 }
             }
-            println!(
+            console.result(&format!(
                 "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
                 points.len(),
                 model.log_marginal_likelihood(),
@@ -462,20 +492,20 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 model.posterior.hyper.noise_std,
                 model.posterior.jitter,
                 model.fit_seconds * 1e3
-            );
-            println!("wrote {} ({} bytes)", out.display(), blob.len());
-            println!(
-                "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating"
+            ));
+            console.result(&format!("wrote {} ({} bytes)", out.display(), blob.len()));
+            console.result(
+                "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating",
             );
             for (name, a) in [
                 ("training points", agreement.training),
                 ("grid, trained range", agreement.grid_inside),
                 ("grid, 10% beyond", agreement.grid_beyond),
             ] {
-                println!(
+                console.result(&format!(
                     "  {name:<22} {:>7}   {:>17.3e}   {:>12.3e}   {:>13}",
                     a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
-                );
+                ));
             }
             Ok(())
         }
@@ -486,13 +516,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             window,
             json,
         } => {
+            let console = Console::new(flags, json.as_deref());
             let bytes =
                 std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
             let fw =
                 export::decode(&bytes).with_context(|| format!("decoding {}", model.display()))?;
             let data = load_stream(&stream, &maps, window)?;
             let d = diagnose::diagnose(&fw, &data);
-            print!("{}", render_diagnosis(&d));
+            console.result(render_diagnosis(&d).trim_end());
             if let Some(path) = json {
                 write_json(&path, &[model.as_path(), stream.as_path()], &d)?;
             }
@@ -510,6 +541,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             out_static,
             json,
         } => {
+            let console = Console::new(flags, json.as_deref());
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
             for o in out.iter().chain(&out_static).chain(&json) {
@@ -526,10 +558,18 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 "auto" => None,
                 list => Some(extend::parse_features(list)?),
             };
-            let (inv, blobs) =
-                investigate::investigate(&points, &train, &valid, &fit.gp(), chosen.as_deref())?;
-            print!("{}", render_diagnosis(&inv.diagnosis));
-            println!(
+            let bar = console.bar(0);
+            let (inv, blobs) = investigate::investigate(
+                &points,
+                &train,
+                &valid,
+                &fit.gp(),
+                chosen.as_deref(),
+                &bar,
+            )?;
+            bar.finish_and_clear();
+            console.result(render_diagnosis(&inv.diagnosis).trim_end());
+            console.result(&format!(
                 "static rmse_60s {:.3e} °/s ({:.2} °/h) | cause {} | added {} | extended rmse_60s \
                  {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
                 inv.static_score.rmse_60s_dps,
@@ -543,7 +583,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 inv.extended_score.rmse_60s_dps,
                 inv.extended_score.rmse_60s_dps * 3600.0,
                 inv.gain
-            );
+            ));
             if let Some(path) = out {
                 write_atomically(&path, &blobs.extended_blob)?;
             }
@@ -556,11 +596,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Inspect { model, json } => {
+            let console = Console::new(flags, json.as_deref());
             let bytes =
                 std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
             let f = export::footprint(&bytes)?;
             export::decode(&bytes)?;
-            println!(
+            console.result(&format!(
                 "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
                  blob: {} bytes (18-byte header + postcard payload)\n\
                  flat f32 array: 7d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
@@ -578,7 +619,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 f.floats,
                 f.model_bytes,
                 f.scratch_bytes
-            );
+            ));
             if let Some(path) = json {
                 write_json(&path, &[model.as_path()], &f)?;
             }
@@ -592,7 +633,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             test_points,
             json,
         } => {
+            let console = Console::new(flags, json.as_deref());
             let points = Points::load(&input.points, &input.maps, group.as_deref(), None)?;
+            let bar = console.bar(0);
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()
@@ -600,8 +643,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let cross = match &test_points {
                 Some(path) => {
                     let test = Points::load(path, &input.maps, None, None)?;
-                    let c = evaluate::cross_run(&points, &test, method.into(), &cfg)?;
-                    println!(
+                    let c = evaluate::cross_run(&points, &test, method.into(), &cfg, &bar)?;
+                    console.result(&format!(
                         "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
                          in {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
                         c.method,
@@ -614,28 +657,29 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                         c.temp_range_c.1,
                         c.max_abs_rate_dps,
                         c.n_outside
-                    );
+                    ));
                     Some(c)
                 }
                 None => None,
             };
-            let e = evaluate::evaluate(&points, method.into(), &cfg)?;
-            println!(
+            let e = evaluate::evaluate(&points, method.into(), &cfg, &bar)?;
+            bar.finish_and_clear();
+            console.result(&format!(
                 "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
                 e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation
-            );
-            println!(
+            ));
+            console.result(&format!(
                 "leave-one-group-out RMSE {:.3e} °/s ({:.2} °/h) over {} groups",
                 e.group_rmse_dps,
                 e.group_rmse_dph,
                 e.per_temperature.len()
-            );
-            println!("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
+            ));
+            console.result("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
             for g in &e.per_temperature {
-                println!(
+                console.result(&format!(
                     "                     {:>6}  {:>7.2}  {:>4}   {:>10.3e}   {:>10.2}",
                     g.group, g.temp_c, g.n, g.rmse_dps, g.rmse_dph
-                );
+                ));
             }
             if let Some(path) = json {
                 let mut inputs = vec![input.points.as_path()];
@@ -652,8 +696,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             train_stream,
             valid_stream,
             out_dir,
-            quiet,
         } => {
+            let console = Console::new(flags, None);
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
             let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);
@@ -667,30 +711,30 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let valid = load_stream(&valid_stream, &input.maps, None)?;
             let points = input.static_points(&train, false)?;
             let source = input.points.as_deref().unwrap_or(train_stream.as_path());
-            let bar = progress::steps(report::STEPS, quiet);
-            let r = report::build(source, points, &train[0].1, valid, &fit.gp(), |step| {
-                bar.inc(1);
-                bar.set_message(step.to_owned());
-            })?;
+            let bar = console.bar(0);
+            let r = report::build(source, points, &train[0].1, valid, &fit.gp(), &bar)?;
             bar.finish_and_clear();
             for path in report::write(&out_dir, &r)? {
-                println!("wrote {}", path.display());
+                console.result(&format!("wrote {}", path.display()));
             }
             Ok(())
         }
         Command::Reproduce { input, fit, json } => {
+            let console = Console::new(flags, json.as_deref());
             let points = Points::load(&input.points, &input.maps, None, None)?;
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()
             };
+            let bar = console.bar(0);
             let r = Reproduction {
-                gpr: evaluate::evaluate(&points, Method::Gpr, &cfg)?,
-                lssvr: evaluate::evaluate(&points, Method::Lssvr, &cfg)?,
-                two_step: evaluate::evaluate(&points, Method::TwoStep, &cfg)?,
+                gpr: evaluate::evaluate(&points, Method::Gpr, &cfg, &bar)?,
+                lssvr: evaluate::evaluate(&points, Method::Lssvr, &cfg, &bar)?,
+                two_step: evaluate::evaluate(&points, Method::TwoStep, &cfg, &bar)?,
                 fig2: evaluate::fig2(&points),
             };
-            print!("{}", r.render(&input.points.display().to_string()));
+            bar.finish_and_clear();
+            console.result(r.render(&input.points.display().to_string()).trim_end());
             if let Some(path) = json {
                 write_json(&path, &[input.points.as_path()], &r)?;
             }

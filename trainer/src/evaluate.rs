@@ -9,6 +9,7 @@
 
 use std::time::Instant;
 
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -252,20 +253,29 @@ pub fn qq_correlation(values: &[f64]) -> f64 {
     cov / (sv * sq)
 }
 
-/// Evaluates one method on the points.
+/// Evaluates one method on the points; `bar` counts its fits (the full one, then one per group).
 pub fn evaluate(
     points: &Points,
     method: Method,
     cfg: &EvalConfig,
+    bar: &ProgressBar,
 ) -> Result<Evaluation, EvalError> {
+    let groups = points.groups();
+    bar.inc_length(1 + groups.len() as u64);
+    bar.set_message(format!(
+        "{}: fit on all {} points",
+        method.name(),
+        points.len()
+    ));
     let t0 = Instant::now();
     let fitted = Fitted::fit(points, method, cfg)?;
     let fit_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let errors = loo_errors(points, &fitted, method, cfg)?;
     let loo_seconds = t1.elapsed().as_secs_f64();
-    let per_temperature = points
-        .groups()
+    bar.inc(1);
+    bar.set_message(format!("{}: leave one group out", method.name()));
+    let per_temperature = groups
         .into_par_iter()
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
@@ -284,6 +294,7 @@ pub fn evaluate(
                 .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
                 .collect();
             let r = rmse(&e);
+            bar.inc(1);
             Ok((
                 e,
                 GroupRmse {
@@ -346,6 +357,7 @@ pub fn cross_run(
     test: &Points,
     method: Method,
     cfg: &EvalConfig,
+    bar: &ProgressBar,
 ) -> Result<CrossRun, EvalError> {
     let range = |p: &Points| {
         let lo = p.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
@@ -363,7 +375,13 @@ pub fn cross_run(
     if inside.is_empty() {
         return Err(EvalError::NoOverlap);
     }
+    bar.inc_length(1);
+    bar.set_message(format!(
+        "{}: fit on one run, test on the other",
+        method.name()
+    ));
     let m = Fitted::fit(train, method, cfg)?;
+    bar.inc(1);
     let e: Vec<f64> = inside
         .iter()
         .map(|&i| m.predict(test.temp_c[i], test.voltage_v[i]) - test.rate_dps[i])

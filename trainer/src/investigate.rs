@@ -2,6 +2,7 @@
 //! diagnosis → extended fit on the points plus a training stream → replay on the held-out stream
 //! → the gain.
 
+use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::cause::Cause;
@@ -12,6 +13,9 @@ use crate::extend::{self, Fitted};
 use crate::gp::{GpConfig, GpModel};
 use crate::replay::{self, Score};
 use crate::stream::Stream;
+
+/// Steps of an investigation: static fit, replay and diagnosis, extended fit, extended replay.
+pub const STEPS: u64 = 4;
 
 /// The result (DESIGN §6 names where they exist).
 #[derive(Debug, Clone, Serialize)]
@@ -45,17 +49,23 @@ pub struct Blobs {
     pub extended_blob: Vec<u8>,
 }
 
-/// Runs the investigation; `chosen` overrides the inputs the diagnosis calls for.
+/// Runs the investigation; `chosen` overrides the inputs the diagnosis calls for. `bar` counts its
+/// [`STEPS`].
 pub fn investigate(
     points: &Points,
     train: &Stream,
     valid: &Stream,
     cfg: &GpConfig,
     chosen: Option<&[Cause]>,
+    bar: &ProgressBar,
 ) -> anyhow::Result<(Investigation, Blobs)> {
+    bar.inc_length(STEPS);
+    bar.set_message(format!("static fit on {} points", points.len()));
     let model = GpModel::fit(&points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
     let fw = export::decode(&static_blob)?;
+    bar.inc(1);
+    bar.set_message("replay and diagnosis of the held-out stream");
     let comp = replay::replay(&fw, valid);
     let static_score = replay::score(valid, &comp);
     let diagnosis = diagnose::diagnose_residual(&Residual::from_replay(&fw, valid, &comp));
@@ -66,15 +76,20 @@ pub fn investigate(
         .copied()
         .filter(|c| *c != Cause::None)
         .collect();
+    bar.inc(1);
+    bar.set_message("extended fit on the training stream");
     let (extension, extended_blob) = if causes.is_empty() {
         (None, static_blob.clone())
     } else {
         let ext = extend::fit(&model, points, train, &causes)?;
         (Some(ext.fitted), ext.blob)
     };
+    bar.inc(1);
+    bar.set_message("replay of the extended model");
     let ext = export::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&ext, valid));
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
+    bar.inc(1);
     Ok((
         Investigation {
             static_score,

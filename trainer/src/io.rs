@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// The file could not be created, written or renamed into place.
-    #[error("writing {path}: {source}")]
+    #[error("writing {path}")]
     Io {
         /// The target file.
         path: PathBuf,
@@ -51,6 +51,25 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), OutputError>
         let _ = std::fs::remove_file(&tmp);
     }
     written.map_err(err)
+}
+
+/// Writes `value` as pretty JSON to `path` (atomically), or to stdout when `path` is `-`; refuses
+/// to write over one of `inputs`.
+pub fn write_json(
+    path: &Path,
+    inputs: &[&Path],
+    value: &impl serde::Serialize,
+) -> Result<(), OutputError> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| OutputError::Io {
+        path: path.to_owned(),
+        source: e.into(),
+    })?;
+    if path == Path::new(crate::console::STDOUT) {
+        println!("{text}");
+        return Ok(());
+    }
+    ensure_not_input(path, inputs)?;
+    write_atomically(path, text.as_bytes())
 }
 
 /// Fails if `output` names the same file as any of `inputs`.

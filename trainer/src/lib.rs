@@ -4,6 +4,7 @@
 
 pub mod cause;
 pub mod cli;
+pub mod console;
 pub mod data;
 pub mod dataset;
 pub mod diagnose;
@@ -18,7 +19,6 @@ pub mod lssvr;
 pub mod normalize;
 pub mod poly;
 pub mod prior;
-pub mod progress;
 pub mod replay;
 pub mod report;
 pub mod reproduce;

@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use trainer::console::ProgressBar;
 use trainer::dataset::Points;
 use trainer::evaluate::{self, EvalConfig, Method};
 
@@ -119,7 +120,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     let (oct, aug) = (load(&oct), load(&aug));
     assert_eq!((oct.len(), aug.len()), (773, 695));
     let cfg = EvalConfig::default();
-    let cross = |m| evaluate::cross_run(&aug, &oct, m, &cfg).unwrap();
+    let cross = |m| evaluate::cross_run(&aug, &oct, m, &cfg, &ProgressBar::hidden()).unwrap();
     let gp = cross(Method::Gpr);
     let poly = cross(Method::Poly);
     let two_step = cross(Method::TwoStep);
@@ -128,7 +129,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
         assert!(c.rmse_dph < 400.0, "{c:?}");
     }
     assert!(two_step.rmse_dph > 5.0 * poly.rmse_dph, "{two_step:?}");
-    let loo = evaluate::evaluate(&oct, Method::Poly, &cfg).unwrap();
+    let loo = evaluate::evaluate(&oct, Method::Poly, &cfg, &ProgressBar::hidden()).unwrap();
     assert_eq!(loo.per_temperature.len(), 18);
     assert!(loo.group_rmse_dph < 100.0, "{}", loo.group_rmse_dph);
 }

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use indicatif::ProgressBar;
 
 use crate::cause::Cause;
 use crate::dataset::Points;
@@ -52,9 +53,6 @@ pub const FIGURES: [(&str, &str); 6] = [
     ),
 ];
 
-/// Steps of [`build`], for a progress bar.
-pub const STEPS: u64 = 5;
-
 /// Everything the page shows.
 pub struct Report {
     /// Where the rate table came from.
@@ -77,34 +75,29 @@ pub struct Report {
     pub block_temp_c: Vec<f64>,
 }
 
-/// Runs the evaluations and the investigation; `step` is called before each of [`STEPS`] steps.
+/// Runs the evaluations and the investigation; `bar` counts their fits and steps.
 pub fn build(
     source: &Path,
     points: Points,
     train: &Stream,
     valid: Stream,
     cfg: &GpConfig,
-    mut step: impl FnMut(&str),
+    bar: &ProgressBar,
 ) -> anyhow::Result<Report> {
     let eval = EvalConfig {
         gp: cfg.clone(),
         ..EvalConfig::default()
     };
-    step("GPR leave-one-out and leave-one-temperature-out");
-    let gpr = evaluate::evaluate(&points, Method::Gpr, &eval)?;
-    step("LS-SVR leave-one-out and leave-one-temperature-out");
-    let lssvr = evaluate::evaluate(&points, Method::Lssvr, &eval)?;
-    step("two-step leave-one-out");
-    let two_step = evaluate::evaluate(&points, Method::TwoStep, &eval)?;
+    let gpr = evaluate::evaluate(&points, Method::Gpr, &eval, bar)?;
+    let lssvr = evaluate::evaluate(&points, Method::Lssvr, &eval, bar)?;
+    let two_step = evaluate::evaluate(&points, Method::TwoStep, &eval, bar)?;
     let reproduction = Reproduction {
         gpr,
         lssvr,
         two_step,
         fig2: evaluate::fig2(&points),
     };
-    step("investigation: static fit, replay, diagnosis, extended fit");
-    let (investigation, blobs) = investigate::investigate(&points, train, &valid, cfg, None)?;
-    step("replays of the held-out stream");
+    let (investigation, blobs) = investigate::investigate(&points, train, &valid, cfg, None, bar)?;
     let fw_static = export::decode(&blobs.static_blob)?;
     let fw_ext = export::decode(&blobs.extended_blob)?;
     let replays = [

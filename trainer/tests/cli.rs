@@ -1,0 +1,124 @@
+//! The real binary as a script sees it: exit status, where results and errors go, and the help.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn trainer(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_trainer"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// A small rate table: 6 temperatures × 8 rates of a gyro with a temperature-dependent bias and
+/// scale factor, and a deterministic ripple for noise.
+fn rate_table(dir: &Path) {
+    let mut csv = String::from("temp_c,voltage_v,rate_dps\n");
+    for (i, t) in [-30.0, -10.0, 10.0, 25.0, 40.0, 60.0].iter().enumerate() {
+        for (j, w) in [-80.0, -40.0, -10.0, -5.0, 5.0, 10.0, 40.0, 80.0]
+            .iter()
+            .enumerate()
+        {
+            let v = 0.0385 * w * (1.0 + 1e-4 * t) + 2e-3 * t + 1e-4 * ((3 * i + j) as f64).sin();
+            csv.push_str(&format!("{t},{v},{w}\n"));
+        }
+    }
+    std::fs::write(dir.join("p.csv"), csv).unwrap();
+}
+
+#[test]
+fn bad_input_exits_one_with_the_location_on_stderr() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("p.csv"),
+        "temp_c,voltage_v,rate_dps\n0,0.1,1\n20,x,2\n",
+    )
+    .unwrap();
+    let out = trainer(&["fit", "--points", "p.csv", "--out", "m.bin"], dir.path());
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("p.csv line 3, column voltage_v: 'x' is not a number"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty());
+    assert!(!dir.path().join("m.bin").exists());
+    let missing = trainer(
+        &["fit", "--points", "nope.csv", "--out", "m.bin"],
+        dir.path(),
+    );
+    assert_eq!(missing.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&missing.stderr);
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+}
+
+#[test]
+fn a_malformed_command_line_exits_two() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        &["fit", "--points"][..],
+        &["fit", "--bogus"],
+        &["loo", "--points", "p.csv", "--quiet", "--verbose"],
+        &["nonsense"],
+    ] {
+        let out = trainer(args, dir.path());
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
+}
+
+#[test]
+fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let fit = &["fit", "--points", "p.csv", "--out", "m.bin"];
+    let plain = trainer(fit, dir.path());
+    assert_eq!(plain.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&plain.stdout);
+    assert!(text.contains("wrote m.bin"), "{text}");
+    // Piped: no progress bar, no stray text on stderr.
+    assert!(plain.stderr.is_empty(), "{:?}", plain.stderr);
+
+    let json = trainer(&[fit, &["--json", "-"][..]].concat(), dir.path());
+    assert_eq!(json.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).expect("stdout is JSON alone");
+    assert_eq!(v["n_train"], 48);
+    assert!(!dir.path().join("-").exists());
+
+    std::fs::remove_file(dir.path().join("m.bin")).unwrap();
+    let quiet = trainer(&[fit, &["--quiet"][..]].concat(), dir.path());
+    assert_eq!(quiet.status.code(), Some(0));
+    assert!(quiet.stdout.is_empty() && quiet.stderr.is_empty());
+    assert!(dir.path().join("m.bin").exists());
+
+    let verbose = trainer(&[fit, &["-v"][..]].concat(), dir.path());
+    let err = String::from_utf8_lossy(&verbose.stderr);
+    assert!(
+        err.contains("optimizer starts") && err.contains("Solver converged"),
+        "{err}"
+    );
+    assert!(String::from_utf8_lossy(&verbose.stdout).contains("wrote m.bin"));
+}
+
+#[test]
+fn every_command_shows_an_example_in_its_help() {
+    let dir = tempfile::tempdir().unwrap();
+    for cmd in [
+        "fit",
+        "diagnose",
+        "investigate",
+        "inspect",
+        "loo",
+        "report",
+        "reproduce",
+    ] {
+        let out = trainer(&[cmd, "--help"], dir.path());
+        assert_eq!(out.status.code(), Some(0));
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(help.contains(&format!("Example: trainer {cmd} ")), "{help}");
+        assert!(
+            help.contains("--quiet") && help.contains("--verbose"),
+            "{help}"
+        );
+    }
+}
