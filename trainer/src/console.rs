@@ -23,8 +23,7 @@ pub struct ConsoleFlags {
     /// No progress bars and no summary on stdout: only the files written, warnings and errors.
     #[arg(long, short, global = true, conflicts_with = "verbose")]
     pub quiet: bool,
-    /// Details on stderr: every optimizer start, every fold or case as it finishes, the
-    /// commands run.
+    /// Details on stderr: every optimizer start of a fit, the commands run (cargo, QEMU).
     #[arg(long, short, global = true)]
     pub verbose: bool,
 }
