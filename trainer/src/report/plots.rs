@@ -320,6 +320,24 @@ pub fn loo_map(
     })
 }
 
+/// Longest step between block times drawn as one line, h: a longer one is a power-off or a gap
+/// in the log, and a line across it would show data that was never measured.
+const MAX_STEP_H: f64 = 3.0 / 60.0;
+
+/// Index ranges of `time_h` without a step longer than [`MAX_STEP_H`].
+fn runs(time_h: &[f64]) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..=time_h.len() {
+        if i == time_h.len() || time_h[i] - time_h[i - 1] > MAX_STEP_H {
+            out.push(start..i);
+            start = i;
+        }
+    }
+    out.retain(|r| !r.is_empty());
+    out
+}
+
 /// One replayed model on the held-out stream, reduced to 60 s blocks.
 pub struct ReplaySeries<'a> {
     /// Legend name.
@@ -347,10 +365,13 @@ pub fn replay(
             .y_label_area_size(80)
             .build_cartesian_2d(x0..x1, t0..t1)?;
         axes(&mut chart, "time (h)", "sensor T (°C)")?;
-        chart.draw_series(LineSeries::new(
-            time_h.iter().copied().zip(temp_c.iter().copied()),
-            RED.stroke_width(2),
-        ))?;
+        let runs = runs(time_h);
+        for run in &runs {
+            chart.draw_series(LineSeries::new(
+                run.clone().map(|i| (time_h[i], temp_c[i])),
+                RED.stroke_width(2),
+            ))?;
+        }
         let to_dph = 3600.0;
         let (e0, e1) = span(
             models.iter().flat_map(|m| {
@@ -372,37 +393,35 @@ pub fn replay(
             .build_cartesian_2d(x0..x1, e0..e1)?;
         axes(&mut chart, "time (h)", "error (°/h)")?;
         for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
-            let band: Vec<(f64, f64)> = time_h
-                .iter()
-                .zip(m.error_dps.iter().zip(m.std_dps))
-                .map(|(&t, (e, s))| (t, (e + 2.0 * s) * to_dph))
-                .chain(
-                    time_h
-                        .iter()
-                        .zip(m.error_dps.iter().zip(m.std_dps))
-                        .rev()
-                        .map(|(&t, (e, s))| (t, (e - 2.0 * s) * to_dph)),
+            let at = |i: usize, sign: f64| {
+                (
+                    time_h[i],
+                    (m.error_dps[i] + sign * 2.0 * m.std_dps[i]) * to_dph,
                 )
-                .collect();
-            chart.draw_series(std::iter::once(Polygon::new(
-                band,
-                colour.mix(0.15).filled(),
-            )))?;
+            };
             let rms = (m.error_dps.iter().map(|e| e * e).sum::<f64>()
                 / m.error_dps.len().max(1) as f64)
                 .sqrt();
-            chart
-                .draw_series(LineSeries::new(
-                    time_h
-                        .iter()
-                        .copied()
-                        .zip(m.error_dps.iter().map(|e| e * to_dph)),
+            for (k, run) in runs.iter().enumerate() {
+                let band = run
+                    .clone()
+                    .map(|i| at(i, 1.0))
+                    .chain(run.clone().rev().map(|i| at(i, -1.0)));
+                chart.draw_series(std::iter::once(Polygon::new(
+                    band.collect::<Vec<_>>(),
+                    colour.mix(0.15).filled(),
+                )))?;
+                let line = chart.draw_series(LineSeries::new(
+                    run.clone().map(|i| at(i, 0.0)),
                     colour.stroke_width(2),
-                ))?
-                .label(format!("{}: rmse_60s {:.2} °/h", m.name, rms * to_dph))
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
-                });
+                ))?;
+                if k == 0 {
+                    line.label(format!("{}: rmse_60s {:.2} °/h", m.name, rms * to_dph))
+                        .legend(move |(x, y)| {
+                            PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                        });
+                }
+            }
         }
         legend(&mut chart, SeriesLabelPosition::LowerMiddle)?;
         Ok(())
@@ -503,6 +522,15 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lines_break_at_gaps_in_the_log() {
+        let minute = 1.0 / 60.0;
+        let t = [0.0, minute, 2.0 * minute, 30.0 * minute, 31.0 * minute];
+        assert_eq!(runs(&t), vec![0..3, 3..5]);
+        assert_eq!(runs(&t[..3]), vec![0..3]);
+        assert!(runs(&[]).is_empty());
+    }
 
     #[test]
     fn figures_carry_their_labels_and_data() {
