@@ -265,24 +265,26 @@ enum Command {
     },
     /// One self-contained HTML report (inline SVG) and its figures as SVG files: the rate table,
     /// the paper's Fig. 2, 4 and 5–6, the held-out replay (static and extended, ±2σ) and the
-    /// diagnosis, with the LOO, leave-one-temperature-out and gain tables.
+    /// diagnosis, with the LOO, leave-one-temperature-out and gain tables. Without data, on a
+    /// simulated gyro with a hidden thermal-rate drift (the main job's, written to OUT/data by the
+    /// `firmware-sim` beside this program).
     ///
     /// Example: trainer report --points points.csv --train-stream train.csv --valid-stream
-    /// valid.csv --out-dir report
+    /// valid.csv --out report
     Report {
         #[command(flatten)]
         input: ModelInput,
         #[command(flatten)]
         fit: FitOptions,
         /// Stream the extension is fitted on.
-        #[arg(long)]
-        train_stream: PathBuf,
+        #[arg(long, requires = "valid_stream")]
+        train_stream: Option<PathBuf>,
         /// Held-out stream: replayed, diagnosed and scored.
-        #[arg(long)]
-        valid_stream: PathBuf,
+        #[arg(long, requires = "train_stream")]
+        valid_stream: Option<PathBuf>,
         /// Directory for report.html and the figures (created if missing).
-        #[arg(long)]
-        out_dir: PathBuf,
+        #[arg(long, visible_alias = "out-dir")]
+        out: PathBuf,
     },
     /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
     ///
@@ -315,6 +317,56 @@ impl From<MethodArg> for Method {
             MethodArg::Poly => Method::Poly,
         }
     }
+}
+
+/// The main job's data (README), written to `dir` by the `firmware-sim` beside this program: a
+/// nominal gyro with a hidden thermal-rate drift, its rate table and two ramp streams.
+fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathBuf, PathBuf)> {
+    let sim = std::env::current_exe()
+        .context("locating this program")?
+        .with_file_name(format!("firmware-sim{}", std::env::consts::EXE_SUFFIX));
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let files = [
+        ("paper", 1, "points.csv"),
+        ("stream", 2, "train.csv"),
+        ("stream", 3, "valid.csv"),
+    ];
+    for (kind, seed, name) in files {
+        let path = dir.join(name);
+        let args = [
+            "generate".to_owned(),
+            kind.to_owned(),
+            "--seed".to_owned(),
+            seed.to_string(),
+            "--effect".to_owned(),
+            "thermal-rate".to_owned(),
+            "--out".to_owned(),
+            path.display().to_string(),
+            "--quiet".to_owned(),
+        ];
+        console.detail(&format!("{} {}", sim.display(), args.join(" ")));
+        let status = std::process::Command::new(&sim)
+            .args(&args)
+            .status()
+            .with_context(|| {
+                format!(
+                    "no data given, and the simulator {} could not run (build it: cargo build \
+                     --release; or give --points, --train-stream and --valid-stream)",
+                    sim.display()
+                )
+            })?;
+        anyhow::ensure!(status.success(), "{} failed: {status}", sim.display());
+    }
+    console.result(&format!(
+        "no data given: simulated a gyro with a hidden thermal-rate drift into {}",
+        dir.display()
+    ));
+    let input = ModelInput {
+        points: Some(dir.join("points.csv")),
+        maps: Vec::new(),
+        scale_factor: None,
+    };
+    Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
 
 /// Under --verbose: every optimizer start of a fit, where it began and ended.
@@ -695,9 +747,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             fit,
             train_stream,
             valid_stream,
-            out_dir,
+            out: out_dir,
         } => {
             let console = Console::new(flags, None);
+            let (input, train_stream, valid_stream) = match (train_stream, valid_stream) {
+                (Some(a), Some(b)) => (input, a, b),
+                _ if input.points.is_some() => anyhow::bail!(
+                    "--points needs --train-stream and --valid-stream: the report replays a \
+                     held-out stream (or give no data at all for the simulated gyro)"
+                ),
+                _ => simulated(&out_dir.join("data"), &console)?,
+            };
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
             let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);

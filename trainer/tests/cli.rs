@@ -122,3 +122,30 @@ fn every_command_shows_an_example_in_its_help() {
         );
     }
 }
+
+#[test]
+fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let alone = trainer(&["report", "--points", "p.csv", "--out", "r"], dir.path());
+    assert_eq!(alone.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&alone.stderr).contains("--points needs --train-stream"));
+    let sim = Path::new(env!("CARGO_BIN_EXE_trainer")).with_file_name("firmware-sim");
+    if !sim.exists() {
+        // `cargo test --workspace` builds it (firmware-sim has tests of its own binary).
+        eprintln!("skipped: {} not built", sim.display());
+        return;
+    }
+    let out = trainer(&["report", "--out", "r"], dir.path());
+    assert_eq!(out.status.code(), Some(0), "{:?}", out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.starts_with("no data given: simulated"), "{text}");
+    for name in [
+        "data/points.csv",
+        "data/valid.csv",
+        "report.html",
+        "replay.svg",
+    ] {
+        assert!(dir.path().join("r").join(name).exists(), "{name}");
+    }
+}

@@ -37,7 +37,7 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
         &p("a.csv"),
         "--valid-stream",
         &p("b.csv"),
-        "--out-dir",
+        "--out",
         &out.display().to_string(),
         "--quiet",
     ])
@@ -83,7 +83,7 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
         &p("a.csv"),
         "--valid-stream",
         &p("b.csv"),
-        "--out-dir",
+        "--out",
         &out.display().to_string(),
         "--quiet",
     ]);
