@@ -22,7 +22,11 @@
 //! is a small difference of O(1) numbers.
 //!
 //! Never panics, never returns NaN: non-finite or missing inputs give a `Fault` status with mean 0
-//! and the prior variance σ_f²; inputs outside the trained range give `Extrapolating`.
+//! and the prior variance σ_f²; inputs outside the trained range give `Extrapolating`. An input
+//! more than one trained span beyond its range is a sensor fault, not a reading (a temperature of
+//! 1e30 °C overflowed the prior mean to NaN), and is a `Fault` too; so is any mean that is not
+//! finite, which a blob with absurd but finite numbers could otherwise produce (the mutated-blob
+//! test, `tests/mutated_blobs.rs`).
 
 use heapless::Vec;
 
@@ -164,8 +168,13 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
         capacity(Storage::Exponents, dims.exponents(), E)?;
         capacity(Storage::Floats, dims.floats(), N)?;
-        let payload: Payload<Vec<Feature, D>, Vec<u8, E>, Vec<f32, N>> =
-            postcard::from_bytes(header.payload).map_err(|_| BlobError::Malformed)?;
+        let (payload, rest): (Payload<Vec<Feature, D>, Vec<u8, E>, Vec<f32, N>>, _) =
+            postcard::take_from_bytes(header.payload).map_err(|_| BlobError::Malformed)?;
+        // Bytes after the payload, even under a consistent length and CRC, are not a blob the
+        // trainer wrote.
+        if !rest.is_empty() {
+            return Err(BlobError::TrailingBytes);
+        }
         if payload.features.len() != dims.d
             || payload.exponents.len() != dims.exponents()
             || payload.floats.len() != dims.floats()
@@ -249,7 +258,13 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
         for (k, (zk, sk)) in z.iter_mut().zip(s.iter_mut()).take(d).enumerate() {
             let xk = x.get(k).copied().unwrap_or(0.0);
-            if xk < at(sec.min, k) || xk > at(sec.max, k) {
+            let (lo, hi) = (at(sec.min, k), at(sec.max, k));
+            if xk < lo || xk > hi {
+                let span = hi - lo;
+                let margin = if span > 0.0 { span } else { lo.abs().max(1.0) };
+                if xk < lo - margin || xk > hi + margin {
+                    return Status::Fault;
+                }
                 status = Status::Extrapolating;
             }
             *zk = (xk - at(0, k)) / at(sec.scale, k);
@@ -350,9 +365,14 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
         self.add_prior_mean(zd, &mut acc);
         self.add_raw_linear(x, &mut acc);
-        Mean {
-            mean: acc.total(),
-            status,
+        let mean = acc.total();
+        if mean.is_finite() {
+            Mean { mean, status }
+        } else {
+            Mean {
+                mean: 0.0,
+                status: Status::Fault,
+            }
         }
     }
 
