@@ -20,12 +20,40 @@
 //!
 //! Filters start at the first reading (rate 0, coil at the sensor, play centred). Temperature and
 //! gyro output pass through unchanged.
+//!
+//! # Sensor faults
+//!
+//! [`compute`] returns the health of its inputs as a [`Status`]; the model takes the worse of it
+//! and its own (`Extrapolating` beyond the trained range). Each fault has one behaviour, and the
+//! state always recovers (tests below, one per scenario):
+//!
+//! | what the sample shows | status | state |
+//! |---|---|---|
+//! | time, temperature or output NaN or infinite; temperature outside −100…200 °C | `Fault` | untouched: the next good sample continues from the last good one |
+//! | time running backwards (counter wrap, reset without power-on) | `Degraded` | the time base re-synchronizes: t_on advances by the last regular step |
+//! | time jumping ahead by more than max(60 s, 20 steps) (lost samples, a stalled logger) | `Degraded` | filters advance exactly over the gap, as if the temperature had held |
+//! | temperature bit-identical for 600 s (a stuck sensor; real ones show their noise) | `Degraded` while stuck | filters follow the stuck reading |
+//! | a changed sample rate | `Valid` | filters advance by the actual Δt: exact |
+//!
+//! After a time anomaly, and after a stuck sensor frees itself, outputs stay `Degraded` for three
+//! time constants of the slowest filter (temperature rate, coil estimate), until the filters have
+//! forgotten the gap.
 
 use crate::blob::Feature;
-use crate::model::MAX_INPUTS;
+use crate::model::{MAX_INPUTS, Status};
 
 /// Seconds per hour.
 const HOUR_S: f64 = 3600.0;
+/// Temperatures a FOG's sensor can read, °C; beyond them the reading is a fault.
+const TEMP_RANGE_C: core::ops::RangeInclusive<f32> = -100.0..=200.0;
+/// A step longer than this, s, and [`JUMP_STEPS`] regular steps, is a time jump.
+const JUMP_MIN_S: f64 = 60.0;
+/// Regular steps in a time jump (with [`JUMP_MIN_S`]).
+const JUMP_STEPS: f64 = 20.0;
+/// A temperature reading unchanged (bit for bit) this long, s, is a stuck sensor.
+const STUCK_S: f64 = 600.0;
+/// Time constants of the slowest filter during which outputs stay degraded after an anomaly.
+const SETTLE_TAUS: f32 = 3.0;
 
 /// One raw sample as the gyro electronics see it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,12 +68,18 @@ pub struct Sample {
 }
 
 /// Memory of the stateful features between samples: the power-on time, the previous sample's time
-/// and one filter state per input.
+/// and one filter state per input, with what the fault checks need (module doc).
 #[derive(Debug, Clone, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FeatureState {
     /// (power-on time, previous sample time), once a sample has been seen.
     times: Option<(f64, f64)>,
+    /// The last regular step between samples, s (0 until there is one).
+    step_s: f64,
+    /// The temperature reading's bits, and the time since power-on from which it has held.
+    held: (u32, f64),
+    /// Outputs are degraded until this time since power-on, s.
+    settle_until_s: f64,
     filters: [f32; MAX_INPUTS],
 }
 
@@ -61,26 +95,67 @@ fn gain(dt_s: f32, tau_s: f32) -> f32 {
     1.0 - libm::expf(-dt_s / tau_s)
 }
 
+/// Seconds the outputs stay degraded after an anomaly: [`SETTLE_TAUS`] time constants of the
+/// slowest filter among `features` (0 without filters).
+fn settle_s(features: &[Feature]) -> f64 {
+    let slowest = features.iter().fold(0.0f32, |m, f| match *f {
+        Feature::TemperatureRate { tau_s } | Feature::CoilTemperature { tau_s } => m.max(tau_s),
+        _ => m,
+    });
+    f64::from(SETTLE_TAUS * slowest)
+}
+
 /// Computes the inputs for `features` from `sample` into `out` (its first `features.len()`
-/// entries) and advances `state`; returns false, leaving both untouched, when `out` is too short
-/// or there are more features than [`MAX_INPUTS`].
+/// entries) and advances `state`; returns the health of the inputs (module doc). `Fault` leaves
+/// both untouched, as does an `out` too short or more features than [`MAX_INPUTS`].
 pub fn compute(
     features: &[Feature],
     sample: &Sample,
     state: &mut FeatureState,
     out: &mut [f32],
-) -> bool {
-    if out.len() < features.len() || features.len() > MAX_INPUTS {
-        return false;
-    }
+) -> Status {
     let t = sample.temp_c;
+    if out.len() < features.len()
+        || features.len() > MAX_INPUTS
+        || !sample.time_s.is_finite()
+        || !sample.output.is_finite()
+        || !TEMP_RANGE_C.contains(&t)
+    {
+        return Status::Fault;
+    }
     let first = state.times.is_none();
-    let (on, previous) = state.times.unwrap_or((sample.time_s, sample.time_s));
-    // A clock that stands still or runs backwards gives no step; the caller decides whether that
-    // is a new power-on (`reset`).
-    let dt = (sample.time_s - previous).max(0.0) as f32;
+    let (mut on, previous) = state.times.unwrap_or((sample.time_s, sample.time_s));
+    let raw_dt = sample.time_s - previous;
+    let anomaly = !first && (raw_dt < 0.0 || raw_dt > JUMP_MIN_S.max(JUMP_STEPS * state.step_s));
+    let step = if raw_dt < 0.0 {
+        // The origin moves so that time since power-on advances by one regular step.
+        on += raw_dt - state.step_s;
+        state.step_s
+    } else {
+        if !anomaly && raw_dt > 0.0 {
+            state.step_s = raw_dt;
+        }
+        raw_dt
+    };
+    let dt = step as f32;
     let t_on = (sample.time_s - on).max(0.0);
-    state.times = Some((on, sample.time_s.max(previous)));
+    state.times = Some((on, sample.time_s));
+    let settle = settle_s(features);
+    if first || t.to_bits() != state.held.0 {
+        if !first && t_on - state.held.1 >= STUCK_S {
+            // A stuck sensor freed: the filters have followed a constant reading.
+            state.settle_until_s = state.settle_until_s.max(t_on + settle);
+        }
+        state.held = (t.to_bits(), t_on);
+    }
+    if anomaly {
+        state.settle_until_s = t_on + settle;
+    }
+    let health = if anomaly || t_on - state.held.1 >= STUCK_S || t_on < state.settle_until_s {
+        Status::Degraded
+    } else {
+        Status::Valid
+    };
     for ((slot, feature), y) in out.iter_mut().zip(features).zip(&mut state.filters) {
         *slot = match *feature {
             Feature::Temperature => t,
@@ -110,7 +185,7 @@ pub fn compute(
             }
         };
     }
-    true
+    health
 }
 
 #[cfg(test)]
@@ -130,14 +205,15 @@ mod tests {
         let mut out = [0.0f32; 3];
         let mut state = FeatureState::default();
         let features = [Feature::Voltage, Feature::Temperature];
-        assert!(compute(&features, &at(3.0, 21.5), &mut state, &mut out));
+        assert_eq!(
+            compute(&features, &at(3.0, 21.5), &mut state, &mut out),
+            Status::Valid
+        );
         assert_eq!(out, [-0.25, 21.5, 0.0]);
-        assert!(!compute(
-            &features,
-            &at(3.0, 21.5),
-            &mut state,
-            &mut out[..1]
-        ));
+        assert_eq!(
+            compute(&features, &at(3.0, 21.5), &mut state, &mut out[..1]),
+            Status::Fault
+        );
     }
 
     /// Runs a 1 Hz ramp of `rate` °C/min from 20 °C for `n` samples; returns the last inputs.
@@ -146,7 +222,7 @@ mod tests {
         let mut out = [0.0f32; 4];
         for k in 0..n {
             let s = at(100.0 + f64::from(k), 20.0 + rate * k as f32 / 60.0);
-            assert!(compute(features, &s, &mut state, &mut out));
+            assert_ne!(compute(features, &s, &mut state, &mut out), Status::Fault);
         }
         out
     }
@@ -189,7 +265,7 @@ mod tests {
         let mut state = FeatureState::default();
         let mut out = [0.0f32; 1];
         let mut feed = |time: f64, temp: f32, out: &mut [f32; 1]| {
-            assert!(compute(&f, &at(time, temp), &mut state, out));
+            assert_ne!(compute(&f, &at(time, temp), &mut state, out), Status::Fault);
         };
         feed(0.0, 20.0, &mut out);
         assert_eq!(out[0], 0.0);
@@ -208,11 +284,168 @@ mod tests {
         let f = [Feature::TimeOn, Feature::TemperatureRate { tau_s: 30.0 }];
         let mut state = FeatureState::default();
         let mut out = [0.0f32; 2];
-        assert!(compute(&f, &at(0.0, 20.0), &mut state, &mut out));
-        assert!(compute(&f, &at(3600.0, 25.0), &mut state, &mut out));
+        assert_eq!(
+            compute(&f, &at(0.0, 20.0), &mut state, &mut out),
+            Status::Valid
+        );
+        // An hour without samples is a time jump.
+        assert_eq!(
+            compute(&f, &at(3600.0, 25.0), &mut state, &mut out),
+            Status::Degraded
+        );
         assert_eq!(out[0], 1.0);
         state.reset();
-        assert!(compute(&f, &at(7200.0, 25.0), &mut state, &mut out));
+        assert_eq!(
+            compute(&f, &at(7200.0, 25.0), &mut state, &mut out),
+            Status::Valid
+        );
         assert_eq!(out, [0.0, 0.0]);
+    }
+
+    /// Feeds a 1 Hz ramp of 0.5 °C/min through `f` from `start`, with `sample` editing each
+    /// sample (time, temperature) by its index; returns each sample's status and the last inputs.
+    fn run(
+        f: &[Feature],
+        n: usize,
+        mut sample: impl FnMut(usize, &mut Sample),
+        state: &mut FeatureState,
+    ) -> (std::vec::Vec<Status>, [f32; 2]) {
+        let mut out = [0.0f32; 2];
+        let statuses = (0..n)
+            .map(|k| {
+                let mut s = at(k as f64, 20.0 + 0.5 * k as f32 / 60.0);
+                sample(k, &mut s);
+                compute(f, &s, state, &mut out)
+            })
+            .collect();
+        (statuses, out)
+    }
+
+    const RATE: [Feature; 2] = [Feature::TemperatureRate { tau_s: 60.0 }, Feature::TimeOn];
+
+    /// Samples `from..to` of `statuses` all equal `want`.
+    fn all(statuses: &[Status], from: usize, to: usize, want: Status) -> bool {
+        statuses[from..to].iter().all(|s| *s == want)
+    }
+
+    #[test]
+    fn non_finite_or_impossible_readings_are_faults_that_leave_the_state_alone() {
+        for bad in [f32::NAN, f32::INFINITY, -300.0, 1e30] {
+            let mut state = FeatureState::default();
+            let (statuses, out) = run(
+                &RATE,
+                1200,
+                |k, s| {
+                    if (600..610).contains(&k) {
+                        s.temp_c = bad;
+                    }
+                    if k == 620 {
+                        s.output = f32::NAN;
+                    }
+                    if k == 630 {
+                        s.time_s = f64::NAN;
+                    }
+                },
+                &mut state,
+            );
+            assert!(all(&statuses, 600, 610, Status::Fault), "{bad}");
+            assert_eq!(statuses[620], Status::Fault);
+            assert_eq!(statuses[630], Status::Fault);
+            // Ten lost seconds are no time jump: the filter continues, and the output is valid.
+            assert!(all(&statuses, 610, 620, Status::Valid), "{bad}");
+            assert!(all(&statuses, 631, 1200, Status::Valid));
+            assert!((out[0] - 0.5).abs() < 0.01, "rate {} after {bad}", out[0]);
+            assert!((out[1] - 1199.0 / 3600.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_clock_running_backwards_resynchronizes_and_settles() {
+        let mut state = FeatureState::default();
+        // At sample 500 the counter wraps: time restarts from 0 (no power-on).
+        let (statuses, out) = run(
+            &RATE,
+            1500,
+            |k, s| {
+                if k >= 500 {
+                    s.time_s -= 10_000.0;
+                }
+            },
+            &mut state,
+        );
+        assert!(all(&statuses, 0, 500, Status::Valid));
+        // Degraded for three filter time constants, then valid again.
+        assert!(all(&statuses, 500, 680, Status::Degraded));
+        assert!(all(&statuses, 680, 1500, Status::Valid));
+        // Time since power-on ran on as if nothing happened.
+        assert!((out[1] - 1499.0 / 3600.0).abs() < 1e-6, "{out:?}");
+        assert!((out[0] - 0.5).abs() < 0.01, "{out:?}");
+    }
+
+    #[test]
+    fn a_time_jump_is_degraded_until_the_filters_settle() {
+        let mut state = FeatureState::default();
+        let (statuses, out) = run(
+            &RATE,
+            1500,
+            |k, s| {
+                if k >= 700 {
+                    s.time_s += 3600.0;
+                }
+            },
+            &mut state,
+        );
+        assert!(all(&statuses, 0, 700, Status::Valid));
+        assert!(all(&statuses, 700, 880, Status::Degraded));
+        assert!(all(&statuses, 880, 1500, Status::Valid));
+        assert!((out[0] - 0.5).abs() < 0.01, "{out:?}");
+        assert!((out[1] - (1499.0 + 3600.0) / 3600.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_stuck_temperature_sensor_is_flagged_and_recovers() {
+        let mut state = FeatureState::default();
+        // The sensor freezes at sample 300 for 20 minutes, then reads again.
+        let (statuses, out) = run(
+            &RATE,
+            3000,
+            |k, s| {
+                if (300..1500).contains(&k) {
+                    s.temp_c = 20.0 + 0.5 * 300.0 / 60.0;
+                }
+            },
+            &mut state,
+        );
+        assert!(all(&statuses, 0, 900, Status::Valid));
+        assert!(all(&statuses, 900, 1500, Status::Degraded));
+        assert!(all(&statuses, 1500, 1680, Status::Degraded));
+        assert!(all(&statuses, 1680, 3000, Status::Valid));
+        assert!((out[0] - 0.5).abs() < 0.01, "{out:?}");
+    }
+
+    #[test]
+    fn a_changed_sample_rate_is_followed_exactly() {
+        let mut state = FeatureState::default();
+        // 1 Hz, then 10 Hz, then one sample every 20 s: the filter advances by the actual step.
+        let time = |k: usize| match k {
+            0..600 => k as f64,
+            600..6600 => 600.0 + (k - 600) as f64 * 0.1,
+            _ => 1200.0 + (k - 6600) as f64 * 20.0,
+        };
+        let mut out = [0.0f32; 2];
+        for k in 0..6700 {
+            let t = time(k);
+            let s = at(t, 20.0 + 0.5 * (t / 60.0) as f32);
+            assert_eq!(
+                compute(&RATE, &s, &mut state, &mut out),
+                Status::Valid,
+                "{k}"
+            );
+            if k == 6599 || k == 6699 {
+                // Past the first filter time constants, the rate is the ramp's (less the lag of
+                // half a step at 20 s steps).
+                assert!((out[0] - 0.5).abs() < 0.1, "{k}: {out:?}");
+            }
+        }
     }
 }

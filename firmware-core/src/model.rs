@@ -34,15 +34,19 @@ use crate::blob::{self, Dims, Feature, Payload};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, Sample};
 
-/// Validity of a prediction.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Validity of a prediction, from best to worst (a prediction carries the worst that applies).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Status {
     /// Inputs inside the trained range.
     Valid,
     /// An input lies outside the trained range: the model extrapolates.
     Extrapolating,
-    /// An input is NaN or infinite (or missing): the output is not a compensation.
+    /// The inputs are readings, but a stateful input's history is not to be trusted: after a time
+    /// jump or a clock running backwards, while the temperature sensor seems stuck, and until the
+    /// filters have settled after either ([`crate::features`] has the rules).
+    Degraded,
+    /// An input is NaN, infinite or impossible (or missing): the output is not a compensation.
     Fault,
 }
 
@@ -390,8 +394,18 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     ) -> Result<Prediction, PredictError> {
         let mut x = [0.0f32; D];
         // `decode` checked d ≤ D, so the inputs always fit.
-        features::compute(&self.features, sample, state, &mut x);
-        self.predict(x.get(..self.dims.d).unwrap_or(&[]), scratch)
+        let health = features::compute(&self.features, sample, state, &mut x);
+        if health == Status::Fault {
+            let [signal, _] = self.variances();
+            return Ok(Prediction {
+                mean: 0.0,
+                variance: signal,
+                status: Status::Fault,
+            });
+        }
+        let mut p = self.predict(x.get(..self.dims.d).unwrap_or(&[]), scratch)?;
+        p.status = p.status.max(health);
+        Ok(p)
     }
 
     /// Predictive mean and latent variance. `scratch` must hold at least `m` numbers.

@@ -4,7 +4,12 @@
 //! `firmware-core/fuzz` (README, "Reliability").
 
 // Test code: the firmware's no-panic lints guard data paths; here a failed check is the point.
-#![allow(clippy::indexing_slicing, clippy::expect_used, clippy::panic, clippy::unwrap_used)]
+#![allow(
+    clippy::indexing_slicing,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unwrap_used
+)]
 
 #[path = "support/exercise.rs"]
 mod exercise;

@@ -293,11 +293,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 write_json(&path, &[], &score)?;
             }
             console.result(&format!(
-                "replayed {} samples ({} scored, {} extrapolating, {} fault, {} time issues): \
+                "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues): \
                  rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s, 2σ coverage {:.3}",
                 data.len(),
                 score.n,
                 score.n_extrapolating,
+                score.n_degraded,
                 score.n_fault,
                 score.time_issues.len(),
                 score.rmse_dps,

@@ -171,6 +171,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         compensated.status.push(match rec[8] {
             0 => Status::Valid,
             1 => Status::Extrapolating,
+            2 => Status::Degraded,
             _ => Status::Fault,
         });
     }

@@ -36,6 +36,7 @@ pub fn status_word(s: Status) -> &'static str {
     match s {
         Status::Valid => "ok",
         Status::Extrapolating => "extrapolating",
+        Status::Degraded => "degraded",
         Status::Fault => "fault",
     }
 }
@@ -106,6 +107,9 @@ pub struct Score {
     pub n_unscored: usize,
     /// Samples flagged extrapolating.
     pub n_extrapolating: usize,
+    /// Samples flagged degraded (a stateful input's history not trusted: time jumps, a stuck
+    /// temperature sensor).
+    pub n_degraded: usize,
     /// Samples flagged fault.
     pub n_fault: usize,
     /// Time problems in the stream.
@@ -162,6 +166,11 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             .status
             .iter()
             .filter(|s| **s == Status::Extrapolating)
+            .count(),
+        n_degraded: comp
+            .status
+            .iter()
+            .filter(|s| **s == Status::Degraded)
             .count(),
         n_fault: comp.status.iter().filter(|s| **s == Status::Fault).count(),
         time_issues: stream.time_issues.clone(),

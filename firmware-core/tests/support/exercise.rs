@@ -2,7 +2,12 @@
 //! and the fuzz target (`firmware-core/fuzz`), which include this file.
 
 // Test code: the firmware's no-panic lints guard data paths; here a failed check is the point.
-#![allow(clippy::indexing_slicing, clippy::expect_used, clippy::panic, clippy::unwrap_used)]
+#![allow(
+    clippy::indexing_slicing,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unwrap_used
+)]
 
 use firmware_core::{FeatureState, Model, Sample};
 

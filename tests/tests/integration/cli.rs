@@ -223,3 +223,86 @@ fn a_model_too_large_for_the_firmware_is_refused_with_the_limit() {
     assert!(format!("{e:#}").contains("at most 256 centres"), "{e:#}");
     assert!(!std::path::Path::new(&out).exists());
 }
+
+/// `value` without the wall-clock fields (`*_seconds`): the only bytes a rerun may change.
+fn without_timings(mut value: serde_json::Value) -> serde_json::Value {
+    match &mut value {
+        serde_json::Value::Object(map) => {
+            map.retain(|k, _| !k.ends_with("_seconds"));
+            for v in map.values_mut() {
+                *v = without_timings(v.take());
+            }
+        }
+        serde_json::Value::Array(items) => {
+            for v in items.iter_mut() {
+                *v = without_timings(v.take());
+            }
+        }
+        _ => {}
+    }
+    value
+}
+
+#[test]
+fn the_same_inputs_and_seed_give_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| at(dir.path(), name);
+    for (kind, seed, name) in [
+        ("paper", "1", "points.csv"),
+        ("stream", "2", "a.csv"),
+        ("stream", "3", "b.csv"),
+    ] {
+        sim(&[
+            "generate",
+            kind,
+            "--seed",
+            seed,
+            "--effect",
+            "thermal-rate",
+            "--out",
+            &p(name),
+        ])
+        .unwrap();
+    }
+    let points = p("points.csv");
+    for run in ["1", "2"] {
+        let fit = |extra: &[&str], out: &str| {
+            let mut args = vec!["fit", "--points", &points];
+            args.extend(extra);
+            let (blob, js) = (
+                p(&format!("{out}{run}.bin")),
+                p(&format!("{out}{run}.json")),
+            );
+            args.extend(["--out", &blob, "--json", &js, "-q"]);
+            trainer(&args).unwrap();
+        };
+        fit(&[], "exact");
+        let stream = p("a.csv");
+        fit(&["--stream", &stream, "--pool-stream"], "sparse");
+        fit(&["--stream", &stream, "--features", "auto"], "extended");
+        let (model, js) = (p(&format!("ext{run}.bin")), p(&format!("inv{run}.json")));
+        trainer(&[
+            "investigate",
+            "--points",
+            &p("points.csv"),
+            "--train-stream",
+            &p("a.csv"),
+            "--valid-stream",
+            &p("b.csv"),
+            "--out",
+            &model,
+            "--json",
+            &js,
+            "-q",
+        ])
+        .unwrap();
+    }
+    for name in ["exact", "sparse", "extended", "ext"] {
+        let read = |run: &str| std::fs::read(p(&format!("{name}{run}.bin"))).unwrap();
+        assert_eq!(read("1"), read("2"), "{name} blob");
+    }
+    for name in ["exact", "sparse", "extended", "inv"] {
+        let read = |run: &str| without_timings(json(p(&format!("{name}{run}.json"))));
+        assert_eq!(read("1"), read("2"), "{name} JSON");
+    }
+}
