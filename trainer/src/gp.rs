@@ -544,6 +544,7 @@ impl Objective<'_> {
         }
         if let Ok(mut t) = self.track.lock()
             && !outside
+            && cost.is_finite()
             && t.best.as_ref().is_none_or(|(c, _)| cost < *c)
         {
             t.best = Some((cost, theta.to_vec()));
@@ -788,9 +789,11 @@ pub(crate) fn search(
 
 /// The end point of the run with the highest likelihood.
 pub(crate) fn best_of(reports: &[StartReport]) -> Option<Vec<f64>> {
+    // A NaN likelihood is a failed start, not the best (total_cmp orders NaN above everything).
     reports
         .iter()
         .filter_map(|r| Some((r.end.clone()?, r.log_marginal_likelihood?)))
+        .filter(|(_, l)| l.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|b| b.0)
 }
@@ -1061,6 +1064,24 @@ mod tests {
         );
         assert_eq!(Inducing::Count(50).count(40), None);
         assert_eq!(Inducing::Exact.count(1_000_000), None);
+    }
+
+    #[test]
+    fn a_nan_likelihood_is_a_failed_start_never_the_best() {
+        let nan = StartReport {
+            start: vec![0.0; 4],
+            end: Some(vec![1.0; 4]),
+            log_marginal_likelihood: Some(f64::NAN),
+            iterations: 1,
+            evaluations: 1,
+            status: String::new(),
+        };
+        let fine = StartReport {
+            end: Some(vec![2.0; 4]),
+            log_marginal_likelihood: Some(-1.0),
+            ..nan.clone()
+        };
+        assert_eq!(best_of(&[nan, fine]), Some(vec![2.0; 4]));
     }
 
     #[test]
