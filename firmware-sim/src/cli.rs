@@ -8,8 +8,8 @@ use crate::{challenge, output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use trainer::cause::Cause;
+use trainer::cli::Maps;
 use trainer::console::{AFTER_HELP, Console, ConsoleFlags};
-use trainer::data::ColumnMap;
 use trainer::io::{ensure_not_input, write_atomically, write_json};
 use trainer::replay;
 
@@ -83,9 +83,8 @@ struct ReplayInput {
     /// Stream CSV: time_s,temp_c,voltage_v,rate_dps (rate_dps may be empty where unknown).
     #[arg(long)]
     stream: PathBuf,
-    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-    #[arg(long = "map", value_name = "NAME=SOURCE")]
-    maps: Vec<ColumnMap>,
+    #[command(flatten)]
+    maps: Maps,
 }
 
 impl ReplayInput {
@@ -107,7 +106,7 @@ impl ReplayInput {
             .with_context(|| format!("reading {}", self.model.display()))?;
         let firmware = trainer::export::decode(&blob)
             .with_context(|| format!("decoding {}", self.model.display()))?;
-        let data = trainer::stream::Stream::load(&self.stream, &self.maps)?;
+        let data = trainer::stream::Stream::load(&self.stream, &self.maps.list)?;
         for issue in &data.time_issues {
             console.warn(&format!("{}: time issue {issue:?}", self.stream.display()));
         }

@@ -32,14 +32,21 @@ pub struct Cli {
     console: ConsoleFlags,
 }
 
+/// The `--map` flag of every data-reading command, in both programs.
+#[derive(Args, Clone, Default)]
+pub struct Maps {
+    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+    #[arg(long = "map", value_name = "NAME=SOURCE")]
+    pub list: Vec<ColumnMap>,
+}
+
 #[derive(Args, Clone)]
 struct Input {
     /// Points CSV: temp_c,voltage_v,rate_dps (extra columns ignored).
     #[arg(long)]
     points: PathBuf,
-    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-    #[arg(long = "map", value_name = "NAME=SOURCE")]
-    maps: Vec<ColumnMap>,
+    #[command(flatten)]
+    maps: Maps,
 }
 
 /// Where the static model comes from, for the commands that can fit it on a stream.
@@ -49,9 +56,8 @@ struct ModelInput {
     /// the (training) stream's 60 s block means.
     #[arg(long)]
     points: Option<PathBuf>,
-    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-    #[arg(long = "map", value_name = "NAME=SOURCE")]
-    maps: Vec<ColumnMap>,
+    #[command(flatten)]
+    maps: Maps,
     /// Nominal scale factor K, output units per °/s: learn the bias (output/K − rate) from
     /// temperature instead of the map ω = f(T, output) — all a static log allows.
     #[arg(long, value_name = "K")]
@@ -63,7 +69,12 @@ impl ModelInput {
     /// with `pool`, every sample of the streams as well.
     fn static_points(&self, streams: &[(&Path, Stream)], pool: bool) -> anyhow::Result<Points> {
         let mut out = match &self.points {
-            Some(path) => Some(Points::load(path, &self.maps, None, self.scale_factor)?),
+            Some(path) => Some(Points::load(
+                path,
+                &self.maps.list,
+                None,
+                self.scale_factor,
+            )?),
             None => None,
         };
         if !pool && let Some(points) = out {
@@ -184,9 +195,8 @@ enum Command {
         /// Stream CSV: time_s,temp_c,voltage_v,rate_dps.
         #[arg(long)]
         stream: PathBuf,
-        /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-        #[arg(long = "map", value_name = "NAME=SOURCE")]
-        maps: Vec<ColumnMap>,
+        #[command(flatten)]
+        maps: Maps,
         /// Use only this part of the stream: START:END, s from its first sample.
         #[arg(long)]
         window: Option<Window>,
@@ -333,20 +343,26 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
     ];
     for (kind, seed, name) in files {
         let path = dir.join(name);
+        let seed = seed.to_string();
         let args = [
-            "generate".to_owned(),
-            kind.to_owned(),
-            "--seed".to_owned(),
-            seed.to_string(),
-            "--effect".to_owned(),
-            "thermal-rate".to_owned(),
-            "--out".to_owned(),
-            path.display().to_string(),
-            "--quiet".to_owned(),
+            "generate",
+            kind,
+            "--seed",
+            &seed,
+            "--effect",
+            "thermal-rate",
+            "--quiet",
         ];
-        console.detail(&format!("{} {}", sim.display(), args.join(" ")));
+        console.detail(&format!(
+            "{} {} --out {}",
+            sim.display(),
+            args.join(" "),
+            path.display()
+        ));
         let status = std::process::Command::new(&sim)
-            .args(&args)
+            .args(args)
+            .arg("--out")
+            .arg(&path)
             .status()
             .with_context(|| {
                 format!(
@@ -363,7 +379,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
     ));
     let input = ModelInput {
         points: Some(dir.join("points.csv")),
-        maps: Vec::new(),
+        maps: Maps::default(),
         scale_factor: None,
     };
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
@@ -470,7 +486,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             );
             let streams = stream
                 .iter()
-                .map(|p| Ok((p.as_path(), load_stream(p, &input.maps, window)?)))
+                .map(|p| Ok((p.as_path(), load_stream(p, &input.maps.list, window)?)))
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let points = input.static_points(&streams, pool_stream)?;
             let gp = fit.gp();
@@ -573,7 +589,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
             let fw =
                 export::decode(&bytes).with_context(|| format!("decoding {}", model.display()))?;
-            let data = load_stream(&stream, &maps, window)?;
+            let data = load_stream(&stream, &maps.list, window)?;
             let d = diagnose::diagnose(&fw, &data);
             console.result(render_diagnosis(&d).trim_end());
             if let Some(path) = json {
@@ -601,9 +617,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let train = [(
                 train_stream.as_path(),
-                load_stream(&train_stream, &input.maps, train_window)?,
+                load_stream(&train_stream, &input.maps.list, train_window)?,
             )];
-            let valid = load_stream(&valid_stream, &input.maps, valid_window)?;
+            let valid = load_stream(&valid_stream, &input.maps.list, valid_window)?;
             let points = input.static_points(&train, false)?;
             let [(_, train)] = train;
             let chosen = match features.as_str() {
@@ -686,7 +702,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             json,
         } => {
             let console = Console::new(flags, json.as_deref());
-            let points = Points::load(&input.points, &input.maps, group.as_deref(), None)?;
+            let points = Points::load(&input.points, &input.maps.list, group.as_deref(), None)?;
             let bar = console.bar(0);
             let cfg = EvalConfig {
                 gp: fit.gp(),
@@ -694,7 +710,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let cross = match &test_points {
                 Some(path) => {
-                    let test = Points::load(path, &input.maps, None, None)?;
+                    let test = Points::load(path, &input.maps.list, None, None)?;
                     let c = evaluate::cross_run(&points, &test, method.into(), &cfg, &bar)?;
                     console.result(&format!(
                         "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
@@ -766,9 +782,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let train = [(
                 train_stream.as_path(),
-                load_stream(&train_stream, &input.maps, None)?,
+                load_stream(&train_stream, &input.maps.list, None)?,
             )];
-            let valid = load_stream(&valid_stream, &input.maps, None)?;
+            let valid = load_stream(&valid_stream, &input.maps.list, None)?;
             let points = input.static_points(&train, false)?;
             let source = input.points.as_deref().unwrap_or(train_stream.as_path());
             let bar = console.bar(0);
@@ -781,7 +797,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Reproduce { input, fit, json } => {
             let console = Console::new(flags, json.as_deref());
-            let points = Points::load(&input.points, &input.maps, None, None)?;
+            let points = Points::load(&input.points, &input.maps.list, None, None)?;
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()

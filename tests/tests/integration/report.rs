@@ -29,19 +29,21 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
     .concat())
     .unwrap();
     let out = dir.path().join("report");
-    run_trainer(&[
-        "report",
-        "--points",
-        &p("p.csv"),
-        "--train-stream",
-        &p("a.csv"),
-        "--valid-stream",
-        &p("b.csv"),
-        "--out",
-        &out.display().to_string(),
-        "--quiet",
-    ])
-    .unwrap();
+    let report = |points: &str| {
+        run_trainer(&[
+            "report",
+            "--points",
+            points,
+            "--train-stream",
+            &p("a.csv"),
+            "--valid-stream",
+            &p("b.csv"),
+            "--out",
+            &out.display().to_string(),
+            "--quiet",
+        ])
+    };
+    report(&p("p.csv")).unwrap();
 
     let page = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(FIGURES.len() >= 6);
@@ -75,18 +77,7 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
     // An output never replaces an input: a rate table that happens to sit where a figure goes.
     let table = out.join("qq.svg");
     std::fs::copy(dir.path().join("p.csv"), &table).unwrap();
-    let clash = run_trainer(&[
-        "report",
-        "--points",
-        &table.display().to_string(),
-        "--train-stream",
-        &p("a.csv"),
-        "--valid-stream",
-        &p("b.csv"),
-        "--out",
-        &out.display().to_string(),
-        "--quiet",
-    ]);
+    let clash = report(&table.display().to_string());
     assert!(clash.is_err());
     assert_eq!(
         std::fs::read(&table).unwrap(),
