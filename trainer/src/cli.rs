@@ -120,6 +120,9 @@ struct FitOptions {
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// L-BFGS iteration cap of each optimizer start (a fit where no start converges says so).
+    #[arg(long, default_value_t = GpConfig::default().max_iters, value_parser = clap::value_parser!(u64).range(1..))]
+    max_iters: u64,
     /// Prior-mean basis: physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all
     /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = GpConfig::default().mean)]
@@ -137,6 +140,7 @@ impl FitOptions {
             seed: self.seed,
             mean: self.mean,
             inducing: self.inducing,
+            max_iters: self.max_iters,
             ..GpConfig::default()
         }
     }
@@ -458,6 +462,8 @@ fn fit_summary(m: &GpModel, points: &Points) -> serde_json::Value {
         "centres": m.posterior.xs.nrows(),
         "sparse": m.sparse,
         "starts": m.starts,
+        "optimization": m.optimization,
+        "warnings": m.warnings(),
     })
 }
 
@@ -501,8 +507,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             spinner.finish_and_clear();
             log_starts(&console, &model);
             let mut blob = export::points_blob(&model, &points, &Extension::default())?;
+            let agreement = export::verify(&model, &blob, &points.inputs())?;
             let firmware = export::decode(&blob)?;
-            let agreement = export::agreement_report(&model, &firmware, &points.inputs());
             let mut summary = fit_summary(&model, &points);
             summary["firmware_agreement"] = serde_json::to_value(agreement)?;
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
@@ -543,13 +549,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
                     s.method, s.inducing, s.n_train, s.subset, s.bound
                 ));
-                let noise = model.posterior.hyper.noise_std;
-                if s.noise_inflated(noise) {
-                    console.warn(&format!(
-                        "the sparse bound explains part of the signal as noise (σ_n {:.3e} → {noise:.3e} normalized, against the start subset's exact GP): the inducing points are too few for the structure in these data; try more (--inducing)",
-                        s.start_noise_std
-                    ));
-                }
+            }
+            for w in model.warnings() {
+                console.warn(&w);
             }
             console.result(&format!(
                 "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
@@ -636,6 +638,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 &bar,
             )?;
             bar.finish_and_clear();
+            for w in &inv.warnings {
+                console.warn(w);
+            }
             console.result(render_diagnosis(&inv.diagnosis).trim_end());
             console.result(&format!(
                 "static rmse_60s {:.3e} °/s ({:.2} °/h) | cause {} | added {} | extended rmse_60s \
@@ -732,6 +737,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let e = evaluate::evaluate(&points, method.into(), &cfg, &bar)?;
             bar.finish_and_clear();
+            for w in &e.warnings {
+                console.warn(w);
+            }
             console.result(&format!(
                 "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
                 e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation

@@ -96,6 +96,25 @@ pub enum DataError {
         /// What a constant column makes impossible.
         why: &'static str,
     },
+    /// A column that must vary does, but below what the firmware's f32 arithmetic resolves.
+    #[error(
+        "{path}, column {column}: varies by {spread:e} around {value} only, below the f32 \
+         resolution the firmware computes in ({ulp:e}): to it the column is constant, so {why}"
+    )]
+    BelowF32 {
+        /// The file.
+        path: PathBuf,
+        /// The canonical column.
+        column: String,
+        /// A value of it.
+        value: f64,
+        /// max − min.
+        spread: f64,
+        /// The f32 spacing at that value.
+        ulp: f64,
+        /// What a constant column makes impossible.
+        why: &'static str,
+    },
     /// The file is not valid CSV (e.g. broken quoting or invalid UTF-8).
     #[error("{path} line {line}: {message}")]
     Malformed {
@@ -364,23 +383,41 @@ pub fn read_columns(
     })
 }
 
-/// Fails with [`DataError::ConstantColumn`] when `column` holds one value only.
+/// Fails with [`DataError::ConstantColumn`] when `column` holds one value only, and with
+/// [`DataError::BelowF32`] when it holds one value once rounded to f32, as the firmware sees it.
 pub fn require_varying(
     columns: &Columns,
     column: &str,
     why: &'static str,
 ) -> Result<(), DataError> {
     let v = columns.get(column);
-    match v.first() {
-        Some(&first) if v.iter().all(|&x| x == first) => Err(DataError::ConstantColumn {
+    let Some(&first) = v.first() else {
+        return Ok(());
+    };
+    if v.iter().all(|&x| x == first) {
+        return Err(DataError::ConstantColumn {
             path: columns.path.clone(),
             column: column.to_owned(),
             value: first,
             rows: v.len(),
             why,
-        }),
-        _ => Ok(()),
+        });
     }
+    let narrow = first as f32;
+    if v.iter().all(|&x| x as f32 == narrow) {
+        let (lo, hi) = v
+            .iter()
+            .fold((first, first), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        return Err(DataError::BelowF32 {
+            path: columns.path.clone(),
+            column: column.to_owned(),
+            value: first,
+            spread: hi - lo,
+            ulp: f64::from(narrow.abs().max(f32::MIN_POSITIVE)) * f64::from(f32::EPSILON),
+            why,
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -501,5 +538,11 @@ mod tests {
         let e =
             require_varying(&c, "temp_c", "no temperature dependence can be learnt").unwrap_err();
         assert!(e.to_string().contains("column temp_c: constant (1)"), "{e}");
+        // 0.38 ± 1e-12 is one number in f32: constant to the firmware.
+        let f = file("temp_c,voltage_v\n1,0.38\n2,0.380000000001\n");
+        let c = read_plain(&f, &["temp_c", "voltage_v"]).unwrap();
+        let e = require_varying(&c, "voltage_v", "x").unwrap_err();
+        assert!(matches!(e, DataError::BelowF32 { .. }), "{e}");
+        assert!(e.to_string().contains("below the f32 resolution"), "{e}");
     }
 }

@@ -151,6 +151,14 @@ impl Fitted {
         }
     }
 
+    /// What the fit warned of (a GP's [`GpModel::warnings`]; none for the others).
+    pub fn warnings(&self) -> Vec<String> {
+        match self {
+            Self::Gpr(m) => m.warnings(),
+            _ => Vec::new(),
+        }
+    }
+
     /// Hyperparameters or coefficients, for the JSON report.
     pub fn parameters(&self) -> serde_json::Value {
         match self {
@@ -224,6 +232,8 @@ pub struct Evaluation {
     pub loo_seconds: f64,
     /// Fitted hyperparameters or coefficients.
     pub parameters: serde_json::Value,
+    /// What the fit on all points warned of.
+    pub warnings: Vec<String>,
 }
 
 fn rmse(e: &[f64]) -> f64 {
@@ -328,6 +338,7 @@ pub fn evaluate(
         fit_seconds,
         loo_seconds,
         parameters: fitted.parameters(),
+        warnings: fitted.warnings(),
     })
 }
 

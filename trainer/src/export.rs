@@ -51,6 +51,18 @@ pub enum ExportError {
     /// The firmware encoder or decoder refused the blob.
     #[error("blob: {0}")]
     Blob(firmware_core::BlobError),
+    /// The firmware's evaluation of the blob does not follow the host model.
+    #[error(
+        "the firmware (f32) evaluation of this model does not follow the host on {part}: {detail}; \
+         the model is ill-conditioned for f32 (large weights that cancel): try another prior-mean \
+         basis (--mean physics, poly1 … poly3) or more points"
+    )]
+    Disagrees {
+        /// Which inputs: training points or the grid over the trained range.
+        part: &'static str,
+        /// What went wrong, with the figures.
+        detail: String,
+    },
 }
 
 /// The prior mean with its pure linear monomials moved onto the raw inputs: (exponents,
@@ -248,6 +260,10 @@ pub struct Agreement {
     pub n_var: usize,
     /// Inputs the firmware flagged as extrapolating.
     pub n_extrapolating: usize,
+    /// Inputs the firmware refused as faults (mean not compared).
+    pub n_fault: usize,
+    /// Largest |host mean|, output units.
+    pub max_abs_host_mean: f64,
     /// Every firmware output was finite.
     pub all_finite: bool,
 }
@@ -267,18 +283,22 @@ pub struct AgreementReport {
 /// Grid points per input of the agreement check.
 pub const GRID: usize = 61;
 
-/// Compares the firmware with the host on rows of raw inputs `x`. Inputs are rounded to f32
-/// first, so both sides see the same numbers.
+/// Compares the firmware with the host on rows of raw inputs `x` (the GP's inputs). Inputs are
+/// rounded to f32 first, so both sides see the same numbers. Inputs the firmware has beyond the
+/// GP's (an extension's, a bias model's output) are set to zero: they enter through linear terms
+/// alone, so the firmware then evaluates the GP's part.
 pub fn agreement(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f64>) -> Agreement {
-    let mut scratch = vec![0.0f32; firmware.dims().m];
+    let dims = firmware.dims();
+    let mut scratch = vec![0.0f32; dims.m];
     let threshold = 1e-3 * model.posterior.hyper.signal_std.powi(2) * model.output_scale.powi(2);
     let mut a = Agreement {
         all_finite: true,
         ..Agreement::default()
     };
     for row in x.row_iter() {
-        let raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
+        let mut raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
         let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
+        raw.resize(dims.d.max(raw.len()), 0.0);
         let host = model.predict(&exact);
         let Ok(fw) = firmware.predict(&raw, &mut scratch) else {
             a.all_finite = false;
@@ -287,6 +307,11 @@ pub fn agreement(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f6
         a.n += 1;
         a.all_finite &= fw.mean.is_finite() && fw.variance.is_finite();
         a.n_extrapolating += usize::from(fw.status == firmware_core::Status::Extrapolating);
+        a.max_abs_host_mean = a.max_abs_host_mean.max(host.mean.abs());
+        if fw.status == firmware_core::Status::Fault {
+            a.n_fault += 1;
+            continue;
+        }
         a.max_abs_mean_diff = a
             .max_abs_mean_diff
             .max((f64::from(fw.mean) - host.mean).abs());
@@ -348,6 +373,46 @@ pub fn agreement_report(
     }
 }
 
+/// Relative part of the largest output the firmware may differ by: 16 f32 ulps.
+const F32_TOLERANCE: f64 = 16.0 * f32::EPSILON as f64;
+
+/// Decodes `blob`, compares it with `model` on the training inputs and over the trained range, and
+/// refuses it ([`ExportError::Disagrees`]) where the firmware faults, returns a non-finite number
+/// or differs by more than the model's own noise level (σ_n, what the data cannot resolve) or 16
+/// f32 ulps of the largest output, whichever is larger. A legitimate model sits orders of
+/// magnitude inside (README, "Measured for the firmware"); an ill-conditioned one (huge weights
+/// that cancel) fails by orders of magnitude.
+pub fn verify(
+    model: &GpModel,
+    blob: &[u8],
+    training: &nalgebra::DMatrix<f64>,
+) -> Result<AgreementReport, ExportError> {
+    let firmware = decode(blob)?;
+    let report = agreement_report(model, &firmware, training);
+    let noise = model.posterior.hyper.noise_std * model.output_scale;
+    for (part, a) in [
+        ("the training points", report.training),
+        ("the trained range", report.grid_inside),
+    ] {
+        let limit = noise.max(F32_TOLERANCE * a.max_abs_host_mean);
+        let detail = if !a.all_finite {
+            "non-finite outputs".to_owned()
+        } else if a.n_fault > 0 {
+            format!("{} of {} inputs refused as faults", a.n_fault, a.n)
+        } else if a.max_abs_mean_diff > limit {
+            format!(
+                "means differ by up to {:.3e}, more than the {limit:.3e} allowed (the model's \
+                 noise level, or 16 f32 ulps of its largest output)",
+                a.max_abs_mean_diff
+            )
+        } else {
+            continue;
+        };
+        return Err(ExportError::Disagrees { part, detail });
+    }
+    Ok(report)
+}
+
 /// Size and static memory of a blob's model on the firmware.
 #[derive(Debug, Clone, Serialize)]
 pub struct Footprint {
@@ -382,4 +447,64 @@ pub fn footprint(bytes: &[u8]) -> Result<Footprint, ExportError> {
         model_bytes: (4 * floats + p * d + d + 3 * 4 + 12).div_ceil(4) * 4,
         scratch_bytes: 4 * m,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gp::GpConfig;
+
+    /// Points of a gyro with a temperature-dependent bias and scale factor.
+    fn points(scale_factor: Option<f64>) -> Points {
+        let (mut temp_c, mut voltage_v, mut rate_dps) = (Vec::new(), Vec::new(), Vec::new());
+        for t in [-20.0, 0.0, 20.0, 40.0, 60.0] {
+            for (k, w) in [-40.0, -10.0, 0.0, 10.0, 40.0].into_iter().enumerate() {
+                // The sensor's scatter on a soak, independent of the rate.
+                temp_c.push(t + 0.01 * [0.3, -0.7, 0.1, 0.9, -0.4][k]);
+                voltage_v.push(0.05 * w * (1.0 + 1e-4 * t) + 0.002 * t + 0.3);
+                rate_dps.push(w);
+            }
+        }
+        Points {
+            group: temp_c.iter().map(|t: &f64| format!("{t:.0}")).collect(),
+            temp_c,
+            voltage_v,
+            rate_dps,
+            scale_factor,
+            soaked: true,
+        }
+    }
+
+    fn fitted(p: &Points) -> (GpModel, Vec<u8>) {
+        let m = GpModel::fit(&p.inputs(), &p.target(), &GpConfig::default()).unwrap();
+        let blob = points_blob(&m, p, &Extension::default()).unwrap();
+        (m, blob)
+    }
+
+    #[test]
+    fn a_blob_that_follows_its_model_passes_one_that_does_not_is_refused() {
+        let p = points(None);
+        let (mut m, blob) = fitted(&p);
+        let report = verify(&m, &blob, &p.inputs()).unwrap();
+        assert!(report.training.max_abs_mean_diff < 3e-5, "{report:?}");
+        // The host model moved by 1e-3 °/s after export: the blob no longer follows it.
+        m.prior.coefficients[0] += 1e-3;
+        let e = verify(&m, &blob, &p.inputs()).unwrap_err();
+        assert!(matches!(e, ExportError::Disagrees { .. }), "{e}");
+        assert!(e.to_string().contains("the training points"), "{e}");
+    }
+
+    #[test]
+    fn a_bias_model_is_compared_on_its_gp_part() {
+        // The firmware's extra input (the output, through 1/K) is set to zero, so it evaluates
+        // the bias the host models; before, the missing input made every comparison a fault.
+        let p = points(Some(0.05));
+        let (m, blob) = fitted(&p);
+        let report = verify(&m, &blob, &p.inputs()).unwrap();
+        assert_eq!(report.training.n, 25);
+        assert_eq!(report.training.n_fault, 0);
+        assert!(report.training.max_abs_host_mean > 0.0);
+        assert!(report.training.max_abs_mean_diff < 1e-5, "{report:?}");
+        assert_eq!(p.inputs().ncols(), 1);
+    }
 }

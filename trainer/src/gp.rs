@@ -32,7 +32,7 @@ use std::str::FromStr;
 use std::sync::Mutex;
 use std::time::Instant;
 
-use argmin::core::{CostFunction, Executor, Gradient, State};
+use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
@@ -43,7 +43,7 @@ use serde::Serialize;
 
 use crate::kernel;
 use crate::normalize::Normalizer;
-use crate::prior::{MeanBasis, PolyPrior, design};
+use crate::prior::{DropReason, MeanBasis, PolyPrior, design};
 use crate::sparse::{self, SparseFit};
 
 /// Errors of GP fitting.
@@ -587,6 +587,29 @@ pub struct StartReport {
     pub evaluations: u64,
     /// Termination status or error.
     pub status: String,
+    /// It stopped at the tolerance (not on the iteration cap, the evaluation budget or an error).
+    pub converged: bool,
+}
+
+/// How the hyperparameter search ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "outcome", rename_all = "kebab-case")]
+pub enum Optimization {
+    /// At least one run converged: the best point of all runs is used.
+    Converged,
+    /// No run converged (iteration cap, evaluation budget or a failed line search) and the best
+    /// point any of them reached is not stationary within the bounds: it is used all the same.
+    StoppedEarly {
+        /// Log marginal likelihood at that point (of the start subset, for a sparse GP).
+        log_marginal_likelihood: f64,
+    },
+    /// The likelihood could not be evaluated anywhere the runs went: the fit uses the
+    /// data-informed start's length scales and signal with σ_n raised tenfold at a time until the
+    /// GP conditions (at the bound, 10 output scales, the model is its prior mean).
+    Fallback {
+        /// The σ_n used (normalized).
+        noise_std: f64,
+    },
 }
 
 /// Gradient tolerance (per-sample cost) and objective-call budget of the search from every start,
@@ -623,12 +646,13 @@ pub(crate) fn optimize_from(
             .configure(|state| state.param(start.clone()).max_iters(cfg.max_iters))
             .run()
     });
-    let (iterations, status) = match &result {
+    let (iterations, status, converged) = match &result {
         Ok(res) => (
             res.state().get_iter(),
             res.state().get_termination_status().to_string(),
+            res.state().get_termination_reason() == Some(&TerminationReason::SolverConverged),
         ),
-        Err(e) => (0, format!("stopped: {e}")),
+        Err(e) => (0, format!("stopped: {e}"), false),
     };
     let (evaluations, best) = track
         .into_inner()
@@ -647,16 +671,21 @@ pub(crate) fn optimize_from(
         iterations,
         evaluations,
         status,
+        converged,
     }
 }
 
-/// The optimizer starts: the paper's (all zero), a data-informed one (unit length scales and
-/// signal, noise at 1% of the output spread), then `random_starts` drawn inside the bounds' middle.
+/// The data-informed start: unit length scales and signal, noise at 1% of the output spread.
+fn informed(d: usize) -> Vec<f64> {
+    let mut t = vec![0.0; d + 2];
+    t[d + 1] = 0.01f64.ln();
+    t
+}
+
+/// The optimizer starts: the paper's (all zero), the data-informed one ([`informed`]), then
+/// `random_starts` drawn inside the bounds' middle.
 fn starts(d: usize, cfg: &GpConfig) -> Vec<Vec<f64>> {
-    let mut out = vec![vec![0.0; d + 2]];
-    let mut informed = vec![0.0; d + 2];
-    informed[d + 1] = 0.01f64.ln();
-    out.push(informed);
+    let mut out = vec![vec![0.0; d + 2], informed(d)];
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     for _ in 0..cfg.random_starts {
         let mut t: Vec<f64> = (0..d).map(|_| rng.random_range(-2.0..3.0)).collect();
@@ -689,6 +718,8 @@ pub struct GpModel {
     pub sparse: Option<SparseFit>,
     /// What each optimizer start did; the last entry is the polish from the best of them.
     pub starts: Vec<StartReport>,
+    /// How the hyperparameter search ended (a refit on new targets keeps its model's).
+    pub optimization: Optimization,
     /// Wall time of the whole fit, s.
     pub fit_seconds: f64,
 }
@@ -756,26 +787,37 @@ impl Prepared {
     }
 }
 
+/// What [`search`] found: the θ to use, what each run did, and how it ended.
+pub(crate) struct Searched {
+    pub theta: Vec<f64>,
+    pub reports: Vec<StartReport>,
+    pub optimization: Optimization,
+}
+
 /// Maximizes `likelihood` over θ for data of shape (n, d): every start of [`starts`] searched in
-/// parallel, then a polish from the best. Returns the best θ and what each run did.
+/// parallel, then a polish from the best. When no run reached a point where the likelihood
+/// evaluates, falls back ([`Optimization::Fallback`]); fails only when the fallback cannot
+/// evaluate it either.
 pub(crate) fn search(
     likelihood: Likelihood<'_>,
     (n, d): (usize, usize),
     cfg: &GpConfig,
-) -> Result<(Vec<f64>, Vec<StartReport>), GpError> {
+) -> Result<Searched, GpError> {
     let mut reports: Vec<StartReport> = starts(d, cfg)
         .into_par_iter()
         .map(|s| optimize_from(likelihood, (n, d), s, cfg, SEARCH))
         .collect();
-    let searched = best_of(&reports).ok_or_else(|| {
-        GpError::OptimizerFailed(
-            reports
-                .iter()
-                .map(|r| r.status.clone())
-                .collect::<Vec<_>>()
-                .join("; "),
-        )
-    })?;
+    let Some(searched) = best_of(&reports) else {
+        let Some((theta, noise_std)) = fallback(likelihood, d, cfg) else {
+            let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
+            return Err(GpError::OptimizerFailed(statuses.join("; ")));
+        };
+        return Ok(Searched {
+            theta,
+            reports,
+            optimization: Optimization::Fallback { noise_std },
+        });
+    };
     reports.push(optimize_from(
         likelihood,
         (n, d),
@@ -783,8 +825,61 @@ pub(crate) fn search(
         cfg,
         POLISH,
     ));
-    let best = best_of(&reports).unwrap_or(searched);
-    Ok((best, reports))
+    let theta = best_of(&reports).unwrap_or(searched);
+    let optimization =
+        if reports.iter().any(|r| r.converged) || stationary(likelihood, &theta, &cfg.bounds, n) {
+            Optimization::Converged
+        } else {
+            Optimization::StoppedEarly {
+                log_marginal_likelihood: likelihood(&theta).map_or(f64::NAN, |(l, _)| l),
+            }
+        };
+    Ok(Searched {
+        theta,
+        reports,
+        optimization,
+    })
+}
+
+/// Largest per-sample gradient component (in ln units) at which a point that no run declared
+/// converged still counts as the optimum: a step of 0.1 (10% in a hyperparameter) along it gains
+/// at most about 0.005 nats per sample.
+const STATIONARY: f64 = 0.05;
+
+/// Within this (ln units) of a bound, a gradient pushing outward is the bound holding, not a
+/// search that stopped short.
+const AT_BOUND: f64 = 0.01;
+
+/// Whether θ is a maximum of `likelihood` (of `n` samples) within the bounds: every gradient
+/// component is below [`STATIONARY`] per sample, except those pushing against a bound θ is at.
+/// Noise-free data put σ_f or σ_n at a bound, where L-BFGS with the penalty wall stalls instead of
+/// converging, though the point it stalls at is the constrained optimum.
+fn stationary(likelihood: Likelihood<'_>, theta: &[f64], bounds: &Bounds, n: usize) -> bool {
+    let d = theta.len().saturating_sub(2);
+    likelihood(theta).is_ok_and(|(_, grad)| {
+        grad.iter().enumerate().all(|(j, &g)| {
+            let (lo, hi) = bounds.range(d, j);
+            let held =
+                (theta[j] >= hi - AT_BOUND && g > 0.0) || (theta[j] <= lo + AT_BOUND && g < 0.0);
+            held || (g / n as f64).abs() <= STATIONARY
+        })
+    })
+}
+
+/// The fallback θ: the data-informed start with σ_n raised tenfold at a time, from 0.1 to the
+/// upper bound, until the likelihood evaluates to a finite number; with that σ_n.
+fn fallback(likelihood: Likelihood<'_>, d: usize, cfg: &GpConfig) -> Option<(Vec<f64>, f64)> {
+    let top = cfg.bounds.log_noise.1;
+    let mut theta = informed(d);
+    loop {
+        theta[d + 1] = (theta[d + 1] + 10f64.ln()).min(top);
+        if likelihood(&theta).is_ok_and(|(l, _)| l.is_finite()) {
+            return Some((theta.clone(), theta[d + 1].exp()));
+        }
+        if theta[d + 1] >= top {
+            return None;
+        }
+    }
 }
 
 /// The end point of the run with the highest likelihood.
@@ -810,10 +905,10 @@ impl GpModel {
             return sparse::fit(x, data, m, cfg, t0);
         }
         let likelihood = |t: &[f64]| lml_and_gradient(&data.z, &data.y, &data.h, t);
-        let (best, reports) = search(&likelihood, data.z.shape(), cfg)?;
-        let posterior = data.condition(Hyperparameters::from_log(&best))?;
+        let found = search(&likelihood, data.z.shape(), cfg)?;
+        let posterior = data.condition(Hyperparameters::from_log(&found.theta))?;
         Ok(Self::assemble(
-            x, cfg.mean, data, posterior, None, reports, t0,
+            x, cfg.mean, data, posterior, None, found, t0,
         ))
     }
 
@@ -837,7 +932,11 @@ impl GpModel {
             data,
             posterior,
             sparse,
-            Vec::new(),
+            Searched {
+                theta: self.posterior.hyper.to_log(),
+                reports: Vec::new(),
+                optimization: self.optimization.clone(),
+            },
             t0,
         ))
     }
@@ -848,7 +947,7 @@ impl GpModel {
         data: Prepared,
         posterior: Posterior,
         sparse: Option<SparseFit>,
-        starts: Vec<StartReport>,
+        found: Searched,
         t0: Instant,
     ) -> Self {
         let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
@@ -866,7 +965,8 @@ impl GpModel {
             posterior,
             y: data.y,
             sparse,
-            starts,
+            starts: found.reports,
+            optimization: found.optimization,
             fit_seconds: t0.elapsed().as_secs_f64(),
         }
     }
@@ -891,6 +991,62 @@ impl GpModel {
             None => self.posterior.loo().into_iter().map(|(e, _)| e).collect(),
         };
         loo.into_iter().map(|e| e * self.output_scale).collect()
+    }
+
+    /// What the user should be told about this fit, one sentence each: an optimizer that did
+    /// not converge or fell back, prior monomials left out, a sparse fit explaining signal as
+    /// noise. Empty for a clean fit.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        match &self.optimization {
+            Optimization::Converged => {}
+            Optimization::StoppedEarly {
+                log_marginal_likelihood,
+            } => out.push(format!(
+                "the hyperparameter search converged from no start (each stopped on the iteration \
+                 cap, the evaluation budget or a failed line search; statuses under -v and in the \
+                 JSON's starts): the best point reached is used, log ML {log_marginal_likelihood:.3}; \
+                 more iterations (--max-iters) or starts (--restarts) may find a better one"
+            )),
+            Optimization::Fallback { noise_std } => out.push(format!(
+                "the likelihood could not be evaluated from any optimizer start ({}): fell back to \
+                 unit length scales and signal with σ_n {noise_std:e} (normalized), a model close \
+                 to its prior mean",
+                self.starts
+                    .iter()
+                    .map(|r| r.status.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )),
+        }
+        for reason in [DropReason::Dependent, DropReason::TooFewSamples] {
+            let names: Vec<&str> = self
+                .prior
+                .dropped
+                .iter()
+                .filter(|d| d.reason == reason)
+                .map(|d| d.monomial.as_str())
+                .collect();
+            if !names.is_empty() {
+                out.push(format!(
+                    "prior mean ({}): left out {} ({reason})",
+                    self.basis,
+                    names.join(", ")
+                ));
+            }
+        }
+        if let Some(s) = &self.sparse {
+            let noise = self.posterior.hyper.noise_std;
+            if s.noise_inflated(noise) {
+                out.push(format!(
+                    "the sparse bound explains part of the signal as noise (σ_n {:.3e} → {noise:.3e} \
+                     normalized, against the start subset's exact GP): the inducing points are too \
+                     few for the structure in these data; try more (--inducing)",
+                    s.start_noise_std
+                ));
+            }
+        }
+        out
     }
 
     /// Log marginal likelihood of the normalized data at the fitted hyperparameters.
@@ -1075,6 +1231,7 @@ mod tests {
             iterations: 1,
             evaluations: 1,
             status: String::new(),
+            converged: false,
         };
         let fine = StartReport {
             end: Some(vec![2.0; 4]),
@@ -1082,6 +1239,59 @@ mod tests {
             ..nan.clone()
         };
         assert_eq!(best_of(&[nan, fine]), Some(vec![2.0; 4]));
+    }
+
+    /// A likelihood that cannot be evaluated below σ_n = `floor` (normalized).
+    fn failing_below(floor: f64) -> impl Fn(&[f64]) -> Result<(f64, Vec<f64>), GpError> + Sync {
+        move |t: &[f64]| match t.last() {
+            Some(&ln_noise) if ln_noise >= floor.ln() => Ok((-1.0, vec![0.0; t.len()])),
+            _ => Err(GpError::NotPositiveDefinite { jitter: 1.0 }),
+        }
+    }
+
+    #[test]
+    fn every_start_failing_falls_back_with_raised_noise() {
+        let cfg = GpConfig::default();
+        let likelihood = failing_below(5.0);
+        let found = search(&likelihood, (10, 2), &cfg).unwrap();
+        assert!(found.reports.iter().all(|r| r.end.is_none()));
+        let Optimization::Fallback { noise_std } = found.optimization else {
+            panic!("{:?}", found.optimization);
+        };
+        assert!((noise_std - 10.0).abs() < 1e-9, "{noise_std}");
+        assert_eq!(&found.theta[..3], &[0.0, 0.0, 0.0]);
+        // Beyond the bound the fallback gives up, with every start's status.
+        let never = failing_below(100.0);
+        let e = search(&never, (10, 2), &cfg).err().unwrap();
+        assert!(matches!(e, GpError::OptimizerFailed(_)), "{e}");
+        assert_eq!(e.to_string().matches("stopped:").count(), 4, "{e}");
+    }
+
+    #[test]
+    fn a_search_that_converges_nowhere_says_so_and_keeps_its_best() {
+        let (x, y) = toy(40, 3);
+        let capped = GpConfig {
+            max_iters: 1,
+            ..GpConfig::default()
+        };
+        let m = GpModel::fit(&x, &y, &capped).unwrap();
+        assert!(m.starts.iter().all(|r| !r.converged));
+        let Optimization::StoppedEarly {
+            log_marginal_likelihood,
+        } = m.optimization
+        else {
+            panic!("{:?}", m.optimization);
+        };
+        assert!((log_marginal_likelihood - m.log_marginal_likelihood()).abs() < 1e-9);
+        assert!(
+            m.warnings()[0].contains("converged from no start"),
+            "{:?}",
+            m.warnings()
+        );
+        let free = GpModel::fit(&x, &y, &GpConfig::default()).unwrap();
+        assert_eq!(free.optimization, Optimization::Converged);
+        assert!(free.warnings().is_empty(), "{:?}", free.warnings());
+        assert!(free.log_marginal_likelihood() > log_marginal_likelihood);
     }
 
     #[test]

@@ -32,6 +32,8 @@ pub struct Investigation {
     pub extended_score: Score,
     /// Static over extended `rmse_60s_dps` on the held-out stream.
     pub gain: f64,
+    /// What the static fit warned of ([`GpModel::warnings`]).
+    pub warnings: Vec<String>,
 }
 
 impl Investigation {
@@ -63,6 +65,7 @@ pub fn investigate(
     bar.set_message(format!("static fit on {} points", points.len()));
     let model = GpModel::fit(&points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
+    export::verify(&model, &static_blob, &points.inputs())?;
     let fw = export::decode(&static_blob)?;
     bar.inc(1);
     bar.set_message("replay and diagnosis of the held-out stream");
@@ -101,6 +104,7 @@ pub fn investigate(
             extension,
             extended_score,
             gain,
+            warnings: model.warnings(),
         },
         Blobs {
             static_blob,

@@ -142,24 +142,127 @@ pub struct PolyPrior {
     pub exponents: Vec<Vec<u8>>,
     /// Coefficient of each monomial.
     pub coefficients: Vec<f64>,
+    /// Monomials of the basis left out on these inputs, and why.
+    pub dropped: Vec<Dropped>,
+}
+
+/// A monomial of the requested basis that the fitted prior leaves out.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Dropped {
+    /// The monomial, as `t^i·v^j·x2^k…` over the inputs (temperature, output, further inputs).
+    pub monomial: String,
+    /// Why it was left out.
+    pub reason: DropReason,
+}
+
+/// Why a monomial is left out of the prior mean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DropReason {
+    /// Fewer than two samples per coefficient.
+    TooFewSamples,
+    /// On these inputs it is a combination of the monomials before it (an input with fewer
+    /// distinct values than the basis' degree in it: a voltage at ±1 only makes v³ = v).
+    Dependent,
+}
+
+impl fmt::Display for DropReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::TooFewSamples => "fewer than two samples per coefficient",
+            Self::Dependent => "each a combination of the ones before it on these inputs",
+        })
+    }
+}
+
+/// A monomial's name over inputs named t, v, x2, x3, ….
+fn name(e: &[u8]) -> String {
+    let parts: Vec<String> = e
+        .iter()
+        .enumerate()
+        .filter(|&(_, &k)| k > 0)
+        .map(|(i, &k)| {
+            let input = match i {
+                0 => "t".to_owned(),
+                1 => "v".to_owned(),
+                _ => format!("x{i}"),
+            };
+            if k == 1 {
+                input
+            } else {
+                format!("{input}^{k}")
+            }
+        })
+        .collect();
+    if parts.is_empty() {
+        "1".to_owned()
+    } else {
+        parts.join("·")
+    }
+}
+
+/// A column within this fraction of its norm of the span of the columns before it is dependent.
+/// Exact dependence leaves rounding (1e-15); near dependence that strong would give coefficients
+/// ~1e6 times the output that cancel, which the firmware's f32 (6e-8) cannot carry. Two soaked
+/// plateaus under t² (sensor scatter of 0.01 °C) stay near 1e-3 and are kept.
+const DEPENDENCE: f64 = 1e-6;
+
+/// Indices of the columns of `a` that are not dependent on the ones kept before them (modified
+/// Gram–Schmidt, in order, so the low-degree monomials are the ones kept).
+fn independent_columns(a: &DMatrix<f64>) -> Vec<usize> {
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let mut keep = Vec::new();
+    for (j, col) in a.column_iter().enumerate() {
+        let norm = col.norm();
+        let mut r = col.into_owned();
+        for q in &basis {
+            let c = q.dot(&r);
+            r.axpy(-c, q, 1.0);
+        }
+        let rest = r.norm();
+        if norm > 0.0 && rest > DEPENDENCE * norm {
+            basis.push(r / rest);
+            keep.push(j);
+        }
+    }
+    keep
 }
 
 impl PolyPrior {
-    /// Ordinary least squares of `basis` on `y` (SVD, so a rank-deficient design still gives the
-    /// minimum-norm solution). Monomials are dropped from the top until there are at least twice
-    /// as many samples as coefficients.
+    /// Ordinary least squares of `basis` on `y`. Monomials are dropped from the top until there
+    /// are at least twice as many samples as coefficients, then those dependent on the ones
+    /// before them on these inputs ([`DropReason`]), so the design has full rank. The dropped
+    /// monomials span nothing the kept ones do not on the data: the fit there is the same.
     pub fn fit(x: &DMatrix<f64>, y: &DVector<f64>, basis: MeanBasis) -> Self {
         let mut exponents = basis.exponents(x.ncols());
-        exponents.truncate((x.nrows() / 2).max(1));
-        let a = design(x, &exponents);
+        let dropped_for_size = exponents.split_off((x.nrows() / 2).max(1).min(exponents.len()));
+        let keep = independent_columns(&design(x, &exponents));
+        let mut dropped: Vec<Dropped> = Vec::new();
+        let mut kept = Vec::new();
+        for (j, e) in exponents.into_iter().enumerate() {
+            if keep.contains(&j) {
+                kept.push(e);
+            } else {
+                dropped.push(Dropped {
+                    monomial: name(&e),
+                    reason: DropReason::Dependent,
+                });
+            }
+        }
+        dropped.extend(dropped_for_size.iter().map(|e| Dropped {
+            monomial: name(e),
+            reason: DropReason::TooFewSamples,
+        }));
+        let a = design(x, &kept);
         let coefficients = a
             .svd(true, true)
             .solve(y, 1e-12)
             .map(|c| c.iter().copied().collect())
-            .unwrap_or_else(|_| vec![0.0; exponents.len()]);
+            .unwrap_or_else(|_| vec![0.0; kept.len()]);
         Self {
-            exponents,
+            exponents: kept,
             coefficients,
+            dropped,
         }
     }
 
@@ -209,6 +312,40 @@ mod tests {
         }
         assert!("poly9".parse::<MeanBasis>().is_err());
         assert!("cubic".parse::<MeanBasis>().is_err());
+    }
+
+    #[test]
+    fn monomials_dependent_on_these_inputs_are_dropped_and_named() {
+        // A voltage at ±1 only: v³ = v, so the cube and its products go; a line in v fits exactly.
+        let x = DMatrix::from_fn(40, 2, |i, j| match j {
+            0 => (i % 8) as f64 / 4.0 - 1.0,
+            _ => [-1.0, 1.0][i % 2],
+        });
+        let y = DVector::from_fn(40, |i, _| 0.3 + 2.0 * x[(i, 1)] - 0.5 * x[(i, 0)].powi(2));
+        let p = PolyPrior::fit(&x, &y, MeanBasis::Physics);
+        let names: Vec<&str> = p.dropped.iter().map(|d| d.monomial.as_str()).collect();
+        assert_eq!(names, ["v^3", "t·v^3", "t^2·v^3"]);
+        assert!(p.dropped.iter().all(|d| d.reason == DropReason::Dependent));
+        assert_eq!(p.exponents.len(), 6);
+        for (i, yi) in y.iter().enumerate() {
+            assert!((p.eval(&[x[(i, 0)], x[(i, 1)]]) - yi).abs() < 1e-10);
+        }
+        // A constant input (normalized to zero) leaves only the other's monomials; few samples
+        // drop the top of the basis first.
+        let flat = DMatrix::from_fn(40, 2, |i, j| if j == 0 { 0.0 } else { x[(i, 0)] });
+        let p = PolyPrior::fit(&flat, &y, MeanBasis::Physics);
+        assert!(p.exponents.iter().all(|e| e[0] == 0), "{:?}", p.exponents);
+        let few = PolyPrior::fit(
+            &x.rows(0, 6).into_owned(),
+            &y.rows(0, 6).into_owned(),
+            MeanBasis::Physics,
+        );
+        assert_eq!(few.exponents.len() + few.dropped.len(), 9);
+        assert!(
+            few.dropped
+                .iter()
+                .any(|d| d.reason == DropReason::TooFewSamples)
+        );
     }
 
     #[test]

@@ -142,7 +142,8 @@ pub(crate) fn fit(
     let (zs, ys) = (data.z.select_rows(&subset), data.y.select_rows(&subset));
     let none = DMatrix::zeros(subset.len(), 0);
     let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, t);
-    let (start, mut reports) = gp::search(&exact, zs.shape(), cfg)?;
+    let mut found = gp::search(&exact, zs.shape(), cfg)?;
+    let start = found.theta.clone();
     let start_noise_std = Hyperparameters::from_log(&start).noise_std;
     // Inducing points are selected in the kernel's metric at the current hyperparameters, and the
     // bound refined on them; a second round reselects at the refined ones (the subset's are noisy)
@@ -169,7 +170,7 @@ pub(crate) fn fit(
             (Some(end), Some(f)) => Some((end.clone(), f)),
             _ => None,
         };
-        reports.push(refined);
+        found.reports.push(refined);
         match end {
             Some((t, f)) if best.as_ref().is_none_or(|b| f > b.2) => {
                 theta = t.clone();
@@ -200,7 +201,10 @@ pub(crate) fn fit(
         data,
         posterior,
         Some(fit),
-        reports,
+        gp::Searched {
+            theta: best,
+            ..found
+        },
         t0,
     ))
 }

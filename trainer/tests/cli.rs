@@ -54,6 +54,47 @@ fn bad_input_exits_one_with_the_location_on_stderr() {
 }
 
 #[test]
+fn a_fit_that_stops_short_says_so_on_stderr_and_in_the_json_and_still_writes_its_model() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let out = trainer(
+        &[
+            "fit",
+            "--points",
+            "p.csv",
+            "--out",
+            "m.bin",
+            "--json",
+            "f.json",
+            "--max-iters",
+            "1",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.starts_with("warning: the hyperparameter search converged from no start"),
+        "{err}"
+    );
+    assert!(dir.path().join("m.bin").exists());
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
+    assert_eq!(json["optimization"]["outcome"], "stopped-early", "{json}");
+    assert_eq!(json["warnings"].as_array().map(Vec::len), Some(1), "{json}");
+    let clean = trainer(
+        &["fit", "--points", "p.csv", "--out", "m.bin", "-q"],
+        dir.path(),
+    );
+    assert!(
+        clean.stderr.is_empty(),
+        "{:?}",
+        String::from_utf8_lossy(&clean.stderr)
+    );
+}
+
+#[test]
 fn a_malformed_command_line_exits_two() {
     let dir = tempfile::tempdir().unwrap();
     for args in [
