@@ -108,7 +108,7 @@ impl ReplayInput {
             .with_context(|| format!("decoding {}", self.model.display()))?;
         let data = trainer::stream::Stream::load(&self.stream, &self.maps.list)?;
         for issue in &data.time_issues {
-            console.warn(&format!("{}: time issue {issue:?}", self.stream.display()));
+            console.warn(&format!("{} {issue}", self.stream.display()));
         }
         Ok((blob, firmware, data))
     }

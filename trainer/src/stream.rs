@@ -6,6 +6,7 @@
 //! command that uses the stream can report them (and stateful features can restart there) instead
 //! of silently differentiating across them.
 
+use std::fmt;
 use std::path::Path;
 
 use crate::data::{self, ColumnMap, DataError};
@@ -45,6 +46,21 @@ impl TimeIssue {
             Self::Backwards { line, .. } | Self::Duplicate { line } | Self::Gap { line, .. } => {
                 line
             }
+        }
+    }
+}
+
+impl fmt::Display for TimeIssue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::Backwards { line, step_s } => {
+                write!(f, "line {line}: time goes back {:.1} s", -step_s)
+            }
+            Self::Duplicate { line } => write!(f, "line {line}: the timestamp repeats"),
+            Self::Gap { line, step_s } => write!(
+                f,
+                "line {line}: time jumps {step_s:.1} s (a power cycle or a logger pause)"
+            ),
         }
     }
 }
@@ -233,6 +249,15 @@ mod tests {
                     line: 7,
                     step_s: 8.5
                 },
+            ]
+        );
+        let said: Vec<String> = s.time_issues.iter().map(ToString::to_string).collect();
+        assert_eq!(
+            said,
+            [
+                "line 5: the timestamp repeats",
+                "line 6: time goes back 0.5 s",
+                "line 7: time jumps 8.5 s (a power cycle or a logger pause)"
             ]
         );
     }
