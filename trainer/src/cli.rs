@@ -506,11 +506,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let model = GpModel::fit(&points.inputs(), &points.target(), &gp)?;
             spinner.finish_and_clear();
             log_starts(&console, &model);
+            // Before the f32 check: a warning may explain why it refuses the blob.
+            for w in model.warnings() {
+                console.warn(&w);
+            }
             let mut blob = export::points_blob(&model, &points, &Extension::default())?;
-            let agreement = export::verify(&model, &blob, &points.inputs())?;
+            let mut agreement = export::verify(&model, &blob, &points, &Extension::default())?;
             let firmware = export::decode(&blob)?;
             let mut summary = fit_summary(&model, &points);
-            summary["firmware_agreement"] = serde_json::to_value(agreement)?;
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
                 let causes = if list == "auto" {
                     let d = diagnose::diagnose(&firmware, data);
@@ -528,6 +531,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 let extended = extend::fit(&model, &points, data, &causes)?;
                 let fitted = extended.fitted;
                 blob = extended.blob;
+                agreement = extended.agreement;
                 let ext = export::decode(&blob)?;
                 console.result(&format!(
                     "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
@@ -539,6 +543,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 summary["extension"] = serde_json::to_value(&fitted)?;
                 summary["features"] = serde_json::to_value(ext.features())?;
             }
+            summary["firmware_agreement"] = serde_json::to_value(agreement)?;
             summary["blob_bytes"] = blob.len().into();
             write_atomically(&out, &blob)?;
             if let Some(path) = json {
@@ -549,9 +554,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
                     s.method, s.inducing, s.n_train, s.subset, s.bound
                 ));
-            }
-            for w in model.warnings() {
-                console.warn(&w);
             }
             console.result(&format!(
                 "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",

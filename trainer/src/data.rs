@@ -413,7 +413,7 @@ pub fn require_varying(
             column: column.to_owned(),
             value: first,
             spread: hi - lo,
-            ulp: f64::from(narrow.abs().max(f32::MIN_POSITIVE)) * f64::from(f32::EPSILON),
+            ulp: f64::from(narrow.abs().next_up() - narrow.abs()),
             why,
         });
     }

@@ -53,15 +53,48 @@ pub enum ExportError {
     Blob(firmware_core::BlobError),
     /// The firmware's evaluation of the blob does not follow the host model.
     #[error(
-        "the firmware (f32) evaluation of this model does not follow the host on {part}: {detail}; \
-         the model is ill-conditioned for f32 (large weights that cancel): try another prior-mean \
-         basis (--mean physics, poly1 … poly3) or more points"
+        "the firmware (f32) evaluation of this blob does not follow the host on {part}: {mismatch}"
     )]
     Disagrees {
-        /// Which inputs: training points or the grid over the trained range.
+        /// Which inputs: the training points or the grid over the trained range.
         part: &'static str,
-        /// What went wrong, with the figures.
-        detail: String,
+        /// How.
+        mismatch: Mismatch,
+    },
+}
+
+/// How a blob's f32 evaluation failed to follow its host model ([`verify`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Mismatch {
+    /// Some outputs were not finite numbers.
+    #[error(
+        "outputs that are not finite numbers; the blob cannot evaluate inputs it was fitted on \
+         (report it, with the data)"
+    )]
+    NonFinite,
+    /// The firmware refused inputs it was fitted on as faults.
+    #[error(
+        "{n} of {of} inputs refused as faults; the blob cannot evaluate inputs it was fitted on \
+         (report it, with the data)"
+    )]
+    Faults {
+        /// Inputs refused.
+        n: usize,
+        /// Inputs compared.
+        of: usize,
+    },
+    /// The means differ by more than the model can resolve.
+    #[error(
+        "means differ by up to {diff:.3e}, more than the {limit:.3e} allowed (the model's noise \
+         level, at most a tenth of its output scale, or 16 f32 ulps of its largest output); the \
+         model is ill-conditioned for f32 (large weights that cancel): try another prior-mean \
+         basis (--mean physics, poly1 … poly3) or more points"
+    )]
+    Exceeds {
+        /// Largest |firmware − host| mean, output units.
+        diff: f64,
+        /// What was allowed.
+        limit: f64,
     },
 }
 
@@ -130,14 +163,19 @@ pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportE
 /// Raw-input range of an input that is valid at any value (the output of a bias model).
 const UNBOUNDED: f64 = 1e30;
 
-/// The blob of a GP fitted on `points` with an extension: for a bias model
-/// ([`Points::scale_factor`]) the output enters as ω = output/K + GP(T, …) through its raw linear
-/// term alone, valid at any rate.
+/// The blob of a GP fitted on `points` with an extension ([`carried`]).
 pub fn points_blob(
     model: &GpModel,
     points: &Points,
     extension: &Extension,
 ) -> Result<Vec<u8>, ExportError> {
+    to_blob_extended(model, points.features(), &carried(points, extension))
+}
+
+/// The extension a blob of `points` carries: for a bias model ([`Points::scale_factor`]) the
+/// output enters first, as ω = output/K + GP(T, …) through its raw linear term alone, valid at
+/// any rate.
+fn carried(points: &Points, extension: &Extension) -> Extension {
     let mut extension = extension.clone();
     if let Some(k) = points.scale_factor {
         extension.terms.insert(
@@ -149,7 +187,7 @@ pub fn points_blob(
             },
         );
     }
-    to_blob_extended(model, points.features(), &extension)
+    extension
 }
 
 /// Builds the blob of a fitted GP with an [`Extension`]: the additive inputs follow the GP's
@@ -284,12 +322,28 @@ pub struct AgreementReport {
 pub const GRID: usize = 61;
 
 /// Compares the firmware with the host on rows of raw inputs `x` (the GP's inputs). Inputs are
-/// rounded to f32 first, so both sides see the same numbers. Inputs the firmware has beyond the
-/// GP's (an extension's, a bias model's output) are set to zero: they enter through linear terms
-/// alone, so the firmware then evaluates the GP's part.
-pub fn agreement(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f64>) -> Agreement {
-    let dims = firmware.dims();
-    let mut scratch = vec![0.0f32; dims.m];
+/// rounded to f32 first, so both sides see the same numbers. The inputs `extension` adds after
+/// the GP's (its terms, a bias model's output) are held at the middle of their ranges (0 for an
+/// unbounded one), and the host adds their terms and the offset as the firmware does.
+pub fn agreement(
+    model: &GpModel,
+    firmware: &HostModel,
+    x: &nalgebra::DMatrix<f64>,
+    extension: &Extension,
+) -> Agreement {
+    let mut scratch = vec![0.0f32; firmware.dims().m];
+    let held: Vec<f32> = extension
+        .terms
+        .iter()
+        .map(|t| (0.5 * t.range.0 + 0.5 * t.range.1) as f32)
+        .collect();
+    let added = extension.offset
+        + extension
+            .terms
+            .iter()
+            .zip(&held)
+            .map(|(t, &v)| t.coefficient * f64::from(v))
+            .sum::<f64>();
     let threshold = 1e-3 * model.posterior.hyper.signal_std.powi(2) * model.output_scale.powi(2);
     let mut a = Agreement {
         all_finite: true,
@@ -298,8 +352,9 @@ pub fn agreement(model: &GpModel, firmware: &HostModel, x: &nalgebra::DMatrix<f6
     for row in x.row_iter() {
         let mut raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
         let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
-        raw.resize(dims.d.max(raw.len()), 0.0);
-        let host = model.predict(&exact);
+        raw.extend(&held);
+        let mut host = model.predict(&exact);
+        host.mean += added;
         let Ok(fw) = firmware.predict(&raw, &mut scratch) else {
             a.all_finite = false;
             continue;
@@ -360,55 +415,70 @@ fn grid(range: &[(f64, f64)], widen: f64, outside_only: bool) -> nalgebra::DMatr
     nalgebra::DMatrix::from_fn(rows.len(), d, |i, k| rows[i][k])
 }
 
-/// The agreement report of a blob against the model it was exported from.
+/// The agreement report of a blob against the model and extension it was exported from.
 pub fn agreement_report(
     model: &GpModel,
     firmware: &HostModel,
     training: &nalgebra::DMatrix<f64>,
+    extension: &Extension,
 ) -> AgreementReport {
+    let on = |x: &nalgebra::DMatrix<f64>| agreement(model, firmware, x, extension);
     AgreementReport {
-        training: agreement(model, firmware, training),
-        grid_inside: agreement(model, firmware, &grid(&model.input_range, 0.0, false)),
-        grid_beyond: agreement(model, firmware, &grid(&model.input_range, 0.1, true)),
+        training: on(training),
+        grid_inside: on(&grid(&model.input_range, 0.0, false)),
+        grid_beyond: on(&grid(&model.input_range, 0.1, true)),
     }
 }
 
 /// Relative part of the largest output the firmware may differ by: 16 f32 ulps.
 const F32_TOLERANCE: f64 = 16.0 * f32::EPSILON as f64;
 
-/// Decodes `blob`, compares it with `model` on the training inputs and over the trained range, and
-/// refuses it ([`ExportError::Disagrees`]) where the firmware faults, returns a non-finite number
-/// or differs by more than the model's own noise level (σ_n, what the data cannot resolve) or 16
-/// f32 ulps of the largest output, whichever is larger. A legitimate model sits orders of
-/// magnitude inside (README, "Measured for the firmware"); an ill-conditioned one (huge weights
-/// that cancel) fails by orders of magnitude.
+/// Largest σ_n (normalized) the tolerance of [`verify`] takes as the model's noise level: a fit
+/// that calls most of the signal noise (a fallback's σ_n reaches 10) must not loosen the check.
+const NOISE_CAP: f64 = 0.1;
+
+/// Decodes `blob` (exported from `model` fitted on `points`, with `extension`), compares it with
+/// the host on the training inputs and over the trained range, and refuses it
+/// ([`ExportError::Disagrees`]) where the firmware faults, returns a non-finite number or differs
+/// by more than the model's own noise level (σ_n·s_y with σ_n at most [`NOISE_CAP`]: what the data
+/// cannot resolve) or 16 f32 ulps of the largest output, whichever is larger. A legitimate model
+/// sits orders of magnitude inside (README, "Reliability"); an ill-conditioned one (huge weights
+/// that cancel) fails by orders of magnitude. The band beyond the range is reported, not judged.
 pub fn verify(
     model: &GpModel,
     blob: &[u8],
-    training: &nalgebra::DMatrix<f64>,
+    points: &Points,
+    extension: &Extension,
 ) -> Result<AgreementReport, ExportError> {
     let firmware = decode(blob)?;
-    let report = agreement_report(model, &firmware, training);
-    let noise = model.posterior.hyper.noise_std * model.output_scale;
+    let report = agreement_report(
+        model,
+        &firmware,
+        &points.inputs(),
+        &carried(points, extension),
+    );
+    let noise = model.posterior.hyper.noise_std.min(NOISE_CAP) * model.output_scale;
     for (part, a) in [
         ("the training points", report.training),
         ("the trained range", report.grid_inside),
     ] {
         let limit = noise.max(F32_TOLERANCE * a.max_abs_host_mean);
-        let detail = if !a.all_finite {
-            "non-finite outputs".to_owned()
+        let mismatch = if !a.all_finite {
+            Mismatch::NonFinite
         } else if a.n_fault > 0 {
-            format!("{} of {} inputs refused as faults", a.n_fault, a.n)
+            Mismatch::Faults {
+                n: a.n_fault,
+                of: a.n,
+            }
         } else if a.max_abs_mean_diff > limit {
-            format!(
-                "means differ by up to {:.3e}, more than the {limit:.3e} allowed (the model's \
-                 noise level, or 16 f32 ulps of its largest output)",
-                a.max_abs_mean_diff
-            )
+            Mismatch::Exceeds {
+                diff: a.max_abs_mean_diff,
+                limit,
+            }
         } else {
             continue;
         };
-        return Err(ExportError::Disagrees { part, detail });
+        return Err(ExportError::Disagrees { part, mismatch });
     }
     Ok(report)
 }
@@ -485,12 +555,21 @@ mod tests {
     fn a_blob_that_follows_its_model_passes_one_that_does_not_is_refused() {
         let p = points(None);
         let (mut m, blob) = fitted(&p);
-        let report = verify(&m, &blob, &p.inputs()).unwrap();
+        let report = verify(&m, &blob, &p, &Extension::default()).unwrap();
         assert!(report.training.max_abs_mean_diff < 3e-5, "{report:?}");
         // The host model moved by 1e-3 °/s after export: the blob no longer follows it.
         m.prior.coefficients[0] += 1e-3;
-        let e = verify(&m, &blob, &p.inputs()).unwrap_err();
-        assert!(matches!(e, ExportError::Disagrees { .. }), "{e}");
+        let e = verify(&m, &blob, &p, &Extension::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ExportError::Disagrees {
+                    mismatch: Mismatch::Exceeds { .. },
+                    ..
+                }
+            ),
+            "{e}"
+        );
         assert!(e.to_string().contains("the training points"), "{e}");
     }
 
@@ -500,7 +579,7 @@ mod tests {
         // the bias the host models; before, the missing input made every comparison a fault.
         let p = points(Some(0.05));
         let (m, blob) = fitted(&p);
-        let report = verify(&m, &blob, &p.inputs()).unwrap();
+        let report = verify(&m, &blob, &p, &Extension::default()).unwrap();
         assert_eq!(report.training.n, 25);
         assert_eq!(report.training.n_fault, 0);
         assert!(report.training.max_abs_host_mean > 0.0);

@@ -23,7 +23,7 @@ use serde::Serialize;
 use crate::cause::Cause;
 use crate::dataset::{Points, plateaus};
 use crate::diagnose::{self, Candidates, CauseFit, Residual};
-use crate::export::{self, ExportError, Extension, Term};
+use crate::export::{self, AgreementReport, ExportError, Extension, Term};
 use crate::gp::{GpError, GpModel};
 use crate::stream::Stream;
 
@@ -111,6 +111,8 @@ pub struct Extended {
     pub fitted: Fitted,
     /// The extended model's blob.
     pub blob: Vec<u8>,
+    /// How its f32 evaluation follows the host ([`export::verify`]).
+    pub agreement: AgreementReport,
 }
 
 /// Fits the inputs for `causes` on `stream`'s residual under the static GP `model` fitted on
@@ -227,6 +229,7 @@ pub fn fit(
         (refit, table)
     };
     let blob = export::points_blob(&model, points, &extension)?;
+    let agreement = export::verify(&model, &blob, points, &extension)?;
     Ok(Extended {
         fitted: Fitted {
             extension,
@@ -235,6 +238,7 @@ pub fn fit(
             point_offsets,
         },
         blob,
+        agreement,
     })
 }
 

@@ -591,7 +591,9 @@ pub struct StartReport {
     pub converged: bool,
 }
 
-/// How the hyperparameter search ended.
+/// How the hyperparameter search ended. For a sparse GP, the search on the start subset's exact
+/// GP: the refinement on the bound that follows runs on a fixed budget by design (sparse.rs) and
+/// keeps the best point it reaches.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "outcome", rename_all = "kebab-case")]
 pub enum Optimization {
@@ -605,10 +607,12 @@ pub enum Optimization {
     },
     /// The likelihood could not be evaluated anywhere the runs went: the fit uses the
     /// data-informed start's length scales and signal with σ_n raised tenfold at a time until the
-    /// GP conditions (at the bound, 10 output scales, the model is its prior mean).
+    /// likelihood evaluates (at the bound, 10 output scales, the model is its prior mean).
     Fallback {
         /// The σ_n used (normalized).
         noise_std: f64,
+        /// How each start ended.
+        statuses: Vec<String>,
     },
 }
 
@@ -716,7 +720,8 @@ pub struct GpModel {
     /// The sparse approximation, when the GP is one (the posterior's centres are then its
     /// inducing points).
     pub sparse: Option<SparseFit>,
-    /// What each optimizer start did; the last entry is the polish from the best of them.
+    /// What each optimizer run did: the starts, then the polish from the best of them (none after
+    /// a fallback), then for a sparse GP the refinements on the bound. Empty for a refit.
     pub starts: Vec<StartReport>,
     /// How the hyperparameter search ended (a refit on new targets keeps its model's).
     pub optimization: Optimization,
@@ -808,14 +813,17 @@ pub(crate) fn search(
         .map(|s| optimize_from(likelihood, (n, d), s, cfg, SEARCH))
         .collect();
     let Some(searched) = best_of(&reports) else {
+        let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
         let Some((theta, noise_std)) = fallback(likelihood, d, cfg) else {
-            let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
             return Err(GpError::OptimizerFailed(statuses.join("; ")));
         };
         return Ok(Searched {
             theta,
             reports,
-            optimization: Optimization::Fallback { noise_std },
+            optimization: Optimization::Fallback {
+                noise_std,
+                statuses,
+            },
         });
     };
     reports.push(optimize_from(
@@ -842,8 +850,11 @@ pub(crate) fn search(
 }
 
 /// Largest per-sample gradient component (in ln units) at which a point that no run declared
-/// converged still counts as the optimum: a step of 0.1 (10% in a hyperparameter) along it gains
-/// at most about 0.005 nats per sample.
+/// converged still counts as the optimum: to first order a step of 0.1 (10% in a hyperparameter)
+/// along it gains at most 0.005 nats per sample. Nearly noise-free data (σ_n at its bound) leave
+/// every run stalled short of the tolerance on a likelihood this peaked: 0.009 on the unit test's
+/// toy function, more on duplicated rate tables (at 0.02, 5 of the 24 in
+/// `tests/degenerate_data.rs` were reported as stopped early).
 const STATIONARY: f64 = 0.05;
 
 /// Within this (ln units) of a bound, a gradient pushing outward is the bound holding, not a
@@ -866,20 +877,19 @@ fn stationary(likelihood: Likelihood<'_>, theta: &[f64], bounds: &Bounds, n: usi
     })
 }
 
-/// The fallback θ: the data-informed start with σ_n raised tenfold at a time, from 0.1 to the
-/// upper bound, until the likelihood evaluates to a finite number; with that σ_n.
+/// The fallback θ: the data-informed start with σ_n at 0.1, 1 and 10 (normalized, within the
+/// bounds) in turn, the first where the likelihood evaluates to a finite number; with that σ_n.
 fn fallback(likelihood: Likelihood<'_>, d: usize, cfg: &GpConfig) -> Option<(Vec<f64>, f64)> {
-    let top = cfg.bounds.log_noise.1;
-    let mut theta = informed(d);
-    loop {
-        theta[d + 1] = (theta[d + 1] + 10f64.ln()).min(top);
-        if likelihood(&theta).is_ok_and(|(l, _)| l.is_finite()) {
-            return Some((theta.clone(), theta[d + 1].exp()));
-        }
-        if theta[d + 1] >= top {
-            return None;
-        }
-    }
+    let (lo, hi) = cfg.bounds.log_noise;
+    [0.1f64, 1.0, 10.0].into_iter().find_map(|noise| {
+        let mut theta = informed(d);
+        theta[d + 1] = noise.ln().clamp(lo, hi);
+        let fine = likelihood(&theta).is_ok_and(|(l, _)| l.is_finite());
+        fine.then(|| {
+            let noise_std = theta[d + 1].exp();
+            (theta, noise_std)
+        })
+    })
 }
 
 /// The end point of the run with the highest likelihood.
@@ -908,7 +918,13 @@ impl GpModel {
         let found = search(&likelihood, data.z.shape(), cfg)?;
         let posterior = data.condition(Hyperparameters::from_log(&found.theta))?;
         Ok(Self::assemble(
-            x, cfg.mean, data, posterior, None, found, t0,
+            x,
+            cfg.mean,
+            data,
+            posterior,
+            None,
+            (found.reports, found.optimization),
+            t0,
         ))
     }
 
@@ -932,11 +948,7 @@ impl GpModel {
             data,
             posterior,
             sparse,
-            Searched {
-                theta: self.posterior.hyper.to_log(),
-                reports: Vec::new(),
-                optimization: self.optimization.clone(),
-            },
+            (Vec::new(), self.optimization.clone()),
             t0,
         ))
     }
@@ -947,7 +959,7 @@ impl GpModel {
         data: Prepared,
         posterior: Posterior,
         sparse: Option<SparseFit>,
-        found: Searched,
+        (starts, optimization): (Vec<StartReport>, Optimization),
         t0: Instant,
     ) -> Self {
         let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
@@ -965,8 +977,8 @@ impl GpModel {
             posterior,
             y: data.y,
             sparse,
-            starts: found.reports,
-            optimization: found.optimization,
+            starts,
+            optimization,
             fit_seconds: t0.elapsed().as_secs_f64(),
         }
     }
@@ -1008,15 +1020,14 @@ impl GpModel {
                  JSON's starts): the best point reached is used, log ML {log_marginal_likelihood:.3}; \
                  more iterations (--max-iters) or starts (--restarts) may find a better one"
             )),
-            Optimization::Fallback { noise_std } => out.push(format!(
+            Optimization::Fallback {
+                noise_std,
+                statuses,
+            } => out.push(format!(
                 "the likelihood could not be evaluated from any optimizer start ({}): fell back to \
                  unit length scales and signal with σ_n {noise_std:e} (normalized), a model close \
                  to its prior mean",
-                self.starts
-                    .iter()
-                    .map(|r| r.status.as_str())
-                    .collect::<Vec<_>>()
-                    .join("; ")
+                statuses.join("; ")
             )),
         }
         for reason in [DropReason::Dependent, DropReason::TooFewSamples] {
@@ -1255,7 +1266,7 @@ mod tests {
         let likelihood = failing_below(5.0);
         let found = search(&likelihood, (10, 2), &cfg).unwrap();
         assert!(found.reports.iter().all(|r| r.end.is_none()));
-        let Optimization::Fallback { noise_std } = found.optimization else {
+        let Optimization::Fallback { noise_std, .. } = found.optimization else {
             panic!("{:?}", found.optimization);
         };
         assert!((noise_std - 10.0).abs() < 1e-9, "{noise_std}");

@@ -229,30 +229,30 @@ fn independent_columns(a: &DMatrix<f64>) -> Vec<usize> {
 }
 
 impl PolyPrior {
-    /// Ordinary least squares of `basis` on `y`. Monomials are dropped from the top until there
-    /// are at least twice as many samples as coefficients, then those dependent on the ones
-    /// before them on these inputs ([`DropReason`]), so the design has full rank. The dropped
-    /// monomials span nothing the kept ones do not on the data: the fit there is the same.
+    /// Ordinary least squares of `basis` on `y`. Monomials dependent on the ones before them on
+    /// these inputs are dropped ([`DropReason`]), so the design has full rank, then the rest from
+    /// the top until there are at least twice as many samples as coefficients. The dependent ones
+    /// span nothing the kept ones do not on the data: the fit there is the same.
     pub fn fit(x: &DMatrix<f64>, y: &DVector<f64>, basis: MeanBasis) -> Self {
-        let mut exponents = basis.exponents(x.ncols());
-        let dropped_for_size = exponents.split_off((x.nrows() / 2).max(1).min(exponents.len()));
+        let exponents = basis.exponents(x.ncols());
         let keep = independent_columns(&design(x, &exponents));
+        let room = (x.nrows() / 2).max(1);
         let mut dropped: Vec<Dropped> = Vec::new();
         let mut kept = Vec::new();
         for (j, e) in exponents.into_iter().enumerate() {
-            if keep.contains(&j) {
-                kept.push(e);
+            let reason = if !keep.contains(&j) {
+                DropReason::Dependent
+            } else if kept.len() >= room {
+                DropReason::TooFewSamples
             } else {
-                dropped.push(Dropped {
-                    monomial: name(&e),
-                    reason: DropReason::Dependent,
-                });
-            }
+                kept.push(e);
+                continue;
+            };
+            dropped.push(Dropped {
+                monomial: name(&e),
+                reason,
+            });
         }
-        dropped.extend(dropped_for_size.iter().map(|e| Dropped {
-            monomial: name(e),
-            reason: DropReason::TooFewSamples,
-        }));
         let a = design(x, &kept);
         let coefficients = a
             .svd(true, true)

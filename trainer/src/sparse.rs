@@ -201,10 +201,7 @@ pub(crate) fn fit(
         data,
         posterior,
         Some(fit),
-        gp::Searched {
-            theta: best,
-            ..found
-        },
+        (found.reports, found.optimization),
         t0,
     ))
 }

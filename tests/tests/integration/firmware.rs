@@ -36,7 +36,7 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
         let fw = export::decode(&blob).unwrap();
         assert_eq!(fw.dims().m, 140);
         assert_eq!(fw.features(), &POINT_FEATURES);
-        let r = export::agreement_report(&m, &fw, &train.inputs());
+        let r = export::agreement_report(&m, &fw, &train.inputs(), &export::Extension::default());
         check(&format!("{name} training"), &r.training, true);
         check(&format!("{name} grid"), &r.grid_inside, true);
         assert!(r.grid_inside.n_var > 0, "{name}: no variance compared");
