@@ -511,8 +511,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 console.warn(&w);
             }
             let mut blob = export::points_blob(&model, &points, &Extension::default())?;
-            let mut agreement = export::verify(&model, &blob, &points, &Extension::default())?;
-            let firmware = export::decode(&blob)?;
+            let (firmware, mut agreement) =
+                export::verify(&model, &blob, &points, &Extension::default())?;
             let mut summary = fit_summary(&model, &points);
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
                 let causes = if list == "auto" {

@@ -444,12 +444,13 @@ const NOISE_CAP: f64 = 0.1;
 /// cannot resolve) or 16 f32 ulps of the largest output, whichever is larger. A legitimate model
 /// sits orders of magnitude inside (README, "Reliability"); an ill-conditioned one (huge weights
 /// that cancel) fails by orders of magnitude. The band beyond the range is reported, not judged.
+/// Returns the decoded firmware model with the report, so callers decode once.
 pub fn verify(
     model: &GpModel,
     blob: &[u8],
     points: &Points,
     extension: &Extension,
-) -> Result<AgreementReport, ExportError> {
+) -> Result<(Box<HostModel>, AgreementReport), ExportError> {
     let firmware = decode(blob)?;
     let report = agreement_report(
         model,
@@ -480,7 +481,7 @@ pub fn verify(
         };
         return Err(ExportError::Disagrees { part, mismatch });
     }
-    Ok(report)
+    Ok((firmware, report))
 }
 
 /// Size and static memory of a blob's model on the firmware.
@@ -555,7 +556,7 @@ mod tests {
     fn a_blob_that_follows_its_model_passes_one_that_does_not_is_refused() {
         let p = points(None);
         let (mut m, blob) = fitted(&p);
-        let report = verify(&m, &blob, &p, &Extension::default()).unwrap();
+        let (_, report) = verify(&m, &blob, &p, &Extension::default()).unwrap();
         assert!(report.training.max_abs_mean_diff < 3e-5, "{report:?}");
         // The host model moved by 1e-3 °/s after export: the blob no longer follows it.
         m.prior.coefficients[0] += 1e-3;
@@ -579,7 +580,7 @@ mod tests {
         // the bias the host models; before, the missing input made every comparison a fault.
         let p = points(Some(0.05));
         let (m, blob) = fitted(&p);
-        let report = verify(&m, &blob, &p, &Extension::default()).unwrap();
+        let (_, report) = verify(&m, &blob, &p, &Extension::default()).unwrap();
         assert_eq!(report.training.n, 25);
         assert_eq!(report.training.n_fault, 0);
         assert!(report.training.max_abs_host_mean > 0.0);

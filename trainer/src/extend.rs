@@ -229,7 +229,7 @@ pub fn fit(
         (refit, table)
     };
     let blob = export::points_blob(&model, points, &extension)?;
-    let agreement = export::verify(&model, &blob, points, &extension)?;
+    let (_, agreement) = export::verify(&model, &blob, points, &extension)?;
     Ok(Extended {
         fitted: Fitted {
             extension,

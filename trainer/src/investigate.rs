@@ -65,16 +65,16 @@ pub fn investigate(
     bar.set_message(format!("static fit on {} points", points.len()));
     let model = GpModel::fit(&points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
-    export::verify(&model, &static_blob, points, &Extension::default()).map_err(|e| {
-        let warned = model.warnings();
-        let e = anyhow::Error::from(e);
-        if warned.is_empty() {
-            e
-        } else {
-            e.context(format!("static fit (it warned: {})", warned.join("; ")))
-        }
-    })?;
-    let fw = export::decode(&static_blob)?;
+    let (fw, _) =
+        export::verify(&model, &static_blob, points, &Extension::default()).map_err(|e| {
+            let warned = model.warnings();
+            let e = anyhow::Error::from(e);
+            if warned.is_empty() {
+                e
+            } else {
+                e.context(format!("static fit (it warned: {})", warned.join("; ")))
+            }
+        })?;
     bar.inc(1);
     bar.set_message("replay and diagnosis of the held-out stream");
     let comp = replay::replay(&fw, valid);
