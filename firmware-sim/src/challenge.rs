@@ -1,7 +1,7 @@
 //! The challenge: hidden-effect cases through the whole investigation, scored by what it names.
 //!
-//! Each case draws an effect and its magnitude from the documented ranges by seed
-//! ([`Effect::draw`]), simulates the paper-protocol points and two streams of one gyro with it
+//! Each case draws one effect, or two acting together, and their magnitudes from the documented
+//! ranges (or below them: weak effects) by seed ([`Hidden::draw`]), simulates the paper-protocol points and two streams of one gyro with it
 //! (training and held-out: other noise, other rate order), writes them as CSV files and hands only
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
 //! both cores (rayon); each is deterministic by its seed.
@@ -15,31 +15,81 @@ use trainer::gp::GpConfig;
 use trainer::investigate;
 use trainer::stream::Stream;
 
-use crate::effects::Effect;
+use crate::effects::{Hidden, Strength};
 use crate::plant::GyroParams;
 use crate::{output, paper, stream};
+
+/// Which cases a challenge runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    /// Every cause alone (and `none`), strengths from the documented ranges.
+    Single,
+    /// Every pair of distinct causes acting together, each also investigated by an oracle told
+    /// the true causes.
+    Pairs,
+    /// Every cause alone, weaker than the documented ranges ([`Strength::Weak`]).
+    Weak,
+}
 
 /// One case and what the investigation made of it.
 #[derive(Debug, Clone, Serialize)]
 pub struct Case {
-    /// The hidden effect.
-    pub hidden: Effect,
+    /// The hidden effects.
+    pub hidden: Hidden,
     /// Seed of the case.
     pub seed: u64,
-    /// The cause named.
-    pub named: Cause,
+    /// The causes named, strongest first.
+    pub named: Vec<Cause>,
+    /// Whether the extension was shipped (else the static model).
+    pub shipped_extension: bool,
     /// Static `rmse_60s_dps` on the held-out stream.
     pub static_rmse_60s_dps: f64,
-    /// Extended `rmse_60s_dps` on the held-out stream.
+    /// Shipped model's `rmse_60s_dps` on the held-out stream.
     pub extended_rmse_60s_dps: f64,
     /// Their ratio.
     pub gain: f64,
+    /// The gain of an investigation told the true causes (pairs only).
+    pub oracle_gain: Option<f64>,
 }
 
-/// Runs one case: `cause` drawn by `seed` on the nominal gyro.
-pub fn run_case(cause: Cause, seed: u64) -> anyhow::Result<Case> {
+impl Case {
+    /// The first hidden cause (`none` when there is none).
+    pub fn hidden_cause(&self) -> Cause {
+        self.hidden.causes().first().copied().unwrap_or(Cause::None)
+    }
+
+    /// The first named cause (`none` when there is none).
+    pub fn named_cause(&self) -> Cause {
+        self.named.first().copied().unwrap_or(Cause::None)
+    }
+
+    /// Whether every hidden cause was named.
+    pub fn all_named(&self) -> bool {
+        self.hidden.causes().iter().all(|c| self.named.contains(c))
+    }
+
+    /// Causes named that were not hidden.
+    pub fn wrong_names(&self) -> Vec<Cause> {
+        let hidden = self.hidden.causes();
+        self.named
+            .iter()
+            .copied()
+            .filter(|c| !hidden.contains(c))
+            .collect()
+    }
+}
+
+/// Runs one case: the effects of `causes` drawn by `seed` from `strength` on the nominal gyro;
+/// with `oracle`, also the investigation told the true causes.
+pub fn run_case(
+    causes: &[Cause],
+    seed: u64,
+    strength: Strength,
+    oracle: bool,
+) -> anyhow::Result<Case> {
     let params = GyroParams::nominal();
-    let hidden = Effect::draw(cause, seed);
+    let hidden = Hidden::draw(causes, seed, strength);
     let dir = tempfile::tempdir()?;
     let points_path = dir.path().join("points.csv");
     let train_path = dir.path().join("train.csv");
@@ -47,43 +97,76 @@ pub fn run_case(cause: Cause, seed: u64) -> anyhow::Result<Case> {
     let cfg = stream::StreamConfig::default();
     std::fs::write(
         &points_path,
-        output::points_csv(&paper::run(&params, hidden, seed, false)),
+        output::points_csv(&paper::run(&params, hidden.clone(), seed, false)),
     )?;
     std::fs::write(
         &train_path,
-        output::stream_csv(&stream::run(&params, &cfg, hidden, seed + 1)),
+        output::stream_csv(&stream::run(&params, &cfg, hidden.clone(), seed + 1)),
     )?;
     std::fs::write(
         &valid_path,
-        output::stream_csv(&stream::run(&params, &cfg, hidden, seed + 2)),
+        output::stream_csv(&stream::run(&params, &cfg, hidden.clone(), seed + 2)),
     )?;
     let points = Points::load(&points_path, &[], None, None)?;
     let train = Stream::load(&train_path, &[])?;
     let valid = Stream::load(&valid_path, &[])?;
-    let (inv, _) = investigate::investigate(
-        &points,
-        &train,
-        &valid,
-        &GpConfig::default(),
-        None,
-        &ProgressBar::hidden(),
-    )?;
+    let investigate = |asked: Option<&[Cause]>| {
+        investigate::investigate(
+            &points,
+            &train,
+            &valid,
+            &GpConfig::default(),
+            asked,
+            &|_: &Stream| Ok(points.clone()),
+            &ProgressBar::hidden(),
+        )
+    };
+    let (inv, _) = investigate(None)?;
+    let truth = hidden.causes();
+    let oracle_gain = if oracle && !truth.is_empty() {
+        Some(investigate(Some(&truth))?.0.gain)
+    } else {
+        None
+    };
     Ok(Case {
         hidden,
         seed,
-        named: inv.cause(),
+        named: inv.diagnosis.causes.clone(),
+        shipped_extension: inv.shipped == investigate::Shipped::Extended,
         static_rmse_60s_dps: inv.static_score.rmse_60s_dps,
         extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
         gain: inv.gain,
+        oracle_gain,
     })
 }
 
-/// The challenge over `seeds` seeds per cause (seeds `first`, `first + 10`, …, so the three
-/// seeds of a case never overlap another's); `bar` counts the cases.
-pub fn run(seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
-    let jobs: Vec<(Cause, u64)> = Cause::ALL
+/// The causes of every case of `kind` (before seeds).
+fn designs(kind: Kind) -> Vec<Vec<Cause>> {
+    let real: Vec<Cause> = Cause::ALL
         .into_iter()
-        .flat_map(|c| (0..seeds).map(move |k| (c, first + 10 * k)))
+        .filter(|c| *c != Cause::None)
+        .collect();
+    match kind {
+        Kind::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
+        Kind::Weak => real.into_iter().map(|c| vec![c]).collect(),
+        Kind::Pairs => real
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &a)| real[i + 1..].iter().map(move |&b| vec![a, b]))
+            .collect(),
+    }
+}
+
+/// The challenge of `kind` over `seeds` seeds per design (seeds `first`, `first + 10`, …, so the
+/// three seeds of a case never overlap another's); `bar` counts the cases.
+pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
+    let strength = match kind {
+        Kind::Weak => Strength::Weak,
+        Kind::Single | Kind::Pairs => Strength::Documented,
+    };
+    let jobs: Vec<(Vec<Cause>, u64)> = designs(kind)
+        .into_iter()
+        .flat_map(|c| (0..seeds).map(move |k| (c.clone(), first + 10 * k)))
         .collect();
     bar.inc_length(jobs.len() as u64);
     // Each case decodes firmware models, whose heapless storage is inline (about 140 KB at the
@@ -95,12 +178,91 @@ pub fn run(seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case
     pool.install(|| {
         jobs.into_par_iter()
             .map(|(c, s)| {
-                let case = run_case(c, s);
+                let case = run_case(&c, s, strength, kind == Kind::Pairs);
                 bar.inc(1);
                 case
             })
             .collect()
     })
+}
+
+/// What a challenge found, over its cases.
+#[derive(Debug, Clone, Serialize)]
+pub struct Summary {
+    /// Cases.
+    pub cases: usize,
+    /// Cases whose first named cause is the (first) hidden one.
+    pub first_named_right: usize,
+    /// Cases where every hidden cause was named.
+    pub all_named: usize,
+    /// Cases that named a cause that was not hidden.
+    pub wrong_names: usize,
+    /// Cases of `none` where a cause was named.
+    pub false_alarms_none: usize,
+    /// Cases whose shipped model did worse on the held-out stream than the static one.
+    pub worse_than_static: usize,
+    /// Smallest and median gain.
+    pub gain_min_median: [f64; 2],
+    /// Smallest and median gain over the oracle's (pairs).
+    pub of_oracle_min_median: Option<[f64; 2]>,
+    /// Cases whose gain is at least 70% of the oracle's (pairs).
+    pub at_least_70pc_of_oracle: usize,
+}
+
+impl Summary {
+    /// The summary in words.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "{} cases: first cause right {}, every hidden cause named {}, a wrong name {}, false \
+             alarms on none {}, shipped worse than static {}; gain min {:.2}× median {:.2}×",
+            self.cases,
+            self.first_named_right,
+            self.all_named,
+            self.wrong_names,
+            self.false_alarms_none,
+            self.worse_than_static,
+            self.gain_min_median[0],
+            self.gain_min_median[1]
+        );
+        if let Some([lo, mid]) = self.of_oracle_min_median {
+            s.push_str(&format!(
+                "; of the oracle's gain: min {:.0}% median {:.0}%, ≥ 70% in {}",
+                100.0 * lo,
+                100.0 * mid,
+                self.at_least_70pc_of_oracle
+            ));
+        }
+        s
+    }
+}
+
+/// Smallest and median of `v` (NaN when empty).
+fn min_median(mut v: Vec<f64>) -> [f64; 2] {
+    v.sort_by(f64::total_cmp);
+    [
+        v.first().copied().unwrap_or(f64::NAN),
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN),
+    ]
+}
+
+/// Counts and extremes over `cases`.
+pub fn summary(cases: &[Case]) -> Summary {
+    let count = |f: &dyn Fn(&Case) -> bool| cases.iter().filter(|c| f(c)).count();
+    let of_oracle: Vec<f64> = cases
+        .iter()
+        .filter_map(|c| c.oracle_gain.map(|o| c.gain / o))
+        .collect();
+    Summary {
+        cases: cases.len(),
+        first_named_right: count(&|c| c.named_cause() == c.hidden_cause()),
+        all_named: count(&|c| c.all_named()),
+        wrong_names: count(&|c| !c.wrong_names().is_empty()),
+        false_alarms_none: count(&|c| c.hidden.0.is_empty() && !c.named.is_empty()),
+        worse_than_static: count(&|c| c.gain < 1.0),
+        gain_min_median: min_median(cases.iter().map(|c| c.gain).collect()),
+        at_least_70pc_of_oracle: of_oracle.iter().filter(|r| **r >= 0.7).count(),
+        of_oracle_min_median: (!of_oracle.is_empty()).then(|| min_median(of_oracle)),
+    }
 }
 
 /// Stack of each worker thread of [`run`].
@@ -111,7 +273,7 @@ pub fn confusion(cases: &[Case]) -> ([[usize; 6]; 6], String) {
     let index = |c: Cause| Cause::ALL.iter().position(|x| *x == c).unwrap_or(0);
     let mut m = [[0usize; 6]; 6];
     for c in cases {
-        m[index(c.hidden.cause())][index(c.named)] += 1;
+        m[index(c.hidden_cause())][index(c.named_cause())] += 1;
     }
     let mut s = format!("{:<14}", "hidden \\ named");
     for c in Cause::ALL {
@@ -125,7 +287,7 @@ pub fn confusion(cases: &[Case]) -> ([[usize; 6]; 6], String) {
         }
         let mut gains: Vec<f64> = cases
             .iter()
-            .filter(|c| index(c.hidden.cause()) == i)
+            .filter(|c| index(c.hidden_cause()) == i)
             .map(|c| c.gain)
             .collect();
         gains.sort_by(f64::total_cmp);

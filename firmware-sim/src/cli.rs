@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::effects::Effect;
+use crate::effects::{Effect, Hidden};
 use crate::{challenge, output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -48,7 +48,12 @@ enum Command {
     ///
     /// Example: firmware-sim challenge --seeds 10 --json challenge.json
     Challenge {
-        /// Seeds per cause.
+        /// single: every cause alone and none; pairs: every two distinct causes together, each
+        /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
+        /// lower end of its documented strength.
+        #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
+        kind: challenge::Kind,
+        /// Seeds per cause (per pair).
         #[arg(long, default_value_t = 10)]
         seeds: u64,
         /// First seed.
@@ -110,6 +115,9 @@ impl ReplayInput {
         for issue in &data.time_issues {
             console.warn(&format!("{} {issue}", self.stream.display()));
         }
+        for h in &data.handled {
+            console.warn(&format!("{} {h}", self.stream.display()));
+        }
         Ok((blob, firmware, data))
     }
 }
@@ -153,30 +161,33 @@ struct GenerateCommon {
     #[arg(long)]
     unit_seed: Option<u64>,
     /// Hidden physical effect (DESIGN §5): none, thermal-rate, sensor-lag, warm-up, hysteresis,
-    /// time-drift. It acts on the paper protocol and on streams alike.
-    #[arg(long, default_value_t = Cause::None)]
-    effect: Cause,
+    /// time-drift; several act together joined by + (warm-up+thermal-rate). It acts on the paper
+    /// protocol and on streams alike.
+    #[arg(long, default_value = "none", value_name = "ID[+ID…]")]
+    effect: Joined<Cause>,
     /// Strength of the effect, in its unit: thermal-rate (°/h)/(°C/min), sensor-lag min, warm-up
-    /// °/h, hysteresis °/h, time-drift (°/h)/h. Default: the middle of its documented range.
-    #[arg(long)]
-    strength: Option<f64>,
+    /// °/h, hysteresis °/h, time-drift (°/h)/h; one per effect, joined by + as they are. Default: the
+    /// middle of each documented range.
+    #[arg(long, value_name = "S[+S…]")]
+    strength: Option<Joined<f64>>,
     /// Write a JSON summary (the unit's parameters, the effect and the row count) here.
     #[arg(long)]
     json: Option<PathBuf>,
 }
 
 impl GenerateCommon {
-    /// The gyro and its effect.
-    fn gyro(&self) -> anyhow::Result<(GyroParams, Effect)> {
+    /// The gyro and its effects.
+    fn gyro(&self) -> anyhow::Result<(GyroParams, Hidden)> {
         let params = self.unit.params(self.unit_seed.unwrap_or(self.seed));
-        Ok((params, Effect::new(self.effect, self.strength)?))
+        let strengths = self.strength.as_ref().map_or(&[][..], |s| &s.0);
+        Ok((params, Hidden::new(&self.effect.0, strengths)?))
     }
 
     /// Writes the CSV and, when asked, the JSON summary of `n` rows.
     fn write(
         &self,
         params: &GyroParams,
-        effect: Effect,
+        effects: &Hidden,
         csv: &str,
         n: usize,
         flags: ConsoleFlags,
@@ -188,10 +199,37 @@ impl GenerateCommon {
             write_json(
                 path,
                 &[],
-                &serde_json::json!({ "n": n, "seed": self.seed, "unit": params, "effect": effect }),
+                &serde_json::json!({
+                    "n": n,
+                    "seed": self.seed,
+                    "unit": params,
+                    "effect": effects.0.first().copied().unwrap_or(Effect::None),
+                    "effects": effects,
+                }),
             )?;
         }
         Ok(())
+    }
+}
+
+/// Values of one flag joined by `+` (`warm-up+thermal-rate`, `40+15`).
+#[derive(Debug, Clone)]
+struct Joined<T>(Vec<T>);
+
+impl<T: std::str::FromStr> std::str::FromStr for Joined<T>
+where
+    T::Err: std::fmt::Display,
+{
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        s.split('+')
+            .map(|part| {
+                part.trim()
+                    .parse::<T>()
+                    .map_err(|e| format!("'{part}': {e}"))
+            })
+            .collect::<Result<Vec<T>, String>>()
+            .map(Joined)
     }
 }
 
@@ -209,71 +247,81 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             common,
             position_tests,
         }) => {
-            let (params, effect) = common.gyro()?;
-            let points = paper::run(&params, effect, common.seed, position_tests);
+            let (params, effects) = common.gyro()?;
+            let points = paper::run(&params, effects.clone(), common.seed, position_tests);
             let csv = output::points_csv(&points);
-            common.write(&params, effect, &csv, points.len(), flags)
+            common.write(&params, &effects, &csv, points.len(), flags)
         }
         Command::Generate(Generate::Stream { common }) => {
-            let (params, effect) = common.gyro()?;
+            let (params, effects) = common.gyro()?;
             let cfg = stream::StreamConfig::default();
-            let rows = stream::run(&params, &cfg, effect, common.seed);
+            let rows = stream::run(&params, &cfg, effects.clone(), common.seed);
             common.write(
                 &params,
-                effect,
+                &effects,
                 &output::stream_csv(&rows),
                 rows.len(),
                 flags,
             )
         }
         Command::Challenge {
+            kind,
             seeds,
             first_seed,
             json,
         } => {
             let console = Console::new(flags, json.as_deref());
-            console.detail(&format!(
-                "{} cases ({seeds} seeds × 6 causes), each: points + two 8.75 h streams → investigate",
-                6 * seeds
-            ));
             let bar = console.bar(0);
             bar.set_message("hidden-effect cases");
-            let cases = challenge::run(seeds, first_seed, &bar)?;
+            let cases = challenge::run(kind, seeds, first_seed, &bar)?;
             bar.finish_and_clear();
+            console.detail(&format!(
+                "{} cases ({kind:?}, {seeds} seeds each), each: points + two 8.75 h streams → investigate",
+                cases.len()
+            ));
             for c in &cases {
+                let ids = |v: &[Cause]| {
+                    if v.is_empty() {
+                        "none".to_owned()
+                    } else {
+                        v.iter().map(|c| c.id()).collect::<Vec<_>>().join("+")
+                    }
+                };
+                let strengths: Vec<String> = c
+                    .hidden
+                    .0
+                    .iter()
+                    .map(|e| format!("{:.2}", e.strength()))
+                    .collect();
                 console.result(&format!(
-                    "{:<14} strength {:>6.2} seed {:>5} → {:<14} static {:.3e} extended {:.3e} °/s gain {:.2}×",
-                    c.hidden.cause().id(),
-                    c.hidden.strength(),
+                    "{:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+                    ids(&c.hidden.causes()),
+                    strengths.join("+"),
                     c.seed,
-                    c.named.id(),
+                    ids(&c.named),
                     c.static_rmse_60s_dps,
                     c.extended_rmse_60s_dps,
-                    c.gain
+                    c.gain,
+                    c.oracle_gain.map_or(String::new(), |o| format!(" (oracle {o:.2}×)"))
                 ));
             }
-            let (matrix, table) = challenge::confusion(&cases);
-            let correct = (0..6).map(|i| matrix[i][i]).sum::<usize>();
-            let false_alarms = cases
-                .iter()
-                .filter(|c| c.hidden.cause() == Cause::None && c.named != Cause::None)
-                .count();
-            console.result(table.trim_end());
-            console.result(&format!(
-                "accuracy {correct}/{} = {:.1}%; false alarms on none: {false_alarms}",
-                cases.len(),
-                100.0 * correct as f64 / cases.len().max(1) as f64
-            ));
+            let summary = challenge::summary(&cases);
+            if kind == challenge::Kind::Single {
+                console.result(challenge::confusion(&cases).1.trim_end());
+            }
+            console.result(&summary.text());
             if let Some(path) = json {
                 write_json(
                     &path,
                     &[],
                     &serde_json::json!({
+                        "kind": kind,
                         "cases": cases,
-                        "confusion": matrix,
+                        "confusion": challenge::confusion(&cases).0,
                         "order": Cause::ALL,
-                        "accuracy": correct as f64 / cases.len().max(1) as f64,
-                        "false_alarms_none": false_alarms,
+                        "summary": summary,
+                        "accuracy": summary.first_named_right as f64 / cases.len().max(1) as f64,
+                        "false_alarms_none": summary.false_alarms_none,
                     }),
                 )?;
             }
@@ -292,7 +340,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 write_json(&path, &[], &score)?;
             }
             console.result(&format!(
-                "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues): \
+                "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
                  rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s, 2σ coverage {:.3}",
                 data.len(),
                 score.n,
@@ -300,6 +348,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 score.n_degraded,
                 score.n_fault,
                 score.time_issues.len(),
+                score.n_handled,
                 score.rmse_dps,
                 score.rmse_60s_dps,
                 score.rmse_60s_dps * 3600.0,

@@ -94,6 +94,20 @@ pub fn range(cause: Cause) -> Option<(f64, f64)> {
     }
 }
 
+/// Where a drawn strength comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Strength {
+    /// The documented range ([`range`]).
+    Documented,
+    /// Below it: from [`WEAK_SHARE`] of its lower end to the lower end, where the effect may sit
+    /// in the noise and `none` can be the honest answer.
+    Weak,
+}
+
+/// Lowest weak strength, as a share of the documented range's lower end.
+pub const WEAK_SHARE: f64 = 0.3;
+
 /// Nominal warm-up time constant, min.
 const WARM_UP_TAU_MIN: f64 = 15.0;
 
@@ -125,10 +139,19 @@ impl Effect {
     /// `cause` with its strength (and the warm-up's time constant, 10–30 min) drawn uniformly from
     /// the documented ranges by `seed`.
     pub fn draw(cause: Cause, seed: u64) -> Effect {
+        Self::draw_in(cause, seed, Strength::Documented)
+    }
+
+    /// As [`Self::draw`], the strength drawn from the range `strength` names.
+    pub fn draw_in(cause: Cause, seed: u64, strength: Strength) -> Effect {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6566_6665_6374);
         let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * rng.random::<f64>();
         match range(cause) {
             Some((lo, hi)) => {
+                let (lo, hi) = match strength {
+                    Strength::Documented => (lo, hi),
+                    Strength::Weak => (WEAK_SHARE * lo, lo),
+                };
                 let s = uniform(lo, hi);
                 Self::build(cause, s, uniform(10.0, 30.0))
             }
@@ -179,10 +202,92 @@ impl Effect {
     }
 }
 
-/// The effect's state as the gyro runs: coil temperature and hysteresis state.
+/// The hidden effects of one gyro, acting together (none, one, or several of distinct causes):
+/// a lag sets the temperature the coil feels, and the biases add.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[serde(transparent)]
+pub struct Hidden(pub Vec<Effect>);
+
+impl From<Effect> for Hidden {
+    fn from(e: Effect) -> Self {
+        Self(if e == Effect::None {
+            Vec::new()
+        } else {
+            vec![e]
+        })
+    }
+}
+
+/// Effects that cannot act together.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum HiddenError {
+    /// A strength that is not valid for its effect.
+    #[error(transparent)]
+    Strength(#[from] StrengthError),
+    /// One cause twice, or `none` beside another.
+    #[error("{0}: each cause at most once, and `none` alone")]
+    Repeated(String),
+    /// Strengths given for some effects but not others.
+    #[error("{strengths} strengths for {effects} effects: give one per effect, joined by +")]
+    Count {
+        /// Effects given.
+        effects: usize,
+        /// Strengths given.
+        strengths: usize,
+    },
+}
+
+impl Hidden {
+    /// The effects of `causes` at `strengths` (one per cause, or none for the middle of each
+    /// range).
+    pub fn new(causes: &[Cause], strengths: &[f64]) -> Result<Self, HiddenError> {
+        let ids = || causes.iter().map(|c| c.id()).collect::<Vec<_>>().join("+");
+        let mut sorted = causes.to_vec();
+        sorted.sort();
+        sorted.dedup();
+        if sorted.len() != causes.len() || (causes.len() > 1 && causes.contains(&Cause::None)) {
+            return Err(HiddenError::Repeated(ids()));
+        }
+        if !strengths.is_empty() && strengths.len() != causes.len() {
+            return Err(HiddenError::Count {
+                effects: causes.len(),
+                strengths: strengths.len(),
+            });
+        }
+        let effects = causes
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| Effect::new(c, strengths.get(k).copied()))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self(
+            effects.into_iter().filter(|e| *e != Effect::None).collect(),
+        ))
+    }
+
+    /// The effects of `causes`, each drawn by `seed` from the range `strength` names.
+    pub fn draw(causes: &[Cause], seed: u64, strength: Strength) -> Self {
+        Self(
+            causes
+                .iter()
+                .enumerate()
+                .map(|(k, &c)| {
+                    Effect::draw_in(c, seed.wrapping_add(1_000_003 * k as u64), strength)
+                })
+                .filter(|e| *e != Effect::None)
+                .collect(),
+        )
+    }
+
+    /// The causes, in order.
+    pub fn causes(&self) -> Vec<Cause> {
+        self.0.iter().map(Effect::cause).collect()
+    }
+}
+
+/// The effects' state as the gyro runs: coil temperature and hysteresis state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EffectPlant {
-    effect: Effect,
+    effects: Vec<Effect>,
     coil_c: f64,
     coil_rate_c_per_min: f64,
     hysteresis: f64,
@@ -190,9 +295,9 @@ pub struct EffectPlant {
 
 impl EffectPlant {
     /// A gyro stored long at `temp_c` (coil there, hysteresis relaxed).
-    pub fn new(effect: Effect, temp_c: f64) -> Self {
+    pub fn new(hidden: impl Into<Hidden>, temp_c: f64) -> Self {
         Self {
-            effect,
+            effects: hidden.into().0,
             coil_c: temp_c,
             coil_rate_c_per_min: 0.0,
             hysteresis: 0.0,
@@ -207,12 +312,16 @@ impl EffectPlant {
     /// Advances `dt_s` seconds with the housing at `housing_c`; returns the coil temperature.
     pub fn step(&mut self, housing_c: f64, dt_s: f64) -> f64 {
         let before = self.coil_c;
-        self.coil_c = match self.effect {
-            Effect::SensorLag { tau_min } => {
+        let lag = self.effects.iter().find_map(|e| match e {
+            Effect::SensorLag { tau_min } => Some(*tau_min),
+            _ => None,
+        });
+        self.coil_c = match lag {
+            Some(tau_min) => {
                 let a = 1.0 - (-dt_s / (tau_min * 60.0)).exp();
                 before + a * (housing_c - before)
             }
-            _ => housing_c,
+            None => housing_c,
         };
         self.coil_rate_c_per_min = (self.coil_c - before) / dt_s * 60.0;
         if self.coil_rate_c_per_min.abs() > HYSTERESIS_MIN_RATE_C_PER_MIN {
@@ -231,9 +340,14 @@ impl EffectPlant {
         self.hysteresis = if heated { 1.0 } else { -1.0 };
     }
 
-    /// Extra bias, °/s, at `t_on_s` seconds after power-on.
+    /// Extra bias, °/s, at `t_on_s` seconds after power-on: the sum of the effects'.
     pub fn bias_dps(&self, t_on_s: f64) -> f64 {
-        let dph = match self.effect {
+        self.effects.iter().map(|e| self.bias_of(*e, t_on_s)).sum()
+    }
+
+    /// One effect's bias, °/s.
+    fn bias_of(&self, effect: Effect, t_on_s: f64) -> f64 {
+        let dph = match effect {
             Effect::None | Effect::SensorLag { .. } => 0.0,
             Effect::ThermalRate {
                 k_dph_per_c_per_min,
@@ -307,6 +421,28 @@ mod tests {
         }
         assert!(heated > 9.0);
         assert_eq!(plant.bias_dps(0.0) * HOUR_S, heated);
+    }
+
+    #[test]
+    fn two_effects_act_together_and_parse_from_their_ids() {
+        let both = Hidden::new(&[Cause::WarmUp, Cause::ThermalRate], &[30.0, 10.0]).unwrap();
+        assert_eq!(both.causes(), vec![Cause::WarmUp, Cause::ThermalRate]);
+        let mut plant = EffectPlant::new(both, 20.0);
+        for k in 1..=120 {
+            plant.step(20.0 + f64::from(k) / 60.0, 1.0);
+        }
+        // Warm-up 30 °/h at power-on plus 1 °C/min × 10 (°/h)/(°C/min).
+        assert!((plant.bias_dps(0.0) * HOUR_S - 40.0).abs() < 1e-9);
+        assert!(Hidden::new(&[Cause::WarmUp, Cause::WarmUp], &[]).is_err());
+        assert!(Hidden::new(&[Cause::None, Cause::WarmUp], &[]).is_err());
+        assert!(Hidden::new(&[Cause::WarmUp, Cause::Hysteresis], &[30.0]).is_err());
+        assert_eq!(Hidden::new(&[Cause::None], &[]).unwrap(), Hidden::default());
+        let weak = Hidden::draw(&[Cause::Hysteresis, Cause::TimeDrift], 3, Strength::Weak);
+        assert_eq!(weak.causes(), vec![Cause::Hysteresis, Cause::TimeDrift]);
+        for e in &weak.0 {
+            let (lo, _) = range(e.cause()).unwrap();
+            assert!((WEAK_SHARE * lo..=lo).contains(&e.strength()), "{e:?}");
+        }
     }
 
     #[test]

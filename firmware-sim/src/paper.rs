@@ -14,7 +14,7 @@
 //! chamber's last move left (−30 °C is reached by cooling from the ambient 25 °C, every later
 //! setpoint by heating).
 
-use crate::effects::{Effect, EffectPlant};
+use crate::effects::{EffectPlant, Hidden};
 use crate::plant::{GyroParams, Noise};
 
 /// Chamber setpoints of the paper, °C.
@@ -46,7 +46,12 @@ pub struct Point {
 }
 
 /// Runs the paper protocol on one gyro with a hidden `effect`; noise from `seed`.
-pub fn run(params: &GyroParams, effect: Effect, seed: u64, position_tests: bool) -> Vec<Point> {
+pub fn run(
+    params: &GyroParams,
+    effect: impl Into<Hidden>,
+    seed: u64,
+    position_tests: bool,
+) -> Vec<Point> {
     let mut noise = Noise::new(params, seed);
     let earth = params.earth_rate_dps();
     let mut points = Vec::new();
@@ -91,6 +96,7 @@ pub fn run(params: &GyroParams, effect: Effect, seed: u64, position_tests: bool)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::effects::Effect;
 
     #[test]
     fn protocol_has_140_points_and_optional_position_tests() {

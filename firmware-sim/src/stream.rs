@@ -25,7 +25,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use crate::effects::{Effect, EffectPlant};
+use crate::effects::{EffectPlant, Hidden};
 use crate::paper::RATES_DPS;
 use crate::plant::{GyroParams, Noise};
 
@@ -157,7 +157,12 @@ pub struct Row {
 }
 
 /// Simulates the stream with a hidden `effect`; noise and rate order from `seed`.
-pub fn run(params: &GyroParams, cfg: &StreamConfig, effect: Effect, seed: u64) -> Vec<Row> {
+pub fn run(
+    params: &GyroParams,
+    cfg: &StreamConfig,
+    effect: impl Into<Hidden>,
+    seed: u64,
+) -> Vec<Row> {
     let mut noise = Noise::new(params, seed);
     let mut order_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7261_7465);
     let earth = params.earth_rate_dps();
@@ -209,6 +214,7 @@ pub fn run(params: &GyroParams, cfg: &StreamConfig, effect: Effect, seed: u64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::effects::Effect;
 
     #[test]
     fn chamber_program_ramps_and_soaks() {

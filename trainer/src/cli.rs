@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::console::{AFTER_HELP, Console, ConsoleFlags};
 use crate::data::ColumnMap;
-use crate::dataset::Points;
+use crate::dataset::{Points, Screen};
 use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export::{self, Extension};
@@ -16,7 +16,7 @@ use crate::io::{ensure_not_input, write_atomically, write_json};
 use crate::prior::MeanBasis;
 use crate::report;
 use crate::reproduce::Reproduction;
-use crate::stream::{Stream, Window};
+use crate::stream::{Handled, Stream, Window};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use firmware_core::Feature;
@@ -47,6 +47,10 @@ struct Input {
     points: PathBuf,
     #[command(flatten)]
     maps: Maps,
+    /// Leave rows that are implausible next to the others (a temperature or rate far outside the
+    /// rest) out, with a warning, instead of refusing the file.
+    #[arg(long)]
+    exclude_implausible: bool,
 }
 
 /// Where the static model comes from, for the commands that can fit it on a stream.
@@ -62,6 +66,10 @@ struct ModelInput {
     /// temperature instead of the map ω = f(T, output) — all a static log allows.
     #[arg(long, value_name = "K")]
     scale_factor: Option<f64>,
+    /// Leave rate-table rows that are implausible next to the others (a temperature or rate far
+    /// outside the rest) out, with a warning, instead of refusing the file.
+    #[arg(long, requires = "points")]
+    exclude_implausible: bool,
 }
 
 impl ModelInput {
@@ -69,11 +77,12 @@ impl ModelInput {
     /// with `pool`, every sample of the streams as well.
     fn static_points(&self, streams: &[(&Path, Stream)], pool: bool) -> anyhow::Result<Points> {
         let mut out = match &self.points {
-            Some(path) => Some(Points::load(
+            Some(path) => Some(load_points(
                 path,
                 &self.maps.list,
                 None,
                 self.scale_factor,
+                self.exclude_implausible,
             )?),
             None => None,
         };
@@ -95,9 +104,36 @@ impl ModelInput {
     }
 }
 
+/// Loads rate-table points; with `exclude`, implausible rows are left out with a warning each
+/// rather than refused.
+fn load_points(
+    path: &Path,
+    maps: &[ColumnMap],
+    group: Option<&str>,
+    scale_factor: Option<f64>,
+    exclude: bool,
+) -> anyhow::Result<Points> {
+    let screen = if exclude {
+        Screen::Exclude
+    } else {
+        Screen::Refuse
+    };
+    let (points, left_out) = Points::load_screened(path, maps, group, scale_factor, screen)?;
+    for row in &left_out {
+        eprintln!(
+            "warning: {} {row}: left out (--exclude-implausible)",
+            path.display()
+        );
+    }
+    Ok(points)
+}
+
 /// Loads a stream and keeps the part inside `window`.
 fn load_stream(path: &Path, maps: &[ColumnMap], window: Option<Window>) -> anyhow::Result<Stream> {
     let s = Stream::load(path, maps)?;
+    for h in &s.handled {
+        eprintln!("warning: {} {h}", path.display());
+    }
     let Some(w) = window else { return Ok(s) };
     let part = s.window(w);
     anyhow::ensure!(
@@ -385,6 +421,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
         points: Some(dir.join("points.csv")),
         maps: Maps::default(),
         scale_factor: None,
+        exclude_implausible: false,
     };
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
@@ -415,12 +452,24 @@ fn log_starts(console: &Console, model: &GpModel) {
     }
 }
 
-/// The diagnosis as a terminal reads it: the verdict, then every candidate.
+/// Named causes joined by " + ", or `none`.
+fn causes_text(causes: &[crate::cause::Cause]) -> String {
+    if causes.is_empty() {
+        return "none".to_owned();
+    }
+    causes
+        .iter()
+        .map(|c| c.id())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// The diagnosis as a terminal reads it: the verdict, every candidate alone, then the selection.
 fn render_diagnosis(d: &Diagnosis) -> String {
     let mut s = format!(
-        "cause: {} — {}\nresidual rmse_60s {:.3e} °/s ({:.2} °/h) over {} blocks of 60 s\n\
-         candidate       score   parameter   correlation   amplitude (°/h)\n",
-        d.cause,
+        "causes: {} — {}\nresidual rmse_60s {:.3e} °/s ({:.2} °/h) over {} blocks of 60 s\n\
+         candidate       score   forward   parameter   correlation   amplitude (°/h)\n",
+        causes_text(&d.causes),
         d.explanation,
         d.residual_rmse_60s_dps,
         d.residual_rmse_60s_dps * 3600.0,
@@ -428,12 +477,23 @@ fn render_diagnosis(d: &Diagnosis) -> String {
     );
     for c in &d.candidates {
         s.push_str(&format!(
-            "{:<14} {:>6.3}   {:>9.1}   {:>11.3}   {:>15.2}\n",
+            "{:<14} {:>6.3}   {:>7.3}   {:>9.1}   {:>11.3}   {:>15.2}\n",
             c.id.id(),
             c.score,
+            c.forward_score,
             c.parameter,
             c.correlation,
             c.amplitude_dph
+        ));
+    }
+    s.push_str("selection: causes                                of what is left: score   forward   taken\n");
+    for st in &d.steps {
+        s.push_str(&format!(
+            "           {:<38} {:>21.3}   {:>7.3}   {}\n",
+            causes_text(&st.causes),
+            st.score,
+            st.forward_score,
+            if st.added { "yes" } else { "no" }
         ));
     }
     s
@@ -515,34 +575,58 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 export::verify(&model, &blob, &points, &Extension::default())?;
             let mut summary = fit_summary(&model, &points);
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
-                let causes = if list == "auto" {
-                    let d = diagnose::diagnose(&firmware, data);
+                let asked = match list.as_str() {
+                    "auto" => None,
+                    list => Some(extend::parse_features(list)?),
+                };
+                let rebuild =
+                    |part: &Stream| input.static_points(&[(path, part.clone())], pool_stream);
+                let choice = investigate::choose(
+                    &points,
+                    &model,
+                    &firmware,
+                    data,
+                    &gp,
+                    asked.as_deref(),
+                    &rebuild,
+                )?;
+                if asked.is_none() {
                     console.result(&format!(
                         "diagnosis of {}: {} — {}",
                         path.display(),
-                        d.cause,
-                        d.explanation
+                        causes_text(&choice.diagnosis.causes),
+                        choice.diagnosis.explanation
                     ));
-                    summary["diagnosis"] = serde_json::to_value(&d)?;
-                    vec![d.cause]
+                }
+                summary["diagnosis"] = serde_json::to_value(&choice.diagnosis)?;
+                summary["forward_check"] = serde_json::to_value(&choice.check)?;
+                summary["shipped"] = serde_json::to_value(choice.shipped)?;
+                summary["verdict"] = choice.verdict.clone().into();
+                if let (Some(extended), investigate::Shipped::Extended) =
+                    (choice.extended, choice.shipped)
+                {
+                    let fitted = extended.fitted;
+                    blob = extended.blob;
+                    agreement = extended.agreement;
+                    let ext = export::decode(&blob)?;
+                    console.result(&format!(
+                        "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
+                        ext.features(),
+                        path.display(),
+                        fitted.train_rmse_60s_dps[0],
+                        fitted.train_rmse_60s_dps[1]
+                    ));
+                    summary["extension"] = serde_json::to_value(&fitted)?;
+                    summary["features"] = serde_json::to_value(ext.features())?;
+                }
+                if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
+                    console.warn(&choice.verdict);
                 } else {
-                    extend::parse_features(list)?
-                };
-                let extended = extend::fit(&model, &points, data, &causes)?;
-                let fitted = extended.fitted;
-                blob = extended.blob;
-                agreement = extended.agreement;
-                let ext = export::decode(&blob)?;
-                console.result(&format!(
-                    "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
-                    ext.features(),
-                    path.display(),
-                    fitted.train_rmse_60s_dps[0],
-                    fitted.train_rmse_60s_dps[1]
-                ));
-                summary["extension"] = serde_json::to_value(&fitted)?;
-                summary["features"] = serde_json::to_value(ext.features())?;
+                    console.result(&choice.verdict);
+                }
             }
+            let handled: Vec<&Handled> = streams.iter().flat_map(|(_, s)| &s.handled).collect();
+            summary["handled"] = serde_json::to_value(handled)?;
             summary["firmware_agreement"] = serde_json::to_value(agreement)?;
             summary["blob_bytes"] = blob.len().into();
             write_atomically(&out, &blob)?;
@@ -626,9 +710,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let valid = load_stream(&valid_stream, &input.maps.list, valid_window)?;
             let points = input.static_points(&train, false)?;
             let [(_, train)] = train;
-            let chosen = match features.as_str() {
+            let asked = match features.as_str() {
                 "auto" => None,
                 list => Some(extend::parse_features(list)?),
+            };
+            let rebuild = |part: &Stream| {
+                input.static_points(&[(train_stream.as_path(), part.clone())], false)
             };
             let bar = console.bar(0);
             let (inv, blobs) = investigate::investigate(
@@ -636,7 +723,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 &train,
                 &valid,
                 &fit.gp(),
-                chosen.as_deref(),
+                asked.as_deref(),
+                &rebuild,
                 &bar,
             )?;
             bar.finish_and_clear();
@@ -644,12 +732,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 console.warn(w);
             }
             console.result(render_diagnosis(&inv.diagnosis).trim_end());
+            console.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
             console.result(&format!(
-                "static rmse_60s {:.3e} °/s ({:.2} °/h) | cause {} | added {} | extended rmse_60s \
+                "static rmse_60s {:.3e} °/s ({:.2} °/h) | causes {} | added {} | shipped rmse_60s \
                  {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
                 inv.static_score.rmse_60s_dps,
                 inv.static_score.rmse_60s_dps * 3600.0,
-                inv.cause(),
+                causes_text(&inv.diagnosis.causes),
                 if inv.added_inputs.is_empty() {
                     "nothing".to_owned()
                 } else {
@@ -709,7 +798,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             json,
         } => {
             let console = Console::new(flags, json.as_deref());
-            let points = Points::load(&input.points, &input.maps.list, group.as_deref(), None)?;
+            let points = load_points(
+                &input.points,
+                &input.maps.list,
+                group.as_deref(),
+                None,
+                input.exclude_implausible,
+            )?;
             let bar = console.bar(0);
             let cfg = EvalConfig {
                 gp: fit.gp(),
@@ -807,7 +902,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Reproduce { input, fit, json } => {
             let console = Console::new(flags, json.as_deref());
-            let points = Points::load(&input.points, &input.maps.list, None, None)?;
+            let points = load_points(
+                &input.points,
+                &input.maps.list,
+                None,
+                None,
+                input.exclude_implausible,
+            )?;
             let cfg = EvalConfig {
                 gp: fit.gp(),
                 ..EvalConfig::default()

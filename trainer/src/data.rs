@@ -218,6 +218,22 @@ impl Columns {
         self.lines.len()
     }
 
+    /// Keeps the rows whose line `keep` accepts.
+    pub fn retain(&mut self, keep: impl Fn(u64) -> bool) {
+        let mask: Vec<bool> = self.lines.iter().map(|&l| keep(l)).collect();
+        let filter = |v: &mut Vec<f64>| {
+            let mut k = mask.iter();
+            v.retain(|_| k.next().copied().unwrap_or(false));
+        };
+        self.values.values_mut().for_each(filter);
+        for v in self.labels.values_mut() {
+            let mut k = mask.iter();
+            v.retain(|_| k.next().copied().unwrap_or(false));
+        }
+        let mut k = mask.iter();
+        self.lines.retain(|_| k.next().copied().unwrap_or(false));
+    }
+
     /// True when there are no rows.
     pub fn is_empty(&self) -> bool {
         self.lines.is_empty()

@@ -65,6 +65,20 @@ pub enum PointsError {
         "cannot pool a rate table with a static log: fit one model form (--scale-factor) on both"
     )]
     MixedForms,
+    /// Rows that are implausible next to the others.
+    #[error(
+        "{path} {first}{more}: implausible next to the other rows (a unit mix-up or a mistyped \
+         row?); correct it, or leave such rows out with --exclude-implausible",
+        more = if *count > 1 { format!(" (and {} more rows)", count - 1) } else { String::new() }
+    )]
+    Implausible {
+        /// The file.
+        path: String,
+        /// The first such row.
+        first: Implausible,
+        /// How many there are.
+        count: usize,
+    },
     /// A stream with too few 60 s blocks to fit a static model on.
     #[error("{path}: {found} scored 60 s blocks; a static model from a stream needs at least 10")]
     TooFewBlocks {
@@ -85,6 +99,93 @@ pub enum PointsError {
         /// The least span, °C ([`PLATEAU_GAP_C`]).
         gap: f64,
     },
+}
+
+/// A row that is implausible next to the others: a value separated from the rest of its column
+/// by a gap wider than the rest spans ([`implausible`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Implausible {
+    /// 1-based line in the file.
+    pub line: u64,
+    /// The canonical column.
+    pub column: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// Lowest and highest value of the other rows.
+    pub others: [f64; 2],
+}
+
+impl std::fmt::Display for Implausible {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "line {}, column {}: {} lies far outside the other rows ({} … {})",
+            self.line, self.column, self.value, self.others[0], self.others[1]
+        )
+    }
+}
+
+/// What loading does with implausible rows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Screen {
+    /// Refuse the file, naming the row.
+    #[default]
+    Refuse,
+    /// Leave the rows out and report them.
+    Exclude,
+}
+
+/// Least gap, °C, that sets a temperature apart as implausible: wider than the steps between a
+/// thermal chamber's plateaus.
+const IMPLAUSIBLE_TEMP_GAP_C: f64 = 20.0;
+/// Fewest rows a column needs before single rows are judged against the others.
+const SCREEN_MIN_ROWS: usize = 10;
+
+/// Rows of `values` (one column, with its file lines) that are implausible next to the others:
+/// sorted, the column is cut at its widest gap; the smaller side is implausible when it holds at
+/// most 3 rows or 2% of them, and the gap is wider than both the larger side's span and `floor`.
+/// A unit mix-up (kelvin among °C, rad/s among °/s in a table that goes beyond 1 °/s) or a
+/// mistyped row lands there; a plateau or a rate of the protocol, with rows of its own, does not.
+pub fn implausible(
+    column: &'static str,
+    values: &[f64],
+    lines: &[u64],
+    floor: f64,
+) -> Vec<Implausible> {
+    let n = values.len();
+    if n < SCREEN_MIN_ROWS {
+        return Vec::new();
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    let Some((cut, gap)) = (1..n)
+        .map(|k| (k, values[order[k]] - values[order[k - 1]]))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return Vec::new();
+    };
+    let (small, large) = if cut <= n - cut {
+        (&order[..cut], &order[cut..])
+    } else {
+        (&order[cut..], &order[..cut])
+    };
+    let most = 3usize.max(n / 50);
+    let large_span = values[large[large.len() - 1]] - values[large[0]];
+    if small.len() > most || gap <= large_span.max(floor) {
+        return Vec::new();
+    }
+    let others = [values[large[0]], values[large[large.len() - 1]]];
+    let mut rows: Vec<Implausible> = small
+        .iter()
+        .map(|&i| Implausible {
+            line: lines[i],
+            column,
+            value: values[i],
+            others,
+        })
+        .collect();
+    rows.sort_by_key(|r| r.line);
+    rows
 }
 
 /// Span of the temperatures (max − min), °C: it must exceed [`PLATEAU_GAP_C`] for a temperature
@@ -120,14 +221,44 @@ impl Points {
         group: Option<&str>,
         scale_factor: Option<f64>,
     ) -> Result<Self, PointsError> {
+        Self::load_screened(path, maps, group, scale_factor, Screen::Refuse).map(|(p, _)| p)
+    }
+
+    /// As [`Self::load`], with a choice of what to do with [`implausible`] rows; returns the rows
+    /// left out.
+    pub fn load_screened(
+        path: &Path,
+        maps: &[ColumnMap],
+        group: Option<&str>,
+        scale_factor: Option<f64>,
+        screen: Screen,
+    ) -> Result<(Self, Vec<Implausible>), PointsError> {
         let labels: Vec<&str> = group.into_iter().collect();
-        let c = data::read_columns(
+        let mut c = data::read_columns(
             path,
             &["temp_c", "voltage_v", "rate_dps"],
             &[],
             &labels,
             maps,
         )?;
+        let mut bad: Vec<Implausible> = [
+            ("temp_c", IMPLAUSIBLE_TEMP_GAP_C),
+            ("rate_dps", 0.0),
+            ("voltage_v", 0.0),
+        ]
+        .into_iter()
+        .flat_map(|(column, floor)| implausible(column, c.get(column), &c.lines, floor))
+        .collect();
+        bad.sort_by_key(|r| r.line);
+        if let (Screen::Refuse, Some(first)) = (screen, bad.first()) {
+            return Err(PointsError::Implausible {
+                path: path.display().to_string(),
+                first: first.clone(),
+                count: bad.len(),
+            });
+        }
+        let lines: Vec<u64> = bad.iter().map(|r| r.line).collect();
+        c.retain(|line| !lines.contains(&line));
         data::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
         check_scale_factor(path, c.get("rate_dps"), scale_factor)?;
         let temp_c = c.get("temp_c").to_vec();
@@ -145,14 +276,15 @@ impl Points {
             Some(g) => c.labels.get(g).cloned().unwrap_or_default(),
             None => plateaus(&temp_c).iter().map(usize::to_string).collect(),
         };
-        Ok(Self {
+        let points = Self {
             voltage_v: c.get("voltage_v").to_vec(),
             rate_dps: c.get("rate_dps").to_vec(),
             temp_c,
             group,
             scale_factor,
             soaked: true,
-        })
+        };
+        Ok((points, bad))
     }
 
     /// The 60 s block means of a stream's samples with a reference, as points (a static model
@@ -348,6 +480,66 @@ mod tests {
             plateaus(&[20.0, -30.0, 20.01, -29.98, 5.0]),
             vec![2, 0, 2, 0, 1]
         );
+    }
+
+    /// Lines 2… of a table with one row per value.
+    fn lines(n: usize) -> Vec<u64> {
+        (2..2 + n as u64).collect()
+    }
+
+    #[test]
+    fn a_row_far_outside_the_others_is_implausible_and_plateaus_are_not() {
+        // 140 rows over −30…60 °C and one at 250 °C (line 142).
+        let mut t: Vec<f64> = (0..140)
+            .map(|i| -30.0 + 90.0 * f64::from(i % 10) / 9.0)
+            .collect();
+        t.push(250.0);
+        let bad = implausible("temp_c", &t, &lines(t.len()), IMPLAUSIBLE_TEMP_GAP_C);
+        assert_eq!(bad.len(), 1);
+        assert_eq!((bad[0].line, bad[0].value), (142, 250.0));
+        assert_eq!(bad[0].others, [-30.0, 60.0]);
+        // A plateau with rows of its own is protocol, even far from the rest.
+        let mut plateau: Vec<f64> = vec![25.0; 140];
+        plateau.extend([85.0; 10]);
+        assert!(implausible("temp_c", &plateau, &lines(150), IMPLAUSIBLE_TEMP_GAP_C).is_empty());
+        // One kelvin reading among °C, one rad/s… the wrong way round: °/s among rad/s.
+        let mut kelvin: Vec<f64> = (0..50).map(|i| 20.0 + f64::from(i) / 5.0).collect();
+        kelvin[17] = 298.15;
+        let bad = implausible("temp_c", &kelvin, &lines(50), IMPLAUSIBLE_TEMP_GAP_C);
+        assert_eq!(bad.iter().map(|r| r.line).collect::<Vec<_>>(), vec![19]);
+        let mut rates: Vec<f64> = (0..60).map(|i| f64::from(i % 15 - 7) * 0.2).collect();
+        rates[3] = 80.0;
+        assert_eq!(implausible("rate_dps", &rates, &lines(60), 0.0).len(), 1);
+        // A gap of 20 °C or less between a lone row and a narrow cluster is not enough.
+        let mut near: Vec<f64> = vec![25.0; 30];
+        near.push(44.0);
+        assert!(implausible("temp_c", &near, &lines(31), IMPLAUSIBLE_TEMP_GAP_C).is_empty());
+        // Small tables are not judged.
+        assert!(implausible("temp_c", &[0.0, 1.0, 900.0], &lines(3), 20.0).is_empty());
+    }
+
+    #[test]
+    fn an_implausible_row_is_refused_with_its_line_or_left_out_when_asked() {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        let mut csv = String::from("temp_c,voltage_v,rate_dps\n");
+        for t in [-30.0, 0.0, 30.0, 60.0] {
+            for w in [-80.0, -10.0, 10.0, 80.0] {
+                csv.push_str(&format!("{t},{},{w}\n", 0.04 * w + 1e-3 * t));
+            }
+        }
+        csv.push_str("250,0.5,10\n");
+        std::io::Write::write_all(&mut f, csv.as_bytes()).unwrap();
+        let e = Points::load(f.path(), &[], None, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 18, column temp_c: 250 lies far outside") && e.contains("--exclude"),
+            "{e}"
+        );
+        let (p, left_out) =
+            Points::load_screened(f.path(), &[], None, None, Screen::Exclude).unwrap();
+        assert_eq!((p.len(), left_out.len()), (16, 1));
+        assert!(p.temp_c.iter().all(|t| *t <= 60.0));
     }
 
     #[test]

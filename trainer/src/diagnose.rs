@@ -1,5 +1,5 @@
 //! Diagnosis (DESIGN §5): replay a stream through a static model, study the residual
-//! r = ω̂ − ω_ref, rank the candidate physical causes by evidence, name one.
+//! r = ω̂ − ω_ref, rank the candidate physical causes by evidence, name up to three.
 //!
 //! Each cause is a hypothesis about the form of the residual, written with the input the
 //! firmware would need to correct it (computed by firmware-core's feature pipeline, so a cause
@@ -23,8 +23,38 @@
 //! after a single power-on) must appear in training and test folds alike; 10 minutes is twice the
 //! bias instability's correlation time, so noise shared across the cut is small. Score =
 //! 1 − SSE_cause / SSE_none: the fraction of the residual's variance the cause predicts on
-//! data it was not fitted on. A cause is named when its score reaches [`MIN_SCORE`]; otherwise
-//! `none`.
+//! data it was not fitted on.
+//!
+//! Interleaved chunks let a slow trend look predictive: a drift fitted on the chunks around a
+//! test chunk interpolates it, while the model must extrapolate it on the gyro. So each cause is
+//! scored a second time, forward in time (rolling origin): fitted on the blocks before 50%,
+//! 62.5%, 75% and 87.5% of the stream, it predicts the blocks up to the next origin, again
+//! against an intercept fitted on the same earlier blocks. A cause is named only when it
+//! predicts at least [`MIN_SCORE`] of the variance on both tests; otherwise the answer is `none`,
+//! with what the best candidate did on each.
+//!
+//! **A static model fitted on the stream itself** (no rate table) has already absorbed the part
+//! of an effect that its temperature input can follow: a thermal-rate bias on a one-way ramp
+//! looks like a temperature curve. Adding a term on top then finds only the rest. So there the
+//! static and the transient parts are fitted together: t = f(T) + c·x, f the GP at its fitted
+//! hyperparameters, whose smoother S is linear in the targets. c is estimated as in a partially
+//! linear model (Speckman 1988): (I − S)t, the static residual up to sign, regressed on
+//! (I − S)x, the part of the regressor the GP could have absorbed taken out. Every regressor but
+//! a lag's (already a difference of the GP's own predictions) is replaced by (I − S)x here, and
+//! [`crate::extend`] conditions the GP again on t − c·x.
+//!
+//! **Several causes.** Real logs mix effects, and mixed effects can imitate a third: a warm-up
+//! after a power-on that heats the housing plus a heating/cooling offset follow dT/dt better than
+//! either alone. Adding causes one at a time would lock in the imitation. So the selection is by
+//! best subset (at most [`MAX_CAUSES`]; five causes make 25 designs): for one, two, then three
+//! causes, every design is scored with all its parameters chosen again inside every training
+//! split, and the best one is taken when it predicts at least [`MIN_SCORE`] (one cause) or
+//! [`MIN_NEXT_SCORE`] (more) of what the design taken before it left, on both tests; it need not
+//! contain that design's causes. The first size that finds none ends it. [`MIN_SCORE`] tells an
+//! effect from autocorrelated noise; what a true first cause leaves is noise plus the next
+//! effect, hence the lower bar. On the simulator, with none hidden beside the first, the best
+//! further cause predicts 0–1% of what is left; a hidden second effect of the documented
+//! strengths predicts 20% or more.
 //!
 //! Causes that look alike are told apart by this comparison itself, because their regressors
 //! differ where the physics differs: a lag error follows ∂ω/∂T and changes with every rate step
@@ -33,10 +63,14 @@
 //! growing. The runner-up and its score are reported beside the named cause.
 
 use firmware_core::{Feature, FeatureState, Status};
+use itertools::Itertools;
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use crate::cause::Cause;
+use crate::dataset::Points;
 use crate::export::HostModel;
+use crate::gp::GpModel;
 use crate::replay::{self, Compensated};
 use crate::stream::Stream;
 
@@ -48,6 +82,15 @@ pub const MIN_SCORE: f64 = 0.25;
 const CHUNK_BLOCKS: usize = 10;
 /// Folds of the cross-validation.
 const FOLDS: usize = 5;
+/// Origins of the forward test, as fractions of the blocks (module doc).
+const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
+/// Fewest training blocks a split needs to be scored.
+const MIN_TRAIN_BLOCKS: usize = 5;
+/// Most causes named at once.
+pub const MAX_CAUSES: usize = 3;
+/// Smallest share of what the causes named so far leave that a further cause must predict, on
+/// both tests (module doc).
+pub const MIN_NEXT_SCORE: f64 = 0.1;
 
 /// Filter time constants tried for the temperature rate, s.
 const RATE_TAUS_S: [f32; 5] = [30.0, 60.0, 120.0, 240.0, 480.0];
@@ -94,6 +137,8 @@ pub struct Residual<'a> {
     pub r: Vec<f64>,
     /// Where the firmware restarts its feature state.
     restarts: Vec<bool>,
+    /// The static GP and its inputs, where it was fitted on these very blocks (module doc).
+    absorbed_by: Option<(&'a GpModel, DMatrix<f64>)>,
 }
 
 impl<'a> Residual<'a> {
@@ -124,7 +169,31 @@ impl<'a> Residual<'a> {
             blocks,
             r,
             restarts: replay::restarts(stream),
+            absorbed_by: None,
         }
+    }
+
+    /// Where the static GP `gp` was fitted on `points` that are these blocks' own means (a static
+    /// model from the stream itself, no rate table): regressors become the part of each input
+    /// that the GP could not have absorbed (module doc). Otherwise unchanged.
+    pub fn fitted_on_itself(mut self, gp: &'a GpModel, points: &Points) -> Self {
+        let temps = self.temperature();
+        let same = !points.soaked
+            && points.len() == temps.len()
+            && points
+                .temp_c
+                .iter()
+                .zip(&temps)
+                .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(1.0));
+        if same {
+            self.absorbed_by = Some((gp, points.inputs()));
+        }
+        self
+    }
+
+    /// Whether the static GP was fitted on these blocks ([`Self::fitted_on_itself`]).
+    pub fn is_self_fitted(&self) -> bool {
+        self.absorbed_by.is_some()
     }
 
     /// Number of blocks.
@@ -182,8 +251,31 @@ impl<'a> Residual<'a> {
     }
 
     /// The regressor x of `cause` at parameter `p`, as block means; `None` where the cause does
-    /// not apply (no temperature input for a lag).
+    /// not apply (no temperature input for a lag). Where the static GP was fitted on these blocks,
+    /// the part of x it could have absorbed is taken out: x − S·x, S the GP's smoother.
     pub fn regressor(&self, cause: Cause, p: f32) -> Option<Vec<f64>> {
+        let x = self.raw_regressor(cause, p)?;
+        match &self.absorbed_by {
+            Some((gp, inputs)) if cause != Cause::SensorLag => {
+                let smoothed = gp
+                    .refit_targets(inputs, &DVector::from_column_slice(&x))
+                    .ok()?;
+                Some(
+                    x.iter()
+                        .enumerate()
+                        .map(|(i, v)| {
+                            let row: Vec<f64> = inputs.row(i).iter().copied().collect();
+                            v - smoothed.predict(&row).mean
+                        })
+                        .collect(),
+                )
+            }
+            _ => Some(x),
+        }
+    }
+
+    /// The regressor x of `cause` at parameter `p` as the firmware computes it, as block means.
+    pub fn raw_regressor(&self, cause: Cause, p: f32) -> Option<Vec<f64>> {
         let feature = feature_for(cause, p)?;
         if cause != Cause::SensorLag {
             return Some(self.block_means(&self.series(feature)));
@@ -221,21 +313,128 @@ fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
 }
 
-/// Least squares of y on [1, x] over the blocks `idx`: (intercept, slope, SSE).
-fn ols(x: Option<&[f64]>, y: &[f64], idx: &[usize]) -> (f64, f64, f64) {
-    let n = idx.len() as f64;
-    let my = idx.iter().map(|&i| y[i]).sum::<f64>() / n.max(1.0);
-    let Some(x) = x else {
-        let sse = idx.iter().map(|&i| (y[i] - my).powi(2)).sum();
-        return (my, 0.0, sse);
+/// Least squares of y on [1, x₁ … x_k] over the blocks `idx`: the coefficients (intercept
+/// first) and the SSE. SVD, so a regressor that is constant or repeats another costs nothing.
+fn ols(xs: &[&[f64]], y: &[f64], idx: &[usize]) -> (Vec<f64>, f64) {
+    let k = xs.len() + 1;
+    let mut a = DMatrix::zeros(idx.len(), k);
+    let mut b = DVector::zeros(idx.len());
+    for (r, &i) in idx.iter().enumerate() {
+        a[(r, 0)] = 1.0;
+        for (j, x) in xs.iter().enumerate() {
+            a[(r, j + 1)] = x[i];
+        }
+        b[r] = y[i];
+    }
+    let beta = a
+        .clone()
+        .svd(true, true)
+        .solve(&b, 1e-12)
+        .unwrap_or_else(|_| DVector::zeros(k));
+    let sse = (&b - &a * &beta).norm_squared();
+    (beta.iter().copied().collect(), sse)
+}
+
+/// Prediction of [`ols`] coefficients at block `i`.
+fn predict(beta: &[f64], xs: &[&[f64]], i: usize) -> f64 {
+    beta[0]
+        + xs.iter()
+            .zip(&beta[1..])
+            .map(|(x, b)| b * x[i])
+            .sum::<f64>()
+}
+
+/// A training/test split of the blocks.
+type Split = (Vec<usize>, Vec<usize>);
+
+/// The interleaved splits: 10-minute chunks, chunk k in fold k mod 5 (module doc).
+fn interleaved_splits(n: usize) -> Vec<Split> {
+    let folds: Vec<usize> = (0..n).map(|b| (b / CHUNK_BLOCKS) % FOLDS).collect();
+    (0..FOLDS)
+        .map(|f| {
+            (
+                (0..n).filter(|&i| folds[i] != f).collect(),
+                (0..n).filter(|&i| folds[i] == f).collect(),
+            )
+        })
+        .collect()
+}
+
+/// The forward splits (rolling origin): the blocks before each origin in [`FORWARD_ORIGINS`]
+/// train, the blocks up to the next origin (or the end) test.
+fn forward_splits(n: usize) -> Vec<Split> {
+    let cut = |f: f64| ((f * n as f64).round() as usize).min(n);
+    FORWARD_ORIGINS
+        .iter()
+        .enumerate()
+        .map(|(k, &o)| {
+            let end = FORWARD_ORIGINS.get(k + 1).map_or(n, |&e| cut(e));
+            ((0..cut(o)).collect(), (cut(o)..end).collect())
+        })
+        .collect()
+}
+
+/// Test-set SSE of a design (the causes' candidate regressors, in order) and of the intercept
+/// alone, summed over `splits`. On each split's training blocks alone, each cause's parameter is
+/// chosen by grid in turn, given those chosen before it, and the coefficients by least squares.
+fn split_sse(y: &[f64], design: &[&Candidates], splits: &[Split]) -> (f64, f64) {
+    let mut sse = 0.0;
+    let mut sse_none = 0.0;
+    for (train, test) in splits {
+        if train.len() < MIN_TRAIN_BLOCKS || test.is_empty() {
+            continue;
+        }
+        let xs = choose(y, design, train);
+        let (beta, _) = ols(&xs, y, train);
+        let (mean, _) = ols(&[], y, train);
+        for &i in test {
+            sse += (y[i] - predict(&beta, &xs, i)).powi(2);
+            sse_none += (y[i] - mean[0]).powi(2);
+        }
+    }
+    (sse, sse_none)
+}
+
+/// Each cause's regressor at the parameter that best fits `idx`, chosen in design order, each
+/// given those before it; a cause without a regressor (`none`) adds nothing.
+fn choose<'c>(y: &[f64], design: &[&'c Candidates], idx: &[usize]) -> Vec<&'c [f64]> {
+    let mut xs: Vec<&[f64]> = Vec::new();
+    for candidates in design {
+        let best = candidates
+            .iter()
+            .filter_map(|(_, x)| x.as_deref())
+            .map(|x| {
+                let mut with = xs.clone();
+                with.push(x);
+                (x, ols(&with, y, idx).1)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((x, _)) = best {
+            xs.push(x);
+        }
+    }
+    xs
+}
+
+/// The parameter of the last cause of `design` chosen on every block, given the others.
+fn chosen_parameter(y: &[f64], design: &[&Candidates]) -> f32 {
+    let all: Vec<usize> = (0..y.len()).collect();
+    let xs = choose(y, design, &all);
+    let (Some(last), Some(x)) = (design.last(), xs.last()) else {
+        return 0.0;
     };
-    let mx = idx.iter().map(|&i| x[i]).sum::<f64>() / n.max(1.0);
-    let sxx: f64 = idx.iter().map(|&i| (x[i] - mx).powi(2)).sum();
-    let sxy: f64 = idx.iter().map(|&i| (x[i] - mx) * (y[i] - my)).sum();
-    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    let a = my - b * mx;
-    let sse = idx.iter().map(|&i| (y[i] - a - b * x[i]).powi(2)).sum();
-    (a, b, sse)
+    last.iter()
+        .find(|(_, c)| c.as_deref().is_some_and(|c| std::ptr::eq(c, *x)))
+        .map_or(0.0, |(p, _)| *p)
+}
+
+/// 1 − SSE/SSE_reference, 0 where the reference is 0.
+fn share(sse: f64, reference: f64) -> f64 {
+    if reference > 0.0 {
+        1.0 - sse / reference
+    } else {
+        0.0
+    }
 }
 
 /// One cause fitted to a residual.
@@ -243,8 +442,11 @@ fn ols(x: Option<&[f64]>, y: &[f64], idx: &[usize]) -> (f64, f64, f64) {
 pub struct CauseFit {
     /// The cause.
     pub id: Cause,
-    /// Out-of-sample fraction of the residual variance it predicts (module doc).
+    /// Out-of-sample fraction of the residual variance it predicts on interleaved chunks (module
+    /// doc).
     pub score: f64,
+    /// The same on the forward test: fitted on earlier blocks, predicting later ones.
+    pub forward_score: f64,
     /// Its parameter fitted on all blocks: filter or lag or decay time constant (s), play
     /// half-width (°C); 0 where there is none.
     pub parameter: f64,
@@ -284,33 +486,19 @@ pub fn fit_candidates(
     candidates: &Candidates,
 ) -> Option<CauseFit> {
     let n = res.len();
-    let folds: Vec<usize> = (0..n).map(|b| (b / CHUNK_BLOCKS) % FOLDS).collect();
     if candidates.is_empty() || n < 2 * FOLDS {
         return None;
     }
     let y = &res.r;
-    let best_on = |idx: &[usize]| {
-        candidates
-            .iter()
-            .map(|(p, x)| (*p, x.as_deref(), ols(x.as_deref(), y, idx)))
-            .min_by(|a, b| a.2.2.total_cmp(&b.2.2))
+    let score = |splits: &[Split]| {
+        let (sse, none) = split_sse(y, &[candidates], splits);
+        share(sse, none)
     };
-    let mut sse_cause = 0.0;
-    let mut sse_none = 0.0;
-    for f in 0..FOLDS {
-        let train: Vec<usize> = (0..n).filter(|&i| folds[i] != f).collect();
-        let test: Vec<usize> = (0..n).filter(|&i| folds[i] == f).collect();
-        let (_, x, (a, b, _)) = best_on(&train)?;
-        let (m, _, _) = ols(None, y, &train);
-        for &i in &test {
-            let pred = a + b * x.map_or(0.0, |x| x[i]);
-            sse_cause += (y[i] - pred).powi(2);
-            sse_none += (y[i] - m).powi(2);
-        }
-    }
     let all: Vec<usize> = (0..n).collect();
-    let (p, x, (a, b, _)) = best_on(&all)?;
-    let (correlation, amplitude) = match x {
+    let xs = choose(y, &[candidates], &all);
+    let (beta, _) = ols(&xs, y, &all);
+    let p = chosen_parameter(y, &[candidates]);
+    let (correlation, amplitude) = match xs.first() {
         Some(x) => {
             let mx = x.iter().sum::<f64>() / n as f64;
             let my = y.iter().sum::<f64>() / n as f64;
@@ -322,32 +510,51 @@ pub fn fit_candidates(
             } else {
                 0.0
             };
-            (c, b.abs() * (sxx / n as f64).sqrt() * HOUR_S)
+            (c, beta[1].abs() * (sxx / n as f64).sqrt() * HOUR_S)
         }
         None => (0.0, 0.0),
     };
     Some(CauseFit {
         id: cause,
-        score: if sse_none > 0.0 {
-            1.0 - sse_cause / sse_none
-        } else {
-            0.0
-        },
+        score: score(&interleaved_splits(n)),
+        forward_score: score(&forward_splits(n)),
         parameter: f64::from(p),
-        intercept_dps: a,
-        slope: b,
+        intercept_dps: beta[0],
+        slope: beta.get(1).copied().unwrap_or(0.0),
         correlation,
         amplitude_dph: amplitude,
     })
 }
 
+/// One step of the selection: the best design of one more cause than the step before.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    /// Its causes, strongest first.
+    pub causes: Vec<Cause>,
+    /// Their parameters, chosen on all blocks (filter, lag or decay time constant, s; play
+    /// half-width, °C; 0 where there is none).
+    pub parameters: Vec<f64>,
+    /// Share of what the design before it left that it predicts on interleaved chunks.
+    pub score: f64,
+    /// The same on the forward test.
+    pub forward_score: f64,
+    /// Whether it was taken.
+    pub added: bool,
+}
+
 /// The diagnosis of one stream (DESIGN §6 `diagnose` JSON).
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
-    /// The named cause.
+    /// The first named cause (`none` when nothing is named).
     pub cause: Cause,
-    /// Every candidate, best first.
+    /// Every named cause, strongest first: the first predicts at least [`MIN_SCORE`] of the
+    /// residual, each further one at least [`MIN_NEXT_SCORE`] of what those before it left, on
+    /// interleaved chunks and forward in time.
+    pub causes: Vec<Cause>,
+    /// Every candidate alone, best first.
     pub candidates: Vec<CauseFit>,
+    /// The best try of each selection step (added or the reason to stop).
+    pub steps: Vec<Step>,
     /// RMS of the residual's 60 s block means, °/s.
     pub residual_rmse_60s_dps: f64,
     /// 60 s blocks used.
@@ -356,8 +563,10 @@ pub struct Diagnosis {
     pub runner_up: Option<Cause>,
     /// What the model gets wrong and why, in words.
     pub explanation: String,
-    /// The input the cause calls for, with its fitted parameter.
+    /// The input the first cause calls for, with its fitted parameter.
     pub add_feature: Option<Feature>,
+    /// The inputs every named cause calls for, in order.
+    pub add_features: Vec<Feature>,
 }
 
 /// Diagnoses `stream` against `model`.
@@ -366,26 +575,47 @@ pub fn diagnose(model: &HostModel, stream: &Stream) -> Diagnosis {
     diagnose_residual(&res)
 }
 
+/// Diagnoses `stream` against `model`, the firmware form of the static GP `gp` fitted on
+/// `points` ([`Residual::fitted_on_itself`]).
+pub fn diagnose_fitted(
+    model: &HostModel,
+    gp: &GpModel,
+    points: &Points,
+    stream: &Stream,
+) -> Diagnosis {
+    let res = Residual::new(model, stream).fitted_on_itself(gp, points);
+    diagnose_residual(&res)
+}
+
 /// Diagnoses a residual already computed.
 pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
-    let mut candidates: Vec<CauseFit> = Cause::ALL
+    let regressors: Vec<(Cause, Candidates)> = Cause::ALL
         .into_iter()
-        .filter_map(|c| fit_cause(res, c))
+        .map(|c| (c, candidates(res, c)))
+        .collect();
+    let mut candidates: Vec<CauseFit> = regressors
+        .iter()
+        .filter_map(|(c, x)| fit_candidates(res, *c, x))
         .collect();
     candidates.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let best = candidates
-        .iter()
-        .find(|c| c.id != Cause::None)
-        .filter(|c| c.score >= MIN_SCORE);
-    let cause = best.map_or(Cause::None, |c| c.id);
+    let (selected, steps) = select(&res.r, &regressors);
+    let causes: Vec<Cause> = selected.iter().map(|(c, _)| *c).collect();
+    let cause = causes.first().copied().unwrap_or(Cause::None);
     let runner_up = candidates.iter().map(|c| c.id).find(|id| *id != cause);
     let named = candidates.iter().find(|c| c.id == cause);
     let other = candidates.iter().find(|c| Some(c.id) == runner_up);
-    let explanation = explain(cause, named, other, res.rmse_60s());
+    let explanation = explain(cause, named, other, &steps, res.rmse_60s());
+    let add_features: Vec<Feature> = selected
+        .iter()
+        .filter_map(|(c, p)| feature_for(*c, *p))
+        .collect();
     Diagnosis {
         cause,
-        add_feature: named.and_then(|c| feature_for(cause, c.parameter as f32)),
+        causes,
+        add_feature: add_features.first().copied(),
+        add_features,
         candidates,
+        steps,
         residual_rmse_60s_dps: res.rmse_60s(),
         n_blocks: res.len(),
         runner_up,
@@ -393,7 +623,116 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
     }
 }
 
-fn explain(cause: Cause, named: Option<&CauseFit>, other: Option<&CauseFit>, rmse: f64) -> String {
+/// Best-subset selection (module doc): for one, two, then three causes, the design that predicts
+/// the most of what the design taken before it left on interleaved chunks, among those that
+/// predict at least [`MIN_SCORE`] (first step) or [`MIN_NEXT_SCORE`] (later steps) of it there and
+/// forward in time; the first step that finds none ends the selection. Returns the named causes,
+/// strongest first, with their parameters, and the best design of each step.
+fn select(y: &[f64], regressors: &[(Cause, Candidates)]) -> (Vec<(Cause, f32)>, Vec<Step>) {
+    let n = y.len();
+    let mut steps = Vec::new();
+    if n < 2 * FOLDS {
+        return (Vec::new(), steps);
+    }
+    let real: Vec<(Cause, &Candidates)> = regressors
+        .iter()
+        .filter(|(c, x)| *c != Cause::None && !x.is_empty())
+        .map(|(c, x)| (*c, x))
+        .collect();
+    let splits = [interleaved_splits(n), forward_splits(n)];
+    let sse = |idx: &[usize]| {
+        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
+        [0, 1].map(|k| split_sse(y, &design, &splits[k]).0)
+    };
+    let mut taken: Vec<usize> = Vec::new();
+    let mut current = sse(&[]);
+    for size in 1..=MAX_CAUSES.min(real.len()) {
+        let least = if size == 1 { MIN_SCORE } else { MIN_NEXT_SCORE };
+        let passes = |g: &[f64; 2]| g[0] >= least && g[1] >= least;
+        let tries: Vec<(Vec<usize>, [f64; 2], [f64; 2])> = (0..real.len())
+            .combinations(size)
+            .map(|idx| {
+                let s = sse(&idx);
+                let g = [0, 1].map(|k| share(s[k], current[k]));
+                (idx, s, g)
+            })
+            .collect();
+        let by_score = |a: &&(Vec<usize>, [f64; 2], [f64; 2]),
+                        b: &&(Vec<usize>, [f64; 2], [f64; 2])| {
+            a.2[0].total_cmp(&b.2[0])
+        };
+        let Some((idx, s, g)) = tries
+            .iter()
+            .filter(|t| passes(&t.2))
+            .max_by(by_score)
+            .or_else(|| tries.iter().max_by(by_score))
+            .cloned()
+        else {
+            break;
+        };
+        let idx = strongest_first(idx, s[0], &sse);
+        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
+        let added = passes(&g);
+        steps.push(Step {
+            causes: idx.iter().map(|&i| real[i].0).collect(),
+            parameters: parameters(y, &design).into_iter().map(f64::from).collect(),
+            score: g[0],
+            forward_score: g[1],
+            added,
+        });
+        if !added {
+            break;
+        }
+        taken = idx;
+        current = s;
+    }
+    let design: Vec<&Candidates> = taken.iter().map(|&i| real[i].1).collect();
+    let named = taken
+        .iter()
+        .map(|&i| real[i].0)
+        .zip(parameters(y, &design))
+        .collect();
+    (named, steps)
+}
+
+/// The causes of a design ordered by what leaving each out costs on interleaved chunks, most
+/// first; `sse` scores a design, `full` is the whole design's score.
+fn strongest_first(
+    mut idx: Vec<usize>,
+    full: f64,
+    sse: &dyn Fn(&[usize]) -> [f64; 2],
+) -> Vec<usize> {
+    if idx.len() < 2 {
+        return idx;
+    }
+    let cost: Vec<(usize, f64)> = idx
+        .iter()
+        .map(|&i| {
+            let rest: Vec<usize> = idx.iter().copied().filter(|&j| j != i).collect();
+            (i, sse(&rest)[0] - full)
+        })
+        .collect();
+    idx.sort_by(|a, b| {
+        let c = |i: &usize| cost.iter().find(|(j, _)| j == i).map_or(0.0, |(_, c)| *c);
+        c(b).total_cmp(&c(a))
+    });
+    idx
+}
+
+/// Each cause's parameter of `design` chosen on all blocks, in design order.
+fn parameters(y: &[f64], design: &[&Candidates]) -> Vec<f32> {
+    (1..=design.len())
+        .map(|k| chosen_parameter(y, &design[..k]))
+        .collect()
+}
+
+fn explain(
+    cause: Cause,
+    named: Option<&CauseFit>,
+    other: Option<&CauseFit>,
+    steps: &[Step],
+    rmse: f64,
+) -> String {
     let rival = other.map_or(String::new(), |o| {
         format!(
             "; runner-up {} predicts {:.0}%",
@@ -401,10 +740,31 @@ fn explain(cause: Cause, named: Option<&CauseFit>, other: Option<&CauseFit>, rms
             100.0 * o.score.max(0.0)
         )
     });
+    let more: String = steps
+        .windows(2)
+        .map(|w| {
+            let (before, s) = (&w[0], &w[1]);
+            if s.added {
+                format!(
+                    "; with more, {} predicts {:.0}% of what {} left ({:.0}% forward)",
+                    joined(&s.causes),
+                    100.0 * s.score,
+                    joined(&before.causes),
+                    100.0 * s.forward_score
+                )
+            } else {
+                format!("; nothing more: {}", refusal(s))
+            }
+        })
+        .collect();
     let Some(c) = named.filter(|_| cause != Cause::None) else {
+        let why = steps
+            .first()
+            .map_or(String::new(), |s| format!(" ({})", refusal(s)));
         return format!(
             "residual {:.2} °/h RMS (60 s means) is noise: no candidate predicts {:.0}% of it out \
-             of sample{rival}; the static model needs nothing more",
+             of sample, on interleaved chunks and forward in time{why}{rival}; the static model \
+             needs nothing more",
             rmse * HOUR_S,
             100.0 * MIN_SCORE
         );
@@ -443,5 +803,97 @@ fn explain(cause: Cause, named: Option<&CauseFit>, other: Option<&CauseFit>, rms
         ),
         Cause::None => String::new(),
     };
-    format!("{what}. It predicts {share:.0}% of the residual variance out of sample{rival}")
+    format!(
+        "{what}. It predicts {share:.0}% of the residual variance out of sample ({:.0}% forward in \
+         time){rival}{more}",
+        100.0 * c.forward_score
+    )
+}
+
+/// Cause ids joined by " + ".
+fn joined(causes: &[Cause]) -> String {
+    causes
+        .iter()
+        .map(|c| c.id())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// Why a step's design was not taken, in words.
+fn refusal(s: &Step) -> String {
+    let forward = if s.forward_score < 0.0 {
+        format!(
+            "made the later blocks worse by {:.0}%",
+            100.0 * ((1.0 - s.forward_score).sqrt() - 1.0)
+        )
+    } else {
+        format!(
+            "predicted {:.0}% of the later blocks",
+            100.0 * s.forward_score
+        )
+    };
+    format!(
+        "{} predicted {:.0}% on interleaved chunks and, fitted on earlier blocks, {forward}",
+        joined(&s.causes),
+        100.0 * s.score
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` values of a seeded uniform noise in [−1, 1).
+    fn noise(n: usize, seed: u64) -> Vec<f64> {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..n).map(|_| rng.random::<f64>() * 2.0 - 1.0).collect()
+    }
+
+    #[test]
+    fn best_subset_names_a_pair_that_a_third_cause_imitates() {
+        // Two slow, unlike signals (a decaying one and a switching one); the decoy follows their
+        // sum closely but not exactly, and predicts more of it alone than either does.
+        let n = 400;
+        let a: Vec<f64> = (0..n).map(|i| (-((i % 100) as f64) / 15.0).exp()).collect();
+        let b: Vec<f64> = (0..n)
+            .map(|i| if (i / 37) % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let (e1, e2) = (noise(n, 1), noise(n, 2));
+        let decoy: Vec<f64> = (0..n)
+            .map(|i| 0.8 * (a[i] + 0.5 * b[i]) + 0.25 * e1[i])
+            .collect();
+        let y: Vec<f64> = (0..n).map(|i| a[i] + 0.5 * b[i] + 0.05 * e2[i]).collect();
+        let one = |x: &[f64]| -> Candidates { vec![(1.0, Some(x.to_vec()))] };
+        let regressors = vec![
+            (Cause::WarmUp, one(&a)),
+            (Cause::Hysteresis, one(&b)),
+            (Cause::ThermalRate, one(&decoy)),
+            (Cause::TimeDrift, one(&noise(n, 3))),
+        ];
+        let single = |x: &[f64]| {
+            let (sse, none) = split_sse(&y, &[&one(x)], &interleaved_splits(n));
+            share(sse, none)
+        };
+        assert!(single(&decoy) > single(&a) && single(&decoy) > single(&b));
+        let (named, steps) = select(&y, &regressors);
+        let mut causes: Vec<Cause> = named.iter().map(|(c, _)| *c).collect();
+        causes.sort();
+        assert_eq!(causes, vec![Cause::WarmUp, Cause::Hysteresis], "{steps:?}");
+        // Noise alone names nothing, and says what the best candidate did.
+        let (named, steps) = select(&noise(n, 4), &regressors);
+        assert!(named.is_empty());
+        assert!(!steps[0].added && steps[0].score < MIN_SCORE, "{steps:?}");
+    }
+
+    #[test]
+    fn forward_splits_train_on_the_past_only() {
+        for (train, test) in forward_splits(80) {
+            let last = *train.last().unwrap();
+            assert!(test.iter().all(|&i| i > last));
+            assert_eq!(train, (0..=last).collect::<Vec<_>>());
+        }
+        let tested: usize = forward_splits(80).iter().map(|(_, t)| t.len()).sum();
+        assert_eq!(tested, 40);
+    }
 }

@@ -16,6 +16,8 @@
 //! (T, V, new input) over the points plus the stream's block means was measured in DESIGN §5 to
 //! generalize worse (held-out 0.1–1.0× against 4–20× for the additive form).
 
+use argmin::core::{CostFunction, Executor, State};
+use argmin::solver::goldensectionsearch::GoldenSectionSearch;
 use firmware_core::Feature;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -134,14 +136,16 @@ pub fn fit(
     causes: &[Cause],
 ) -> Result<Extended, ExtendError> {
     let fw = export::decode(&export::points_blob(model, points, &Extension::default())?)?;
-    let res = Residual::new(&fw, stream);
+    let res = Residual::new(&fw, stream).fitted_on_itself(model, points);
     if res.len() < 30 {
         return Err(ExtendError::TooShort(res.len()));
     }
     let mut y = res.r.clone();
     let mut extension = Extension::default();
     let mut fits = Vec::new();
-    let mut columns: Vec<(Feature, Vec<f64>)> = Vec::new();
+    // Each column: the input, its parameter's cause, and its regressor (partialled where the
+    // static GP was fitted on this stream: diagnose's module doc).
+    let mut columns: Vec<(Feature, Cause, f32, Vec<f64>)> = Vec::new();
     for &cause in causes.iter().filter(|c| **c != Cause::None) {
         let candidates = diagnose::candidates(&res, cause);
         let fit = diagnose::fit_candidates(&res, cause, &candidates)
@@ -149,8 +153,8 @@ pub fn fit(
         if cause == Cause::SensorLag {
             // r = f(T_s) − f(T_c) ≈ −x: the coil estimate removes x from the residual itself.
             let (lag, x) =
-                best_lag(&res.r, &candidates).ok_or(ExtendError::NotApplicable(cause))?;
-            y.iter_mut().zip(x).for_each(|(y, x)| *y += x);
+                best_lag(&res, &res.r, &candidates).ok_or(ExtendError::NotApplicable(cause))?;
+            y.iter_mut().zip(&x).for_each(|(y, x)| *y += x);
             extension.temperature = diagnose::feature_for(cause, lag);
         } else {
             let p = fit.parameter as f32;
@@ -161,7 +165,7 @@ pub fn fit(
                 .find(|(q, _)| *q == p)
                 .and_then(|(_, x)| x)
                 .ok_or(ExtendError::NotApplicable(cause))?;
-            columns.push((feature, x));
+            columns.push((feature, cause, p, x));
         }
         fits.push(fit);
     }
@@ -188,7 +192,7 @@ pub fn fit(
             a[(n + j, j + 1)] = -PENALTY_WEIGHT;
         }
     }
-    for (j, (_, x)) in columns.iter().enumerate() {
+    for (j, (_, _, _, x)) in columns.iter().enumerate() {
         a.view_mut((0, k + j), (n, 1))
             .copy_from(&DVector::from_column_slice(x));
     }
@@ -200,14 +204,27 @@ pub fn fit(
         .solve(&b, 1e-12)
         .unwrap_or_else(|_| DVector::zeros(a.ncols()));
     let after = (&b - &a * &beta).rows(0, n).norm_squared();
-    for (j, (feature, _)) in columns.iter().enumerate() {
+    for (j, (feature, _, _, _)) in columns.iter().enumerate() {
         extension.terms.push(Term {
             feature: *feature,
             coefficient: -beta[k + j],
             range: res.range(*feature),
         });
     }
-    let (model, point_offsets) = if knots.is_empty() {
+    let (model, point_offsets) = if res.is_self_fitted() && !columns.is_empty() {
+        // Static and transient parts together: t = f + c·x with c = −β, so the GP is conditioned
+        // on t + β·x at the raw inputs, and the GP's mean basis carries the constant.
+        let mut target = points.target();
+        for (j, (_, cause, p, _)) in columns.iter().enumerate() {
+            let x = res
+                .raw_regressor(*cause, *p)
+                .ok_or(ExtendError::NotApplicable(*cause))?;
+            for (t, x) in target.iter_mut().zip(x) {
+                *t += beta[k + j] * x;
+            }
+        }
+        (model.refit_targets(&points.inputs(), &target)?, Vec::new())
+    } else if knots.is_empty() {
         extension.offset = -beta[0];
         (model.clone(), Vec::new())
     } else {
@@ -274,19 +291,65 @@ fn hat_weights(knots: &[f64], t: f64) -> impl Iterator<Item = (usize, f64)> {
     pair.into_iter()
 }
 
-/// The coil lag whose estimate best removes the residual (least squares with an offset), with
-/// its regressor.
-fn best_lag<'c>(r: &[f64], candidates: &'c Candidates) -> Option<(f32, &'c [f64])> {
-    candidates
+/// The coil lag whose estimate best removes the residual `r` (least squares with an offset),
+/// with its regressor: the best of the grid, refined by golden-section search between its grid
+/// neighbours. The grid alone is too coarse for the firmware: 30 s off on a 0.5 °C/min ramp puts
+/// the coil estimate 0.25 °C off, tens of °/h at high rates through the scale factor's
+/// temperature coefficient.
+fn best_lag(res: &Residual<'_>, r: &[f64], candidates: &Candidates) -> Option<(f32, Vec<f64>)> {
+    let fit = LagFit { res, r };
+    let (j, _) = candidates
         .iter()
-        .filter_map(|(tau, x)| {
-            let x = x.as_deref()?;
-            let z: Vec<f64> = r.iter().zip(x).map(|(r, x)| r + x).collect();
-            let m = z.iter().sum::<f64>() / z.len() as f64;
-            Some((*tau, x, z.iter().map(|v| (v - m).powi(2)).sum::<f64>()))
+        .enumerate()
+        .filter_map(|(j, (_, x))| Some((j, centred_sse(r, x.as_deref()?))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let grid = |k: usize| f64::from(candidates[k].0);
+    let (lo, hi) = (
+        grid(j.saturating_sub(1)),
+        grid((j + 1).min(candidates.len() - 1)),
+    );
+    let refined = GoldenSectionSearch::new(lo, hi)
+        .and_then(|s| s.with_tolerance(LAG_TOLERANCE))
+        .and_then(|solver| {
+            Executor::new(fit, solver)
+                .configure(|state| state.param(grid(j)).max_iters(LAG_ITERS))
+                .run()
         })
-        .min_by(|a, b| a.2.total_cmp(&b.2))
-        .map(|(tau, x, _)| (tau, x))
+        .ok()
+        .and_then(|result| result.state().get_best_param().copied());
+    let tau = refined.unwrap_or(grid(j)) as f32;
+    let x = res.raw_regressor(Cause::SensorLag, tau)?;
+    Some((tau, x))
+}
+
+/// Relative bracket width at which the lag search stops.
+const LAG_TOLERANCE: f64 = 1e-3;
+/// Most iterations of the lag search.
+const LAG_ITERS: u64 = 40;
+
+/// Sum of squares of r + x about its mean.
+fn centred_sse(r: &[f64], x: &[f64]) -> f64 {
+    let z: Vec<f64> = r.iter().zip(x).map(|(r, x)| r + x).collect();
+    let m = z.iter().sum::<f64>() / z.len().max(1) as f64;
+    z.iter().map(|v| (v - m).powi(2)).sum()
+}
+
+/// The objective of [`best_lag`]: [`centred_sse`] at a lag, s.
+struct LagFit<'r, 'a> {
+    res: &'r Residual<'a>,
+    r: &'r [f64],
+}
+
+impl CostFunction for LagFit<'_, '_> {
+    type Param = f64;
+    type Output = f64;
+    fn cost(&self, tau: &f64) -> Result<f64, argmin::core::Error> {
+        let x = self
+            .res
+            .raw_regressor(Cause::SensorLag, *tau as f32)
+            .ok_or_else(|| argmin::core::Error::msg("no temperature input"))?;
+        Ok(centred_sse(self.r, &x))
+    }
 }
 
 #[cfg(test)]

@@ -1,64 +1,274 @@
-//! The investigation in one call: static fit on the soaked points → replay on a held-out stream →
-//! diagnosis → extended fit on the points plus a training stream → replay on the held-out stream
-//! → the gain.
+//! The investigation in one call: static fit → diagnosis of the training stream → extension,
+//! shipped only when it wins a forward test inside the training stream → replay of the static and
+//! the shipped model on the held-out stream → the gain.
+//!
+//! The held-out stream is touched once, to score: which causes to name and whether to ship their
+//! extension are part of the model, so they come from the training data alone ([`choose`]).
 
 use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::cause::Cause;
 use crate::dataset::Points;
-use crate::diagnose::{self, Diagnosis, Residual};
-use crate::export::{self, Extension};
-use crate::extend::{self, Fitted};
+use crate::diagnose::{self, Diagnosis};
+use crate::export::{self, Extension, HostModel};
+use crate::extend::{self, Extended, Fitted};
 use crate::gp::{GpConfig, GpModel};
 use crate::replay::{self, Score};
-use crate::stream::Stream;
+use crate::stream::{Handled, Stream, Window};
 
-/// Steps of an investigation: static fit, replay and diagnosis, extended fit, extended replay.
-pub const STEPS: u64 = 4;
+/// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
+pub const STEPS: u64 = 5;
+
+/// Fewest 60 s blocks the earlier part of a forward check holds (an extension needs 30).
+const EARLIER_MIN_BLOCKS: usize = 30;
+/// Fewest 60 s blocks the later part of a forward check holds.
+const LATER_MIN_BLOCKS: usize = 8;
+/// Share of the training stream's blocks the earlier part holds, when it is long enough.
+const EARLIER_SHARE: f64 = 2.0 / 3.0;
 
 /// The result (DESIGN §6 names where they exist).
 #[derive(Debug, Clone, Serialize)]
 pub struct Investigation {
     /// The static model on the held-out stream.
     pub static_score: Score,
-    /// Diagnosis of the static model on the held-out stream.
+    /// Diagnosis of the static model on the training stream.
     pub diagnosis: Diagnosis,
-    /// Inputs the extended model adds (`--features` names).
+    /// The extension's forward test inside the training stream (absent when nothing was named).
+    pub forward_check: Option<ForwardCheck>,
+    /// Which model was shipped: `extended` or `static`.
+    pub shipped: Shipped,
+    /// Why, in words.
+    pub verdict: String,
+    /// Inputs the shipped model adds (`--features` names).
     pub added_inputs: Vec<&'static str>,
-    /// The extension fitted on the training stream (absent when the cause is `none`).
+    /// The extension fitted on the training stream (absent when the static model is shipped).
     pub extension: Option<Fitted>,
-    /// The extended model on the held-out stream.
+    /// The shipped model on the held-out stream.
     pub extended_score: Score,
-    /// Static over extended `rmse_60s_dps` on the held-out stream.
+    /// Static over shipped `rmse_60s_dps` on the held-out stream.
     pub gain: f64,
-    /// What the static fit warned of ([`GpModel::warnings`]).
+    /// What the static fit warned of ([`GpModel::warnings`]) and what the choice warned of.
     pub warnings: Vec<String>,
+    /// Windows of the training stream where the unit was handled, left out (the held-out
+    /// stream's are in its scores).
+    pub train_handled: Vec<Handled>,
 }
 
 impl Investigation {
-    /// The named cause.
+    /// The first named cause.
     pub fn cause(&self) -> Cause {
         self.diagnosis.cause
     }
+}
+
+/// Which model an extension step ships.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Shipped {
+    /// The static model with the extension.
+    Extended,
+    /// The static model alone.
+    Static,
 }
 
 /// The models an investigation produced.
 pub struct Blobs {
     /// The static model.
     pub static_blob: Vec<u8>,
-    /// The extended model (the static one when nothing was added).
+    /// The shipped model (the static one when nothing was added).
     pub extended_blob: Vec<u8>,
 }
 
-/// Runs the investigation; `chosen` overrides the inputs the diagnosis calls for. `bar` counts its
-/// [`STEPS`].
+/// Do no harm: the extension fitted on the earlier part of the training stream (the static model
+/// too, where it was fitted on the stream), both scored on the later part.
+#[derive(Debug, Clone, Serialize)]
+pub struct ForwardCheck {
+    /// Where the stream was cut, s from its first sample.
+    pub split_s: f64,
+    /// 60 s blocks before the cut.
+    pub earlier_blocks: usize,
+    /// 60 s blocks after it.
+    pub later_blocks: usize,
+    /// Static `rmse_60s_dps` on the later part.
+    pub static_rmse_60s_dps: f64,
+    /// Extended `rmse_60s_dps` on the later part.
+    pub extended_rmse_60s_dps: f64,
+}
+
+impl ForwardCheck {
+    /// Whether the extension did better than the static model on the later part.
+    pub fn extension_helps(&self) -> bool {
+        self.extended_rmse_60s_dps < self.static_rmse_60s_dps
+    }
+}
+
+/// What a training stream supports: the causes, their forward check, and the model to ship.
+pub struct Choice {
+    /// The diagnosis of the static model on the training stream.
+    pub diagnosis: Diagnosis,
+    /// The causes whose inputs were fitted (asked for, or named).
+    pub causes: Vec<Cause>,
+    /// The forward check (absent when no cause was named or asked for, or the stream is too short).
+    pub check: Option<ForwardCheck>,
+    /// Which model to ship.
+    pub shipped: Shipped,
+    /// The extension fitted on the whole training stream (absent when nothing was named).
+    pub extended: Option<Extended>,
+    /// Why the shipped model is the one it is, in words.
+    pub verdict: String,
+}
+
+/// Diagnoses `train` against the static `model` (fitted on `points`), fits the named causes' (or
+/// the `asked` causes') inputs, and checks them forward in time inside `train`. `rebuild` makes
+/// the static points from part of the stream, as `points` were made from all of it; it is called
+/// only where the points are not a rate table. Named causes ship only when the forward check
+/// shows a gain; asked-for causes ship regardless, with a warning when the check shows none.
+pub fn choose(
+    points: &Points,
+    model: &GpModel,
+    fw: &HostModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    asked: Option<&[Cause]>,
+    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
+) -> anyhow::Result<Choice> {
+    let diagnosis = diagnose::diagnose_fitted(fw, model, points, train);
+    let causes: Vec<Cause> = asked
+        .unwrap_or(&diagnosis.causes)
+        .iter()
+        .copied()
+        .filter(|c| *c != Cause::None)
+        .collect();
+    if causes.is_empty() {
+        return Ok(Choice {
+            verdict: "nothing named: the static model is shipped".to_owned(),
+            diagnosis,
+            causes,
+            check: None,
+            shipped: Shipped::Static,
+            extended: None,
+        });
+    }
+    let check = forward_check(points, model, train, cfg, &causes, rebuild)?;
+    let extended = extend::fit(model, points, train, &causes)?;
+    let names = causes
+        .iter()
+        .map(|c| c.id())
+        .collect::<Vec<_>>()
+        .join(" + ");
+    let (shipped, verdict) = match (&check, asked.is_some()) {
+        (None, true) => (
+            Shipped::Extended,
+            format!("{names} as asked; the training stream is too short to check it forward"),
+        ),
+        (None, false) => (
+            Shipped::Static,
+            format!(
+                "{names} named, but the training stream is too short to check the extension \
+                 forward in time ({EARLIER_MIN_BLOCKS} + {LATER_MIN_BLOCKS} blocks of 60 s \
+                 needed): the static model is shipped"
+            ),
+        ),
+        (Some(c), asked) => {
+            let figures = format!(
+                "fitted on the first {:.0} min of the training stream, {names} scores {:.3e} °/s \
+                 on the {} later blocks against the static model's {:.3e}",
+                c.split_s / 60.0,
+                c.extended_rmse_60s_dps,
+                c.later_blocks,
+                c.static_rmse_60s_dps
+            );
+            match (c.extension_helps(), asked) {
+                (true, _) => (
+                    Shipped::Extended,
+                    format!("{figures}: the extension is shipped"),
+                ),
+                (false, true) => (
+                    Shipped::Extended,
+                    format!("{figures}: shipped as asked, although it does harm there"),
+                ),
+                (false, false) => (
+                    Shipped::Static,
+                    format!("{figures}: it does harm there, so the static model is shipped"),
+                ),
+            }
+        }
+    };
+    Ok(Choice {
+        diagnosis,
+        causes,
+        check,
+        shipped,
+        extended: Some(extended),
+        verdict,
+    })
+}
+
+/// The forward check of [`choose`]: `None` where the stream is too short for one.
+fn forward_check(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
+) -> anyhow::Result<Option<ForwardCheck>> {
+    let scored: Vec<usize> = (0..train.len())
+        .filter(|&i| train.rate_dps[i].is_finite())
+        .collect();
+    let blocks = replay::blocks(train, &scored);
+    let n = blocks.len();
+    let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
+    if n < earlier + LATER_MIN_BLOCKS {
+        return Ok(None);
+    }
+    let t0 = train.time_s.first().copied().unwrap_or(0.0);
+    let split_s = train.time_s[blocks[earlier][0]] - t0;
+    let early = train.window(Window {
+        start_s: None,
+        end_s: Some(split_s),
+    });
+    let (static_model, static_points) = if points.soaked {
+        (model.clone(), points.clone())
+    } else {
+        let p = rebuild(&early)?;
+        (GpModel::fit(&p.inputs(), &p.target(), cfg)?, p)
+    };
+    let static_fw = export::decode(&export::points_blob(
+        &static_model,
+        &static_points,
+        &Extension::default(),
+    )?)?;
+    let ext = extend::fit(&static_model, &static_points, &early, causes)?;
+    let ext_fw = export::decode(&ext.blob)?;
+    // The whole stream is replayed, so the stateful inputs carry their history across the cut;
+    // only the later part is scored.
+    let mut later = train.clone();
+    for (r, t) in later.rate_dps.iter_mut().zip(&train.time_s) {
+        if t - t0 < split_s {
+            *r = f64::NAN;
+        }
+    }
+    let rmse = |fw: &HostModel| replay::score(&later, &replay::replay(fw, &later)).rmse_60s_dps;
+    Ok(Some(ForwardCheck {
+        split_s,
+        earlier_blocks: earlier,
+        later_blocks: n - earlier,
+        static_rmse_60s_dps: rmse(&static_fw),
+        extended_rmse_60s_dps: rmse(&ext_fw),
+    }))
+}
+
+/// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes
+/// the static points from part of the training stream ([`choose`]). `bar` counts its [`STEPS`].
 pub fn investigate(
     points: &Points,
     train: &Stream,
     valid: &Stream,
     cfg: &GpConfig,
-    chosen: Option<&[Cause]>,
+    asked: Option<&[Cause]>,
+    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
     bar: &ProgressBar,
 ) -> anyhow::Result<(Investigation, Blobs)> {
     bar.inc_length(STEPS);
@@ -76,43 +286,43 @@ pub fn investigate(
             }
         })?;
     bar.inc(1);
-    bar.set_message("replay and diagnosis of the held-out stream");
-    let comp = replay::replay(&fw, valid);
-    let static_score = replay::score(valid, &comp);
-    let diagnosis = diagnose::diagnose_residual(&Residual::from_replay(&fw, valid, &comp));
-    let named = [diagnosis.cause];
-    let causes: Vec<Cause> = chosen
-        .unwrap_or(&named)
-        .iter()
-        .copied()
-        .filter(|c| *c != Cause::None)
-        .collect();
-    bar.inc(1);
-    bar.set_message("extended fit on the training stream");
-    let (extension, extended_blob) = if causes.is_empty() {
-        (None, static_blob.clone())
-    } else {
-        let ext = extend::fit(&model, points, train, &causes)?;
-        (Some(ext.fitted), ext.blob)
+    bar.set_message("diagnosis of the training stream, extension, forward check");
+    let choice = choose(points, &model, &fw, train, cfg, asked, rebuild)?;
+    bar.inc(3);
+    bar.set_message("replay of the static and the shipped model on the held-out stream");
+    let mut warnings = model.warnings();
+    let (extension, extended_blob) = match (&choice.extended, choice.shipped) {
+        (Some(ext), Shipped::Extended) => (Some(ext.fitted.clone()), ext.blob.clone()),
+        _ => (None, static_blob.clone()),
     };
-    bar.inc(1);
-    bar.set_message("replay of the extended model");
-    let ext = export::decode(&extended_blob)?;
-    let extended_score = replay::score(valid, &replay::replay(&ext, valid));
+    if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
+        warnings.push(choice.verdict.clone());
+    }
+    let static_score = replay::score(valid, &replay::replay(&fw, valid));
+    let shipped = export::decode(&extended_blob)?;
+    let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
     bar.inc(1);
     Ok((
         Investigation {
             static_score,
-            added_inputs: causes
-                .iter()
-                .filter_map(|c| extend::feature_name(*c))
-                .collect(),
-            diagnosis,
+            added_inputs: match choice.shipped {
+                Shipped::Extended => choice
+                    .causes
+                    .iter()
+                    .filter_map(|c| extend::feature_name(*c))
+                    .collect(),
+                Shipped::Static => Vec::new(),
+            },
+            diagnosis: choice.diagnosis,
+            forward_check: choice.check,
+            shipped: choice.shipped,
+            verdict: choice.verdict,
             extension,
             extended_score,
             gain,
-            warnings: model.warnings(),
+            warnings,
+            train_handled: train.handled.clone(),
         },
         Blobs {
             static_blob,

@@ -15,10 +15,8 @@ use firmware_core::{FeatureState, Sample, Status};
 use serde::Serialize;
 
 use crate::export::HostModel;
-use crate::stream::{Stream, TimeIssue};
-
-/// Length of the blocks of `rmse_60s_dps`, s.
-pub const BLOCK_S: f64 = 60.0;
+pub use crate::stream::BLOCK_S;
+use crate::stream::{Handled, Stream, TimeIssue};
 
 /// The firmware's output for every sample.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -114,6 +112,10 @@ pub struct Score {
     pub n_fault: usize,
     /// Time problems in the stream.
     pub time_issues: Vec<TimeIssue>,
+    /// Samples in windows where the unit was handled (compensated, not scored).
+    pub n_handled: usize,
+    /// Those windows.
+    pub handled: Vec<Handled>,
 }
 
 /// Scores `comp` against `stream`'s reference.
@@ -174,6 +176,8 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             .count(),
         n_fault: comp.status.iter().filter(|s| **s == Status::Fault).count(),
         time_issues: stream.time_issues.clone(),
+        n_handled: stream.handled.iter().map(|h| h.n).sum(),
+        handled: stream.handled.clone(),
     }
 }
 
@@ -229,6 +233,7 @@ mod tests {
             lines: (2..n as u64 + 2).collect(),
             step_s: step,
             time_issues: vec![],
+            handled: vec![],
         }
     }
 

@@ -82,6 +82,103 @@ pub struct Stream {
     pub step_s: f64,
     /// Time problems found, in file order.
     pub time_issues: Vec<TimeIssue>,
+    /// Windows of a static log where the unit was handled ([`Handled`]): their references are
+    /// removed, so no fit or score uses them.
+    pub handled: Vec<Handled>,
+}
+
+/// Length of the blocks of `rmse_60s_dps`, and of the windows screened for handling, s.
+pub const BLOCK_S: f64 = 60.0;
+
+/// How many times the log's typical scatter a block's output scatter must exceed to count as
+/// handled. A MEMS start-up transient reaches 7× (the MIT log's first minute); moving or tapping
+/// the unit, tens of °/s against noise of hundredths, goes far beyond.
+pub const HANDLED_SCATTER: f64 = 10.0;
+/// Fewest blocks a log needs before any is judged against the others.
+const HANDLED_MIN_BLOCKS: usize = 5;
+
+/// A 60 s window of a static log whose output scatters far beyond the log's own noise: someone
+/// handled the unit there (moved, tapped, re-cabled it), and what it shows is not the gyro at rest.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Handled {
+    /// First line of the window.
+    pub line: u64,
+    /// Start and end, s from the first sample.
+    pub span_s: [f64; 2],
+    /// Samples in it.
+    pub n: usize,
+    /// Its output's standard deviation over the log's median one.
+    pub scatter_ratio: f64,
+}
+
+impl fmt::Display for Handled {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "line {}: {:.0}–{:.0} s, output scatter {:.0}× the log's own: handled, left out of \
+             every fit and score",
+            self.line, self.span_s[0], self.span_s[1], self.scatter_ratio
+        )
+    }
+}
+
+/// The handled windows of a static log (every reference the same: the unit at rest), and
+/// their references removed; other streams are left alone.
+fn screen_handling(
+    time_s: &[f64],
+    output: &[f64],
+    rate_dps: &mut [f64],
+    lines: &[u64],
+) -> Vec<Handled> {
+    let refs: Vec<f64> = rate_dps.iter().copied().filter(|r| r.is_finite()).collect();
+    if refs.is_empty() || refs.iter().any(|r| *r != refs[0]) {
+        return Vec::new();
+    }
+    let t0 = time_s.first().copied().unwrap_or(0.0);
+    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
+    for i in (0..time_s.len()).filter(|&i| rate_dps[i].is_finite()) {
+        blocks
+            .entry(((time_s[i] - t0) / BLOCK_S).floor() as i64)
+            .or_default()
+            .push(i);
+    }
+    let scatter = |b: &[usize]| {
+        let m = b.iter().map(|&i| output[i]).sum::<f64>() / b.len() as f64;
+        (b.iter().map(|&i| (output[i] - m).powi(2)).sum::<f64>() / b.len() as f64).sqrt()
+    };
+    let spread: Vec<(Vec<usize>, f64)> = blocks
+        .into_values()
+        .filter(|b| b.len() >= 2)
+        .map(|b| {
+            let s = scatter(&b);
+            (b, s)
+        })
+        .collect();
+    if spread.len() < HANDLED_MIN_BLOCKS {
+        return Vec::new();
+    }
+    let mut sorted: Vec<f64> = spread.iter().map(|(_, s)| *s).collect();
+    sorted.sort_by(f64::total_cmp);
+    let typical = sorted[sorted.len() / 2];
+    if typical <= 0.0 {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for (b, s) in spread
+        .into_iter()
+        .filter(|(_, s)| *s > HANDLED_SCATTER * typical)
+    {
+        for &i in &b {
+            rate_dps[i] = f64::NAN;
+        }
+        out.push(Handled {
+            line: lines[b[0]],
+            span_s: [time_s[b[0]] - t0, time_s[b[b.len() - 1]] - t0],
+            n: b.len(),
+            scatter_ratio: s / typical,
+        });
+    }
+    out
 }
 
 impl Stream {
@@ -118,14 +215,18 @@ impl Stream {
                 }
             })
             .collect();
+        let voltage_v = c.get("voltage_v").to_vec();
+        let mut rate_dps = c.get("rate_dps").to_vec();
+        let handled = screen_handling(&time_s, &voltage_v, &mut rate_dps, &c.lines);
         Ok(Self {
             time_s,
             temp_c: c.get("temp_c").to_vec(),
-            voltage_v: c.get("voltage_v").to_vec(),
-            rate_dps: c.get("rate_dps").to_vec(),
+            voltage_v,
+            rate_dps,
             lines: c.lines,
             step_s: typical,
             time_issues,
+            handled,
         })
     }
 
@@ -149,6 +250,12 @@ impl Stream {
                 .time_issues
                 .iter()
                 .filter(|i| lines.contains(&i.line()) && Some(i.line()) != first)
+                .cloned()
+                .collect(),
+            handled: self
+                .handled
+                .iter()
+                .filter(|h| lines.contains(&h.line))
                 .cloned()
                 .collect(),
             lines,
@@ -220,6 +327,32 @@ impl std::str::FromStr for Window {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_minute_of_handling_in_a_static_log_is_screened_and_nothing_else() {
+        // 20 minutes at 1 Hz of noise (a deterministic ripple), handled from 600 to 660 s.
+        let n = 1200;
+        let time_s: Vec<f64> = (0..n).map(f64::from).collect();
+        let ripple = |i: u32| 0.01 * (f64::from(i) * 1.7).sin();
+        let mut output: Vec<f64> = (0..n).map(ripple).collect();
+        for (i, v) in output.iter_mut().enumerate().skip(600).take(60) {
+            *v += 20.0 * (i as f64 * 0.3).sin();
+        }
+        let lines: Vec<u64> = (2..2 + u64::from(n)).collect();
+        let mut rate = vec![0.0; n as usize];
+        let handled = screen_handling(&time_s, &output, &mut rate, &lines);
+        assert_eq!(handled.len(), 1);
+        assert_eq!(
+            (handled[0].line, handled[0].n, handled[0].span_s),
+            (602, 60, [600.0, 659.0])
+        );
+        assert!(handled[0].scatter_ratio > HANDLED_SCATTER);
+        assert_eq!(rate.iter().filter(|r| r.is_nan()).count(), 60);
+        assert!(rate[599] == 0.0 && rate[660] == 0.0);
+        // A stream on a rate table is not a static log: never screened.
+        let mut moving: Vec<f64> = (0..n).map(|i| f64::from(i / 90 % 3)).collect();
+        assert!(screen_handling(&time_s, &output, &mut moving, &lines).is_empty());
+    }
 
     fn load(text: &str) -> Result<Stream, DataError> {
         let mut f = tempfile::NamedTempFile::new().unwrap();

@@ -190,3 +190,52 @@ fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_are_refused()
         assert!(dir.path().join("r").join(name).exists(), "{name}");
     }
 }
+
+#[test]
+fn a_static_log_where_the_unit_was_handled_says_where_and_leaves_it_out() {
+    let dir = tempfile::tempdir().unwrap();
+    // 30 minutes at 1 Hz warming 20 → 35 °C, bias 2e-3 °/s per °C plus a ripple for noise; from
+    // 900 s to 960 s someone turns the unit by hand (tens of °/s).
+    let mut csv = String::from("time_s,temp_c,voltage_v,rate_dps\n");
+    for i in 0..1800u32 {
+        let t = f64::from(i);
+        let temp = 20.0 + 15.0 * t / 1800.0;
+        let mut out = 2e-3 * temp + 1e-3 * (t * 1.7).sin();
+        if (900..960).contains(&i) {
+            out += 30.0 * (t * 0.2).sin();
+        }
+        csv.push_str(&format!("{t},{temp},{out},0\n"));
+    }
+    std::fs::write(dir.path().join("log.csv"), csv).unwrap();
+    let out = trainer(
+        &[
+            "fit",
+            "--stream",
+            "log.csv",
+            "--scale-factor",
+            "1",
+            "--out",
+            "m.bin",
+            "--json",
+            "f.json",
+        ],
+        dir.path(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("log.csv line 902: 900–959 s") && err.contains("handled"),
+        "{err}"
+    );
+    let fit: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
+    assert_eq!(fit["handled"].as_array().unwrap().len(), 1, "{fit}");
+    assert_eq!(fit["handled"][0]["n"], 60);
+    // The static model was fitted on the 29 other minutes: 29 points.
+    assert_eq!(fit["n_train"], 29, "{fit}");
+}

@@ -1,15 +1,20 @@
-//! Hidden effects (issue 5): the simulator hides one effect, drawn from its documented range by
-//! seed, in the points and two streams of one gyro; the investigation sees only the CSV files.
-//! It must name the hidden cause and, for a real effect, cut the held-out `rmse_60s_dps`
-//! threefold; for `none` it must name `none` and change nothing that matters.
+//! Hidden effects: the simulator hides one effect, or two together, drawn from the documented
+//! ranges (or below them) by seed, in the points and two streams of one gyro; the investigation
+//! sees only the CSV files. For one effect it must name the hidden cause and nothing else and,
+//! for a real effect, cut the held-out `rmse_60s_dps` threefold; for `none` it must name `none`
+//! and change nothing that matters. For two it must name both and gain at least 70% of what an
+//! oracle told the true causes gains; for a weak one it may say `none`, but never a wrong name,
+//! and never ship a model that does worse.
 
 use firmware_sim::challenge::run_case;
+use firmware_sim::effects::Strength;
 use rand::{RngExt, SeedableRng};
 use trainer::cause::Cause;
 
 fn check(cause: Cause, seed: u64) {
-    let case = run_case(cause, seed).unwrap();
-    assert_eq!(case.named, cause, "{case:?}");
+    let case = run_case(&[cause], seed, Strength::Documented, false).unwrap();
+    assert_eq!(case.named_cause(), cause, "{case:?}");
+    assert!(case.wrong_names().is_empty(), "{case:?}");
     match cause {
         Cause::None => assert!(case.gain > 1.0 / 1.1, "{case:?}"),
         _ => assert!(case.gain > 3.0, "{case:?}"),
@@ -64,4 +69,31 @@ fn an_effect_drawn_by_seed_is_named() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261122);
     let cause = Cause::ALL[rng.random_range(0..Cause::ALL.len())];
     check(cause, 31);
+}
+
+#[test]
+fn two_effects_together_are_both_named_and_compensated_near_an_oracle() {
+    // Two of the challenge's pairs (README); where one effect hides the other (a strong
+    // hysteresis beside a slow warm-up, a lag beside anything) one cause is named, counted there.
+    for (pair, seed) in [
+        ([Cause::ThermalRate, Cause::WarmUp], 1010),
+        ([Cause::WarmUp, Cause::Hysteresis], 1020),
+    ] {
+        let case = run_case(&pair, seed, Strength::Documented, true).unwrap();
+        assert!(
+            case.all_named() && case.wrong_names().is_empty(),
+            "{case:?}"
+        );
+        let oracle = case.oracle_gain.unwrap();
+        assert!(case.gain >= 0.7 * oracle && case.gain > 2.0, "{case:?}");
+    }
+}
+
+#[test]
+fn weak_effects_are_never_misnamed_and_never_made_worse() {
+    for (cause, seed) in [(Cause::Hysteresis, 7), (Cause::TimeDrift, 8)] {
+        let case = run_case(&[cause], seed, Strength::Weak, false).unwrap();
+        assert!(case.wrong_names().is_empty(), "{case:?}");
+        assert!(case.gain >= 1.0, "{case:?}");
+    }
 }

@@ -48,7 +48,11 @@ fn a_static_log_without_a_scale_factor_is_refused_with_the_reason() {
 
 /// Bias models of the three axes, forward in time: trained on the first 40 minutes, scored on the
 /// rest. The static errors match the dataset note's independent cubic fits (1 872 / 264 / 1 115 °/h
-/// within the training range); the figures are the README's.
+/// within the training range); the figures are the README's. Do no harm: an extension is shipped
+/// only where it beat the static model on the later part of the training window, fitted on the
+/// earlier part. y's causes fail that check and its static model ships unchanged; z's, fitted
+/// together with the static curve, hold on the held-out part. (x's do not, beyond the trained
+/// temperatures: the README's table.)
 #[test]
 fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
     let dir = tempfile::tempdir().unwrap();
@@ -86,7 +90,22 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
             "{axis}: {in_range} °/h"
         );
         assert_eq!(s["n_blocks"], 31, "{axis}");
-        assert!(inv["gain"].as_f64().unwrap().is_finite(), "{axis}");
+        let gain = inv["gain"].as_f64().unwrap();
+        match inv["shipped"].as_str().unwrap() {
+            "extended" => {
+                let check = &inv["forward_check"];
+                assert!(
+                    check["extended_rmse_60s_dps"].as_f64() < check["static_rmse_60s_dps"].as_f64(),
+                    "{axis}: {check}"
+                );
+            }
+            _ => assert_eq!(gain, 1.0, "{axis}"),
+        }
+        match axis {
+            "y" => assert_eq!(inv["shipped"], "static"),
+            "z" => assert!(gain > 1.1, "z: {gain}"),
+            _ => {}
+        }
     }
 }
 

@@ -65,7 +65,7 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
         "LOO residual (°/s)",
         "error (°/h)",
         "filtered dT/dt (°C/min)",
-        "Named cause: <b>thermal-rate</b>",
+        "Named causes: <b>thermal-rate</b>",
         "GPR paper",
     ] {
         assert!(page.contains(text), "missing {text}");

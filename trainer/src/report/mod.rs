@@ -97,7 +97,10 @@ pub fn build(
         two_step,
         fig2: evaluate::fig2(&points),
     };
-    let (investigation, blobs) = investigate::investigate(&points, train, &valid, cfg, None, bar)?;
+    // A report's points are a rate table: the forward check never rebuilds them.
+    let table = |_: &Stream| Ok(points.clone());
+    let (investigation, blobs) =
+        investigate::investigate(&points, train, &valid, cfg, None, &table, bar)?;
     let fw_static = export::decode(&blobs.static_blob)?;
     let fw_ext = export::decode(&blobs.extended_blob)?;
     let replays = [
@@ -310,13 +313,25 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
     }
     let _ = write!(
         s,
-        "</table>\n<h2>Diagnosis and gain on the held-out stream</h2>\n<p>Named cause: <b>{}</b> — {}</p>\n\
+        "</table>\n<h2>Diagnosis of the training stream, gain on the held-out stream</h2>\n<p>Named causes: <b>{}</b> — {}</p>\n\
+         <p>Shipped: <b>{:?}</b> — {}</p>\n\
          <table><tr><th>model</th><th>inputs added</th><th>rmse_60s (°/s)</th><th>rmse_60s (°/h)</th><th>gain</th></tr>\n\
          <tr><td>static</td><td>—</td><td>{}</td><td>{:.2}</td><td>1.00×</td></tr>\n\
-         <tr><td>extended</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}×</td></tr></table>\n\
-         <table><tr><th>candidate cause</th><th>score</th><th>parameter</th><th>correlation</th><th>amplitude (°/h)</th></tr>\n",
-        inv.cause(),
+         <tr><td>shipped</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}×</td></tr></table>\n\
+         <table><tr><th>candidate cause</th><th>score (interleaved)</th><th>score (forward)</th><th>parameter</th><th>correlation</th><th>amplitude (°/h)</th></tr>\n",
+        if inv.diagnosis.causes.is_empty() {
+            "none".to_owned()
+        } else {
+            inv.diagnosis
+                .causes
+                .iter()
+                .map(|c| c.id())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        },
         escape(&inv.diagnosis.explanation),
+        inv.shipped,
+        escape(&inv.verdict),
         sci(inv.static_score.rmse_60s_dps),
         inv.static_score.rmse_60s_dps * 3600.0,
         if inv.added_inputs.is_empty() {
@@ -331,8 +346,8 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
     for c in &inv.diagnosis.candidates {
         let _ = writeln!(
             s,
-            "<tr><td>{}</td><td>{:.3}</td><td>{:.1}</td><td>{:.3}</td><td>{:.2}</td></tr>",
-            c.id, c.score, c.parameter, c.correlation, c.amplitude_dph
+            "<tr><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.1}</td><td>{:.3}</td><td>{:.2}</td></tr>",
+            c.id, c.score, c.forward_score, c.parameter, c.correlation, c.amplitude_dph
         );
     }
     s.push_str("</table>\n<h2>Figures</h2>\n");
