@@ -191,7 +191,7 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Res
 pub struct Summary {
     /// Cases.
     pub cases: usize,
-    /// Cases whose first named cause is the (first) hidden one.
+    /// Cases whose first named cause is one of the hidden ones (`none` for none).
     pub first_named_right: usize,
     /// Cases where every hidden cause was named.
     pub all_named: usize,
@@ -254,7 +254,13 @@ pub fn summary(cases: &[Case]) -> Summary {
         .collect();
     Summary {
         cases: cases.len(),
-        first_named_right: count(&|c| c.named_cause() == c.hidden_cause()),
+        first_named_right: count(&|c| {
+            let hidden = c.hidden.causes();
+            match c.named.first() {
+                Some(first) => hidden.contains(first),
+                None => hidden.is_empty(),
+            }
+        }),
         all_named: count(&|c| c.all_named()),
         wrong_names: count(&|c| !c.wrong_names().is_empty()),
         false_alarms_none: count(&|c| c.hidden.0.is_empty() && !c.named.is_empty()),

@@ -41,7 +41,10 @@
 //! linear model (Speckman 1988): (I − S)t, the static residual up to sign, regressed on
 //! (I − S)x, the part of the regressor the GP could have absorbed taken out. Every regressor but
 //! a lag's (already a difference of the GP's own predictions) is replaced by (I − S)x here, and
-//! [`crate::extend`] conditions the GP again on t − c·x.
+//! [`crate::extend`] conditions the GP again on t − c·x. The static curve itself was fitted on
+//! every block, so here the forward score is forward for the causes' parameters and coefficients
+//! only; the extension's own forward check ([`crate::investigate`]) fits the static curve again on
+//! the earlier part.
 //!
 //! **Several causes.** Real logs mix effects, and mixed effects can imitate a third: a warm-up
 //! after a power-on that heats the housing plus a heating/cooling offset follow dT/dt better than
@@ -719,7 +722,8 @@ fn strongest_first(
     idx
 }
 
-/// Each cause's parameter of `design` chosen on all blocks, in design order.
+/// Each cause's parameter of `design` chosen on all blocks of `y`, in design order, each given
+/// those before it.
 fn parameters(y: &[f64], design: &[&Candidates]) -> Vec<f32> {
     (1..=design.len())
         .map(|k| chosen_parameter(y, &design[..k]))

@@ -7,8 +7,10 @@
 //! constant, play width) is chosen by grid on the same residual — plus an offset. A thermal state
 //! also corrects the points' targets for the state they were soaked in ([`fit`]). A sensor lag is corrected
 //! where it arises: the temperature input becomes a coil-temperature estimate with the fitted lag,
-//! and the GP is evaluated there. All inputs are computed by firmware-core's feature pipeline, so
-//! the blob runs on the gyro as it was fitted.
+//! and the GP is evaluated there. Without a rate table, where the static GP was fitted on this
+//! stream's own blocks, the static and the transient parts are fitted together instead ([`fit`]).
+//! All inputs are computed by firmware-core's feature pipeline, so the blob runs on the gyro as it
+//! was fitted.
 //!
 //! What it costs in accuracy, and what was chosen: the stream enters as 60 s block means (the
 //! residual regressions of [`crate::diagnose`]); a regression of one to three coefficients needs no
@@ -128,7 +130,9 @@ pub struct Extended {
 /// differences where the stream leaves a plateau unvisited): at each plateau it is the offset the
 /// points carried, which is taken out of their targets before the GP is conditioned again at the
 /// hyperparameters the marginal likelihood chose. Points that are a stream's block means were not
-/// soaked, and the GP fitted on them saw both states; they keep a plain offset.
+/// soaked, and the GP fitted on them saw both states; where they are the blocks of this very
+/// stream, the GP is conditioned again on its targets less the fitted terms instead (static and
+/// transient parts together, [`crate::diagnose`]'s module doc), otherwise they keep a plain offset.
 pub fn fit(
     model: &GpModel,
     points: &Points,

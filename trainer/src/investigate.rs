@@ -80,8 +80,10 @@ pub struct Blobs {
     pub extended_blob: Vec<u8>,
 }
 
-/// Do no harm: the extension fitted on the earlier part of the training stream (the static model
-/// too, where it was fitted on the stream), both scored on the later part.
+/// Do no harm: the extension of the named causes fitted on the earlier part of the training
+/// stream (the static model too, where it was fitted on the stream), both scored on the later
+/// part. The causes are those the whole training stream names: running the whole diagnosis again
+/// on the earlier part was measured and is too conservative (README, "Diagnosis").
 #[derive(Debug, Clone, Serialize)]
 pub struct ForwardCheck {
     /// Where the stream was cut, s from its first sample.
@@ -90,16 +92,18 @@ pub struct ForwardCheck {
     pub earlier_blocks: usize,
     /// 60 s blocks after it.
     pub later_blocks: usize,
+    /// The causes fitted on the earlier part (named on the whole training stream, or asked for).
+    pub causes: Vec<Cause>,
     /// Static `rmse_60s_dps` on the later part.
     pub static_rmse_60s_dps: f64,
-    /// Extended `rmse_60s_dps` on the later part.
+    /// Extended `rmse_60s_dps` on the later part (the static one where nothing was named).
     pub extended_rmse_60s_dps: f64,
 }
 
 impl ForwardCheck {
     /// Whether the extension did better than the static model on the later part.
     pub fn extension_helps(&self) -> bool {
-        self.extended_rmse_60s_dps < self.static_rmse_60s_dps
+        !self.causes.is_empty() && self.extended_rmse_60s_dps < self.static_rmse_60s_dps
     }
 }
 
@@ -113,17 +117,20 @@ pub struct Choice {
     pub check: Option<ForwardCheck>,
     /// Which model to ship.
     pub shipped: Shipped,
-    /// The extension fitted on the whole training stream (absent when nothing was named).
+    /// The extension fitted on the whole training stream (absent when nothing was named, or it
+    /// could not be fitted and nothing was asked for).
     pub extended: Option<Extended>,
     /// Why the shipped model is the one it is, in words.
     pub verdict: String,
 }
 
 /// Diagnoses `train` against the static `model` (fitted on `points`), fits the named causes' (or
-/// the `asked` causes') inputs, and checks them forward in time inside `train`. `rebuild` makes
-/// the static points from part of the stream, as `points` were made from all of it; it is called
-/// only where the points are not a rate table. Named causes ship only when the forward check
-/// shows a gain; asked-for causes ship regardless, with a warning when the check shows none.
+/// the `asked` causes') inputs, and checks them forward in time inside `train`: fitted on the
+/// earlier part alone, scored on the later part. `rebuild` makes the static points from part of
+/// the stream, as `points` were made from all of it; it is called only where the points are not
+/// a rate table. Named causes ship only when the forward check shows a gain (an extension or a
+/// check that cannot be fitted ships the static model, with the reason); asked-for causes ship
+/// regardless, with a warning when the check shows none.
 pub fn choose(
     points: &Points,
     model: &GpModel,
@@ -140,23 +147,32 @@ pub fn choose(
         .copied()
         .filter(|c| *c != Cause::None)
         .collect();
+    let static_choice = |diagnosis, causes, check, verdict| Choice {
+        diagnosis,
+        causes,
+        check,
+        shipped: Shipped::Static,
+        extended: None,
+        verdict,
+    };
     if causes.is_empty() {
-        return Ok(Choice {
-            verdict: "nothing named: the static model is shipped".to_owned(),
-            diagnosis,
-            causes,
-            check: None,
-            shipped: Shipped::Static,
-            extended: None,
-        });
+        let verdict = "nothing named: the static model is shipped".to_owned();
+        return Ok(static_choice(diagnosis, causes, None, verdict));
     }
-    let check = forward_check(points, model, train, cfg, &causes, rebuild)?;
-    let extended = extend::fit(model, points, train, &causes)?;
-    let names = causes
-        .iter()
-        .map(|c| c.id())
-        .collect::<Vec<_>>()
-        .join(" + ");
+    let names = joined(&causes);
+    let fitted = forward_check(points, model, train, cfg, &causes, rebuild)
+        .and_then(|check| Ok((check, extend::fit(model, points, train, &causes)?)));
+    let (check, extended) = match (fitted, asked) {
+        (Ok(both), _) => both,
+        (Err(e), Some(_)) => return Err(e),
+        (Err(e), None) => {
+            let verdict = format!(
+                "{names} named, but its extension could not be fitted and checked ({e:#}): the \
+                 static model is shipped"
+            );
+            return Ok(static_choice(diagnosis, causes, None, verdict));
+        }
+    };
     let (shipped, verdict) = match (&check, asked.is_some()) {
         (None, true) => (
             Shipped::Extended,
@@ -171,13 +187,14 @@ pub fn choose(
             ),
         ),
         (Some(c), asked) => {
+            let earlier = format!(
+                "fitted on the first {:.0} min of the training stream",
+                c.split_s / 60.0
+            );
             let figures = format!(
-                "fitted on the first {:.0} min of the training stream, {names} scores {:.3e} °/s \
-                 on the {} later blocks against the static model's {:.3e}",
-                c.split_s / 60.0,
-                c.extended_rmse_60s_dps,
-                c.later_blocks,
-                c.static_rmse_60s_dps
+                "{earlier}, {names} scores {:.3e} °/s on the {} later blocks against the static \
+                 model's {:.3e}",
+                c.extended_rmse_60s_dps, c.later_blocks, c.static_rmse_60s_dps
             );
             match (c.extension_helps(), asked) {
                 (true, _) => (
@@ -186,11 +203,11 @@ pub fn choose(
                 ),
                 (false, true) => (
                     Shipped::Extended,
-                    format!("{figures}: shipped as asked, although it does harm there"),
+                    format!("{figures}: shipped as asked, although it does no good there"),
                 ),
                 (false, false) => (
                     Shipped::Static,
-                    format!("{figures}: it does harm there, so the static model is shipped"),
+                    format!("{figures}: no gain there, so the static model is shipped"),
                 ),
             }
         }
@@ -205,7 +222,17 @@ pub fn choose(
     })
 }
 
-/// The forward check of [`choose`]: `None` where the stream is too short for one.
+/// Cause ids joined by " + ".
+fn joined(causes: &[Cause]) -> String {
+    causes
+        .iter()
+        .map(|c| c.id())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+/// The forward check of [`choose`]: `None` where the stream is too short for one. Blocks are
+/// counted as the diagnosis counts them (samples with a reference).
 fn forward_check(
     points: &Points,
     model: &GpModel,
@@ -240,8 +267,7 @@ fn forward_check(
         &static_points,
         &Extension::default(),
     )?)?;
-    let ext = extend::fit(&static_model, &static_points, &early, causes)?;
-    let ext_fw = export::decode(&ext.blob)?;
+    let causes = causes.to_vec();
     // The whole stream is replayed, so the stateful inputs carry their history across the cut;
     // only the later part is scored.
     let mut later = train.clone();
@@ -251,12 +277,20 @@ fn forward_check(
         }
     }
     let rmse = |fw: &HostModel| replay::score(&later, &replay::replay(fw, &later)).rmse_60s_dps;
+    let static_rmse = rmse(&static_fw);
+    let extended_rmse = if causes.is_empty() {
+        static_rmse
+    } else {
+        let ext = extend::fit(&static_model, &static_points, &early, &causes)?;
+        rmse(&*export::decode(&ext.blob)?)
+    };
     Ok(Some(ForwardCheck {
         split_s,
         earlier_blocks: earlier,
         later_blocks: n - earlier,
-        static_rmse_60s_dps: rmse(&static_fw),
-        extended_rmse_60s_dps: rmse(&ext_fw),
+        causes,
+        static_rmse_60s_dps: static_rmse,
+        extended_rmse_60s_dps: extended_rmse,
     }))
 }
 

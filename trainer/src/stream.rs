@@ -111,6 +111,27 @@ pub struct Handled {
     pub scatter_ratio: f64,
 }
 
+impl Handled {
+    /// The part of this window among the rows `keep` of a stream (`time_s`, `lines`), its span
+    /// counted from `new_t0` (the first kept sample); `None` where no row of it is kept.
+    fn within(&self, time_s: &[f64], lines: &[u64], keep: &[usize], new_t0: f64) -> Option<Self> {
+        let t0 = time_s.first().copied().unwrap_or(0.0);
+        let (start, end) = (t0 + self.span_s[0], t0 + self.span_s[1]);
+        let rows: Vec<usize> = keep
+            .iter()
+            .copied()
+            .filter(|&i| time_s[i] >= start && time_s[i] <= end)
+            .collect();
+        let (&first, &last) = (rows.first()?, rows.last()?);
+        Some(Self {
+            line: lines[first],
+            span_s: [time_s[first] - new_t0, time_s[last] - new_t0],
+            n: rows.len(),
+            scatter_ratio: self.scatter_ratio,
+        })
+    }
+}
+
 impl fmt::Display for Handled {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
@@ -240,6 +261,7 @@ impl Stream {
         let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
         let lines: Vec<u64> = keep.iter().map(|&i| self.lines[i]).collect();
         let first = lines.first().copied();
+        let new_t0 = keep.first().map_or(t0, |&i| self.time_s[i]);
         Self {
             time_s: pick(&self.time_s),
             temp_c: pick(&self.temp_c),
@@ -255,8 +277,7 @@ impl Stream {
             handled: self
                 .handled
                 .iter()
-                .filter(|h| lines.contains(&h.line))
-                .cloned()
+                .filter_map(|h| h.within(&self.time_s, &self.lines, &keep, new_t0))
                 .collect(),
             lines,
         }
@@ -349,6 +370,32 @@ mod tests {
         assert!(handled[0].scatter_ratio > HANDLED_SCATTER);
         assert_eq!(rate.iter().filter(|r| r.is_nan()).count(), 60);
         assert!(rate[599] == 0.0 && rate[660] == 0.0);
+        // A window that starts inside the handled minute keeps the part of it that it holds.
+        let log = Stream {
+            time_s: time_s.clone(),
+            temp_c: vec![20.0; n as usize],
+            voltage_v: output.clone(),
+            rate_dps: rate.clone(),
+            lines: lines.clone(),
+            step_s: 1.0,
+            time_issues: Vec::new(),
+            handled: handled.clone(),
+        };
+        let part = log.window(Window {
+            start_s: Some(630.0),
+            end_s: None,
+        });
+        assert_eq!(part.handled.len(), 1);
+        assert_eq!((part.handled[0].line, part.handled[0].n), (632, 30));
+        assert_eq!(part.handled[0].span_s, [0.0, 29.0]);
+        assert!(
+            log.window(Window {
+                start_s: Some(700.0),
+                end_s: None
+            })
+            .handled
+            .is_empty()
+        );
         // A stream on a rate table is not a static log: never screened.
         let mut moving: Vec<f64> = (0..n).map(|i| f64::from(i / 90 % 3)).collect();
         assert!(screen_handling(&time_s, &output, &mut moving, &lines).is_empty());
