@@ -457,11 +457,7 @@ fn causes_text(causes: &[crate::cause::Cause]) -> String {
     if causes.is_empty() {
         return "none".to_owned();
     }
-    causes
-        .iter()
-        .map(|c| c.id())
-        .collect::<Vec<_>>()
-        .join(" + ")
+    diagnose::joined(causes)
 }
 
 /// The diagnosis as a terminal reads it: the verdict, every candidate alone, then the selection.

@@ -815,7 +815,7 @@ fn explain(
 }
 
 /// Cause ids joined by " + ".
-fn joined(causes: &[Cause]) -> String {
+pub fn joined(causes: &[Cause]) -> String {
     causes
         .iter()
         .map(|c| c.id())

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::cause::Cause;
 use crate::dataset::Points;
-use crate::diagnose::{self, Diagnosis};
+use crate::diagnose::{self, Diagnosis, joined};
 use crate::export::{self, Extension, HostModel};
 use crate::extend::{self, Extended, Fitted};
 use crate::gp::{GpConfig, GpModel};
@@ -220,15 +220,6 @@ pub fn choose(
         extended: Some(extended),
         verdict,
     })
-}
-
-/// Cause ids joined by " + ".
-fn joined(causes: &[Cause]) -> String {
-    causes
-        .iter()
-        .map(|c| c.id())
-        .collect::<Vec<_>>()
-        .join(" + ")
 }
 
 /// The forward check of [`choose`]: `None` where the stream is too short for one. Blocks are
