@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use crate::export::HostModel;
 pub use crate::stream::BLOCK_S;
-use crate::stream::{Handled, Stream, TimeIssue};
+use crate::stream::{Handled, Stream, TimeIssue, group_blocks};
 
 /// The firmware's output for every sample.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -184,14 +184,11 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
 /// The samples `scored` grouped into 60 s blocks, counted from the first sample of the stream, in
 /// time order; a block counts when at least half of it is there.
 pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
-    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
     let need = (0.5 * BLOCK_S / stream.step_s).ceil().max(1.0) as usize;
-    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
-    for &i in scored {
-        let b = ((stream.time_s[i] - t0) / BLOCK_S).floor() as i64;
-        blocks.entry(b).or_default().push(i);
-    }
-    blocks.into_values().filter(|b| b.len() >= need).collect()
+    group_blocks(&stream.time_s, scored)
+        .into_iter()
+        .filter(|b| b.len() >= need)
+        .collect()
 }
 
 /// The compensated CSV (DESIGN §3): the stream's canonical columns, then `comp_rate_dps`,

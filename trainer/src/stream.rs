@@ -143,6 +143,20 @@ impl fmt::Display for Handled {
     }
 }
 
+/// The samples `idx` grouped into [`BLOCK_S`] blocks counted from the first sample of `time_s`,
+/// in time order (every block, however few samples it holds).
+pub fn group_blocks(time_s: &[f64], idx: &[usize]) -> Vec<Vec<usize>> {
+    let t0 = time_s.first().copied().unwrap_or(0.0);
+    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
+    for &i in idx {
+        blocks
+            .entry(((time_s[i] - t0) / BLOCK_S).floor() as i64)
+            .or_default()
+            .push(i);
+    }
+    blocks.into_values().collect()
+}
+
 /// The handled windows of a static log (every reference the same: the unit at rest), and
 /// their references removed; other streams are left alone.
 fn screen_handling(
@@ -156,19 +170,15 @@ fn screen_handling(
         return Vec::new();
     }
     let t0 = time_s.first().copied().unwrap_or(0.0);
-    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
-    for i in (0..time_s.len()).filter(|&i| rate_dps[i].is_finite()) {
-        blocks
-            .entry(((time_s[i] - t0) / BLOCK_S).floor() as i64)
-            .or_default()
-            .push(i);
-    }
+    let scored: Vec<usize> = (0..time_s.len())
+        .filter(|&i| rate_dps[i].is_finite())
+        .collect();
     let scatter = |b: &[usize]| {
         let m = b.iter().map(|&i| output[i]).sum::<f64>() / b.len() as f64;
         (b.iter().map(|&i| (output[i] - m).powi(2)).sum::<f64>() / b.len() as f64).sqrt()
     };
-    let spread: Vec<(Vec<usize>, f64)> = blocks
-        .into_values()
+    let spread: Vec<(Vec<usize>, f64)> = group_blocks(time_s, &scored)
+        .into_iter()
         .filter(|b| b.len() >= 2)
         .map(|b| {
             let s = scatter(&b);
