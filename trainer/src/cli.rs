@@ -8,7 +8,7 @@ use crate::data::ColumnMap;
 use crate::dataset::{Points, Screen};
 use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
-use crate::export::{self, Extension};
+use crate::export;
 use crate::extend;
 use crate::gp::{GpConfig, GpModel, Inducing};
 use crate::investigate;
@@ -17,6 +17,7 @@ use crate::prior::MeanBasis;
 use crate::report;
 use crate::reproduce::Reproduction;
 use crate::stream::{Handled, Stream, Window};
+use crate::table::{self, TableModel, Transients};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use firmware_core::Feature;
@@ -70,6 +71,10 @@ struct ModelInput {
     /// outside the rest) out, with a warning, instead of refusing the file.
     #[arg(long, requires = "points")]
     exclude_implausible: bool,
+    /// Groups of the rate table, a column (e.g. half_sweep): what the diagnosis of a table in
+    /// time order leaves out, one at a time (default: temperature plateaus).
+    #[arg(long, requires = "points")]
+    group: Option<String>,
 }
 
 impl ModelInput {
@@ -80,7 +85,7 @@ impl ModelInput {
             Some(path) => Some(load_points(
                 path,
                 &self.maps.list,
-                None,
+                self.group.as_deref(),
                 self.scale_factor,
                 self.exclude_implausible,
             )?),
@@ -192,6 +197,9 @@ enum Command {
     ///
     /// Example: trainer fit --points points.csv --stream ramp.csv --features auto --out ext.bin
     ///
+    /// Example (a turntable run, rows in time order, 21 s each): trainer fit --points run.csv
+    /// --map time_s=segment*21 --features auto --out model.bin
+    ///
     /// Example (a static log, gyro output in °/s): trainer fit --stream imu.tsv --map
     /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
     /// --map rate_dps=0 --scale-factor 1 --out bias.bin
@@ -214,8 +222,9 @@ enum Command {
         pool_stream: bool,
         /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
         /// calls for) or a list of temperature-rate, coil-temperature, power-on-decay,
-        /// thermal-state, time-on.
-        #[arg(long, requires = "stream")]
+        /// thermal-state, time-on. Without --stream, auto diagnoses --points recorded in time
+        /// order (--map time_s=…) for transients on the bias and the scale factor.
+        #[arg(long)]
         features: Option<String>,
         /// Model blob to write (firmware-core format).
         #[arg(long)]
@@ -305,6 +314,11 @@ enum Command {
         /// Leave out one group of this column at a time (default: temperature plateaus).
         #[arg(long)]
         group: Option<String>,
+        /// `auto`: a table recorded in time order (`--map time_s=…`) is diagnosed for transients
+        /// on the bias and the scale factor, and the GP extended with those that win, the choice
+        /// redone inside every fold from its training rows alone (gpr only).
+        #[arg(long, value_parser = ["auto"])]
+        features: Option<String>,
         /// Another run: also fit on all of --points and score on these, inside the temperature
         /// and rate range both cover.
         #[arg(long)]
@@ -350,7 +364,7 @@ enum Command {
     },
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum MethodArg {
     Gpr,
     Lssvr,
@@ -422,6 +436,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
         maps: Maps::default(),
         scale_factor: None,
         exclude_implausible: false,
+        group: None,
     };
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
@@ -541,10 +556,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend(stream.iter().map(PathBuf::as_path));
             ensure_not_input(&out, &inputs)?;
+            // Without a stream, --features auto diagnoses a table recorded in time order.
+            let on_table = features.is_some() && stream.is_empty() && input.points.is_some();
             anyhow::ensure!(
-                features.is_none() || stream.len() == 1,
-                "--features are fitted on one stream; {} given",
+                features.is_none() || stream.len() == 1 || on_table,
+                "--features are fitted on one stream, or (auto) on a rate table recorded in time \
+                 order; {} streams given",
                 stream.len()
+            );
+            anyhow::ensure!(
+                !on_table || features.as_deref() == Some("auto"),
+                "on a rate table the inputs are chosen by its diagnosis: --features auto"
             );
             let streams = stream
                 .iter()
@@ -559,17 +581,39 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 ),
                 None => format!("fitting an exact GP on {} points", points.len()),
             });
-            let model = GpModel::fit(&points.inputs(), &points.target(), &gp)?;
+            let table = if on_table {
+                let transients = Transients::compute(&points)?;
+                let all: Vec<usize> = (0..points.len()).collect();
+                Some(table::fit(&points, &transients, &all, &gp)?)
+            } else {
+                None
+            };
+            let model = match &table {
+                Some(t) => t.gp.clone(),
+                None => GpModel::fit(&points.inputs(), &points.target(), &gp)?,
+            };
             spinner.finish_and_clear();
             log_starts(&console, &model);
             // Before the f32 check: a warning may explain why it refuses the blob.
             for w in model.warnings() {
                 console.warn(&w);
             }
-            let mut blob = export::points_blob(&model, &points, &Extension::default())?;
-            let (firmware, mut agreement) =
-                export::verify(&model, &blob, &points, &Extension::default())?;
+            let extension = table
+                .as_ref()
+                .map(TableModel::extension)
+                .unwrap_or_default();
+            let mut blob = export::points_blob(&model, &points, &extension)?;
+            let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
             let mut summary = fit_summary(&model, &points);
+            if let Some(t) = &table {
+                console.result(&format!(
+                    "diagnosis of the table (time order): {}",
+                    t.diagnosis.verdict
+                ));
+                summary["table_diagnosis"] = serde_json::to_value(&t.diagnosis)?;
+                summary["extension"] = serde_json::to_value(&extension)?;
+                summary["features"] = serde_json::to_value(firmware.features())?;
+            }
             if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
                 let asked = match list.as_str() {
                     "auto" => None,
@@ -790,9 +834,16 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             fit,
             method,
             group,
+            features,
             test_points,
             json,
         } => {
+            if features.is_some() && (method != MethodArg::Gpr || test_points.is_some()) {
+                anyhow::bail!(
+                    "--features auto evaluates the GP (--method gpr) on one table; --test-points \
+                     is not supported with it"
+                );
+            }
             let console = Console::new(flags, json.as_deref());
             let points = load_points(
                 &input.points,
@@ -828,8 +879,38 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 }
                 None => None,
             };
-            let e = evaluate::evaluate(&points, method.into(), &cfg, &bar)?;
+            let e = match features {
+                Some(_) => evaluate::evaluate_table(&points, &cfg, &bar)?,
+                None => evaluate::evaluate(&points, method.into(), &cfg, &bar)?,
+            };
             bar.finish_and_clear();
+            if let Some(d) = &e.diagnosis {
+                console.result(&format!("diagnosis on all points: {}", d.all_rows.verdict));
+                for t in &d.terms {
+                    console.result(&format!(
+                        "  {}: coefficient {:.4e}, feature range {:.4}…{:.4}",
+                        t.candidate.name(),
+                        t.coefficient,
+                        t.range.0,
+                        t.range.1
+                    ));
+                }
+                let static_folds = d.per_group.iter().filter(|c| c.shipped.is_empty()).count();
+                console.result(&format!(
+                    "inside the {} folds (training rows alone): {} shipped an extension, {} static",
+                    d.per_group.len(),
+                    d.per_group.len() - static_folds,
+                    static_folds
+                ));
+                for c in &d.per_group {
+                    let what = if c.shipped.is_empty() {
+                        String::from("static")
+                    } else {
+                        c.shipped.join(" + ")
+                    };
+                    console.result(&format!("  fold {}: {what}", c.group));
+                }
+            }
             for w in &e.warnings {
                 console.warn(w);
             }

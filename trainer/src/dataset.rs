@@ -36,6 +36,9 @@ pub struct Points {
     /// Whether each point was soaked at its temperature (a rate table), rather than the mean of a
     /// stream block taken while the temperature moved.
     pub soaked: bool,
+    /// When each point was recorded, s, increasing row by row: a table recorded in time order
+    /// (`--map time_s=…`), whose transients [`crate::table`] can diagnose. `None` otherwise.
+    pub time_s: Option<Vec<f64>>,
 }
 
 /// Errors specific to rate-table points.
@@ -78,6 +81,21 @@ pub enum PointsError {
         first: Implausible,
         /// How many there are.
         count: usize,
+    },
+    /// A time column that does not increase row by row.
+    #[error(
+        "{path} line {line}: time_s {value} s does not follow the row before ({previous} s); a \
+         table recorded in time order needs a time that increases row by row"
+    )]
+    Unordered {
+        /// The file.
+        path: String,
+        /// 1-based line in the file.
+        line: u64,
+        /// The time on that line, s.
+        value: f64,
+        /// The time on the row before, s.
+        previous: f64,
     },
     /// A stream with too few 60 s blocks to fit a static model on.
     #[error("{path}: {found} scored 60 s blocks; a static model from a stream needs at least 10")]
@@ -234,13 +252,13 @@ impl Points {
         screen: Screen,
     ) -> Result<(Self, Vec<Implausible>), PointsError> {
         let labels: Vec<&str> = group.into_iter().collect();
-        let mut c = data::read_columns(
-            path,
-            &["temp_c", "voltage_v", "rate_dps"],
-            &[],
-            &labels,
-            maps,
-        )?;
+        let timed = maps.iter().any(|m| m.name == "time_s");
+        let numeric: &[&str] = if timed {
+            &["temp_c", "voltage_v", "rate_dps", "time_s"]
+        } else {
+            &["temp_c", "voltage_v", "rate_dps"]
+        };
+        let mut c = data::read_columns(path, numeric, &[], &labels, maps)?;
         let mut bad: Vec<Implausible> = [
             ("temp_c", IMPLAUSIBLE_TEMP_GAP_C),
             ("rate_dps", 0.0),
@@ -276,6 +294,17 @@ impl Points {
             Some(g) => c.labels.get(g).cloned().unwrap_or_default(),
             None => plateaus(&temp_c).iter().map(usize::to_string).collect(),
         };
+        let time_s = timed.then(|| c.get("time_s").to_vec());
+        if let Some(t) = &time_s
+            && let Some(k) = (1..t.len()).find(|&k| t[k] <= t[k - 1])
+        {
+            return Err(PointsError::Unordered {
+                path: path.display().to_string(),
+                line: c.lines[k],
+                value: t[k],
+                previous: t[k - 1],
+            });
+        }
         let points = Self {
             voltage_v: c.get("voltage_v").to_vec(),
             rate_dps: c.get("rate_dps").to_vec(),
@@ -283,6 +312,7 @@ impl Points {
             group,
             scale_factor,
             soaked: true,
+            time_s,
         };
         Ok((points, bad))
     }
@@ -312,6 +342,7 @@ impl Points {
             group: (0..blocks.len()).map(|b| (b / 10).to_string()).collect(),
             scale_factor,
             soaked: false,
+            time_s: None,
         })
     }
 
@@ -337,6 +368,7 @@ impl Points {
                 .collect(),
             scale_factor,
             soaked: false,
+            time_s: None,
         })
     }
 
@@ -351,6 +383,8 @@ impl Points {
         self.rate_dps.extend(other.rate_dps);
         self.group.extend(other.group);
         self.soaked &= other.soaked;
+        // Two recordings joined are no longer one time series.
+        self.time_s = None;
         Ok(self)
     }
 
@@ -408,7 +442,7 @@ impl Points {
 
     /// The subset at `idx`.
     pub fn select(&self, idx: &[usize]) -> Self {
-        let pick = |v: &[f64]| idx.iter().map(|&i| v[i]).collect();
+        let pick = |v: &[f64]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
         Self {
             temp_c: pick(&self.temp_c),
             voltage_v: pick(&self.voltage_v),
@@ -416,6 +450,7 @@ impl Points {
             group: idx.iter().map(|&i| self.group[i].clone()).collect(),
             scale_factor: self.scale_factor,
             soaked: self.soaked,
+            time_s: self.time_s.as_ref().map(|t| pick(t)),
         }
     }
 
@@ -560,6 +595,7 @@ mod tests {
             group: vec!["a".into(), "b".into()],
             scale_factor: sf,
             soaked,
+            time_s: None,
         };
         let p = points(None, true).pooled(points(None, false)).unwrap();
         assert_eq!((p.len(), p.group.len(), p.soaked), (4, 4, false));

@@ -18,6 +18,7 @@ use crate::dataset::{PLATEAU_GAP_C, Points};
 use crate::gp::{GpConfig, GpError, GpModel};
 use crate::lssvr::{LssvrError, LssvrModel};
 use crate::poly::{PolyError, PolyModel};
+use crate::table::{self, FittedTerm, TableDiagnosis, TableError, Transients};
 use crate::two_step::{TwoStepError, TwoStepModel};
 
 /// Seconds per hour: rates are also reported in °/h, the unit gyro datasheets use.
@@ -82,6 +83,9 @@ pub enum EvalError {
     /// Polynomial failure.
     #[error(transparent)]
     Poly(#[from] PolyError),
+    /// Rate-table diagnosis failure.
+    #[error(transparent)]
+    Table(#[from] TableError),
     /// Two runs share no temperature and rate range.
     #[error("the test points share no temperature and rate range with the training points")]
     NoOverlap,
@@ -234,6 +238,38 @@ pub struct Evaluation {
     pub parameters: serde_json::Value,
     /// What the fit on all points warned of.
     pub warnings: Vec<String>,
+    /// With `--features auto` on a timed table: what the diagnosis chose.
+    pub diagnosis: Option<TableReport>,
+}
+
+impl Evaluation {
+    /// The figures from the point-LOO errors and the leave-one-group-out ones (per group, then
+    /// all); no parameters, warnings or diagnosis.
+    fn from_errors(
+        method: &'static str,
+        errors: Vec<f64>,
+        (per_temperature, pooled): (Vec<GroupRmse>, Vec<f64>),
+        [fit_seconds, loo_seconds]: [f64; 2],
+    ) -> Self {
+        let group_rmse = rmse(&pooled);
+        let r = rmse(&errors);
+        Self {
+            method,
+            n: errors.len(),
+            rmse_dps: r,
+            rmse_dph: r * DPH_PER_DPS,
+            per_temperature,
+            group_rmse_dps: group_rmse,
+            group_rmse_dph: group_rmse * DPH_PER_DPS,
+            qq_correlation: qq_correlation(&errors),
+            loo_errors_dps: errors,
+            fit_seconds,
+            loo_seconds,
+            parameters: serde_json::Value::Null,
+            warnings: Vec::new(),
+            diagnosis: None,
+        }
+    }
 }
 
 fn rmse(e: &[f64]) -> f64 {
@@ -263,6 +299,54 @@ pub fn qq_correlation(values: &[f64]) -> f64 {
     cov / (sv * sq)
 }
 
+/// Leave-one-group-out: `fold(kept, left_out)` fits on the kept rows and predicts the left-out
+/// ones. Returns the RMSE of each group and every error (prediction − reference), group by group.
+fn leave_groups_out<F>(
+    points: &Points,
+    bar: &ProgressBar,
+    fold: F,
+) -> Result<(Vec<GroupRmse>, Vec<f64>), EvalError>
+where
+    F: Fn(&[usize], &[usize]) -> Result<Vec<f64>, EvalError> + Sync,
+{
+    let per_group = points
+        .groups()
+        .into_par_iter()
+        .map(|(group, members)| {
+            let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
+            let span =
+                crate::dataset::span(&keep.iter().map(|&i| points.temp_c[i]).collect::<Vec<_>>());
+            if span <= PLATEAU_GAP_C || keep.len() < 4 {
+                return Err(EvalError::FoldTooSmall {
+                    group,
+                    remaining: keep.len(),
+                    span,
+                });
+            }
+            let e: Vec<f64> = fold(&keep, &members)?
+                .into_iter()
+                .zip(&members)
+                .map(|(p, &i)| p - points.rate_dps[i])
+                .collect();
+            let r = rmse(&e);
+            bar.inc(1);
+            Ok((
+                e,
+                GroupRmse {
+                    group,
+                    temp_c: members.iter().map(|&i| points.temp_c[i]).sum::<f64>()
+                        / members.len() as f64,
+                    n: members.len(),
+                    rmse_dps: r,
+                    rmse_dph: r * DPH_PER_DPS,
+                },
+            ))
+        })
+        .collect::<Result<Vec<_>, EvalError>>()?;
+    let pooled = per_group.iter().flat_map(|(e, _)| e.clone()).collect();
+    Ok((per_group.into_iter().map(|(_, g)| g).collect(), pooled))
+}
+
 /// Evaluates one method on the points; `bar` counts its fits (the full one, then one per group).
 pub fn evaluate(
     points: &Points,
@@ -285,60 +369,98 @@ pub fn evaluate(
     let loo_seconds = t1.elapsed().as_secs_f64();
     bar.inc(1);
     bar.set_message(format!("{}: leave one group out", method.name()));
-    let per_temperature = groups
-        .into_par_iter()
-        .map(|(group, members)| {
-            let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
-            let train = points.select(&keep);
-            let span = crate::dataset::span(&train.temp_c);
-            if span <= PLATEAU_GAP_C || keep.len() < 4 {
-                return Err(EvalError::FoldTooSmall {
-                    group,
-                    remaining: keep.len(),
-                    span,
-                });
-            }
-            let m = Fitted::fit(&train, method, cfg)?;
-            let e: Vec<f64> = members
-                .iter()
-                .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
-                .collect();
-            let r = rmse(&e);
-            bar.inc(1);
-            Ok((
-                e,
-                GroupRmse {
-                    group,
-                    temp_c: members.iter().map(|&i| points.temp_c[i]).sum::<f64>()
-                        / members.len() as f64,
-                    n: members.len(),
-                    rmse_dps: r,
-                    rmse_dph: r * DPH_PER_DPS,
-                },
-            ))
-        })
-        .collect::<Result<Vec<_>, EvalError>>()?;
-    let pooled: Vec<f64> = per_temperature
-        .iter()
-        .flat_map(|(e, _)| e.clone())
-        .collect();
-    let per_temperature: Vec<GroupRmse> = per_temperature.into_iter().map(|(_, g)| g).collect();
-    let group_rmse = rmse(&pooled);
-    let r = rmse(&errors);
+    let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
+        let m = Fitted::fit(&points.select(keep), method, cfg)?;
+        Ok(members
+            .iter()
+            .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]))
+            .collect())
+    })?;
     Ok(Evaluation {
-        method: method.name(),
-        n: points.len(),
-        rmse_dps: r,
-        rmse_dph: r * DPH_PER_DPS,
-        per_temperature,
-        group_rmse_dps: group_rmse,
-        group_rmse_dph: group_rmse * DPH_PER_DPS,
-        qq_correlation: qq_correlation(&errors),
-        loo_errors_dps: errors,
-        fit_seconds,
-        loo_seconds,
         parameters: fitted.parameters(),
         warnings: fitted.warnings(),
+        ..Evaluation::from_errors(
+            method.name(),
+            errors,
+            (per_temperature, pooled),
+            [fit_seconds, loo_seconds],
+        )
+    })
+}
+
+/// What the diagnosis of a timed table chose, on all rows and in every fold.
+#[derive(Debug, Clone, Serialize)]
+pub struct TableReport {
+    /// On all rows: the model `fit` would ship.
+    pub all_rows: TableDiagnosis,
+    /// Its terms.
+    pub terms: Vec<FittedTerm>,
+    /// In each leave-one-group-out fold, from that fold's training rows alone.
+    pub per_group: Vec<FoldChoice>,
+}
+
+/// The choice made inside one fold.
+#[derive(Debug, Clone, Serialize)]
+pub struct FoldChoice {
+    /// The group left out.
+    pub group: String,
+    /// What shipped in that fold: the chosen candidates' names, empty for the static model.
+    pub shipped: Vec<String>,
+}
+
+/// The GP with its rate-table diagnosis (`loo --features auto`, [`crate::table`]) evaluated as
+/// [`evaluate`] evaluates a method: leave-one-out closed-form on the model fitted on all rows
+/// (hyperparameters and chosen terms held), and leave-one-group-out with the diagnosis and the
+/// extension redone inside every fold from its training rows alone.
+pub fn evaluate_table(
+    points: &Points,
+    cfg: &EvalConfig,
+    bar: &ProgressBar,
+) -> Result<Evaluation, EvalError> {
+    let transients = Transients::compute(points)?;
+    let groups = points.groups();
+    bar.inc_length(1 + groups.len() as u64);
+    bar.set_message(format!("gpr + diagnosis: all {} points", points.len()));
+    let all: Vec<usize> = (0..points.len()).collect();
+    let t0 = Instant::now();
+    let model = table::fit(points, &transients, &all, &cfg.gp)?;
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let errors = model.loo_errors(points, &transients, &all)?;
+    let loo_seconds = t1.elapsed().as_secs_f64();
+    bar.inc(1);
+    bar.set_message("gpr + diagnosis: leave one group out");
+    let choices = std::sync::Mutex::new(Vec::new());
+    let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
+        let m = table::fit(points, &transients, keep, &cfg.gp)?;
+        if let Ok(mut c) = choices.lock() {
+            c.push(FoldChoice {
+                group: points.group[members[0]].clone(),
+                shipped: m.terms.iter().map(|t| t.candidate.name()).collect(),
+            });
+        }
+        Ok(members
+            .iter()
+            .map(|&i| m.predict(points, &transients, i))
+            .collect())
+    })?;
+    let mut per_group = choices.into_inner().unwrap_or_default();
+    let order: Vec<String> = groups.into_iter().map(|(g, _)| g).collect();
+    per_group.sort_by_key(|c| order.iter().position(|g| *g == c.group));
+    Ok(Evaluation {
+        parameters: serde_json::json!(model.gp.posterior.hyper),
+        warnings: model.gp.warnings(),
+        diagnosis: Some(TableReport {
+            all_rows: model.diagnosis,
+            terms: model.terms,
+            per_group,
+        }),
+        ..Evaluation::from_errors(
+            Method::Gpr.name(),
+            errors,
+            (per_temperature, pooled),
+            [fit_seconds, loo_seconds],
+        )
     })
 }
 
@@ -516,6 +638,7 @@ mod tests {
             group: vec![],
             scale_factor: None,
             soaked: true,
+            time_s: None,
         };
         for &t in &[-30.0, 0.0, 30.0, 60.0] {
             for &w in &[-10.0, 10.0] {

@@ -149,10 +149,32 @@ pub struct Extension {
 pub struct Term {
     /// The input.
     pub feature: Feature,
-    /// Mean += coefficient · input, output units per input unit.
+    /// Mean += coefficient · input (· output, on the scale factor), output units per input unit
+    /// (and per output unit).
     pub coefficient: f64,
     /// Range of the input in the training data (beyond it the firmware flags extrapolation).
     pub range: (f64, f64),
+    /// The term acts on the scale factor: it is multiplied by the gyro output (the model's
+    /// `Voltage` input). In the blob: a prior-mean monomial z_V·x and the raw linear term of x.
+    pub on_scale_factor: bool,
+}
+
+impl Term {
+    /// A term on the bias: mean += coefficient · input.
+    pub fn bias(feature: Feature, coefficient: f64, range: (f64, f64)) -> Self {
+        Self {
+            feature,
+            coefficient,
+            range,
+            on_scale_factor: false,
+        }
+    }
+
+    /// What it adds to the mean at input `x` and gyro output `output`.
+    pub fn value(&self, x: f64, output: f64) -> f64 {
+        let v = self.coefficient * x;
+        if self.on_scale_factor { v * output } else { v }
+    }
 }
 
 /// Builds the blob of a fitted GP whose inputs are `features`, in order.
@@ -180,11 +202,7 @@ fn carried(points: &Points, extension: &Extension) -> Extension {
     if let Some(k) = points.scale_factor {
         extension.terms.insert(
             0,
-            Term {
-                feature: Feature::Voltage,
-                coefficient: 1.0 / k,
-                range: (-UNBOUNDED, UNBOUNDED),
-            },
+            Term::bias(Feature::Voltage, 1.0 / k, (-UNBOUNDED, UNBOUNDED)),
         );
     }
     extension
@@ -225,7 +243,31 @@ pub fn to_blob_extended(
             coefficients.push(extension.offset);
         }
     }
-    raw.extend(extension.terms.iter().map(|t| t.coefficient));
+    // A scale-factor term c·x·V: with z_V = (V − o)/s (x enters unnormalized), c·s·z_V·x as a
+    // monomial and c·o·x as x's raw linear term.
+    let output = features.iter().position(|f| *f == Feature::Voltage);
+    let (o, sv) = match output {
+        Some(k) if k < d0 => (model.input_norm.offset[k], model.input_norm.scale[k]),
+        _ => (0.0, 1.0),
+    };
+    for (j, t) in extension.terms.iter().enumerate() {
+        if !t.on_scale_factor {
+            raw.push(t.coefficient);
+            continue;
+        }
+        let Some(kv) = output else {
+            return Err(ExportError::FeatureMismatch {
+                features: features.len(),
+                inputs: d0,
+            });
+        };
+        let mut e = vec![0u8; d];
+        e[kv] = 1;
+        e[d0 + j] = 1;
+        exponents.push(e);
+        coefficients.push(t.coefficient * sv);
+        raw.push(t.coefficient * o);
+    }
     let p = coefficients.len();
     if m > MAX_CENTRES || d > MAX_INPUTS {
         return Err(ExportError::TooLarge(format!(
@@ -337,13 +379,14 @@ pub fn agreement(
         .iter()
         .map(|t| (0.5 * t.range.0 + 0.5 * t.range.1) as f32)
         .collect();
-    let added = extension.offset
-        + extension
-            .terms
-            .iter()
-            .zip(&held)
-            .map(|(t, &v)| t.coefficient * f64::from(v))
-            .sum::<f64>();
+    // The gyro output among the GP's inputs, for the scale-factor terms (a bias model's output
+    // is a term of its own, held at 0 like the others' middle).
+    let d0 = model.input_norm.offset.len();
+    let output = firmware
+        .features()
+        .iter()
+        .position(|f| *f == Feature::Voltage)
+        .filter(|&k| k < d0);
     let threshold = 1e-3 * model.posterior.hyper.signal_std.powi(2) * model.output_scale.powi(2);
     let mut a = Agreement {
         all_finite: true,
@@ -354,7 +397,14 @@ pub fn agreement(
         let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
         raw.extend(&held);
         let mut host = model.predict(&exact);
-        host.mean += added;
+        let v = output.and_then(|k| exact.get(k)).copied().unwrap_or(0.0);
+        host.mean += extension.offset
+            + extension
+                .terms
+                .iter()
+                .zip(&held)
+                .map(|(t, &x)| t.value(f64::from(x), v))
+                .sum::<f64>();
         let Ok(fw) = firmware.predict(&raw, &mut scratch) else {
             a.all_finite = false;
             continue;
@@ -543,6 +593,7 @@ mod tests {
             rate_dps,
             scale_factor,
             soaked: true,
+            time_s: None,
         }
     }
 

@@ -209,11 +209,9 @@ pub fn fit(
         .unwrap_or_else(|_| DVector::zeros(a.ncols()));
     let after = (&b - &a * &beta).rows(0, n).norm_squared();
     for (j, (feature, _, _, _)) in columns.iter().enumerate() {
-        extension.terms.push(Term {
-            feature: *feature,
-            coefficient: -beta[k + j],
-            range: res.range(*feature),
-        });
+        extension
+            .terms
+            .push(Term::bias(*feature, -beta[k + j], res.range(*feature)));
     }
     let (model, point_offsets) = if res.is_self_fitted() && !columns.is_empty() {
         // Static and transient parts together: t = f + c·x with c = −β, so the GP is conditioned

@@ -24,4 +24,5 @@ pub mod report;
 pub mod reproduce;
 pub mod sparse;
 pub mod stream;
+pub mod table;
 pub mod two_step;

@@ -239,3 +239,87 @@ fn a_static_log_where_the_unit_was_handled_says_where_and_leaves_it_out() {
     // The static model was fitted on the 29 other minutes: 29 points.
     assert_eq!(fit["n_train"], 29, "{fit}");
 }
+
+/// A turntable run in time order: 12 half-sweeps of 13 rates, 20 s per row, the temperature
+/// swinging ±3 °C; the coil lags the sensor by 120 s and the scale factor follows the coil.
+fn turntable(dir: &Path) {
+    let mut csv = String::from("segment,half_sweep,temp_c,voltage_v,rate_dps\n");
+    let (mut coil, mut t, mut segment) = (40.0f64, 0.0f64, 0);
+    for sweep in 0..12 {
+        for k in 0..13 {
+            let w = if sweep % 2 == 0 { 10.0 } else { -10.0 } * f64::from(k);
+            let temp = 40.0 + 3.0 * (t / 900.0).sin() + t / 3000.0;
+            coil += (1.0 - (-20.0f64 / 120.0).exp()) * (temp - coil);
+            let v = 0.05 * (1.0 - 5e-3 * (coil - 40.0)) * w
+                + 1e-3 * (coil - 40.0)
+                + 2e-4 * (f64::from(segment) * 1.7).sin();
+            csv.push_str(&format!("{segment},{sweep},{temp},{v},{w}\n"));
+            t += 20.0;
+            segment += 1;
+        }
+    }
+    std::fs::write(dir.join("t.csv"), csv).unwrap();
+}
+
+#[test]
+fn a_table_in_time_order_is_diagnosed_and_its_transient_carried_to_the_blob() {
+    let dir = tempfile::tempdir().unwrap();
+    turntable(dir.path());
+    let timed = [
+        "--points",
+        "t.csv",
+        "--map",
+        "time_s=segment*20",
+        "--group",
+        "half_sweep",
+    ];
+    let fit = |extra: &[&str]| {
+        let mut args = vec!["fit", "--features", "auto", "--out", "m.bin", "--json", "-"];
+        args.extend(extra);
+        trainer(&args, dir.path())
+    };
+    let out = fit(&timed);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let d = &json["table_diagnosis"];
+    assert_eq!(d["shipped"], true, "{d}");
+    assert_eq!(d["chosen"][0]["acts_on"], "scale-factor", "{d}");
+    assert!(
+        json["features"].to_string().contains("TemperatureRate"),
+        "{}",
+        json["features"]
+    );
+
+    // The same, evaluated: the choice redone inside every left-out half-sweep.
+    let loo = |extra: &[&str]| {
+        let mut args = vec!["loo", "--json", "-"];
+        args.extend(timed);
+        args.extend(extra);
+        let out = trainer(&args, dir.path());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (plain, auto) = (loo(&[]), loo(&["--features", "auto"]));
+    let rmse = |v: &serde_json::Value| v["group_rmse_dps"].as_f64().unwrap();
+    assert!(
+        rmse(&auto) < 0.5 * rmse(&plain),
+        "{} vs {}",
+        rmse(&auto),
+        rmse(&plain)
+    );
+    assert_eq!(auto["diagnosis"]["per_group"].as_array().unwrap().len(), 12);
+
+    // Without its time column the table cannot be diagnosed, and the error says what to give.
+    let out = fit(&["--points", "t.csv", "--group", "half_sweep"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--map time_s="), "{err}");
+}

@@ -53,11 +53,7 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
     let fw = export::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
     let extension = Extension {
         temperature: None,
-        terms: vec![Term {
-            feature: Feature::TimeOn,
-            coefficient: -2e-3,
-            range: (0.0, 10.0),
-        }],
+        terms: vec![Term::bias(Feature::TimeOn, -2e-3, (0.0, 10.0))],
         offset: 1e-3,
     };
     let blob = export::to_blob_extended(&m, &POINT_FEATURES, &extension).unwrap();

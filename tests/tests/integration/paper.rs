@@ -12,6 +12,7 @@ pub fn points(p: &[paper::Point]) -> Points {
         group: p.iter().map(|x| x.setpoint_c.to_string()).collect(),
         scale_factor: None,
         soaked: true,
+        time_s: None,
     }
 }
 
