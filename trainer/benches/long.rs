@@ -63,7 +63,7 @@ fn exact_2000(c: &mut Criterion) {
     let mut group = c.benchmark_group("exact");
     group.sample_size(10);
     group.bench_function("lml_and_gradient_n2000", |b| {
-        b.iter(|| lml_and_gradient(&prepared.z, &prepared.y, &prepared.h, &theta).unwrap())
+        b.iter(|| lml_and_gradient(&prepared.z, &prepared.y, &prepared.h, &[], &theta).unwrap())
     });
     group.finish();
 }

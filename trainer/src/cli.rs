@@ -75,9 +75,22 @@ struct ModelInput {
     /// time order leaves out, one at a time (default: temperature plateaus).
     #[arg(long, requires = "points")]
     group: Option<String>,
+    /// Give each group of --group its own offset in the GP (runs, sweeps or power-ons that sit
+    /// apart by a constant): fitted as a variance, left out of the firmware's predictions.
+    #[arg(long, requires = "group")]
+    offsets: bool,
 }
 
 impl ModelInput {
+    /// Refuses --offsets where `command` has no use for it.
+    fn without_offsets(&self, command: &str) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !self.offsets,
+            "--offsets is for `fit` and `loo` on a rate table; `{command}` does not take it"
+        );
+        Ok(())
+    }
+
     /// The points of the static model: the rate table when given, else the streams' block means;
     /// with `pool`, every sample of the streams as well.
     fn static_points(&self, streams: &[(&Path, Stream)], pool: bool) -> anyhow::Result<Points> {
@@ -314,6 +327,10 @@ enum Command {
         /// Leave out one group of this column at a time (default: temperature plateaus).
         #[arg(long)]
         group: Option<String>,
+        /// Give each group of --group its own offset in the GP (gpr): fitted as a variance, left
+        /// out of every prediction, so a left-out group's offset is never known to its scores.
+        #[arg(long, requires = "group")]
+        offsets: bool,
         /// `auto`: a table recorded in time order (`--map time_s=…`) is diagnosed for transients
         /// on the bias and the scale factor, and the GP extended with those that win, the choice
         /// redone inside every fold from its training rows alone (gpr only).
@@ -437,6 +454,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
         scale_factor: None,
         exclude_implausible: false,
         group: None,
+        offsets: false,
     };
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
@@ -446,7 +464,7 @@ fn log_starts(console: &Console, model: &GpModel) {
     if !console.verbose() {
         return;
     }
-    console.detail("optimizer starts (θ = ln ℓ…, ln σ_f, ln σ_n; normalized):");
+    console.detail("optimizer starts (θ = ln ℓ…, ln σ_f, ln σ_n[, ln σ_g]; normalized):");
     for (i, s) in model.starts.iter().enumerate() {
         let fmt = |t: &[f64]| {
             t.iter()
@@ -584,13 +602,23 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let table = if on_table {
                 let transients = Transients::compute(&points)?;
                 let all: Vec<usize> = (0..points.len()).collect();
-                Some(table::fit(&points, &transients, &all, &gp)?)
+                Some(table::fit(
+                    &points,
+                    &transients,
+                    &all,
+                    (&gp, input.offsets),
+                )?)
             } else {
                 None
             };
             let model = match &table {
                 Some(t) => t.gp.clone(),
-                None => GpModel::fit(&points.inputs(), &points.target(), &gp)?,
+                None => GpModel::fit_grouped(
+                    &points.inputs(),
+                    &points.target(),
+                    &points.offset_groups(input.offsets),
+                    &gp,
+                )?,
             };
             spinner.finish_and_clear();
             log_starts(&console, &model);
@@ -689,6 +717,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 model.posterior.jitter,
                 model.fit_seconds * 1e3
             ));
+            if let Some(g) = model.posterior.hyper.offset_std {
+                console.result(&format!(
+                    "offsets between groups: σ_g {:.3e} (output units), counted as noise in the \
+                     firmware's variance (a new run's offset is unknown)",
+                    g * model.output_scale
+                ));
+            }
             console.result(&format!("wrote {} ({} bytes)", out.display(), blob.len()));
             console.result(
                 "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating",
@@ -737,6 +772,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             out_static,
             json,
         } => {
+            input.without_offsets("investigate")?;
             let console = Console::new(flags, json.as_deref());
             let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
             inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
@@ -834,6 +870,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             fit,
             method,
             group,
+            offsets,
             features,
             test_points,
             json,
@@ -855,6 +892,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let bar = console.bar(0);
             let cfg = EvalConfig {
                 gp: fit.gp(),
+                offsets,
                 ..EvalConfig::default()
             };
             let cross = match &test_points {
@@ -947,6 +985,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             valid_stream,
             out: out_dir,
         } => {
+            input.without_offsets("report")?;
             let console = Console::new(flags, None);
             let (input, train_stream, valid_stream) = match (train_stream, valid_stream) {
                 (Some(a), Some(b)) => (input, a, b),

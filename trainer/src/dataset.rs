@@ -466,6 +466,16 @@ impl Points {
         ids
     }
 
+    /// Each point's group index for a GP with per-group offsets when `offsets` is set; else
+    /// none (empty), the GP without them.
+    pub fn offset_groups(&self, offsets: bool) -> Vec<usize> {
+        if offsets {
+            self.group_ids()
+        } else {
+            Vec::new()
+        }
+    }
+
     /// Distinct groups in order of first appearance, with their member indices.
     pub fn groups(&self) -> Vec<(String, Vec<usize>)> {
         let mut out: Vec<(String, Vec<usize>)> = Vec::new();

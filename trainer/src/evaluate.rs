@@ -57,6 +57,8 @@ pub struct EvalConfig {
     pub gp: GpConfig,
     /// Polynomial degree of the two-step model's B(T) and S(T).
     pub two_step_degree: usize,
+    /// The GP gives each group of the points its own offset ([`GpModel::fit_grouped`]).
+    pub offsets: bool,
 }
 
 impl Default for EvalConfig {
@@ -64,6 +66,7 @@ impl Default for EvalConfig {
         Self {
             gp: GpConfig::default(),
             two_step_degree: 3,
+            offsets: false,
         }
     }
 }
@@ -120,9 +123,10 @@ impl Fitted {
     /// Fits `method` to points.
     pub fn fit(points: &Points, method: Method, cfg: &EvalConfig) -> Result<Self, EvalError> {
         Ok(match method {
-            Method::Gpr => Self::Gpr(Box::new(GpModel::fit(
+            Method::Gpr => Self::Gpr(Box::new(GpModel::fit_grouped(
                 &points.inputs(),
                 &points.target(),
+                &points.offset_groups(cfg.offsets),
                 &cfg.gp,
             )?)),
             Method::Lssvr => Self::Lssvr(Box::new(LssvrModel::fit(
@@ -423,7 +427,7 @@ pub fn evaluate_table(
     bar.set_message(format!("gpr + diagnosis: all {} points", points.len()));
     let all: Vec<usize> = (0..points.len()).collect();
     let t0 = Instant::now();
-    let model = table::fit(points, &transients, &all, &cfg.gp)?;
+    let model = table::fit(points, &transients, &all, (&cfg.gp, cfg.offsets))?;
     let fit_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let errors = model.loo_errors(points, &transients, &all)?;
@@ -432,7 +436,7 @@ pub fn evaluate_table(
     bar.set_message("gpr + diagnosis: leave one group out");
     let choices = std::sync::Mutex::new(Vec::new());
     let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
-        let m = table::fit(points, &transients, keep, &cfg.gp)?;
+        let m = table::fit(points, &transients, keep, (&cfg.gp, cfg.offsets))?;
         if let Ok(mut c) = choices.lock() {
             c.push(FoldChoice {
                 group: points.group[members[0]].clone(),

@@ -295,7 +295,7 @@ pub fn to_blob_extended(
     let hi: Vec<f64> = raw.iter().map(|&r| f64::from(r as f32)).collect();
     floats.extend(&hi);
     floats.extend(raw.iter().zip(&hi).map(|(r, h)| r - h));
-    floats.extend([sf2 * sy * sy, h.noise_std.powi(2) * sy * sy]);
+    floats.extend([sf2 * sy * sy, h.observation_var() * sy * sy]);
     for i in 0..m {
         floats.extend((0..d).map(|k| if k < d0 { post.xs[(i, k)] } else { 0.0 }));
     }

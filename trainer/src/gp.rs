@@ -19,6 +19,10 @@
 //! the uncertainty of β̂ (R&W eq. 2.42's extra term): it is what the firmware evaluates, and inside
 //! the trained range it is small next to the GP's.
 //!
+//! With per-group offsets (runs, sweeps, power-ons; [`GpModel::fit_grouped`]) K gains σ_g² B,
+//! B_ij = 1 where samples i and j share a group, and θ gains ln σ_g. Cross covariances k* never
+//! carry it: a prediction is for a run whose offset is unknown, as on the firmware.
+//!
 //! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin, Moré–Thuente line search)
 //! from several starts in parallel, the paper's (all zero) among them, at a loose tolerance; then a
 //! short polish from the best at a tight one. Box bounds: the likelihood is evaluated at the clamped
@@ -67,12 +71,12 @@ pub enum GpError {
          choose a smaller one with --mean"
     )]
     DegenerateBasis,
-    /// Extra prior-mean columns asked of a sparse GP.
+    /// Extra prior-mean columns or per-group offsets asked of a sparse GP.
     #[error(
-        "{0} samples take a sparse GP, which carries no extra prior-mean terms: fit on fewer \
-         samples (--inducing exact)"
+        "{0} samples take a sparse GP, which carries no extra prior-mean terms or group offsets: \
+         fit on fewer samples (--inducing exact)"
     )]
-    TermsNeedExact(usize),
+    ExactOnly(usize),
 }
 
 /// Box bounds on the log-hyperparameters (normalized units).
@@ -84,6 +88,8 @@ pub struct Bounds {
     pub log_signal: (f64, f64),
     /// ln σ_n range.
     pub log_noise: (f64, f64),
+    /// ln σ_g range (per-group offsets).
+    pub log_offset: (f64, f64),
 }
 
 impl Default for Bounds {
@@ -92,6 +98,7 @@ impl Default for Bounds {
             log_length: (0.1f64.ln(), 1e3f64.ln()),
             log_signal: (1e-3f64.ln(), 10f64.ln()),
             log_noise: (1e-6f64.ln(), 1e1f64.ln()),
+            log_offset: (1e-4f64.ln(), 1e1f64.ln()),
         }
     }
 }
@@ -102,7 +109,8 @@ impl Bounds {
         match j {
             j if j < d => self.log_length,
             j if j == d => self.log_signal,
-            _ => self.log_noise,
+            j if j == d + 1 => self.log_noise,
+            _ => self.log_offset,
         }
     }
 
@@ -225,6 +233,9 @@ pub struct Hyperparameters {
     pub signal_std: f64,
     /// Noise standard deviation σ_n.
     pub noise_std: f64,
+    /// Standard deviation σ_g of the per-group offsets, when the model has them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub offset_std: Option<f64>,
 }
 
 impl Hyperparameters {
@@ -235,15 +246,31 @@ impl Hyperparameters {
             length_scales: theta[..d].iter().map(|t| t.exp()).collect(),
             signal_std: theta[d].exp(),
             noise_std: theta[d + 1].exp(),
+            offset_std: None,
         }
     }
 
-    /// θ = (ln ℓ…, ln σ_f, ln σ_n).
+    /// From θ of a model of `d` inputs: (ln ℓ…, ln σ_f, ln σ_n), then ln σ_g if θ has it.
+    pub fn from_log_of(theta: &[f64], d: usize) -> Self {
+        Self {
+            offset_std: theta.get(d + 2).map(|t| t.exp()),
+            ..Self::from_log(&theta[..d + 2])
+        }
+    }
+
+    /// θ = (ln ℓ…, ln σ_f, ln σ_n[, ln σ_g]).
     pub fn to_log(&self) -> Vec<f64> {
         let mut t: Vec<f64> = self.length_scales.iter().map(|l| l.ln()).collect();
         t.push(self.signal_std.ln());
         t.push(self.noise_std.ln());
+        t.extend(self.offset_std.map(f64::ln));
         t
+    }
+
+    /// Variance of an observation around the latent function for the firmware, which does not
+    /// know the offset of the run it runs in: σ_n² + σ_g² (normalized units).
+    pub fn observation_var(&self) -> f64 {
+        self.noise_std.powi(2) + self.offset_std.map_or(0.0, |g| g * g)
     }
 }
 
@@ -313,6 +340,21 @@ pub struct Posterior {
     pub jitter: f64,
     /// Log marginal likelihood of the normalized data.
     pub log_marginal_likelihood: f64,
+    /// Group of each training sample when the model has per-group offsets (empty without).
+    pub offsets: Vec<usize>,
+}
+
+/// Adds σ_g² to every entry of `k` whose two samples share a group: the covariance of
+/// per-group offsets drawn independently, N(0, σ_g²) each.
+fn add_offsets(k: &mut DMatrix<f64>, groups: &[usize], offset_std: f64) {
+    let g2 = offset_std * offset_std;
+    for (j, gj) in groups.iter().enumerate() {
+        for (i, gi) in groups.iter().enumerate() {
+            if gi == gj {
+                k[(i, j)] += g2;
+            }
+        }
+    }
 }
 
 impl Posterior {
@@ -324,9 +366,22 @@ impl Posterior {
         h: &DMatrix<f64>,
         hyper: Hyperparameters,
     ) -> Result<Self, GpError> {
+        Self::grouped(z, y, h, hyper, &[])
+    }
+
+    /// [`Self::new`] with an offset per group of `offsets` (each sample's group index) in the
+    /// training covariance when `hyper` has σ_g. Predictions leave the offsets out: a new run's
+    /// is unknown.
+    pub fn grouped(
+        z: &DMatrix<f64>,
+        y: &DVector<f64>,
+        h: &DMatrix<f64>,
+        hyper: Hyperparameters,
+        offsets: &[usize],
+    ) -> Result<Self, GpError> {
         let xs = kernel::scale_inputs(z, &hyper.length_scales);
         let gram = kernel::gram(&xs);
-        Self::from_gram(xs, &gram, y, h, hyper)
+        Self::from_gram(xs, &gram, y, h, hyper, offsets)
     }
 
     /// Conditions on scaled inputs whose unit-variance Gram matrix is already known.
@@ -336,11 +391,19 @@ impl Posterior {
         y: &DVector<f64>,
         h: &DMatrix<f64>,
         hyper: Hyperparameters,
+        offsets: &[usize],
     ) -> Result<Self, GpError> {
         let mut k = gram * hyper.signal_std.powi(2);
         for i in 0..k.nrows() {
             k[(i, i)] += hyper.noise_std.powi(2);
         }
+        let offsets = match hyper.offset_std {
+            Some(g) if offsets.len() == k.nrows() => {
+                add_offsets(&mut k, offsets, g);
+                offsets.to_vec()
+            }
+            _ => Vec::new(),
+        };
         let (chol, jitter) = cholesky_with_jitter(k)?;
         let l = chol.l_dirty();
         let n = y.len();
@@ -385,6 +448,7 @@ impl Posterior {
             basis_factor,
             jitter,
             log_marginal_likelihood: lml,
+            offsets,
         })
     }
 
@@ -409,6 +473,7 @@ impl Posterior {
             basis_factor: DMatrix::zeros(m, 0),
             jitter,
             log_marginal_likelihood,
+            offsets: Vec::new(),
         }
     }
 
@@ -436,14 +501,27 @@ impl Posterior {
 
     /// Closed-form leave-one-out (R&W eq. 5.12): for each sample, (prediction − target, predictive
     /// variance including noise), normalized units.
+    ///
+    /// With per-group offsets, the prediction is the one a firmware makes, which does not know
+    /// the offset its group has: the model's LOO prediction less the offset part of its cross
+    /// covariance, σ_g² Σ_{j in i's group, j ≠ i} (P₋ᵢ y₋ᵢ)_j, where P₋ᵢ y₋ᵢ = α₋ᵢ − P₋ᵢ,ᵢ αᵢ / Pᵢᵢ
+    /// (the fold's weights from the full ones, Dubrule 1983).
     pub fn loo(&self) -> Vec<(f64, f64)> {
         let kinv = self.projected_inverse();
+        let g2 = self.hyper.offset_std.map_or(0.0, |g| g * g);
         self.alpha
             .iter()
             .enumerate()
             .map(|(i, a)| {
                 let kii = kinv[(i, i)];
-                (-a / kii, 1.0 / kii)
+                let known: f64 = self
+                    .offsets
+                    .iter()
+                    .enumerate()
+                    .filter(|&(j, g)| j != i && *g == self.offsets[i])
+                    .map(|(j, _)| self.alpha[j] - kinv[(j, i)] * a / kii)
+                    .sum();
+                (-a / kii - g2 * known, 1.0 / kii)
             })
             .collect()
     }
@@ -505,24 +583,29 @@ pub fn group_loo(
     Ok(e)
 }
 
-/// (Restricted) log marginal likelihood and its gradient w.r.t. θ (paper eq. 11–12).
+/// (Restricted) log marginal likelihood and its gradient w.r.t. θ (paper eq. 11–12). θ has
+/// ln σ_g last when `offsets` (each sample's group index) is not empty.
 pub fn lml_and_gradient(
     z: &DMatrix<f64>,
     y: &DVector<f64>,
     h: &DMatrix<f64>,
+    offsets: &[usize],
     theta: &[f64],
 ) -> Result<(f64, Vec<f64>), GpError> {
     let d = z.ncols();
-    let hyper = Hyperparameters::from_log(theta);
+    let hyper = Hyperparameters::from_log_of(theta, d);
     let xs = kernel::scale_inputs(z, &hyper.length_scales);
     let gram = kernel::gram(&xs);
-    let post = Posterior::from_gram(xs, &gram, y, h, hyper)?;
+    let post = Posterior::from_gram(xs, &gram, y, h, hyper, offsets)?;
     let sf2 = post.hyper.signal_std.powi(2);
     let sn2 = post.hyper.noise_std.powi(2);
     let kinv = post.projected_inverse();
     let n = y.len();
-    let mut grad = vec![0.0; d + 2];
-    // W = ααᵀ − P; ∂K/∂ln ℓ_k = K_se ∘ (Δz_k/ℓ_k)², ∂K/∂ln σ_f = 2 K_se, ∂K/∂ln σ_n = 2 σ_n² I.
+    let grouped = !post.offsets.is_empty();
+    let mut grad = vec![0.0; d + 2 + usize::from(grouped)];
+    let mut same_group = 0.0;
+    // W = ααᵀ − P; ∂K/∂ln ℓ_k = K_se ∘ (Δz_k/ℓ_k)², ∂K/∂ln σ_f = 2 K_se, ∂K/∂ln σ_n = 2 σ_n² I,
+    // ∂K/∂ln σ_g = 2 σ_g² B (B_ij = 1 where i and j share a group).
     // Both W and ∂K are symmetric: the strict lower triangle counts twice, the diagonal once.
     for j in 0..n {
         for i in j..n {
@@ -533,12 +616,18 @@ pub fn lml_and_gradient(
                 *g += wk * (post.xs[(i, k)] - post.xs[(j, k)]).powi(2);
             }
             grad[d] += 2.0 * wk;
+            if grouped && post.offsets[i] == post.offsets[j] {
+                same_group += weight * w;
+            }
         }
     }
     grad[d + 1] = sn2
         * (0..n)
             .map(|i| post.alpha[i].powi(2) - kinv[(i, i)])
             .sum::<f64>();
+    if let Some(g) = post.hyper.offset_std.filter(|_| grouped) {
+        grad[d + 2] = 2.0 * g * g * same_group;
+    }
     Ok((post.log_marginal_likelihood, grad))
 }
 
@@ -742,21 +831,29 @@ pub(crate) fn optimize_from(
 }
 
 /// The data-informed start: unit length scales and signal, noise at 1% of the output spread.
-fn informed(d: usize) -> Vec<f64> {
+/// With per-group offsets (`grouped`), σ_g starts at 0.1.
+fn informed(d: usize, grouped: bool) -> Vec<f64> {
     let mut t = vec![0.0; d + 2];
     t[d + 1] = 0.01f64.ln();
+    if grouped {
+        t.push(0.1f64.ln());
+    }
     t
 }
 
 /// The optimizer starts: the paper's (all zero), the data-informed one ([`informed`]), then
 /// `random_starts` drawn inside the bounds' middle.
-fn starts(d: usize, cfg: &GpConfig) -> Vec<Vec<f64>> {
-    let mut out = vec![vec![0.0; d + 2], informed(d)];
+fn starts(d: usize, grouped: bool, cfg: &GpConfig) -> Vec<Vec<f64>> {
+    let params = d + 2 + usize::from(grouped);
+    let mut out = vec![vec![0.0; params], informed(d, grouped)];
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     for _ in 0..cfg.random_starts {
         let mut t: Vec<f64> = (0..d).map(|_| rng.random_range(-2.0..3.0)).collect();
         t.push(rng.random_range(-1.5..1.5));
         t.push(rng.random_range(-9.0..-2.0));
+        if grouped {
+            t.push(rng.random_range(-5.0..0.5));
+        }
         out.push(t);
     }
     out
@@ -817,6 +914,8 @@ pub struct Prepared {
     pub y: DVector<f64>,
     /// The basis at `z` (n × p).
     pub h: DMatrix<f64>,
+    /// Group of each sample when the model has per-group offsets (empty without).
+    pub offsets: Vec<usize>,
 }
 
 impl Prepared {
@@ -845,12 +944,18 @@ impl Prepared {
             z,
             y: resid / scale,
             h,
+            offsets: Vec::new(),
         }
     }
 
     /// The GP conditioned on this data at `hyper`.
     pub fn condition(&self, hyper: Hyperparameters) -> Result<Posterior, GpError> {
-        Posterior::new(&self.z, &self.y, &self.h, hyper)
+        Posterior::grouped(&self.z, &self.y, &self.h, hyper, &self.offsets)
+    }
+
+    /// Its (restricted) log marginal likelihood and gradient at θ, with extra basis columns `h`.
+    fn likelihood(&self, h: &DMatrix<f64>, theta: &[f64]) -> Result<(f64, Vec<f64>), GpError> {
+        lml_and_gradient(&self.z, &self.y, h, &self.offsets, theta)
     }
 }
 
@@ -868,15 +973,16 @@ pub(crate) struct Searched {
 pub(crate) fn search(
     likelihood: Likelihood<'_>,
     (n, d): (usize, usize),
+    grouped: bool,
     cfg: &GpConfig,
 ) -> Result<Searched, GpError> {
-    let mut reports: Vec<StartReport> = starts(d, cfg)
+    let mut reports: Vec<StartReport> = starts(d, grouped, cfg)
         .into_par_iter()
         .map(|s| optimize_from(likelihood, (n, d), s, cfg, SEARCH))
         .collect();
     let Some(searched) = best_of(&reports) else {
         let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
-        let Some((theta, noise_std)) = fallback(likelihood, d, cfg) else {
+        let Some((theta, noise_std)) = fallback(likelihood, d, grouped, cfg) else {
             return Err(GpError::OptimizerFailed(statuses.join("; ")));
         };
         return Ok(Searched {
@@ -896,14 +1002,15 @@ pub(crate) fn search(
         POLISH,
     ));
     let theta = best_of(&reports).unwrap_or(searched);
-    let optimization =
-        if reports.iter().any(|r| r.converged) || stationary(likelihood, &theta, &cfg.bounds, n) {
-            Optimization::Converged
-        } else {
-            Optimization::StoppedEarly {
-                log_marginal_likelihood: likelihood(&theta).map_or(f64::NAN, |(l, _)| l),
-            }
-        };
+    let optimization = if reports.iter().any(|r| r.converged)
+        || stationary(likelihood, &theta, &cfg.bounds, (n, d))
+    {
+        Optimization::Converged
+    } else {
+        Optimization::StoppedEarly {
+            log_marginal_likelihood: likelihood(&theta).map_or(f64::NAN, |(l, _)| l),
+        }
+    };
     Ok(Searched {
         theta,
         reports,
@@ -927,8 +1034,12 @@ const AT_BOUND: f64 = 0.01;
 /// component is below [`STATIONARY`] per sample, except those pushing against a bound θ is at.
 /// Noise-free data put σ_f or σ_n at a bound, where L-BFGS with the penalty wall stalls instead of
 /// converging, though the point it stalls at is the constrained optimum.
-fn stationary(likelihood: Likelihood<'_>, theta: &[f64], bounds: &Bounds, n: usize) -> bool {
-    let d = theta.len().saturating_sub(2);
+fn stationary(
+    likelihood: Likelihood<'_>,
+    theta: &[f64],
+    bounds: &Bounds,
+    (n, d): (usize, usize),
+) -> bool {
     likelihood(theta).is_ok_and(|(_, grad)| {
         grad.iter().enumerate().all(|(j, &g)| {
             let (lo, hi) = bounds.range(d, j);
@@ -941,10 +1052,15 @@ fn stationary(likelihood: Likelihood<'_>, theta: &[f64], bounds: &Bounds, n: usi
 
 /// The fallback θ: the data-informed start with σ_n at 0.1, 1 and 10 (normalized, within the
 /// bounds) in turn, the first where the likelihood evaluates to a finite number; with that σ_n.
-fn fallback(likelihood: Likelihood<'_>, d: usize, cfg: &GpConfig) -> Option<(Vec<f64>, f64)> {
+fn fallback(
+    likelihood: Likelihood<'_>,
+    d: usize,
+    grouped: bool,
+    cfg: &GpConfig,
+) -> Option<(Vec<f64>, f64)> {
     let (lo, hi) = cfg.bounds.log_noise;
     [0.1f64, 1.0, 10.0].into_iter().find_map(|noise| {
-        let mut theta = informed(d);
+        let mut theta = informed(d, grouped);
         theta[d + 1] = noise.ln().clamp(lo, hi);
         let fine = likelihood(&theta).is_ok_and(|(l, _)| l.is_finite());
         fine.then(|| {
@@ -968,17 +1084,40 @@ pub(crate) fn best_of(reports: &[StartReport]) -> Option<Vec<f64>> {
 impl GpModel {
     /// Fits the GP to raw inputs `x` (rows are samples) and targets.
     pub fn fit(x: &DMatrix<f64>, target: &DVector<f64>, cfg: &GpConfig) -> Result<Self, GpError> {
-        if x.nrows() < 3 {
-            return Err(GpError::TooFewSamples(x.nrows()));
+        Self::fit_grouped(x, target, &[], cfg)
+    }
+
+    /// Fits the GP with an offset per group: `offsets` gives each sample's group index (empty:
+    /// no offsets). The offsets are independent N(0, σ_g²) draws, a covariance term σ_g² where
+    /// two samples share a group, σ_g fitted with the other hyperparameters; so runs, sweeps or
+    /// power-ons that sit apart by a constant are not followed with the temperature length scale.
+    /// Predictions leave them out (a new run's offset is unknown) and count σ_g² as observation
+    /// noise ([`Hyperparameters::observation_var`]). Offsets need an exact GP.
+    pub fn fit_grouped(
+        x: &DMatrix<f64>,
+        target: &DVector<f64>,
+        offsets: &[usize],
+        cfg: &GpConfig,
+    ) -> Result<Self, GpError> {
+        let n = x.nrows();
+        if n < 3 {
+            return Err(GpError::TooFewSamples(n));
         }
         let t0 = Instant::now();
-        let data = Prepared::new(x, target, cfg.mean);
-        if let Some(m) = cfg.inducing.count(x.nrows()) {
+        let data = Prepared {
+            offsets: offsets.to_vec(),
+            ..Prepared::new(x, target, cfg.mean)
+        };
+        if let Some(m) = cfg.inducing.count(n) {
+            if !offsets.is_empty() {
+                return Err(GpError::ExactOnly(n));
+            }
             return sparse::fit(x, data, m, cfg, t0);
         }
-        let likelihood = |t: &[f64]| lml_and_gradient(&data.z, &data.y, &data.h, t);
-        let found = search(&likelihood, data.z.shape(), cfg)?;
-        let posterior = data.condition(Hyperparameters::from_log(&found.theta))?;
+        let likelihood = |t: &[f64]| data.likelihood(&data.h, t);
+        let d = x.ncols();
+        let found = search(&likelihood, (n, d), !offsets.is_empty(), cfg)?;
+        let posterior = data.condition(Hyperparameters::from_log_of(&found.theta, d))?;
         Ok(Self::assemble(
             x,
             cfg.mean,
@@ -995,27 +1134,32 @@ impl GpModel {
     /// hyperparameters maximize the joint restricted likelihood, so the GP does not spend its
     /// length scales on what the terms explain. Returns the GP conditioned on target − terms·γ
     /// at those hyperparameters (the same model: with γ̂ held, the basis' GLS coefficients are
-    /// the joint ones, Frisch–Waugh–Lovell) and γ, output units per term unit. Exact GPs only.
+    /// the joint ones, Frisch–Waugh–Lovell) and γ, output units per term unit. `offsets` as in
+    /// [`Self::fit_grouped`]. Exact GPs only.
     pub fn fit_with_terms(
         x: &DMatrix<f64>,
         terms: &DMatrix<f64>,
         target: &DVector<f64>,
+        offsets: &[usize],
         cfg: &GpConfig,
     ) -> Result<(Self, Vec<f64>), GpError> {
-        let n = x.nrows();
+        let (n, d) = x.shape();
         if n < 3 {
             return Err(GpError::TooFewSamples(n));
         }
         if cfg.inducing.count(n).is_some() {
-            return Err(GpError::TermsNeedExact(n));
+            return Err(GpError::ExactOnly(n));
         }
         let t0 = Instant::now();
-        let data = Prepared::new(x, target, cfg.mean);
+        let data = Prepared {
+            offsets: offsets.to_vec(),
+            ..Prepared::new(x, target, cfg.mean)
+        };
         let (h, rms) = with_terms(&data.h, terms);
-        let likelihood = |t: &[f64]| lml_and_gradient(&data.z, &data.y, &h, t);
-        let found = search(&likelihood, data.z.shape(), cfg)?;
-        let hyper = Hyperparameters::from_log(&found.theta);
-        let joint = Posterior::new(&data.z, &data.y, &h, hyper.clone())?;
+        let likelihood = |t: &[f64]| data.likelihood(&h, t);
+        let found = search(&likelihood, (n, d), !offsets.is_empty(), cfg)?;
+        let hyper = Hyperparameters::from_log_of(&found.theta, d);
+        let joint = Posterior::grouped(&data.z, &data.y, &h, hyper.clone(), offsets)?;
         let p = data.h.ncols();
         let gamma: Vec<f64> = rms
             .iter()
@@ -1078,7 +1222,10 @@ impl GpModel {
     /// the kernel the marginal likelihood chose).
     pub fn refit_targets(&self, x: &DMatrix<f64>, target: &DVector<f64>) -> Result<Self, GpError> {
         let t0 = Instant::now();
-        let data = Prepared::new(x, target, self.basis);
+        let data = Prepared {
+            offsets: self.posterior.offsets.clone(),
+            ..Prepared::new(x, target, self.basis)
+        };
         let hyper = self.posterior.hyper.clone();
         let (posterior, sparse) = match &self.sparse {
             Some(s) => {
@@ -1136,7 +1283,7 @@ impl GpModel {
         Prediction {
             mean: self.prior.eval(&z) + self.output_scale * m,
             latent_var: v * s2,
-            noise_var: self.posterior.hyper.noise_std.powi(2) * s2,
+            noise_var: self.posterior.hyper.observation_var() * s2,
         }
     }
 
@@ -1263,22 +1410,24 @@ mod tests {
     fn analytic_gradient_matches_finite_differences() {
         let (z, y) = toy(25, 1);
         let y = y.map(|v| v + 0.01);
-        for (h, theta) in bases(&z).iter().flat_map(|h| {
+        let groups: Vec<usize> = (0..25).map(|i| i % 4).collect();
+        for (h, offsets, theta) in bases(&z).iter().flat_map(|h| {
             [
-                (h, vec![0.0, 0.0, 0.0, 0.0]),
-                (h, vec![-0.3, 0.7, 0.2, -2.5]),
+                (h, &[][..], vec![0.0, 0.0, 0.0, 0.0]),
+                (h, &[][..], vec![-0.3, 0.7, 0.2, -2.5]),
+                (h, &groups[..], vec![-0.3, 0.7, 0.2, -2.5, -1.0]),
             ]
         }) {
-            let (_, g) = lml_and_gradient(&z, &y, h, &theta).unwrap();
+            let lml = |t: &[f64]| lml_and_gradient(&z, &y, h, offsets, t).unwrap();
+            let (_, g) = lml(&theta);
+            assert_eq!(g.len(), theta.len());
             for j in 0..theta.len() {
                 let step = 1e-5;
                 let mut tp = theta.clone();
                 tp[j] += step;
                 let mut tm = theta.clone();
                 tm[j] -= step;
-                let fd = (lml_and_gradient(&z, &y, h, &tp).unwrap().0
-                    - lml_and_gradient(&z, &y, h, &tm).unwrap().0)
-                    / (2.0 * step);
+                let fd = (lml(&tp).0 - lml(&tm).0) / (2.0 * step);
                 assert!(
                     (fd - g[j]).abs() < 1e-5 * (1.0 + fd.abs()),
                     "θ {theta:?} j {j}: analytic {} fd {fd}",
@@ -1311,6 +1460,7 @@ mod tests {
             length_scales: vec![0.8, 1.5],
             signal_std: 1.2,
             noise_std: 0.05,
+            offset_std: None,
         };
         for h in bases(&z) {
             let full = Posterior::new(&z, &y, &h, hyper.clone()).unwrap();
@@ -1338,6 +1488,70 @@ mod tests {
     }
 
     #[test]
+    fn grouped_loo_predicts_as_the_firmware_would_without_the_offsets() {
+        let (z, y) = toy(30, 2);
+        let groups: Vec<usize> = (0..30).map(|i| i / 6).collect();
+        let hyper = Hyperparameters {
+            length_scales: vec![0.8, 1.5],
+            signal_std: 1.2,
+            noise_std: 0.05,
+            offset_std: Some(0.7),
+        };
+        for h in bases(&z) {
+            let full = Posterior::grouped(&z, &y, &h, hyper.clone(), &groups).unwrap();
+            let kinv = inverse_from_cholesky(&full.chol);
+            let members: Vec<Vec<usize>> = (0..5)
+                .map(|g| (0..30).filter(|&i| groups[i] == g).collect())
+                .collect();
+            let by_group = group_loo(&kinv, &h, &y, &members).unwrap();
+            let loo = full.loo();
+            // Refit without the point (or its group) and predict with the kernel alone: the
+            // offsets enter the training covariance, never the cross covariance.
+            let refit = |keep: &[usize], i: usize| {
+                let sub: Vec<usize> = keep.iter().map(|&j| groups[j]).collect();
+                let p = Posterior::grouped(
+                    &z.select_rows(keep),
+                    &y.select_rows(keep),
+                    &h.select_rows(keep),
+                    hyper.clone(),
+                    &sub,
+                )
+                .unwrap();
+                p.predict(&[z[(i, 0)], z[(i, 1)]]).0 + h.row(i).dot(&p.beta.transpose()) - y[i]
+            };
+            for i in 0..30 {
+                let others: Vec<usize> = (0..30).filter(|&j| j != i).collect();
+                assert!((refit(&others, i) - loo[i].0).abs() < 1e-9, "point {i}");
+                let rest: Vec<usize> = (0..30).filter(|&j| groups[j] != groups[i]).collect();
+                assert!((refit(&rest, i) - by_group[i]).abs() < 1e-9, "group of {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn offsets_between_groups_are_fitted_and_leave_the_length_scale_alone() {
+        // A smooth function of one input, each group of 12 samples shifted by its own offset.
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let shift: Vec<f64> = (0..8).map(|_| rng.random_range(-0.6f64..0.6)).collect();
+        let x = DMatrix::from_fn(96, 1, |i, _| {
+            -2.0 + 4.0 * (i % 12) as f64 / 11.0 + 0.01 * (i / 12) as f64
+        });
+        let groups: Vec<usize> = (0..96).map(|i| i / 12).collect();
+        let y = DVector::from_fn(96, |i, _| (0.8 * x[(i, 0)]).sin() + shift[groups[i]]);
+        let cfg = GpConfig::default();
+        let m = GpModel::fit_grouped(&x, &y, &groups, &cfg).unwrap();
+        let g = m.posterior.hyper.offset_std.unwrap() * m.output_scale;
+        let spread = (shift.iter().map(|s| s * s).sum::<f64>() / 8.0).sqrt();
+        assert!(
+            (g / spread - 1.0).abs() < 0.5,
+            "σ_g {g} against offsets' RMS {spread}"
+        );
+        let l = m.posterior.hyper.length_scales[0] * m.input_norm.scale[0];
+        assert!(l > 0.5, "length scale {l}: the GP follows the offsets");
+        assert!(m.predict(&[0.0]).noise_var > g * g * 0.99);
+    }
+
+    #[test]
     fn gls_recovers_a_linear_trend_under_the_gp() {
         let (z, f) = toy(40, 5);
         let h = bases(&z)[1].clone();
@@ -1347,6 +1561,7 @@ mod tests {
             length_scales: vec![0.8, 1.5],
             signal_std: 1.0,
             noise_std: 0.01,
+            offset_std: None,
         };
         let with = Posterior::new(&z, &y, &h, hyper.clone()).unwrap();
         let without = Posterior::new(&z, &f, &DMatrix::zeros(40, 0), hyper).unwrap();
@@ -1438,7 +1653,7 @@ mod tests {
     fn every_start_failing_falls_back_with_raised_noise() {
         let cfg = GpConfig::default();
         let likelihood = failing_below(5.0);
-        let found = search(&likelihood, (10, 2), &cfg).unwrap();
+        let found = search(&likelihood, (10, 2), false, &cfg).unwrap();
         assert!(found.reports.iter().all(|r| r.end.is_none()));
         let Optimization::Fallback { noise_std, .. } = found.optimization else {
             panic!("{:?}", found.optimization);
@@ -1447,7 +1662,7 @@ mod tests {
         assert_eq!(&found.theta[..3], &[0.0, 0.0, 0.0]);
         // Beyond the bound the fallback gives up, with every start's status.
         let never = failing_below(100.0);
-        let e = search(&never, (10, 2), &cfg).err().unwrap();
+        let e = search(&never, (10, 2), false, &cfg).err().unwrap();
         assert!(matches!(e, GpError::OptimizerFailed(_)), "{e}");
         assert_eq!(e.to_string().matches("stopped:").count(), 4, "{e}");
     }

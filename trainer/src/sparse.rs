@@ -141,8 +141,8 @@ pub(crate) fn fit(
     let subset = start_subset(&data.z, cfg.seed);
     let (zs, ys) = (data.z.select_rows(&subset), data.y.select_rows(&subset));
     let none = DMatrix::zeros(subset.len(), 0);
-    let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, t);
-    let mut found = gp::search(&exact, zs.shape(), cfg)?;
+    let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, &[], t);
+    let mut found = gp::search(&exact, zs.shape(), false, cfg)?;
     let start = found.theta.clone();
     let start_noise_std = Hyperparameters::from_log(&start).noise_std;
     // Inducing points are selected in the kernel's metric at the current hyperparameters, and the
@@ -633,7 +633,7 @@ mod tests {
         let (z, y) = toy(40, 2);
         let theta = [0.1, 0.4, 0.0, -2.0];
         let (bound, _) = bound_and_gradient(&z, &y, &z, &theta).unwrap();
-        let (exact, _) = lml_and_gradient(&z, &y, &DMatrix::zeros(40, 0), &theta).unwrap();
+        let (exact, _) = lml_and_gradient(&z, &y, &DMatrix::zeros(40, 0), &[], &theta).unwrap();
         // Equal up to the jitter on K_mm (1e-6 of σ_f²).
         assert!(
             (bound - exact).abs() < 1e-3 * exact.abs(),

@@ -304,21 +304,23 @@ fn rmse(e: &[f64]) -> f64 {
 
 /// Fits the static GP on `rows` of the table, diagnoses which transients it lacks from those rows
 /// alone (module doc) and returns the model that ships: extended when the extension wins its
-/// leave-one-group-out test, static otherwise.
+/// leave-one-group-out test, static otherwise. With `offsets`, every GP gives each group its own
+/// offset ([`GpModel::fit_grouped`]).
 pub fn fit(
     points: &Points,
     transients: &Transients,
     rows: &[usize],
-    cfg: &GpConfig,
+    (cfg, offsets): (&GpConfig, bool),
 ) -> Result<TableModel, TableError> {
     let train = points.select(rows);
+    let offsets = train.offset_groups(offsets);
     let groups: Vec<Vec<usize>> = train.groups().into_iter().map(|(_, m)| m).collect();
     if groups.len() < 3 {
         return Err(TableError::TooFewGroups(groups.len()));
     }
     let x = train.inputs();
     let target = train.target();
-    let gp = GpModel::fit(&x, &target, cfg)?;
+    let gp = GpModel::fit_grouped(&x, &target, &offsets, cfg)?;
     let kinv = gp.covariance_inverse();
     let score = |chosen: &[usize]| -> Result<f64, GpError> {
         let e = gp.group_loo_given(
@@ -420,7 +422,7 @@ pub fn fit(
         ));
     }
     let terms = transients.design(rows, &chosen);
-    let (extended, gamma) = GpModel::fit_with_terms(&x, &terms, &target, cfg)?;
+    let (extended, gamma) = GpModel::fit_with_terms(&x, &terms, &target, &offsets, cfg)?;
     let own = rmse(&extended.group_loo_with(&x, &target, &terms, &groups)?);
     if own >= static_rmse {
         return Ok(static_model(
@@ -525,7 +527,7 @@ mod tests {
         let p = turntable(120.0, 1);
         let tr = Transients::compute(&p).unwrap();
         let all: Vec<usize> = (0..p.len()).collect();
-        let m = fit(&p, &tr, &all, &GpConfig::default()).unwrap();
+        let m = fit(&p, &tr, &all, (&GpConfig::default(), false)).unwrap();
         let d = &m.diagnosis;
         assert!(d.shipped, "{}", d.verdict);
         assert_eq!(
@@ -586,7 +588,7 @@ mod tests {
         let p = turntable(0.0, 3);
         let tr = Transients::compute(&p).unwrap();
         let all: Vec<usize> = (0..p.len()).collect();
-        let m = fit(&p, &tr, &all, &GpConfig::default()).unwrap();
+        let m = fit(&p, &tr, &all, (&GpConfig::default(), false)).unwrap();
         assert!(m.terms.is_empty(), "{}", m.diagnosis.verdict);
         assert_eq!(m.diagnosis.causes, [Cause::None]);
     }

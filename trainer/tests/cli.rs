@@ -323,3 +323,83 @@ fn a_table_in_time_order_is_diagnosed_and_its_transient_carried_to_the_blob() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--map time_s="), "{err}");
 }
+
+/// A table of 12 half-sweeps whose temperature drifts from sweep to sweep, each sweep with its
+/// own bias offset (a turn-on or a rig re-seat), on a smooth temperature response.
+fn offset_sweeps(dir: &Path) {
+    let mut csv = String::from("half_sweep,temp_c,voltage_v,rate_dps\n");
+    for sweep in 0..12 {
+        let offset = 2e-3 * (f64::from(sweep) * 2.3).sin();
+        for k in 0..13 {
+            let w = -60.0 + 10.0 * f64::from(k);
+            let temp = 20.0 + 3.5 * f64::from(sweep) + 0.2 * f64::from(k);
+            let v = 0.05 * (1.0 - 2e-3 * (temp - 40.0)) * w
+                + 1e-3 * ((temp - 40.0) / 15.0).sin()
+                + offset
+                + 1e-4 * (f64::from(13 * sweep + k) * 1.7).sin();
+            csv.push_str(&format!("{sweep},{temp},{v},{w}\n"));
+        }
+    }
+    std::fs::write(dir.join("o.csv"), csv).unwrap();
+}
+
+#[test]
+fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions() {
+    let dir = tempfile::tempdir().unwrap();
+    offset_sweeps(dir.path());
+    let table = ["--points", "o.csv", "--group", "half_sweep"];
+    let run = |args: &[&str]| {
+        let out = trainer(args, dir.path());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let loo = |extra: &[&str]| {
+        let mut args = vec!["loo", "--json", "-"];
+        args.extend(table);
+        args.extend(extra);
+        run(&args)
+    };
+    let (plain, offsets) = (loo(&[]), loo(&["--offsets"]));
+    let rmse = |v: &serde_json::Value| v["group_rmse_dps"].as_f64().unwrap();
+    assert!(
+        rmse(&offsets) < rmse(&plain),
+        "{} vs {}",
+        rmse(&offsets),
+        rmse(&plain)
+    );
+    assert!(offsets["parameters"]["offset_std"].as_f64().is_some());
+
+    // The blob is written; the offsets' variance is reported, the firmware agrees with the host.
+    let mut args = vec!["fit", "--offsets", "--out", "m.bin", "--json", "-"];
+    args.extend(table);
+    let fit = run(&args);
+    let g = fit["hyperparameters"]["offset_std"].as_f64().unwrap()
+        * fit["output_scale"].as_f64().unwrap();
+    // The offsets are 1.4e-3 V RMS: 0.028 °/s at 0.05 V per °/s.
+    assert!((0.01..0.06).contains(&g), "σ_g {g}");
+
+    // Without --group there is nothing to give an offset to; investigate does not take it.
+    let out = trainer(&["loo", "--points", "o.csv", "--offsets"], dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    let out = trainer(
+        &[
+            "investigate",
+            "--points",
+            "o.csv",
+            "--group",
+            "half_sweep",
+            "--offsets",
+            "--train-stream",
+            "a.csv",
+            "--valid-stream",
+            "b.csv",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--offsets is for"));
+}

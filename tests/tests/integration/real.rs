@@ -8,6 +8,7 @@ use std::path::Path;
 use trainer::console::ProgressBar;
 use trainer::dataset::Points;
 use trainer::evaluate::{self, EvalConfig, Method};
+use trainer::gp::{GpConfig, GpModel};
 use trainer::table::{self, Transients};
 
 use crate::{at, json, trainer};
@@ -171,7 +172,7 @@ fn the_fog_runs_transient_is_found_from_the_training_sweeps_and_harms_neither_ru
 
     let aug_rows: Vec<usize> = (0..aug.len()).collect();
     let transients = Transients::compute(&aug).unwrap();
-    let m = table::fit(&aug, &transients, &aug_rows, &cfg.gp).unwrap();
+    let m = table::fit(&aug, &transients, &aug_rows, (&cfg.gp, false)).unwrap();
     assert!(m.terms.is_empty(), "{}", m.diagnosis.verdict);
 
     let e = evaluate::evaluate_table(&oct, &cfg, &ProgressBar::hidden()).unwrap();
@@ -179,4 +180,27 @@ fn the_fog_runs_transient_is_found_from_the_training_sweeps_and_harms_neither_ru
     assert!(d.all_rows.shipped, "{}", d.all_rows.verdict);
     assert_eq!(d.terms[0].candidate.acts_on, table::ActsOn::ScaleFactor);
     assert!(e.group_rmse_dph < 65.0, "{}", e.group_rmse_dph);
+}
+
+/// Issue 19's offsets: on the Oct run a static GP without them spends its temperature length
+/// scale on what differs from sweep to sweep; with an offset per half-sweep (a random effect,
+/// `--offsets`) it keeps a long one. Leaving one sweep out this took the static GP from 135 to
+/// 90.9 °/h (`loo --group half_sweep --offsets`, 3.5 min: too long for this suite).
+#[test]
+fn with_an_offset_per_sweep_the_fog_gp_keeps_its_temperature_length_scale() {
+    let Some((oct, _)) = fog_runs(&[]) else {
+        return;
+    };
+    let cfg = GpConfig::default();
+    let (x, target) = (oct.inputs(), oct.target());
+    let plain = GpModel::fit(&x, &target, &cfg).unwrap();
+    let grouped = GpModel::fit_grouped(&x, &target, &oct.group_ids(), &cfg).unwrap();
+    let length_c = |m: &GpModel| m.posterior.hyper.length_scales[0] * m.input_norm.scale[0];
+    assert!(
+        length_c(&grouped) > 3.0 * length_c(&plain),
+        "ℓ_T {:.2} °C with offsets against {:.2} °C without",
+        length_c(&grouped),
+        length_c(&plain)
+    );
+    assert!(grouped.posterior.hyper.offset_std.is_some());
 }
