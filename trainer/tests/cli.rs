@@ -403,3 +403,33 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--offsets is for"));
 }
+
+#[test]
+fn an_implausible_row_is_refused_or_with_the_option_left_out_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let path = dir.path().join("p.csv");
+    let mut csv = std::fs::read_to_string(&path).unwrap();
+    csv.push_str("250,0.5,10\n");
+    std::fs::write(&path, csv).unwrap();
+    let fit = |extra: &[&str]| {
+        let mut args = vec!["fit", "--points", "p.csv", "--out", "m.bin", "--json", "-"];
+        args.extend(extra);
+        trainer(&args, dir.path())
+    };
+    let out = fit(&[]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 50, column temp_c: 250"), "{err}");
+    assert!(!dir.path().join("m.bin").exists());
+
+    let out = fit(&["--exclude-implausible"]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning") && err.contains("left out (--exclude-implausible)"),
+        "{err}"
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["n_train"], 48, "{json}");
+}
