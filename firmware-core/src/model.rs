@@ -35,8 +35,10 @@ use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, Sample};
 
 /// Validity of a prediction, from best to worst (a prediction carries the worst that applies).
+/// Every function that returns one must have it looked at: a `Fault` ignored is a stale value used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[must_use = "a Fault status means the outputs are not to be used"]
 pub enum Status {
     /// Inputs inside the trained range.
     Valid,

@@ -100,14 +100,20 @@ fn two_effects_join_with_a_plus_and_their_strengths_pair_with_them() {
     let d = dir.path();
     let generate = |extra: &[&str]| {
         let args = [
-            &["generate", "paper", "--seed", "1", "--out", "p.csv", "--json", "-"][..],
+            &[
+                "generate", "paper", "--seed", "1", "--out", "p.csv", "--json", "-",
+            ][..],
             extra,
         ]
         .concat();
         sim(&args, d)
     };
     let out = generate(&["--effect", "warm-up+time-drift", "--strength", "40+7"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["effect"]["id"], "warm-up", "{json}");
     assert_eq!(json["effects"][0]["amplitude_dph"], 40.0, "{json}");
@@ -115,7 +121,12 @@ fn two_effects_join_with_a_plus_and_their_strengths_pair_with_them() {
     assert_eq!(json["effects"][1]["dph_per_h"], 7.0, "{json}");
     // A strength for each effect, and only known effects.
     let out = generate(&["--effect", "warm-up+time-drift", "--strength", "40"]);
-    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     let out = generate(&["--effect", "warm-up+magic"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("magic"));

@@ -10,7 +10,7 @@ use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
 use crate::export;
 use crate::extend;
-use crate::gp::{GpConfig, GpModel, Inducing};
+use crate::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
 use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically, write_json};
 use crate::prior::MeanBasis;
@@ -586,12 +586,34 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 !on_table || features.as_deref() == Some("auto"),
                 "on a rate table the inputs are chosen by its diagnosis: --features auto"
             );
+            anyhow::ensure!(
+                input.points.is_none() || stream.is_empty() || features.is_some() || pool_stream,
+                "--stream would not be used: with --points the static model is fitted on the rate \
+                 table; add --pool-stream to fit on the stream's samples too, or --features to \
+                 extend the model by inputs fitted on the stream"
+            );
             let streams = stream
                 .iter()
                 .map(|p| Ok((p.as_path(), load_stream(p, &input.maps.list, window)?)))
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let points = input.static_points(&streams, pool_stream)?;
             let gp = fit.gp();
+            let centres = gp.inducing.count(points.len()).unwrap_or(points.len());
+            anyhow::ensure!(
+                centres <= export::MAX_CENTRES,
+                "model too large to export: {} gives {centres} centres, and a firmware model holds at \
+                 most {} centres; ask for a sparse GP (--inducing {}) or fit on fewer points \
+                 (checked before fitting)",
+                match gp.inducing {
+                    Inducing::Auto => format!(
+                        "an exact GP on {} points (the default up to {AUTO_EXACT_MAX})",
+                        points.len()
+                    ),
+                    asked => format!("--inducing {asked} on {} points", points.len()),
+                },
+                export::MAX_CENTRES,
+                export::MAX_CENTRES
+            );
             let spinner = console.spinner(&match gp.inducing.count(points.len()) {
                 Some(m) => format!(
                     "fitting a sparse GP ({m} inducing points) on {} samples",

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};
+use firmware_core::{Feature, Status};
 use nalgebra::{DMatrix, DVector};
 
 use crate::data::{self, ColumnMap, DataError};
@@ -96,6 +96,21 @@ pub enum PointsError {
         value: f64,
         /// The time on the row before, s.
         previous: f64,
+    },
+    /// A row the firmware would refuse as an input (its `Fault`).
+    #[error(
+        "{path} line {line}: temperature {temp_c} °C, output {output}: the firmware refuses this \
+         row (a temperature outside −100…200 °C, or a value that is not finite); is the unit right?"
+    )]
+    Refused {
+        /// The file.
+        path: String,
+        /// 1-based line in the file.
+        line: u64,
+        /// Its temperature, °C.
+        temp_c: f64,
+        /// Its output.
+        output: f64,
     },
     /// A stream with too few 60 s blocks to fit a static model on.
     #[error("{path}: {found} scored 60 s blocks; a static model from a stream needs at least 10")]
@@ -277,6 +292,20 @@ impl Points {
         }
         let lines: Vec<u64> = bad.iter().map(|r| r.line).collect();
         c.retain(|line| !lines.contains(&line));
+        let (temps, outputs) = (c.get("temp_c"), c.get("voltage_v"));
+        let at = |k: usize| Sample {
+            time_s: 0.0,
+            temp_c: temps[k] as f32,
+            output: outputs[k] as f32,
+        };
+        if let Some(k) = (0..temps.len()).find(|&k| !accepted(&at(k))) {
+            return Err(PointsError::Refused {
+                path: path.display().to_string(),
+                line: c.lines[k],
+                temp_c: temps[k],
+                output: outputs[k],
+            });
+        }
         data::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
         check_scale_factor(path, c.get("rate_dps"), scale_factor)?;
         let temp_c = c.get("temp_c").to_vec();
@@ -408,7 +437,9 @@ impl Points {
 
     /// Model inputs, one row per point, in the order of [`POINT_FEATURES`]: computed by
     /// firmware-core's feature pipeline, so they are exactly what the firmware computes (each
-    /// point is a soaked, independent sample: a fresh pipeline state).
+    /// point is a soaked, independent sample: a fresh pipeline state). The constructors refuse or
+    /// leave out rows the firmware refuses; were one left, its inputs would be NaN (a fit then
+    /// fails), never a stale value.
     pub fn inputs(&self) -> DMatrix<f64> {
         let features = self.features();
         let d = features.len();
@@ -420,9 +451,14 @@ impl Points {
                 temp_c: self.temp_c[i] as f32,
                 output: self.voltage_v[i] as f32,
             };
-            features::compute(features, &sample, &mut FeatureState::default(), &mut row);
+            let status =
+                features::compute(features, &sample, &mut FeatureState::default(), &mut row);
             for (k, v) in row[..d].iter().enumerate() {
-                x[(i, k)] = f64::from(*v);
+                x[(i, k)] = if status == Status::Fault {
+                    f64::NAN
+                } else {
+                    f64::from(*v)
+                };
             }
         }
         x
@@ -492,8 +528,20 @@ impl Points {
 /// Indices of a stream's samples with a reference rate.
 fn scored(stream: &Stream) -> Vec<usize> {
     (0..stream.len())
-        .filter(|&i| stream.rate_dps[i].is_finite())
+        .filter(|&i| stream.rate_dps[i].is_finite() && accepted(&replay::sample(stream, i)))
         .collect()
+}
+
+/// Whether the firmware takes a sample as an input (not a `Fault`): its own pipeline decides,
+/// so the host refuses exactly what the firmware would.
+fn accepted(sample: &Sample) -> bool {
+    let mut row = [0.0f32; POINT_FEATURES.len()];
+    features::compute(
+        &POINT_FEATURES,
+        sample,
+        &mut FeatureState::default(),
+        &mut row,
+    ) != Status::Fault
 }
 
 /// A rate model needs more than one reference rate; a bias model needs a usable scale factor.
@@ -585,6 +633,25 @@ mod tests {
             Points::load_screened(f.path(), &[], None, None, Screen::Exclude).unwrap();
         assert_eq!((p.len(), left_out.len()), (16, 1));
         assert!(p.temp_c.iter().all(|t| *t <= 60.0));
+    }
+
+    #[test]
+    fn a_table_in_kelvin_is_refused_where_the_firmware_would_fault() {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        let mut csv = String::from("temp_c,voltage_v,rate_dps\n");
+        for t in [243.15, 273.15, 303.15, 333.15] {
+            for w in [-80.0, -10.0, 10.0, 80.0] {
+                csv.push_str(&format!("{t},{},{w}\n", 0.04 * w));
+            }
+        }
+        std::io::Write::write_all(&mut f, csv.as_bytes()).unwrap();
+        let e = Points::load(f.path(), &[], None, None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2: temperature 243.15 °C") && e.contains("firmware refuses"),
+            "{e}"
+        );
     }
 
     #[test]

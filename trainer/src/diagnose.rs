@@ -227,7 +227,8 @@ impl<'a> Residual<'a> {
         self.block_means(&self.stream.temp_c)
     }
 
-    /// One feature along the stream, as the firmware computes it (state restarted at restarts).
+    /// One feature along the stream, as the firmware computes it (state restarted at restarts);
+    /// NaN at a sample the firmware refuses (no block holds one).
     fn series(&self, feature: Feature) -> Vec<f64> {
         let mut state = FeatureState::default();
         let mut out = [0.0f32; 1];
@@ -237,8 +238,10 @@ impl<'a> Residual<'a> {
                     state.reset();
                 }
                 let s = replay::sample(self.stream, i);
-                firmware_core::features::compute(&[feature], &s, &mut state, &mut out);
-                f64::from(out[0])
+                match firmware_core::features::compute(&[feature], &s, &mut state, &mut out) {
+                    Status::Fault => f64::NAN,
+                    _ => f64::from(out[0]),
+                }
             })
             .collect()
     }
@@ -298,8 +301,13 @@ impl<'a> Residual<'a> {
                     state.iter_mut().for_each(FeatureState::reset);
                 }
                 let s = replay::sample(self.stream, i);
-                firmware_core::features::compute(features, &s, &mut state[0], &mut x0);
-                firmware_core::features::compute(&lagged, &s, &mut state[1], &mut x1);
+                let health = [
+                    firmware_core::features::compute(features, &s, &mut state[0], &mut x0),
+                    firmware_core::features::compute(&lagged, &s, &mut state[1], &mut x1),
+                ];
+                if health.contains(&Status::Fault) {
+                    return f64::NAN;
+                }
                 let a = self.model.predict_mean(&x0).mean;
                 let b = self.model.predict_mean(&x1).mean;
                 f64::from(b) - f64::from(a)

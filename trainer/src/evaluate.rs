@@ -92,6 +92,19 @@ pub enum EvalError {
     /// Two runs share no temperature and rate range.
     #[error("the test points share no temperature and rate range with the training points")]
     NoOverlap,
+    /// Every point in one group: there is nothing to leave out and fit on the rest.
+    #[error(
+        "all {n} points fall in one group ('{group}'): the temperatures form no separate plateaus \
+         (a temperature that drifts through the run) or the --group column has one value; \
+         leave-one-group-out needs two groups or more: give --group COLUMN naming sweeps, runs or \
+         plateaus"
+    )]
+    OneGroup {
+        /// The group's label.
+        group: String,
+        /// Points.
+        n: usize,
+    },
     /// Leaving a group out leaves too little to fit.
     #[error(
         "leaving out group '{group}' leaves {remaining} points spanning {span:.3} °C: too few to fit"
@@ -303,6 +316,18 @@ pub fn qq_correlation(values: &[f64]) -> f64 {
     cov / (sv * sq)
 }
 
+/// The points' groups, refused when there is one: nothing could be left out.
+fn groups(points: &Points) -> Result<Vec<(String, Vec<usize>)>, EvalError> {
+    let groups = points.groups();
+    if let [(group, members)] = groups.as_slice() {
+        return Err(EvalError::OneGroup {
+            group: group.clone(),
+            n: members.len(),
+        });
+    }
+    Ok(groups)
+}
+
 /// Leave-one-group-out: `fold(kept, left_out)` fits on the kept rows and predicts the left-out
 /// ones. Returns the RMSE of each group and every error (prediction − reference), group by group.
 fn leave_groups_out<F>(
@@ -313,8 +338,7 @@ fn leave_groups_out<F>(
 where
     F: Fn(&[usize], &[usize]) -> Result<Vec<f64>, EvalError> + Sync,
 {
-    let per_group = points
-        .groups()
+    let per_group = groups(points)?
         .into_par_iter()
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
@@ -358,7 +382,7 @@ pub fn evaluate(
     cfg: &EvalConfig,
     bar: &ProgressBar,
 ) -> Result<Evaluation, EvalError> {
-    let groups = points.groups();
+    let groups = groups(points)?;
     bar.inc_length(1 + groups.len() as u64);
     bar.set_message(format!(
         "{}: fit on all {} points",
@@ -422,7 +446,7 @@ pub fn evaluate_table(
     bar: &ProgressBar,
 ) -> Result<Evaluation, EvalError> {
     let transients = Transients::compute(points)?;
-    let groups = points.groups();
+    let groups = groups(points)?;
     bar.inc_length(1 + groups.len() as u64);
     bar.set_message(format!("gpr + diagnosis: all {} points", points.len()));
     let all: Vec<usize> = (0..points.len()).collect();

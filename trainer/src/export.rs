@@ -185,7 +185,7 @@ pub fn to_blob(model: &GpModel, features: &[Feature]) -> Result<Vec<u8>, ExportE
 /// Raw-input range of an input that is valid at any value (the output of a bias model).
 const UNBOUNDED: f64 = 1e30;
 
-/// The blob of a GP fitted on `points` with an extension ([`carried`]).
+/// The blob of a GP fitted on `points` with an extension (`carried`).
 pub fn points_blob(
     model: &GpModel,
     points: &Points,
@@ -490,7 +490,7 @@ const NOISE_CAP: f64 = 0.1;
 /// Decodes `blob` (exported from `model` fitted on `points`, with `extension`), compares it with
 /// the host on the training inputs and over the trained range, and refuses it
 /// ([`ExportError::Disagrees`]) where the firmware faults, returns a non-finite number or differs
-/// by more than the model's own noise level (σ_n·s_y with σ_n at most [`NOISE_CAP`]: what the data
+/// by more than the model's own noise level (σ_n·s_y with σ_n at most `NOISE_CAP`: what the data
 /// cannot resolve) or 16 f32 ulps of the largest output, whichever is larger. A legitimate model
 /// sits orders of magnitude inside (README, "Reliability"); an ill-conditioned one (huge weights
 /// that cancel) fails by orders of magnitude. The band beyond the range is reported, not judged.

@@ -31,7 +31,7 @@
 //! Each evaluation is O(n m²), over chunks of samples in parallel; memory O(n m).
 //!
 //! The fit: hyperparameters of an exact GP on a subset of the samples, half spread over the inputs
-//! and half random ([`start_subset`]; all the optimizer starts of gp.rs, cheap at that size);
+//! and half random (`start_subset`; all the optimizer starts of gp.rs, cheap at that size);
 //! inducing points chosen greedily in that kernel's metric ([`select`]); then L-BFGS on the bound
 //! from there. The prior mean stays the ordinary least-squares
 //! fit of the basis (the exact GP re-estimates it by GLS): with n ≫ m samples the two differ little,
@@ -261,7 +261,7 @@ fn start_subset(z: &DMatrix<f64>, seed: u64) -> Vec<usize> {
 /// early when every sample is explained (fewer distinct inputs than `m`).
 ///
 /// `guard` holds the same samples scaled by the model's own length scales, which may be longer
-/// than the ranking metric's: a sample the chosen ones explain to within [`MIN_GUARD_RESIDUAL`]
+/// than the ranking metric's: a sample the chosen ones explain to within `MIN_GUARD_RESIDUAL`
 /// in that metric is passed over. Such a point adds a nearly dependent column to K_mm, and the
 /// mean weights turn into large alternating pairs whose cancellation the f32 firmware cannot
 /// follow (README, "Long streams").

@@ -433,3 +433,34 @@ fn an_implausible_row_is_refused_or_with_the_option_left_out_with_a_warning() {
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["n_train"], 48, "{json}");
 }
+
+#[test]
+fn flags_that_would_be_ignored_and_tables_with_nothing_to_leave_out_are_refused_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    // A stream beside --points is used only with --pool-stream or --features.
+    let out = trainer(
+        &[
+            "fit", "--points", "p.csv", "--stream", "s.csv", "--out", "m.bin",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--stream would not be used"), "{err}");
+
+    // A temperature drifting through the run: one group, nothing to leave out.
+    let mut csv = String::from("temp_c,voltage_v,rate_dps\n");
+    for i in 0..60 {
+        let (t, w) = (20.0 + 0.2 * f64::from(i), f64::from(i % 6 - 3) * 20.0);
+        csv.push_str(&format!("{t},{},{w}\n", 0.04 * w + 1e-3 * t));
+    }
+    std::fs::write(dir.path().join("d.csv"), csv).unwrap();
+    let out = trainer(&["loo", "--points", "d.csv"], dir.path());
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("all 60 points fall in one group") && err.contains("--group"),
+        "{err}"
+    );
+}

@@ -221,6 +221,7 @@ fn a_model_too_large_for_the_firmware_is_refused_with_the_limit() {
     let e = trainer(&["fit", "--points", &points, "--out", &out]).unwrap_err();
     assert!(format!("{e:#}").contains("280 centres"), "{e:#}");
     assert!(format!("{e:#}").contains("at most 256 centres"), "{e:#}");
+    assert!(format!("{e:#}").contains("checked before fitting"), "{e:#}");
     assert!(!std::path::Path::new(&out).exists());
 }
 
