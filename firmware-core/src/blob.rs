@@ -49,6 +49,8 @@
 //! f32, so the kernel is the static model's. A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
+use core::ops::Range;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::BlobError;
@@ -125,13 +127,75 @@ pub struct Dims {
 impl Dims {
     /// Length of the flat f32 array: `7d + p + 2 + m·d + m + m(m+1)/2`.
     pub const fn floats(&self) -> usize {
-        7 * self.d + self.p + 2 + self.m * self.d + self.m + self.m * (self.m + 1) / 2
+        self.sections().factor.end
+    }
+
+    /// Where each section of the flat f32 array lies.
+    pub const fn sections(&self) -> Sections {
+        let (d, p, m) = (self.d, self.p, self.m);
+        let offset = 0..d;
+        let scale = at(offset.end, d);
+        let min = at(scale.end, d);
+        let max = at(min.end, d);
+        let length = at(max.end, d);
+        let prior = at(length.end, p);
+        let raw_hi = at(prior.end, d);
+        let raw_lo = at(raw_hi.end, d);
+        let variances = at(raw_lo.end, 2);
+        let centres = at(variances.end, m * d);
+        let weights = at(centres.end, m);
+        let factor = at(weights.end, m * (m + 1) / 2);
+        Sections {
+            offset,
+            scale,
+            min,
+            max,
+            length,
+            prior,
+            raw_hi,
+            raw_lo,
+            variances,
+            centres,
+            weights,
+            factor,
+        }
     }
 
     /// Length of the exponent array: `p·d`.
     pub const fn exponents(&self) -> usize {
         self.p * self.d
     }
+}
+
+/// The sections of the flat f32 array, in the order of the module doc's layout: the one
+/// definition of that order. The trainer writes each section through it, the evaluator and the
+/// test helpers read and write through it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Sections {
+    /// `input_offset[d]`.
+    pub offset: Range<usize>,
+    /// `input_scale[d]`.
+    pub scale: Range<usize>,
+    /// `input_min[d]`.
+    pub min: Range<usize>,
+    /// `input_max[d]`.
+    pub max: Range<usize>,
+    /// `length_scales[d]`.
+    pub length: Range<usize>,
+    /// `prior[p]`.
+    pub prior: Range<usize>,
+    /// `raw_hi[d]`.
+    pub raw_hi: Range<usize>,
+    /// `raw_lo[d]`.
+    pub raw_lo: Range<usize>,
+    /// `signal_var noise_var`.
+    pub variances: Range<usize>,
+    /// `centres[m·d]`.
+    pub centres: Range<usize>,
+    /// `weights[m]`.
+    pub weights: Range<usize>,
+    /// `factor[m(m+1)/2]`.
+    pub factor: Range<usize>,
 }
 
 /// The payload, generic over its containers: heapless vectors in the firmware, slices or vectors
@@ -144,6 +208,11 @@ pub struct Payload<Fe, Ex, Fl> {
     pub exponents: Ex,
     /// All numbers, in the layout of the module doc.
     pub floats: Fl,
+}
+
+/// `len` entries from `start` (a `const` stand-in for a closure).
+const fn at(start: usize, len: usize) -> Range<usize> {
+    start..start + len
 }
 
 /// Writes a blob for `payload` into `buf`; returns the number of bytes written.
@@ -168,18 +237,14 @@ where
     let len = postcard::to_slice(payload, body)
         .map_err(|_| BlobError::BufferTooSmall)?
         .len();
-    let payload_bytes = body.get(..len).ok_or(BlobError::BufferTooSmall)?;
-    let crc = CRC32.checksum(payload_bytes);
-    let len32 = u32::try_from(len).map_err(|_| BlobError::BufferTooSmall)?;
-    let mut h = [0u8; HEADER_LEN];
-    let fields: [&[u8]; 7] = [
+    u32::try_from(len).map_err(|_| BlobError::BufferTooSmall)?;
+    let mut h = [0u8; LEN_AT];
+    let fields: [&[u8]; 5] = [
         &MAGIC,
         &FORMAT_VERSION.to_le_bytes(),
         &m.to_le_bytes(),
         &[d],
         &[p],
-        &len32.to_le_bytes(),
-        &crc.to_le_bytes(),
     ];
     let mut at = 0;
     for f in fields {
@@ -188,8 +253,35 @@ where
         }
         at += f.len();
     }
-    header.copy_from_slice(&h);
+    if let Some(dst) = header.get_mut(..LEN_AT) {
+        dst.copy_from_slice(&h);
+    }
+    let blob = buf
+        .get_mut(..HEADER_LEN + len)
+        .ok_or(BlobError::BufferTooSmall)?;
+    reseal(blob);
     Ok(HEADER_LEN + len)
+}
+
+/// Offset of the header's payload length (u32 LE); the CRC follows it.
+const LEN_AT: usize = 10;
+/// Offset of the header's CRC (u32 LE).
+const CRC_AT: usize = 14;
+
+/// Writes the payload length and CRC of the bytes after the header into the header: what
+/// [`encode`] does last, and what a tool or test that edits a payload on purpose does to reach
+/// the decoder behind the integrity check. Shorter than a header: left as it is.
+pub fn reseal(blob: &mut [u8]) {
+    let Some((header, payload)) = blob.split_at_mut_checked(HEADER_LEN) else {
+        return;
+    };
+    let len = u32::try_from(payload.len()).unwrap_or(u32::MAX);
+    let crc = CRC32.checksum(payload);
+    for (at, value) in [(LEN_AT, len), (CRC_AT, crc)] {
+        if let Some(dst) = header.get_mut(at..at + 4) {
+            dst.copy_from_slice(&value.to_le_bytes());
+        }
+    }
 }
 
 /// A checked header: dimensions and the payload bytes it covers.
@@ -224,9 +316,9 @@ pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
         d: usize::from(le::<1>(bytes, 8)?[0]),
         p: usize::from(le::<1>(bytes, 9)?[0]),
     };
-    let len =
-        usize::try_from(u32::from_le_bytes(le(bytes, 10)?)).map_err(|_| BlobError::Truncated)?;
-    let crc = u32::from_le_bytes(le(bytes, 14)?);
+    let len = usize::try_from(u32::from_le_bytes(le(bytes, LEN_AT)?))
+        .map_err(|_| BlobError::Truncated)?;
+    let crc = u32::from_le_bytes(le(bytes, CRC_AT)?);
     let payload = bytes.get(HEADER_LEN..).ok_or(BlobError::Truncated)?;
     match payload.len().cmp(&len) {
         core::cmp::Ordering::Less => return Err(BlobError::Truncated),
@@ -251,12 +343,9 @@ mod tests {
 
     type Small = Model<2, 6, 64>;
 
-    /// Re-seals a hand-edited blob: payload length and CRC made consistent again.
-    fn reseal(mut b: Vec<u8>) -> Vec<u8> {
-        let len = u32::try_from(b.len() - HEADER_LEN).unwrap();
-        b[10..14].copy_from_slice(&len.to_le_bytes());
-        let crc = CRC32.checksum(&b[HEADER_LEN..]);
-        b[14..18].copy_from_slice(&crc.to_le_bytes());
+    /// A hand-edited blob with its payload length and CRC made consistent again.
+    fn resealed(mut b: Vec<u8>) -> Vec<u8> {
+        reseal(&mut b);
         b
     }
 
@@ -313,7 +402,7 @@ mod tests {
         assert_eq!(with(&|b| b.truncate(10)), BlobError::Truncated);
         assert_eq!(with(&|b| b.push(0)), BlobError::TrailingBytes);
         assert_eq!(with(&|b| b[40] ^= 0x10), BlobError::CrcMismatch);
-        let garbage = reseal([&good[..HEADER_LEN], &[0xFF; 8]].concat());
+        let garbage = resealed([&good[..HEADER_LEN], &[0xFF; 8]].concat());
         assert_eq!(Small::decode(&garbage).unwrap_err(), BlobError::Malformed);
         let mut wrong_m = good.clone();
         wrong_m[6] = 4;

@@ -9,6 +9,7 @@ pub mod blob;
 pub mod error;
 pub mod features;
 pub mod model;
+pub mod record;
 #[cfg(test)]
 mod testing;
 

@@ -28,6 +28,8 @@
 //! finite, which a blob with absurd but finite numbers could otherwise produce (the mutated-blob
 //! test, `tests/mutated_blobs.rs`).
 
+use core::ops::Range;
+
 use heapless::Vec;
 
 use crate::blob::{self, Dims, Feature, Payload};
@@ -81,50 +83,6 @@ pub struct Model<const D: usize, const E: usize, const N: usize> {
     features: Vec<Feature, D>,
     exponents: Vec<u8, E>,
     floats: Vec<f32, N>,
-}
-
-/// Offsets of the sections of the flat array.
-struct Sections {
-    scale: usize,
-    min: usize,
-    max: usize,
-    length: usize,
-    prior: usize,
-    raw_hi: usize,
-    raw_lo: usize,
-    signal: usize,
-    centres: usize,
-    weights: usize,
-    factor: usize,
-}
-
-impl Sections {
-    const fn of(d: Dims) -> Self {
-        let scale = d.d;
-        let min = scale + d.d;
-        let max = min + d.d;
-        let length = max + d.d;
-        let prior = length + d.d;
-        let raw_hi = prior + d.p;
-        let raw_lo = raw_hi + d.d;
-        let signal = raw_lo + d.d;
-        let centres = signal + 2;
-        let weights = centres + d.m * d.d;
-        let factor = weights + d.m;
-        Self {
-            scale,
-            min,
-            max,
-            length,
-            prior,
-            raw_hi,
-            raw_lo,
-            signal,
-            centres,
-            weights,
-            factor,
-        }
-    }
 }
 
 /// Most model inputs any evaluator accepts, whatever its capacity: the kernel loop is compiled
@@ -200,28 +158,27 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         Ok(model)
     }
 
-    fn section(&self, start: usize, len: usize) -> &[f32] {
-        self.floats.get(start..start + len).unwrap_or(&[])
+    fn section(&self, range: Range<usize>) -> &[f32] {
+        self.floats.get(range).unwrap_or(&[])
     }
 
     fn check_domains(&self) -> Result<(), BlobError> {
-        let s = Sections::of(self.dims);
-        let d = self.dims.d;
+        let s = self.dims.sections();
         let positive = |v: &f32| *v > 0.0;
         let ranges_ok = self
-            .section(s.min, d)
+            .section(s.min.clone())
             .iter()
-            .zip(self.section(s.max, d))
+            .zip(self.section(s.max.clone()))
             .all(|(lo, hi)| lo <= hi);
         let [signal, noise] = self.variances();
         let diagonal_ok = (0..self.dims.m).all(|i| {
             self.floats
-                .get(s.factor + i * (i + 1) / 2 + i)
+                .get(s.factor.start + i * (i + 1) / 2 + i)
                 .is_some_and(positive)
         });
         if self.features.iter().all(Feature::is_valid)
-            && self.section(s.scale, d).iter().all(positive)
-            && self.section(s.length, d).iter().all(positive)
+            && self.section(s.scale.clone()).iter().all(positive)
+            && self.section(s.length).iter().all(positive)
             && ranges_ok
             && signal >= 0.0
             && noise >= 0.0
@@ -245,8 +202,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// (σ_f², σ_n²) in output units².
     pub fn variances(&self) -> [f32; 2] {
-        let s = Sections::of(self.dims);
-        let v = self.section(s.signal, 2);
+        let s = self.dims.sections();
+        let v = self.section(s.variances);
         [
             v.first().copied().unwrap_or(0.0),
             v.get(1).copied().unwrap_or(0.0),
@@ -255,7 +212,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs.
     fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> Status {
-        let sec = Sections::of(self.dims);
+        let sec = self.dims.sections();
         let d = self.dims.d;
         if x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
             return Status::Fault;
@@ -264,7 +221,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
         for (k, (zk, sk)) in z.iter_mut().zip(s.iter_mut()).take(d).enumerate() {
             let xk = x.get(k).copied().unwrap_or(0.0);
-            let (lo, hi) = (at(sec.min, k), at(sec.max, k));
+            let (lo, hi) = (at(sec.min.start, k), at(sec.max.start, k));
             if xk < lo || xk > hi {
                 let span = hi - lo;
                 let margin = if span > 0.0 { span } else { lo.abs().max(1.0) };
@@ -273,18 +230,18 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
                 }
                 status = Status::Extrapolating;
             }
-            *zk = (xk - at(0, k)) / at(sec.scale, k);
-            *sk = *zk / at(sec.length, k);
+            *zk = (xk - at(sec.offset.start, k)) / at(sec.scale.start, k);
+            *sk = *zk / at(sec.length.start, k);
         }
         status
     }
 
     /// Adds the prior monomials, highest degree (smallest term) first.
     fn add_prior_mean(&self, z: &[f32], acc: &mut Accumulator) {
-        let sec = Sections::of(self.dims);
+        let sec = self.dims.sections();
         let d = self.dims.d;
         for (c, e) in self
-            .section(sec.prior, self.dims.p)
+            .section(sec.prior)
             .iter()
             .zip(self.exponents.chunks(d))
             .rev()
@@ -299,12 +256,11 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Adds the raw linear terms: `hi·x = p + e` exactly (FMA), so only the final additions round.
     fn add_raw_linear(&self, x: &[f32], acc: &mut Accumulator) {
-        let sec = Sections::of(self.dims);
-        let d = self.dims.d;
+        let sec = self.dims.sections();
         let terms = || {
-            self.section(sec.raw_hi, d)
+            self.section(sec.raw_hi.clone())
                 .iter()
-                .zip(self.section(sec.raw_lo, d))
+                .zip(self.section(sec.raw_lo.clone()))
                 .zip(x)
         };
         for ((hi, lo), xk) in terms() {
@@ -351,13 +307,13 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         if status == Status::Fault {
             return Mean { mean: 0.0, status };
         }
-        let sec = Sections::of(self.dims);
-        let (m, d) = (self.dims.m, self.dims.d);
+        let sec = self.dims.sections();
+        let d = self.dims.d;
         let zd = z.get(..d).unwrap_or(&[]);
         let sd = s.get(..d).unwrap_or(&[]);
         let mut acc = Accumulator::default();
-        let centres = self.section(sec.centres, m * d);
-        let weights = self.section(sec.weights, m);
+        let centres = self.section(sec.centres);
+        let weights = self.section(sec.weights);
         match d {
             1 => Self::add_kernel_terms::<1>(sd, centres, weights, k, &mut acc),
             2 => Self::add_kernel_terms::<2>(sd, centres, weights, k, &mut acc),
@@ -428,7 +384,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         // Forward substitution L v = k̃ on packed rows (row i holds L_i0 … L_ii), and 1 − |v|²,
         // both compensated: where the variance matters it is a small difference of O(1) numbers,
         // and plain f32 sums lost 1e-3 of it (README, "Measured for the firmware").
-        let factor = self.section(Sections::of(self.dims).factor, m * (m + 1) / 2);
+        let factor = self.section(self.dims.sections().factor);
         let mut rest = Accumulator::default();
         rest.add(1.0);
         for i in 0..m {

@@ -109,33 +109,32 @@ impl Reference {
 
     /// The flat f32 array of the blob layout.
     pub fn floats(&self) -> Vec<f32> {
-        let mut out: Vec<f64> = Vec::new();
-        for part in [
-            &self.offset,
-            &self.scale,
-            &self.min,
-            &self.max,
-            &self.length,
-            &self.prior,
-        ] {
-            out.extend(part.iter());
-        }
-        let mut out: Vec<f32> = out.into_iter().map(|v| v as f32).collect();
-        let hi: Vec<f32> = self.raw.iter().map(|&r| r as f32).collect();
-        out.extend(&hi);
-        out.extend(
-            self.raw
-                .iter()
-                .zip(&hi)
-                .map(|(r, h)| (r - f64::from(*h)) as f32),
-        );
-        let mut rest = vec![self.signal_var, self.noise_var];
-        for c in &self.centres {
-            rest.extend([c[0] / self.length[0], c[1] / self.length[1]]);
-        }
-        rest.extend(&self.weights);
-        rest.extend(self.factor());
-        out.extend(rest.into_iter().map(|v| v as f32));
+        let s = self.dims.sections();
+        let mut out = vec![0.0f32; self.dims.floats()];
+        let mut put = |range: core::ops::Range<usize>, values: &[f64]| {
+            for (o, v) in out[range].iter_mut().zip(values) {
+                *o = *v as f32;
+            }
+        };
+        put(s.offset, &self.offset);
+        put(s.scale, &self.scale);
+        put(s.min, &self.min);
+        put(s.max, &self.max);
+        put(s.length, &self.length);
+        put(s.prior, &self.prior);
+        let hi: Vec<f64> = self.raw.iter().map(|&r| f64::from(r as f32)).collect();
+        let lo: Vec<f64> = self.raw.iter().zip(&hi).map(|(r, h)| r - h).collect();
+        put(s.raw_hi, &hi);
+        put(s.raw_lo, &lo);
+        put(s.variances, &[self.signal_var, self.noise_var]);
+        let centres: Vec<f64> = self
+            .centres
+            .iter()
+            .flat_map(|c| [c[0] / self.length[0], c[1] / self.length[1]])
+            .collect();
+        put(s.centres, &centres);
+        put(s.weights, &self.weights);
+        put(s.factor, &self.factor());
         out
     }
 

@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use firmware_core::Status;
+use firmware_core::record;
 use serde::Serialize;
-use trainer::replay::Compensated;
+use trainer::replay::{self, Compensated};
 use trainer::stream::Stream;
 
 /// QEMU is stopped after this long.
@@ -123,13 +123,10 @@ pub fn build_image() -> Result<PathBuf, QemuError> {
 pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuError> {
     let dir = tempfile::tempdir()?;
     std::fs::write(dir.path().join("model.bin"), blob)?;
-    // The image's record (its module doc): the host replay's restarts become power-on flags.
-    let mut samples = Vec::with_capacity(20 * stream.len());
+    // The host replay's restarts become power-on flags.
+    let mut samples = Vec::with_capacity(record::SAMPLE_BYTES * stream.len());
     for (i, power_on) in trainer::replay::restarts(stream).into_iter().enumerate() {
-        samples.extend(stream.time_s[i].to_le_bytes());
-        samples.extend((stream.temp_c[i] as f32).to_le_bytes());
-        samples.extend((stream.voltage_v[i] as f32).to_le_bytes());
-        samples.extend(u32::from(power_on).to_le_bytes());
+        samples.extend(record::encode_sample(&replay::sample(stream, i), power_on));
     }
     std::fs::write(dir.path().join("samples.bin"), samples)?;
     let mut child = Command::new("qemu-system-arm")
@@ -164,16 +161,12 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         .map(|m| m.variances())
         .unwrap_or([0.0, 0.0]);
     let mut compensated = Compensated::default();
-    for rec in bytes.chunks_exact(9) {
-        let f = |a: usize| f32::from_le_bytes([rec[a], rec[a + 1], rec[a + 2], rec[a + 3]]);
-        compensated.rate_dps.push(f(0));
-        compensated.std_dps.push((f(4) + noise_var).sqrt());
-        compensated.status.push(match rec[8] {
-            0 => Status::Valid,
-            1 => Status::Extrapolating,
-            2 => Status::Degraded,
-            _ => Status::Fault,
-        });
+    for rec in bytes.chunks_exact(record::RESULT_BYTES) {
+        let Ok(rec) = rec.try_into() else { continue };
+        let (mean, variance, status) = record::decode_result(rec);
+        compensated.rate_dps.push(mean);
+        compensated.std_dps.push((variance + noise_var).sqrt());
+        compensated.status.push(status);
     }
     if compensated.rate_dps.len() != stream.len() {
         return Err(QemuError::Image(format!(

@@ -278,33 +278,59 @@ pub fn to_blob_extended(
     let dims = Dims { m, d, p };
     let sf2 = h.signal_std.powi(2);
     let sy = model.output_scale;
-    let extra = |f: &dyn Fn(&Term) -> f64| extension.terms.iter().map(f).collect::<Vec<f64>>();
-    let mut floats: Vec<f64> = Vec::with_capacity(dims.floats());
-    floats.extend(&model.input_norm.offset);
-    floats.extend(extra(&|_| 0.0));
-    floats.extend(&model.input_norm.scale);
-    floats.extend(extra(&|_| 1.0));
-    floats.extend(model.input_range.iter().map(|r| r.0));
-    floats.extend(extra(&|t| t.range.0));
-    floats.extend(model.input_range.iter().map(|r| r.1));
-    floats.extend(extra(&|t| t.range.1));
-    floats.extend(&h.length_scales);
-    floats.extend(extra(&|_| f64::from(blob::IGNORED_LENGTH_SCALE)));
-    floats.extend(&coefficients);
+    // The model's own inputs, then one per extension term (after the model's, in `features`).
+    let per_input = |model_value: &dyn Fn(usize) -> f64, term_value: &dyn Fn(&Term) -> f64| {
+        (0..d0)
+            .map(model_value)
+            .chain(extension.terms.iter().map(term_value))
+            .collect::<Vec<f64>>()
+    };
+    let s = dims.sections();
+    let mut floats = vec![0.0f64; dims.floats()];
+    let mut put = |range: std::ops::Range<usize>, values: &[f64]| {
+        floats[range].copy_from_slice(values);
+    };
+    put(
+        s.offset,
+        &per_input(&|k| model.input_norm.offset[k], &|_| 0.0),
+    );
+    put(
+        s.scale,
+        &per_input(&|k| model.input_norm.scale[k], &|_| 1.0),
+    );
+    put(
+        s.min,
+        &per_input(&|k| model.input_range[k].0, &|t| t.range.0),
+    );
+    put(
+        s.max,
+        &per_input(&|k| model.input_range[k].1, &|t| t.range.1),
+    );
+    put(
+        s.length,
+        &per_input(&|k| h.length_scales[k], &|_| {
+            f64::from(blob::IGNORED_LENGTH_SCALE)
+        }),
+    );
+    put(s.prior, &coefficients);
     // hi is an f32 (so exact in f64); lo is what it misses, rounded once below.
     let hi: Vec<f64> = raw.iter().map(|&r| f64::from(r as f32)).collect();
-    floats.extend(&hi);
-    floats.extend(raw.iter().zip(&hi).map(|(r, h)| r - h));
-    floats.extend([sf2 * sy * sy, h.observation_var() * sy * sy]);
-    for i in 0..m {
-        floats.extend((0..d).map(|k| if k < d0 { post.xs[(i, k)] } else { 0.0 }));
-    }
-    floats.extend(post.alpha.iter().map(|a| a * sf2 * sy));
+    let lo: Vec<f64> = raw.iter().zip(&hi).map(|(r, h)| r - h).collect();
+    put(s.raw_hi, &hi);
+    put(s.raw_lo, &lo);
+    put(s.variances, &[sf2 * sy * sy, h.observation_var() * sy * sy]);
+    let centres: Vec<f64> = (0..m)
+        .flat_map(|i| (0..d).map(move |k| if k < d0 { post.xs[(i, k)] } else { 0.0 }))
+        .collect();
+    put(s.centres, &centres);
+    let weights: Vec<f64> = post.alpha.iter().map(|a| a * sf2 * sy).collect();
+    put(s.weights, &weights);
     let l = post.chol.l_dirty();
     let sf = h.signal_std;
-    for i in 0..m {
-        floats.extend((0..=i).map(|j| l[(i, j)] / sf));
-    }
+    let factor: Vec<f64> = (0..m)
+        .flat_map(|i| (0..=i).map(move |j| l[(i, j)] / sf))
+        .collect();
+    put(s.factor, &factor);
     let floats: Vec<f32> = floats.into_iter().map(|v| v as f32).collect();
     let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
     let payload = Payload {

@@ -14,20 +14,9 @@ use firmware_core::{FeatureState, Model, Sample};
 /// Capacities roomy enough that a mutated blob is refused for what it holds, not for its size.
 pub type Roomy = Model<8, 1320, 4096>;
 
-/// Offset of the payload.
-const HEADER_LEN: usize = 18;
-
 /// Makes the header's payload length and CRC agree with the payload again, so that a mutation
 /// reaches the decoder behind the integrity check.
-pub fn reseal(blob: &mut [u8]) {
-    if blob.len() < HEADER_LEN {
-        return;
-    }
-    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&blob[HEADER_LEN..]);
-    let len = u32::try_from(blob.len() - HEADER_LEN).unwrap_or(u32::MAX);
-    blob[10..14].copy_from_slice(&len.to_le_bytes());
-    blob[14..18].copy_from_slice(&crc.to_le_bytes());
-}
+pub use firmware_core::blob::reseal;
 
 /// Input values probed: inside and beyond any trained range, absurd, and not numbers.
 const PROBES: [f32; 14] = [

@@ -1,11 +1,11 @@
 //! firmware-core on a Cortex-M4F, run under QEMU (`mps2-an386`) by `firmware-sim qemu`.
 //!
 //! The host puts three files in QEMU's working directory and the image reaches them over
-//! semihosting: `model.bin` (the blob), `samples.bin` (20 bytes per sample: time f64, temperature
-//! f32, output f32, flags u32, little-endian; flag bit 0 marks a power-on, where a gyro's
-//! firmware would boot with a fresh feature state). The image decodes the model into fixed capacities, runs every
-//! sample through the feature pipeline and the evaluator, and writes `out.bin` (9 bytes per
-//! sample: mean f32, variance f32, status u8). Then it measures its own cost: SysTick ticks over
+//! semihosting: `model.bin` (the blob), `samples.bin` (one `firmware_core::record` sample record
+//! each: time, temperature, output and a power-on flag, where a gyro's firmware would boot with a
+//! fresh feature state). The image decodes the model into fixed capacities, runs every sample
+//! through the feature pipeline and the evaluator, and writes `out.bin` (one result record each:
+//! mean, variance, status). Then it measures its own cost: SysTick ticks over
 //! the first samples for an empty loop, the mean path and the mean + variance path; ticks for
 //! [`EXP_CALLS`] calls of `libm::expf` (the one transcendental per centre) less their empty loop;
 //! and ticks for a calibration loop of known length (`cortex_m::asm::delay(n)` executes exactly
@@ -26,6 +26,7 @@ use core::hint::black_box;
 
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use cortex_m_rt::entry;
+use firmware_core::record::{self, RESULT_BYTES, SAMPLE_BYTES};
 use firmware_core::{FeatureState, Model, Sample, Status, features};
 use semihosting::io::{Read, Write};
 use semihosting::{c, eprintln, fs, process};
@@ -39,10 +40,6 @@ const N: usize = 7 * D + 16 + 2 + 256 * D + 256 + 256 * 257 / 2;
 const BLOB_MAX: usize = 64 + E + D + 5 * N;
 /// Samples whose cost is measured.
 const COST_SAMPLES: usize = 64;
-const SAMPLE_BYTES: usize = 20;
-/// Flag bit of a power-on sample.
-const POWER_ON: u32 = 1;
-const OUT_BYTES: usize = 9;
 /// `expf` calls timed.
 const EXP_CALLS: usize = 256;
 /// Passes of the calibration loop (2 instructions each).
@@ -67,19 +64,6 @@ fn read_full(file: &mut fs::File, buf: &mut [u8]) -> usize {
         }
     }
     filled
-}
-
-/// One sample record, and whether it is a power-on.
-fn parse(chunk: &[u8]) -> (Sample, bool) {
-    let f64_at = |a: usize| f64::from_le_bytes(chunk[a..a + 8].try_into().unwrap_or([0; 8]));
-    let f32_at = |a: usize| f32::from_le_bytes(chunk[a..a + 4].try_into().unwrap_or([0; 4]));
-    let flags = u32::from_le_bytes(chunk[16..20].try_into().unwrap_or([0; 4]));
-    let sample = Sample {
-        time_s: f64_at(0),
-        temp_c: f32_at(8),
-        output: f32_at(12),
-    };
-    (sample, flags & POWER_ON != 0)
 }
 
 /// SysTick ticks elapsed while `work` runs (the counter counts down from its 24-bit reload).
@@ -126,7 +110,7 @@ fn main() -> ! {
     let mut output = fs::File::create(c!("out.bin")).unwrap_or_else(|_| fail("cannot write"));
     let mut state = FeatureState::default();
     let mut inbuf = [0u8; CHUNK * SAMPLE_BYTES];
-    let mut outbuf = [0u8; CHUNK * OUT_BYTES];
+    let mut outbuf = [0u8; CHUNK * RESULT_BYTES];
     let mut first = [Sample {
         time_s: 0.0,
         temp_c: 0.0,
@@ -138,8 +122,13 @@ fn main() -> ! {
         if got == 0 {
             break;
         }
-        for i in 0..got {
-            let (sample, power_on) = parse(&inbuf[i * SAMPLE_BYTES..(i + 1) * SAMPLE_BYTES]);
+        let records = inbuf[..got * SAMPLE_BYTES].chunks_exact(SAMPLE_BYTES);
+        let results = outbuf.chunks_exact_mut(RESULT_BYTES);
+        for (i, (record, result)) in records.zip(results).enumerate() {
+            let Ok(record) = record.try_into() else {
+                fail("short sample record");
+            };
+            let (sample, power_on) = record::decode_sample(record);
             if power_on {
                 state.reset();
             }
@@ -151,12 +140,9 @@ fn main() -> ! {
                 Ok(p) => (p.mean, p.variance, p.status),
                 Err(_) => (0.0, f32::INFINITY, Status::Fault),
             };
-            let rec = &mut outbuf[i * OUT_BYTES..(i + 1) * OUT_BYTES];
-            rec[..4].copy_from_slice(&mean.to_le_bytes());
-            rec[4..8].copy_from_slice(&var.to_le_bytes());
-            rec[8] = status as u8;
+            result.copy_from_slice(&record::encode_result(mean, var, status));
         }
-        if output.write_all(&outbuf[..got * OUT_BYTES]).is_err() {
+        if output.write_all(&outbuf[..got * RESULT_BYTES]).is_err() {
             fail("write error");
         }
         seen += got;
