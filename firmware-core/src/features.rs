@@ -2,7 +2,7 @@
 //! the order of the blob's feature spec.
 //!
 //! Why here: the trainer builds its training inputs with this same code, so what the firmware
-//! computes on the gyro is what the model was fitted on (no train/serve skew, DESIGN §2).
+//! computes on the gyro is what the model was fitted on (no train/serve skew, docs/design.md §2).
 //!
 //! Stateful inputs keep their memory in [`FeatureState`], which the caller owns: one per gyro
 //! channel, created (or [`FeatureState::reset`]) at power-on. The first sample after that is the

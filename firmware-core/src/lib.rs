@@ -18,8 +18,8 @@ pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, Sample};
 pub use model::{MAX_INPUTS, Mean, Model, Prediction, Status};
 
-/// The README, whose firmware-integration example is compiled and run as a doc test of this crate
-/// (its other blocks are shell and text).
+/// The firmware-integration guide, whose Rust example is compiled and run as a doc test of this
+/// crate (its other blocks are shell and text).
 #[cfg(doctest)]
-#[doc = include_str!("../../README.md")]
-struct Readme;
+#[doc = include_str!("../../docs/firmware.md")]
+struct FirmwareGuide;

@@ -274,7 +274,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Adds the kernel terms `w_i·k(s, c_i)` with the input count fixed at compile time, so the
     /// distance loop unrolls completely: a generic-length loop cost about 40 instructions per
-    /// centre in bookkeeping on the Cortex-M4 (README, "Cost on the M4"). The arithmetic and its
+    /// centre in bookkeeping on the Cortex-M4 (docs/firmware.md, "Cost on the M4"). The arithmetic and its
     /// order are the same for every `K`.
     fn add_kernel_terms<const K: usize>(
         s: &[f32],
@@ -383,7 +383,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
         // Forward substitution L v = k̃ on packed rows (row i holds L_i0 … L_ii), and 1 − |v|²,
         // both compensated: where the variance matters it is a small difference of O(1) numbers,
-        // and plain f32 sums lost 1e-3 of it (README, "Measured for the firmware").
+        // and plain f32 sums lost 1e-3 of it (docs/paper.md, "Measured for the firmware").
         let factor = self.section(self.dims.sections().factor);
         let mut rest = Accumulator::default();
         rest.add(1.0);

@@ -1,7 +1,7 @@
 //! Blob robustness on stable, in CI: a real blob mutated every way a flash, a file transfer or a
 //! hand edit can damage it. Every case is refused with a typed error or decodes to a model whose
 //! every prediction is finite (`support/exercise.rs`). The longer run is the fuzz target in
-//! `firmware-core/fuzz` (README, "Reliability").
+//! `firmware-core/fuzz` (docs/reliability.md).
 
 // Test code: the firmware's no-panic lints guard data paths; here a failed check is the point.
 #![allow(
@@ -20,7 +20,7 @@ use exercise::{Roomy, exercise, reseal};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// The sparse model of the README's firmware-integration example (24 centres, 2 inputs).
+/// The sparse model of docs/firmware.md's integration example (24 centres, 2 inputs).
 const BLOB: &[u8] = include_bytes!("../doc/gyro.bin");
 /// Mutated blobs per run.
 const CASES: usize = 500_000;

@@ -160,7 +160,7 @@ struct GenerateCommon {
     /// gyro the same unit seed.
     #[arg(long)]
     unit_seed: Option<u64>,
-    /// Hidden physical effect (DESIGN §5): none, thermal-rate, sensor-lag, warm-up, hysteresis,
+    /// Hidden physical effect (docs/design.md §5): none, thermal-rate, sensor-lag, warm-up, hysteresis,
     /// time-drift; several act together joined by + (warm-up+thermal-rate). It acts on the paper
     /// protocol and on streams alike.
     #[arg(long, default_value = "none", value_name = "ID[+ID…]")]

@@ -1,11 +1,11 @@
-//! The hidden effects of DESIGN §5: what a soak-calibrated static model cannot see.
+//! The hidden effects of docs/design.md §5: what a soak-calibrated static model cannot see.
 //!
 //! Each effect adds a bias to the rate the coil senses, or (sensor lag) makes the coil feel a
 //! temperature other than the one the sensor reads. Magnitudes come from PHYSICS.md ("Candidate
 //! hidden effects" and the simulator table). [`range`] keeps the part of each published range
 //! where the effect stands above the gyro's own noise after 60 s averaging (about 1.5 °/h for the
 //! nominal unit: bias instability, ARW and RRW) by enough that removing it can cut a 60 s RMSE
-//! threefold on the default stream (effect RMS ≳ 3× the noise: measured, README), and
+//! threefold on the default stream (effect RMS ≳ 3× the noise: measured, docs/simulator.md), and
 //! [`Effect::draw`] draws from it. Weaker effects exist; below the noise there is nothing to
 //! compensate and `none` is the right diagnosis.
 //!

@@ -1,4 +1,4 @@
-//! Renders simulated data in the project's CSV formats (DESIGN §3).
+//! Renders simulated data in the project's CSV formats (docs/design.md §3).
 
 use crate::paper::Point;
 use crate::stream::Row;

@@ -1,7 +1,7 @@
 //! The performance picture of long streams (issue 7): the sparse GP's bound and fit against n and
 //! m, an exact likelihood evaluation at n = 2,000 (the unit of an exact fit's cost), and
 //! firmware-core's prediction on the host at m = 16…256. Full fits at n = 10⁵ take seconds each;
-//! their times come from `/usr/bin/time` on the CLI (README, "Long streams"), not from here.
+//! their times come from `/usr/bin/time` on the CLI (docs/performance.md), not from here.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector};

@@ -1,4 +1,4 @@
-//! The accuracy–cost curve of the sparse GP (README, "Long streams"): the static model fitted on
+//! The accuracy–cost curve of the sparse GP (docs/performance.md): the static model fitted on
 //! a rate table pooled with every sample of long streams, sparse at several numbers of inducing
 //! points and exact on random subsets of the same data, each scored by replaying a held-out
 //! stream through its firmware blob. Writes the blobs, so that `firmware-sim qemu` can count their

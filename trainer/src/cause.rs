@@ -1,4 +1,4 @@
-//! The cause ids of DESIGN §5: a public interface (JSON output, command lines, the simulator's
+//! The cause ids of docs/design.md §5: a public interface (JSON output, command lines, the simulator's
 //! hidden effects), so they are defined once, here.
 
 use std::fmt;
@@ -25,7 +25,7 @@ pub enum Cause {
 }
 
 impl Cause {
-    /// Every cause, in DESIGN §5's order.
+    /// Every cause, in docs/design.md §5's order.
     pub const ALL: [Cause; 6] = [
         Cause::None,
         Cause::ThermalRate,
@@ -48,7 +48,7 @@ impl Cause {
     }
 }
 
-/// An id that is not one of DESIGN §5's.
+/// An id that is not one of docs/design.md §5's.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
     "unknown cause '{0}': expected one of none, thermal-rate, sensor-lag, warm-up, hysteresis, \

@@ -247,7 +247,7 @@ enum Command {
         json: Option<PathBuf>,
     },
     /// Replay a stream through a model, and name the physical cause of what it gets wrong
-    /// (DESIGN §5 cause ids), with the evidence and the runner-up.
+    /// (docs/design.md §5 cause ids), with the evidence and the runner-up.
     ///
     /// Example: trainer diagnose --model model.bin --stream s.csv --json d.json
     Diagnose {
@@ -400,7 +400,7 @@ impl From<MethodArg> for Method {
     }
 }
 
-/// The main job's data (README), written to `dir` by the `firmware-sim` beside this program: a
+/// The main job's data (README.md), written to `dir` by the `firmware-sim` beside this program: a
 /// nominal gyro with a hidden thermal-rate drift, its rate table and two ramp streams.
 fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathBuf, PathBuf)> {
     let sim = std::env::current_exe()

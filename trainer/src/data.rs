@@ -1,4 +1,4 @@
-//! Loading measured data from CSV (DESIGN §3), with the checks that keep a bad file from becoming a
+//! Loading measured data from CSV (docs/design.md §3), with the checks that keep a bad file from becoming a
 //! silently wrong model.
 //!
 //! Files keep their own names, units and delimiters: `--map NAME=SOURCE` maps a canonical column

@@ -18,7 +18,7 @@ pub const POINT_FEATURES: [Feature; 2] = [Feature::Temperature, Feature::Voltage
 /// chamber are ≥ 5 °C apart; readings within one plateau scatter by hundredths of a degree.
 pub const PLATEAU_GAP_C: f64 = 1.0;
 
-/// Averaged rate-table points (DESIGN §3 `points`).
+/// Averaged rate-table points (docs/design.md §3 `points`).
 #[derive(Debug, Clone)]
 pub struct Points {
     /// Temperature, °C.

@@ -1,4 +1,4 @@
-//! Diagnosis (DESIGN §5): replay a stream through a static model, study the residual
+//! Diagnosis (docs/design.md §5): replay a stream through a static model, study the residual
 //! r = ω̂ − ω_ref, rank the candidate physical causes by evidence, name up to three.
 //!
 //! Each cause is a hypothesis about the form of the residual, written with the input the
@@ -553,7 +553,7 @@ pub struct Step {
     pub added: bool,
 }
 
-/// The diagnosis of one stream (DESIGN §6 `diagnose` JSON).
+/// The diagnosis of one stream (docs/design.md §6 `diagnose` JSON).
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
     /// The first named cause (`none` when nothing is named).

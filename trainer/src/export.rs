@@ -132,7 +132,7 @@ fn split_raw_linear(model: &GpModel) -> (Vec<Vec<u8>>, Vec<f64>, Vec<f64>) {
     (exponents, coefficients, raw)
 }
 
-/// What an extended model adds to a static GP (DESIGN §5: keep the static GP, add the new inputs'
+/// What an extended model adds to a static GP (docs/design.md §5: keep the static GP, add the new inputs'
 /// contribution as a term of its own). The kernel and its weights stay the static model's.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Extension {
@@ -518,7 +518,7 @@ const NOISE_CAP: f64 = 0.1;
 /// ([`ExportError::Disagrees`]) where the firmware faults, returns a non-finite number or differs
 /// by more than the model's own noise level (σ_n·s_y with σ_n at most `NOISE_CAP`: what the data
 /// cannot resolve) or 16 f32 ulps of the largest output, whichever is larger. A legitimate model
-/// sits orders of magnitude inside (README, "Reliability"); an ill-conditioned one (huge weights
+/// sits orders of magnitude inside (docs/reliability.md); an ill-conditioned one (huge weights
 /// that cancel) fails by orders of magnitude. The band beyond the range is reported, not judged.
 /// Returns the decoded firmware model with the report, so callers decode once.
 pub fn verify(

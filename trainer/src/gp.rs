@@ -158,11 +158,11 @@ pub enum Inducing {
 }
 
 /// The largest data set `Inducing::Auto` fits exactly: beyond it an exact fit's O(n³) likelihood
-/// evaluations take seconds each (README, "Long streams").
+/// evaluations take seconds each (docs/performance.md).
 pub const AUTO_EXACT_MAX: usize = 1000;
 
-/// Inducing points of an automatic sparse fit: chosen from the accuracy–cost curve (README, "Long
-/// streams").
+/// Inducing points of an automatic sparse fit: chosen from the accuracy–cost curve
+/// (docs/performance.md).
 pub const DEFAULT_INDUCING: usize = 24;
 
 impl Inducing {

@@ -27,7 +27,7 @@ const LATER_MIN_BLOCKS: usize = 8;
 /// Share of the training stream's blocks the earlier part holds, when it is long enough.
 const EARLIER_SHARE: f64 = 2.0 / 3.0;
 
-/// The result (DESIGN §6 names where they exist).
+/// The result (docs/design.md §6 names where they exist).
 #[derive(Debug, Clone, Serialize)]
 pub struct Investigation {
     /// The static model on the held-out stream.
@@ -83,7 +83,7 @@ pub struct Blobs {
 /// Do no harm: the extension of the named causes fitted on the earlier part of the training
 /// stream (the static model too, where it was fitted on the stream), both scored on the later
 /// part. The causes are those the whole training stream names: running the whole diagnosis again
-/// on the earlier part was measured and is too conservative (README, "Diagnosis").
+/// on the earlier part was measured and is too conservative (docs/diagnosis.md).
 #[derive(Debug, Clone, Serialize)]
 pub struct ForwardCheck {
     /// Where the stream was cut, s from its first sample.

@@ -1,5 +1,5 @@
 //! Replay: every sample of a stream through firmware-core (host build) — feature pipeline, mean and
-//! variance in f32, exactly as on the gyro — and the scores of the result (DESIGN §6).
+//! variance in f32, exactly as on the gyro — and the scores of the result (docs/design.md §6).
 //!
 //! It lives in the trainer because both `firmware-sim replay` and the diagnosis need it; the
 //! trainer already depends on firmware-core, never the other way round.
@@ -29,7 +29,7 @@ pub struct Compensated {
     pub status: Vec<Status>,
 }
 
-/// Word for a status in the compensated CSV (DESIGN §3).
+/// Word for a status in the compensated CSV (docs/design.md §3).
 pub fn status_word(s: Status) -> &'static str {
     match s {
         Status::Valid => "ok",
@@ -82,7 +82,7 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     out
 }
 
-/// Scores of a replay against the stream's reference (DESIGN §6 names).
+/// Scores of a replay against the stream's reference (docs/design.md §6 names).
 #[derive(Debug, Clone, Serialize)]
 pub struct Score {
     /// Scored samples (those with a reference).
@@ -191,7 +191,7 @@ pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
         .collect()
 }
 
-/// The compensated CSV (DESIGN §3): the stream's canonical columns, then `comp_rate_dps`,
+/// The compensated CSV (docs/design.md §3): the stream's canonical columns, then `comp_rate_dps`,
 /// `comp_std_dps`, `status`. An unknown reference stays an empty cell.
 pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
     let mut s =

@@ -1,4 +1,4 @@
-//! Our figures beside the reference paper's (He, Liu, Zhao, Liu; DESIGN §1), from one points file.
+//! Our figures beside the reference paper's (He, Liu, Zhao, Liu; docs/design.md §1), from one points file.
 
 use serde::Serialize;
 

@@ -1,4 +1,4 @@
-//! Time-series streams (DESIGN §3 `stream`): `time_s,temp_c,voltage_v,rate_dps`, the reference
+//! Time-series streams (docs/design.md §3 `stream`): `time_s,temp_c,voltage_v,rate_dps`, the reference
 //! rate empty where unknown.
 //!
 //! Time is checked, not trusted: a step that goes backwards or repeats a timestamp, and a gap

@@ -1,7 +1,7 @@
 //! Degenerate calibration data through `trainer fit` and `trainer loo`, in process: every case is
 //! fitted (its blob decodes and predicts finite numbers at its own points, and what the fit left
 //! out or could not do is a warning in the JSON) or refused with a message that says why; none
-//! panics (README, "Reliability").
+//! panics (docs/reliability.md).
 
 use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -282,7 +282,7 @@ fn degenerate_rate_tables_are_fitted_with_warnings_or_refused_with_the_reason() 
     for ((family, o), n) in &tally {
         eprintln!("{family:?}: {n} {o}");
     }
-    // The outcomes README "Reliability" tabulates (seeded, so exact).
+    // The outcomes docs/reliability.md tabulates (seeded, so exact).
     let fitted = "fitted";
     let warned = "fitted, prior monomials left out (warned)";
     let expected = [

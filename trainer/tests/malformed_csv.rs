@@ -1,5 +1,5 @@
 //! Malformed CSV never panics the loaders: every damaged file is read or refused with an error that
-//! names the file, and, for a bad cell, its line and column (README, "Reliability").
+//! names the file, and, for a bad cell, its line and column (docs/reliability.md).
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;

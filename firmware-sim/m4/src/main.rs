@@ -16,7 +16,7 @@
 //! rather than trusting that, and the host converts with the measured ratio.
 //!
 //! With the `embedded-model` feature the blob is compiled in instead (`FOG_M4_MODEL=path/model.bin`
-//! at build time), which is how the README measures flash and RAM with a model.
+//! at build time), which is how docs/firmware.md measures flash and RAM with a model.
 //!
 //! Exit code 0 on success; a failure prints its reason and exits with 1.
 #![no_std]

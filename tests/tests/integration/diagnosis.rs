@@ -73,7 +73,7 @@ fn an_effect_drawn_by_seed_is_named() {
 
 #[test]
 fn two_effects_together_are_both_named_and_compensated_near_an_oracle() {
-    // Two of the challenge's pairs (README); where one effect hides the other (a strong
+    // Two of the challenge's pairs (docs/diagnosis.md); where one effect hides the other (a strong
     // hysteresis beside a slow warm-up, a lag beside anything) one cause is named, counted there.
     for (pair, seed) in [
         ([Cause::ThermalRate, Cause::WarmUp], 1010),

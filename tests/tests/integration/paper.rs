@@ -16,7 +16,7 @@ pub fn points(p: &[paper::Point]) -> Points {
     }
 }
 
-/// DESIGN §7: the paper's 140 points hold no zero-rate row, yet a gyro lives near zero. The model
+/// docs/design.md §7: the paper's 140 points hold no zero-rate row, yet a gyro lives near zero. The model
 /// fitted on them must still compensate the zero-rate position tests.
 #[test]
 fn model_holds_at_zero_rate_between_the_trained_rates() {

@@ -40,7 +40,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     assert!((20..=DEFAULT_INDUCING as u64).contains(&centres), "{fit}");
     assert_eq!(fit["n_train"], 140 + 28_621, "{fit}");
     // The f32 firmware follows the f64 host as closely as for exact models (issue 3: 1e-5 °/s,
-    // 1e-3 relative variance). This model reaches 8.7e-6 and 7.3e-6 (README, "Long streams": how
+    // 1e-3 relative variance). This model reaches 8.7e-6 and 7.3e-6 (docs/performance.md: how
     // close to f32's limit a sparse model sits).
     for part in ["training", "grid_inside"] {
         let a = &fit["firmware_agreement"][part];
@@ -75,8 +75,8 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
         assert!(agreement.statuses_equal, "{name}");
         costs.push(m4.cost.mean_instructions);
     }
-    // Instruction counts under -icount are exact: 23 centres against 140 (README, "Long
-    // streams": the default m against the 140-point model, more than 4×).
+    // Instruction counts under -icount are exact: 23 centres against 140
+    // (docs/performance.md: the default m against the 140-point model, more than 4×).
     assert!(
         3.5 * costs[0] <= costs[1],
         "mean path: sparse {} vs exact {} instructions",
