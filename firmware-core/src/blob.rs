@@ -32,8 +32,9 @@
 //! factor[m(m+1)/2]                packed rows of L = chol(K/σ_f²), for the variance
 //! ```
 //!
-//! Latent variance: `σ_f² (1 − |v|²)` with `L v = k̃` (forward substitution; docs/design.md §4). Forward
-//! substitution rather than multiplying by L⁻¹: the same cost, and the factor of a well-conditioned
+//! Latent variance: `σ_f² (1 − |v|²)` with `L v = k̃` (forward substitution; docs/design.md §4).
+//! Forward substitution rather than multiplying by L⁻¹: the same cost, and the factor of a
+//! well-conditioned
 //! K rounds to f32 without amplifying anything (L⁻¹ grows like 1/σ_n).
 //!
 //! Why the raw linear terms (version 2): the output is dominated by V/S (±80 °/s), which in f32 is

@@ -274,8 +274,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Adds the kernel terms `w_i·k(s, c_i)` with the input count fixed at compile time, so the
     /// distance loop unrolls completely: a generic-length loop cost about 40 instructions per
-    /// centre in bookkeeping on the Cortex-M4 (docs/firmware.md, "Cost on the M4"). The arithmetic and its
-    /// order are the same for every `K`.
+    /// centre in bookkeeping on the Cortex-M4 (docs/firmware.md, "Cost on the M4"). The arithmetic
+    /// and its order are the same for every `K`.
     fn add_kernel_terms<const K: usize>(
         s: &[f32],
         centres: &[f32],

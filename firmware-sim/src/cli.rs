@@ -160,8 +160,9 @@ struct GenerateCommon {
     /// gyro the same unit seed.
     #[arg(long)]
     unit_seed: Option<u64>,
-    /// Hidden physical effect (docs/design.md §5): none, thermal-rate, sensor-lag, warm-up, hysteresis,
-    /// time-drift; several act together joined by + (warm-up+thermal-rate). It acts on the paper
+    /// Hidden physical effect (docs/design.md §5): none, thermal-rate, sensor-lag, warm-up,
+    /// hysteresis, time-drift; several act together joined by + (warm-up+thermal-rate). It acts on
+    /// the paper
     /// protocol and on streams alike.
     #[arg(long, default_value = "none", value_name = "ID[+ID…]")]
     effect: Joined<Cause>,

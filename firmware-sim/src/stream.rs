@@ -11,8 +11,9 @@
 //!
 //! The temperature sensor reads the housing; without an effect the coil is at the housing
 //! temperature, so a static model's residual is noise. Every transient error is an effect of its own
-//! ([`crate::effects`], docs/design.md §5): the coil lagging the housing (`sensor-lag`), a bias from the
-//! coil's temperature rate (`thermal-rate`), a warm-up after each power-on, hysteresis, in-run drift.
+//! ([`crate::effects`], docs/design.md §5): the coil lagging the housing (`sensor-lag`), a bias
+//! from the coil's temperature rate (`thermal-rate`), a warm-up after each power-on, hysteresis,
+//! in-run drift.
 //!
 //! The chamber program (−30…60 °C at 0.5–1 °C/min, heating and cooling, soaks between) and the rate
 //! program (each of the paper's 14 rates and zero, 90 s each, in an order shuffled per cycle by the

@@ -1,5 +1,5 @@
-//! The cause ids of docs/design.md §5: a public interface (JSON output, command lines, the simulator's
-//! hidden effects), so they are defined once, here.
+//! The cause ids of docs/design.md §5: a public interface (JSON output, command lines, the
+//! simulator's hidden effects), so they are defined once, here.
 
 use std::fmt;
 use std::str::FromStr;

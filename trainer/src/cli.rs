@@ -8,19 +8,23 @@ use crate::data::ColumnMap;
 use crate::dataset::{Points, Screen};
 use crate::diagnose::{self, Diagnosis};
 use crate::evaluate::{self, EvalConfig, Method};
-use crate::export;
+use crate::export::{self, AgreementReport, Extension};
 use crate::extend;
-use crate::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
+use crate::gp::{
+    AUTO_EXACT_MAX, GpConfig, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
+};
 use crate::investigate;
 use crate::io::{ensure_not_input, write_atomically, write_json};
-use crate::prior::MeanBasis;
+use crate::prior::{MeanBasis, PolyPrior};
 use crate::report;
 use crate::reproduce::Reproduction;
+use crate::sparse::SparseFit;
 use crate::stream::{Handled, Stream, Window};
-use crate::table::{self, TableModel, Transients};
+use crate::table::{self, TableDiagnosis, TableModel, Transients};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use firmware_core::Feature;
+use serde::Serialize;
 
 /// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
 #[derive(Parser)]
@@ -556,32 +560,99 @@ fn render_diagnosis(d: &Diagnosis) -> String {
     s
 }
 
-fn fit_summary(m: &GpModel, points: &Points) -> serde_json::Value {
-    let names: Vec<&str> = points
-        .features()
-        .iter()
-        .map(|f| match f {
-            Feature::Temperature => "temp_c",
-            _ => "voltage_v",
-        })
-        .collect();
-    serde_json::json!({
-        "scale_factor": points.scale_factor,
-        "log_marginal_likelihood": m.log_marginal_likelihood(),
-        "hyperparameters": m.posterior.hyper,
-        "fit_seconds": m.fit_seconds,
-        "n_train": m.y.len(),
-        "features": names,
-        "mean_basis": m.basis,
-        "prior_mean": m.prior,
-        "output_scale": m.output_scale,
-        "jitter": m.posterior.jitter,
-        "centres": m.posterior.xs.nrows(),
-        "sparse": m.sparse,
-        "starts": m.starts,
-        "optimization": m.optimization,
-        "warnings": m.warnings(),
-    })
+/// What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that
+/// shipped, and how the firmware's f32 evaluation follows the host.
+#[derive(Serialize)]
+struct FitReport {
+    scale_factor: Option<f64>,
+    log_marginal_likelihood: f64,
+    hyperparameters: Hyperparameters,
+    fit_seconds: f64,
+    n_train: usize,
+    features: Inputs,
+    mean_basis: MeanBasis,
+    prior_mean: PolyPrior,
+    output_scale: f64,
+    jitter: f64,
+    centres: usize,
+    sparse: Option<SparseFit>,
+    starts: Vec<StartReport>,
+    optimization: Optimization,
+    warnings: Vec<String>,
+    /// The diagnosis of a table recorded in time order (`--features auto` without a stream).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    table_diagnosis: Option<TableDiagnosis>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extension: Option<ExtensionReport>,
+    /// The diagnosis of the stream and the forward check (`--features` with a stream).
+    #[serde(flatten)]
+    stream_choice: Option<StreamChoice>,
+    handled: Vec<Handled>,
+    firmware_agreement: AgreementReport,
+    blob_bytes: usize,
+}
+
+/// A model's inputs: the points' columns for a static model, the firmware's features for an
+/// extended one.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Inputs {
+    Columns(Vec<&'static str>),
+    Firmware(Vec<Feature>),
+}
+
+/// The extension in the blob: a table's transient terms, or inputs fitted on a stream.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum ExtensionReport {
+    Table(Extension),
+    Stream(extend::Fitted),
+}
+
+/// What the diagnosis of the training stream chose, and why.
+#[derive(Serialize)]
+struct StreamChoice {
+    diagnosis: Diagnosis,
+    forward_check: Option<investigate::ForwardCheck>,
+    shipped: investigate::Shipped,
+    verdict: String,
+}
+
+impl FitReport {
+    /// The static part, from the model and its points; the rest is filled in as it is known.
+    fn new(m: &GpModel, points: &Points, agreement: AgreementReport, blob_bytes: usize) -> Self {
+        let columns = points
+            .features()
+            .iter()
+            .map(|f| match f {
+                Feature::Temperature => "temp_c",
+                _ => "voltage_v",
+            })
+            .collect();
+        Self {
+            scale_factor: points.scale_factor,
+            log_marginal_likelihood: m.log_marginal_likelihood(),
+            hyperparameters: m.posterior.hyper.clone(),
+            fit_seconds: m.fit_seconds,
+            n_train: m.y.len(),
+            features: Inputs::Columns(columns),
+            mean_basis: m.basis,
+            prior_mean: m.prior.clone(),
+            output_scale: m.output_scale,
+            jitter: m.posterior.jitter,
+            centres: m.posterior.xs.nrows(),
+            sparse: m.sparse.clone(),
+            starts: m.starts.clone(),
+            optimization: m.optimization.clone(),
+            warnings: m.warnings(),
+            table_diagnosis: None,
+            extension: None,
+            stream_choice: None,
+            handled: Vec::new(),
+            firmware_agreement: agreement,
+            blob_bytes,
+        }
+    }
 }
 
 /// Runs one parsed command line.
@@ -694,15 +765,15 @@ fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
         .unwrap_or_default();
     let mut blob = export::points_blob(&model, &points, &extension)?;
     let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
-    let mut summary = fit_summary(&model, &points);
+    let mut summary = FitReport::new(&model, &points, agreement, blob.len());
     if let Some(t) = &table {
         console.result(&format!(
             "diagnosis of the table (time order): {}",
             t.diagnosis.verdict
         ));
-        summary["table_diagnosis"] = serde_json::to_value(&t.diagnosis)?;
-        summary["extension"] = serde_json::to_value(&extension)?;
-        summary["features"] = serde_json::to_value(firmware.features())?;
+        summary.table_diagnosis = Some(t.diagnosis.clone());
+        summary.extension = Some(ExtensionReport::Table(extension.clone()));
+        summary.features = Inputs::Firmware(firmware.features().to_vec());
     }
     if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
         let asked = match list.as_str() {
@@ -727,10 +798,12 @@ fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
                 choice.diagnosis.explanation
             ));
         }
-        summary["diagnosis"] = serde_json::to_value(&choice.diagnosis)?;
-        summary["forward_check"] = serde_json::to_value(&choice.check)?;
-        summary["shipped"] = serde_json::to_value(choice.shipped)?;
-        summary["verdict"] = choice.verdict.clone().into();
+        summary.stream_choice = Some(StreamChoice {
+            diagnosis: choice.diagnosis.clone(),
+            forward_check: choice.check.clone(),
+            shipped: choice.shipped,
+            verdict: choice.verdict.clone(),
+        });
         if let (Some(extended), investigate::Shipped::Extended) = (choice.extended, choice.shipped)
         {
             let fitted = extended.fitted;
@@ -744,8 +817,8 @@ fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
                 fitted.train_rmse_60s_dps[0],
                 fitted.train_rmse_60s_dps[1]
             ));
-            summary["extension"] = serde_json::to_value(&fitted)?;
-            summary["features"] = serde_json::to_value(ext.features())?;
+            summary.features = Inputs::Firmware(ext.features().to_vec());
+            summary.extension = Some(ExtensionReport::Stream(fitted));
         }
         if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
             console.warn(&choice.verdict);
@@ -753,10 +826,12 @@ fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
             console.result(&choice.verdict);
         }
     }
-    let handled: Vec<&Handled> = streams.iter().flat_map(|(_, s)| &s.handled).collect();
-    summary["handled"] = serde_json::to_value(handled)?;
-    summary["firmware_agreement"] = serde_json::to_value(agreement)?;
-    summary["blob_bytes"] = blob.len().into();
+    summary.handled = streams
+        .iter()
+        .flat_map(|(_, s)| s.handled.iter().cloned())
+        .collect();
+    summary.firmware_agreement = agreement;
+    summary.blob_bytes = blob.len();
     write_atomically(&out, &blob)?;
     if let Some(path) = json {
         write_json(&path, &inputs, &summary)?;

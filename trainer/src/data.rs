@@ -1,5 +1,5 @@
-//! Loading measured data from CSV (docs/design.md §3), with the checks that keep a bad file from becoming a
-//! silently wrong model.
+//! Loading measured data from CSV (docs/design.md §3), with the checks that keep a bad file from
+//! becoming a silently wrong model.
 //!
 //! Files keep their own names, units and delimiters: `--map NAME=SOURCE` maps a canonical column
 //! (`temp_c`, `voltage_v`, `rate_dps`, …) onto a source column, a source column times a factor

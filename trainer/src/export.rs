@@ -132,8 +132,8 @@ fn split_raw_linear(model: &GpModel) -> (Vec<Vec<u8>>, Vec<f64>, Vec<f64>) {
     (exponents, coefficients, raw)
 }
 
-/// What an extended model adds to a static GP (docs/design.md §5: keep the static GP, add the new inputs'
-/// contribution as a term of its own). The kernel and its weights stay the static model's.
+/// What an extended model adds to a static GP (docs/design.md §5: keep the static GP, add the new
+/// inputs' contribution as a term of its own). The kernel and its weights stay the static model's.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Extension {
     /// Replaces the `Temperature` input (a lag-compensated coil temperature).

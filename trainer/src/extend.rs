@@ -1,8 +1,9 @@
 //! Extending a static model with the inputs a diagnosed cause calls for, fitted on a stream that
 //! excites them.
 //!
-//! Structure (docs/design.md §5's measured lesson): the static GP keeps the kernel it was fitted with on
-//! the soaked points; the new inputs enter as an additive term learned from the training stream's
+//! Structure (docs/design.md §5's measured lesson): the static GP keeps the kernel it was fitted
+//! with on the soaked points; the new inputs enter as an additive term learned from the training
+//! stream's
 //! residual under that GP — linear in each new input, whose own parameter (filter, lag, decay time
 //! constant, play width) is chosen by grid on the same residual — plus an offset. A thermal state
 //! also corrects the points' targets for the state they were soaked in ([`fit`]). A sensor lag is corrected
@@ -15,8 +16,8 @@
 //! What it costs in accuracy, and what was chosen: the stream enters as 60 s block means (the
 //! residual regressions of [`crate::diagnose`]); a regression of one to three coefficients needs no
 //! more, and the block means cost nothing against the 1 Hz noise they average. Refitting one GP on
-//! (T, V, new input) over the points plus the stream's block means was measured in docs/design.md §5 to
-//! generalize worse (held-out 0.1–1.0× against 4–20× for the additive form).
+//! (T, V, new input) over the points plus the stream's block means was measured in docs/design.md
+//! §5 to generalize worse (held-out 0.1–1.0× against 4–20× for the additive form).
 
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::goldensectionsearch::GoldenSectionSearch;

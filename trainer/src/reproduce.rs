@@ -1,4 +1,5 @@
-//! Our figures beside the reference paper's (He, Liu, Zhao, Liu; docs/design.md §1), from one points file.
+//! Our figures beside the reference paper's (He, Liu, Zhao, Liu; docs/design.md §1), from one
+//! points file.
 
 use serde::Serialize;
 

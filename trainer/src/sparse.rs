@@ -14,8 +14,9 @@
 //! mean  μ(z*) = k*ᵀ w,  w = σ⁻² A⁻¹ b;   latent variance  k** − k*ᵀ (K_mm⁻¹ − A⁻¹) k*
 //! ```
 //!
-//! The firmware evaluates the variance as k** − ‖v‖² with L_Q v = k* (docs/design.md §4): the factor is the
-//! Cholesky factor of (K_mm⁻¹ − A⁻¹)⁻¹ = L (I + C⁻¹) Lᵀ, C = σ⁻² L⁻¹ S L⁻ᵀ, built from C's
+//! The firmware evaluates the variance as k** − ‖v‖² with L_Q v = k* (docs/design.md §4): the
+//! factor is the Cholesky factor of (K_mm⁻¹ − A⁻¹)⁻¹ = L (I + C⁻¹) Lᵀ, C = σ⁻² L⁻¹ S L⁻ᵀ, built
+//! from C's
 //! eigenvalues (those below 1e-6, directions no sample informs, are raised to it: the variance
 //! there is the prior's to within 1e-6). One evaluator serves exact and sparse models.
 //!
@@ -149,8 +150,9 @@ pub(crate) fn fit(
     // bound refined on them; a second round reselects at the refined ones (the subset's are noisy)
     // and is kept when it raises the bound. They are selected, not optimized: moving them with the
     // hyperparameters by L-BFGS raised the bound but worsened the held-out error
-    // (docs/performance.md). An input the subset found irrelevant (ℓ at its bound) may only be too noisy to
-    // show its structure in a few hundred samples: the selection metric caps ℓ at one normalized
+    // (docs/performance.md). An input the subset found irrelevant (ℓ at its bound) may only be too
+    // noisy to show its structure in a few hundred samples: the selection metric caps ℓ at one
+    // normalized
     // unit, which still spreads inducing points along it, so the bound can find that structure.
     let d = data.z.ncols();
     let mut best: Option<(DMatrix<f64>, Vec<f64>, f64)> = None;
@@ -234,8 +236,8 @@ fn climb_noise(bound: gp::Likelihood<'_>, mut theta: Vec<f64>, max_log_noise: f6
 /// almost none of the rate table, found temperature irrelevant (ℓ_T in the hundreds), and the bound
 /// stayed in that optimum, recovering the temperature structure only through nearly dependent
 /// inducing points. Spread over the inputs, the start keeps it: on the integration test's 28,761
-/// samples the bound rose by about 1,700, and on the 114,624 of docs/performance.md the held-out error at m = 24
-/// is 5.2e-4 °/s where the random start gave 8.7e-4 (docs/performance.md).
+/// samples the bound rose by about 1,700, and on the 114,624 of docs/performance.md the held-out
+/// error at m = 24 is 5.2e-4 °/s where the random start gave 8.7e-4 (docs/performance.md).
 fn start_subset(z: &DMatrix<f64>, seed: u64) -> Vec<usize> {
     let n = z.nrows();
     let size = SUBSET.min(n);

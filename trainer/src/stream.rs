@@ -1,5 +1,5 @@
-//! Time-series streams (docs/design.md §3 `stream`): `time_s,temp_c,voltage_v,rate_dps`, the reference
-//! rate empty where unknown.
+//! Time-series streams (docs/design.md §3 `stream`): `time_s,temp_c,voltage_v,rate_dps`, the
+//! reference rate empty where unknown.
 //!
 //! Time is checked, not trusted: a step that goes backwards or repeats a timestamp, and a gap
 //! longer than [`GAP_FACTOR`] times the typical step, are collected as [`TimeIssue`]s so that every

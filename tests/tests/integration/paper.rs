@@ -16,8 +16,8 @@ pub fn points(p: &[paper::Point]) -> Points {
     }
 }
 
-/// docs/design.md §7: the paper's 140 points hold no zero-rate row, yet a gyro lives near zero. The model
-/// fitted on them must still compensate the zero-rate position tests.
+/// docs/design.md §7: the paper's 140 points hold no zero-rate row, yet a gyro lives near zero.
+/// The model fitted on them must still compensate the zero-rate position tests.
 #[test]
 fn model_holds_at_zero_rate_between_the_trained_rates() {
     let all = paper::run(&GyroParams::nominal(), Effect::None, 11, true);

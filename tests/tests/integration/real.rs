@@ -50,8 +50,9 @@ fn a_static_log_without_a_scale_factor_is_refused_with_the_reason() {
 
 /// Bias models of the three axes, forward in time: trained on the first 40 minutes, scored on the
 /// rest. The static errors match the dataset note's independent cubic fits (1 872 / 264 / 1 115 °/h
-/// within the training range); the figures are docs/real-data.md's. Do no harm: an extension is shipped
-/// only where it beat the static model on the later part of the training window, fitted on the
+/// within the training range); the figures are docs/real-data.md's. Do no harm: an extension is
+/// shipped only where it beat the static model on the later part of the training window, fitted on
+/// the
 /// earlier part. y's causes fail that check and its static model ships unchanged; z's, fitted
 /// together with the static curve, hold on the held-out part. (x's do not, beyond the trained
 /// temperatures: docs/real-data.md's table.)
@@ -111,8 +112,8 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
     }
 }
 
-/// The Oct and Aug runs, grouped by half-sweep, with docs/real-data.md's maps and `more`; `None` (the
-/// test skips) where `../shared` is absent.
+/// The Oct and Aug runs, grouped by half-sweep, with docs/real-data.md's maps and `more`; `None`
+/// (the test skips) where `../shared` is absent.
 fn fog_runs(more: &[&str]) -> Option<(Points, Points)> {
     let dir =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/real/uwrt-fog-turntable");
