@@ -655,6 +655,27 @@ mod tests {
     }
 
     #[test]
+    fn stream_samples_the_firmware_refuses_are_left_out_of_the_points() {
+        let n = 100;
+        let mut temp_c: Vec<f64> = (0..n).map(|i| 20.0 + 0.1 * i as f64).collect();
+        temp_c[40] = 300.0;
+        let stream = Stream {
+            time_s: (0..n).map(|i| i as f64).collect(),
+            temp_c,
+            voltage_v: vec![0.5; n],
+            rate_dps: (0..n).map(|i| (i % 7) as f64).collect(),
+            lines: (2..n as u64 + 2).collect(),
+            step_s: 1.0,
+            time_issues: Vec::new(),
+            handled: Vec::new(),
+        };
+        let p = Points::from_stream_samples(Path::new("s.csv"), &stream, None).unwrap();
+        assert_eq!(p.len(), n - 1);
+        assert!(p.temp_c.iter().all(|t| *t < 200.0));
+        assert!(p.inputs().iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
     fn one_temperature_is_refused() {
         let mut f = tempfile::NamedTempFile::new().unwrap();
         std::io::Write::write_all(&mut f, b"temp_c,voltage_v,rate_dps\n20,1,1\n20.01,2,2\n")
