@@ -948,6 +948,19 @@ impl Prepared {
         }
     }
 
+    /// [`Self::new`] with each sample's group for per-group offsets (empty: none).
+    pub fn grouped(
+        x: &DMatrix<f64>,
+        target: &DVector<f64>,
+        basis: MeanBasis,
+        offsets: &[usize],
+    ) -> Self {
+        Self {
+            offsets: offsets.to_vec(),
+            ..Self::new(x, target, basis)
+        }
+    }
+
     /// The GP conditioned on this data at `hyper`.
     pub fn condition(&self, hyper: Hyperparameters) -> Result<Posterior, GpError> {
         Posterior::grouped(&self.z, &self.y, &self.h, hyper, &self.offsets)
@@ -1104,10 +1117,7 @@ impl GpModel {
             return Err(GpError::TooFewSamples(n));
         }
         let t0 = Instant::now();
-        let data = Prepared {
-            offsets: offsets.to_vec(),
-            ..Prepared::new(x, target, cfg.mean)
-        };
+        let data = Prepared::grouped(x, target, cfg.mean, offsets);
         if let Some(m) = cfg.inducing.count(n) {
             if !offsets.is_empty() {
                 return Err(GpError::ExactOnly(n));
@@ -1151,10 +1161,7 @@ impl GpModel {
             return Err(GpError::ExactOnly(n));
         }
         let t0 = Instant::now();
-        let data = Prepared {
-            offsets: offsets.to_vec(),
-            ..Prepared::new(x, target, cfg.mean)
-        };
+        let data = Prepared::grouped(x, target, cfg.mean, offsets);
         let (h, rms) = with_terms(&data.h, terms);
         let likelihood = |t: &[f64]| data.likelihood(&h, t);
         let found = search(&likelihood, (n, d), !offsets.is_empty(), cfg)?;
@@ -1222,10 +1229,7 @@ impl GpModel {
     /// the kernel the marginal likelihood chose).
     pub fn refit_targets(&self, x: &DMatrix<f64>, target: &DVector<f64>) -> Result<Self, GpError> {
         let t0 = Instant::now();
-        let data = Prepared {
-            offsets: self.posterior.offsets.clone(),
-            ..Prepared::new(x, target, self.basis)
-        };
+        let data = Prepared::grouped(x, target, self.basis, &self.posterior.offsets);
         let hyper = self.posterior.hyper.clone();
         let (posterior, sparse) = match &self.sparse {
             Some(s) => {
