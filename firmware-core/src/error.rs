@@ -76,6 +76,9 @@ impl fmt::Display for BlobError {
     }
 }
 
+/// So that host code can carry it as a cause (`?` into `anyhow`, `#[source]` in `thiserror`).
+impl core::error::Error for BlobError {}
+
 /// A prediction could not be made (the inputs themselves are flagged in the prediction's status).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -96,3 +99,5 @@ impl fmt::Display for PredictError {
         }
     }
 }
+
+impl core::error::Error for PredictError {}

@@ -40,7 +40,11 @@
 //! forgotten the gap.
 
 use crate::blob::Feature;
-use crate::model::{MAX_INPUTS, Status};
+use crate::status::Status;
+
+/// Most model inputs the pipeline computes and any evaluator accepts, whatever its capacity: the
+/// evaluator's kernel loop is compiled for each input count up to this.
+pub const MAX_INPUTS: usize = 8;
 
 /// Seconds per hour.
 const HOUR_S: f64 = 3600.0;

@@ -10,13 +10,15 @@ pub mod error;
 pub mod features;
 pub mod model;
 pub mod record;
+pub mod status;
 #[cfg(test)]
 mod testing;
 
 pub use blob::{Dims, Feature};
 pub use error::{BlobError, PredictError};
-pub use features::{FeatureState, Sample};
-pub use model::{MAX_INPUTS, Mean, Model, Prediction, Status};
+pub use features::{FeatureState, MAX_INPUTS, Sample};
+pub use model::{Mean, Model, Prediction};
+pub use status::Status;
 
 /// The firmware-integration guide, whose Rust example is compiled and run as a doc test of this
 /// crate (its other blocks are shell and text).

@@ -34,25 +34,8 @@ use heapless::Vec;
 
 use crate::blob::{self, Dims, Feature, Payload};
 use crate::error::{BlobError, PredictError, Storage};
-use crate::features::{self, FeatureState, Sample};
-
-/// Validity of a prediction, from best to worst (a prediction carries the worst that applies).
-/// Every function that returns one must have it looked at: a `Fault` ignored is a stale value used.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[must_use = "a Fault status means the outputs are not to be used"]
-pub enum Status {
-    /// Inputs inside the trained range.
-    Valid,
-    /// An input lies outside the trained range: the model extrapolates.
-    Extrapolating,
-    /// The inputs are readings, but a stateful input's history is not to be trusted: after a time
-    /// jump or a clock running backwards, while the temperature sensor seems stuck, and until the
-    /// filters have settled after either ([`crate::features`] has the rules).
-    Degraded,
-    /// An input is NaN, infinite or impossible (or missing): the output is not a compensation.
-    Fault,
-}
+use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
+use crate::status::Status;
 
 /// Predictive mean (output units, e.g. °/s) and its status.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,10 +67,6 @@ pub struct Model<const D: usize, const E: usize, const N: usize> {
     exponents: Vec<u8, E>,
     floats: Vec<f32, N>,
 }
-
-/// Most model inputs any evaluator accepts, whatever its capacity: the kernel loop is compiled
-/// for each input count up to this.
-pub const MAX_INPUTS: usize = 8;
 
 /// Neumaier-compensated sum: the running rounding error is carried and added once at the end.
 #[derive(Default)]

@@ -9,7 +9,7 @@
 //! ```
 
 use crate::features::Sample;
-use crate::model::Status;
+use crate::status::Status;
 
 /// Bytes of one sample record.
 pub const SAMPLE_BYTES: usize = 20;

@@ -3,15 +3,17 @@
 
 use std::path::PathBuf;
 
-use crate::effects::{Effect, Hidden};
-use crate::{challenge, output, paper, plant::GyroParams, qemu, stream};
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use trainer::cause::Cause;
-use trainer::cli::Maps;
-use trainer::console::{AFTER_HELP, Console, ConsoleFlags};
-use trainer::io::{ensure_not_input, write_atomically, write_json};
-use trainer::replay;
+use serde::Serialize;
+
+use crate::cause::Cause;
+use crate::console::{AFTER_HELP, Console, ConsoleFlags};
+use crate::data::columns::ColumnMap;
+use crate::gyro::effects::{Effect, Hidden};
+use crate::gyro::{output, paper, plant::GyroParams, stream};
+use crate::io::{ensure_not_input, write_atomically, write_json};
+use crate::{qemu, replay};
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
@@ -22,6 +24,14 @@ pub struct Cli {
     command: Command,
     #[command(flatten)]
     console: ConsoleFlags,
+}
+
+/// The `--map` flag of every data-reading command, in both programs.
+#[derive(Args, Clone, Default)]
+pub struct Maps {
+    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
+    #[arg(long = "map", value_name = "NAME=SOURCE")]
+    pub list: Vec<ColumnMap>,
 }
 
 #[derive(Subcommand)]
@@ -40,26 +50,6 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Scores as JSON: n, rmse_dps, rmse_60s_dps, max_abs_err_dps, coverage_2sigma, ….
-        #[arg(long)]
-        json: Option<PathBuf>,
-    },
-    /// Hidden-effect cases through the investigation (static fit → diagnosis → extension → gain):
-    /// the confusion matrix of hidden vs named cause and the gain per case.
-    ///
-    /// Example: firmware-sim challenge --seeds 10 --json challenge.json
-    Challenge {
-        /// single: every cause alone and none; pairs: every two distinct causes together, each
-        /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
-        /// lower end of its documented strength.
-        #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
-        kind: challenge::Kind,
-        /// Seeds per cause (per pair).
-        #[arg(long, default_value_t = 10)]
-        seeds: u64,
-        /// First seed.
-        #[arg(long, default_value_t = 1000)]
-        first_seed: u64,
-        /// Write every case and the matrix as JSON here.
         #[arg(long)]
         json: Option<PathBuf>,
     },
@@ -100,8 +90,8 @@ impl ReplayInput {
         console: &Console,
     ) -> anyhow::Result<(
         Vec<u8>,
-        Box<trainer::export::HostModel>,
-        trainer::stream::Stream,
+        Box<crate::replay::HostModel>,
+        crate::data::stream::Stream,
     )> {
         let inputs = [self.model.as_path(), self.stream.as_path()];
         for o in outputs {
@@ -109,9 +99,9 @@ impl ReplayInput {
         }
         let blob = std::fs::read(&self.model)
             .with_context(|| format!("reading {}", self.model.display()))?;
-        let firmware = trainer::export::decode(&blob)
-            .with_context(|| format!("decoding {}", self.model.display()))?;
-        let data = trainer::stream::Stream::load(&self.stream, &self.maps.list)?;
+        let firmware =
+            replay::decode(&blob).with_context(|| format!("decoding {}", self.model.display()))?;
+        let data = crate::data::stream::Stream::load(&self.stream, &self.maps.list)?;
         for issue in &data.time_issues {
             console.warn(&format!("{} {issue}", self.stream.display()));
         }
@@ -200,17 +190,37 @@ impl GenerateCommon {
             write_json(
                 path,
                 &[],
-                &serde_json::json!({
-                    "n": n,
-                    "seed": self.seed,
-                    "unit": params,
-                    "effect": effects.0.first().copied().unwrap_or(Effect::None),
-                    "effects": effects,
-                }),
+                &Generated {
+                    n,
+                    seed: self.seed,
+                    unit: params,
+                    effect: effects.0.first().copied().unwrap_or(Effect::None),
+                    effects,
+                },
             )?;
         }
         Ok(())
     }
+}
+
+/// What `generate … --json` writes: the row count, the seed, the unit and its hidden effects.
+#[derive(Serialize)]
+struct Generated<'a> {
+    n: usize,
+    seed: u64,
+    unit: &'a GyroParams,
+    /// The first hidden effect (`none` without one), for scripts that expect one.
+    effect: Effect,
+    effects: &'a Hidden,
+}
+
+/// What `qemu --json` writes: the M4 run's scores, its agreement with the host replay, its cost.
+#[derive(Serialize)]
+struct QemuReport<'a> {
+    #[serde(flatten)]
+    score: &'a replay::Score,
+    agreement_with_host: qemu::Agreement,
+    cost: qemu::Cost,
 }
 
 /// Values of one flag joined by `+` (`warm-up+thermal-rate`, `40+15`).
@@ -264,69 +274,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 rows.len(),
                 flags,
             )
-        }
-        Command::Challenge {
-            kind,
-            seeds,
-            first_seed,
-            json,
-        } => {
-            let console = Console::new(flags, json.as_deref());
-            let bar = console.bar(0);
-            bar.set_message("hidden-effect cases");
-            let cases = challenge::run(kind, seeds, first_seed, &bar)?;
-            bar.finish_and_clear();
-            console.detail(&format!(
-                "{} cases ({kind:?}, {seeds} seeds each), each: points + two 8.75 h streams → investigate",
-                cases.len()
-            ));
-            for c in &cases {
-                let ids = |v: &[Cause]| {
-                    if v.is_empty() {
-                        "none".to_owned()
-                    } else {
-                        v.iter().map(|c| c.id()).collect::<Vec<_>>().join("+")
-                    }
-                };
-                let strengths: Vec<String> = c
-                    .hidden
-                    .0
-                    .iter()
-                    .map(|e| format!("{:.2}", e.strength()))
-                    .collect();
-                console.result(&format!(
-                    "{:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
-                    ids(&c.hidden.causes()),
-                    strengths.join("+"),
-                    c.seed,
-                    ids(&c.named),
-                    c.static_rmse_60s_dps,
-                    c.extended_rmse_60s_dps,
-                    c.gain,
-                    c.oracle_gain.map_or(String::new(), |o| format!(" (oracle {o:.2}×)"))
-                ));
-            }
-            let summary = challenge::summary(&cases);
-            if kind == challenge::Kind::Single {
-                console.result(challenge::confusion(&cases).1.trim_end());
-            }
-            console.result(&summary.text());
-            if let Some(path) = json {
-                write_json(
-                    &path,
-                    &[],
-                    &serde_json::json!({
-                        "kind": kind,
-                        "cases": cases,
-                        "confusion": challenge::confusion(&cases).0,
-                        "order": Cause::ALL,
-                        "summary": summary,
-                        "accuracy": summary.first_named_right as f64 / cases.len().max(1) as f64,
-                        "false_alarms_none": summary.false_alarms_none,
-                    }),
-                )?;
-            }
-            Ok(())
         }
         Command::Replay { input, out, json } => {
             let console = Console::new(flags, json.as_deref());
@@ -389,10 +336,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 write_atomically(&path, replay::to_csv(&data, &m4.compensated).as_bytes())?;
             }
             if let Some(path) = json {
-                let mut v = serde_json::to_value(&score)?;
-                v["agreement_with_host"] = serde_json::to_value(agreement)?;
-                v["cost"] = serde_json::to_value(m4.cost)?;
-                write_json(&path, &[], &v)?;
+                let report = QemuReport {
+                    score: &score,
+                    agreement_with_host: agreement,
+                    cost: m4.cost,
+                };
+                write_json(&path, &[], &report)?;
             }
             console.result(&format!(
                 "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \

@@ -1,14 +1,20 @@
-//! Simulated open-loop FOG with its test rigs (thermal chamber, rate table), and the tools that write
-//! what it produces in the project's CSV formats (docs/design.md §3).
+//! The test bench below the trainer: a simulated open-loop FOG with its rigs, the project's data
+//! files, and the replay of a stream through firmware-core (docs/design.md §1).
 //!
-//! The simulator is the ground truth of the project's tests: every number it produces can be
-//! reproduced from a seed, and the physics behind it is documented in [`plant`].
+//! - [`gyro`]: the simulated gyro, thermal chamber and rate table, with the hidden physical effects
+//!   named by [`cause`]; every number it produces can be reproduced from a seed.
+//! - [`data`]: the CSV formats, read as the trainer and the replay read them (the writers are in
+//!   [`gyro::output`]), so one crate holds both sides of each format (docs/design.md §3).
+//! - [`replay`]: every sample of a stream through the firmware evaluator (host build) and its
+//!   scores; [`qemu`]: the same on the Cortex-M4F image under QEMU.
+//! - [`console`], [`io`], [`cli`]: what the person at the terminal sees, how files are written,
+//!   and the `firmware-sim` command line; the trainer's command line uses the first two as well.
 
-pub mod challenge;
+pub mod cause;
 pub mod cli;
-pub mod effects;
-pub mod output;
-pub mod paper;
-pub mod plant;
+pub mod console;
+pub mod data;
+pub mod gyro;
+pub mod io;
 pub mod qemu;
-pub mod stream;
+pub mod replay;

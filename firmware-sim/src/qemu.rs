@@ -13,8 +13,9 @@ use std::time::Duration;
 
 use firmware_core::record;
 use serde::Serialize;
-use trainer::replay::{self, Compensated};
-use trainer::stream::Stream;
+
+use crate::data::stream::Stream;
+use crate::replay::{self, Compensated};
 
 /// QEMU is stopped after this long.
 pub const TIMEOUT: Duration = Duration::from_secs(900);
@@ -125,7 +126,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
     std::fs::write(dir.path().join("model.bin"), blob)?;
     // The host replay's restarts become power-on flags.
     let mut samples = Vec::with_capacity(record::SAMPLE_BYTES * stream.len());
-    for (i, power_on) in trainer::replay::restarts(stream).into_iter().enumerate() {
+    for (i, power_on) in crate::replay::restarts(stream).into_iter().enumerate() {
         samples.extend(record::encode_sample(&replay::sample(stream, i), power_on));
     }
     std::fs::write(dir.path().join("samples.bin"), samples)?;
@@ -157,7 +158,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         )));
     }
     let bytes = std::fs::read(dir.path().join("out.bin"))?;
-    let [_, noise_var] = trainer::export::decode(blob)
+    let [_, noise_var] = crate::replay::decode(blob)
         .map(|m| m.variances())
         .unwrap_or([0.0, 0.0]);
     let mut compensated = Compensated::default();

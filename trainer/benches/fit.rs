@@ -6,8 +6,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
-use trainer::gp::{GpConfig, GpModel, Prepared, lml_and_gradient};
-use trainer::lssvr::LssvrModel;
+use trainer::models::gp::exact::lml_and_gradient;
+use trainer::models::gp::{GpConfig, GpModel, Prepared};
+use trainer::models::lssvr::LssvrModel;
 
 fn paper_like() -> (DMatrix<f64>, DVector<f64>) {
     let temps = [-30.0, -20.0, -10.0, -5.0, 0.0, 5.0, 10.0, 20.0, 40.0, 60.0];

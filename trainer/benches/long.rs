@@ -7,10 +7,11 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use trainer::dataset::POINT_FEATURES;
-use trainer::export;
-use trainer::gp::{GpConfig, GpModel, Inducing, Prepared, lml_and_gradient};
-use trainer::sparse;
+use trainer::data::points::POINT_FEATURES;
+use trainer::firmware::export;
+use trainer::models::gp::exact::lml_and_gradient;
+use trainer::models::gp::sparse;
+use trainer::models::gp::{GpConfig, GpModel, Inducing, Prepared};
 
 /// n samples of a 2-D function with structure at a length scale of about 0.3 (normalized), so
 /// that every inducing point up to 128 is used.
@@ -30,7 +31,7 @@ fn sparse_fits(c: &mut Criterion) {
         let (x, y) = data(n, 1);
         let prepared = Prepared::new(&x, &y, GpConfig::default().mean);
         for m in [32, 64, 128] {
-            let xs = trainer::kernel::scale_inputs(&prepared.z, &[0.3, 0.3]);
+            let xs = trainer::models::kernel::scale_inputs(&prepared.z, &[0.3, 0.3]);
             let u = prepared.z.select_rows(&sparse::select(&xs, &xs, m));
             let theta = [0.3f64.ln(), 0.3f64.ln(), 0.0, 0.05f64.ln()];
             group.bench_with_input(
@@ -77,7 +78,8 @@ fn firmware_prediction(c: &mut Criterion) {
             ..GpConfig::default()
         };
         let model = GpModel::fit(&x, &y, &cfg).unwrap();
-        let fw = export::decode(&export::to_blob(&model, &POINT_FEATURES).unwrap()).unwrap();
+        let fw = firmware_sim::replay::decode(&export::to_blob(&model, &POINT_FEATURES).unwrap())
+            .unwrap();
         let mut scratch = vec![0.0f32; m];
         let input = [0.3f32, -0.4];
         group.bench_with_input(BenchmarkId::new("mean", m), &m, |b, _| {

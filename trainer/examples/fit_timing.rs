@@ -3,9 +3,9 @@
 //!
 //! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats]
 
-use trainer::dataset::Points;
-use trainer::gp::{GpConfig, GpModel};
-use trainer::prior::MeanBasis;
+use trainer::data::points::Points;
+use trainer::models::gp::{GpConfig, GpModel};
+use trainer::models::prior::MeanBasis;
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
@@ -22,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     let mut times = Vec::new();
     let mut lml = 0.0;
     for _ in 0..repeats {
-        let m = GpModel::fit(&x, &y, &cfg)?;
+        let m = GpModel::fit(x, &y, &cfg)?;
         times.push(m.fit_seconds);
         lml = m.log_marginal_likelihood();
     }

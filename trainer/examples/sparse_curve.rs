@@ -10,14 +10,14 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::replay;
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use trainer::dataset::Points;
-use trainer::export::{self, Extension};
-use trainer::gp::{GpConfig, GpModel, Inducing};
-use trainer::replay;
-use trainer::stream::Stream;
+use trainer::data::points::Points;
+use trainer::firmware::export::{self, Extension};
+use trainer::models::gp::{GpConfig, GpModel, Inducing};
 
 /// Inducing points tried.
 const INDUCING: [usize; 7] = [8, 12, 16, 20, 24, 32, 64];
@@ -55,7 +55,7 @@ fn main() -> anyhow::Result<()> {
             inducing: Inducing::Count(m),
             ..GpConfig::default()
         };
-        row(out, &format!("sparse-m{m}"), &pool, &x, &y, &cfg, &valid)?;
+        row(out, &format!("sparse-m{m}"), &pool, x, &y, &cfg, &valid)?;
     }
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     for n in SUBSETS {
@@ -70,7 +70,7 @@ fn main() -> anyhow::Result<()> {
             out,
             &format!("exact-n{n}"),
             &sub,
-            &sub.inputs(),
+            sub.inputs(),
             &sub.target(),
             &cfg,
             &valid,
@@ -98,7 +98,7 @@ fn row(
         match export::points_blob(&model, points, &Extension::default()) {
             Ok(blob) => {
                 std::fs::write(out.join(format!("{name}.bin")), &blob)?;
-                let fw = export::decode(&blob)?;
+                let fw = firmware_sim::replay::decode(&blob)?;
                 let dims = fw.dims();
                 let ram = 4 * (dims.floats() + dims.m);
                 (

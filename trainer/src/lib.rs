@@ -1,28 +1,16 @@
 //! Host trainer for FOG temperature-drift compensation: loads rate-table data, fits the reference
 //! paper's Gaussian-process map ω = f(T, V) and its rivals (LS-SVR, the traditional two-step
-//! bias/scale-factor model), and evaluates them the way the paper does.
+//! bias/scale-factor model), evaluates them the way the paper does, exports firmware blobs, and
+//! finds, names and fixes what a model gets wrong (docs/design.md §1).
+//!
+//! Layers, each using only those listed before it (and firmware-sim, firmware-core below):
+//! [`data`] (rate-table points as model inputs), [`models`] (the regressions), [`firmware`] (the
+//! blob and its checks), [`analysis`] (evaluation, diagnosis, extension, investigation),
+//! [`report`], [`cli`].
 
-pub mod cause;
+pub mod analysis;
 pub mod cli;
-pub mod console;
 pub mod data;
-pub mod dataset;
-pub mod diagnose;
-pub mod evaluate;
-pub mod export;
-pub mod extend;
-pub mod gp;
-pub mod investigate;
-pub mod io;
-pub mod kernel;
-pub mod lssvr;
-pub mod normalize;
-pub mod poly;
-pub mod prior;
-pub mod replay;
+pub mod firmware;
+pub mod models;
 pub mod report;
-pub mod reproduce;
-pub mod sparse;
-pub mod stream;
-pub mod table;
-pub mod two_step;

@@ -145,6 +145,7 @@ fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
 fn every_command_shows_an_example_in_its_help() {
     let dir = tempfile::tempdir().unwrap();
     for cmd in [
+        "demo",
         "fit",
         "diagnose",
         "investigate",
@@ -152,6 +153,7 @@ fn every_command_shows_an_example_in_its_help() {
         "loo",
         "report",
         "reproduce",
+        "challenge",
     ] {
         let out = trainer(&[cmd, "--help"], dir.path());
         assert_eq!(out.status.code(), Some(0));
@@ -171,12 +173,6 @@ fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_are_refused()
     let alone = trainer(&["report", "--points", "p.csv", "--out", "r"], dir.path());
     assert_eq!(alone.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&alone.stderr).contains("--points needs --train-stream"));
-    let sim = Path::new(env!("CARGO_BIN_EXE_trainer")).with_file_name("firmware-sim");
-    if !sim.exists() {
-        // `cargo test --workspace` builds it (firmware-sim has tests of its own binary).
-        eprintln!("skipped: {} not built", sim.display());
-        return;
-    }
     let out = trainer(&["report", "--out", "r"], dir.path());
     assert_eq!(out.status.code(), Some(0), "{:?}", out);
     let text = String::from_utf8_lossy(&out.stdout);

@@ -12,7 +12,6 @@ use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use trainer::cli::{Cli, run};
-use trainer::export;
 
 /// Cases per family.
 const PER_FAMILY: usize = 24;
@@ -207,7 +206,7 @@ fn outcome(family: Family, dir: &Path, case: usize, rng: &mut impl Rng) -> Strin
             format!("refused: {why}")
         }
         Ok(()) => {
-            let fw = export::decode(&std::fs::read(&blob).unwrap()).unwrap();
+            let fw = firmware_sim::replay::decode(&std::fs::read(&blob).unwrap()).unwrap();
             let mut scratch = vec![0.0f32; fw.dims().m];
             for r in &rows {
                 let p = fw

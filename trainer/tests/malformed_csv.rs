@@ -4,10 +4,10 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
+use firmware_sim::data::stream::Stream;
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use trainer::dataset::Points;
-use trainer::stream::Stream;
+use trainer::data::points::Points;
 
 /// Damaged files per loader.
 const CASES: usize = 3000;

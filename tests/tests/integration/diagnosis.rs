@@ -6,10 +6,10 @@
 //! oracle told the true causes gains; for a weak one it may say `none`, but never a wrong name,
 //! and never ship a model that does worse.
 
-use firmware_sim::challenge::run_case;
-use firmware_sim::effects::Strength;
+use firmware_sim::cause::Cause;
+use firmware_sim::gyro::effects::Strength;
 use rand::{RngExt, SeedableRng};
-use trainer::cause::Cause;
+use trainer::analysis::challenge::run_case;
 
 fn check(cause: Cause, seed: u64) {
     let case = run_case(&[cause], seed, Strength::Documented, false).unwrap();

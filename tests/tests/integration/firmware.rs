@@ -1,10 +1,10 @@
 //! The exported blob is the model: firmware-core (f32) against the trainer (f64), issue 3's
 //! must-show figures, on units the trainer has not been tuned on.
 
-use firmware_sim::{effects::Effect, paper, plant::GyroParams};
-use trainer::dataset::POINT_FEATURES;
-use trainer::export::{self, Agreement};
-use trainer::gp::{GpConfig, GpModel};
+use firmware_sim::gyro::{effects::Effect, paper, plant::GyroParams};
+use trainer::data::points::POINT_FEATURES;
+use trainer::firmware::export::{self, Agreement};
+use trainer::models::gp::{GpConfig, GpModel};
 
 use crate::paper::points;
 
@@ -31,12 +31,12 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
     ];
     for (name, params, seed) in units {
         let train = points(&paper::run(&params, Effect::None, seed, false));
-        let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+        let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let blob = export::to_blob(&m, &POINT_FEATURES).unwrap();
-        let fw = export::decode(&blob).unwrap();
+        let fw = firmware_sim::replay::decode(&blob).unwrap();
         assert_eq!(fw.dims().m, 140);
         assert_eq!(fw.features(), &POINT_FEATURES);
-        let r = export::agreement_report(&m, &fw, &train.inputs(), &export::Extension::default());
+        let r = export::agreement_report(&m, &fw, train.inputs(), &export::Extension::default());
         check(&format!("{name} training"), &r.training, true);
         check(&format!("{name} grid"), &r.grid_inside, true);
         assert!(r.grid_inside.n_var > 0, "{name}: no variance compared");
@@ -47,17 +47,17 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
 #[test]
 fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
     use firmware_core::{Feature, FeatureState, Sample};
-    use trainer::export::{Extension, Term};
+    use trainer::firmware::export::{Extension, Term};
     let train = points(&paper::run(&GyroParams::nominal(), Effect::None, 5, false));
-    let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
-    let fw = export::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
+    let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+    let fw = firmware_sim::replay::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
     let extension = Extension {
         temperature: None,
         terms: vec![Term::bias(Feature::TimeOn, -2e-3, (0.0, 10.0))],
         offset: 1e-3,
     };
     let blob = export::to_blob_extended(&m, &POINT_FEATURES, &extension).unwrap();
-    let ext = export::decode(&blob).unwrap();
+    let ext = firmware_sim::replay::decode(&blob).unwrap();
     assert_eq!(
         ext.features(),
         &[Feature::Temperature, Feature::Voltage, Feature::TimeOn]

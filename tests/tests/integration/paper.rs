@@ -1,19 +1,19 @@
 //! The GP on the simulated paper protocol: the model a user would have today.
 
-use firmware_sim::{effects::Effect, paper, plant::GyroParams};
-use trainer::dataset::Points;
-use trainer::gp::{GpConfig, GpModel};
+use firmware_sim::gyro::{effects::Effect, paper, plant::GyroParams};
+use trainer::data::points::Points;
+use trainer::models::gp::{GpConfig, GpModel};
 
 pub fn points(p: &[paper::Point]) -> Points {
-    Points {
-        temp_c: p.iter().map(|x| x.temp_c).collect(),
-        voltage_v: p.iter().map(|x| x.voltage_v).collect(),
-        rate_dps: p.iter().map(|x| x.rate_dps).collect(),
-        group: p.iter().map(|x| x.setpoint_c.to_string()).collect(),
-        scale_factor: None,
-        soaked: true,
-        time_s: None,
-    }
+    Points::new(
+        p.iter().map(|x| x.temp_c).collect(),
+        p.iter().map(|x| x.voltage_v).collect(),
+        p.iter().map(|x| x.rate_dps).collect(),
+        p.iter().map(|x| x.setpoint_c.to_string()).collect(),
+        None,
+        true,
+        None,
+    )
 }
 
 /// docs/design.md §7: the paper's 140 points hold no zero-rate row, yet a gyro lives near zero.
@@ -23,7 +23,7 @@ fn model_holds_at_zero_rate_between_the_trained_rates() {
     let all = paper::run(&GyroParams::nominal(), Effect::None, 11, true);
     let (zero, rates): (Vec<_>, Vec<_>) = all.into_iter().partition(|p| p.table_rate_dps == 0.0);
     let train = points(&rates);
-    let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+    let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
     let worst = zero
         .iter()
         .map(|p| (m.predict(&[p.temp_c, p.voltage_v]).mean - p.rate_dps).abs())
@@ -40,7 +40,7 @@ fn gp_fits_units_drawn_from_the_published_ranges() {
             seed,
             false,
         ));
-        let m = GpModel::fit(&train.inputs(), &train.target(), &GpConfig::default()).unwrap();
+        let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let e = m.loo_errors();
         let rmse = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
         assert!(rmse < 3e-3, "unit {seed}: LOO RMSE {rmse} °/s");

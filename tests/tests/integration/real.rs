@@ -5,11 +5,11 @@
 
 use std::path::Path;
 
-use trainer::console::ProgressBar;
-use trainer::dataset::Points;
-use trainer::evaluate::{self, EvalConfig, Method};
-use trainer::gp::{GpConfig, GpModel};
-use trainer::table::{self, Transients};
+use firmware_sim::console::ProgressBar;
+use trainer::analysis::evaluate::{self, EvalConfig, Method};
+use trainer::analysis::table::{self, Transients};
+use trainer::data::points::Points;
+use trainer::models::gp::{GpConfig, GpModel};
 
 use crate::{at, json, trainer};
 
@@ -121,7 +121,7 @@ fn fog_runs(more: &[&str]) -> Option<(Points, Points)> {
         eprintln!("skipped: ../shared/data/real/uwrt-fog-turntable is absent");
         return None;
     }
-    let maps: Vec<trainer::data::ColumnMap> = [
+    let maps: Vec<firmware_sim::data::columns::ColumnMap> = [
         "temp_c=temp_C",
         "voltage_v=gyro_raw_counts",
         "rate_dps=rig_rate_deg_s",
@@ -194,8 +194,8 @@ fn with_an_offset_per_sweep_the_fog_gp_keeps_its_temperature_length_scale() {
     };
     let cfg = GpConfig::default();
     let (x, target) = (oct.inputs(), oct.target());
-    let plain = GpModel::fit(&x, &target, &cfg).unwrap();
-    let grouped = GpModel::fit_grouped(&x, &target, &oct.group_ids(), &cfg).unwrap();
+    let plain = GpModel::fit(x, &target, &cfg).unwrap();
+    let grouped = GpModel::fit_grouped(x, &target, &oct.group_ids(), &cfg).unwrap();
     let length_c = |m: &GpModel| m.posterior.hyper.length_scales[0] * m.input_norm.scale[0];
     assert!(
         length_c(&grouped) > 3.0 * length_c(&plain),

@@ -1,33 +1,42 @@
-//! The report (issue 8): from a simulated calibration and two streams, `trainer report` writes
-//! one self-contained page that shows every figure it promises, and each figure as a file.
+//! The main job in one command: `trainer demo` simulates a gyro with a hidden thermal-rate drift
+//! and leaves every file of the chain it runs, the report among them: one self-contained page
+//! that shows every figure it promises, and each figure as a file.
 
 use trainer::report::FIGURES;
 
-use crate::{at, sim, trainer as run_trainer};
+use crate::{at, json, trainer as run_trainer};
 
 #[test]
-fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
+fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name| at(dir.path(), name);
-    let effect = ["--effect", "thermal-rate"];
-    sim(&[
-        &["generate", "paper", "--seed", "4", "--out", &p("p.csv")][..],
-        &effect,
-    ]
-    .concat())
-    .unwrap();
-    sim(&[
-        &["generate", "stream", "--seed", "5", "--out", &p("a.csv")][..],
-        &effect,
-    ]
-    .concat())
-    .unwrap();
-    sim(&[
-        &["generate", "stream", "--seed", "6", "--out", &p("b.csv")][..],
-        &effect,
-    ]
-    .concat())
-    .unwrap();
+    run_trainer(&["demo", "--out", &p(""), "--quiet"]).unwrap();
+    for name in [
+        "points.csv",
+        "train.csv",
+        "valid.csv",
+        "model.bin",
+        "ext.bin",
+        "investigate.json",
+        "comp.csv",
+        "replay.json",
+        "reproduce.json",
+        "report/report.html",
+    ] {
+        assert!(dir.path().join(name).is_file(), "{name} missing");
+    }
+    // The hidden effect is named from the training stream and the shipped blob is the one
+    // replayed: the replay scores exactly what the investigation measured.
+    let investigation = json(dir.path().join("investigate.json"));
+    assert_eq!(investigation["diagnosis"]["causes"][0], "thermal-rate");
+    let gain = investigation["gain"].as_f64().unwrap();
+    assert!(gain > 3.0, "gain {gain}");
+    let replay = json(dir.path().join("replay.json"));
+    assert_eq!(
+        replay["rmse_60s_dps"],
+        investigation["extended_score"]["rmse_60s_dps"]
+    );
+
     let out = dir.path().join("report");
     let report = |points: &str| {
         run_trainer(&[
@@ -35,16 +44,14 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
             "--points",
             points,
             "--train-stream",
-            &p("a.csv"),
+            &p("train.csv"),
             "--valid-stream",
-            &p("b.csv"),
+            &p("valid.csv"),
             "--out",
             &out.display().to_string(),
             "--quiet",
         ])
     };
-    report(&p("p.csv")).unwrap();
-
     let page = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(FIGURES.len() >= 6);
     for (name, caption) in FIGURES {
@@ -76,11 +83,11 @@ fn the_report_holds_every_promised_figure_inline_and_as_a_file() {
     }
     // An output never replaces an input: a rate table that happens to sit where a figure goes.
     let table = out.join("qq.svg");
-    std::fs::copy(dir.path().join("p.csv"), &table).unwrap();
+    std::fs::copy(dir.path().join("points.csv"), &table).unwrap();
     let clash = report(&table.display().to_string());
     assert!(clash.is_err());
     assert_eq!(
         std::fs::read(&table).unwrap(),
-        std::fs::read(dir.path().join("p.csv")).unwrap()
+        std::fs::read(dir.path().join("points.csv")).unwrap()
     );
 }

@@ -2,10 +2,10 @@
 //! through the command line, and its blob runs in firmware-core and on the Cortex-M4F exactly as
 //! an exact model's does, for a fraction of the instructions.
 
+use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::qemu;
-use trainer::gp::DEFAULT_INDUCING;
-use trainer::replay;
-use trainer::stream::{Stream, Window};
+use firmware_sim::replay;
+use trainer::models::gp::DEFAULT_INDUCING;
 
 use crate::{at, json, sim, trainer as run_trainer};
 
@@ -67,7 +67,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     let mut costs = Vec::new();
     for name in ["sparse.bin", "exact.bin"] {
         let blob = std::fs::read(dir.path().join(name)).unwrap();
-        let fw = trainer::export::decode(&blob).unwrap();
+        let fw = firmware_sim::replay::decode(&blob).unwrap();
         let host = replay::replay(&fw, &held_out);
         let m4 = qemu::run(&image, &blob, &held_out).unwrap();
         let agreement = qemu::compare(&host, &m4.compensated);

@@ -10,20 +10,19 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use firmware_sim::cause::Cause;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::io::write_atomically;
+use firmware_sim::replay::{self, Compensated};
 use indicatif::ProgressBar;
-
-use crate::cause::Cause;
-use crate::dataset::Points;
-use crate::diagnose::Residual;
-use crate::evaluate::{self, EvalConfig, Method};
-use crate::export;
-use crate::gp::GpConfig;
-use crate::investigate::{self, Investigation};
-use crate::io::write_atomically;
-use crate::replay::{self, Compensated};
-use crate::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
-use crate::stream::Stream;
 use plots::{DiagnosisSeries, ReplaySeries};
+
+use crate::analysis::diagnose::Residual;
+use crate::analysis::evaluate::{self, EvalConfig, Method};
+use crate::analysis::investigate::{self, Investigation};
+use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
+use crate::data::points::Points;
+use crate::models::gp::GpConfig;
 
 /// The figure files, in page order: (file name, caption).
 pub const FIGURES: [(&str, &str); 6] = [
@@ -101,8 +100,8 @@ pub fn build(
     let table = |_: &Stream| Ok(points.clone());
     let (investigation, blobs) =
         investigate::investigate(&points, train, &valid, cfg, None, &table, bar)?;
-    let fw_static = export::decode(&blobs.static_blob)?;
-    let fw_ext = export::decode(&blobs.extended_blob)?;
+    let fw_static = firmware_sim::replay::decode(&blobs.static_blob)?;
+    let fw_ext = firmware_sim::replay::decode(&blobs.extended_blob)?;
     let replays = [
         replay::replay(&fw_static, &valid),
         replay::replay(&fw_ext, &valid),

@@ -1,19 +1,19 @@
 //! The prior mean: a polynomial in the normalized inputs, with the GP modelling what it misses.
 //!
-//! Why a polynomial mean, and why the physics basis by default: on rate-table data the bulk of
-//! ω(T, V) — the scale factor, its temperature coefficients, the cubic of the sine response — is a
-//! low-order polynomial. Left to the GP (a constant mean), that ±80 °/s signal is carried by weights
-//! of 1e5 that cancel to 1e-5 relative; in the firmware's f32 they cost degrees per second
+//! Why a polynomial mean, and why the physics basis by default: on rate-table data the bulk of ω(T,
+//! V) — the scale factor, its temperature coefficients, the cubic of the sine response — is a
+//! low-order polynomial. Left to the GP (a constant mean), that ±80 °/s signal is carried by
+//! weights of 1e5 that cancel to 1e-5 relative; in the firmware's f32 they cost degrees per second
 //! (docs/paper.md, "Measured for the firmware"). With the basis {1, t, t²} × {1, v, v³} (bias and
 //! scale factor quadratic in temperature, the sine response's cubic with them) the weights stay
-//! below
-//! 10 °/s and f32 carries the model to 4e-6 °/s, at a leave-one-out error within 0.95–1.2× of the
-//! constant mean (f32 study, `trainer/benches/f32_study`).
+//! below 10 °/s and f32 carries the model to 4e-6 °/s, at a leave-one-out error within 0.95–1.2× of
+//! the constant mean (f32 study, `trainer/benches/f32_study`).
 //!
 //! The basis coefficients are not fixed beforehand: the GP marginalizes them (Rasmussen & Williams
 //! §2.7, vague prior), so they are estimated by generalized least squares with the GP's covariance
-//! and the hyperparameters maximize the restricted likelihood (gp.rs). Ordinary least squares
-//! gives the starting point and the output scale. The constant basis stays the paper's fixed mean.
+//! and the hyperparameters maximize the restricted likelihood ([`crate::models::gp::exact`]).
+//! Ordinary least squares gives the starting point and the output scale. The constant basis stays
+//! the paper's fixed mean.
 
 use std::fmt;
 use std::str::FromStr;

@@ -5,17 +5,18 @@
 //! The held-out stream is touched once, to score: which causes to name and whether to ship their
 //! extension are part of the model, so they come from the training data alone ([`choose`]).
 
+use firmware_sim::cause::Cause;
+use firmware_sim::data::stream::{Handled, Stream, Window};
+use firmware_sim::replay::HostModel;
+use firmware_sim::replay::{self, Score};
 use indicatif::ProgressBar;
 use serde::Serialize;
 
-use crate::cause::Cause;
-use crate::dataset::Points;
-use crate::diagnose::{self, Diagnosis, joined};
-use crate::export::{self, Extension, HostModel};
-use crate::extend::{self, Extended, Fitted};
-use crate::gp::{GpConfig, GpModel};
-use crate::replay::{self, Score};
-use crate::stream::{Handled, Stream, Window};
+use crate::analysis::diagnose::{self, Diagnosis, joined};
+use crate::analysis::extend::{self, Extended, Fitted};
+use crate::data::points::Points;
+use crate::firmware::export::{self, Extension};
+use crate::models::gp::{GpConfig, GpModel};
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
 pub const STEPS: u64 = 5;
@@ -251,9 +252,9 @@ fn forward_check(
         (model.clone(), points.clone())
     } else {
         let p = rebuild(&early)?;
-        (GpModel::fit(&p.inputs(), &p.target(), cfg)?, p)
+        (GpModel::fit(p.inputs(), &p.target(), cfg)?, p)
     };
-    let static_fw = export::decode(&export::points_blob(
+    let static_fw = firmware_sim::replay::decode(&export::points_blob(
         &static_model,
         &static_points,
         &Extension::default(),
@@ -273,7 +274,7 @@ fn forward_check(
         static_rmse
     } else {
         let ext = extend::fit(&static_model, &static_points, &early, &causes)?;
-        rmse(&*export::decode(&ext.blob)?)
+        rmse(&*firmware_sim::replay::decode(&ext.blob)?)
     };
     Ok(Some(ForwardCheck {
         split_s,
@@ -298,7 +299,7 @@ pub fn investigate(
 ) -> anyhow::Result<(Investigation, Blobs)> {
     bar.inc_length(STEPS);
     bar.set_message(format!("static fit on {} points", points.len()));
-    let model = GpModel::fit(&points.inputs(), &points.target(), cfg)?;
+    let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
     let (fw, _) =
         export::verify(&model, &static_blob, points, &Extension::default()).map_err(|e| {
@@ -324,7 +325,7 @@ pub fn investigate(
         warnings.push(choice.verdict.clone());
     }
     let static_score = replay::score(valid, &replay::replay(&fw, valid));
-    let shipped = export::decode(&extended_blob)?;
+    let shipped = firmware_sim::replay::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
     bar.inc(1);

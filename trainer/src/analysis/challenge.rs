@@ -6,18 +6,18 @@
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
 //! both cores (rayon); each is deterministic by its seed.
 
+use firmware_sim::cause::Cause;
+use firmware_sim::console::ProgressBar;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::gyro::effects::{Hidden, Strength};
+use firmware_sim::gyro::plant::GyroParams;
+use firmware_sim::gyro::{output, paper, stream};
 use rayon::prelude::*;
 use serde::Serialize;
-use trainer::cause::Cause;
-use trainer::console::ProgressBar;
-use trainer::dataset::Points;
-use trainer::gp::GpConfig;
-use trainer::investigate;
-use trainer::stream::Stream;
 
-use crate::effects::{Hidden, Strength};
-use crate::plant::GyroParams;
-use crate::{output, paper, stream};
+use crate::analysis::investigate;
+use crate::data::points::Points;
+use crate::models::gp::GpConfig;
 
 /// Which cases a challenge runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]

@@ -18,21 +18,21 @@
 //! explain.
 //!
 //! The choice uses the training rows alone: candidates are added one at a time while each cuts the
-//! closed-form leave-one-group-out error ([`crate::gp::group_loo`], hyperparameters held at the
-//! static fit's) by at least [`MIN_GAIN`]; the extended model is then fitted with its own
-//! hyperparameters and shipped only if its own leave-one-group-out error is below the static
+//! closed-form leave-one-group-out error ([`crate::models::gp::exact::group_loo`], hyperparameters
+//! held at the static fit's) by at least [`MIN_GAIN`]; the extended model is then fitted with its
+//! own hyperparameters and shipped only if its own leave-one-group-out error is below the static
 //! model's. Scoring a whole left-out group (a half-sweep, a plateau) rather than one row keeps a
 //! transient from looking predictive by following its neighbours in time.
 
 use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};
+use firmware_sim::cause::Cause;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::cause::Cause;
-use crate::dataset::Points;
-use crate::export::{Extension, Term};
-use crate::gp::{GpConfig, GpError, GpModel};
+use crate::data::points::Points;
+use crate::firmware::export::{Extension, Term};
+use crate::models::gp::{GpConfig, GpError, GpModel};
 
 /// Least relative cut of the leave-one-group-out RMSE for a candidate to be added.
 pub const MIN_GAIN: f64 = 0.1;
@@ -290,7 +290,7 @@ impl TableModel {
         let chosen: Vec<usize> = self.terms.iter().map(|t| t.column).collect();
         let singles: Vec<Vec<usize>> = (0..rows.len()).map(|i| vec![i]).collect();
         self.gp.group_loo_with(
-            &train.inputs(),
+            train.inputs(),
             &train.target(),
             &transients.design(rows, &chosen),
             &singles,
@@ -320,16 +320,10 @@ pub fn fit(
     }
     let x = train.inputs();
     let target = train.target();
-    let gp = GpModel::fit_grouped(&x, &target, &offsets, cfg)?;
+    let gp = GpModel::fit_grouped(x, &target, &offsets, cfg)?;
     let kinv = gp.covariance_inverse();
     let score = |chosen: &[usize]| -> Result<f64, GpError> {
-        let e = gp.group_loo_given(
-            &kinv,
-            &x,
-            &target,
-            &transients.design(rows, chosen),
-            &groups,
-        )?;
+        let e = gp.group_loo_given(&kinv, x, &target, &transients.design(rows, chosen), &groups)?;
         Ok(rmse(&e))
     };
     let static_rmse = score(&[])?;
@@ -422,8 +416,8 @@ pub fn fit(
         ));
     }
     let terms = transients.design(rows, &chosen);
-    let (extended, gamma) = GpModel::fit_with_terms(&x, &terms, &target, &offsets, cfg)?;
-    let own = rmse(&extended.group_loo_with(&x, &target, &terms, &groups)?);
+    let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg)?;
+    let own = rmse(&extended.group_loo_with(x, &target, &terms, &groups)?);
     if own >= static_rmse {
         return Ok(static_model(
             format!(
@@ -488,15 +482,15 @@ mod tests {
     fn turntable(lag_s: f64, seed: u64) -> Points {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let noise = Normal::new(0.0, 2e-4).unwrap();
-        let mut p = Points {
-            temp_c: Vec::new(),
-            voltage_v: Vec::new(),
-            rate_dps: Vec::new(),
-            group: Vec::new(),
-            scale_factor: None,
-            soaked: false,
-            time_s: Some(Vec::new()),
-        };
+        let mut p = Points::new(
+            Vec::new(),
+            Vec::new(),
+            Vec::new(),
+            Vec::new(),
+            None,
+            false,
+            Some(Vec::new()),
+        );
         let (mut coil, mut t) = (40.0f64, 0.0f64);
         for sweep in 0..12 {
             for k in 0..13 {
@@ -551,7 +545,7 @@ mod tests {
         };
         let static_model = TableModel {
             terms: Vec::new(),
-            gp: GpModel::fit(&p.inputs(), &p.target(), &GpConfig::default()).unwrap(),
+            gp: GpModel::fit(p.inputs(), &p.target(), &GpConfig::default()).unwrap(),
             diagnosis: d.clone(),
         };
         assert!(
@@ -563,9 +557,9 @@ mod tests {
 
         // The firmware computes the transient from its own filter over the rows in time order
         // and follows the host.
-        let blob = crate::export::points_blob(&m.gp, &p, &m.extension()).unwrap();
-        crate::export::verify(&m.gp, &blob, &p, &m.extension()).unwrap();
-        let fw = crate::export::decode(&blob).unwrap();
+        let blob = crate::firmware::export::points_blob(&m.gp, &p, &m.extension()).unwrap();
+        crate::firmware::export::verify(&m.gp, &blob, &p, &m.extension()).unwrap();
+        let fw = firmware_sim::replay::decode(&blob).unwrap();
         let mut state = FeatureState::default();
         let mut scratch = vec![0.0f32; fw.dims().m];
         let time_s = p.time_s.clone().unwrap();

@@ -10,10 +10,10 @@
 //! ```
 //!
 //! The temperature sensor reads the housing; without an effect the coil is at the housing
-//! temperature, so a static model's residual is noise. Every transient error is an effect of its own
-//! ([`crate::effects`], docs/design.md §5): the coil lagging the housing (`sensor-lag`), a bias
-//! from the coil's temperature rate (`thermal-rate`), a warm-up after each power-on, hysteresis,
-//! in-run drift.
+//! temperature, so a static model's residual is noise. Every transient error is an effect of its
+//! own ([`crate::gyro::effects`], docs/design.md §5): the coil lagging the housing (`sensor-lag`),
+//! a bias from the coil's temperature rate (`thermal-rate`), a warm-up after each power-on,
+//! hysteresis, in-run drift.
 //!
 //! The chamber program (−30…60 °C at 0.5–1 °C/min, heating and cooling, soaks between) and the rate
 //! program (each of the paper's 14 rates and zero, 90 s each, in an order shuffled per cycle by the
@@ -26,9 +26,9 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use crate::effects::{EffectPlant, Hidden};
-use crate::paper::RATES_DPS;
-use crate::plant::{GyroParams, Noise};
+use crate::gyro::effects::{EffectPlant, Hidden};
+use crate::gyro::paper::RATES_DPS;
+use crate::gyro::plant::{GyroParams, Noise};
 
 /// Housing time constant τ_h against the chamber air, s (PHYSICS.md: 5 min, range 2–10).
 pub const HOUSING_TAU_S: f64 = 300.0;
@@ -215,7 +215,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::Effect;
+    use crate::gyro::effects::Effect;
 
     #[test]
     fn chamber_program_ramps_and_soaks() {

@@ -32,14 +32,13 @@
 //! Each evaluation is O(n m²), over chunks of samples in parallel; memory O(n m).
 //!
 //! The fit: hyperparameters of an exact GP on a subset of the samples, half spread over the inputs
-//! and half random (`start_subset`; all the optimizer starts of gp.rs, cheap at that size);
+//! and half random (`start_subset`; all the optimizer starts of the exact GP, cheap at that size);
 //! inducing points chosen greedily in that kernel's metric ([`select`]); then L-BFGS on the bound
 //! from there. The prior mean stays the ordinary least-squares
 //! fit of the basis (the exact GP re-estimates it by GLS): with n ≫ m samples the two differ little,
 //! and marginalizing it through the bound would add a p×p term to every gradient for no measured gain.
 
 use std::ops::Range;
-use std::time::Instant;
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, SymmetricEigen};
 use rand::SeedableRng;
@@ -47,11 +46,11 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::gp::{
-    self, GpConfig, GpError, GpModel, Hyperparameters, Posterior, Prepared, cholesky_with_jitter,
-    lml_and_gradient,
+use super::exact::{
+    self, GpConfig, GpError, Hyperparameters, Optimization, Posterior, Prepared, StartReport,
+    cholesky_with_jitter, lml_and_gradient,
 };
-use crate::kernel;
+use crate::models::kernel;
 
 /// Samples whose kernel rows are computed together (one parallel task).
 const CHUNK: usize = 4096;
@@ -130,20 +129,27 @@ impl SparseFit {
     }
 }
 
+/// A sparse GP fitted to prepared data: the posterior on the inducing points, the approximation,
+/// and what each optimizer run did (the starts on the subset, then the refinements on the bound).
+pub(crate) struct Fitted {
+    /// The conditioned GP, centred on the inducing points.
+    pub posterior: Posterior,
+    /// The approximation.
+    pub fit: SparseFit,
+    /// Every optimizer run.
+    pub reports: Vec<StartReport>,
+    /// How the search on the start subset ended.
+    pub optimization: Optimization,
+}
+
 /// Fits a sparse GP with `m` inducing points to prepared data (module doc).
-pub(crate) fn fit(
-    x: &DMatrix<f64>,
-    data: Prepared,
-    m: usize,
-    cfg: &GpConfig,
-    t0: Instant,
-) -> Result<GpModel, GpError> {
+pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, GpError> {
     let n = data.y.len();
     let subset = start_subset(&data.z, cfg.seed);
     let (zs, ys) = (data.z.select_rows(&subset), data.y.select_rows(&subset));
     let none = DMatrix::zeros(subset.len(), 0);
     let exact = |t: &[f64]| lml_and_gradient(&zs, &ys, &none, &[], t);
-    let mut found = gp::search(&exact, zs.shape(), false, cfg)?;
+    let mut found = exact::search(&exact, zs.shape(), false, cfg)?;
     let start = found.theta.clone();
     let start_noise_std = Hyperparameters::from_log(&start).noise_std;
     // Inducing points are selected in the kernel's metric at the current hyperparameters, and the
@@ -167,7 +173,7 @@ pub(crate) fn fit(
         ));
         let bound = |t: &[f64]| bound_and_gradient(&data.z, &data.y, &u, t);
         let start = climb_noise(&bound, theta.clone(), cfg.bounds.log_noise.1);
-        let refined = gp::optimize_from(&bound, (n, d), start, cfg, REFINE);
+        let refined = exact::optimize_from(&bound, (n, d), start, cfg, REFINE);
         let end = match (&refined.end, refined.log_marginal_likelihood) {
             (Some(end), Some(f)) => Some((end.clone(), f)),
             _ => None,
@@ -197,15 +203,12 @@ pub(crate) fn fit(
         u,
         loo,
     };
-    Ok(GpModel::assemble(
-        x,
-        cfg.mean,
-        data,
+    Ok(Fitted {
         posterior,
-        Some(fit),
-        (found.reports, found.optimization),
-        t0,
-    ))
+        fit,
+        reports: found.reports,
+        optimization: found.optimization,
+    })
 }
 
 /// θ with σ_n doubled while that raises the bound (up to `max_log_noise`). The bound's trace term,
@@ -214,7 +217,7 @@ pub(crate) fn fit(
 /// steep that L-BFGS's first line search stalled there (four inducing points on fine structure,
 /// 4,000 samples: bound −1.6e8, the refinement "converged" without moving). Where the start's σ_n
 /// is right this costs one evaluation.
-fn climb_noise(bound: gp::Likelihood<'_>, mut theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
+fn climb_noise(bound: exact::Likelihood<'_>, mut theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
     let last = theta.len() - 1;
     let Ok((mut best, _)) = bound(&theta) else {
         return theta;
@@ -596,6 +599,7 @@ pub fn condition(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::models::gp::{self, GpModel};
     use rand::RngExt;
 
     fn toy(n: usize, seed: u64) -> (DMatrix<f64>, DVector<f64>) {

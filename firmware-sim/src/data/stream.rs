@@ -9,7 +9,7 @@
 use std::fmt;
 use std::path::Path;
 
-use crate::data::{self, ColumnMap, DataError};
+use crate::data::columns::{self, ColumnMap, DataError};
 
 /// A step longer than this many typical steps is a gap.
 pub const GAP_FACTOR: f64 = 3.0;
@@ -215,7 +215,7 @@ fn screen_handling(
 impl Stream {
     /// Loads a stream CSV (any delimiter and column names, through `maps`).
     pub fn load(path: &Path, maps: &[ColumnMap]) -> Result<Self, DataError> {
-        let c = data::read_columns(
+        let c = columns::read_columns(
             path,
             &["time_s", "temp_c", "voltage_v", "rate_dps"],
             &["rate_dps"],

@@ -14,12 +14,12 @@ use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
-use crate::dataset::{PLATEAU_GAP_C, Points};
-use crate::gp::{GpConfig, GpError, GpModel};
-use crate::lssvr::{LssvrError, LssvrModel};
-use crate::poly::{PolyError, PolyModel};
-use crate::table::{self, FittedTerm, TableDiagnosis, TableError, Transients};
-use crate::two_step::{TwoStepError, TwoStepModel};
+use crate::analysis::table::{self, FittedTerm, TableDiagnosis, TableError, Transients};
+use crate::data::points::{PLATEAU_GAP_C, Points};
+use crate::models::gp::{GpConfig, GpError, GpModel, Hyperparameters};
+use crate::models::lssvr::{LssvrError, LssvrHyper, LssvrModel};
+use crate::models::poly::{PolyError, PolyModel};
+use crate::models::two_step::{TwoStepError, TwoStepModel};
 
 /// Seconds per hour: rates are also reported in °/h, the unit gyro datasheets use.
 pub const DPH_PER_DPS: f64 = 3600.0;
@@ -137,13 +137,13 @@ impl Fitted {
     pub fn fit(points: &Points, method: Method, cfg: &EvalConfig) -> Result<Self, EvalError> {
         Ok(match method {
             Method::Gpr => Self::Gpr(Box::new(GpModel::fit_grouped(
-                &points.inputs(),
+                points.inputs(),
                 &points.target(),
                 &points.offset_groups(cfg.offsets),
                 &cfg.gp,
             )?)),
             Method::Lssvr => Self::Lssvr(Box::new(LssvrModel::fit(
-                &points.inputs(),
+                points.inputs(),
                 &points.target(),
                 cfg.gp.mean,
             )?)),
@@ -181,14 +181,29 @@ impl Fitted {
     }
 
     /// Hyperparameters or coefficients, for the JSON report.
-    pub fn parameters(&self) -> serde_json::Value {
+    pub fn parameters(&self) -> Parameters {
         match self {
-            Self::Gpr(m) => serde_json::json!(m.posterior.hyper),
-            Self::Lssvr(m) => serde_json::json!(m.hyper()),
-            Self::TwoStep(m) => serde_json::json!(m),
-            Self::Poly(m) => serde_json::json!(m),
+            Self::Gpr(m) => Parameters::Gpr(m.posterior.hyper.clone()),
+            Self::Lssvr(m) => Parameters::Lssvr(m.hyper()),
+            Self::TwoStep(m) => Parameters::TwoStep(m.clone()),
+            Self::Poly(m) => Parameters::Poly(m.clone()),
         }
     }
+}
+
+/// A method's fitted hyperparameters or coefficients, as the JSON report shows them: the fields
+/// of the method's own type, the method named beside them.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum Parameters {
+    /// The GP's hyperparameters (normalized units).
+    Gpr(Hyperparameters),
+    /// LS-SVR's length scales and regularization.
+    Lssvr(LssvrHyper),
+    /// The two-step model's coefficients.
+    TwoStep(TwoStepModel),
+    /// The polynomial's coefficients.
+    Poly(PolyModel),
 }
 
 /// LOO errors (prediction − reference) for every point, °/s.
@@ -251,8 +266,8 @@ pub struct Evaluation {
     pub fit_seconds: f64,
     /// LOO computation after the fit, s.
     pub loo_seconds: f64,
-    /// Fitted hyperparameters or coefficients.
-    pub parameters: serde_json::Value,
+    /// Fitted hyperparameters or coefficients (`null` where the figures come from errors alone).
+    pub parameters: Option<Parameters>,
     /// What the fit on all points warned of.
     pub warnings: Vec<String>,
     /// With `--features auto` on a timed table: what the diagnosis chose.
@@ -282,7 +297,7 @@ impl Evaluation {
             loo_errors_dps: errors,
             fit_seconds,
             loo_seconds,
-            parameters: serde_json::Value::Null,
+            parameters: None,
             warnings: Vec::new(),
             diagnosis: None,
         }
@@ -342,8 +357,9 @@ where
         .into_par_iter()
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
-            let span =
-                crate::dataset::span(&keep.iter().map(|&i| points.temp_c[i]).collect::<Vec<_>>());
+            let span = crate::data::points::span(
+                &keep.iter().map(|&i| points.temp_c[i]).collect::<Vec<_>>(),
+            );
             if span <= PLATEAU_GAP_C || keep.len() < 4 {
                 return Err(EvalError::FoldTooSmall {
                     group,
@@ -405,7 +421,7 @@ pub fn evaluate(
             .collect())
     })?;
     Ok(Evaluation {
-        parameters: fitted.parameters(),
+        parameters: Some(fitted.parameters()),
         warnings: fitted.warnings(),
         ..Evaluation::from_errors(
             method.name(),
@@ -436,10 +452,10 @@ pub struct FoldChoice {
     pub shipped: Vec<String>,
 }
 
-/// The GP with its rate-table diagnosis (`loo --features auto`, [`crate::table`]) evaluated as
-/// [`evaluate`] evaluates a method: leave-one-out closed-form on the model fitted on all rows
-/// (hyperparameters and chosen terms held), and leave-one-group-out with the diagnosis and the
-/// extension redone inside every fold from its training rows alone.
+/// The GP with its rate-table diagnosis (`loo --features auto`, [`crate::analysis::table`])
+/// evaluated as [`evaluate`] evaluates a method: leave-one-out closed-form on the model fitted on
+/// all rows (hyperparameters and chosen terms held), and leave-one-group-out with the diagnosis and
+/// the extension redone inside every fold from its training rows alone.
 pub fn evaluate_table(
     points: &Points,
     cfg: &EvalConfig,
@@ -476,7 +492,7 @@ pub fn evaluate_table(
     let order: Vec<String> = groups.into_iter().map(|(g, _)| g).collect();
     per_group.sort_by_key(|c| order.iter().position(|g| *g == c.group));
     Ok(Evaluation {
-        parameters: serde_json::json!(model.gp.posterior.hyper),
+        parameters: Some(Parameters::Gpr(model.gp.posterior.hyper.clone())),
         warnings: model.gp.warnings(),
         diagnosis: Some(TableReport {
             all_rows: model.diagnosis,
@@ -659,15 +675,7 @@ mod tests {
 
     #[test]
     fn fig2_finds_the_curvature_of_a_quadratic_temperature_response() {
-        let mut p = Points {
-            temp_c: vec![],
-            voltage_v: vec![],
-            rate_dps: vec![],
-            group: vec![],
-            scale_factor: None,
-            soaked: true,
-            time_s: None,
-        };
+        let mut p = Points::new(vec![], vec![], vec![], vec![], None, true, None);
         for &t in &[-30.0, 0.0, 30.0, 60.0] {
             for &w in &[-10.0, 10.0] {
                 p.temp_c.push(t);

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::evaluate::{Evaluation, Fig2};
+use crate::analysis::evaluate::{Evaluation, Fig2};
 
 /// The paper's leave-one-temperature-out table: (°C, LS-SVR RMSE, GPR RMSE), °/s.
 pub const PAPER_LOTO: [(f64, f64, f64); 10] = [

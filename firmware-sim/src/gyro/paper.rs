@@ -2,20 +2,20 @@
 //!
 //! For each of the 10 chamber temperatures (−30 … 60 °C, in ascending order as a chamber would run
 //! them) the gyro soaks for two hours; then for each of the 14 rates (±1, 2, 5, 10, 20, 40, 80 °/s)
-//! a zero-rate position test of 120 s precedes a 120 s rate test, both sampled at 1 Hz. A rate point is
-//! the mean of its 120 samples; `rate_dps` is the true inertial rate (table rate plus earth rate).
-//! Position tests are written only when asked for (they are separate tests in the paper, and the
-//! paper's 140 points hold none), as rows with zero table rate.
+//! a zero-rate position test of 120 s precedes a 120 s rate test, both sampled at 1 Hz. A rate
+//! point is the mean of its 120 samples; `rate_dps` is the true inertial rate (table rate plus
+//! earth rate). Position tests are written only when asked for (they are separate tests in the
+//! paper, and the paper's 140 points hold none), as rows with zero table rate.
 //!
-//! A hidden effect ([`crate::effects`]) acts here as it would in a real calibration, so a static
-//! model fitted on these points is what a user would have today: the gyro is switched on at the
-//! start of each soak (so the tests run 2–3 h after power-on: warm-up has decayed, in-run drift has
-//! not), the coil is soaked (no temperature rate, no lag), and the hysteresis state is the one the
-//! chamber's last move left (−30 °C is reached by cooling from the ambient 25 °C, every later
+//! A hidden effect ([`crate::gyro::effects`]) acts here as it would in a real calibration, so a
+//! static model fitted on these points is what a user would have today: the gyro is switched on at
+//! the start of each soak (so the tests run 2–3 h after power-on: warm-up has decayed, in-run drift
+//! has not), the coil is soaked (no temperature rate, no lag), and the hysteresis state is the one
+//! the chamber's last move left (−30 °C is reached by cooling from the ambient 25 °C, every later
 //! setpoint by heating).
 
-use crate::effects::{EffectPlant, Hidden};
-use crate::plant::{GyroParams, Noise};
+use crate::gyro::effects::{EffectPlant, Hidden};
+use crate::gyro::plant::{GyroParams, Noise};
 
 /// Chamber setpoints of the paper, °C.
 pub const TEMPERATURES_C: [f64; 10] = [-30.0, -20.0, -10.0, -5.0, 0.0, 5.0, 10.0, 20.0, 40.0, 60.0];
@@ -96,7 +96,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::Effect;
+    use crate::gyro::effects::Effect;
 
     #[test]
     fn protocol_has_140_points_and_optional_position_tests() {

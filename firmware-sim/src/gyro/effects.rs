@@ -24,7 +24,8 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use trainer::cause::Cause;
+
+use crate::cause::Cause;
 
 /// Seconds per hour.
 const HOUR_S: f64 = 3600.0;

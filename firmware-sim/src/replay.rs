@@ -1,22 +1,49 @@
 //! Replay: every sample of a stream through firmware-core (host build) — feature pipeline, mean and
 //! variance in f32, exactly as on the gyro — and the scores of the result (docs/design.md §6).
 //!
-//! It lives in the trainer because both `firmware-sim replay` and the diagnosis need it; the
-//! trainer already depends on firmware-core, never the other way round.
+//! It lives in the test bench, below the trainer: `firmware-sim replay`, the QEMU comparison and
+//! the trainer's diagnosis all score a blob the same way, and none of them may depend on the models
+//! under test.
 //!
 //! Scores, over rows with a reference rate: `rmse_dps` and `max_abs_err_dps` per sample;
 //! `rmse_60s_dps` over 60 s block means of the error (blocks at least half filled), the figure that
 //! does not drown in angle random walk; `coverage_2sigma`, the fraction of samples whose error lies
 //! within twice the predicted standard deviation (latent variance plus the trained noise level,
-//! which describes 2-min means: per 1 Hz sample the gyro's white noise is larger, so this coverage is
-//! low by construction; the 60 s figure is the one to read).
+//! which describes 2-min means: per 1 Hz sample the gyro's white noise is larger, so this coverage
+//! is low by construction; the 60 s figure is the one to read).
 
-use firmware_core::{FeatureState, Sample, Status};
+use firmware_core::blob::Dims;
+use firmware_core::model::Model;
+use firmware_core::{BlobError, FeatureState, Sample, Status};
 use serde::Serialize;
 
-use crate::export::HostModel;
-pub use crate::stream::BLOCK_S;
-use crate::stream::{Handled, Stream, TimeIssue, group_blocks};
+pub use crate::data::stream::BLOCK_S;
+use crate::data::stream::{Handled, Stream, TimeIssue, group_blocks};
+
+/// The largest model the host handles (the trainer exports no larger): 256 centres already need
+/// about 132 KB of f32 on the microcontroller, the top of a Cortex-M4's RAM. The host decodes blobs
+/// back into these capacities (heapless storage is inline, so they also bound the host's stack
+/// use).
+pub const MAX_CENTRES: usize = 256;
+/// Host-side input capacity: all the evaluator accepts.
+pub use firmware_core::MAX_INPUTS;
+/// Host-side exponent capacity.
+pub const MAX_EXPONENTS: usize = 8 * 165;
+/// Host-side float capacity, for MAX_CENTRES centres.
+pub const MAX_FLOATS: usize = Dims {
+    m: MAX_CENTRES,
+    d: MAX_INPUTS,
+    p: 165,
+}
+.floats();
+
+/// The model type the host decodes blobs into (boxed: it is large).
+pub type HostModel = Model<MAX_INPUTS, MAX_EXPONENTS, MAX_FLOATS>;
+
+/// Decodes a blob into host capacities (boxed: the capacities make the value large).
+pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
+    HostModel::decode(bytes).map(Box::new)
+}
 
 /// The firmware's output for every sample.
 #[derive(Debug, Clone, Default, PartialEq)]

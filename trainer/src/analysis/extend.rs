@@ -3,34 +3,34 @@
 //!
 //! Structure (docs/design.md §5's measured lesson): the static GP keeps the kernel it was fitted
 //! with on the soaked points; the new inputs enter as an additive term learned from the training
-//! stream's
-//! residual under that GP — linear in each new input, whose own parameter (filter, lag, decay time
-//! constant, play width) is chosen by grid on the same residual — plus an offset. A thermal state
-//! also corrects the points' targets for the state they were soaked in ([`fit`]). A sensor lag is corrected
-//! where it arises: the temperature input becomes a coil-temperature estimate with the fitted lag,
-//! and the GP is evaluated there. Without a rate table, where the static GP was fitted on this
-//! stream's own blocks, the static and the transient parts are fitted together instead ([`fit`]).
-//! All inputs are computed by firmware-core's feature pipeline, so the blob runs on the gyro as it
-//! was fitted.
+//! stream's residual under that GP — linear in each new input, whose own parameter (filter, lag,
+//! decay time constant, play width) is chosen by grid on the same residual — plus an offset. A
+//! thermal state also corrects the points' targets for the state they were soaked in ([`fit`]). A
+//! sensor lag is corrected where it arises: the temperature input becomes a coil-temperature
+//! estimate with the fitted lag, and the GP is evaluated there. Without a rate table, where the
+//! static GP was fitted on this stream's own blocks, the static and the transient parts are fitted
+//! together instead ([`fit`]). All inputs are computed by firmware-core's feature pipeline, so the
+//! blob runs on the gyro as it was fitted.
 //!
 //! What it costs in accuracy, and what was chosen: the stream enters as 60 s block means (the
-//! residual regressions of [`crate::diagnose`]); a regression of one to three coefficients needs no
-//! more, and the block means cost nothing against the 1 Hz noise they average. Refitting one GP on
-//! (T, V, new input) over the points plus the stream's block means was measured in docs/design.md
-//! §5 to generalize worse (held-out 0.1–1.0× against 4–20× for the additive form).
+//! residual regressions of [`crate::analysis::diagnose`]); a regression of one to three
+//! coefficients needs no more, and the block means cost nothing against the 1 Hz noise they
+//! average. Refitting one GP on (T, V, new input) over the points plus the stream's block means was
+//! measured in docs/design.md §5 to generalize worse (held-out 0.1–1.0× against 4–20× for the
+//! additive form).
 
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::goldensectionsearch::GoldenSectionSearch;
 use firmware_core::Feature;
+use firmware_sim::cause::Cause;
+use firmware_sim::data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::cause::Cause;
-use crate::dataset::{Points, plateaus};
-use crate::diagnose::{self, Candidates, CauseFit, Residual};
-use crate::export::{self, AgreementReport, ExportError, Extension, Term};
-use crate::gp::{GpError, GpModel};
-use crate::stream::Stream;
+use crate::analysis::diagnose::{self, Candidates, CauseFit, Residual};
+use crate::data::points::{Points, plateaus};
+use crate::firmware::export::{self, AgreementReport, ExportError, Extension, Term};
+use crate::models::gp::{GpError, GpModel};
 
 /// Names of the inputs `--features` accepts, with the cause each corrects.
 pub const FEATURE_NAMES: [(&str, Cause); 5] = [
@@ -124,23 +124,25 @@ pub struct Extended {
 /// `points`, and builds the extended blob.
 ///
 /// A thermal state needs one more step. The points were soaked in one state per temperature —
-/// whichever way the chamber reached it — and the static GP absorbed that state's offset there;
-/// a state term on top would count it twice where the points' state differs from the stream's.
-/// So with a thermal state the constant of the regression becomes a piecewise-linear function of
-/// temperature over the points' plateaus (hat functions, a weak penalty on neighbouring
-/// differences where the stream leaves a plateau unvisited): at each plateau it is the offset the
-/// points carried, which is taken out of their targets before the GP is conditioned again at the
+/// whichever way the chamber reached it — and the static GP absorbed that state's offset there; a
+/// state term on top would count it twice where the points' state differs from the stream's. So
+/// with a thermal state the constant of the regression becomes a piecewise-linear function of
+/// temperature over the points' plateaus (hat functions, a weak penalty on neighbouring differences
+/// where the stream leaves a plateau unvisited): at each plateau it is the offset the points
+/// carried, which is taken out of their targets before the GP is conditioned again at the
 /// hyperparameters the marginal likelihood chose. Points that are a stream's block means were not
 /// soaked, and the GP fitted on them saw both states; where they are the blocks of this very
 /// stream, the GP is conditioned again on its targets less the fitted terms instead (static and
-/// transient parts together, [`crate::diagnose`]'s module doc), otherwise they keep a plain offset.
+/// transient parts together, [`crate::analysis::diagnose`]'s module doc), otherwise they keep a
+/// plain offset.
 pub fn fit(
     model: &GpModel,
     points: &Points,
     stream: &Stream,
     causes: &[Cause],
 ) -> Result<Extended, ExtendError> {
-    let fw = export::decode(&export::points_blob(model, points, &Extension::default())?)?;
+    let blob = export::points_blob(model, points, &Extension::default())?;
+    let fw = firmware_sim::replay::decode(&blob).map_err(ExportError::Blob)?;
     let res = Residual::new(&fw, stream).fitted_on_itself(model, points);
     if res.len() < 30 {
         return Err(ExtendError::TooShort(res.len()));
@@ -226,7 +228,7 @@ pub fn fit(
                 *t += beta[k + j] * x;
             }
         }
-        (model.refit_targets(&points.inputs(), &target)?, Vec::new())
+        (model.refit_targets(points.inputs(), &target)?, Vec::new())
     } else if knots.is_empty() {
         extension.offset = -beta[0];
         (model.clone(), Vec::new())
@@ -240,7 +242,7 @@ pub fn fit(
                         .map(|(j, h)| h * offsets[j])
                         .sum::<f64>()
                 });
-        let refit = model.refit_targets(&points.inputs(), &target)?;
+        let refit = model.refit_targets(points.inputs(), &target)?;
         let table = knots
             .iter()
             .zip(&offsets)

@@ -16,10 +16,10 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::gp::Prepared;
-use crate::kernel;
-use crate::normalize::Normalizer;
-use crate::prior::{MeanBasis, PolyPrior};
+use crate::models::gp::Prepared;
+use crate::models::kernel;
+use crate::models::normalize::Normalizer;
+use crate::models::prior::{MeanBasis, PolyPrior};
 
 /// Errors of LS-SVR fitting.
 #[derive(Debug, thiserror::Error)]

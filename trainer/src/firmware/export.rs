@@ -9,30 +9,11 @@
 //! doc of firmware-core).
 
 use firmware_core::blob::{self, Dims, Feature, HEADER_LEN, Payload};
-use firmware_core::model::Model;
+use firmware_sim::replay::{self, HostModel, MAX_CENTRES, MAX_INPUTS};
 use serde::Serialize;
 
-use crate::dataset::Points;
-use crate::gp::GpModel;
-
-/// The largest model the trainer exports: 256 centres already need about 132 KB of f32 on the
-/// microcontroller, the top of a Cortex-M4's RAM. The host decodes blobs back into these
-/// capacities (heapless storage is inline, so they also bound the host's stack use).
-pub const MAX_CENTRES: usize = 256;
-/// Host-side input capacity: all the evaluator accepts.
-pub use firmware_core::MAX_INPUTS;
-/// Host-side exponent capacity.
-pub const MAX_EXPONENTS: usize = 8 * 165;
-/// Host-side float capacity, for MAX_CENTRES centres.
-pub const MAX_FLOATS: usize = Dims {
-    m: MAX_CENTRES,
-    d: MAX_INPUTS,
-    p: 165,
-}
-.floats();
-
-/// The model type the host decodes blobs into (boxed: it is large).
-pub type HostModel = Model<MAX_INPUTS, MAX_EXPONENTS, MAX_FLOATS>;
+use crate::data::points::Points;
+use crate::models::gp::GpModel;
 
 /// Errors of export.
 #[derive(Debug, thiserror::Error)]
@@ -50,7 +31,7 @@ pub enum ExportError {
     },
     /// The firmware encoder or decoder refused the blob.
     #[error("blob: {0}")]
-    Blob(firmware_core::BlobError),
+    Blob(#[from] firmware_core::BlobError),
     /// The firmware's evaluation of the blob does not follow the host model.
     #[error(
         "the firmware (f32) evaluation of this blob does not follow the host on {part}: {mismatch}"
@@ -344,13 +325,6 @@ pub fn to_blob_extended(
     Ok(buf)
 }
 
-/// Decodes a blob into host capacities (boxed: the capacities make the value large).
-pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, ExportError> {
-    HostModel::decode(bytes)
-        .map(Box::new)
-        .map_err(ExportError::Blob)
-}
-
 /// How closely the firmware (f32) follows the host (f64) over one set of inputs.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Agreement {
@@ -527,11 +501,11 @@ pub fn verify(
     points: &Points,
     extension: &Extension,
 ) -> Result<(Box<HostModel>, AgreementReport), ExportError> {
-    let firmware = decode(blob)?;
+    let firmware = replay::decode(blob)?;
     let report = agreement_report(
         model,
         &firmware,
-        &points.inputs(),
+        points.inputs(),
         &carried(points, extension),
     );
     let noise = model.posterior.hyper.noise_std.min(NOISE_CAP) * model.output_scale;
@@ -599,7 +573,7 @@ pub fn footprint(bytes: &[u8]) -> Result<Footprint, ExportError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gp::GpConfig;
+    use crate::models::gp::GpConfig;
 
     /// Points of a gyro with a temperature-dependent bias and scale factor.
     fn points(scale_factor: Option<f64>) -> Points {
@@ -612,19 +586,12 @@ mod tests {
                 rate_dps.push(w);
             }
         }
-        Points {
-            group: temp_c.iter().map(|t: &f64| format!("{t:.0}")).collect(),
-            temp_c,
-            voltage_v,
-            rate_dps,
-            scale_factor,
-            soaked: true,
-            time_s: None,
-        }
+        let group = temp_c.iter().map(|t: &f64| format!("{t:.0}")).collect();
+        Points::new(temp_c, voltage_v, rate_dps, group, scale_factor, true, None)
     }
 
     fn fitted(p: &Points) -> (GpModel, Vec<u8>) {
-        let m = GpModel::fit(&p.inputs(), &p.target(), &GpConfig::default()).unwrap();
+        let m = GpModel::fit(p.inputs(), &p.target(), &GpConfig::default()).unwrap();
         let blob = points_blob(&m, p, &Extension::default()).unwrap();
         (m, blob)
     }

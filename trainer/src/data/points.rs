@@ -2,14 +2,14 @@
 //! leave-one-temperature-out and the two-step model need.
 
 use std::path::Path;
+use std::sync::OnceLock;
 
 use firmware_core::features::{self, FeatureState, Sample};
 use firmware_core::{Feature, Status};
+use firmware_sim::data::columns::{self, ColumnMap, DataError};
+use firmware_sim::data::stream::Stream;
+use firmware_sim::replay;
 use nalgebra::{DMatrix, DVector};
-
-use crate::data::{self, ColumnMap, DataError};
-use crate::replay;
-use crate::stream::Stream;
 
 /// The inputs of a rate-table model, in order: the paper's (T, V).
 pub const POINT_FEATURES: [Feature; 2] = [Feature::Temperature, Feature::Voltage];
@@ -37,8 +37,12 @@ pub struct Points {
     /// stream block taken while the temperature moved.
     pub soaked: bool,
     /// When each point was recorded, s, increasing row by row: a table recorded in time order
-    /// (`--map time_s=…`), whose transients [`crate::table`] can diagnose. `None` otherwise.
+    /// (`--map time_s=…`), whose transients [`crate::analysis::table`] can diagnose. `None`
+    /// otherwise.
     pub time_s: Option<Vec<f64>>,
+    /// The model inputs, computed once on first use ([`Points::inputs`]) and carried by
+    /// [`Points::select`]: every fit, export and check of these points reads the same matrix.
+    inputs: OnceLock<DMatrix<f64>>,
 }
 
 /// Errors specific to rate-table points.
@@ -245,6 +249,29 @@ pub fn plateaus(temps: &[f64]) -> Vec<usize> {
 }
 
 impl Points {
+    /// Points from their columns (one entry per point in each); the loaders below check what a
+    /// file can get wrong, this takes the columns as they are.
+    pub fn new(
+        temp_c: Vec<f64>,
+        voltage_v: Vec<f64>,
+        rate_dps: Vec<f64>,
+        group: Vec<String>,
+        scale_factor: Option<f64>,
+        soaked: bool,
+        time_s: Option<Vec<f64>>,
+    ) -> Self {
+        Self {
+            temp_c,
+            voltage_v,
+            rate_dps,
+            group,
+            scale_factor,
+            soaked,
+            time_s,
+            inputs: OnceLock::new(),
+        }
+    }
+
     /// Loads a points CSV; `group` names a column whose values define the groups for
     /// leave-one-group-out (default: temperature plateaus); `scale_factor` makes a bias model
     /// ([`Self::scale_factor`]).
@@ -273,7 +300,7 @@ impl Points {
         } else {
             &["temp_c", "voltage_v", "rate_dps"]
         };
-        let mut c = data::read_columns(path, numeric, &[], &labels, maps)?;
+        let mut c = columns::read_columns(path, numeric, &[], &labels, maps)?;
         let mut bad: Vec<Implausible> = [
             ("temp_c", IMPLAUSIBLE_TEMP_GAP_C),
             ("rate_dps", 0.0),
@@ -306,7 +333,7 @@ impl Points {
                 output: outputs[k],
             });
         }
-        data::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
+        columns::require_varying(&c, "voltage_v", "the gyro output carries no information")?;
         check_scale_factor(path, c.get("rate_dps"), scale_factor)?;
         let temp_c = c.get("temp_c").to_vec();
         // Two soaked plateaus, or a temperature that drifts over a range (a heated turntable that
@@ -342,6 +369,7 @@ impl Points {
             scale_factor,
             soaked: true,
             time_s,
+            inputs: OnceLock::new(),
         };
         Ok((points, bad))
     }
@@ -372,6 +400,7 @@ impl Points {
             scale_factor,
             soaked: false,
             time_s: None,
+            inputs: OnceLock::new(),
         })
     }
 
@@ -398,6 +427,7 @@ impl Points {
             scale_factor,
             soaked: false,
             time_s: None,
+            inputs: OnceLock::new(),
         })
     }
 
@@ -414,6 +444,7 @@ impl Points {
         self.soaked &= other.soaked;
         // Two recordings joined are no longer one time series.
         self.time_s = None;
+        self.inputs = OnceLock::new();
         Ok(self)
     }
 
@@ -439,8 +470,13 @@ impl Points {
     /// firmware-core's feature pipeline, so they are exactly what the firmware computes (each
     /// point is a soaked, independent sample: a fresh pipeline state). The constructors refuse or
     /// leave out rows the firmware refuses; were one left, its inputs would be NaN (a fit then
-    /// fails), never a stale value.
-    pub fn inputs(&self) -> DMatrix<f64> {
+    /// fails), never a stale value. Computed on the first call; the columns are not to change
+    /// after it.
+    pub fn inputs(&self) -> &DMatrix<f64> {
+        self.inputs.get_or_init(|| self.compute_inputs())
+    }
+
+    fn compute_inputs(&self) -> DMatrix<f64> {
         let features = self.features();
         let d = features.len();
         let mut x = DMatrix::zeros(self.len(), d);
@@ -487,6 +523,11 @@ impl Points {
             scale_factor: self.scale_factor,
             soaked: self.soaked,
             time_s: self.time_s.as_ref().map(|t| pick(t)),
+            inputs: self
+                .inputs
+                .get()
+                .map(|x| OnceLock::from(x.select_rows(idx)))
+                .unwrap_or_default(),
         }
     }
 
@@ -686,14 +727,16 @@ mod tests {
 
     #[test]
     fn pooling_keeps_every_point_and_refuses_mixed_forms() {
-        let points = |sf: Option<f64>, soaked: bool| Points {
-            temp_c: vec![1.0, 2.0],
-            voltage_v: vec![0.1, 0.2],
-            rate_dps: vec![5.0, 6.0],
-            group: vec!["a".into(), "b".into()],
-            scale_factor: sf,
-            soaked,
-            time_s: None,
+        let points = |sf: Option<f64>, soaked: bool| {
+            Points::new(
+                vec![1.0, 2.0],
+                vec![0.1, 0.2],
+                vec![5.0, 6.0],
+                vec!["a".into(), "b".into()],
+                sf,
+                soaked,
+                None,
+            )
         };
         let p = points(None, true).pooled(points(None, false)).unwrap();
         assert_eq!((p.len(), p.group.len(), p.soaked), (4, 4, false));

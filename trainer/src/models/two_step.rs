@@ -102,7 +102,7 @@ impl TwoStepModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dataset::plateaus;
+    use crate::data::points::plateaus;
 
     #[test]
     fn exact_on_noise_free_polynomial_data() {

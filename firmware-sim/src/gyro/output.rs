@@ -1,7 +1,7 @@
 //! Renders simulated data in the project's CSV formats (docs/design.md §3).
 
-use crate::paper::Point;
-use crate::stream::Row;
+use crate::gyro::paper::Point;
+use crate::gyro::stream::Row;
 
 /// Renders paper-protocol points as a points CSV (`temp_c,voltage_v,rate_dps` plus the setpoint and
 /// the commanded table rate, which loaders ignore unless asked for).

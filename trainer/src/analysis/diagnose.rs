@@ -33,18 +33,18 @@
 //! predicts at least [`MIN_SCORE`] of the variance on both tests; otherwise the answer is `none`,
 //! with what the best candidate did on each.
 //!
-//! **A static model fitted on the stream itself** (no rate table) has already absorbed the part
-//! of an effect that its temperature input can follow: a thermal-rate bias on a one-way ramp
-//! looks like a temperature curve. Adding a term on top then finds only the rest. So there the
-//! static and the transient parts are fitted together: t = f(T) + c·x, f the GP at its fitted
-//! hyperparameters, whose smoother S is linear in the targets. c is estimated as in a partially
-//! linear model (Speckman 1988): (I − S)t, the static residual up to sign, regressed on
-//! (I − S)x, the part of the regressor the GP could have absorbed taken out. Every regressor but
-//! a lag's (already a difference of the GP's own predictions) is replaced by (I − S)x here, and
-//! [`crate::extend`] conditions the GP again on t − c·x. The static curve itself was fitted on
-//! every block, so here the forward score is forward for the causes' parameters and coefficients
-//! only; the extension's own forward check ([`crate::investigate`]) fits the static curve again on
-//! the earlier part.
+//! **A static model fitted on the stream itself** (no rate table) has already absorbed the part of
+//! an effect that its temperature input can follow: a thermal-rate bias on a one-way ramp looks
+//! like a temperature curve. Adding a term on top then finds only the rest. So there the static and
+//! the transient parts are fitted together: t = f(T) + c·x, f the GP at its fitted hyperparameters,
+//! whose smoother S is linear in the targets. c is estimated as in a partially linear model
+//! (Speckman 1988): (I − S)t, the static residual up to sign, regressed on (I − S)x, the part of
+//! the regressor the GP could have absorbed taken out. Every regressor but a lag's (already a
+//! difference of the GP's own predictions) is replaced by (I − S)x here, and
+//! [`crate::analysis::extend`] conditions the GP again on t − c·x. The static curve itself was
+//! fitted on every block, so here the forward score is forward for the causes' parameters and
+//! coefficients only; the extension's own forward check ([`crate::analysis::investigate`]) fits the
+//! static curve again on the earlier part.
 //!
 //! **Several causes.** Real logs mix effects, and mixed effects can imitate a third: a warm-up
 //! after a power-on that heats the housing plus a heating/cooling offset follow dT/dt better than
@@ -66,16 +66,16 @@
 //! growing. The runner-up and its score are reported beside the named cause.
 
 use firmware_core::{Feature, FeatureState, Status};
+use firmware_sim::cause::Cause;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::replay::HostModel;
+use firmware_sim::replay::{self, Compensated};
 use itertools::Itertools;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::cause::Cause;
-use crate::dataset::Points;
-use crate::export::HostModel;
-use crate::gp::GpModel;
-use crate::replay::{self, Compensated};
-use crate::stream::Stream;
+use crate::data::points::Points;
+use crate::models::gp::GpModel;
 
 /// Seconds per hour.
 const HOUR_S: f64 = 3600.0;
@@ -141,7 +141,7 @@ pub struct Residual<'a> {
     /// Where the firmware restarts its feature state.
     restarts: Vec<bool>,
     /// The static GP and its inputs, where it was fitted on these very blocks (module doc).
-    absorbed_by: Option<(&'a GpModel, DMatrix<f64>)>,
+    absorbed_by: Option<(&'a GpModel, &'a DMatrix<f64>)>,
 }
 
 impl<'a> Residual<'a> {
@@ -179,7 +179,7 @@ impl<'a> Residual<'a> {
     /// Where the static GP `gp` was fitted on `points` that are these blocks' own means (a static
     /// model from the stream itself, no rate table): regressors become the part of each input
     /// that the GP could not have absorbed (module doc). Otherwise unchanged.
-    pub fn fitted_on_itself(mut self, gp: &'a GpModel, points: &Points) -> Self {
+    pub fn fitted_on_itself(mut self, gp: &'a GpModel, points: &'a Points) -> Self {
         let temps = self.temperature();
         let same = !points.soaked
             && points.len() == temps.len()

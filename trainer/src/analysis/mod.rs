@@ -1,0 +1,13 @@
+//! What the models get right and wrong: the paper's evaluation ([`evaluate`], [`reproduce`]),
+//! transients on a rate table ([`table`]), the residual diagnosis of a stream ([`diagnose`]), the
+//! extension that answers it ([`extend`]), the forward-in-time investigation that decides whether
+//! to ship it ([`investigate`]), and the hidden-effect challenge that measures all of this on the
+//! simulator ([`challenge`]).
+
+pub mod challenge;
+pub mod diagnose;
+pub mod evaluate;
+pub mod extend;
+pub mod investigate;
+pub mod reproduce;
+pub mod table;

@@ -1,0 +1,477 @@
+//! The commands that evaluate and diagnose: `loo`, `reproduce`, `diagnose`, `investigate`,
+//! `challenge`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use firmware_sim::cause::Cause;
+use firmware_sim::cli::Maps;
+use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::stream::{Stream, Window};
+use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
+use serde::Serialize;
+
+use super::inputs::{FitOptions, Input, MethodArg, ModelInput, load_points, load_stream};
+use super::text::{causes_text, render_diagnosis};
+use crate::analysis::challenge;
+use crate::analysis::diagnose;
+use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation, Method};
+use crate::analysis::extend;
+use crate::analysis::investigate;
+use crate::analysis::reproduce::Reproduction;
+use crate::data::points::Points;
+
+/// The arguments of `trainer diagnose`.
+#[derive(Args)]
+pub(super) struct DiagnoseArgs {
+    /// Model blob.
+    #[arg(long)]
+    model: PathBuf,
+    /// Stream CSV: time_s,temp_c,voltage_v,rate_dps.
+    #[arg(long)]
+    stream: PathBuf,
+    #[command(flatten)]
+    maps: Maps,
+    /// Use only this part of the stream: START:END, s from its first sample.
+    #[arg(long)]
+    window: Option<Window>,
+    /// Write the diagnosis as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// The arguments of `trainer investigate`.
+#[derive(Args)]
+pub(super) struct InvestigateArgs {
+    #[command(flatten)]
+    input: ModelInput,
+    #[command(flatten)]
+    fit: FitOptions,
+    /// Stream the extension is fitted on (and the static model, without --points).
+    #[arg(long)]
+    train_stream: PathBuf,
+    /// Use only this part of the training stream: START:END, s from its first sample.
+    #[arg(long)]
+    train_window: Option<Window>,
+    /// Held-out stream: diagnosed and scored.
+    #[arg(long)]
+    valid_stream: PathBuf,
+    /// Use only this part of the held-out stream: START:END, s from its first sample.
+    #[arg(long)]
+    valid_window: Option<Window>,
+    /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
+    #[arg(long, default_value = "auto")]
+    features: String,
+    /// Write the extended model's blob here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the static model's blob here.
+    #[arg(long)]
+    out_static: Option<PathBuf>,
+    /// Write the investigation as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// The arguments of `trainer loo`.
+#[derive(Args)]
+pub(super) struct LooArgs {
+    #[command(flatten)]
+    input: Input,
+    #[command(flatten)]
+    fit: FitOptions,
+    /// Method to evaluate.
+    #[arg(long, value_enum, default_value_t = MethodArg::Gpr)]
+    method: MethodArg,
+    /// Leave out one group of this column at a time (default: temperature plateaus).
+    #[arg(long)]
+    group: Option<String>,
+    /// Give each group of --group its own offset in the GP (gpr): fitted as a variance, left
+    /// out of every prediction, so a left-out group's offset is never known to its scores.
+    #[arg(long, requires = "group")]
+    offsets: bool,
+    /// `auto`: a table recorded in time order (`--map time_s=…`) is diagnosed for transients
+    /// on the bias and the scale factor, and the GP extended with those that win, the choice
+    /// redone inside every fold from its training rows alone (gpr only).
+    #[arg(long, value_parser = ["auto"])]
+    features: Option<String>,
+    /// Another run: also fit on all of --points and score on these, inside the temperature
+    /// and rate range both cover.
+    #[arg(long)]
+    test_points: Option<PathBuf>,
+    /// Write the evaluation as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// The arguments of `trainer reproduce`.
+#[derive(Args)]
+pub(super) struct ReproduceArgs {
+    #[command(flatten)]
+    input: Input,
+    #[command(flatten)]
+    fit: FitOptions,
+    /// Write all figures as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// `trainer diagnose`: replays a stream through a blob and names the cause of its residual.
+pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let DiagnoseArgs {
+        model,
+        stream,
+        maps,
+        window,
+        json,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+    let fw = firmware_sim::replay::decode(&bytes)
+        .with_context(|| format!("decoding {}", model.display()))?;
+    let data = load_stream(&stream, &maps.list, window)?;
+    let d = diagnose::diagnose(&fw, &data);
+    console.result(render_diagnosis(&d).trim_end());
+    if let Some(path) = json {
+        write_json(&path, &[model.as_path(), stream.as_path()], &d)?;
+    }
+    Ok(())
+}
+
+/// `trainer investigate`: static fit, diagnosis and extension on the training stream, both scored
+/// on the held-out one.
+pub(super) fn investigate_command(
+    args: InvestigateArgs,
+    flags: ConsoleFlags,
+) -> anyhow::Result<()> {
+    let InvestigateArgs {
+        input,
+        fit,
+        train_stream,
+        train_window,
+        valid_stream,
+        valid_window,
+        features,
+        out,
+        out_static,
+        json,
+    } = args;
+    input.without_offsets("investigate")?;
+    let console = Console::new(flags, json.as_deref());
+    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+    inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
+    for o in out.iter().chain(&out_static).chain(&json) {
+        ensure_not_input(o, &inputs)?;
+    }
+    let train = [(
+        train_stream.as_path(),
+        load_stream(&train_stream, &input.maps.list, train_window)?,
+    )];
+    let valid = load_stream(&valid_stream, &input.maps.list, valid_window)?;
+    let points = input.static_points(&train, false)?;
+    let [(_, train)] = train;
+    let asked = match features.as_str() {
+        "auto" => None,
+        list => Some(extend::parse_features(list)?),
+    };
+    let rebuild =
+        |part: &Stream| input.static_points(&[(train_stream.as_path(), part.clone())], false);
+    let bar = console.bar(0);
+    let (inv, blobs) = investigate::investigate(
+        &points,
+        &train,
+        &valid,
+        &fit.gp(),
+        asked.as_deref(),
+        &rebuild,
+        &bar,
+    )?;
+    bar.finish_and_clear();
+    for w in &inv.warnings {
+        console.warn(w);
+    }
+    console.result(render_diagnosis(&inv.diagnosis).trim_end());
+    console.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
+    console.result(&format!(
+        "static rmse_60s {:.3e} °/s ({:.2} °/h) | causes {} | added {} | shipped rmse_60s \
+         {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
+        inv.static_score.rmse_60s_dps,
+        inv.static_score.rmse_60s_dps * 3600.0,
+        causes_text(&inv.diagnosis.causes),
+        if inv.added_inputs.is_empty() {
+            "nothing".to_owned()
+        } else {
+            inv.added_inputs.join(", ")
+        },
+        inv.extended_score.rmse_60s_dps,
+        inv.extended_score.rmse_60s_dps * 3600.0,
+        inv.gain
+    ));
+    if let Some(path) = out {
+        write_atomically(&path, &blobs.extended_blob)?;
+    }
+    if let Some(path) = out_static {
+        write_atomically(&path, &blobs.static_blob)?;
+    }
+    if let Some(path) = json {
+        write_json(&path, &inputs, &inv)?;
+    }
+    Ok(())
+}
+
+/// `trainer loo`: leave-one-out and leave-one-group-out of one method.
+pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let LooArgs {
+        input,
+        fit,
+        method,
+        group,
+        offsets,
+        features,
+        test_points,
+        json,
+    } = args;
+    if features.is_some() && (method != MethodArg::Gpr || test_points.is_some()) {
+        anyhow::bail!(
+            "--features auto evaluates the GP (--method gpr) on one table; --test-points \
+             is not supported with it"
+        );
+    }
+    let console = Console::new(flags, json.as_deref());
+    let points = load_points(
+        &input.points,
+        &input.maps.list,
+        group.as_deref(),
+        None,
+        input.exclude_implausible,
+    )?;
+    let bar = console.bar(0);
+    let cfg = EvalConfig {
+        gp: fit.gp(),
+        offsets,
+        ..EvalConfig::default()
+    };
+    let cross = match &test_points {
+        Some(path) => {
+            let test = Points::load(path, &input.maps.list, None, None)?;
+            let c = evaluate::cross_run(&points, &test, method.into(), &cfg, &bar)?;
+            console.result(&format!(
+                "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
+                 in {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
+                c.method,
+                input.points.display(),
+                path.display(),
+                c.rmse_dps,
+                c.rmse_dph,
+                c.n,
+                c.temp_range_c.0,
+                c.temp_range_c.1,
+                c.max_abs_rate_dps,
+                c.n_outside
+            ));
+            Some(c)
+        }
+        None => None,
+    };
+    let e = match features {
+        Some(_) => evaluate::evaluate_table(&points, &cfg, &bar)?,
+        None => evaluate::evaluate(&points, method.into(), &cfg, &bar)?,
+    };
+    bar.finish_and_clear();
+    if let Some(d) = &e.diagnosis {
+        console.result(&format!("diagnosis on all points: {}", d.all_rows.verdict));
+        for t in &d.terms {
+            console.result(&format!(
+                "  {}: coefficient {:.4e}, feature range {:.4}…{:.4}",
+                t.candidate.name(),
+                t.coefficient,
+                t.range.0,
+                t.range.1
+            ));
+        }
+        let static_folds = d.per_group.iter().filter(|c| c.shipped.is_empty()).count();
+        console.result(&format!(
+            "inside the {} folds (training rows alone): {} shipped an extension, {} static",
+            d.per_group.len(),
+            d.per_group.len() - static_folds,
+            static_folds
+        ));
+        for c in &d.per_group {
+            let what = if c.shipped.is_empty() {
+                String::from("static")
+            } else {
+                c.shipped.join(" + ")
+            };
+            console.result(&format!("  fold {}: {what}", c.group));
+        }
+    }
+    for w in &e.warnings {
+        console.warn(w);
+    }
+    console.result(&format!(
+        "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
+        e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation
+    ));
+    console.result(&format!(
+        "leave-one-group-out RMSE {:.3e} °/s ({:.2} °/h) over {} groups",
+        e.group_rmse_dps,
+        e.group_rmse_dph,
+        e.per_temperature.len()
+    ));
+    console.result("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
+    for g in &e.per_temperature {
+        console.result(&format!(
+            "                     {:>6}  {:>7.2}  {:>4}   {:>10.3e}   {:>10.2}",
+            g.group, g.temp_c, g.n, g.rmse_dps, g.rmse_dph
+        ));
+    }
+    if let Some(path) = json {
+        let mut inputs = vec![input.points.as_path()];
+        inputs.extend(test_points.as_deref());
+        let report = LooReport {
+            evaluation: &e,
+            cross_run: cross.as_ref(),
+        };
+        write_json(&path, &inputs, &report)?;
+    }
+    Ok(())
+}
+
+/// What `trainer loo --json` writes: the evaluation's fields, and the cross-run test when one
+/// was asked for (`null` otherwise).
+#[derive(Serialize)]
+struct LooReport<'a> {
+    #[serde(flatten)]
+    evaluation: &'a Evaluation,
+    cross_run: Option<&'a CrossRun>,
+}
+
+/// `trainer reproduce`: our figures beside the reference paper's.
+pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let ReproduceArgs { input, fit, json } = args;
+    let console = Console::new(flags, json.as_deref());
+    let points = load_points(
+        &input.points,
+        &input.maps.list,
+        None,
+        None,
+        input.exclude_implausible,
+    )?;
+    let cfg = EvalConfig {
+        gp: fit.gp(),
+        ..EvalConfig::default()
+    };
+    let bar = console.bar(0);
+    let r = Reproduction {
+        gpr: evaluate::evaluate(&points, Method::Gpr, &cfg, &bar)?,
+        lssvr: evaluate::evaluate(&points, Method::Lssvr, &cfg, &bar)?,
+        two_step: evaluate::evaluate(&points, Method::TwoStep, &cfg, &bar)?,
+        fig2: evaluate::fig2(&points),
+    };
+    bar.finish_and_clear();
+    console.result(r.render(&input.points.display().to_string()).trim_end());
+    if let Some(path) = json {
+        write_json(&path, &[input.points.as_path()], &r)?;
+    }
+    Ok(())
+}
+
+/// The arguments of `trainer challenge`.
+#[derive(Args)]
+pub(super) struct ChallengeArgs {
+    /// single: every cause alone and none; pairs: every two distinct causes together, each
+    /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
+    /// lower end of its documented strength.
+    #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
+    kind: challenge::Kind,
+    /// Seeds per cause (per pair).
+    #[arg(long, default_value_t = 10)]
+    seeds: u64,
+    /// First seed.
+    #[arg(long, default_value_t = 1000)]
+    first_seed: u64,
+    /// Write every case and the matrix as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// `trainer challenge`: hidden-effect cases on the simulator through the investigation.
+pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let ChallengeArgs {
+        kind,
+        seeds,
+        first_seed,
+        json,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let bar = console.bar(0);
+    bar.set_message("hidden-effect cases");
+    let cases = challenge::run(kind, seeds, first_seed, &bar)?;
+    bar.finish_and_clear();
+    console.detail(&format!(
+        "{} cases ({kind:?}, {seeds} seeds each), each: points + two 8.75 h streams → investigate",
+        cases.len()
+    ));
+    for c in &cases {
+        let ids = |v: &[Cause]| {
+            if v.is_empty() {
+                "none".to_owned()
+            } else {
+                v.iter().map(|c| c.id()).collect::<Vec<_>>().join("+")
+            }
+        };
+        let strengths: Vec<String> = c
+            .hidden
+            .0
+            .iter()
+            .map(|e| format!("{:.2}", e.strength()))
+            .collect();
+        console.result(&format!(
+            "{:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+            ids(&c.hidden.causes()),
+            strengths.join("+"),
+            c.seed,
+            ids(&c.named),
+            c.static_rmse_60s_dps,
+            c.extended_rmse_60s_dps,
+            c.gain,
+            c.oracle_gain.map_or(String::new(), |o| format!(" (oracle {o:.2}×)"))
+        ));
+    }
+    let summary = challenge::summary(&cases);
+    if kind == challenge::Kind::Single {
+        console.result(challenge::confusion(&cases).1.trim_end());
+    }
+    console.result(&summary.text());
+    if let Some(path) = json {
+        write_json(
+            &path,
+            &[],
+            &ChallengeReport {
+                kind,
+                confusion: challenge::confusion(&cases).0,
+                order: Cause::ALL,
+                accuracy: summary.first_named_right as f64 / cases.len().max(1) as f64,
+                false_alarms_none: summary.false_alarms_none,
+                cases: &cases,
+                summary: &summary,
+            },
+        )?;
+    }
+    Ok(())
+}
+
+/// What `trainer challenge --json` writes.
+#[derive(Serialize)]
+struct ChallengeReport<'a> {
+    kind: challenge::Kind,
+    /// Hidden (rows) against first named (columns), in `order`.
+    confusion: [[usize; 6]; 6],
+    order: [Cause; 6],
+    /// Fraction of cases whose first named cause is the hidden one.
+    accuracy: f64,
+    false_alarms_none: usize,
+    cases: &'a [challenge::Case],
+    summary: &'a challenge::Summary,
+}

@@ -1,0 +1,169 @@
+//! `trainer demo`: the main job in one command (README.md). A simulated gyro with a hidden
+//! thermal-rate drift → its rate table and two ramp streams → static fit → blob → replay →
+//! diagnosis → extended model → gain on the held-out stream → replay of the extended blob → the
+//! paper's tables → the report.
+//!
+//! Each step is the command a user would type, printed before it runs and run in this process
+//! (the simulator is a library below the trainer, not a sibling program), so any step can be
+//! rerun alone or changed; the files are those the steps write, in one directory.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use firmware_sim::cause::Cause;
+use firmware_sim::console::ConsoleFlags;
+
+/// The arguments of `trainer demo`.
+#[derive(Args)]
+pub(super) struct DemoArgs {
+    /// Directory for every file of the main job (created if missing).
+    #[arg(long)]
+    pub(super) out: PathBuf,
+}
+
+/// Which program a step is a command of.
+#[derive(Clone, Copy)]
+pub(super) enum Program {
+    Sim,
+    Trainer,
+}
+
+/// One step: the program and its arguments, as typed.
+pub(super) struct Step(pub(super) Program, Vec<String>);
+
+impl Step {
+    fn new(program: Program, args: &[&str]) -> Self {
+        Self(program, args.iter().map(|a| (*a).to_owned()).collect())
+    }
+
+    fn name(&self) -> &'static str {
+        match self.0 {
+            Program::Sim => "firmware-sim",
+            Program::Trainer => "trainer",
+        }
+    }
+
+    /// The command line as a user would type it.
+    pub(super) fn text(&self) -> String {
+        format!("{} {}", self.name(), self.1.join(" "))
+    }
+
+    /// The arguments to parse, with the console flags of the whole demo.
+    pub(super) fn argv(&self, flags: ConsoleFlags) -> Vec<String> {
+        let mut argv = vec![self.name().to_owned()];
+        argv.extend(self.1.iter().cloned());
+        if flags.quiet {
+            argv.push("--quiet".into());
+        }
+        if flags.verbose {
+            argv.push("--verbose".into());
+        }
+        argv
+    }
+}
+
+/// What the simulator writes for the main job.
+#[derive(Clone, Copy)]
+pub(super) enum Data {
+    /// The paper's rate-table protocol (`generate paper`).
+    Points,
+    /// A chamber-ramp stream (`generate stream`).
+    Stream,
+}
+
+/// The hidden effect of the main job's gyro (the nominal unit).
+pub(super) const EFFECT: Cause = Cause::ThermalRate;
+
+/// The main job's data: its rate table (seed 1) and two ramp streams (seeds 2 and 3), by the file
+/// each is written to.
+pub(super) const DATA: [(Data, u64, &str); 3] = [
+    (Data::Points, 1, "points.csv"),
+    (Data::Stream, 2, "train.csv"),
+    (Data::Stream, 3, "valid.csv"),
+];
+
+/// Every step of the main job, writing into `dir`.
+pub(super) fn steps(dir: &Path) -> Vec<Step> {
+    let at = |name: &str| dir.join(name).display().to_string();
+    let (points, train, valid) = (at("points.csv"), at("train.csv"), at("valid.csv"));
+    let mut steps: Vec<Step> = DATA
+        .iter()
+        .map(|&(data, seed, name)| {
+            let kind = match data {
+                Data::Points => "paper",
+                Data::Stream => "stream",
+            };
+            let args = [
+                "generate",
+                kind,
+                "--seed",
+                &seed.to_string(),
+                "--effect",
+                EFFECT.id(),
+                "--out",
+                &at(name),
+            ]
+            .map(str::to_owned);
+            Step(Program::Sim, args.to_vec())
+        })
+        .collect();
+    steps.extend([
+        Step::new(
+            Program::Trainer,
+            &[
+                "investigate",
+                "--points",
+                &points,
+                "--train-stream",
+                &train,
+                "--valid-stream",
+                &valid,
+                "--out-static",
+                &at("model.bin"),
+                "--out",
+                &at("ext.bin"),
+                "--json",
+                &at("investigate.json"),
+            ],
+        ),
+        Step::new(
+            Program::Sim,
+            &[
+                "replay",
+                "--model",
+                &at("ext.bin"),
+                "--stream",
+                &valid,
+                "--out",
+                &at("comp.csv"),
+                "--json",
+                &at("replay.json"),
+            ],
+        ),
+        Step::new(
+            Program::Trainer,
+            &[
+                "reproduce",
+                "--points",
+                &points,
+                "--json",
+                &at("reproduce.json"),
+            ],
+        ),
+        Step::new(
+            Program::Trainer,
+            &[
+                "report",
+                "--points",
+                &points,
+                "--train-stream",
+                &train,
+                "--valid-stream",
+                &valid,
+                "--out",
+                &at("report"),
+            ],
+        ),
+    ]);
+    steps
+}

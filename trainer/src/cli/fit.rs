@@ -1,0 +1,403 @@
+//! `trainer fit` and `trainer inspect`: a model, its blob, and what the blob costs the firmware.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use firmware_core::Feature;
+use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::stream::{Handled, Stream, Window};
+use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
+use serde::Serialize;
+
+use super::inputs::{FitOptions, ModelInput, load_stream};
+use super::text::{causes_text, log_starts};
+use crate::analysis::diagnose::Diagnosis;
+use crate::analysis::extend;
+use crate::analysis::investigate;
+use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
+use crate::data::points::Points;
+use crate::firmware::export::{self, AgreementReport, Extension};
+use crate::models::gp::sparse::SparseFit;
+use crate::models::gp::{
+    AUTO_EXACT_MAX, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
+};
+use crate::models::prior::{MeanBasis, PolyPrior};
+
+/// The arguments of `trainer fit`.
+#[derive(Args)]
+pub(super) struct FitArgs {
+    #[command(flatten)]
+    input: ModelInput,
+    #[command(flatten)]
+    fit: FitOptions,
+    /// Stream: time_s,temp_c,voltage_v,rate_dps (repeatable: runs are pooled). The static model
+    /// is fitted on it when there are no --points; --features are fitted on it (one stream; it
+    /// must excite them: ramps, power-ons).
+    #[arg(long)]
+    stream: Vec<PathBuf>,
+    /// Use only this part of each stream: START:END, s from its first sample.
+    #[arg(long, requires = "stream")]
+    window: Option<Window>,
+    /// Fit the static model on every sample of --stream (1 Hz, not 60 s means), pooled with
+    /// --points when given: a long stream's static model (sparse GP by size).
+    #[arg(long, requires = "stream")]
+    pool_stream: bool,
+    /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
+    /// calls for) or a list of temperature-rate, coil-temperature, power-on-decay,
+    /// thermal-state, time-on. Without --stream, auto diagnoses --points recorded in time
+    /// order (--map time_s=…) for transients on the bias and the scale factor.
+    #[arg(long)]
+    features: Option<String>,
+    /// Model blob to write (firmware-core format).
+    #[arg(long)]
+    out: PathBuf,
+    /// Write the fit summary as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// The arguments of `trainer inspect`.
+#[derive(Args)]
+pub(super) struct InspectArgs {
+    /// The model blob.
+    model: PathBuf,
+    /// Write the figures as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that
+/// shipped, and how the firmware's f32 evaluation follows the host.
+#[derive(Serialize)]
+struct FitReport {
+    scale_factor: Option<f64>,
+    log_marginal_likelihood: f64,
+    hyperparameters: Hyperparameters,
+    fit_seconds: f64,
+    n_train: usize,
+    features: Inputs,
+    mean_basis: MeanBasis,
+    prior_mean: PolyPrior,
+    output_scale: f64,
+    jitter: f64,
+    centres: usize,
+    sparse: Option<SparseFit>,
+    starts: Vec<StartReport>,
+    optimization: Optimization,
+    warnings: Vec<String>,
+    /// The diagnosis of a table recorded in time order (`--features auto` without a stream).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    table_diagnosis: Option<TableDiagnosis>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extension: Option<ExtensionReport>,
+    /// The diagnosis of the stream and the forward check (`--features` with a stream).
+    #[serde(flatten)]
+    stream_choice: Option<StreamChoice>,
+    handled: Vec<Handled>,
+    firmware_agreement: AgreementReport,
+    blob_bytes: usize,
+}
+
+/// A model's inputs: the points' columns for a static model, the firmware's features for an
+/// extended one.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Inputs {
+    Columns(Vec<&'static str>),
+    Firmware(Vec<Feature>),
+}
+
+/// The extension in the blob: a table's transient terms, or inputs fitted on a stream.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum ExtensionReport {
+    Table(Extension),
+    Stream(extend::Fitted),
+}
+
+/// What the diagnosis of the training stream chose, and why.
+#[derive(Serialize)]
+struct StreamChoice {
+    diagnosis: Diagnosis,
+    forward_check: Option<investigate::ForwardCheck>,
+    shipped: investigate::Shipped,
+    verdict: String,
+}
+
+impl FitReport {
+    /// The static part, from the model and its points; the rest is filled in as it is known.
+    fn new(m: &GpModel, points: &Points, agreement: AgreementReport, blob_bytes: usize) -> Self {
+        let columns = points
+            .features()
+            .iter()
+            .map(|f| match f {
+                Feature::Temperature => "temp_c",
+                _ => "voltage_v",
+            })
+            .collect();
+        Self {
+            scale_factor: points.scale_factor,
+            log_marginal_likelihood: m.log_marginal_likelihood(),
+            hyperparameters: m.posterior.hyper.clone(),
+            fit_seconds: m.fit_seconds,
+            n_train: m.y.len(),
+            features: Inputs::Columns(columns),
+            mean_basis: m.basis,
+            prior_mean: m.prior.clone(),
+            output_scale: m.output_scale,
+            jitter: m.posterior.jitter,
+            centres: m.posterior.xs.nrows(),
+            sparse: m.sparse.clone(),
+            starts: m.starts.clone(),
+            optimization: m.optimization.clone(),
+            warnings: m.warnings(),
+            table_diagnosis: None,
+            extension: None,
+            stream_choice: None,
+            handled: Vec::new(),
+            firmware_agreement: agreement,
+            blob_bytes,
+        }
+    }
+}
+
+/// `trainer fit`: the static model (or a table diagnosed in time order, or a stream's extension)
+/// and its blob.
+pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let FitArgs {
+        input,
+        fit,
+        stream,
+        window,
+        pool_stream,
+        features,
+        out,
+        json,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+    inputs.extend(stream.iter().map(PathBuf::as_path));
+    ensure_not_input(&out, &inputs)?;
+    // Without a stream, --features auto diagnoses a table recorded in time order.
+    let on_table = features.is_some() && stream.is_empty() && input.points.is_some();
+    anyhow::ensure!(
+        features.is_none() || stream.len() == 1 || on_table,
+        "--features are fitted on one stream, or (auto) on a rate table recorded in time \
+         order; {} streams given",
+        stream.len()
+    );
+    anyhow::ensure!(
+        !on_table || features.as_deref() == Some("auto"),
+        "on a rate table the inputs are chosen by its diagnosis: --features auto"
+    );
+    anyhow::ensure!(
+        input.points.is_none() || stream.is_empty() || features.is_some() || pool_stream,
+        "--stream would not be used: with --points the static model is fitted on the rate \
+         table; add --pool-stream to fit on the stream's samples too, or --features to \
+         extend the model by inputs fitted on the stream"
+    );
+    let streams = stream
+        .iter()
+        .map(|p| Ok((p.as_path(), load_stream(p, &input.maps.list, window)?)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let points = input.static_points(&streams, pool_stream)?;
+    let gp = fit.gp();
+    let centres = gp.inducing.count(points.len()).unwrap_or(points.len());
+    anyhow::ensure!(
+        centres <= firmware_sim::replay::MAX_CENTRES,
+        "model too large to export: {} gives {centres} centres, and a firmware model holds at \
+         most {} centres; ask for a sparse GP (--inducing {}) or fit on fewer points \
+         (checked before fitting)",
+        match gp.inducing {
+            Inducing::Auto => format!(
+                "an exact GP on {} points (the default up to {AUTO_EXACT_MAX})",
+                points.len()
+            ),
+            asked => format!("--inducing {asked} on {} points", points.len()),
+        },
+        firmware_sim::replay::MAX_CENTRES,
+        firmware_sim::replay::MAX_CENTRES
+    );
+    let spinner = console.spinner(&match gp.inducing.count(points.len()) {
+        Some(m) => format!(
+            "fitting a sparse GP ({m} inducing points) on {} samples",
+            points.len()
+        ),
+        None => format!("fitting an exact GP on {} points", points.len()),
+    });
+    let table = if on_table {
+        let transients = Transients::compute(&points)?;
+        let all: Vec<usize> = (0..points.len()).collect();
+        Some(table::fit(
+            &points,
+            &transients,
+            &all,
+            (&gp, input.offsets),
+        )?)
+    } else {
+        None
+    };
+    let model = match &table {
+        Some(t) => t.gp.clone(),
+        None => GpModel::fit_grouped(
+            points.inputs(),
+            &points.target(),
+            &points.offset_groups(input.offsets),
+            &gp,
+        )?,
+    };
+    spinner.finish_and_clear();
+    log_starts(&console, &model);
+    // Before the f32 check: a warning may explain why it refuses the blob.
+    for w in model.warnings() {
+        console.warn(&w);
+    }
+    let extension = table
+        .as_ref()
+        .map(TableModel::extension)
+        .unwrap_or_default();
+    let mut blob = export::points_blob(&model, &points, &extension)?;
+    let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
+    let mut summary = FitReport::new(&model, &points, agreement, blob.len());
+    if let Some(t) = &table {
+        console.result(&format!(
+            "diagnosis of the table (time order): {}",
+            t.diagnosis.verdict
+        ));
+        summary.table_diagnosis = Some(t.diagnosis.clone());
+        summary.extension = Some(ExtensionReport::Table(extension.clone()));
+        summary.features = Inputs::Firmware(firmware.features().to_vec());
+    }
+    if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
+        let asked = match list.as_str() {
+            "auto" => None,
+            list => Some(extend::parse_features(list)?),
+        };
+        let rebuild = |part: &Stream| input.static_points(&[(path, part.clone())], pool_stream);
+        let choice = investigate::choose(
+            &points,
+            &model,
+            &firmware,
+            data,
+            &gp,
+            asked.as_deref(),
+            &rebuild,
+        )?;
+        if asked.is_none() {
+            console.result(&format!(
+                "diagnosis of {}: {} — {}",
+                path.display(),
+                causes_text(&choice.diagnosis.causes),
+                choice.diagnosis.explanation
+            ));
+        }
+        summary.stream_choice = Some(StreamChoice {
+            diagnosis: choice.diagnosis.clone(),
+            forward_check: choice.check.clone(),
+            shipped: choice.shipped,
+            verdict: choice.verdict.clone(),
+        });
+        if let (Some(extended), investigate::Shipped::Extended) = (choice.extended, choice.shipped)
+        {
+            let fitted = extended.fitted;
+            blob = extended.blob;
+            agreement = extended.agreement;
+            let ext = firmware_sim::replay::decode(&blob)?;
+            console.result(&format!(
+                "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
+                ext.features(),
+                path.display(),
+                fitted.train_rmse_60s_dps[0],
+                fitted.train_rmse_60s_dps[1]
+            ));
+            summary.features = Inputs::Firmware(ext.features().to_vec());
+            summary.extension = Some(ExtensionReport::Stream(fitted));
+        }
+        if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
+            console.warn(&choice.verdict);
+        } else {
+            console.result(&choice.verdict);
+        }
+    }
+    summary.handled = streams
+        .iter()
+        .flat_map(|(_, s)| s.handled.iter().cloned())
+        .collect();
+    summary.firmware_agreement = agreement;
+    summary.blob_bytes = blob.len();
+    write_atomically(&out, &blob)?;
+    if let Some(path) = json {
+        write_json(&path, &inputs, &summary)?;
+    }
+    if let Some(s) = &model.sparse {
+        console.result(&format!(
+            "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
+            s.method, s.inducing, s.n_train, s.subset, s.bound
+        ));
+    }
+    console.result(&format!(
+        "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
+        points.len(),
+        model.log_marginal_likelihood(),
+        model.posterior.hyper.length_scales,
+        model.posterior.hyper.signal_std,
+        model.posterior.hyper.noise_std,
+        model.posterior.jitter,
+        model.fit_seconds * 1e3
+    ));
+    if let Some(g) = model.posterior.hyper.offset_std {
+        console.result(&format!(
+            "offsets between groups: σ_g {:.3e} (output units), counted as noise in the \
+             firmware's variance (a new run's offset is unknown)",
+            g * model.output_scale
+        ));
+    }
+    console.result(&format!("wrote {} ({} bytes)", out.display(), blob.len()));
+    console.result(
+        "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating",
+    );
+    for (name, a) in [
+        ("training points", agreement.training),
+        ("grid, trained range", agreement.grid_inside),
+        ("grid, 10% beyond", agreement.grid_beyond),
+    ] {
+        console.result(&format!(
+            "  {name:<22} {:>7}   {:>17.3e}   {:>12.3e}   {:>13}",
+            a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
+        ));
+    }
+    Ok(())
+}
+
+/// `trainer inspect`: a blob's size and static memory on the firmware.
+pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let InspectArgs { model, json } = args;
+    let console = Console::new(flags, json.as_deref());
+    let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+    let f = export::footprint(&bytes)?;
+    firmware_sim::replay::decode(&bytes)?;
+    console.result(&format!(
+        "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
+         blob: {} bytes (18-byte header + postcard payload)\n\
+         flat f32 array: 7d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
+         static memory of Model<{}, {}, {}>: 4·{} + p·d + d + 24 = {} bytes (32-bit target)\n\
+         variance scratch: 4·m = {} bytes",
+        model.display(),
+        f.m,
+        f.d,
+        f.p,
+        f.blob_bytes,
+        f.floats,
+        f.d,
+        f.p * f.d,
+        f.floats,
+        f.floats,
+        f.model_bytes,
+        f.scratch_bytes
+    ));
+    if let Some(path) = json {
+        write_json(&path, &[model.as_path()], &f)?;
+    }
+    Ok(())
+}

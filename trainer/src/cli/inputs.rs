@@ -1,0 +1,201 @@
+//! What the data-reading commands share: the points or stream a model is fitted on, the fit's
+//! options, and how files are loaded (with the loader's warnings shown).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use firmware_sim::cli::Maps;
+use firmware_sim::data::columns::ColumnMap;
+use firmware_sim::data::stream::{Stream, Window};
+
+use crate::analysis::evaluate::Method;
+use crate::data::points::{Points, Screen};
+use crate::models::gp::{GpConfig, Inducing};
+use crate::models::prior::MeanBasis;
+
+#[derive(Args, Clone)]
+pub(super) struct Input {
+    /// Points CSV: temp_c,voltage_v,rate_dps (extra columns ignored).
+    #[arg(long)]
+    pub(super) points: PathBuf,
+    #[command(flatten)]
+    pub(super) maps: Maps,
+    /// Leave rows that are implausible next to the others (a temperature or rate far outside the
+    /// rest) out, with a warning, instead of refusing the file.
+    #[arg(long)]
+    pub(super) exclude_implausible: bool,
+}
+
+/// Where the static model comes from, for the commands that can fit it on a stream.
+#[derive(Args, Clone)]
+pub(super) struct ModelInput {
+    /// Rate-table points CSV: temp_c,voltage_v,rate_dps. Without it the static model is fitted on
+    /// the (training) stream's 60 s block means.
+    #[arg(long)]
+    pub(super) points: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) maps: Maps,
+    /// Nominal scale factor K, output units per °/s: learn the bias (output/K − rate) from
+    /// temperature instead of the map ω = f(T, output) — all a static log allows.
+    #[arg(long, value_name = "K")]
+    pub(super) scale_factor: Option<f64>,
+    /// Leave rate-table rows that are implausible next to the others (a temperature or rate far
+    /// outside the rest) out, with a warning, instead of refusing the file.
+    #[arg(long, requires = "points")]
+    pub(super) exclude_implausible: bool,
+    /// Groups of the rate table, a column (e.g. half_sweep): what the diagnosis of a table in
+    /// time order leaves out, one at a time (default: temperature plateaus).
+    #[arg(long, requires = "points")]
+    pub(super) group: Option<String>,
+    /// Give each group of --group its own offset in the GP (runs, sweeps or power-ons that sit
+    /// apart by a constant): fitted as a variance, left out of the firmware's predictions.
+    #[arg(long, requires = "group")]
+    pub(super) offsets: bool,
+}
+
+impl ModelInput {
+    /// Refuses --offsets where `command` has no use for it.
+    pub(super) fn without_offsets(&self, command: &str) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !self.offsets,
+            "--offsets is for `fit` and `loo` on a rate table; `{command}` does not take it"
+        );
+        Ok(())
+    }
+
+    /// The points of the static model: the rate table when given, else the streams' block means;
+    /// with `pool`, every sample of the streams as well.
+    pub(super) fn static_points(
+        &self,
+        streams: &[(&Path, Stream)],
+        pool: bool,
+    ) -> anyhow::Result<Points> {
+        let mut out = match &self.points {
+            Some(path) => Some(load_points(
+                path,
+                &self.maps.list,
+                self.group.as_deref(),
+                self.scale_factor,
+                self.exclude_implausible,
+            )?),
+            None => None,
+        };
+        if !pool && let Some(points) = out {
+            return Ok(points);
+        }
+        for (path, s) in streams {
+            let more = if pool {
+                Points::from_stream_samples(path, s, self.scale_factor)?
+            } else {
+                Points::from_stream(path, s, self.scale_factor)?
+            };
+            out = Some(match out {
+                Some(p) => p.pooled(more)?,
+                None => more,
+            });
+        }
+        out.context("give --points (a rate table) or --stream to fit on")
+    }
+}
+
+/// Loads rate-table points; with `exclude`, implausible rows are left out with a warning each
+/// rather than refused.
+pub(super) fn load_points(
+    path: &Path,
+    maps: &[ColumnMap],
+    group: Option<&str>,
+    scale_factor: Option<f64>,
+    exclude: bool,
+) -> anyhow::Result<Points> {
+    let screen = if exclude {
+        Screen::Exclude
+    } else {
+        Screen::Refuse
+    };
+    let (points, left_out) = Points::load_screened(path, maps, group, scale_factor, screen)?;
+    for row in &left_out {
+        eprintln!(
+            "warning: {} {row}: left out (--exclude-implausible)",
+            path.display()
+        );
+    }
+    Ok(points)
+}
+
+/// Loads a stream and keeps the part inside `window`.
+pub(super) fn load_stream(
+    path: &Path,
+    maps: &[ColumnMap],
+    window: Option<Window>,
+) -> anyhow::Result<Stream> {
+    let s = Stream::load(path, maps)?;
+    for h in &s.handled {
+        eprintln!("warning: {} {h}", path.display());
+    }
+    let Some(w) = window else { return Ok(s) };
+    let part = s.window(w);
+    anyhow::ensure!(
+        part.len() >= 2,
+        "{}: the window {:?}..{:?} s holds {} samples",
+        path.display(),
+        w.start_s,
+        w.end_s,
+        part.len()
+    );
+    Ok(part)
+}
+
+#[derive(Args, Clone)]
+pub(super) struct FitOptions {
+    /// Random optimizer starts, besides the paper's (all log-hyperparameters 0) and a
+    /// data-informed one.
+    #[arg(long, default_value_t = GpConfig::default().random_starts)]
+    pub(super) restarts: usize,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 0)]
+    pub(super) seed: u64,
+    /// L-BFGS iteration cap of each optimizer start (a fit where no start converges says so).
+    #[arg(long, default_value_t = GpConfig::default().max_iters, value_parser = clap::value_parser!(u64).range(1..))]
+    pub(super) max_iters: u64,
+    /// Prior-mean basis: physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all
+    /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
+    #[arg(long, default_value_t = GpConfig::default().mean)]
+    pub(super) mean: MeanBasis,
+    /// Exact GP or sparse (variational, this many inducing points): auto fits up to
+    /// 1,000 samples exactly and sparse with 24 inducing points above.
+    #[arg(long, default_value_t = GpConfig::default().inducing, value_name = "auto|exact|M")]
+    pub(super) inducing: Inducing,
+}
+
+impl FitOptions {
+    pub(super) fn gp(&self) -> GpConfig {
+        GpConfig {
+            random_starts: self.restarts,
+            seed: self.seed,
+            mean: self.mean,
+            inducing: self.inducing,
+            max_iters: self.max_iters,
+            ..GpConfig::default()
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(super) enum MethodArg {
+    Gpr,
+    Lssvr,
+    TwoStep,
+    Poly,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Gpr => Method::Gpr,
+            MethodArg::Lssvr => Method::Lssvr,
+            MethodArg::TwoStep => Method::TwoStep,
+            MethodArg::Poly => Method::Poly,
+        }
+    }
+}

@@ -1,0 +1,132 @@
+//! The `trainer` command line: flags are parsed into checked settings, then dispatched to the
+//! library. `main.rs` only calls [`run`]; tests call it too, with arguments of their own.
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use firmware_sim::console::{AFTER_HELP, Console, ConsoleFlags};
+
+mod analyse;
+mod demo;
+mod fit;
+mod inputs;
+mod report;
+mod text;
+
+/// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
+#[derive(Parser)]
+#[command(version, about, after_help = AFTER_HELP)]
+pub struct Cli {
+    #[command(subcommand)]
+    /// The subcommand.
+    command: Command,
+    #[command(flatten)]
+    console: ConsoleFlags,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The main job, end to end, on a simulated gyro with a hidden thermal-rate drift: its rate
+    /// table and two ramp streams, the static fit and blob, the diagnosis, the extended model and
+    /// its gain on the held-out stream, the replay of the extended blob, the paper's tables and
+    /// the report (OUT/report/report.html). Prints each step as the command that does it alone.
+    ///
+    /// Example: trainer demo --out run
+    Demo(demo::DemoArgs),
+    /// Fit the GP map ω = f(T, V) to rate-table points (or to a stream's 60 s block means) and
+    /// export the firmware blob; with --features, extend it by the inputs named (or by what the
+    /// diagnosis names: auto), fitted on the stream.
+    ///
+    /// Example: trainer fit --points points.csv --out model.bin --json fit.json
+    ///
+    /// Example: trainer fit --points points.csv --stream ramp.csv --features auto --out ext.bin
+    ///
+    /// Example (a turntable run, rows in time order, 21 s each): trainer fit --points run.csv
+    /// --map time_s=segment*21 --features auto --out model.bin
+    ///
+    /// Example (a static log, gyro output in °/s): trainer fit --stream imu.tsv --map
+    /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
+    /// --map rate_dps=0 --scale-factor 1 --out bias.bin
+    Fit(fit::FitArgs),
+    /// Replay a stream through a model, and name the physical cause of what it gets wrong
+    /// (docs/design.md §5 cause ids), with the evidence and the runner-up.
+    ///
+    /// Example: trainer diagnose --model model.bin --stream s.csv --json d.json
+    Diagnose(analyse::DiagnoseArgs),
+    /// Static fit → replay on the held-out stream → diagnosis → extended fit on the points and the
+    /// training stream → replay on the held-out stream → gain.
+    ///
+    /// Example: trainer investigate --points p.csv --train-stream a.csv --valid-stream b.csv --json
+    /// i.json
+    ///
+    /// Example (one static log, forward in time): trainer investigate --train-stream imu.tsv
+    /// --train-window :2400 --valid-stream imu.tsv --valid-window 2400: --scale-factor 1 --map …
+    Investigate(analyse::InvestigateArgs),
+    /// Size and static memory of a model blob on the firmware, with the formula.
+    ///
+    /// Example: trainer inspect model.bin
+    Inspect(fit::InspectArgs),
+    /// Leave-one-out and leave-one-temperature-out evaluation of one method.
+    ///
+    /// Example: trainer loo --points points.csv --method gpr --json loo.json
+    Loo(analyse::LooArgs),
+    /// One self-contained HTML report (inline SVG) and its figures as SVG files: the rate table,
+    /// the paper's Fig. 2, 4 and 5–6, the held-out replay (static and extended, ±2σ) and the
+    /// diagnosis, with the LOO, leave-one-temperature-out and gain tables. Without data, on a
+    /// simulated gyro with a hidden thermal-rate drift (the main job's data, written to
+    /// OUT/data).
+    ///
+    /// Example: trainer report --points points.csv --train-stream train.csv --valid-stream
+    /// valid.csv --out report
+    Report(report::ReportArgs),
+    /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
+    ///
+    /// Example: trainer reproduce --points points.csv
+    Reproduce(analyse::ReproduceArgs),
+    /// Hidden-effect cases through the investigation (static fit → diagnosis → extension → gain):
+    /// the confusion matrix of hidden vs named cause and the gain per case.
+    ///
+    /// Example: trainer challenge --seeds 10 --json challenge.json
+    Challenge(analyse::ChallengeArgs),
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    let flags = cli.console;
+    match cli.command {
+        Command::Demo(args) => demo_command(args, flags),
+        Command::Fit(args) => fit::fit_command(args, flags),
+        Command::Diagnose(args) => analyse::diagnose_command(args, flags),
+        Command::Investigate(args) => analyse::investigate_command(args, flags),
+        Command::Inspect(args) => fit::inspect_command(args, flags),
+        Command::Loo(args) => analyse::loo_command(args, flags),
+        Command::Report(args) => report::report_command(args, flags),
+        Command::Reproduce(args) => analyse::reproduce_command(args, flags),
+        Command::Challenge(args) => analyse::challenge_command(args, flags),
+    }
+}
+
+/// `trainer demo`: every step of the main job, each printed as the command that does it alone
+/// and run in this process.
+fn demo_command(args: demo::DemoArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let console = Console::new(flags, None);
+    let dir = &args.out;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let steps = demo::steps(dir);
+    let n = steps.len();
+    for (i, step) in steps.iter().enumerate() {
+        console.result(&format!("[{}/{n}] {}", i + 1, step.text()));
+        let argv = step.argv(flags);
+        match step.0 {
+            demo::Program::Sim => {
+                firmware_sim::cli::run(firmware_sim::cli::Cli::try_parse_from(argv)?)
+            }
+            demo::Program::Trainer => run(Cli::try_parse_from(argv)?),
+        }
+        .with_context(|| format!("step `{}`", step.text()))?;
+    }
+    console.result(&format!(
+        "done: open {}",
+        dir.join("report").join("report.html").display()
+    ));
+    Ok(())
+}

@@ -1,0 +1,4 @@
+//! Data in: rate-table points (or stream blocks) as the model's inputs and targets. The files
+//! themselves are read by firmware-sim's [`firmware_sim::data`], which the replay shares.
+
+pub mod points;

@@ -1,0 +1,4 @@
+//! A fitted model as the firmware will run it: the blob, and the checks that the firmware's f32
+//! evaluation follows the host's f64 one.
+
+pub mod export;
