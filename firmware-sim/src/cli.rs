@@ -124,6 +124,17 @@ enum Generate {
         #[arg(long)]
         position_tests: bool,
     },
+    /// A rate table of any size: each point at a setpoint (−30…60 °C) and a table rate (±80 °/s)
+    /// drawn at random, soaked and averaged over 2 min as in the paper's protocol.
+    ///
+    /// Example: firmware-sim generate scattered --points 1000 --seed 7 --out table.csv
+    Scattered {
+        #[command(flatten)]
+        common: GenerateCommon,
+        /// Number of points.
+        #[arg(long)]
+        points: usize,
+    },
     /// A stream from power-on at 1 Hz: chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min,
     /// the rate table stepping through the paper's rates and zero, three power cycles (8.75 hours).
     ///
@@ -260,6 +271,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         }) => {
             let (params, effects) = common.gyro()?;
             let points = paper::run(&params, effects.clone(), common.seed, position_tests);
+            let csv = output::points_csv(&points);
+            common.write(&params, &effects, &csv, points.len(), flags)
+        }
+        Command::Generate(Generate::Scattered { common, points }) => {
+            let (params, effects) = common.gyro()?;
+            let points = paper::scattered(&params, effects.clone(), common.seed, points);
             let csv = output::points_csv(&points);
             common.write(&params, &effects, &csv, points.len(), flags)
         }

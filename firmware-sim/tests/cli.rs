@@ -70,6 +70,7 @@ fn a_malformed_command_line_exits_two_and_every_command_has_an_example() {
     for cmd in [
         &["generate", "paper"][..],
         &["generate", "stream"],
+        &["generate", "scattered"],
         &["replay"],
         &["qemu"],
     ] {

@@ -14,6 +14,9 @@
 //! the chamber's last move left (−30 °C is reached by cooling from the ambient 25 °C, every later
 //! setpoint by heating).
 
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
 use crate::gyro::effects::{EffectPlant, Hidden};
 use crate::gyro::plant::{GyroParams, Noise};
 
@@ -53,44 +56,85 @@ pub fn run(
     position_tests: bool,
 ) -> Vec<Point> {
     let mut noise = Noise::new(params, seed);
-    let earth = params.earth_rate_dps();
     let mut points = Vec::new();
     let mut plant = EffectPlant::new(effect, AMBIENT_C);
     let mut previous = AMBIENT_C;
     for &setpoint in &TEMPERATURES_C {
         noise.advance(params, SOAK_S);
-        // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
-        let t_gyro = setpoint + params.self_heating_c;
-        plant.soak(t_gyro, setpoint > previous);
+        plant.soak(setpoint + params.self_heating_c, setpoint > previous);
         previous = setpoint;
         let mut t_on = SOAK_S;
-        let mut average = |table_rate: f64, noise: &mut Noise| {
-            let rate = table_rate + earth;
-            let (mut t, mut v) = (0.0, 0.0);
-            for _ in 0..SAMPLES_PER_POINT {
-                let s = noise.sample(params, t_gyro, t_gyro, rate, plant.bias_dps(t_on));
-                t_on += 1.0;
-                t += s.temp_c;
-                v += s.voltage_v;
-            }
-            let n = f64::from(SAMPLES_PER_POINT);
-            Point {
-                temp_c: t / n,
-                voltage_v: v / n,
-                rate_dps: rate,
-                setpoint_c: setpoint,
-                table_rate_dps: table_rate,
-            }
-        };
         for &table_rate in &RATES_DPS {
-            let position = average(0.0, &mut noise);
+            let position = average(params, &mut noise, &plant, setpoint, 0.0, &mut t_on);
             if position_tests {
                 points.push(position);
             }
-            points.push(average(table_rate, &mut noise));
+            let point = average(params, &mut noise, &plant, setpoint, table_rate, &mut t_on);
+            points.push(point);
         }
     }
     points
+}
+
+/// One point at a soaked `setpoint`: the mean of 2 min of samples with the table turning at
+/// `table_rate`, the gyro on for `t_on` s (advanced by the samples taken).
+fn average(
+    params: &GyroParams,
+    noise: &mut Noise,
+    plant: &EffectPlant,
+    setpoint: f64,
+    table_rate: f64,
+    t_on: &mut f64,
+) -> Point {
+    // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
+    let t_gyro = setpoint + params.self_heating_c;
+    let rate = table_rate + params.earth_rate_dps();
+    let (mut t, mut v) = (0.0, 0.0);
+    for _ in 0..SAMPLES_PER_POINT {
+        let s = noise.sample(params, t_gyro, t_gyro, rate, plant.bias_dps(*t_on));
+        *t_on += 1.0;
+        t += s.temp_c;
+        v += s.voltage_v;
+    }
+    let n = f64::from(SAMPLES_PER_POINT);
+    Point {
+        temp_c: t / n,
+        voltage_v: v / n,
+        rate_dps: rate,
+        setpoint_c: setpoint,
+        table_rate_dps: table_rate,
+    }
+}
+
+/// Range of [`scattered`] setpoints, °C, and of its table rates, ±°/s: the paper's extremes.
+pub const SCATTER_RANGE: ([f64; 2], f64) = ([-30.0, 60.0], 80.0);
+
+/// `n` rate-table points at setpoints and table rates drawn uniformly over the paper's ranges
+/// ([`SCATTER_RANGE`]), each soaked like the paper's and averaged over 2 min: a calibration
+/// of any size, for measuring how fits scale (docs/performance.md). Draws and noise from `seed`.
+pub fn scattered(
+    params: &GyroParams,
+    effect: impl Into<Hidden>,
+    seed: u64,
+    n: usize,
+) -> Vec<Point> {
+    let mut draws = ChaCha8Rng::seed_from_u64(seed ^ 0x5CA7_7E2D);
+    let mut noise = Noise::new(params, seed);
+    let mut plant = EffectPlant::new(effect, AMBIENT_C);
+    let mut previous = AMBIENT_C;
+    let ([t_lo, t_hi], w_max) = SCATTER_RANGE;
+    (0..n)
+        .map(|_| {
+            let setpoint = draws.random_range(t_lo..t_hi);
+            let table_rate = draws.random_range(-w_max..w_max);
+            noise.advance(params, SOAK_S);
+            plant.soak(setpoint + params.self_heating_c, setpoint > previous);
+            previous = setpoint;
+            average(params, &mut noise, &plant, setpoint, table_rate, &mut {
+                SOAK_S
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -121,6 +165,25 @@ mod tests {
             run(&p, Effect::None, 3, false),
             run(&p, Effect::None, 4, false)
         );
+    }
+
+    #[test]
+    fn scattered_points_cover_the_ranges_and_repeat_by_seed() {
+        let p = GyroParams::nominal();
+        let pts = scattered(&p, Effect::None, 2, 300);
+        assert_eq!(pts, scattered(&p, Effect::None, 2, 300));
+        let ([lo, hi], w) = SCATTER_RANGE;
+        assert!(pts.iter().all(|x| (lo..hi).contains(&x.setpoint_c)));
+        assert!(pts.iter().all(|x| x.table_rate_dps.abs() < w));
+        // Spread, not clustered: every tenth of the temperature range holds some.
+        for k in 0..10 {
+            let a = lo + (hi - lo) * f64::from(k) / 10.0;
+            let b = a + (hi - lo) / 10.0;
+            assert!(
+                pts.iter().any(|x| (a..b).contains(&x.setpoint_c)),
+                "{a}…{b}"
+            );
+        }
     }
 
     #[test]

@@ -8,7 +8,20 @@
 //!
 //! Hyperparameters (ln ℓ per input, ln γ) are tuned honestly: by minimizing the exact closed-form
 //! leave-one-out error of Cawley & Talbot (2004), `r_i = α_i / [C⁻¹]_ii` with C the full system
-//! matrix above, with Nelder–Mead (argmin) from several starts. They are never left at defaults.
+//! matrix above. They are never left at defaults.
+//!
+//! The search is nested, because γ is cheap once ℓ is fixed. For length scales ℓ, K = U Λ Uᵀ once
+//! (`Spectrum`); then for any γ, with H = (K + I/γ)⁻¹ = U diag(1/(λ + 1/γ)) Uᵀ and s = 1ᵀH1,
+//!
+//! ```text
+//! b = 1ᵀHy / s,   α = H(y − b1),   [C⁻¹]_ii = H_ii − (H1)_i² / s   (i ≥ 1, the Schur complement)
+//! ```
+//!
+//! all in O(n²) from Uᵀ1, Uᵀy and U∘U: no refit, no factorization per γ. The best γ for ℓ comes
+//! from a grid over the range and a golden-section refinement; Nelder–Mead (argmin) searches ℓ
+//! over that profile from several starts. At the Aug FOG run's 695 points one joint evaluation
+//! was an (n+1)² inverse; the profile spends one eigendecomposition per ℓ and tens of O(n²) γ
+//! steps (docs/performance.md).
 
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;
@@ -17,9 +30,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::models::gp::Prepared;
-use crate::models::kernel;
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{MeanBasis, PolyPrior};
+use crate::models::{dense, kernel};
 
 /// Errors of LS-SVR fitting.
 #[derive(Debug, thiserror::Error)]
@@ -92,26 +105,130 @@ impl Solved {
     }
 }
 
-struct Press<'a> {
+/// Range of ln ℓ and ln γ searched (ℓ in 1e-2…1e3, γ in 1e-3…1e12, normalized units).
+const LOG_LENGTH: (f64, f64) = (-4.6, 6.9);
+const LOG_GAMMA: (f64, f64) = (-6.9, 27.6);
+/// Grid over ln γ before the golden-section refinement.
+const GAMMA_GRID: usize = 24;
+/// Golden-section steps around the grid's best point.
+const GAMMA_REFINE: usize = 20;
+
+/// K's eigendecomposition at one set of length scales, with the data rotated into it: the
+/// closed-form LOO at any γ from it in O(n²) (module doc).
+struct Spectrum {
+    values: DVector<f64>,
+    vectors: DMatrix<f64>,
+    /// U∘U: diag(H) = (U∘U) d.
+    squares: DMatrix<f64>,
+    /// [Uᵀ1, Uᵀy].
+    rotated: DMatrix<f64>,
+}
+
+impl Spectrum {
+    fn new(z: &DMatrix<f64>, y: &DVector<f64>, length_scales: &[f64]) -> Option<Self> {
+        let k = kernel::gram(&kernel::scale_inputs(z, length_scales));
+        let (values, vectors) = dense::symmetric_eigen(&k)?;
+        let n = y.len();
+        let mut ones_y = DMatrix::from_element(n, 2, 1.0);
+        ones_y.set_column(1, y);
+        let rotated = vectors.tr_mul(&ones_y);
+        let squares = vectors.component_mul(&vectors);
+        Some(Self {
+            values,
+            vectors,
+            squares,
+            rotated,
+        })
+    }
+
+    /// Mean squared closed-form LOO error at ln γ, or `None` where K + I/γ is not positive
+    /// definite (an eigenvalue of K below −1/γ: numerically, at very large γ).
+    fn press(&self, log_gamma: f64) -> Option<f64> {
+        let ridge = (-log_gamma).exp();
+        let d: Vec<f64> = self.values.iter().map(|l| 1.0 / (l + ridge)).collect();
+        if d.iter().any(|v| !v.is_finite() || *v <= 0.0) {
+            return None;
+        }
+        let d = DVector::from_vec(d);
+        let mut scaled = self.rotated.clone();
+        for mut c in scaled.column_iter_mut() {
+            c.component_mul_assign(&d);
+        }
+        // [H1, Hy] and s = 1ᵀH1, 1ᵀHy.
+        let h = &self.vectors * &scaled;
+        let s = self.rotated.column(0).dot(&scaled.column(0));
+        let b = self.rotated.column(0).dot(&scaled.column(1)) / s;
+        let diag = &self.squares * &d;
+        let n = diag.len();
+        let sum: f64 = (0..n)
+            .map(|i| {
+                let (h1, hy) = (h[(i, 0)], h[(i, 1)]);
+                let r = (hy - b * h1) / (diag[i] - h1 * h1 / s);
+                r * r
+            })
+            .sum();
+        let press = sum / n as f64;
+        press.is_finite().then_some(press)
+    }
+
+    /// The ln γ with the least LOO error in the range, and that error: the best point of a grid,
+    /// refined by golden section between its neighbours.
+    fn best_gamma(&self) -> Option<(f64, f64)> {
+        let (lo, hi) = LOG_GAMMA;
+        let step = (hi - lo) / (GAMMA_GRID - 1) as f64;
+        let cost = |g: f64| self.press(g).unwrap_or(f64::INFINITY);
+        let (k, _) = (0..GAMMA_GRID)
+            .map(|k| (k, cost(lo + step * k as f64)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        let (mut a, mut b) = (
+            (lo + step * k as f64 - step).max(lo),
+            (lo + step * k as f64 + step).min(hi),
+        );
+        let ratio = (5f64.sqrt() - 1.0) / 2.0;
+        let (mut c, mut d) = (b - ratio * (b - a), a + ratio * (b - a));
+        let (mut fc, mut fd) = (cost(c), cost(d));
+        for _ in 0..GAMMA_REFINE {
+            if fc < fd {
+                (b, d, fd) = (d, c, fc);
+                c = b - ratio * (b - a);
+                fc = cost(c);
+            } else {
+                (a, c, fc) = (c, d, fd);
+                d = a + ratio * (b - a);
+                fd = cost(d);
+            }
+        }
+        let grid_best = lo + step * k as f64;
+        [(c, fc), (d, fd), (grid_best, cost(grid_best))]
+            .into_iter()
+            .filter(|p| p.1.is_finite())
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+}
+
+/// The tuning cost of length scales: the least LOO error over γ.
+struct Profile<'a> {
     z: &'a DMatrix<f64>,
     y: &'a DVector<f64>,
 }
 
-impl CostFunction for Press<'_> {
+impl Profile<'_> {
+    fn best(&self, log_lengths: &[f64]) -> Option<(f64, f64)> {
+        let ls: Vec<f64> = log_lengths.iter().map(|t| t.exp()).collect();
+        Spectrum::new(self.z, self.y, &ls)?.best_gamma()
+    }
+}
+
+impl CostFunction for Profile<'_> {
     type Param = Vec<f64>;
     type Output = f64;
-    fn cost(&self, theta: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        // Outside sane bounds (ℓ in 1e-2…1e3, γ in 1e-3…1e12) the cost is a wall, not an error,
-        // so the simplex simply turns back.
-        let d = self.z.ncols();
-        let inside =
-            theta[..d].iter().all(|t| (-4.6..6.9).contains(t)) && (-6.9..27.6).contains(&theta[d]);
-        if !inside {
+    fn cost(&self, log_lengths: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+        // Outside the range the cost is a wall, not an error, so the simplex simply turns back.
+        let (lo, hi) = LOG_LENGTH;
+        if !log_lengths.iter().all(|t| (lo..hi).contains(t)) {
             return Ok(1e300);
         }
-        Ok(solve(self.z, self.y, theta).map_or(1e300, |s| {
-            s.loo.iter().map(|e| e * e).sum::<f64>() / s.loo.len() as f64
-        }))
+        Ok(self.best(log_lengths).map_or(1e300, |(_, press)| press))
     }
 }
 
@@ -153,27 +270,21 @@ impl LssvrModel {
             ..
         } = Prepared::new(x, target, basis);
         let d = z.ncols();
-        let starts: Vec<Vec<f64>> = [(0.0, 2.0), (1.0, 6.0), (-1.0, 10.0), (2.0, 14.0)]
-            .iter()
-            .map(|&(l, g)| {
-                let mut t = vec![l; d];
-                t.push(g);
-                t
-            })
-            .collect();
-        let best = starts
+        let profile = Profile { z: &z, y: &y };
+        let best = [0.0, 1.0, -1.0, 2.0]
             .into_par_iter()
-            .filter_map(|start| {
+            .filter_map(|l| {
+                let start = vec![l; d];
                 let simplex: Vec<Vec<f64>> = std::iter::once(start.clone())
-                    .chain((0..=d).map(|j| {
+                    .chain((0..d).map(|j| {
                         let mut v = start.clone();
                         v[j] += 1.0;
                         v
                     }))
                     .collect();
                 let solver = NelderMead::new(simplex).with_sd_tolerance(1e-6).ok()?;
-                let res = Executor::new(Press { z: &z, y: &y }, solver)
-                    .configure(|s| s.max_iters(400))
+                let res = Executor::new(Profile { z: &z, y: &y }, solver)
+                    .configure(|s| s.max_iters(200))
                     .run()
                     .ok()?;
                 let st = res.state();
@@ -181,7 +292,9 @@ impl LssvrModel {
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .ok_or(LssvrError::TuningFailed)?;
-        let solved = solve(&z, &y, &best.0)?;
+        let (log_gamma, _) = profile.best(&best.0).ok_or(LssvrError::TuningFailed)?;
+        let theta: Vec<f64> = best.0.iter().copied().chain([log_gamma]).collect();
+        let solved = solve(&z, &y, &theta)?;
         Ok(Self {
             input_norm,
             prior,
@@ -247,6 +360,21 @@ mod tests {
                 (e - s.loo[i]).abs() < 1e-8,
                 "point {i}: {e} vs {}",
                 s.loo[i]
+            );
+        }
+    }
+
+    #[test]
+    fn the_loo_error_through_the_eigenvalues_is_the_direct_one() {
+        let (z, y) = toy();
+        let spectrum = Spectrum::new(&z, &y, &[0.2f64.exp(), (-0.1f64).exp()]).unwrap();
+        for log_gamma in [-2.0, 3.0, 9.0] {
+            let direct = solve(&z, &y, &[0.2, -0.1, log_gamma]).unwrap();
+            let press = direct.loo.iter().map(|e| e * e).sum::<f64>() / direct.loo.len() as f64;
+            let through = spectrum.press(log_gamma).unwrap();
+            assert!(
+                (through - press).abs() < 1e-8 * press,
+                "{through} vs {press}"
             );
         }
     }

@@ -44,6 +44,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::models::dense;
 use crate::models::kernel;
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{MeanBasis, PolyPrior, design};
@@ -287,35 +288,11 @@ pub fn cholesky_with_jitter(k: DMatrix<f64>) -> Result<(Cholesky<f64, Dyn>, f64)
         for i in 0..kj.nrows() {
             kj[(i, i)] += jitter;
         }
-        if let Some(c) = Cholesky::new(kj) {
+        if let Some(c) = dense::cholesky(kj) {
             return Ok((c, jitter));
         }
     }
     Err(GpError::NotPositiveDefinite { jitter: tried })
-}
-
-/// K⁻¹ from its Cholesky factor as L⁻ᵀ L⁻¹. L⁻¹ is formed column by column from the zero pattern
-/// of the identity (n³/6 flops; nalgebra's general triangular solve would spend n³/2), the product
-/// runs through the blocked matrix kernel. This is the inner loop of every likelihood gradient.
-pub fn inverse_from_cholesky(chol: &Cholesky<f64, Dyn>) -> DMatrix<f64> {
-    let l = chol.l_dirty();
-    let n = l.nrows();
-    let lcols = l.as_slice();
-    let mut linv = DMatrix::<f64>::zeros(n, n);
-    for (j, x) in linv.as_mut_slice().chunks_exact_mut(n).enumerate() {
-        // Forward substitution L x = e_j, column-oriented so every inner loop is contiguous.
-        x[j] = 1.0;
-        for k in j..n {
-            let col = &lcols[k * n..(k + 1) * n];
-            x[k] /= col[k];
-            let xk = x[k];
-            for (xi, li) in x[k + 1..].iter_mut().zip(&col[k + 1..]) {
-                *xi -= xk * li;
-            }
-        }
-    }
-    // `transpose() * ` goes through the blocked matrix product; `tr_mul` is 4× slower here.
-    linv.transpose() * &linv
 }
 
 /// The GP conditioned on data at fixed hyperparameters: everything prediction needs.
@@ -477,7 +454,14 @@ impl Posterior {
 
     /// P = K⁻¹ − M Mᵀ.
     fn projected_inverse(&self) -> DMatrix<f64> {
-        let mut p = inverse_from_cholesky(&self.chol);
+        let mut p = self.projected_inverse_lower();
+        p.fill_upper_triangle_with_lower_triangle();
+        p
+    }
+
+    /// The lower triangle of P = K⁻¹ − M Mᵀ (the strict upper triangle is not P's).
+    fn projected_inverse_lower(&self) -> DMatrix<f64> {
+        let mut p = dense::inverse_lower(&self.chol);
         if self.basis_factor.ncols() > 0 {
             p -= &self.basis_factor * self.basis_factor.transpose();
         }
@@ -581,6 +565,9 @@ pub fn group_loo(
     Ok(e)
 }
 
+/// Columns of the gradient's double sum given to one parallel task.
+const GRADIENT_CHUNK: usize = 64;
+
 /// (Restricted) log marginal likelihood and its gradient w.r.t. θ (paper eq. 11–12). θ has
 /// ln σ_g last when `offsets` (each sample's group index) is not empty.
 pub fn lml_and_gradient(
@@ -597,34 +584,56 @@ pub fn lml_and_gradient(
     let post = Posterior::from_gram(xs, &gram, y, h, hyper, offsets)?;
     let sf2 = post.hyper.signal_std.powi(2);
     let sn2 = post.hyper.noise_std.powi(2);
-    let kinv = post.projected_inverse();
+    let kinv = post.projected_inverse_lower();
     let n = y.len();
     let grouped = !post.offsets.is_empty();
-    let mut grad = vec![0.0; d + 2 + usize::from(grouped)];
-    let mut same_group = 0.0;
     // W = ααᵀ − P; ∂K/∂ln ℓ_k = K_se ∘ (Δz_k/ℓ_k)², ∂K/∂ln σ_f = 2 K_se, ∂K/∂ln σ_n = 2 σ_n² I,
     // ∂K/∂ln σ_g = 2 σ_g² B (B_ij = 1 where i and j share a group).
     // Both W and ∂K are symmetric: the strict lower triangle counts twice, the diagonal once.
-    for j in 0..n {
+    // Column by column over contiguous slices, the columns spread over the cores: [ℓ…, σ_f, B].
+    let alpha = post.alpha.as_slice();
+    let xs = post.xs.as_slice();
+    let column = |j: usize| -> Vec<f64> {
+        let (kc, gc) = (&kinv.as_slice()[j * n..], &gram.as_slice()[j * n..]);
+        let mut acc = vec![0.0; d + 2];
         for i in j..n {
             let weight = if i == j { 0.5 } else { 1.0 };
-            let w = post.alpha[i] * post.alpha[j] - kinv[(i, j)];
-            let wk = weight * w * sf2 * gram[(i, j)];
-            for (k, g) in grad.iter_mut().take(d).enumerate() {
-                *g += wk * (post.xs[(i, k)] - post.xs[(j, k)]).powi(2);
+            let w = alpha[i] * alpha[j] - kc[i];
+            let wk = weight * w * sf2 * gc[i];
+            for (k, a) in acc.iter_mut().take(d).enumerate() {
+                let dz = xs[k * n + i] - xs[k * n + j];
+                *a += wk * dz * dz;
             }
-            grad[d] += 2.0 * wk;
+            acc[d] += 2.0 * wk;
             if grouped && post.offsets[i] == post.offsets[j] {
-                same_group += weight * w;
+                acc[d + 1] += weight * w;
             }
         }
+        acc
+    };
+    // Fixed chunks summed in order: the same θ gives the same bits, however the work was shared.
+    let partial: Vec<Vec<f64>> = (0..n.div_ceil(GRADIENT_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut acc = vec![0.0; d + 2];
+            for j in c * GRADIENT_CHUNK..((c + 1) * GRADIENT_CHUNK).min(n) {
+                acc.iter_mut().zip(column(j)).for_each(|(a, v)| *a += v);
+            }
+            acc
+        })
+        .collect();
+    let mut sums = vec![0.0; d + 2];
+    for p in &partial {
+        sums.iter_mut().zip(p).for_each(|(a, v)| *a += v);
     }
+    let mut grad = vec![0.0; d + 2 + usize::from(grouped)];
+    grad[..=d].copy_from_slice(&sums[..=d]);
     grad[d + 1] = sn2
         * (0..n)
             .map(|i| post.alpha[i].powi(2) - kinv[(i, i)])
             .sum::<f64>();
     if let Some(g) = post.hyper.offset_std.filter(|_| grouped) {
-        grad[d + 2] = 2.0 * g * g * same_group;
+        grad[d + 2] = 2.0 * g * g * sums[d + 1];
     }
     Ok((post.log_marginal_likelihood, grad))
 }
@@ -653,6 +662,7 @@ type Evaluated = (Vec<f64>, f64, Vec<f64>);
 #[derive(Default)]
 struct Track {
     evaluations: u64,
+    computed: u64,
     best: Option<(f64, Vec<f64>)>,
 }
 
@@ -678,6 +688,9 @@ impl Objective<'_> {
         // line search tries; outside the bounds a quadratic wall pulls back. Costs are per sample so
         // that gradients are O(1) whatever n is, which keeps L-BFGS's first steps sane.
         let inside = self.bounds.clamp(theta, self.inputs);
+        if let Ok(mut t) = self.track.lock() {
+            t.computed += 1;
+        }
         let (lml, grad) = (self.likelihood)(&inside)?;
         let n = self.n;
         let mut cost = -lml / n;
@@ -734,6 +747,9 @@ pub struct StartReport {
     pub iterations: u64,
     /// Objective calls (cost and gradient requests, cached ones included).
     pub evaluations: u64,
+    /// Likelihood computations among them (each a factorization, an inverse and a gradient),
+    /// the final one at the end point included.
+    pub likelihoods: u64,
     /// Termination status or error.
     pub status: String,
     /// It stopped at the tolerance (not on the iteration cap, the evaluation budget or an error).
@@ -807,12 +823,13 @@ pub(crate) fn optimize_from(
         ),
         Err(e) => (0, format!("stopped: {e}"), false),
     };
-    let (evaluations, best) = track
+    let (evaluations, computed, best) = track
         .into_inner()
-        .map(|t| (t.evaluations, t.best))
+        .map(|t| (t.evaluations, t.computed, t.best))
         .unwrap_or_default();
     // The solver's own best point may carry the out-of-bounds penalty; the tracked best never does.
     let end = best.map(|(_, t)| cfg.bounds.clamp(&t, d));
+    let final_likelihood = u64::from(end.is_some());
     let lml = end
         .as_ref()
         .and_then(|t| likelihood(t).ok())
@@ -823,6 +840,7 @@ pub(crate) fn optimize_from(
         log_marginal_likelihood: lml,
         iterations,
         evaluations,
+        likelihoods: computed + final_likelihood,
         status,
         converged,
     }
@@ -1075,7 +1093,7 @@ mod tests {
         let groups: Vec<Vec<usize>> = (0..8).map(|g| vec![3 * g, 3 * g + 1, 3 * g + 2]).collect();
         for h in bases(&z) {
             let full = Posterior::new(&z, &y, &h, hyper.clone()).unwrap();
-            let kinv = inverse_from_cholesky(&full.chol);
+            let kinv = dense::inverse_from_cholesky(&full.chol);
             let e = group_loo(&kinv, &h, &y, &groups).unwrap();
             for g in &groups {
                 let keep: Vec<usize> = (0..24).filter(|i| !g.contains(i)).collect();
@@ -1198,7 +1216,7 @@ mod tests {
         };
         for h in bases(&z) {
             let full = Posterior::grouped(&z, &y, &h, hyper.clone(), &groups).unwrap();
-            let kinv = inverse_from_cholesky(&full.chol);
+            let kinv = dense::inverse_from_cholesky(&full.chol);
             let members: Vec<Vec<usize>> = (0..5)
                 .map(|g| (0..30).filter(|&i| groups[i] == g).collect())
                 .collect();
@@ -1329,6 +1347,7 @@ mod tests {
             log_marginal_likelihood: Some(f64::NAN),
             iterations: 1,
             evaluations: 1,
+            likelihoods: 1,
             status: String::new(),
             converged: false,
         };

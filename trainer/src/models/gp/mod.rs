@@ -5,10 +5,11 @@
 
 use std::time::Instant;
 
-use exact::{group_loo, inverse_from_cholesky, search, with_terms};
+use exact::{group_loo, search, with_terms};
 use nalgebra::{DMatrix, DVector};
 use sparse::SparseFit;
 
+use crate::models::dense::inverse_from_cholesky;
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{DropReason, MeanBasis, PolyPrior};
 

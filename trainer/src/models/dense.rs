@@ -1,0 +1,118 @@
+//! The O(n³) kernels of the exact GP and LS-SVR at the speed of the machine: Cholesky, the inverse
+//! from a Cholesky factor, and the symmetric eigendecomposition, on faer (blocked, SIMD, spread over
+//! the cores by rayon). The rest of the trainer speaks nalgebra, so matrices cross over by copy:
+//! O(n²) against the O(n³) of the work. nalgebra's own Cholesky is unblocked and single-threaded;
+//! at n = 1,000 it and the hand-written inverse it replaces took most of every likelihood
+//! evaluation (docs/performance.md).
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::{factor, inverse};
+use faer::{MatMut, MatRef, Side};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+
+/// A column-major nalgebra matrix seen as a faer one (both store columns contiguously): no copy.
+fn view(m: &DMatrix<f64>) -> MatRef<'_, f64> {
+    MatRef::from_column_major_slice(m.as_slice(), m.nrows(), m.ncols())
+}
+
+/// The same, writable.
+fn view_mut(m: &mut DMatrix<f64>) -> MatMut<'_, f64> {
+    let (r, c) = m.shape();
+    MatMut::from_column_major_slice_mut(m.as_mut_slice(), r, c)
+}
+
+/// A faer matrix copied into nalgebra.
+fn copy(m: MatRef<'_, f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
+/// The Cholesky factorization of a symmetric positive definite matrix, in its own storage (its
+/// lower triangle is read and overwritten by the factor; the upper triangle is left as it was,
+/// which nalgebra's `l_dirty` allows), or `None` when it is not positive definite.
+pub fn cholesky(mut k: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
+    let n = k.nrows();
+    let par = faer::get_global_parallelism();
+    let mut mem = MemBuffer::new(factor::cholesky_in_place_scratch::<f64>(
+        n,
+        par,
+        Default::default(),
+    ));
+    factor::cholesky_in_place(
+        view_mut(&mut k),
+        Default::default(),
+        par,
+        MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .ok()?;
+    // A factor with a non-finite entry (from a non-finite input) is no factor.
+    let finite = (0..n).all(|j| k.column(j).rows_range(j..).iter().all(|v| v.is_finite()));
+    finite.then(|| Cholesky::pack_dirty(k))
+}
+
+/// The lower triangle of K⁻¹ from the Cholesky factor of K, as L⁻ᵀ L⁻¹ (the triangular inverse,
+/// then the triangular product: 2n³/3 flops); the strict upper triangle is zero. Only the
+/// factor's lower triangle is read. The likelihood gradient needs no more than this.
+pub fn inverse_lower(chol: &Cholesky<f64, Dyn>) -> DMatrix<f64> {
+    let l = chol.l_dirty();
+    let n = l.nrows();
+    let par = faer::get_global_parallelism();
+    let mut out = DMatrix::zeros(n, n);
+    let mut mem = MemBuffer::new(inverse::inverse_scratch::<f64>(n, par));
+    inverse::inverse(view_mut(&mut out), view(l), par, MemStack::new(&mut mem));
+    out
+}
+
+/// K⁻¹ from the Cholesky factor of K ([`inverse_lower`], mirrored).
+pub fn inverse_from_cholesky(chol: &Cholesky<f64, Dyn>) -> DMatrix<f64> {
+    let mut inv = inverse_lower(chol);
+    inv.fill_upper_triangle_with_lower_triangle();
+    inv
+}
+
+/// The eigendecomposition of a symmetric matrix (lower triangle read): eigenvalues in
+/// nondecreasing order and the orthonormal eigenvectors as columns, or `None` when it does not
+/// converge.
+pub fn symmetric_eigen(a: &DMatrix<f64>) -> Option<(DVector<f64>, DMatrix<f64>)> {
+    let evd = view(a).self_adjoint_eigen(Side::Lower).ok()?;
+    let s = evd.S().column_vector();
+    let values = DVector::from_fn(s.nrows(), |i, _| s[i]);
+    Some((values, copy(evd.U())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spd(n: usize) -> DMatrix<f64> {
+        let a = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 3) % 11) as f64 / 11.0 - 0.5);
+        &a * a.transpose() + DMatrix::identity(n, n) * 0.1
+    }
+
+    #[test]
+    fn factor_and_inverse_agree_with_nalgebra() {
+        let k = spd(70);
+        let ours = cholesky(k.clone()).unwrap();
+        let reference = Cholesky::new(k.clone()).unwrap();
+        assert!((ours.l() - reference.l()).amax() < 1e-10);
+        let inv = inverse_from_cholesky(&ours);
+        assert!((&inv * &k - DMatrix::identity(70, 70)).amax() < 1e-8);
+        assert_eq!(inv, inv.transpose());
+    }
+
+    #[test]
+    fn an_indefinite_matrix_has_no_factor() {
+        let mut k = spd(5);
+        k[(2, 2)] = -1.0;
+        assert!(cholesky(k).is_none());
+    }
+
+    #[test]
+    fn eigenvectors_reconstruct_the_matrix() {
+        let a = spd(40);
+        let (values, vectors) = symmetric_eigen(&a).unwrap();
+        assert!(values.as_slice().windows(2).all(|w| w[0] <= w[1]));
+        let back = &vectors * DMatrix::from_diagonal(&values) * vectors.transpose();
+        assert!((back - a).amax() < 1e-9);
+    }
+}
