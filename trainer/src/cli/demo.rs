@@ -93,45 +93,49 @@ pub(super) fn steps(dir: &Path) -> Vec<Step> {
                 Data::Points => "paper",
                 Data::Stream => "stream",
             };
+            let (seed, out) = (seed.to_string(), at(name));
             let args = [
                 "generate",
                 kind,
                 "--seed",
-                &seed.to_string(),
+                &seed,
                 "--effect",
                 EFFECT.id(),
                 "--out",
-                &at(name),
-            ]
-            .map(str::to_owned);
-            Step(Program::Sim, args.to_vec())
+                &out,
+            ];
+            Step::new(Program::Sim, &args)
         })
         .collect();
+    // The rate table and both streams, as `investigate` and `report` take them.
+    let data = [
+        "--points",
+        &points,
+        "--train-stream",
+        &train,
+        "--valid-stream",
+        &valid,
+    ];
+    let (model, ext) = (at("model.bin"), at("ext.bin"));
+    let investigate = [
+        "--out-static",
+        &model,
+        "--out",
+        &ext,
+        "--json",
+        &at("investigate.json"),
+    ];
     steps.extend([
         Step::new(
             Program::Trainer,
-            &[
-                "investigate",
-                "--points",
-                &points,
-                "--train-stream",
-                &train,
-                "--valid-stream",
-                &valid,
-                "--out-static",
-                &at("model.bin"),
-                "--out",
-                &at("ext.bin"),
-                "--json",
-                &at("investigate.json"),
-            ],
+            &[&["investigate"][..], &data, &investigate].concat(),
         ),
         Step::new(
             Program::Sim,
             &[
                 "replay",
                 "--model",
-                &at("ext.bin"),
+                &ext,
                 "--stream",
                 &valid,
                 "--out",
@@ -152,17 +156,7 @@ pub(super) fn steps(dir: &Path) -> Vec<Step> {
         ),
         Step::new(
             Program::Trainer,
-            &[
-                "report",
-                "--points",
-                &points,
-                "--train-stream",
-                &train,
-                "--valid-stream",
-                &valid,
-                "--out",
-                &at("report"),
-            ],
+            &[&["report"][..], &data, &["--out", &at("report")]].concat(),
         ),
     ]);
     steps
