@@ -135,14 +135,28 @@ enum Generate {
         #[arg(long)]
         points: usize,
     },
-    /// A stream from power-on at 1 Hz: chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min,
-    /// the rate table stepping through the paper's rates and zero, three power cycles (8.75 hours).
+    /// A stream at 1 Hz, the rate table stepping through the paper's rates and zero: by default
+    /// from power-on, chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min, three power cycles
+    /// (8.75 hours); or (--design ramps) eight 0.5 °C/min legs between 60 and −30 °C from a warm
+    /// start (30.7 hours).
     ///
     /// Example: firmware-sim generate stream --seed 2 --effect thermal-rate --strength 10 --out s.csv
     Stream {
         #[command(flatten)]
         common: GenerateCommon,
+        /// The chamber program.
+        #[arg(long, value_enum, default_value_t = Design::Chamber)]
+        design: Design,
     },
+}
+
+/// A stream's chamber program ([`stream::StreamConfig`]).
+#[derive(Clone, Copy, ValueEnum)]
+enum Design {
+    /// Soaks and ramps at 0.5–1 °C/min from power-on, three power cycles.
+    Chamber,
+    /// Eight slow legs between 60 and −30 °C from a warm start, never switched off.
+    Ramps,
 }
 
 /// What every generator takes.
@@ -280,9 +294,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let csv = output::points_csv(&points);
             common.write(&params, &effects, &csv, points.len(), flags)
         }
-        Command::Generate(Generate::Stream { common }) => {
+        Command::Generate(Generate::Stream { common, design }) => {
             let (params, effects) = common.gyro()?;
-            let cfg = stream::StreamConfig::default();
+            let cfg = match design {
+                Design::Chamber => stream::StreamConfig::default(),
+                Design::Ramps => stream::StreamConfig::ramps(),
+            };
             let rows = stream::run(&params, &cfg, effects.clone(), common.seed);
             common.write(
                 &params,

@@ -8,9 +8,11 @@
 //! times that time, and GFLOP/s is n³ over it.
 //!
 //! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
+//! [--map NAME=SOURCE …] [--mean constant|physics|polyN] (constant unless told: scikit-learn's)
 
 use std::time::Instant;
 
+use firmware_sim::data::columns::ColumnMap;
 use nalgebra::DMatrix;
 use trainer::data::points::Points;
 use trainer::models::dense;
@@ -31,18 +33,29 @@ fn dense_seconds(n: usize) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+const USAGE: &str =
+    "usage: fit_timing POINTS [REPEATS] [--json] [--map NAME=SOURCE …] [--mean BASIS]";
+
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let json = args.iter().any(|a| a == "--json");
-    let mut positional = args.iter().filter(|a| !a.starts_with("--"));
-    let path = positional
-        .next()
-        .ok_or_else(|| anyhow::anyhow!("usage: fit_timing POINTS [REPEATS] [--json]"))?;
-    let repeats: usize = positional.next().map_or(Ok(3), |s| s.parse())?;
-    let points = Points::load(std::path::Path::new(path), &[], None, None)?;
+    let mut args = std::env::args().skip(1);
+    let (mut json, mut maps, mut mean, mut positional) = (false, Vec::new(), None, Vec::new());
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--json" => json = true,
+            "--map" => maps.push(args.next().unwrap_or_default().parse::<ColumnMap>()?),
+            "--mean" => {
+                let basis = args.next().unwrap_or_default();
+                mean = Some(basis.parse::<MeanBasis>().map_err(anyhow::Error::msg)?);
+            }
+            _ => positional.push(a),
+        }
+    }
+    let path = positional.first().ok_or_else(|| anyhow::anyhow!(USAGE))?;
+    let repeats: usize = positional.get(1).map_or(Ok(3), |s| s.parse())?;
+    let points = Points::load(std::path::Path::new(path), &maps, None, None)?;
     let (x, y) = (points.inputs(), points.target());
     let cfg = GpConfig {
-        mean: MeanBasis::Constant,
+        mean: mean.unwrap_or(MeanBasis::Constant),
         inducing: Inducing::Exact,
         ..GpConfig::default()
     };
@@ -85,6 +98,22 @@ fn main() -> anyhow::Result<()> {
             dense * 1e3,
             median / floor
         );
+        for s in &last.starts {
+            let fmt = |t: &[f64]| {
+                t.iter()
+                    .map(|v| format!("{v:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "  [{}] → [{}]  log ML {:.3}  {} likelihoods, {}",
+                fmt(&s.start),
+                s.end.as_deref().map_or("failed".to_owned(), fmt),
+                s.log_marginal_likelihood.unwrap_or(f64::NAN),
+                s.likelihoods,
+                s.status
+            );
+        }
     }
     Ok(())
 }

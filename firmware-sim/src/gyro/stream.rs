@@ -68,6 +68,9 @@ pub struct StreamConfig {
     pub segments: Vec<Segment>,
     /// Power cycles.
     pub power_offs: Vec<PowerOff>,
+    /// Logging starts with the gyro long on at `start_c`: housing and coil at the air plus the
+    /// self-heating, no warm-up left. Otherwise at power-on, cold: all at the air.
+    pub warm_start: bool,
 }
 
 impl Default for StreamConfig {
@@ -91,11 +94,33 @@ impl Default for StreamConfig {
                 seg(40.0, 1.0, 30.0),
             ],
             power_offs: vec![off(95.0, 20.0), off(310.0, 15.0), off(427.0, 13.0)],
+            warm_start: false,
         }
     }
 }
 
 impl StreamConfig {
+    /// The long-ramp design, 30.7 hours: logged from a warm start at 60 °C (40 min soak), then
+    /// eight legs between 60 and −30 °C at 0.5 °C/min with a 45 min soak at each end, never
+    /// switched off. Unlike [`Self::default`] it has no power-on and spends most of its time on
+    /// slow ramps: 110,400 samples.
+    pub fn ramps() -> Self {
+        let leg = |target_c| Segment {
+            target_c,
+            rate_c_per_min: 0.5,
+            soak_min: 45.0,
+        };
+        Self {
+            start_c: 60.0,
+            initial_soak_min: 40.0,
+            segments: (0..8)
+                .map(|i| leg(if i % 2 == 0 { -30.0 } else { 60.0 }))
+                .collect(),
+            power_offs: Vec::new(),
+            warm_start: true,
+        }
+    }
+
     /// Chamber air temperature at time `t` s after power-on.
     pub fn air_c(&self, t: f64) -> f64 {
         let mut at = self.initial_soak_min * 60.0;
@@ -169,9 +194,13 @@ pub fn run(
     let earth = params.earth_rate_dps();
     let mut rates: Vec<f64> = Vec::new();
     let n = cfg.duration_s().floor() as u64;
-    let mut housing = cfg.start_c;
-    let mut heat = 0.0;
-    let mut plant = EffectPlant::new(effect, cfg.start_c);
+    let mut heat = if cfg.warm_start {
+        params.self_heating_c
+    } else {
+        0.0
+    };
+    let mut housing = cfg.start_c + heat;
+    let mut plant = EffectPlant::new(effect, housing);
     let mut t_on = 0.0;
     let mut rows = Vec::with_capacity(n as usize + 1);
     for k in 0..=n {
@@ -231,6 +260,22 @@ mod tests {
     }
 
     #[test]
+    fn the_ramp_design_is_eight_slow_legs_from_a_warm_start() {
+        let c = StreamConfig::ramps();
+        assert_eq!(c.duration_s(), 110_400.0);
+        assert_eq!(c.air_c(40.0 * 60.0 + 60.0 * 60.0), 30.0);
+        let p = GyroParams::nominal();
+        let short = StreamConfig {
+            segments: c.segments[..1].to_vec(),
+            ..c
+        };
+        let rows = run(&p, &short, Effect::None, 3);
+        // Warm from the first sample: the coil starts at the air plus the self-heating.
+        assert!((rows[0].coil_c - (60.0 + p.self_heating_c)).abs() < 1e-9);
+        assert!(rows.windows(2).all(|w| w[1].time_s - w[0].time_s == 1.0));
+    }
+
+    #[test]
     fn stream_is_deterministic_and_covers_rates_and_temperatures() {
         let p = GyroParams::nominal();
         let cfg = StreamConfig {
@@ -242,6 +287,7 @@ mod tests {
                 soak_min: 30.0,
             }],
             power_offs: Vec::new(),
+            warm_start: false,
         };
         let a = run(&p, &cfg, Effect::None, 4);
         assert_eq!(a, run(&p, &cfg, Effect::None, 4));

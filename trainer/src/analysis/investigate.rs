@@ -223,6 +223,55 @@ pub fn choose(
     })
 }
 
+/// A stream cut forward in time ([`forward`]).
+pub(crate) struct Forward {
+    /// Where it was cut, s from its first sample.
+    pub split_s: f64,
+    /// 60 s blocks before the cut.
+    pub earlier_blocks: usize,
+    /// 60 s blocks after it.
+    pub later_blocks: usize,
+    /// The part before the cut, to fit on.
+    pub early: Stream,
+    /// The whole stream with its reference kept only after the cut, to score on: replayed
+    /// whole, the stateful inputs carry their history across the cut.
+    pub later: Stream,
+}
+
+/// Cuts `stream` after [`EARLIER_SHARE`] of its 60 s blocks (at least [`EARLIER_MIN_BLOCKS`]);
+/// `None` when fewer than [`LATER_MIN_BLOCKS`] would be left after the cut. Blocks are counted
+/// as the diagnosis counts them (samples with a reference).
+pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
+    let scored: Vec<usize> = (0..stream.len())
+        .filter(|&i| stream.rate_dps[i].is_finite())
+        .collect();
+    let blocks = replay::blocks(stream, &scored);
+    let n = blocks.len();
+    let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
+    if n < earlier + LATER_MIN_BLOCKS {
+        return None;
+    }
+    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+    let split_s = stream.time_s[blocks[earlier][0]] - t0;
+    let early = stream.window(Window {
+        start_s: None,
+        end_s: Some(split_s),
+    });
+    let mut later = stream.clone();
+    for (r, t) in later.rate_dps.iter_mut().zip(&stream.time_s) {
+        if t - t0 < split_s {
+            *r = f64::NAN;
+        }
+    }
+    Some(Forward {
+        split_s,
+        earlier_blocks: earlier,
+        later_blocks: n - earlier,
+        early,
+        later,
+    })
+}
+
 /// The forward check of [`choose`]: `None` where the stream is too short for one. Blocks are
 /// counted as the diagnosis counts them (samples with a reference).
 fn forward_check(
@@ -233,21 +282,16 @@ fn forward_check(
     causes: &[Cause],
     rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
 ) -> anyhow::Result<Option<ForwardCheck>> {
-    let scored: Vec<usize> = (0..train.len())
-        .filter(|&i| train.rate_dps[i].is_finite())
-        .collect();
-    let blocks = replay::blocks(train, &scored);
-    let n = blocks.len();
-    let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
-    if n < earlier + LATER_MIN_BLOCKS {
+    let Some(Forward {
+        split_s,
+        earlier_blocks: earlier,
+        later_blocks,
+        early,
+        later,
+    }) = forward(train)
+    else {
         return Ok(None);
-    }
-    let t0 = train.time_s.first().copied().unwrap_or(0.0);
-    let split_s = train.time_s[blocks[earlier][0]] - t0;
-    let early = train.window(Window {
-        start_s: None,
-        end_s: Some(split_s),
-    });
+    };
     let (static_model, static_points) = if points.soaked {
         (model.clone(), points.clone())
     } else {
@@ -260,14 +304,6 @@ fn forward_check(
         &Extension::default(),
     )?)?;
     let causes = causes.to_vec();
-    // The whole stream is replayed, so the stateful inputs carry their history across the cut;
-    // only the later part is scored.
-    let mut later = train.clone();
-    for (r, t) in later.rate_dps.iter_mut().zip(&train.time_s) {
-        if t - t0 < split_s {
-            *r = f64::NAN;
-        }
-    }
     let rmse = |fw: &HostModel| replay::score(&later, &replay::replay(fw, &later)).rmse_60s_dps;
     let static_rmse = rmse(&static_fw);
     let extended_rmse = if causes.is_empty() {
@@ -279,7 +315,7 @@ fn forward_check(
     Ok(Some(ForwardCheck {
         split_s,
         earlier_blocks: earlier,
-        later_blocks: n - earlier,
+        later_blocks,
         causes,
         static_rmse_60s_dps: static_rmse,
         extended_rmse_60s_dps: extended_rmse,

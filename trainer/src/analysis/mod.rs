@@ -1,7 +1,8 @@
 //! What the models get right and wrong: the paper's evaluation ([`evaluate`], [`reproduce`]),
 //! transients on a rate table ([`table`]), the residual diagnosis of a stream ([`diagnose`]), the
 //! extension that answers it ([`extend`]), the forward-in-time investigation that decides whether
-//! to ship it ([`investigate`]), and the hidden-effect challenge that measures all of this on the
+//! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
+//! ([`pool`]), and the hidden-effect challenge that measures all of this on the
 //! simulator ([`challenge`]).
 
 pub mod challenge;
@@ -9,5 +10,6 @@ pub mod diagnose;
 pub mod evaluate;
 pub mod extend;
 pub mod investigate;
+pub mod pool;
 pub mod reproduce;
 pub mod table;

@@ -15,6 +15,7 @@ use super::text::{causes_text, log_starts};
 use crate::analysis::diagnose::Diagnosis;
 use crate::analysis::extend;
 use crate::analysis::investigate;
+use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, Extension};
@@ -40,7 +41,9 @@ pub(super) struct FitArgs {
     #[arg(long, requires = "stream")]
     window: Option<Window>,
     /// Fit the static model on every sample of --stream (1 Hz, not 60 s means), pooled with
-    /// --points when given: a long stream's static model (sparse GP by size).
+    /// --points when given: a long stream's static model (sparse GP by size). With --points the
+    /// pooled model ships only if it beats the table's alone on the streams' last third, fitted
+    /// on the rest (the comparison on stderr and in --json's pool_check).
     #[arg(long, requires = "stream")]
     pool_stream: bool,
     /// Inputs to add, fitted on --stream: auto (diagnose the stream and add what the cause
@@ -91,6 +94,10 @@ struct FitReport {
     table_diagnosis: Option<TableDiagnosis>,
     #[serde(skip_serializing_if = "Option::is_none")]
     extension: Option<ExtensionReport>,
+    /// The pooled model against the table's alone, forward in time (`--pool-stream` with
+    /// `--points`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pool_check: Option<PoolCheck>,
     /// The diagnosis of the stream and the forward check (`--features` with a stream).
     #[serde(flatten)]
     stream_choice: Option<StreamChoice>,
@@ -153,6 +160,7 @@ impl FitReport {
             optimization: m.optimization.clone(),
             warnings: m.warnings(),
             table_diagnosis: None,
+            pool_check: None,
             extension: None,
             stream_choice: None,
             handled: Vec::new(),
@@ -248,6 +256,35 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         )?,
     };
     spinner.finish_and_clear();
+    let (points, model, pool_check) = match (&input.points, pool_stream) {
+        (Some(_), true) => {
+            let spinner = console
+                .spinner("checking the pooled model against the table's alone, forward in time");
+            let table_points = input.static_points(&[], false)?;
+            let fit_static = |p: &Points| {
+                GpModel::fit_grouped(
+                    p.inputs(),
+                    &p.target(),
+                    &p.offset_groups(input.offsets),
+                    &gp,
+                )
+            };
+            let table_model = fit_static(&table_points)?;
+            let check = pool::check(&table_points, &table_model, &streams, &fit_static)?;
+            spinner.finish_and_clear();
+            match check.shipped {
+                Pooling::Pooled => {
+                    console.result(&check.verdict);
+                    (points, model, Some(check))
+                }
+                Pooling::TableOnly => {
+                    console.warn(&check.verdict);
+                    (table_points, table_model, Some(check))
+                }
+            }
+        }
+        _ => (points, model, None),
+    };
     log_starts(&console, &model);
     // Before the f32 check: a warning may explain why it refuses the blob.
     for w in model.warnings() {
@@ -260,6 +297,7 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
     let mut blob = export::points_blob(&model, &points, &extension)?;
     let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
     let mut summary = FitReport::new(&model, &points, agreement, blob.len());
+    summary.pool_check = pool_check;
     if let Some(t) = &table {
         console.result(&format!(
             "diagnosis of the table (time order): {}",

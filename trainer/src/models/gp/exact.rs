@@ -737,6 +737,9 @@ impl Gradient for Objective<'_> {
 /// What one optimizer start did.
 #[derive(Debug, Clone, Serialize)]
 pub struct StartReport {
+    /// Samples the run's likelihood was computed on: for a sparse GP, the start subset's for the
+    /// starts ([`super::sparse`]) and all for the refinements on the bound.
+    pub samples: usize,
     /// Where it started (θ).
     pub start: Vec<f64>,
     /// Where it ended (θ, clamped to the bounds), if it succeeded.
@@ -835,6 +838,7 @@ pub(crate) fn optimize_from(
         .and_then(|t| likelihood(t).ok())
         .map(|(l, _)| l);
     StartReport {
+        samples: n,
         start,
         end,
         log_marginal_likelihood: lml,
@@ -1342,6 +1346,7 @@ mod tests {
     #[test]
     fn a_nan_likelihood_is_a_failed_start_never_the_best() {
         let nan = StartReport {
+            samples: 10,
             start: vec![0.0; 4],
             end: Some(vec![1.0; 4]),
             log_marginal_likelihood: Some(f64::NAN),
