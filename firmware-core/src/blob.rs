@@ -1,21 +1,26 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 3)
+//! # Layout (format version 4)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (3)
+//!  4      2    format version, u16 little-endian (4)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
-//! 10      4    payload length in bytes, u32 LE
-//! 14      4    CRC-32/ISO-HDLC of the payload, u32 LE
-//! 18      …    payload: postcard encoding of [`Payload`]
+//! 10      4    sequence number, u32 LE (0 as exported; a calibration slot stamps its own)
+//! 14      4    payload length in bytes, u32 LE
+//! 18      4    CRC-32/ISO-HDLC of bytes 4..18 and the payload, u32 LE
+//! 22      …    payload: postcard encoding of [`Payload`]
 //! ```
 //!
 //! The dimensions sit in the header so that a blob too large for the integrator's capacities is
-//! refused by a typed error before anything is decoded. The payload is three postcard sequences
+//! refused by a typed error before anything is decoded. The CRC covers the header after the magic,
+//! so a flipped bit in the sequence number or the sizes is caught like one in the payload; the
+//! magic is outside it because a calibration slot writes it last, as its commit
+//! ([`crate::slots`]). Version 3 blobs (18-byte header without the sequence, CRC over the payload
+//! alone) are still read, as sequence 0. The payload is three postcard sequences
 //! (each a varint length, then the elements): the `d` input features (enum index, then the f32
 //! parameter of the stateful ones), the `p·d`
 //! prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32:
@@ -47,7 +52,8 @@
 //! Version 3 adds the stateful features. An input the kernel ignores (one that enters only through
 //! its raw linear term, as the additive terms of an extended model do) has length scale
 //! [`IGNORED_LENGTH_SCALE`] and centre coordinate 0: its distance term underflows to exactly 0 in
-//! f32, so the kernel is the static model's. A change of this layout bumps
+//! f32, so the kernel is the static model's. Version 4 adds the sequence number, for the two
+//! power-safe calibration slots. A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
 use core::ops::Range;
@@ -58,12 +64,16 @@ use crate::error::BlobError;
 
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
-/// The format version this crate reads and writes.
-pub const FORMAT_VERSION: u16 = 3;
+/// The format version this crate writes (it also reads [`V3`]).
+pub const FORMAT_VERSION: u16 = 4;
+/// The previous format version, still read: no sequence number, CRC over the payload alone.
+pub const V3: u16 = 3;
 /// Length scale of an input the kernel ignores (module doc).
 pub const IGNORED_LENGTH_SCALE: f32 = 1e30;
 /// Header bytes before the payload.
-pub const HEADER_LEN: usize = 18;
+pub const HEADER_LEN: usize = 22;
+/// Header bytes of a [`V3`] blob.
+const V3_HEADER_LEN: usize = 18;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -240,12 +250,13 @@ where
         .len();
     u32::try_from(len).map_err(|_| BlobError::BufferTooSmall)?;
     let mut h = [0u8; LEN_AT];
-    let fields: [&[u8]; 5] = [
+    let fields: [&[u8]; 6] = [
         &MAGIC,
         &FORMAT_VERSION.to_le_bytes(),
         &m.to_le_bytes(),
         &[d],
         &[p],
+        &0u32.to_le_bytes(),
     ];
     let mut at = 0;
     for f in fields {
@@ -264,31 +275,76 @@ where
     Ok(HEADER_LEN + len)
 }
 
+/// Offset of the header's sequence number (u32 LE).
+const SEQUENCE_AT: usize = 10;
 /// Offset of the header's payload length (u32 LE); the CRC follows it.
-const LEN_AT: usize = 10;
+const LEN_AT: usize = 14;
 /// Offset of the header's CRC (u32 LE).
-const CRC_AT: usize = 14;
+const CRC_AT: usize = 18;
+/// The header bytes the CRC covers, before the payload: version to length.
+const CHECKED: Range<usize> = 4..CRC_AT;
 
-/// Writes the payload length and CRC of the bytes after the header into the header: what
-/// [`encode`] does last, and what a tool or test that edits a payload on purpose does to reach
+/// The CRC of a version-4 blob: header bytes [`CHECKED`], then the payload.
+fn checksum(header: &[u8], payload: &[u8]) -> u32 {
+    let mut digest = CRC32.digest();
+    digest.update(header.get(CHECKED).unwrap_or(&[]));
+    digest.update(payload);
+    digest.finalize()
+}
+
+/// Writes the payload length and CRC into a version-4 header: what [`encode`] and
+/// [`set_sequence`] do last, and what a tool or test that edits a blob on purpose does to reach
 /// the decoder behind the integrity check. Shorter than a header: left as it is.
 pub fn reseal(blob: &mut [u8]) {
     let Some((header, payload)) = blob.split_at_mut_checked(HEADER_LEN) else {
         return;
     };
     let len = u32::try_from(payload.len()).unwrap_or(u32::MAX);
-    let crc = CRC32.checksum(payload);
-    for (at, value) in [(LEN_AT, len), (CRC_AT, crc)] {
-        if let Some(dst) = header.get_mut(at..at + 4) {
-            dst.copy_from_slice(&value.to_le_bytes());
-        }
+    if let Some(dst) = header.get_mut(LEN_AT..LEN_AT + 4) {
+        dst.copy_from_slice(&len.to_le_bytes());
+    }
+    let crc = checksum(header, payload);
+    if let Some(dst) = header.get_mut(CRC_AT..CRC_AT + 4) {
+        dst.copy_from_slice(&crc.to_le_bytes());
     }
 }
 
-/// A checked header: dimensions and the payload bytes it covers.
+/// Stamps `sequence` into a valid version-4 blob and reseals it. A version-3 blob has no room
+/// for one: [`BlobError::NoSequence`].
+pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
+    let header = read_header(blob)?;
+    if header.version != FORMAT_VERSION {
+        return Err(BlobError::NoSequence(header.version));
+    }
+    let dst = blob
+        .get_mut(SEQUENCE_AT..SEQUENCE_AT + 4)
+        .ok_or(BlobError::Truncated)?;
+    dst.copy_from_slice(&sequence.to_le_bytes());
+    reseal(blob);
+    Ok(())
+}
+
+/// The length in bytes, header included, that the header at the start of `bytes` declares for
+/// its blob (either version), unchecked: how much of a flash slot to give [`read_header`].
+pub fn declared_len(bytes: &[u8]) -> Option<usize> {
+    let version = u16::from_le_bytes(le(bytes, 4).ok()?);
+    let (len_at, header_len) = match version {
+        FORMAT_VERSION => (LEN_AT, HEADER_LEN),
+        V3 => (10, V3_HEADER_LEN),
+        _ => return None,
+    };
+    let len = usize::try_from(u32::from_le_bytes(le(bytes, len_at).ok()?)).ok()?;
+    header_len.checked_add(len)
+}
+
+/// A checked header: dimensions, sequence and the payload bytes it covers.
 pub struct Header<'a> {
+    /// Format version ([`FORMAT_VERSION`] or [`V3`]).
+    pub version: u16,
     /// Model sizes.
     pub dims: Dims,
+    /// Sequence number (0 for a [`V3`] blob).
+    pub sequence: u32,
     /// The CRC-checked payload.
     pub payload: &'a [u8],
 }
@@ -300,39 +356,58 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
         .ok_or(BlobError::Truncated)
 }
 
-/// Checks magic, version, payload length and CRC; returns the dimensions and the payload.
+/// Checks magic, version, payload length and CRC; returns the dimensions, the sequence and the
+/// payload. Reads [`FORMAT_VERSION`] and [`V3`].
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
-    if bytes.len() < HEADER_LEN {
+    if bytes.len() < V3_HEADER_LEN {
         return Err(BlobError::Truncated);
     }
     if le::<4>(bytes, 0)? != MAGIC {
         return Err(BlobError::BadMagic);
     }
     let version = u16::from_le_bytes(le(bytes, 4)?);
-    if version != FORMAT_VERSION {
-        return Err(BlobError::UnsupportedVersion(version));
-    }
+    // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
+    let (len_at, crc_at, header_len, sequence) = match version {
+        FORMAT_VERSION => (
+            LEN_AT,
+            CRC_AT,
+            HEADER_LEN,
+            u32::from_le_bytes(le(bytes, SEQUENCE_AT)?),
+        ),
+        V3 => (10, 14, V3_HEADER_LEN, 0),
+        other => return Err(BlobError::UnsupportedVersion(other)),
+    };
     let dims = Dims {
         m: usize::from(u16::from_le_bytes(le(bytes, 6)?)),
         d: usize::from(le::<1>(bytes, 8)?[0]),
         p: usize::from(le::<1>(bytes, 9)?[0]),
     };
-    let len = usize::try_from(u32::from_le_bytes(le(bytes, LEN_AT)?))
+    let len = usize::try_from(u32::from_le_bytes(le(bytes, len_at)?))
         .map_err(|_| BlobError::Truncated)?;
-    let crc = u32::from_le_bytes(le(bytes, CRC_AT)?);
-    let payload = bytes.get(HEADER_LEN..).ok_or(BlobError::Truncated)?;
+    let crc = u32::from_le_bytes(le(bytes, crc_at)?);
+    let payload = bytes.get(header_len..).ok_or(BlobError::Truncated)?;
     match payload.len().cmp(&len) {
         core::cmp::Ordering::Less => return Err(BlobError::Truncated),
         core::cmp::Ordering::Greater => return Err(BlobError::TrailingBytes),
         core::cmp::Ordering::Equal => {}
     }
-    if CRC32.checksum(payload) != crc {
+    let expected = if version == V3 {
+        CRC32.checksum(payload)
+    } else {
+        checksum(bytes, payload)
+    };
+    if expected != crc {
         return Err(BlobError::CrcMismatch);
     }
     if dims.d == 0 {
         return Err(BlobError::InconsistentDimensions);
     }
-    Ok(Header { dims, payload })
+    Ok(Header {
+        version,
+        dims,
+        sequence,
+        payload,
+    })
 }
 
 #[cfg(test)]
@@ -366,9 +441,12 @@ mod tests {
         assert_eq!(dims.floats(), 13);
         let mut buf = [0u8; 128];
         let n = encode(dims, &payload, &mut buf).unwrap();
-        let crc = CRC32.checksum(&buf[HEADER_LEN..n]).to_le_bytes();
-        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 3, 0, 1, 0, 1, 1, 61, 0, 0, 0];
-        expected.extend(crc);
+        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 4, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+        expected.extend([61, 0, 0, 0]);
+        let mut digest = CRC32.digest();
+        digest.update(&expected[4..]);
+        digest.update(&buf[HEADER_LEN..n]);
+        expected.extend(digest.finalize().to_le_bytes());
         // features: len 1, variant 2 with its f32 parameter; exponents: len 1, 0; floats: len 13,
         // then f32 LE.
         expected.extend([1, 2]);
@@ -407,6 +485,8 @@ mod tests {
         assert_eq!(Small::decode(&garbage).unwrap_err(), BlobError::Malformed);
         let mut wrong_m = good.clone();
         wrong_m[6] = 4;
+        assert_eq!(Small::decode(&wrong_m).unwrap_err(), BlobError::CrcMismatch);
+        let wrong_m = resealed(wrong_m);
         assert_eq!(
             Small::decode(&wrong_m).unwrap_err(),
             BlobError::InconsistentDimensions
@@ -423,6 +503,46 @@ mod tests {
             Small::decode(&bad_diag).unwrap_err(),
             BlobError::InvalidParameter
         );
+    }
+
+    /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.
+    fn as_v3(blob: &[u8]) -> Vec<u8> {
+        let payload = &blob[HEADER_LEN..];
+        let mut v3 = blob[..10].to_vec();
+        v3[4..6].copy_from_slice(&V3.to_le_bytes());
+        v3.extend(u32::try_from(payload.len()).unwrap().to_le_bytes());
+        v3.extend(CRC32.checksum(payload).to_le_bytes());
+        v3.extend(payload);
+        v3
+    }
+
+    #[test]
+    fn a_version_3_blob_still_decodes_as_sequence_0_and_cannot_take_one() {
+        let good = Reference::small().blob();
+        let mut old = as_v3(&good);
+        assert_eq!(Small::decode(&old).unwrap(), Small::decode(&good).unwrap());
+        let header = read_header(&old).unwrap();
+        assert_eq!((header.version, header.sequence), (V3, 0));
+        assert_eq!(set_sequence(&mut old, 1), Err(BlobError::NoSequence(3)));
+        old[30] ^= 1;
+        assert_eq!(Small::decode(&old).unwrap_err(), BlobError::CrcMismatch);
+    }
+
+    #[test]
+    fn the_sequence_is_stamped_and_checked_by_the_crc() {
+        let mut b = Reference::small().blob();
+        assert_eq!(read_header(&b).unwrap().sequence, 0);
+        set_sequence(&mut b, 0xDEAD_BEEF).unwrap();
+        assert_eq!(read_header(&b).unwrap().sequence, 0xDEAD_BEEF);
+        assert_eq!(
+            Small::decode(&b).unwrap(),
+            Small::decode(&Reference::small().blob()).unwrap()
+        );
+        for bit in 0..32 {
+            let mut flipped = b.clone();
+            flipped[SEQUENCE_AT + bit / 8] ^= 1 << (bit % 8);
+            assert_eq!(read_header(&flipped).err(), Some(BlobError::CrcMismatch));
+        }
     }
 
     #[test]

@@ -37,6 +37,9 @@ pub enum BlobError {
     InvalidParameter,
     /// The output buffer is too small for the blob (encoding).
     BufferTooSmall,
+    /// A blob of this format version has no sequence number, so it cannot go into a calibration
+    /// slot (re-export it with this trainer).
+    NoSequence(u16),
 }
 
 /// The storage a capacity refers to.
@@ -72,6 +75,11 @@ impl fmt::Display for BlobError {
             Self::NonFinite(i) => write!(f, "blob number {i} is not finite"),
             Self::InvalidParameter => write!(f, "blob parameter out of its domain"),
             Self::BufferTooSmall => write!(f, "output buffer too small for the blob"),
+            Self::NoSequence(v) => write!(
+                f,
+                "a format version {v} blob has no sequence number for a calibration slot: \
+                 re-export it"
+            ),
         }
     }
 }

@@ -10,6 +10,7 @@ pub mod error;
 pub mod features;
 pub mod model;
 pub mod record;
+pub mod slots;
 pub mod status;
 #[cfg(test)]
 mod testing;
@@ -18,6 +19,7 @@ pub use blob::{Dims, Feature};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_INPUTS, Sample};
 pub use model::{Mean, Model, Prediction};
+pub use slots::{Flash, FlashError, Layout, Slot, SlotError};
 pub use status::Status;
 
 /// The firmware-integration guide, whose Rust example is compiled and run as a doc test of this

@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use firmware_core::record;
 use serde::Serialize;
 
 use crate::data::stream::Stream;
@@ -124,12 +123,10 @@ pub fn build_image() -> Result<PathBuf, QemuError> {
 pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuError> {
     let dir = tempfile::tempdir()?;
     std::fs::write(dir.path().join("model.bin"), blob)?;
-    // The host replay's restarts become power-on flags.
-    let mut samples = Vec::with_capacity(record::SAMPLE_BYTES * stream.len());
-    for (i, power_on) in crate::replay::restarts(stream).into_iter().enumerate() {
-        samples.extend(record::encode_sample(&replay::sample(stream, i), power_on));
-    }
-    std::fs::write(dir.path().join("samples.bin"), samples)?;
+    std::fs::write(
+        dir.path().join("samples.bin"),
+        replay::sample_records(stream),
+    )?;
     let mut child = Command::new("qemu-system-arm")
         .args(QEMU_ARGS)
         .arg(image)
@@ -158,17 +155,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         )));
     }
     let bytes = std::fs::read(dir.path().join("out.bin"))?;
-    let [_, noise_var] = crate::replay::decode(blob)
-        .map(|m| m.variances())
-        .unwrap_or([0.0, 0.0]);
-    let mut compensated = Compensated::default();
-    for rec in bytes.chunks_exact(record::RESULT_BYTES) {
-        let Ok(rec) = rec.try_into() else { continue };
-        let (mean, variance, status) = record::decode_result(rec);
-        compensated.rate_dps.push(mean);
-        compensated.std_dps.push((variance + noise_var).sqrt());
-        compensated.status.push(status);
-    }
+    let compensated = replay::from_result_records(&bytes, blob);
     if compensated.rate_dps.len() != stream.len() {
         return Err(QemuError::Image(format!(
             "{} results for {} samples",

@@ -14,6 +14,7 @@
 
 use firmware_core::blob::Dims;
 use firmware_core::model::Model;
+use firmware_core::record;
 use firmware_core::{BlobError, FeatureState, Sample, Status};
 use serde::Serialize;
 
@@ -104,6 +105,31 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
         };
         out.rate_dps.push(rate);
         out.std_dps.push((var + noise_var).sqrt());
+        out.status.push(status);
+    }
+    out
+}
+
+/// The stream as sample records (`firmware_core::record`), [`restarts`] as power-on flags: what a
+/// device replay (the Cortex-M4 image, the C program) reads.
+pub fn sample_records(stream: &Stream) -> Vec<u8> {
+    let mut out = Vec::with_capacity(record::SAMPLE_BYTES * stream.len());
+    for (i, power_on) in restarts(stream).into_iter().enumerate() {
+        out.extend(record::encode_sample(&sample(stream, i), power_on));
+    }
+    out
+}
+
+/// A device's result records as a replay of `blob`: standard deviations with the blob's noise
+/// variance added, as [`replay`] computes them.
+pub fn from_result_records(bytes: &[u8], blob: &[u8]) -> Compensated {
+    let [_, noise_var] = decode(blob).map(|m| m.variances()).unwrap_or([0.0, 0.0]);
+    let mut out = Compensated::default();
+    for rec in bytes.chunks_exact(record::RESULT_BYTES) {
+        let Ok(rec) = rec.try_into() else { continue };
+        let (mean, variance, status) = record::decode_result(rec);
+        out.rate_dps.push(mean);
+        out.std_dps.push((variance + noise_var).sqrt());
         out.status.push(status);
     }
     out

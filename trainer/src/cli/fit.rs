@@ -417,7 +417,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
     firmware_sim::replay::decode(&bytes)?;
     console.result(&format!(
         "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
-         blob: {} bytes (18-byte header + postcard payload)\n\
+         blob: {} bytes ({}-byte header + postcard payload)\n\
          flat f32 array: 7d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
          static memory of Model<{}, {}, {}>: 4·{} + p·d + d + 24 = {} bytes (32-bit target)\n\
          variance scratch: 4·m = {} bytes",
@@ -426,6 +426,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
         f.d,
         f.p,
         f.blob_bytes,
+        firmware_core::blob::HEADER_LEN,
         f.floats,
         f.d,
         f.p * f.d,

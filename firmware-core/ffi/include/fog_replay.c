@@ -1,0 +1,86 @@
+/*
+ * A replay loop in C over fog.h: what a gyro's C firmware does per sample, run over a file.
+ *
+ *   fog_replay model.bin samples.bin out.bin
+ *
+ * model.bin is a blob `trainer fit` wrote. samples.bin holds one 20-byte record per sample (time
+ * since power-on f64, temperature f32, gyro output f32, flags u32 with bit 0 set at a power-on;
+ * all little-endian), as `firmware-sim` writes them for the Cortex-M4 image. out.bin gets one
+ * 9-byte record per sample: mean f32, latent variance f32, status u8. Both formats are
+ * firmware-core's `record` module. Exit status 0 on success, 1 with a message on stderr.
+ *
+ * Build on the host, after `cargo build -p fog-ffi --release`:
+ *   cc -O2 -I firmware-core/ffi/include firmware-core/ffi/include/fog_replay.c \
+ *      target/release/libfog_ffi.a -lm -lpthread -ldl -o fog_replay
+ */
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fog.h"
+
+/* Static storage, as on the gyro: nothing is allocated. */
+static FogModel model;
+static FogState state;
+static uint8_t blob[8 * FOG_MODEL_WORDS];
+
+static int fail(const char *what) {
+    fprintf(stderr, "fog_replay: %s\n", what);
+    return 1;
+}
+
+/* The little-endian bytes at p, as the host's own types (this program assumes a little-endian
+ * host, as the Cortex-M4 is). */
+static double f64_at(const uint8_t *p) { double v; memcpy(&v, p, 8); return v; }
+static float f32_at(const uint8_t *p) { float v; memcpy(&v, p, 4); return v; }
+static uint32_t u32_at(const uint8_t *p) { uint32_t v; memcpy(&v, p, 4); return v; }
+
+int main(int argc, char **argv) {
+    if (argc != 4) {
+        return fail("usage: fog_replay model.bin samples.bin out.bin");
+    }
+    FILE *f = fopen(argv[1], "rb");
+    if (!f) {
+        return fail("cannot open the model");
+    }
+    size_t len = fread(blob, 1, sizeof blob, f);
+    fclose(f);
+    FogResult r = fog_model_decode(&model, blob, len);
+    if (r != FOG_OK) {
+        fprintf(stderr, "fog_replay: model refused (FogResult %d)\n", (int)r);
+        return 1;
+    }
+    FogDims dims;
+    if (fog_model_dims(&model, &dims) != FOG_OK) {
+        return fail("no dimensions");
+    }
+    fprintf(stderr, "fog_replay: %u centres, %u inputs\n", dims.centres, dims.inputs);
+
+    FILE *in = fopen(argv[2], "rb");
+    FILE *out = fopen(argv[3], "wb");
+    if (!in || !out) {
+        return fail("cannot open the samples or the output");
+    }
+    fog_state_reset(&state);
+    uint8_t rec[20];
+    while (fread(rec, 1, sizeof rec, in) == sizeof rec) {
+        if (u32_at(rec + 16) & 1u) {
+            fog_state_reset(&state); /* power-on: the filters start again */
+        }
+        FogPrediction p;
+        r = fog_compensate(&model, &state, f64_at(rec), f32_at(rec + 8), f32_at(rec + 12), &p);
+        if (r != FOG_OK) {
+            fprintf(stderr, "fog_replay: compensate failed (FogResult %d)\n", (int)r);
+            return 1;
+        }
+        uint8_t res[9];
+        memcpy(res, &p.mean, 4);
+        memcpy(res + 4, &p.variance, 4);
+        res[8] = (uint8_t)p.status;
+        if (fwrite(res, 1, sizeof res, out) != sizeof res) {
+            return fail("write error");
+        }
+    }
+    fclose(in);
+    return fclose(out) == 0 ? 0 : fail("write error");
+}

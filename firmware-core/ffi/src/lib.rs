@@ -1,0 +1,599 @@
+//! The C interface to firmware-core: what a gyro's firmware written in C (a vendor HAL, an RTOS
+//! application) calls to use a compensation model. The header is `include/fog.h`, generated from
+//! this file by cbindgen (the `header_is_current` test fails when it is stale).
+//!
+//! The C side owns all memory: a [`FogModel`] and a [`FogState`] are opaque blocks of the sizes
+//! the header states, typically `static`; nothing is allocated. Every function returns a
+//! [`FogResult`], one code per variant of the Rust errors ([`firmware_core::BlobError`],
+//! [`firmware_core::PredictError`], [`firmware_core::SlotError`]), and checks its pointers for
+//! null first.
+//!
+//! This is the one crate of the project with `unsafe` code: turning C pointers into references.
+//! Each block says why it is sound; everything past that is the safe Rust of firmware-core.
+#![cfg_attr(target_os = "none", no_std)]
+
+use core::mem::{align_of, size_of};
+
+use core::ffi::c_void;
+use firmware_core::blob::Dims;
+
+use firmware_core::slots::{self, Flash, FlashError, Layout, Slot, SlotError};
+use firmware_core::{BlobError, FeatureState, Model, PredictError, Sample, Status};
+
+/// Most model inputs a [`FogModel`] holds.
+pub const FOG_MAX_INPUTS: usize = 4;
+/// Most prior-mean monomials a [`FogModel`] holds.
+pub const FOG_MAX_MONOMIALS: usize = 16;
+/// Most centres (inducing points of a sparse GP) a [`FogModel`] holds: the trainer exports at
+/// most 256. A smaller number shrinks [`FogModel`] to about `4·m(m+1)/2` bytes: change it here
+/// and regenerate the header (docs/firmware.md gives the figures).
+pub const FOG_MAX_CENTRES: usize = 256;
+/// Numbers in the model's flat array at those capacities (`Dims::floats`).
+const FLOATS: usize = 7 * FOG_MAX_INPUTS
+    + FOG_MAX_MONOMIALS
+    + 2
+    + FOG_MAX_CENTRES * FOG_MAX_INPUTS
+    + FOG_MAX_CENTRES
+    + FOG_MAX_CENTRES * (FOG_MAX_CENTRES + 1) / 2;
+
+/// The decoded model at the header's capacities.
+type Inner = Model<FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>;
+
+/// 8-byte words of a [`FogModel`]: the model's flat array and room for its sizes, features and
+/// exponents (a compile-time check below holds it to the real size on every target).
+pub const FOG_MODEL_WORDS: usize = 17_136;
+/// 8-byte words of a [`FogState`]: the feature pipeline's memory and the variance's scratch.
+pub const FOG_STATE_WORDS: usize = 160;
+
+/// Storage for one decoded model: opaque, aligned, at least as large as the model it holds.
+#[repr(C)]
+pub struct FogModel {
+    words: [u64; FOG_MODEL_WORDS],
+}
+
+/// Storage for one sensor channel's running state: opaque.
+#[repr(C)]
+pub struct FogState {
+    words: [u64; FOG_STATE_WORDS],
+}
+
+/// What a [`FogState`] holds.
+struct State {
+    features: FeatureState,
+    scratch: [f32; FOG_MAX_CENTRES],
+}
+
+const _: () = assert!(size_of::<Inner>() <= size_of::<FogModel>());
+const _: () = assert!(align_of::<Inner>() <= align_of::<FogModel>());
+const _: () = assert!(size_of::<State>() <= size_of::<FogState>());
+const _: () = assert!(align_of::<State>() <= align_of::<FogState>());
+
+/// The outcome of every call: 0 is success, each error of the Rust interface has its own code.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FogResult {
+    /// Success.
+    FogOk = 0,
+    /// A pointer argument was null.
+    FogErrNull = 1,
+    /// `BlobError::BadMagic`: not a model blob.
+    FogErrBadMagic = 2,
+    /// `BlobError::UnsupportedVersion`: a format version this firmware does not read.
+    FogErrUnsupportedVersion = 3,
+    /// `BlobError::Truncated`.
+    FogErrTruncated = 4,
+    /// `BlobError::TrailingBytes`.
+    FogErrTrailingBytes = 5,
+    /// `BlobError::CrcMismatch`: corrupted.
+    FogErrCrcMismatch = 6,
+    /// `BlobError::CapacityExceeded`: the model needs more than the header's capacities.
+    FogErrCapacityExceeded = 7,
+    /// `BlobError::Malformed`.
+    FogErrMalformed = 8,
+    /// `BlobError::InconsistentDimensions`.
+    FogErrInconsistentDimensions = 9,
+    /// `BlobError::NonFinite`: a NaN or infinite number in the blob.
+    FogErrNonFinite = 10,
+    /// `BlobError::InvalidParameter`: a number out of its domain.
+    FogErrInvalidParameter = 11,
+    /// `BlobError::BufferTooSmall`.
+    FogErrBufferTooSmall = 12,
+    /// `BlobError::NoSequence`: a version-3 blob cannot go into a calibration slot.
+    FogErrNoSequence = 13,
+    /// `PredictError::ScratchTooSmall` (cannot happen at the header's capacities).
+    FogErrScratchTooSmall = 14,
+    /// The model storage does not hold a decoded model.
+    FogErrNoModel = 15,
+    /// The state storage was not initialized by `fog_state_reset`.
+    FogErrNoState = 16,
+    /// `SlotError::NoValidSlot`: neither calibration slot holds a valid model.
+    FogErrNoValidSlot = 17,
+    /// `SlotError::TooLarge`: the blob is larger than a slot.
+    FogErrSlotTooSmall = 18,
+    /// `SlotError::BufferTooSmall`: the buffer given is smaller than a slot.
+    FogErrSlotBufferTooSmall = 19,
+    /// `SlotError::Flash(FlashError::OutOfRange)`: an address outside the device.
+    FogErrFlashOutOfRange = 20,
+    /// `SlotError::Flash(FlashError::Device)`: the flash driver reported a failure.
+    FogErrFlashDevice = 21,
+    /// `SlotError::Verify`: the slot read back differs from the blob written.
+    FogErrVerify = 22,
+}
+
+/// A prediction's validity, as `firmware_core::Status`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FogStatus {
+    /// Inputs inside the trained range.
+    FogValid = 0,
+    /// An input outside the trained range: usable, flag it.
+    FogExtrapolating = 1,
+    /// A stateful input's history is not to be trusted (time jump, stuck sensor): settling.
+    FogDegraded = 2,
+    /// NaN, infinite or impossible input: do not use the mean.
+    FogFault = 3,
+}
+
+/// One compensated sample.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FogPrediction {
+    /// The compensated rate, output units (°/s).
+    pub mean: f32,
+    /// Its latent variance, output units², never negative.
+    pub variance: f32,
+    /// Its validity.
+    pub status: FogStatus,
+}
+
+/// A model's sizes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FogDims {
+    /// Centres.
+    pub centres: u32,
+    /// Inputs.
+    pub inputs: u32,
+    /// Prior-mean monomials.
+    pub monomials: u32,
+}
+
+impl From<BlobError> for FogResult {
+    fn from(e: BlobError) -> Self {
+        match e {
+            BlobError::BadMagic => Self::FogErrBadMagic,
+            BlobError::UnsupportedVersion(_) => Self::FogErrUnsupportedVersion,
+            BlobError::Truncated => Self::FogErrTruncated,
+            BlobError::TrailingBytes => Self::FogErrTrailingBytes,
+            BlobError::CrcMismatch => Self::FogErrCrcMismatch,
+            BlobError::CapacityExceeded { .. } => Self::FogErrCapacityExceeded,
+            BlobError::Malformed => Self::FogErrMalformed,
+            BlobError::InconsistentDimensions => Self::FogErrInconsistentDimensions,
+            BlobError::NonFinite(_) => Self::FogErrNonFinite,
+            BlobError::InvalidParameter => Self::FogErrInvalidParameter,
+            BlobError::BufferTooSmall => Self::FogErrBufferTooSmall,
+            BlobError::NoSequence(_) => Self::FogErrNoSequence,
+            // `BlobError` is non-exhaustive: a variant added later reads as malformed until it
+            // gets its own code.
+            _ => Self::FogErrMalformed,
+        }
+    }
+}
+
+impl From<PredictError> for FogResult {
+    fn from(e: PredictError) -> Self {
+        match e {
+            PredictError::ScratchTooSmall { .. } => Self::FogErrScratchTooSmall,
+        }
+    }
+}
+
+impl From<SlotError> for FogResult {
+    fn from(e: SlotError) -> Self {
+        match e {
+            SlotError::NoValidSlot => Self::FogErrNoValidSlot,
+            SlotError::TooLarge { .. } => Self::FogErrSlotTooSmall,
+            SlotError::BufferTooSmall => Self::FogErrSlotBufferTooSmall,
+            SlotError::Blob(b) => b.into(),
+            SlotError::Flash(FlashError::OutOfRange) => Self::FogErrFlashOutOfRange,
+            SlotError::Flash(FlashError::Device) => Self::FogErrFlashDevice,
+            SlotError::Verify => Self::FogErrVerify,
+        }
+    }
+}
+
+impl From<Status> for FogStatus {
+    fn from(s: Status) -> Self {
+        match s {
+            Status::Valid => Self::FogValid,
+            Status::Extrapolating => Self::FogExtrapolating,
+            Status::Degraded => Self::FogDegraded,
+            Status::Fault => Self::FogFault,
+        }
+    }
+}
+
+/// Marks a [`FogModel`] as holding a decoded model: its first word, written after the model,
+/// outside the model's own bytes. Storage the C side zeroed (or never decoded into) lacks it.
+const DECODED: u64 = 0x464F_475F_4D4F_444C;
+
+/// Words of a [`FogModel`] the model occupies; the marker follows.
+const MODEL_WORDS: usize = size_of::<Inner>().div_ceil(8);
+const _: () = assert!(MODEL_WORDS < FOG_MODEL_WORDS);
+
+/// Decodes the blob of `len` bytes at `blob` into `model`. On an error `model` is left marked as
+/// holding no model, whatever it held before.
+///
+/// # Safety
+/// `model` points to a writable `FogModel`; `blob` to `len` readable bytes. Either may be null
+/// (`FogErrNull`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_model_decode(
+    model: *mut FogModel,
+    blob: *const u8,
+    len: usize,
+) -> FogResult {
+    if model.is_null() || blob.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller guarantees `blob` points to `len` readable bytes (checked non-null).
+    let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
+    // SAFETY: `model` is non-null and points to a FogModel the caller lets us write; the
+    // reference lives for this call only.
+    let storage = unsafe { &mut *model };
+    storage.words[MODEL_WORDS] = 0;
+    match Inner::decode(bytes) {
+        Ok(decoded) => {
+            // SAFETY: the storage is at least as large and as aligned as `Inner` (compile-time
+            // checks above), and it is exclusively ours for this call. `write` does not drop the
+            // old bytes, which may not be a model.
+            unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<Inner>(), decoded) };
+            storage.words[MODEL_WORDS] = DECODED;
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
+/// The model in `model`, if it holds one.
+///
+/// # Safety
+/// `model` is null or points to a readable, initialized `FogModel` (decoded into, or zeroed).
+unsafe fn decoded<'a>(model: *const FogModel) -> Result<&'a Inner, FogResult> {
+    if model.is_null() {
+        return Err(FogResult::FogErrNull);
+    }
+    // SAFETY: non-null, readable per the caller; shared for the call.
+    let storage = unsafe { &*model };
+    if storage.words[MODEL_WORDS] != DECODED {
+        return Err(FogResult::FogErrNoModel);
+    }
+    // SAFETY: the marker is written only after `fog_model_decode` wrote a valid `Inner` at the
+    // start of this storage, and cleared before anything else writes there.
+    Ok(unsafe { &*storage.words.as_ptr().cast::<Inner>() })
+}
+
+/// Marks a [`FogState`] that `fog_state_reset` initialized: its last word, outside the `State`.
+const RESET: u64 = 0x464F_475F_5354_4154;
+
+const _: () = assert!(size_of::<State>() < 8 * (FOG_STATE_WORDS - 1));
+
+/// The state in `state`, if `fog_state_reset` initialized it.
+///
+/// # Safety
+/// `state` is null or points to a writable `FogState`, initialized (by `fog_state_reset`, or
+/// zeroed as a C `static` is).
+unsafe fn state<'a>(state: *mut FogState) -> Result<&'a mut State, FogResult> {
+    if state.is_null() {
+        return Err(FogResult::FogErrNull);
+    }
+    // SAFETY: non-null, writable and initialized per the caller; exclusive for the call.
+    let storage = unsafe { &mut *state };
+    if storage.words[FOG_STATE_WORDS - 1] != RESET {
+        return Err(FogResult::FogErrNoState);
+    }
+    // SAFETY: the marker is written only after `fog_state_reset` wrote a `State` at the start of
+    // this storage (it fits and is aligned: compile-time checks above).
+    Ok(unsafe { &mut *storage.words.as_mut_ptr().cast::<State>() })
+}
+
+/// Resets a channel's state: call it at every power-on, before the first sample (and to
+/// initialize a new `FogState`).
+///
+/// # Safety
+/// `state` is null (`FogErrNull`) or points to a writable `FogState` (initialized or not).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_state_reset(state: *mut FogState) -> FogResult {
+    if state.is_null() {
+        return FogResult::FogErrNull;
+    }
+    let fresh = State {
+        features: FeatureState::default(),
+        scratch: [0.0; FOG_MAX_CENTRES],
+    };
+    // SAFETY: non-null and writable per the caller; exclusive for the call.
+    let storage = unsafe { &mut *state };
+    // SAFETY: the storage fits and aligns `State` (compile-time checks); `write` does not read
+    // or drop the bytes that were there.
+    unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<State>(), fresh) };
+    storage.words[FOG_STATE_WORDS - 1] = RESET;
+    FogResult::FogOk
+}
+
+/// Compensates one sample (time since power-on in s, temperature in °C, the gyro's output) with
+/// the model, through the channel's state: the feature pipeline, then mean and variance.
+///
+/// # Safety
+/// `model` points to a `FogModel` and `channel` to a `FogState`, each initialized (by its
+/// function, or zeroed as a C `static` is: then `FogErrNoModel` / `FogErrNoState`); `out` to a
+/// writable `FogPrediction`; any may be null (`FogErrNull`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_compensate(
+    model: *const FogModel,
+    channel: *mut FogState,
+    time_s: f64,
+    temp_c: f32,
+    output: f32,
+    out: *mut FogPrediction,
+) -> FogResult {
+    if out.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `model` and `channel`, forwarded.
+    let (model, channel) = match unsafe { (decoded(model), state(channel)) } {
+        (Ok(m), Ok(s)) => (m, s),
+        (Err(e), _) | (_, Err(e)) => return e,
+    };
+    let sample = Sample {
+        time_s,
+        temp_c,
+        output,
+    };
+    match model.compensate(&sample, &mut channel.features, &mut channel.scratch) {
+        Ok(p) => {
+            let prediction = FogPrediction {
+                mean: p.mean,
+                variance: p.variance,
+                status: p.status.into(),
+            };
+            // SAFETY: `out` is non-null and writable per the caller.
+            unsafe { out.write(prediction) };
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
+/// The decoded model's sizes.
+///
+/// # Safety
+/// `model` points to an initialized `FogModel` (decoded into, or zeroed), `out` to a writable
+/// `FogDims`; either may be null.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_model_dims(model: *const FogModel, out: *mut FogDims) -> FogResult {
+    if out.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `model`, forwarded.
+    let model = match unsafe { decoded(model) } {
+        Ok(m) => m,
+        Err(e) => return e,
+    };
+    let Dims { m, d, p } = model.dims();
+    let dims = FogDims {
+        centres: u32::try_from(m).unwrap_or(u32::MAX),
+        inputs: u32::try_from(d).unwrap_or(u32::MAX),
+        monomials: u32::try_from(p).unwrap_or(u32::MAX),
+    };
+    // SAFETY: `out` is non-null and writable per the caller.
+    unsafe { out.write(dims) };
+    FogResult::FogOk
+}
+
+/// The C side's flash driver, for the calibration slots (docs/firmware.md). Each function gets
+/// `context` back and returns 0 on success, 1 for an address outside the device, anything else
+/// for a device failure.
+#[repr(C)]
+pub struct FogFlash {
+    /// Passed back to every function (the driver's own state).
+    pub context: *mut c_void,
+    /// Erase unit, bytes.
+    pub sector: u32,
+    /// Program unit, bytes: one `program` call stays inside one page.
+    pub page: u32,
+    /// Reads `len` bytes at `addr` into `buf`.
+    pub read: Option<unsafe extern "C" fn(*mut c_void, u32, *mut u8, usize) -> i32>,
+    /// Erases the sector that starts at `addr`.
+    pub erase: Option<unsafe extern "C" fn(*mut c_void, u32) -> i32>,
+    /// Programs `len` bytes from `data` at `addr` (clearing bits only).
+    pub program: Option<unsafe extern "C" fn(*mut c_void, u32, *const u8, usize) -> i32>,
+}
+
+/// Where the two calibration slots are: each `len` bytes, sector-aligned, not overlapping.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FogLayout {
+    /// Address of slot A.
+    pub a: u32,
+    /// Address of slot B.
+    pub b: u32,
+    /// Bytes of each slot.
+    pub len: u32,
+}
+
+/// Which slot, and the sequence number of the blob in it.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FogSlot {
+    /// 0 for slot A, 1 for slot B.
+    pub slot: u32,
+    /// The blob's sequence number.
+    pub sequence: u32,
+}
+
+/// The driver behind the `Flash` trait: every call goes through the C function pointers.
+struct CFlash<'a>(&'a FogFlash);
+
+fn flash_result(code: i32) -> Result<(), FlashError> {
+    match code {
+        0 => Ok(()),
+        1 => Err(FlashError::OutOfRange),
+        _ => Err(FlashError::Device),
+    }
+}
+
+fn address(addr: usize) -> Result<u32, FlashError> {
+    u32::try_from(addr).map_err(|_| FlashError::OutOfRange)
+}
+
+impl Flash for CFlash<'_> {
+    fn sector(&self) -> usize {
+        self.0.sector as usize
+    }
+
+    fn page(&self) -> usize {
+        self.0.page as usize
+    }
+
+    fn read(&self, addr: usize, buf: &mut [u8]) -> Result<(), FlashError> {
+        let f = self.0.read.ok_or(FlashError::Device)?;
+        // SAFETY: the driver's contract (`fog_slots_boot`'s): `read` may write `buf.len()` bytes
+        // at `buf`, which is a live, exclusive Rust slice of that length.
+        flash_result(unsafe { f(self.0.context, address(addr)?, buf.as_mut_ptr(), buf.len()) })
+    }
+
+    fn erase(&mut self, addr: usize) -> Result<(), FlashError> {
+        let f = self.0.erase.ok_or(FlashError::Device)?;
+        // SAFETY: the driver's contract: `erase` touches only its flash and its context.
+        flash_result(unsafe { f(self.0.context, address(addr)?) })
+    }
+
+    fn program(&mut self, addr: usize, data: &[u8]) -> Result<(), FlashError> {
+        let f = self.0.program.ok_or(FlashError::Device)?;
+        // SAFETY: the driver's contract: `program` reads `data.len()` bytes at `data`, a live
+        // Rust slice of that length.
+        flash_result(unsafe { f(self.0.context, address(addr)?, data.as_ptr(), data.len()) })
+    }
+}
+
+/// A slot as C numbers it: 0 for A, 1 for B.
+fn slot_number(s: Slot) -> u32 {
+    match s {
+        Slot::A => 0,
+        Slot::B => 1,
+    }
+}
+
+fn layout(l: &FogLayout) -> Layout {
+    Layout {
+        a: l.a as usize,
+        b: l.b as usize,
+        len: l.len as usize,
+    }
+}
+
+/// Boots the calibration slot with the newest valid model into `model` (firmware-core's
+/// `slots::boot`): `FogErrNoValidSlot` when neither holds one (`model` then holds no model).
+///
+/// # Safety
+/// `flash` points to a `FogFlash` whose functions behave as documented, `layout` to a
+/// `FogLayout`, `buf` to `buf_len` writable bytes (at least one slot), `model` to a writable
+/// `FogModel`, `out` to a writable `FogSlot` or is null (not wanted). The others may be null
+/// (`FogErrNull`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_slots_boot(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    buf: *mut u8,
+    buf_len: usize,
+    model: *mut FogModel,
+    out: *mut FogSlot,
+) -> FogResult {
+    if flash.is_null() || slots_layout.is_null() || buf.is_null() || model.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: non-null and valid per the caller; shared or exclusive for this call as used.
+    let (flash, slots_layout, storage) = unsafe { (&*flash, &*slots_layout, &mut *model) };
+    // SAFETY: `buf` is non-null with `buf_len` writable bytes per the caller.
+    let buf = unsafe { core::slice::from_raw_parts_mut(buf, buf_len) };
+    storage.words[MODEL_WORDS] = 0;
+    match slots::boot::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>(
+        &CFlash(flash),
+        &layout(slots_layout),
+        buf,
+    ) {
+        Ok(booted) => {
+            // SAFETY: as in `fog_model_decode`: the storage fits and aligns `Inner`, and is ours.
+            unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<Inner>(), booted.model) };
+            storage.words[MODEL_WORDS] = DECODED;
+            if !out.is_null() {
+                let slot = FogSlot {
+                    slot: slot_number(booted.slot),
+                    sequence: booted.sequence,
+                };
+                // SAFETY: `out` is non-null and writable per the caller.
+                unsafe { out.write(slot) };
+            }
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
+/// Writes the blob of `len` bytes at `blob` into the slot not in use, with the next sequence
+/// number, committing by its last write (firmware-core's `slots::update`; the blob's header is
+/// stamped in place). The model in use is untouched whatever happens; reboot to use the new one.
+///
+/// # Safety
+/// As `fog_slots_boot`, with `blob` pointing to `len` writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_slots_update(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    blob: *mut u8,
+    len: usize,
+    buf: *mut u8,
+    buf_len: usize,
+    out: *mut FogSlot,
+) -> FogResult {
+    if flash.is_null() || slots_layout.is_null() || blob.is_null() || buf.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: non-null and valid per the caller.
+    let (flash, slots_layout) = unsafe { (&*flash, &*slots_layout) };
+    // SAFETY: non-null, `len` and `buf_len` writable bytes per the caller; the two do not
+    // overlap (separate buffers by the contract).
+    let (blob, buf) = unsafe {
+        (
+            core::slice::from_raw_parts_mut(blob, len),
+            core::slice::from_raw_parts_mut(buf, buf_len),
+        )
+    };
+    match slots::update::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>(
+        &mut CFlash(flash),
+        &layout(slots_layout),
+        blob,
+        buf,
+    ) {
+        Ok((slot, sequence)) => {
+            if !out.is_null() {
+                let written = FogSlot {
+                    slot: slot_number(slot),
+                    sequence,
+                };
+                // SAFETY: `out` is non-null and writable per the caller.
+                unsafe { out.write(written) };
+            }
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
+#[cfg(target_os = "none")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    // firmware-core has no panics on its data paths (its lints deny them); this is for the
+    // linker. A fault loops, for the watchdog.
+    loop {}
+}

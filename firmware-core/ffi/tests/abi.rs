@@ -1,0 +1,106 @@
+//! The C functions called as C calls them: null pointers, storage never initialized, a real blob,
+//! and one result code per Rust error.
+
+use std::collections::HashSet;
+
+use firmware_core::{BlobError, PredictError};
+use fog_ffi::*;
+
+const BLOB: &[u8] = include_bytes!("../../doc/gyro.bin");
+
+/// Zeroed storage, as a C `static` starts.
+fn zeroed<T>() -> Box<T> {
+    // SAFETY: FogModel and FogState are arrays of u64, for which all-zero bytes are valid.
+    unsafe { Box::new(std::mem::MaybeUninit::zeroed().assume_init()) }
+}
+
+#[test]
+fn a_blob_decodes_into_static_storage_and_compensates() {
+    let mut model: Box<FogModel> = zeroed();
+    let mut state: Box<FogState> = zeroed();
+    let mut p = FogPrediction {
+        mean: f32::NAN,
+        variance: f32::NAN,
+        status: FogStatus::FogFault,
+    };
+    // SAFETY: the pointers are to live, zero-initialized storage of the right types, or null on
+    // purpose.
+    unsafe {
+        assert_eq!(
+            fog_compensate(&*model, &mut *state, 60.0, 25.0, 0.38, &mut p),
+            FogResult::FogErrNoModel
+        );
+        assert_eq!(
+            fog_model_decode(&mut *model, BLOB.as_ptr(), BLOB.len()),
+            FogResult::FogOk
+        );
+        assert_eq!(
+            fog_compensate(&*model, &mut *state, 60.0, 25.0, 0.38, &mut p),
+            FogResult::FogErrNoState
+        );
+        assert_eq!(fog_state_reset(&mut *state), FogResult::FogOk);
+        assert_eq!(
+            fog_compensate(&*model, &mut *state, 60.0, 25.0, 0.38, &mut p),
+            FogResult::FogOk
+        );
+        let mut dims = FogDims {
+            centres: 0,
+            inputs: 0,
+            monomials: 0,
+        };
+        assert_eq!(fog_model_dims(&*model, &mut dims), FogResult::FogOk);
+        assert_eq!((dims.centres, dims.inputs, dims.monomials), (24, 2, 7));
+        assert_eq!(
+            fog_model_decode(std::ptr::null_mut(), BLOB.as_ptr(), BLOB.len()),
+            FogResult::FogErrNull
+        );
+        assert_eq!(
+            fog_compensate(&*model, &mut *state, 60.0, 25.0, 0.38, std::ptr::null_mut()),
+            FogResult::FogErrNull
+        );
+        // A refused blob leaves no model behind, not the old one.
+        let mut bad = BLOB.to_vec();
+        bad[100] ^= 1;
+        assert_eq!(
+            fog_model_decode(&mut *model, bad.as_ptr(), bad.len()),
+            FogResult::FogErrCrcMismatch
+        );
+        assert_eq!(fog_model_dims(&*model, &mut dims), FogResult::FogErrNoModel);
+    }
+    // The docs/firmware.md example's figure, through C: 0.38 V at 25 °C is 9.95 °/s.
+    assert_eq!(p.status, FogStatus::FogValid);
+    assert!((p.mean - 9.945).abs() < 1e-3, "{p:?}");
+}
+
+#[test]
+fn every_rust_error_has_its_own_result_code() {
+    let errors = [
+        BlobError::BadMagic,
+        BlobError::UnsupportedVersion(9),
+        BlobError::Truncated,
+        BlobError::TrailingBytes,
+        BlobError::CrcMismatch,
+        BlobError::CapacityExceeded {
+            what: firmware_core::error::Storage::Floats,
+            needed: 2,
+            capacity: 1,
+        },
+        BlobError::Malformed,
+        BlobError::InconsistentDimensions,
+        BlobError::NonFinite(3),
+        BlobError::InvalidParameter,
+        BlobError::BufferTooSmall,
+        BlobError::NoSequence(3),
+    ];
+    let mut codes: HashSet<i32> = errors.iter().map(|&e| FogResult::from(e) as i32).collect();
+    assert_eq!(codes.len(), errors.len());
+    assert!(codes.insert(FogResult::from(PredictError::ScratchTooSmall { needed: 1 }) as i32));
+    for own in [
+        FogResult::FogOk,
+        FogResult::FogErrNull,
+        FogResult::FogErrNoModel,
+        FogResult::FogErrNoState,
+    ] {
+        assert!(codes.insert(own as i32), "{own:?}");
+    }
+}

@@ -1,0 +1,166 @@
+//! The calibration slots through C: a driver of C function pointers over RAM that behaves as NOR
+//! (erase to 0xFF, programming clears bits), optionally failing every program call.
+
+use std::ffi::c_void;
+
+use fog_ffi::*;
+
+const BLOB: &[u8] = include_bytes!("../../doc/gyro.bin");
+const SECTOR: usize = 4096;
+
+/// The device behind the context pointer.
+struct Device {
+    cells: Vec<u8>,
+    fail_programs: bool,
+}
+
+/// # Safety
+/// `ctx` is a live `Device`.
+unsafe fn device<'a>(ctx: *mut c_void) -> &'a mut Device {
+    // SAFETY: the tests pass a pointer to a live Device as the context.
+    unsafe { &mut *ctx.cast::<Device>() }
+}
+
+unsafe extern "C" fn read(ctx: *mut c_void, addr: u32, buf: *mut u8, len: usize) -> i32 {
+    // SAFETY: the context is a Device; `buf` has `len` writable bytes (fog-ffi's contract).
+    let (d, out) = unsafe { (device(ctx), std::slice::from_raw_parts_mut(buf, len)) };
+    match d.cells.get(addr as usize..addr as usize + len) {
+        Some(src) => {
+            out.copy_from_slice(src);
+            0
+        }
+        None => 1,
+    }
+}
+
+unsafe extern "C" fn erase(ctx: *mut c_void, addr: u32) -> i32 {
+    // SAFETY: the context is a Device.
+    let d = unsafe { device(ctx) };
+    match d.cells.get_mut(addr as usize..addr as usize + SECTOR) {
+        Some(s) => {
+            s.fill(0xFF);
+            0
+        }
+        None => 1,
+    }
+}
+
+unsafe extern "C" fn program(ctx: *mut c_void, addr: u32, data: *const u8, len: usize) -> i32 {
+    // SAFETY: the context is a Device; `data` has `len` readable bytes (fog-ffi's contract).
+    let (d, data) = unsafe { (device(ctx), std::slice::from_raw_parts(data, len)) };
+    if d.fail_programs {
+        return 2;
+    }
+    match d.cells.get_mut(addr as usize..addr as usize + len) {
+        Some(cells) => {
+            cells.iter_mut().zip(data).for_each(|(c, v)| *c &= v);
+            0
+        }
+        None => 1,
+    }
+}
+
+const LAYOUT: FogLayout = FogLayout {
+    a: 0,
+    b: SECTOR as u32,
+    len: SECTOR as u32,
+};
+
+fn driver(device: &mut Device) -> FogFlash {
+    FogFlash {
+        context: (device as *mut Device).cast(),
+        sector: SECTOR as u32,
+        page: 256,
+        read: Some(read),
+        erase: Some(erase),
+        program: Some(program),
+    }
+}
+
+fn boot(flash: &FogFlash, model: &mut FogModel) -> (FogResult, FogSlot) {
+    let mut buf = vec![0u8; SECTOR];
+    let mut slot = FogSlot {
+        slot: 9,
+        sequence: 0,
+    };
+    // SAFETY: every pointer is to live storage of the right type and size.
+    let r = unsafe {
+        fog_slots_boot(
+            flash,
+            &LAYOUT,
+            buf.as_mut_ptr(),
+            buf.len(),
+            model,
+            &mut slot,
+        )
+    };
+    (r, slot)
+}
+
+fn update(flash: &FogFlash) -> (FogResult, FogSlot) {
+    let (mut blob, mut buf) = (BLOB.to_vec(), vec![0u8; SECTOR]);
+    let mut slot = FogSlot {
+        slot: 9,
+        sequence: 0,
+    };
+    // SAFETY: every pointer is to live storage of the right type and size.
+    let r = unsafe {
+        fog_slots_update(
+            flash,
+            &LAYOUT,
+            blob.as_mut_ptr(),
+            blob.len(),
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut slot,
+        )
+    };
+    (r, slot)
+}
+
+#[test]
+fn slots_boot_and_update_through_c_function_pointers() {
+    let mut device = Device {
+        cells: vec![0xFF; 2 * SECTOR],
+        fail_programs: false,
+    };
+    // SAFETY: FogModel is an array of u64, for which zero bytes are valid.
+    let mut model: Box<FogModel> =
+        unsafe { Box::new(std::mem::MaybeUninit::zeroed().assume_init()) };
+    let flash = driver(&mut device);
+    assert_eq!(boot(&flash, &mut model).0, FogResult::FogErrNoValidSlot);
+    let first = FogSlot {
+        slot: 0,
+        sequence: 1,
+    };
+    assert_eq!(update(&flash), (FogResult::FogOk, first));
+    assert_eq!(boot(&flash, &mut model), (FogResult::FogOk, first));
+    let mut dims = FogDims {
+        centres: 0,
+        inputs: 0,
+        monomials: 0,
+    };
+    // SAFETY: live storage.
+    let r = unsafe { fog_model_dims(&*model, &mut dims) };
+    assert_eq!(r, FogResult::FogOk);
+    assert_eq!(dims.centres, 24);
+    let second = FogSlot {
+        slot: 1,
+        sequence: 2,
+    };
+    assert_eq!(update(&flash), (FogResult::FogOk, second));
+    assert_eq!(boot(&flash, &mut model), (FogResult::FogOk, second));
+
+    // A flipped bit in slot B: boot takes slot A.
+    device.cells[SECTOR + 300] ^= 0x20;
+    let flash = driver(&mut device);
+    assert_eq!(boot(&flash, &mut model), (FogResult::FogOk, first));
+    device.cells[SECTOR + 300] ^= 0x20;
+
+    // A driver that fails mid-update (slot A erased, nothing programmed) leaves the model in use,
+    // slot B's, with the driver's error.
+    device.fail_programs = true;
+    let flash = driver(&mut device);
+    assert_eq!(update(&flash).0, FogResult::FogErrFlashDevice);
+    assert_eq!(boot(&flash, &mut model), (FogResult::FogOk, second));
+}

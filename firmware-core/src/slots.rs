@@ -1,0 +1,255 @@
+//! Two calibration slots in NOR flash, so that a model update survives a power cut.
+//!
+//! A calibration model is data that gets replaced: at the factory, after a re-calibration, in
+//! service over a serial link. Each slot holds one blob ([`crate::blob`]) whose header carries a
+//! sequence number. At boot the firmware takes the valid slot with the newest sequence
+//! ([`boot`]); an update ([`update`]) writes the *other* slot with the next sequence, so the model
+//! in use is never touched, and commits by its last write:
+//!
+//! 1. erase the other slot's sectors (NOR erases to 0xFF, a sector at a time);
+//! 2. program the blob from byte 4 on, page by page (programming only clears bits);
+//! 3. program the four magic bytes — the commit. Until they are all there the slot is not a blob.
+//!
+//! A power cut anywhere leaves the other slot erased, partly erased, partly programmed or
+//! complete without its magic, none of which passes [`crate::blob::read_header`] (magic, then a
+//! CRC over everything after it); the slot in use is intact, so the next boot takes it again. A
+//! flipped bit in either slot fails that slot's CRC and boot takes the other. A slot is only ever
+//! a whole blob that the trainer wrote, so a model is never a mix of two.
+//!
+//! The flash itself is the integrator's ([`Flash`]): a HAL's driver on the gyro, the simulated
+//! NOR of `firmware-sim` in tests.
+
+use crate::blob::{self, MAGIC};
+use crate::error::BlobError;
+use crate::model::Model;
+
+/// NOR flash as the slots use it. Addresses are byte offsets into the device.
+pub trait Flash {
+    /// Erase unit, bytes (a sector erases to 0xFF).
+    fn sector(&self) -> usize;
+    /// Program unit, bytes: one program operation stays inside one page.
+    fn page(&self) -> usize;
+    /// Reads `buf.len()` bytes at `addr`.
+    fn read(&self, addr: usize, buf: &mut [u8]) -> Result<(), FlashError>;
+    /// Erases the sector that starts at `addr`.
+    fn erase(&mut self, addr: usize) -> Result<(), FlashError>;
+    /// Programs `data` at `addr` (clearing bits only), within one page.
+    fn program(&mut self, addr: usize, data: &[u8]) -> Result<(), FlashError>;
+}
+
+/// A flash operation failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FlashError {
+    /// The address range is outside the device, or an erase address is not a sector start.
+    OutOfRange,
+    /// The device reported a failure (or, simulated, the power went).
+    Device,
+}
+
+/// Why no model could be booted, or an update was not done.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SlotError {
+    /// Neither slot holds a valid blob.
+    NoValidSlot,
+    /// The blob is larger than a slot.
+    TooLarge {
+        /// Bytes of the blob.
+        blob: usize,
+        /// Bytes of a slot.
+        slot: usize,
+    },
+    /// The buffer given is smaller than a slot.
+    BufferTooSmall,
+    /// The blob to write is not valid for this firmware.
+    Blob(BlobError),
+    /// The flash failed.
+    Flash(FlashError),
+    /// The slot read back differs from what was written.
+    Verify,
+}
+
+impl From<FlashError> for SlotError {
+    fn from(e: FlashError) -> Self {
+        Self::Flash(e)
+    }
+}
+
+impl From<BlobError> for SlotError {
+    fn from(e: BlobError) -> Self {
+        Self::Blob(e)
+    }
+}
+
+impl core::fmt::Display for SlotError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoValidSlot => write!(f, "no calibration slot holds a valid model"),
+            Self::TooLarge { blob, slot } => {
+                write!(f, "blob of {blob} bytes does not fit a {slot}-byte slot")
+            }
+            Self::BufferTooSmall => write!(f, "buffer smaller than a slot"),
+            Self::Blob(e) => write!(f, "blob refused: {e}"),
+            Self::Flash(e) => write!(f, "flash failed: {e:?}"),
+            Self::Verify => write!(f, "slot read back differs from the blob written"),
+        }
+    }
+}
+
+impl core::error::Error for SlotError {}
+
+/// Where the two slots are: each `len` bytes, sector-aligned, not overlapping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    /// Address of slot A.
+    pub a: usize,
+    /// Address of slot B.
+    pub b: usize,
+    /// Bytes of each slot (a whole number of sectors).
+    pub len: usize,
+}
+
+/// One of the two slots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Slot {
+    /// The first.
+    A,
+    /// The second.
+    B,
+}
+
+impl Slot {
+    /// The other slot.
+    pub fn other(self) -> Self {
+        match self {
+            Self::A => Self::B,
+            Self::B => Self::A,
+        }
+    }
+}
+
+impl Layout {
+    fn addr(&self, slot: Slot) -> usize {
+        match slot {
+            Slot::A => self.a,
+            Slot::B => self.b,
+        }
+    }
+}
+
+/// The model a boot took, from which slot, with which sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Booted<const D: usize, const E: usize, const N: usize> {
+    /// The decoded model.
+    pub model: Model<D, E, N>,
+    /// The slot it came from.
+    pub slot: Slot,
+    /// Its sequence number.
+    pub sequence: u32,
+}
+
+/// The blob in `slot`, if the slot holds a valid one: read into `buf`, checked (magic, version,
+/// length, CRC); returns its length and sequence.
+fn valid<F: Flash>(flash: &F, layout: &Layout, slot: Slot, buf: &mut [u8]) -> Option<(usize, u32)> {
+    let buf = buf.get_mut(..layout.len)?;
+    flash.read(layout.addr(slot), buf).ok()?;
+    // The header says how long the blob is; the slot's erased tail must not count as payload.
+    let len = blob::declared_len(buf)?;
+    let h = blob::read_header(buf.get(..len)?).ok()?;
+    Some((len, h.sequence))
+}
+
+/// The valid slots' sequences, newest first.
+fn newest<F: Flash>(flash: &F, layout: &Layout, buf: &mut [u8]) -> [Option<(Slot, u32)>; 2] {
+    let a = valid(flash, layout, Slot::A, buf).map(|(_, s)| (Slot::A, s));
+    let b = valid(flash, layout, Slot::B, buf).map(|(_, s)| (Slot::B, s));
+    match (a, b) {
+        (Some(x), Some(y)) if y.1 > x.1 => [b, a],
+        (None, Some(_)) => [b, None],
+        _ => [a, b],
+    }
+}
+
+/// Boots the valid slot with the newest sequence (the other where the newest does not decode).
+/// `buf` holds at least one slot.
+pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
+    flash: &F,
+    layout: &Layout,
+    buf: &mut [u8],
+) -> Result<Booted<D, E, N>, SlotError> {
+    if buf.len() < layout.len {
+        return Err(SlotError::BufferTooSmall);
+    }
+    for (slot, sequence) in newest(flash, layout, buf).into_iter().flatten() {
+        let Some((len, _)) = valid(flash, layout, slot, buf) else {
+            continue;
+        };
+        if let Some(Ok(model)) = buf.get(..len).map(Model::decode) {
+            return Ok(Booted {
+                model,
+                slot,
+                sequence,
+            });
+        }
+    }
+    Err(SlotError::NoValidSlot)
+}
+
+/// Writes `blob` (a valid version-4 blob, stamped here with the next sequence) into the slot not
+/// holding the newest valid model, committing by its magic last (module doc). Returns that slot
+/// and the sequence. `buf` holds at least one slot (it reads the slots, then verifies the write).
+/// A power cut or a failure before the commit leaves the model in use as it was.
+pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
+    flash: &mut F,
+    layout: &Layout,
+    blob: &mut [u8],
+    buf: &mut [u8],
+) -> Result<(Slot, u32), SlotError> {
+    if buf.len() < layout.len {
+        return Err(SlotError::BufferTooSmall);
+    }
+    if blob.len() > layout.len {
+        return Err(SlotError::TooLarge {
+            blob: blob.len(),
+            slot: layout.len,
+        });
+    }
+    // Refuse what the firmware could not boot before anything is erased.
+    Model::<D, E, N>::decode(blob)?;
+    let [current, _] = newest(flash, layout, buf);
+    let (target, sequence) = match current {
+        Some((slot, s)) => (slot.other(), s.wrapping_add(1)),
+        None => (Slot::A, 1),
+    };
+    blob::set_sequence(blob, sequence)?;
+    let base = layout.addr(target);
+    for sector in (0..layout.len).step_by(flash.sector().max(1)) {
+        flash.erase(base + sector)?;
+    }
+    let body = blob.get(MAGIC.len()..).unwrap_or(&[]);
+    let mut at = MAGIC.len();
+    let page = flash.page();
+    for chunk in page_chunks(base + at, body, page) {
+        flash.program(base + at, chunk)?;
+        at += chunk.len();
+    }
+    flash.program(base, blob.get(..MAGIC.len()).unwrap_or(&[]))?;
+    let written = buf.get_mut(..blob.len()).ok_or(SlotError::BufferTooSmall)?;
+    flash.read(base, written)?;
+    if written != blob {
+        return Err(SlotError::Verify);
+    }
+    Ok((target, sequence))
+}
+
+/// `data`, to be programmed from `addr`, in pieces that never cross a `page` boundary.
+fn page_chunks(addr: usize, data: &[u8], page: usize) -> impl Iterator<Item = &[u8]> {
+    let page = page.max(1);
+    let first = (page - addr % page).min(data.len());
+    let (head, tail) = data.split_at_checked(first).unwrap_or((data, &[]));
+    core::iter::once(head)
+        .filter(|h| !h.is_empty())
+        .chain(tail.chunks(page))
+}

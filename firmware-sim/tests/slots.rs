@@ -1,0 +1,158 @@
+//! Two calibration slots on simulated NOR flash (issue 22): an update cut by a power loss at
+//! every byte of its work, and a bit flipped anywhere in either slot, always boot a valid model —
+//! the old one or the new one, whole, never none and never a mix.
+
+use firmware_core::blob;
+use firmware_core::slots::{self, Booted, Layout, Slot, SlotError};
+use firmware_core::{BlobError, Model};
+use firmware_sim::flash::NorFlash;
+
+/// 4 KiB sectors, 256-byte pages: a common serial NOR.
+type Nor = NorFlash<4096, 256>;
+/// The capacities of docs/firmware.md's 24-centre model (d = 2, p = 7).
+type Gyro = Model<2, 14, 395>;
+
+/// One sector per slot: the 24-centre blob is 1,622 bytes.
+const LAYOUT: Layout = Layout {
+    a: 0,
+    b: 4096,
+    len: 4096,
+};
+
+/// The firmware-integration example's model, as exported.
+const OLD: &[u8] = include_bytes!("../../firmware-core/doc/gyro.bin");
+
+/// Another calibration of the same gyro: the same blob with one kernel weight 0.1% larger.
+fn recalibrated() -> Vec<u8> {
+    let mut b = OLD.to_vec();
+    // Floats end the blob; the weights start after 7d + p + 2 + m·d = 71 of them.
+    let at = b.len() - 4 * 395 + 4 * 71;
+    let w = f32::from_le_bytes(b[at..at + 4].try_into().unwrap()) * 1.001;
+    b[at..at + 4].copy_from_slice(&w.to_le_bytes());
+    blob::reseal(&mut b);
+    b
+}
+
+fn boot(flash: &Nor) -> Result<Booted<2, 14, 395>, SlotError> {
+    slots::boot(flash, &LAYOUT, &mut [0u8; 4096])
+}
+
+fn update(flash: &mut Nor, blob: &[u8]) -> Result<(Slot, u32), SlotError> {
+    slots::update::<_, 2, 14, 395>(flash, &LAYOUT, &mut blob.to_vec(), &mut [0u8; 4096])
+}
+
+/// The blob an update with this sequence number writes: the two calibrations alternate.
+fn blob_of(sequence: u32) -> Vec<u8> {
+    if sequence % 2 == 1 {
+        OLD.to_vec()
+    } else {
+        recalibrated()
+    }
+}
+
+/// The model that sequence number holds.
+fn model_of(sequence: u32) -> Gyro {
+    Gyro::decode(&blob_of(sequence)).unwrap()
+}
+
+/// The device after `n` updates.
+fn after_updates(n: u32) -> Nor {
+    assert_ne!(model_of(1), model_of(2));
+    let mut flash = Nor::new(2);
+    for k in 1..=n {
+        assert_eq!(update(&mut flash, &blob_of(k)).unwrap().1, k);
+    }
+    flash
+}
+
+#[test]
+fn boot_takes_the_newest_valid_slot_and_an_update_writes_the_other() {
+    let empty = Nor::new(2);
+    assert_eq!(boot(&empty).unwrap_err(), SlotError::NoValidSlot);
+    let mut flash = after_updates(2);
+    let booted = boot(&flash).unwrap();
+    assert_eq!((booted.slot, booted.sequence), (Slot::B, 2));
+    assert_eq!(booted.model, model_of(2));
+    assert_eq!(update(&mut flash, &blob_of(3)).unwrap(), (Slot::A, 3));
+    assert_eq!(boot(&flash).unwrap().slot, Slot::A);
+}
+
+#[test]
+fn a_power_cut_at_every_byte_of_an_update_boots_the_old_model_or_the_new() {
+    // The second update writes B while A is in use; the third writes A while B is.
+    for before in [1, 2] {
+        let flash = after_updates(before);
+        let next = blob_of(before + 1);
+        let mut whole = flash.clone();
+        update(&mut whole, &next).unwrap();
+        let work = whole.worked() - flash.worked();
+        assert_eq!(
+            work,
+            4096 + next.len(),
+            "a sector erased, the blob programmed"
+        );
+        for cut in 0..=work {
+            let mut f = flash.clone();
+            f.cut_after(cut);
+            let written = update(&mut f, &next);
+            f.power_on();
+            let booted = boot(&f).unwrap_or_else(|e| panic!("cut at {cut}: no model ({e})"));
+            // The magic is the last work: the new model exists once all of it is there.
+            let committed = cut == work;
+            assert_eq!(written.is_ok(), committed, "cut at {cut}");
+            let expected = if committed { before + 1 } else { before };
+            assert_eq!(booted.sequence, expected, "cut at {cut}");
+            assert_eq!(booted.model, model_of(expected), "cut at {cut}");
+        }
+    }
+}
+
+#[test]
+fn a_flipped_bit_in_either_slot_boots_the_other() {
+    let flash = after_updates(2);
+    let len = OLD.len();
+    for (slot, base, survivor) in [(Slot::A, LAYOUT.a, 2), (Slot::B, LAYOUT.b, 1)] {
+        for byte in 0..len {
+            for bit in 0..8 {
+                let mut f = flash.clone();
+                f.flip(base + byte, bit);
+                let booted = boot(&f).unwrap_or_else(|e| panic!("{slot:?} {byte}.{bit}: {e}"));
+                assert_eq!(booted.sequence, survivor, "{slot:?} byte {byte} bit {bit}");
+                assert_eq!(booted.model, model_of(survivor));
+            }
+        }
+    }
+}
+
+#[test]
+fn an_update_refuses_what_could_not_boot_before_erasing_anything() {
+    let flash = after_updates(1);
+    let mut corrupt = recalibrated();
+    corrupt[100] ^= 1;
+    let mut f = flash.clone();
+    assert_eq!(
+        update(&mut f, &corrupt).unwrap_err(),
+        SlotError::Blob(BlobError::CrcMismatch)
+    );
+    let mut v3 = OLD[..10].to_vec();
+    v3[4] = 3;
+    let payload = &OLD[blob::HEADER_LEN..];
+    v3.extend(u32::try_from(payload.len()).unwrap().to_le_bytes());
+    v3.extend(crc32(payload).to_le_bytes());
+    v3.extend(payload);
+    assert_eq!(
+        Gyro::decode(&v3).unwrap(),
+        model_of(1),
+        "version 3 still decodes"
+    );
+    assert_eq!(
+        update(&mut f, &v3).unwrap_err(),
+        SlotError::Blob(BlobError::NoSequence(3))
+    );
+    assert_eq!(f, flash, "nothing written");
+}
+
+/// CRC-32/ISO-HDLC, the version-3 blob's checksum.
+fn crc32(bytes: &[u8]) -> u32 {
+    crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(bytes)
+}

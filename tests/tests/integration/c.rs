@@ -1,0 +1,38 @@
+//! Firmware in C (issue 22): `firmware-core/ffi/include/fog_replay.c`, built with the host C
+//! compiler against the `fog-ffi` static library, replays a whole simulated stream bit for bit as
+//! the host replay does, through the same blob.
+
+use firmware_sim::data::stream::Stream;
+use firmware_sim::{c_replay, qemu, replay};
+
+use crate::{at, sim};
+
+#[test]
+fn a_c_program_replays_a_stream_bit_for_bit_like_the_host() {
+    let dir = tempfile::tempdir().unwrap();
+    sim(&[
+        "generate",
+        "stream",
+        "--seed",
+        "5",
+        "--out",
+        &at(dir.path(), "s.csv"),
+    ])
+    .unwrap();
+    let stream = Stream::load(&dir.path().join("s.csv"), &[]).unwrap();
+    // The firmware-integration example's model (24 centres), and the stream's power cycles.
+    let blob = include_bytes!("../../../firmware-core/doc/gyro.bin");
+    let host = replay::replay(&replay::decode(blob).unwrap(), &stream);
+    let exe = c_replay::build().unwrap();
+    let c = c_replay::run(&exe, blob, &stream).unwrap();
+    let agreement = qemu::compare(&host, &c);
+    assert_eq!(agreement.identical, stream.len(), "{agreement:?}");
+    assert!(agreement.statuses_equal);
+    assert!(replay::restarts(&stream).iter().filter(|&&r| r).count() >= 3);
+
+    // A corrupted blob is refused by the C program with the code of the Rust error.
+    let mut bad = blob.to_vec();
+    bad[200] ^= 4;
+    let err = c_replay::run(&exe, &bad, &stream).unwrap_err().to_string();
+    assert!(err.contains("model refused (FogResult 6)"), "{err}");
+}
