@@ -1,7 +1,8 @@
 //! firmware-core's C interface as a C programmer uses it: `firmware-core/ffi/include/fog_replay.c`
-//! built with the host's C compiler against the `fog-ffi` static library, run on a stream. It
-//! reads and writes the same records as the Cortex-M4 image ([`crate::qemu`]), so its output
-//! compares bit for bit with the host replay.
+//! built against the `fog-ffi` static library, with the host's C compiler ([`build`]) or with
+//! `arm-none-eabi-gcc` and newlib for the Cortex-M4F, run under QEMU ([`build_m4`], [`run_m4`]).
+//! It reads and writes the same records as the Rust Cortex-M4 image ([`crate::qemu`]), so its
+//! output compares bit for bit with the host replay.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -75,21 +76,103 @@ pub fn build() -> Result<PathBuf, CReplayError> {
     Ok(exe)
 }
 
-/// Runs the C program `exe` on `blob` and every sample of `stream`.
+/// Builds `libfog_ffi.a` for `thumbv7em-none-eabihf` and links the C program with
+/// `arm-none-eabi-gcc`, newlib's semihosting start-up (rdimon) and `firmware-core/ffi/m4`'s
+/// vector table and linker script; returns the ELF image for QEMU's mps2-an386.
+pub fn build_m4() -> Result<PathBuf, CReplayError> {
+    let root = root();
+    let target = root.join("target").join("ffi");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run_ok(
+        Command::new(cargo)
+            .args(["build", "-p", "fog-ffi", "--release", "--quiet"])
+            .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
+            .arg(&target)
+            .current_dir(&root)
+            .env_remove("RUSTFLAGS"),
+    )?;
+    let ffi = root.join("firmware-core").join("ffi");
+    let elf = target.join("fog_replay.elf");
+    let crt0 = Command::new("arm-none-eabi-gcc")
+        .args(M4_FLAGS)
+        .arg("-print-file-name=rdimon-crt0.o")
+        .output()
+        .map_err(|e| CReplayError::Build(format!("arm-none-eabi-gcc: {e}")))?;
+    let crt0 = String::from_utf8_lossy(&crt0.stdout).trim().to_owned();
+    run_ok(
+        Command::new("arm-none-eabi-gcc")
+            .args(["-O2", "-Wall", "-Wextra", "-Werror"])
+            .args(M4_FLAGS)
+            .args(["--specs=rdimon.specs", "-nostartfiles", "-T"])
+            .arg(ffi.join("m4").join("link.ld"))
+            .arg("-I")
+            .arg(ffi.join("include"))
+            .arg(ffi.join("m4").join("startup.c"))
+            .arg(ffi.join("include").join("fog_replay.c"))
+            .arg(crt0)
+            .arg(
+                target
+                    .join("thumbv7em-none-eabihf")
+                    .join("release")
+                    .join("libfog_ffi.a"),
+            )
+            .args(["-lm", "-o"])
+            .arg(&elf),
+    )?;
+    Ok(elf)
+}
+
+/// The Cortex-M4F with its FPU, hard-float ABI (as `thumbv7em-none-eabihf`).
+const M4_FLAGS: [&str; 4] = [
+    "-mcpu=cortex-m4",
+    "-mthumb",
+    "-mfloat-abi=hard",
+    "-mfpu=fpv4-sp-d16",
+];
+
+/// Runs the C program `exe` (built by [`build`]) on `blob` and every sample of `stream`.
 pub fn run(exe: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CReplayError> {
+    exchange(blob, stream, |[model, samples, out]| {
+        Command::new(exe).arg(model).arg(samples).arg(out).output()
+    })
+}
+
+/// Runs the Cortex-M4F image `elf` (built by [`build_m4`]) under QEMU on `blob` and every sample
+/// of `stream`; its command line and files go over semihosting.
+pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CReplayError> {
+    exchange(blob, stream, |[model, samples, out]| {
+        let config = format!(
+            "enable=on,target=native,arg=fog_replay,arg={},arg={},arg={}",
+            model.display(),
+            samples.display(),
+            out.display()
+        );
+        Command::new("qemu-system-arm")
+            .args(&crate::qemu::QEMU_ARGS[..9])
+            .args(["-semihosting-config", &config, "-kernel"])
+            .arg(elf)
+            .output()
+    })
+}
+
+/// Writes the blob and the sample records, runs `program` on (model, samples, out) and reads the
+/// results back.
+fn exchange(
+    blob: &[u8],
+    stream: &Stream,
+    program: impl FnOnce([&Path; 3]) -> std::io::Result<std::process::Output>,
+) -> Result<Compensated, CReplayError> {
     let dir = tempfile::tempdir()?;
     let [model, samples, out] = ["model.bin", "samples.bin", "out.bin"].map(|f| dir.path().join(f));
     std::fs::write(&model, blob)?;
     std::fs::write(&samples, replay::sample_records(stream))?;
-    let status = Command::new(exe)
-        .arg(&model)
-        .arg(&samples)
-        .arg(&out)
-        .output()?;
+    let status = program([&model, &samples, &out])?;
     if !status.status.success() {
-        return Err(CReplayError::Run(
-            String::from_utf8_lossy(&status.stderr).into_owned(),
-        ));
+        return Err(CReplayError::Run(format!(
+            "{}{}",
+            String::from_utf8_lossy(&status.stdout),
+            String::from_utf8_lossy(&status.stderr)
+        )));
     }
     let compensated = replay::from_result_records(&std::fs::read(&out)?, blob);
     if compensated.rate_dps.len() != stream.len() {

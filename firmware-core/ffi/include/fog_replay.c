@@ -12,7 +12,9 @@
  * Build on the host, after `cargo build -p fog-ffi --release`:
  *   cc -O2 -I firmware-core/ffi/include firmware-core/ffi/include/fog_replay.c \
  *      target/release/libfog_ffi.a -lm -lpthread -ldl -o fog_replay
+ * and for the Cortex-M4F under QEMU: docs/firmware.md, "Firmware in C".
  */
+#include <inttypes.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -54,7 +56,8 @@ int main(int argc, char **argv) {
     if (fog_model_dims(&model, &dims) != FOG_OK) {
         return fail("no dimensions");
     }
-    fprintf(stderr, "fog_replay: %u centres, %u inputs\n", dims.centres, dims.inputs);
+    fprintf(stderr, "fog_replay: %" PRIu32 " centres, %" PRIu32 " inputs\n", dims.centres,
+            dims.inputs);
 
     FILE *in = fopen(argv[2], "rb");
     FILE *out = fopen(argv[3], "wb");

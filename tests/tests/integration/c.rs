@@ -1,6 +1,8 @@
-//! Firmware in C (issue 22): `firmware-core/ffi/include/fog_replay.c`, built with the host C
-//! compiler against the `fog-ffi` static library, replays a whole simulated stream bit for bit as
-//! the host replay does, through the same blob.
+//! Firmware in C (issue 22): `firmware-core/ffi/include/fog_replay.c`, built against the `fog-ffi`
+//! static library with the host C compiler and with `arm-none-eabi-gcc` for the Cortex-M4F (run
+//! under QEMU), replays a whole simulated stream bit for bit as the host replay does, through the
+//! same blob. Needs `cc`, `arm-none-eabi-gcc` with newlib and `qemu-system-arm` (`.ci/run`
+//! installs them).
 
 use firmware_sim::data::stream::Stream;
 use firmware_sim::{c_replay, qemu, replay};
@@ -8,7 +10,7 @@ use firmware_sim::{c_replay, qemu, replay};
 use crate::{at, sim};
 
 #[test]
-fn a_c_program_replays_a_stream_bit_for_bit_like_the_host() {
+fn a_c_program_replays_a_stream_bit_for_bit_like_the_host_on_the_host_and_the_m4() {
     let dir = tempfile::tempdir().unwrap();
     sim(&[
         "generate",
@@ -29,6 +31,13 @@ fn a_c_program_replays_a_stream_bit_for_bit_like_the_host() {
     assert_eq!(agreement.identical, stream.len(), "{agreement:?}");
     assert!(agreement.statuses_equal);
     assert!(replay::restarts(&stream).iter().filter(|&&r| r).count() >= 3);
+
+    // The same C source on the Cortex-M4F, under QEMU.
+    let elf = c_replay::build_m4().unwrap();
+    let m4 = c_replay::run_m4(&elf, blob, &stream).unwrap();
+    let agreement = qemu::compare(&host, &m4);
+    assert_eq!(agreement.identical, stream.len(), "M4: {agreement:?}");
+    assert!(agreement.statuses_equal);
 
     // A corrupted blob is refused by the C program with the code of the Rust error.
     let mut bad = blob.to_vec();
