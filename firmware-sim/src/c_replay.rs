@@ -41,26 +41,35 @@ fn run_ok(cmd: &mut Command) -> Result<(), CReplayError> {
     }
 }
 
-/// Builds `libfog_ffi.a` (cargo, release, in `target/ffi`) and the C program against it (`cc`,
-/// or `$CC`); returns the program. The commands are the ones docs/firmware.md gives.
-pub fn build() -> Result<PathBuf, CReplayError> {
+/// Builds `libfog_ffi.a` (cargo, release, in `target/ffi`) for the host or `triple`; returns the
+/// workspace root and that target directory.
+fn build_library(triple: Option<&str>) -> Result<(PathBuf, PathBuf), CReplayError> {
     let root = root();
     let target = root.join("target").join("ffi");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    run_ok(
-        Command::new(cargo)
-            .args([
-                "build",
-                "-p",
-                "fog-ffi",
-                "--release",
-                "--quiet",
-                "--target-dir",
-            ])
-            .arg(&target)
-            .current_dir(&root)
-            .env_remove("RUSTFLAGS"),
-    )?;
+    let mut cmd = Command::new(cargo);
+    cmd.args([
+        "build",
+        "-p",
+        "fog-ffi",
+        "--release",
+        "--quiet",
+        "--target-dir",
+    ])
+    .arg(&target)
+    .current_dir(&root)
+    .env_remove("RUSTFLAGS");
+    if let Some(triple) = triple {
+        cmd.args(["--target", triple]);
+    }
+    run_ok(&mut cmd)?;
+    Ok((root, target))
+}
+
+/// Builds `libfog_ffi.a` (cargo, release, in `target/ffi`) and the C program against it (`cc`,
+/// or `$CC`); returns the program. The commands are the ones docs/firmware.md gives.
+pub fn build() -> Result<PathBuf, CReplayError> {
+    let (root, target) = build_library(None)?;
     let include = root.join("firmware-core").join("ffi").join("include");
     let exe = target.join("fog_replay");
     let cc = std::env::var_os("CC").unwrap_or_else(|| "cc".into());
@@ -80,17 +89,7 @@ pub fn build() -> Result<PathBuf, CReplayError> {
 /// `arm-none-eabi-gcc`, newlib's semihosting start-up (rdimon) and `firmware-core/ffi/m4`'s
 /// vector table and linker script; returns the ELF image for QEMU's mps2-an386.
 pub fn build_m4() -> Result<PathBuf, CReplayError> {
-    let root = root();
-    let target = root.join("target").join("ffi");
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    run_ok(
-        Command::new(cargo)
-            .args(["build", "-p", "fog-ffi", "--release", "--quiet"])
-            .args(["--target", "thumbv7em-none-eabihf", "--target-dir"])
-            .arg(&target)
-            .current_dir(&root)
-            .env_remove("RUSTFLAGS"),
-    )?;
+    let (root, target) = build_library(Some("thumbv7em-none-eabihf"))?;
     let ffi = root.join("firmware-core").join("ffi");
     let elf = target.join("fog_replay.elf");
     let crt0 = Command::new("arm-none-eabi-gcc")
