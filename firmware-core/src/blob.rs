@@ -56,8 +56,11 @@
 //! power-safe calibration slots. A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
+use core::fmt;
+use core::marker::PhantomData;
 use core::ops::Range;
 
+use serde::de::{self, DeserializeSeed, SeqAccess, Visitor};
 use serde::{Deserialize, Serialize};
 
 use crate::error::BlobError;
@@ -224,6 +227,94 @@ pub struct Payload<Fe, Ex, Fl> {
 /// `len` entries from `start` (a `const` stand-in for a closure).
 const fn at(start: usize, len: usize) -> Range<usize> {
     start..start + len
+}
+
+/// Reads `payload` bytes as [`Payload`] encodes them (its three fields, in order), handing each
+/// number of the flat array to `number` as it is read instead of collecting them: the evaluator
+/// decodes into its own storage this way. Decoding a whole `Payload` by value puts the numbers on
+/// the stack and then moves them into the model, several times the model's size of stack on a
+/// microcontroller whose RAM holds the model once. `number` refusing a value (storage full) is
+/// [`BlobError::Malformed`], as postcard refuses a sequence longer than its container.
+pub(crate) fn read_payload<'de, Fe, Ex>(
+    payload: &'de [u8],
+    mut number: impl FnMut(f32) -> Result<(), ()>,
+) -> Result<(Fe, Ex), BlobError>
+where
+    Fe: Deserialize<'de>,
+    Ex: Deserialize<'de>,
+{
+    let mut decoder = postcard::Deserializer::from_bytes(payload);
+    let fields = serde::Deserializer::deserialize_tuple(
+        &mut decoder,
+        3,
+        PayloadFields {
+            number: &mut number,
+            fields: PhantomData,
+        },
+    )
+    .map_err(|_| BlobError::Malformed)?;
+    // Bytes after the payload, even under a consistent length and CRC, are not a blob the trainer
+    // wrote.
+    let rest = decoder.finalize().map_err(|_| BlobError::Malformed)?;
+    if rest.is_empty() {
+        Ok(fields)
+    } else {
+        Err(BlobError::TrailingBytes)
+    }
+}
+
+/// [`read_payload`]'s visitor: features and exponents by value, numbers one at a time.
+struct PayloadFields<'a, Fe, Ex, F> {
+    number: &'a mut F,
+    fields: PhantomData<(Fe, Ex)>,
+}
+
+impl<'de, Fe, Ex, F> Visitor<'de> for PayloadFields<'_, Fe, Ex, F>
+where
+    Fe: Deserialize<'de>,
+    Ex: Deserialize<'de>,
+    F: FnMut(f32) -> Result<(), ()>,
+{
+    type Value = (Fe, Ex);
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a model payload")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let missing = |i| de::Error::invalid_length(i, &"three fields");
+        let features = seq.next_element()?.ok_or_else(|| missing(0))?;
+        let exponents = seq.next_element()?.ok_or_else(|| missing(1))?;
+        seq.next_element_seed(Numbers(self.number))?
+            .ok_or_else(|| missing(2))?;
+        Ok((features, exponents))
+    }
+}
+
+/// The flat array, each number handed on as it is read.
+struct Numbers<'a, F>(&'a mut F);
+
+impl<'de, F: FnMut(f32) -> Result<(), ()>> DeserializeSeed<'de> for Numbers<'_, F> {
+    type Value = ();
+
+    fn deserialize<De: serde::Deserializer<'de>>(self, decoder: De) -> Result<(), De::Error> {
+        decoder.deserialize_seq(self)
+    }
+}
+
+impl<'de, F: FnMut(f32) -> Result<(), ()>> Visitor<'de> for Numbers<'_, F> {
+    type Value = ();
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a sequence of f32")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        while let Some(v) = seq.next_element::<f32>()? {
+            (self.0)(v).map_err(|()| de::Error::custom("more numbers than the storage holds"))?;
+        }
+        Ok(())
+    }
 }
 
 /// Writes a blob for `payload` into `buf`; returns the number of bytes written.

@@ -32,7 +32,7 @@ use core::ops::Range;
 
 use heapless::Vec;
 
-use crate::blob::{self, Dims, Feature, Payload};
+use crate::blob::{self, Dims, Feature};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
@@ -103,70 +103,169 @@ fn capacity(what: Storage, needed: usize, capacity: usize) -> Result<(), BlobErr
     }
 }
 
+/// The checks a blob's numbers pass, made as they are read: each number's domain by its section
+/// (scales, length scales and the factor's diagonal positive, variances not negative, each input's
+/// minimum not above its maximum), and finiteness, which is reported first.
+struct Domains<const D: usize> {
+    sections: blob::Sections,
+    mins: [f32; D],
+    seen: usize,
+    diagonal: usize,
+    row: usize,
+    non_finite: Option<usize>,
+    valid: bool,
+}
+
+impl<const D: usize> Domains<D> {
+    fn new(dims: Dims) -> Self {
+        let sections = dims.sections();
+        Self {
+            diagonal: sections.factor.start,
+            sections,
+            mins: [0.0; D],
+            seen: 0,
+            row: 0,
+            non_finite: None,
+            valid: true,
+        }
+    }
+
+    fn see(&mut self, v: f32) {
+        let i = self.seen;
+        self.seen += 1;
+        if !v.is_finite() {
+            self.non_finite.get_or_insert(i);
+            return;
+        }
+        let s = &self.sections;
+        let ok = if s.scale.contains(&i) || s.length.contains(&i) {
+            v > 0.0
+        } else if s.min.contains(&i) {
+            if let Some(lo) = self.mins.get_mut(i - s.min.start) {
+                *lo = v;
+            }
+            true
+        } else if s.max.contains(&i) {
+            self.mins.get(i - s.max.start).is_some_and(|lo| *lo <= v)
+        } else if s.variances.contains(&i) {
+            v >= 0.0
+        } else if i == self.diagonal && s.factor.contains(&i) {
+            // Row r's diagonal is r + 1 numbers after row r − 1's, in the packed rows.
+            self.row += 1;
+            self.diagonal += self.row + 1;
+            v > 0.0
+        } else {
+            true
+        };
+        self.valid &= ok;
+    }
+
+    fn verdict(&self) -> Result<(), BlobError> {
+        match self.non_finite {
+            Some(i) => Err(BlobError::NonFinite(i)),
+            None if self.valid => Ok(()),
+            None => Err(BlobError::InvalidParameter),
+        }
+    }
+}
+
+impl<const D: usize, const E: usize, const N: usize> Default for Model<D, E, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
+    /// Storage that holds no model yet: every prediction is a `Fault` until a blob is decoded
+    /// into it ([`Model::decode_into`]).
+    pub const fn new() -> Self {
+        Self {
+            dims: Dims { m: 0, d: 0, p: 0 },
+            features: Vec::new(),
+            exponents: Vec::new(),
+            floats: Vec::new(),
+        }
+    }
+
     /// Decodes and validates a blob. Every way a blob can be wrong is a [`BlobError`].
     pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
+        let mut model = Self::new();
+        model.decode_into(bytes)?;
+        Ok(model)
+    }
+
+    /// Decodes and validates a blob into this storage, replacing what it held: the way to
+    /// decode into a `static`, since the numbers go straight into place (no copy of the model on
+    /// the stack). On an error the storage holds no model.
+    pub fn decode_into(&mut self, bytes: &[u8]) -> Result<(), BlobError> {
+        self.floats.clear();
+        let floats = &mut self.floats;
+        match Self::read(bytes, |v| floats.push(v).map_err(|_| ())) {
+            Ok((dims, features, exponents)) => {
+                self.dims = dims;
+                self.features = features;
+                self.exponents = exponents;
+                Ok(())
+            }
+            Err(e) => {
+                self.clear();
+                Err(e)
+            }
+        }
+    }
+
+    /// Empties the storage: it holds no model, as [`Model::new`].
+    pub fn clear(&mut self) {
+        self.dims = Dims { m: 0, d: 0, p: 0 };
+        self.features.clear();
+        self.exponents.clear();
+        self.floats.clear();
+    }
+
+    /// Checks a blob as [`Model::decode`] does, without storing it: what a calibration update
+    /// runs before it writes a blob to flash. Returns the blob's sizes.
+    pub fn check(bytes: &[u8]) -> Result<Dims, BlobError> {
+        let mut held = 0usize;
+        Self::read(bytes, |_| {
+            held += 1;
+            if held <= N { Ok(()) } else { Err(()) }
+        })
+        .map(|(dims, _, _)| dims)
+    }
+
+    /// Reads and checks a blob, handing its numbers to `keep` in order; returns its sizes,
+    /// features and exponents.
+    #[allow(clippy::type_complexity)]
+    fn read(
+        bytes: &[u8],
+        mut keep: impl FnMut(f32) -> Result<(), ()>,
+    ) -> Result<(Dims, Vec<Feature, D>, Vec<u8, E>), BlobError> {
         let header = blob::read_header(bytes)?;
         let dims = header.dims;
         capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
         capacity(Storage::Exponents, dims.exponents(), E)?;
         capacity(Storage::Floats, dims.floats(), N)?;
-        let (payload, rest): (Payload<Vec<Feature, D>, Vec<u8, E>, Vec<f32, N>>, _) =
-            postcard::take_from_bytes(header.payload).map_err(|_| BlobError::Malformed)?;
-        // Bytes after the payload, even under a consistent length and CRC, are not a blob the
-        // trainer wrote.
-        if !rest.is_empty() {
-            return Err(BlobError::TrailingBytes);
-        }
-        if payload.features.len() != dims.d
-            || payload.exponents.len() != dims.exponents()
-            || payload.floats.len() != dims.floats()
+        let mut domains = Domains::<D>::new(dims);
+        let (features, exponents): (Vec<Feature, D>, Vec<u8, E>) =
+            blob::read_payload(header.payload, |v| {
+                domains.see(v);
+                keep(v)
+            })?;
+        if features.len() != dims.d
+            || exponents.len() != dims.exponents()
+            || domains.seen != dims.floats()
         {
             return Err(BlobError::InconsistentDimensions);
         }
-        if let Some(i) = payload.floats.iter().position(|v| !v.is_finite()) {
-            return Err(BlobError::NonFinite(i));
+        domains.verdict()?;
+        if !features.iter().all(Feature::is_valid) {
+            return Err(BlobError::InvalidParameter);
         }
-        let model = Self {
-            dims,
-            features: payload.features,
-            exponents: payload.exponents,
-            floats: payload.floats,
-        };
-        model.check_domains()?;
-        Ok(model)
+        Ok((dims, features, exponents))
     }
 
     fn section(&self, range: Range<usize>) -> &[f32] {
         self.floats.get(range).unwrap_or(&[])
-    }
-
-    fn check_domains(&self) -> Result<(), BlobError> {
-        let s = self.dims.sections();
-        let positive = |v: &f32| *v > 0.0;
-        let ranges_ok = self
-            .section(s.min.clone())
-            .iter()
-            .zip(self.section(s.max.clone()))
-            .all(|(lo, hi)| lo <= hi);
-        let [signal, noise] = self.variances();
-        let diagonal_ok = (0..self.dims.m).all(|i| {
-            self.floats
-                .get(s.factor.start + i * (i + 1) / 2 + i)
-                .is_some_and(positive)
-        });
-        if self.features.iter().all(Feature::is_valid)
-            && self.section(s.scale.clone()).iter().all(positive)
-            && self.section(s.length).iter().all(positive)
-            && ranges_ok
-            && signal >= 0.0
-            && noise >= 0.0
-            && diagonal_ok
-        {
-            Ok(())
-        } else {
-            Err(BlobError::InvalidParameter)
-        }
     }
 
     /// Model sizes.
@@ -193,7 +292,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> Status {
         let sec = self.dims.sections();
         let d = self.dims.d;
-        if x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
+        // d = 0: storage that holds no model.
+        if d == 0 || x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
             return Status::Fault;
         }
         let mut status = Status::Valid;

@@ -139,11 +139,9 @@ impl Layout {
     }
 }
 
-/// The model a boot took, from which slot, with which sequence.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Booted<const D: usize, const E: usize, const N: usize> {
-    /// The decoded model.
-    pub model: Model<D, E, N>,
+/// Where the model a boot took came from: which slot, with which sequence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Booted {
     /// The slot it came from.
     pub slot: Slot,
     /// Its sequence number.
@@ -172,13 +170,16 @@ fn newest<F: Flash>(flash: &F, layout: &Layout, buf: &mut [u8]) -> [Option<(Slot
     }
 }
 
-/// Boots the valid slot with the newest sequence (the other where the newest does not decode).
-/// `buf` holds at least one slot.
+/// Boots the valid slot with the newest sequence (the other where the newest does not decode),
+/// decoding it into `model` (typically a `static`: [`Model::decode_into`]). `buf` holds at least
+/// one slot. Where no slot holds a valid model, `model` holds none either.
 pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
     flash: &F,
     layout: &Layout,
     buf: &mut [u8],
-) -> Result<Booted<D, E, N>, SlotError> {
+    model: &mut Model<D, E, N>,
+) -> Result<Booted, SlotError> {
+    model.clear();
     if buf.len() < layout.len {
         return Err(SlotError::BufferTooSmall);
     }
@@ -186,12 +187,8 @@ pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
         let Some((len, _)) = valid(flash, layout, slot, buf) else {
             continue;
         };
-        if let Some(Ok(model)) = buf.get(..len).map(Model::decode) {
-            return Ok(Booted {
-                model,
-                slot,
-                sequence,
-            });
+        if let Some(Ok(())) = buf.get(..len).map(|b| model.decode_into(b)) {
+            return Ok(Booted { slot, sequence });
         }
     }
     Err(SlotError::NoValidSlot)
@@ -217,7 +214,7 @@ pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
         });
     }
     // Refuse what the firmware could not boot before anything is erased.
-    Model::<D, E, N>::decode(blob)?;
+    Model::<D, E, N>::check(blob)?;
     let [current, _] = newest(flash, layout, buf);
     let (target, sequence) = match current {
         Some((slot, s)) => (slot.other(), s.wrapping_add(1)),

@@ -118,8 +118,22 @@ fn mutated_blobs_are_refused_or_predict_finite_numbers() {
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let mut tally: BTreeMap<(&str, String), usize> = BTreeMap::new();
     let mut predictions = 0;
+    // One storage decoded into again and again, as the firmware's `static`: a refused blob
+    // leaves it holding no model, whatever it held before.
+    let mut storage = Roomy::new();
     for _ in 0..CASES {
         let (kind, blob) = mutate(BLOB, &mut rng);
+        storage.decode_into(BLOB).expect("the example blob decodes");
+        let decoded = storage.decode_into(&blob);
+        // The check an update runs before writing agrees with the decode, error for error.
+        assert_eq!(Roomy::check(&blob).map(|_| ()), decoded.clone(), "{kind}");
+        if decoded.is_err() {
+            assert_eq!(storage.dims().m, 0, "{kind}");
+            assert_eq!(
+                storage.predict_mean(&[25.0, 0.4]).status,
+                firmware_core::Status::Fault
+            );
+        }
         let outcome = match Roomy::decode(&blob) {
             Ok(model) => {
                 predictions += exercise(&model);

@@ -102,7 +102,12 @@ pub fn build_m4() -> Result<PathBuf, CReplayError> {
         Command::new("arm-none-eabi-gcc")
             .args(["-O2", "-Wall", "-Wextra", "-Werror"])
             .args(M4_FLAGS)
-            .args(["--specs=rdimon.specs", "-nostartfiles", "-T"])
+            .args([
+                "--specs=rdimon.specs",
+                "-nostartfiles",
+                "-Wl,--gc-sections",
+                "-T",
+            ])
             .arg(ffi.join("m4").join("link.ld"))
             .arg("-I")
             .arg(ffi.join("include"))
@@ -131,15 +136,26 @@ const M4_FLAGS: [&str; 4] = [
 
 /// Runs the C program `exe` (built by [`build`]) on `blob` and every sample of `stream`.
 pub fn run(exe: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CReplayError> {
-    exchange(blob, stream, |[model, samples, out]| {
+    let (compensated, _) = exchange(blob, stream, |[model, samples, out]| {
         Command::new(exe).arg(model).arg(samples).arg(out).output()
-    })
+    })?;
+    Ok(compensated)
+}
+
+/// The Cortex-M4F replay's results and the deepest stack it used.
+#[derive(Debug, Clone)]
+pub struct M4Run {
+    /// One result per sample.
+    pub compensated: Compensated,
+    /// Bytes of stack the whole program used at most (newlib's start-up and stdio included), as
+    /// its start-up file measures it (`firmware-core/ffi/m4/startup.c`).
+    pub stack_bytes: u32,
 }
 
 /// Runs the Cortex-M4F image `elf` (built by [`build_m4`]) under QEMU on `blob` and every sample
 /// of `stream`; its command line and files go over semihosting.
-pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CReplayError> {
-    exchange(blob, stream, |[model, samples, out]| {
+pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<M4Run, CReplayError> {
+    let (compensated, stderr) = exchange(blob, stream, |[model, samples, out]| {
         let config = format!(
             "enable=on,target=native,arg=fog_replay,arg={},arg={},arg={}",
             model.display(),
@@ -151,16 +167,29 @@ pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, C
             .args(["-semihosting-config", &config, "-kernel"])
             .arg(elf)
             .output()
+    })?;
+    let stack_bytes = stderr
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("stack: ")?
+                .strip_suffix(" bytes")?
+                .parse()
+                .ok()
+        })
+        .ok_or_else(|| CReplayError::Run(format!("no stack figure in: {stderr}")))?;
+    Ok(M4Run {
+        compensated,
+        stack_bytes,
     })
 }
 
 /// Writes the blob and the sample records, runs `program` on (model, samples, out) and reads the
-/// results back.
+/// results back, with what the program wrote on stderr.
 fn exchange(
     blob: &[u8],
     stream: &Stream,
     program: impl FnOnce([&Path; 3]) -> std::io::Result<std::process::Output>,
-) -> Result<Compensated, CReplayError> {
+) -> Result<(Compensated, String), CReplayError> {
     let dir = tempfile::tempdir()?;
     let [model, samples, out] = ["model.bin", "samples.bin", "out.bin"].map(|f| dir.path().join(f));
     std::fs::write(&model, blob)?;
@@ -181,5 +210,8 @@ fn exchange(
             stream.len()
         )));
     }
-    Ok(compensated)
+    Ok((
+        compensated,
+        String::from_utf8_lossy(&status.stderr).into_owned(),
+    ))
 }

@@ -33,8 +33,22 @@ fn recalibrated() -> Vec<u8> {
     b
 }
 
-fn boot(flash: &Nor) -> Result<Booted<2, 14, 395>, SlotError> {
-    slots::boot(flash, &LAYOUT, &mut [0u8; 4096])
+/// What a boot took: where from, and the model it decoded.
+#[derive(Debug)]
+struct Took {
+    slot: Slot,
+    sequence: u32,
+    model: Gyro,
+}
+
+fn boot(flash: &Nor) -> Result<Took, SlotError> {
+    let mut model = Gyro::new();
+    let Booted { slot, sequence } = slots::boot(flash, &LAYOUT, &mut [0u8; 4096], &mut model)?;
+    Ok(Took {
+        slot,
+        sequence,
+        model,
+    })
 }
 
 fn update(flash: &mut Nor, blob: &[u8]) -> Result<(Slot, u32), SlotError> {

@@ -18,16 +18,22 @@
 #define FOG_MAX_MONOMIALS 16
 
 // Most centres (inducing points of a sparse GP) a [`FogModel`] holds: the trainer exports at
-// most 256. A smaller number shrinks [`FogModel`] to about `4·m(m+1)/2` bytes: change it here
-// and regenerate the header (docs/firmware.md gives the figures).
+// most 256. A smaller number shrinks [`FogModel`] to about `4·m(m+1)/2` bytes: set it to the
+// largest model the product ships and regenerate the header (docs/firmware.md gives the figures
+// at 24, 140 and 256).
 #define FOG_MAX_CENTRES 256
 
-// 8-byte words of a [`FogModel`]: the model's flat array and room for its sizes, features and
-// exponents (a compile-time check below holds it to the real size on every target).
-#define FOG_MODEL_WORDS 17136
+// Numbers in the model's flat array at those capacities (firmware-core's `Dims::floats`).
+#define FOG_MODEL_FLOATS ((((((7 * FOG_MAX_INPUTS) + FOG_MAX_MONOMIALS) + 2) + (FOG_MAX_CENTRES * FOG_MAX_INPUTS)) + FOG_MAX_CENTRES) + ((FOG_MAX_CENTRES * (FOG_MAX_CENTRES + 1)) / 2))
 
-// 8-byte words of a [`FogState`]: the feature pipeline's memory and the variance's scratch.
-#define FOG_STATE_WORDS 160
+// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
+// its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
+// the real size on every target).
+#define FOG_MODEL_WORDS (((FOG_MODEL_FLOATS + 1) / 2) + 25)
+
+// 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
+// the feature pipeline's memory and the reset marker.
+#define FOG_STATE_WORDS (((FOG_MAX_CENTRES + 1) / 2) + 32)
 
 // The outcome of every call: 0 is success, each error of the Rust interface has its own code.
 typedef enum FogResult {

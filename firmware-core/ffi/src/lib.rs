@@ -25,11 +25,12 @@ pub const FOG_MAX_INPUTS: usize = 4;
 /// Most prior-mean monomials a [`FogModel`] holds.
 pub const FOG_MAX_MONOMIALS: usize = 16;
 /// Most centres (inducing points of a sparse GP) a [`FogModel`] holds: the trainer exports at
-/// most 256. A smaller number shrinks [`FogModel`] to about `4·m(m+1)/2` bytes: change it here
-/// and regenerate the header (docs/firmware.md gives the figures).
+/// most 256. A smaller number shrinks [`FogModel`] to about `4·m(m+1)/2` bytes: set it to the
+/// largest model the product ships and regenerate the header (docs/firmware.md gives the figures
+/// at 24, 140 and 256).
 pub const FOG_MAX_CENTRES: usize = 256;
-/// Numbers in the model's flat array at those capacities (`Dims::floats`).
-const FLOATS: usize = 7 * FOG_MAX_INPUTS
+/// Numbers in the model's flat array at those capacities (firmware-core's `Dims::floats`).
+pub const FOG_MODEL_FLOATS: usize = 7 * FOG_MAX_INPUTS
     + FOG_MAX_MONOMIALS
     + 2
     + FOG_MAX_CENTRES * FOG_MAX_INPUTS
@@ -37,13 +38,18 @@ const FLOATS: usize = 7 * FOG_MAX_INPUTS
     + FOG_MAX_CENTRES * (FOG_MAX_CENTRES + 1) / 2;
 
 /// The decoded model at the header's capacities.
-type Inner = Model<FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>;
+type Inner = Model<FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FOG_MODEL_FLOATS>;
 
-/// 8-byte words of a [`FogModel`]: the model's flat array and room for its sizes, features and
-/// exponents (a compile-time check below holds it to the real size on every target).
-pub const FOG_MODEL_WORDS: usize = 17_136;
-/// 8-byte words of a [`FogState`]: the feature pipeline's memory and the variance's scratch.
-pub const FOG_STATE_WORDS: usize = 160;
+/// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
+/// its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
+/// the real size on every target).
+// Rounding up by hand: cbindgen writes the expression into the header, where no method exists.
+#[allow(clippy::manual_div_ceil)]
+pub const FOG_MODEL_WORDS: usize = (FOG_MODEL_FLOATS + 1) / 2 + 25;
+/// 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
+/// the feature pipeline's memory and the reset marker.
+#[allow(clippy::manual_div_ceil)]
+pub const FOG_STATE_WORDS: usize = (FOG_MAX_CENTRES + 1) / 2 + 32;
 
 /// Storage for one decoded model: opaque, aligned, at least as large as the model it holds.
 #[repr(C)]
@@ -240,18 +246,43 @@ pub unsafe extern "C" fn fog_model_decode(
     let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
     // SAFETY: `model` is non-null and points to a FogModel the caller lets us write; the
     // reference lives for this call only.
-    let storage = unsafe { &mut *model };
-    storage.words[MODEL_WORDS] = 0;
-    match Inner::decode(bytes) {
-        Ok(decoded) => {
-            // SAFETY: the storage is at least as large and as aligned as `Inner` (compile-time
-            // checks above), and it is exclusively ours for this call. `write` does not drop the
-            // old bytes, which may not be a model.
-            unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<Inner>(), decoded) };
-            storage.words[MODEL_WORDS] = DECODED;
+    let inner = unsafe { emptied(&mut *model) };
+    match inner.decode_into(bytes) {
+        Ok(()) => {
+            // SAFETY: as in `emptied`: the storage is ours for this call.
+            unsafe { (*model).words[MODEL_WORDS] = DECODED };
             FogResult::FogOk
         }
         Err(e) => e.into(),
+    }
+}
+
+/// The storage as a model that holds nothing yet, unmarked: the model is decoded in place, so the
+/// stack never holds a copy of it (at these capacities a copy would be 137 KB, more stack than a
+/// Cortex-M4 has). Storage that already holds a model is emptied where it is; anything else (a
+/// zeroed `static`, a refused blob's leftovers) gets an empty model's few header bytes, written
+/// in place.
+///
+/// # Safety
+/// `storage` is exclusively ours for the lifetime of the reference returned.
+unsafe fn emptied(storage: &mut FogModel) -> &mut Inner {
+    let marked = storage.words[MODEL_WORDS] == DECODED;
+    storage.words[MODEL_WORDS] = 0;
+    let inner = storage.words.as_mut_ptr().cast::<Inner>();
+    if marked {
+        // SAFETY: the marker is written only over a valid `Inner` at the start of the storage
+        // (it fits and aligns: compile-time checks above).
+        let inner = unsafe { &mut *inner };
+        inner.clear();
+        inner
+    } else {
+        // SAFETY: the storage fits and aligns `Inner`; `write` neither reads nor drops the bytes
+        // that were there. `Inner::new()`'s arrays are uninitialized (heapless vectors of length
+        // 0), so only its sizes and lengths are stored.
+        unsafe {
+            inner.write(Inner::new());
+            &mut *inner
+        }
     }
 }
 
@@ -513,19 +544,13 @@ pub unsafe extern "C" fn fog_slots_boot(
         return FogResult::FogErrNull;
     }
     // SAFETY: non-null and valid per the caller; shared or exclusive for this call as used.
-    let (flash, slots_layout, storage) = unsafe { (&*flash, &*slots_layout, &mut *model) };
+    let (flash, slots_layout, inner) = unsafe { (&*flash, &*slots_layout, emptied(&mut *model)) };
     // SAFETY: `buf` is non-null with `buf_len` writable bytes per the caller.
     let buf = unsafe { core::slice::from_raw_parts_mut(buf, buf_len) };
-    storage.words[MODEL_WORDS] = 0;
-    match slots::boot::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>(
-        &CFlash(flash),
-        &layout(slots_layout),
-        buf,
-    ) {
+    match slots::boot(&CFlash(flash), &layout(slots_layout), buf, inner) {
         Ok(booted) => {
-            // SAFETY: as in `fog_model_decode`: the storage fits and aligns `Inner`, and is ours.
-            unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<Inner>(), booted.model) };
-            storage.words[MODEL_WORDS] = DECODED;
+            // SAFETY: as in `emptied`: the storage is ours for this call.
+            unsafe { (*model).words[MODEL_WORDS] = DECODED };
             if !out.is_null() {
                 let slot = FogSlot {
                     slot: slot_number(booted.slot),
@@ -569,7 +594,7 @@ pub unsafe extern "C" fn fog_slots_update(
             core::slice::from_raw_parts_mut(buf, buf_len),
         )
     };
-    match slots::update::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FLOATS>(
+    match slots::update::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FOG_MODEL_FLOATS>(
         &mut CFlash(flash),
         &layout(slots_layout),
         blob,

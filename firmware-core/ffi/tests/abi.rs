@@ -66,6 +66,24 @@ fn a_blob_decodes_into_static_storage_and_compensates() {
             FogResult::FogErrCrcMismatch
         );
         assert_eq!(fog_model_dims(&*model, &mut dims), FogResult::FogErrNoModel);
+
+        // Decoding again over what the refused blob left, and into storage full of garbage (a
+        // C array on the stack, not a zeroed static), gives the same model.
+        let mut garbage: Box<FogModel> = zeroed();
+        std::ptr::write_bytes(&mut *garbage as *mut FogModel, 0xA5, 1);
+        for storage in [&mut *model, &mut *garbage] {
+            assert_eq!(
+                fog_model_decode(storage, BLOB.as_ptr(), BLOB.len()),
+                FogResult::FogOk
+            );
+            let mut again = p;
+            assert_eq!(fog_state_reset(&mut *state), FogResult::FogOk);
+            assert_eq!(
+                fog_compensate(storage, &mut *state, 60.0, 25.0, 0.38, &mut again),
+                FogResult::FogOk
+            );
+            assert_eq!(again.mean.to_bits(), p.mean.to_bits());
+        }
     }
     // The docs/firmware.md example's figure, through C: 0.38 V at 25 °C is 9.95 °/s.
     assert_eq!(p.status, FogStatus::FogValid);

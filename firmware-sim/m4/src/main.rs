@@ -75,25 +75,33 @@ fn ticks(syst: &mut SYST, work: impl FnOnce()) -> u32 {
     start.wrapping_sub(end) & 0x00FF_FFFF
 }
 
-/// The model read from `model.bin` over semihosting.
+/// Decodes the model read from `model.bin` over semihosting into `model`, through `blob`.
 #[cfg(not(feature = "embedded-model"))]
-fn load_model() -> M4Model {
-    let mut blob = [0u8; BLOB_MAX];
+fn load_model(model: &mut M4Model, blob: &mut [u8; BLOB_MAX]) {
     let mut model_file = fs::File::open(c!("model.bin")).unwrap_or_else(|_| fail("no model.bin"));
-    let len = read_full(&mut model_file, &mut blob);
-    M4Model::decode(&blob[..len]).unwrap_or_else(|_| fail("blob refused"))
+    let len = read_full(&mut model_file, blob);
+    if model.decode_into(&blob[..len]).is_err() {
+        fail("blob refused")
+    }
 }
 
-/// The model flashed with the image, as an integrator would ship it: the blob named by
+/// Decodes the model flashed with the image, as an integrator would ship it: the blob named by
 /// `FOG_M4_MODEL` at build time.
 #[cfg(feature = "embedded-model")]
-fn load_model() -> M4Model {
+fn load_model(model: &mut M4Model) {
     static BLOB: &[u8] = include_bytes!(env!("FOG_M4_MODEL"));
-    M4Model::decode(BLOB).unwrap_or_else(|_| fail("blob refused"))
+    if model.decode_into(BLOB).is_err() {
+        fail("blob refused")
+    }
 }
 
 #[entry]
 fn main() -> ! {
+    // Static storage, decoded into in place: the stack never holds the model (cortex-m-rt hands
+    // `static mut` items of the entry function over as `&'static mut`).
+    static mut MODEL: M4Model = M4Model::new();
+    #[cfg(not(feature = "embedded-model"))]
+    static mut BLOB: [u8; BLOB_MAX] = [0; BLOB_MAX];
     let Some(peripherals) = cortex_m::Peripherals::take() else {
         fail("peripherals taken twice")
     };
@@ -102,7 +110,11 @@ fn main() -> ! {
     syst.set_reload(0x00FF_FFFF);
     syst.enable_counter();
 
-    let model = load_model();
+    #[cfg(not(feature = "embedded-model"))]
+    load_model(MODEL, BLOB);
+    #[cfg(feature = "embedded-model")]
+    load_model(MODEL);
+    let model: &M4Model = MODEL;
     let m = model.dims().m;
     let mut scratch = [0.0f32; 256];
 
