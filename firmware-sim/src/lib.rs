@@ -12,6 +12,7 @@
 //! - [`console`], [`io`], [`cli`]: what the person at the terminal sees, how files are written,
 //!   and the `firmware-sim` command line; the trainer's command line uses the first two as well.
 
+pub mod allan;
 pub mod c_replay;
 pub mod cause;
 pub mod cli;
@@ -22,3 +23,4 @@ pub mod gyro;
 pub mod io;
 pub mod qemu;
 pub mod replay;
+pub mod twin;

@@ -37,7 +37,7 @@ const HYSTERESIS_MIN_RATE_C_PER_MIN: f64 = 0.05;
 const DRIFT_TAU_S: f64 = 20.0 * HOUR_S;
 
 /// One hidden effect with its magnitude.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 #[serde(tag = "id", rename_all = "kebab-case")]
 pub enum Effect {
     /// No effect: the residual of a good static model is noise.

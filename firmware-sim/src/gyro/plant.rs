@@ -33,7 +33,8 @@ const SECONDS_PER_HOUR: f64 = 3600.0;
 const T_REF_C: f64 = 25.0;
 
 /// Parameters of one gyro unit (see the module doc for the equations).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GyroParams {
     /// Scale factor at 25 °C, V/(°/s). Paper: about 38 mV/(°/s).
     pub scale_factor_v_per_dps: f64,
