@@ -140,7 +140,8 @@ pub fn terms(curve: &Curve) -> Terms {
             .filter(|&i| i + 1 < n && (slope(curve, i) - s).abs() <= 0.2)
             .map(|i| curve.adev[i].ln() - s * curve.tau_s[i].ln())
             .collect();
-        (!logs.is_empty()).then(|| (logs.iter().sum::<f64>() / logs.len() as f64 + s * at.ln()).exp())
+        (!logs.is_empty())
+            .then(|| (logs.iter().sum::<f64>() / logs.len() as f64 + s * at.ln()).exp())
     };
     // ARW: σ(1 s) on the −½ line before the minimum; °/√s × 60 = °/√h.
     let arw = line(-0.5, 0..min_at.max(1), 1.0).map(|s| s * 60.0);
@@ -153,6 +154,118 @@ pub fn terms(curve: &Curve) -> Terms {
         bias_instability_deg_per_h: bi,
         bias_instability_tau_s: turned.then(|| curve.tau_s[min_at]),
         rrw_deg_per_h_per_sqrt_h: rrw,
+    }
+}
+
+/// The longest stretch of `time_s` without a gap (a step over three times the typical one) or a
+/// non-finite value of `rate`: the Allan deviation needs evenly spaced samples. Returns the range
+/// and the typical step, s.
+pub fn longest_run(time_s: &[f64], rate: &[f64]) -> (std::ops::Range<usize>, f64) {
+    let mut steps: Vec<f64> = time_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let step = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+    let mut best = 0..0;
+    let mut start = 0;
+    for i in 0..=time_s.len() {
+        let breaks = i == time_s.len()
+            || !rate.get(i).is_some_and(|r| r.is_finite())
+            || (i > start && time_s[i] - time_s[i - 1] > 3.0 * step);
+        if breaks {
+            if i - start > best.len() {
+                best = start..i;
+            }
+            start = if i < time_s.len() && rate[i].is_finite() {
+                i
+            } else {
+                i + 1
+            };
+        }
+    }
+    (best, step)
+}
+
+/// An Allan analysis of a log: the curve, its terms, and what it was computed over.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Analysis {
+    /// What the rate is (e.g. "output/K − reference").
+    pub of: String,
+    /// Samples used: the longest stretch without a gap.
+    pub samples: usize,
+    /// Sample interval, s.
+    pub tau0_s: f64,
+    /// Cluster times, s.
+    pub tau_s: Vec<f64>,
+    /// Allan deviation, °/s.
+    pub adev_dps: Vec<f64>,
+    /// One-sigma interval, low end.
+    pub adev_lo_dps: Vec<f64>,
+    /// High end.
+    pub adev_hi_dps: Vec<f64>,
+    /// The noise terms.
+    #[serde(flatten)]
+    pub terms: Terms,
+}
+
+impl Analysis {
+    /// The Allan analysis of `rate_dps` sampled at `time_s`, over its longest stretch without a
+    /// gap.
+    pub fn of(what: &str, time_s: &[f64], rate_dps: &[f64]) -> Self {
+        let (run, step) = longest_run(time_s, rate_dps);
+        let curve = overlapping(&rate_dps[run.clone()], step);
+        let terms = terms(&curve);
+        Self {
+            of: what.to_owned(),
+            samples: run.len(),
+            tau0_s: step,
+            tau_s: curve.tau_s,
+            adev_dps: curve.adev,
+            adev_lo_dps: curve.adev_lo,
+            adev_hi_dps: curve.adev_hi,
+            terms,
+        }
+    }
+
+    /// The curve, for a figure.
+    pub fn curve(&self) -> Curve {
+        Curve {
+            tau_s: self.tau_s.clone(),
+            adev: self.adev_dps.clone(),
+            adev_lo: self.adev_lo_dps.clone(),
+            adev_hi: self.adev_hi_dps.clone(),
+        }
+    }
+
+    /// The terms as a line of text, each with its units, or why it is missing.
+    pub fn text(&self) -> String {
+        let or = |v: Option<f64>, f: &dyn Fn(f64) -> String, why: &str| v.map_or(why.to_owned(), f);
+        format!(
+            "Allan deviation of {} over {} samples (τ₀ {:.3} s): ARW {}; bias instability {}; \
+             rate random walk {}",
+            self.of,
+            self.samples,
+            self.tau0_s,
+            or(
+                self.terms.arw_deg_per_sqrt_h,
+                &|n| format!("{n:.4} °/√h"),
+                "not shown (no slope −½)"
+            ),
+            match (
+                self.terms.bias_instability_deg_per_h,
+                self.terms.bias_instability_tau_s
+            ) {
+                (Some(b), Some(t)) => format!("{b:.4} °/h (bottom at τ {t:.0} s)"),
+                _ => "not shown (the curve does not bottom out: log too short)".to_owned(),
+            },
+            or(
+                self.terms.rrw_deg_per_h_per_sqrt_h,
+                &|k| format!("{k:.4} (°/h)/√h"),
+                "not shown (no slope +½: log too short)"
+            ),
+        )
     }
 }
 
@@ -224,14 +337,19 @@ mod tests {
         let model = |tau: f64| {
             (white_avar(arw / 60.0, tau) + gauss_markov_avar(gm / HOUR_S, corr, tau)).sqrt()
         };
-        let grid: Vec<f64> = (0..4000).map(|i| 10f64.powf(f64::from(i) / 1000.0)).collect();
+        let grid: Vec<f64> = (0..4000)
+            .map(|i| 10f64.powf(f64::from(i) / 1000.0))
+            .collect();
         let first = grid
             .windows(2)
             .find(|w| model(w[1]) >= model(w[0]))
             .map_or(f64::NAN, |w| model(w[0]));
         let known = first / FLICKER_FLOOR * HOUR_S;
         let bi = t.bias_instability_deg_per_h.expect("a minimum");
-        assert!((bi / known - 1.0).abs() < 0.1, "B {bi} °/h, closed form {known}");
+        assert!(
+            (bi / known - 1.0).abs() < 0.1,
+            "B {bi} °/h, closed form {known}"
+        );
         let a = t.arw_deg_per_sqrt_h.expect("ARW");
         assert!((a / arw - 1.0).abs() < 0.1, "ARW {a}");
         // The estimated curve follows the closed form within its interval at every τ up to 10⁴ s.
@@ -257,7 +375,9 @@ mod tests {
         assert!(t.rrw_deg_per_h_per_sqrt_h.is_none());
         // Gauss–Markov: RRW-like for τ ≪ T, white-like for τ ≫ T.
         let (s, tc) = (1.0, 300.0);
-        assert!((gauss_markov_avar(s, tc, 0.01) / (2.0 * s * s * 0.01 / (3.0 * tc)) - 1.0).abs() < 1e-3);
+        assert!(
+            (gauss_markov_avar(s, tc, 0.01) / (2.0 * s * s * 0.01 / (3.0 * tc)) - 1.0).abs() < 1e-3
+        );
         assert!((gauss_markov_avar(s, tc, 1e6) / (2.0 * s * s * tc / 1e6) - 1.0).abs() < 1e-3);
     }
 }

@@ -13,7 +13,7 @@ use crate::data::columns::ColumnMap;
 use crate::gyro::effects::{Effect, Hidden};
 use crate::gyro::{output, paper, plant::GyroParams, stream};
 use crate::io::{ensure_not_input, write_atomically, write_json};
-use crate::{qemu, replay};
+use crate::{plot, qemu, replay, twin};
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
@@ -52,6 +52,36 @@ enum Command {
         /// Scores as JSON: n, rmse_dps, rmse_60s_dps, max_abs_err_dps, coverage_2sigma, ….
         #[arg(long)]
         json: Option<PathBuf>,
+    },
+    /// Identify a twin of a real gyro: the simulator's parameters fitted to measured data (a rate
+    /// table and/or a stream or static log), the effects the twin lacks named and fitted on the
+    /// training data, and its fidelity on the held-out last third before and after. Writes a unit
+    /// file that `generate paper|stream --unit FILE` simulates.
+    ///
+    /// Example: firmware-sim identify --points points.csv --stream s.csv --out unit.json --json id.json
+    Identify {
+        /// Rate-table points CSV: temp_c,voltage_v,rate_dps (and time_s, through --map, for a
+        /// table recorded in time order).
+        #[arg(long)]
+        points: Option<PathBuf>,
+        /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
+        #[arg(long)]
+        stream: Option<PathBuf>,
+        #[command(flatten)]
+        maps: Maps,
+        /// Nominal scale factor, output units per °/s, where the data show none (a static log).
+        #[arg(long)]
+        scale_factor: Option<f64>,
+        /// The unit file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Every parameter (value, standard error, determined or why not), the candidates tried
+        /// and the fidelity before and after, as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// The held-out difference between measured and twin, before and after, as SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Replay a stream on the Cortex-M4F build of the firmware under qemu-system-arm, compare with
     /// the host replay, and measure instructions per prediction.
@@ -168,8 +198,9 @@ struct GenerateCommon {
     /// Output CSV.
     #[arg(long)]
     out: PathBuf,
-    /// Which gyro: the nominal unit of PHYSICS.md, or one drawn from its published ranges.
-    #[arg(long, value_enum, default_value_t = Unit::Nominal)]
+    /// Which gyro: `nominal` (PHYSICS.md's unit), `random` (drawn from its published ranges), or a
+    /// unit file `identify --out` wrote (its effects act with any --effect given).
+    #[arg(long, default_value = "nominal", value_name = "nominal|random|FILE")]
     unit: Unit,
     /// Seed of the unit drawn with --unit random (default: --seed). Give points and streams of one
     /// gyro the same unit seed.
@@ -194,9 +225,28 @@ struct GenerateCommon {
 impl GenerateCommon {
     /// The gyro and its effects.
     fn gyro(&self) -> anyhow::Result<(GyroParams, Hidden)> {
-        let params = self.unit.params(self.unit_seed.unwrap_or(self.seed));
         let strengths = self.strength.as_ref().map_or(&[][..], |s| &s.0);
-        Ok((params, Hidden::new(&self.effect.0, strengths)?))
+        let flagged = Hidden::new(&self.effect.0, strengths)?;
+        let seed = self.unit_seed.unwrap_or(self.seed);
+        match &self.unit {
+            Unit::Nominal => Ok((GyroParams::nominal(), flagged)),
+            Unit::Random => Ok((GyroParams::random_unit(seed), flagged)),
+            Unit::File(path) => {
+                let unit = twin::Unit::load(path)?;
+                let mut effects = unit.effects;
+                for e in flagged.0.into_iter().filter(|e| *e != Effect::None) {
+                    if effects.iter().any(|u| u.cause() == e.cause()) {
+                        anyhow::bail!(
+                            "{} already has a {} effect; edit the unit file to change it",
+                            path.display(),
+                            e.cause().id()
+                        );
+                    }
+                    effects.push(e);
+                }
+                Ok((unit.params, Hidden(effects)))
+            }
+        }
     }
 
     /// Writes the CSV and, when asked, the JSON summary of `n` rows.
@@ -269,10 +319,23 @@ where
     }
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+/// `--unit`: which gyro to simulate.
+#[derive(Clone)]
 enum Unit {
     Nominal,
     Random,
+    File(PathBuf),
+}
+
+impl std::str::FromStr for Unit {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "nominal" => Unit::Nominal,
+            "random" => Unit::Random,
+            path => Unit::File(PathBuf::from(path)),
+        })
+    }
 }
 
 /// Runs one parsed command line.
@@ -308,6 +371,72 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 rows.len(),
                 flags,
             )
+        }
+        Command::Identify {
+            points,
+            stream,
+            maps,
+            scale_factor,
+            out,
+            json,
+            plot: figure,
+        } => {
+            let console = Console::new(flags, json.as_deref());
+            let inputs: Vec<&std::path::Path> =
+                points.iter().chain(&stream).map(|p| p.as_path()).collect();
+            for o in std::iter::once(&out).chain(&json).chain(&figure) {
+                ensure_not_input(o, &inputs)?;
+            }
+            let points = points
+                .as_deref()
+                .map(|p| twin::load_points(p, &maps.list))
+                .transpose()?;
+            let stream = match &stream {
+                Some(path) => {
+                    let s = crate::data::stream::Stream::load(path, &maps.list)?;
+                    for issue in &s.time_issues {
+                        console.warn(&format!("{} {issue}", path.display()));
+                    }
+                    Some(twin::Source::from(&s))
+                }
+                None => None,
+            };
+            let spinner = console.spinner("identifying");
+            let id = twin::identify(points.as_ref(), stream.as_ref(), scale_factor, |step| {
+                spinner.set_message(format!("identifying: {step}"));
+            })?;
+            spinner.finish_and_clear();
+            write_json(&out, &inputs, &id.unit)?;
+            if let Some(path) = &json {
+                write_json(path, &inputs, &id)?;
+            }
+            if let Some(path) = &figure {
+                let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
+                    twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
+                    twin::Kind::Points => ("point (file order)", id.residual.clone()),
+                };
+                let after = format!(
+                    "with {}",
+                    id.causes
+                        .iter()
+                        .map(|c| c.id())
+                        .collect::<Vec<_>>()
+                        .join(" + ")
+                );
+                let svg = plot::twin(
+                    &format!(
+                        "Held out: measured − twin, {:.2} → {:.2} °/h",
+                        id.fidelity_before_dph, id.fidelity_after_dph
+                    ),
+                    axis,
+                    &pts,
+                    &after,
+                )?;
+                write_atomically(path, svg.as_bytes())?;
+            }
+            console.result(&twin::summary(&id));
+            console.result(&format!("wrote {}", out.display()));
+            Ok(())
         }
         Command::Replay { input, out, json } => {
             let console = Console::new(flags, json.as_deref());
@@ -402,15 +531,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 m4.cost.instructions_per_tick
             ));
             Ok(())
-        }
-    }
-}
-
-impl Unit {
-    fn params(self, seed: u64) -> GyroParams {
-        match self {
-            Unit::Nominal => GyroParams::nominal(),
-            Unit::Random => GyroParams::random_unit(seed),
         }
     }
 }

@@ -21,6 +21,7 @@ pub mod data;
 pub mod flash;
 pub mod gyro;
 pub mod io;
+pub mod plot;
 pub mod qemu;
 pub mod replay;
 pub mod twin;

@@ -32,7 +32,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::allan;
 use crate::cause::Cause;
-use crate::data::stream::{BLOCK_S, GAP_FACTOR};
+use crate::data::columns::{self, ColumnMap, DataError};
+use crate::data::stream::{BLOCK_S, GAP_FACTOR, Stream};
 use crate::gyro::effects::{Effect, EffectPlant};
 use crate::gyro::plant::GyroParams;
 
@@ -45,7 +46,9 @@ pub const MAX_EFFECTS: usize = 3;
 /// Parts of the training data for the rolling-origin forward test.
 const FOLDS: usize = 5;
 /// Sensor-lag time constants tried, min.
-const LAG_GRID_MIN: [f64; 12] = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0, 30.0];
+const LAG_GRID_MIN: [f64; 12] = [
+    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0, 30.0,
+];
 /// The bias effects whose strength enters the output linearly, fitted with the map.
 const LINEAR: [Cause; 4] = [
     Cause::ThermalRate,
@@ -107,14 +110,34 @@ impl Unit {
         })?;
         let p = &unit.params;
         let checks: [(&'static str, f64, bool); 8] = [
-            ("scale_factor_v_per_dps", p.scale_factor_v_per_dps, p.scale_factor_v_per_dps != 0.0),
+            (
+                "scale_factor_v_per_dps",
+                p.scale_factor_v_per_dps,
+                p.scale_factor_v_per_dps != 0.0,
+            ),
             ("sagnac_k_s", p.sagnac_k_s, p.sagnac_k_s > 0.0),
             ("arw_dpsqrth", p.arw_dpsqrth, p.arw_dpsqrth >= 0.0),
-            ("bias_instability_dph", p.bias_instability_dph, p.bias_instability_dph >= 0.0),
-            ("bias_instability_tau_s", p.bias_instability_tau_s, p.bias_instability_tau_s > 0.0),
-            ("rrw_dph_per_sqrth", p.rrw_dph_per_sqrth, p.rrw_dph_per_sqrth >= 0.0),
+            (
+                "bias_instability_dph",
+                p.bias_instability_dph,
+                p.bias_instability_dph >= 0.0,
+            ),
+            (
+                "bias_instability_tau_s",
+                p.bias_instability_tau_s,
+                p.bias_instability_tau_s > 0.0,
+            ),
+            (
+                "rrw_dph_per_sqrth",
+                p.rrw_dph_per_sqrth,
+                p.rrw_dph_per_sqrth >= 0.0,
+            ),
             ("temp_noise_c", p.temp_noise_c, p.temp_noise_c >= 0.0),
-            ("adc_bits", f64::from(p.adc_bits), (1..=30).contains(&p.adc_bits)),
+            (
+                "adc_bits",
+                f64::from(p.adc_bits),
+                (1..=30).contains(&p.adc_bits),
+            ),
         ];
         for (what, value, ok) in checks {
             if !(ok && value.is_finite()) {
@@ -162,6 +185,9 @@ pub struct Source {
     pub kind: Kind,
     /// The measurements.
     pub records: Vec<Record>,
+    /// The chamber's setpoint of each measurement, °C, where the file has one (a simulated rate
+    /// table's `setpoint_c`): the sensor's reading above it, soaked, is the self-heating.
+    pub setpoint_c: Option<Vec<f64>>,
 }
 
 /// The kind of a [`Source`].
@@ -318,6 +344,16 @@ struct Row {
     unit_bias_dps: [f64; TERMS],
 }
 
+/// The best candidate of a round: its cause, forward score and strength, and the twin's lag and
+/// linear effects with it.
+struct Tried {
+    cause: Cause,
+    score: f64,
+    strength: f64,
+    lag: Option<f64>,
+    linear: Vec<usize>,
+}
+
 /// Which parameters a fit frees: static ones by index, and the linear effects present.
 #[derive(Debug, Clone)]
 struct Free {
@@ -365,7 +401,9 @@ impl Fit<'_> {
         let (p, strengths) = self.params(x);
         DVector::from_iterator(
             self.rows.len(),
-            self.rows.iter().map(|r| (model(&p, &strengths, r) - r.output) / self.s_ref),
+            self.rows
+                .iter()
+                .map(|r| (model(&p, &strengths, r) - r.output) / self.s_ref),
         )
     }
 }
@@ -433,7 +471,9 @@ fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitted, Identify
         x: DVector::zeros(n_params),
         s_ref,
     };
-    let (problem, _) = LevenbergMarquardt::new().with_patience(200).minimize(problem);
+    let (problem, _) = LevenbergMarquardt::new()
+        .with_patience(200)
+        .minimize(problem);
     let (params, strengths) = problem.params(&problem.x);
     if !problem.x.iter().all(|v| v.is_finite()) {
         return Err(IdentifyError::Diverged);
@@ -443,7 +483,9 @@ fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitted, Identify
     // neighbouring measurements, which then know less than independent ones would.
     let r = problem.residuals_at(&problem.x);
     let dof = rows.len().saturating_sub(n_params).max(1) as f64;
-    let rho = (r.rows(1, r.len().saturating_sub(1)).dot(&r.rows(0, r.len().saturating_sub(1)))
+    let rho = (r
+        .rows(1, r.len().saturating_sub(1))
+        .dot(&r.rows(0, r.len().saturating_sub(1)))
         / r.norm_squared().max(f64::MIN_POSITIVE))
     .clamp(0.0, 0.95);
     let sigma2 = r.norm_squared() / dof * (1.0 + rho) / (1.0 - rho);
@@ -453,10 +495,7 @@ fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitted, Identify
         .map(|inv| {
             (0..n_params)
                 .map(|k| {
-                    let unit = free
-                        .statics
-                        .get(k)
-                        .map_or(1.0, |&j| scale(j, s_ref));
+                    let unit = free.statics.get(k).map_or(1.0, |&j| scale(j, s_ref));
                     (inv[(k, k)] * sigma2).max(0.0).sqrt() * unit
                 })
                 .collect()
@@ -501,10 +540,10 @@ fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> Vec<Row> {
     let run: Vec<usize> = recs
         .iter()
         .scan((0usize, None::<f64>), |(id, prev), r| {
-            if let (Some(p), Some(t)) = (*prev, r.time_s) {
-                if t - p > GAP_FACTOR * typical {
-                    *id += 1;
-                }
+            if let (Some(p), Some(t)) = (*prev, r.time_s)
+                && t - p > GAP_FACTOR * typical
+            {
+                *id += 1;
             }
             *prev = r.time_s;
             Some(*id)
@@ -585,7 +624,8 @@ fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> Vec<Row> {
 fn residual_dph(f: &Fitted, rows: &[Row]) -> Vec<f64> {
     rows.iter()
         .map(|r| {
-            (r.output - model(&f.params, &f.strengths, r)) / f.params.scale_factor(r.coil_c) * HOUR_S
+            (r.output - model(&f.params, &f.strengths, r)) / f.params.scale_factor(r.coil_c)
+                * HOUR_S
         })
         .collect()
 }
@@ -632,7 +672,11 @@ fn determinable(records: &[&Record]) -> (Vec<usize>, Vec<(usize, String)>) {
         v.len()
     };
     let temps = distinct(&mut rated.iter().map(|r| r.temp_c.round() as i64));
-    let rates = distinct(&mut rated.iter().map(|r| (r.rate_dps.abs() * 2.0).round() as i64));
+    let rates = distinct(
+        &mut rated
+            .iter()
+            .map(|r| (r.rate_dps.abs() * 2.0).round() as i64),
+    );
     let max_rate = rated.iter().map(|r| r.rate_dps.abs()).fold(0.0, f64::max);
     let both_signs =
         rated.iter().any(|r| r.rate_dps > 0.0) && rated.iter().any(|r| r.rate_dps < 0.0);
@@ -646,7 +690,8 @@ fn determinable(records: &[&Record]) -> (Vec<usize>, Vec<(usize, String)>) {
         }
     };
     let has_rates = rated.len() >= 3;
-    let no_rates = || "every reference rate is (near) zero: the data show no scale factor".to_owned();
+    let no_rates =
+        || "every reference rate is (near) zero: the data show no scale factor".to_owned();
     rule(0, has_rates, no_rates());
     rule(
         1,
@@ -668,7 +713,11 @@ fn determinable(records: &[&Record]) -> (Vec<usize>, Vec<(usize, String)>) {
              {rates} up to {max_rate:.1} °/s)"
         ),
     );
-    rule(4, has_rates && both_signs, "needs rates of both signs".to_owned());
+    rule(
+        4,
+        has_rates && both_signs,
+        "needs rates of both signs".to_owned(),
+    );
     // An offset at the output and a bias differ only in how the sine's compression treats them
     // (the bias passes through it: S·b·cos(K′ω)), so the offset is known where the sine is.
     rule(
@@ -677,10 +726,12 @@ fn determinable(records: &[&Record]) -> (Vec<usize>, Vec<(usize, String)>) {
         "not separable from the bias without the sine's compression: 0, the bias carries it"
             .to_owned(),
     );
-    // The bias polynomial's degree follows the temperature span (a cubic needs 30 °C of it).
+    // The bias polynomial's degree follows the temperature span: a cubic needs 40 °C of it, a
+    // quadratic 20 (over less, its curvature is fitted to noise and run-to-run offsets, and it
+    // extrapolates wildly past the trained span).
     let degree = match all_span {
-        s if s >= 30.0 => 3,
-        s if s >= 10.0 => 2,
+        s if s >= 40.0 => 3,
+        s if s >= 20.0 => 2,
         s if s >= 2.0 => 1,
         _ => 0,
     };
@@ -711,11 +762,12 @@ pub fn identify(
     let (primary, other) = match (stream, points) {
         (Some(s), other) => (s, other),
         (None, Some(p)) if !p.timed() => {
-            let (train, test): (Vec<(usize, &Record)>, Vec<(usize, &Record)>) =
-                p.records.iter().enumerate().partition(|(i, _)| i % 3 != 2);
+            let (train, test): (Vec<usize>, Vec<usize>) =
+                (0..p.records.len()).partition(|i| i % 3 != 2);
             interleaved = Source {
                 kind: p.kind,
-                records: train.iter().chain(&test).map(|(_, r)| **r).collect(),
+                records: train.iter().chain(&test).map(|&i| p.records[i]).collect(),
+                setpoint_c: None,
             };
             (&interleaved, None)
         }
@@ -740,7 +792,10 @@ pub fn identify(
     let mut start = GyroParams::nominal();
     start.bias_poly_dph = [0.0; 4];
     start.output_offset_v = 0.0;
-    let rated: Vec<&&Record> = map_records.iter().filter(|r| r.rate_dps.abs() > 0.5).collect();
+    let rated: Vec<&&Record> = map_records
+        .iter()
+        .filter(|r| r.rate_dps.abs() > 0.5)
+        .collect();
     let max_rate = rated.iter().map(|r| r.rate_dps.abs()).fold(0.0, f64::max);
     let small: Vec<&&&Record> = rated
         .iter()
@@ -811,7 +866,14 @@ pub fn identify(
         let mut squares = 0.0;
         let mut last = None;
         for k in 2..FOLDS {
-            let (a, b) = (k * fifth, if k + 1 == FOLDS { train_end } else { (k + 1) * fifth });
+            let (a, b) = (
+                k * fifth,
+                if k + 1 == FOLDS {
+                    train_end
+                } else {
+                    (k + 1) * fifth
+                },
+            );
             let f = fit_on(&rows[..a], linear)?;
             let e = residual_dph(&f, &rows[a..b]);
             let score = fidelity(primary.kind, &primary.records[a..b], &e);
@@ -830,7 +892,7 @@ pub fn identify(
     let mut candidates = Vec::new();
     if timed {
         for round in 1..=MAX_EFFECTS {
-            let mut best: Option<(Cause, f64, f64, Option<f64>, Vec<usize>)> = None;
+            let mut best: Option<Tried> = None;
             for cause in [Cause::SensorLag].into_iter().chain(LINEAR) {
                 if causes.iter().any(|(c, _)| *c == cause) {
                     continue;
@@ -881,13 +943,24 @@ pub fn identify(
                     baseline_dph: baseline,
                     kept: false,
                 });
-                if best.as_ref().is_none_or(|b| score < b.1) {
-                    best = Some((cause, score, strength, try_lag, try_linear));
+                if best.as_ref().is_none_or(|b| score < b.score) {
+                    best = Some(Tried {
+                        cause,
+                        score,
+                        strength,
+                        lag: try_lag,
+                        linear: try_linear,
+                    });
                 }
             }
             match best {
-                Some((cause, score, strength, try_lag, try_linear))
-                    if score < (1.0 - MIN_GAIN) * baseline =>
+                Some(Tried {
+                    cause,
+                    score,
+                    strength,
+                    lag: try_lag,
+                    linear: try_linear,
+                }) if score < (1.0 - MIN_GAIN) * baseline =>
                 {
                     if let Some(c) = candidates
                         .iter_mut()
@@ -912,7 +985,10 @@ pub fn identify(
         let rows = rows(primary, lag, linear);
         let f = fit_on(&rows[..train_end], linear)?;
         let e = residual_dph(&f, &rows[train_end..]);
-        Ok((e.clone(), fidelity(primary.kind, &primary.records[train_end..], &e)))
+        Ok((
+            e.clone(),
+            fidelity(primary.kind, &primary.records[train_end..], &e),
+        ))
     };
     let (before_e, before) = held(None, &[])?;
     let (after_e, after) = held(lag, &linear)?;
@@ -959,10 +1035,7 @@ pub fn identify(
     });
     let noise = static_log.map(|s| {
         let rows = rows(s, lag, &linear);
-        let e: Vec<f64> = residual_dph(&f, &rows)
-            .iter()
-            .map(|v| v / HOUR_S)
-            .collect();
+        let e: Vec<f64> = residual_dph(&f, &rows).iter().map(|v| v / HOUR_S).collect();
         noise_terms(s, &e)
     });
     let nominal = GyroParams::nominal();
@@ -1040,8 +1113,8 @@ pub fn identify(
         let t: Vec<f64> = s.records.iter().map(|r| r.temp_c).collect();
         let d: Vec<f64> = t.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]).collect();
         // The second difference removes a ramp; white sensor noise σ gives √6 σ.
-        let sigma = (d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64).sqrt()
-            / 6f64.sqrt();
+        let sigma =
+            (d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64).sqrt() / 6f64.sqrt();
         params.temp_noise_c = sigma;
         parameters.push(Parameter {
             name: "temp_noise_c".to_owned(),
@@ -1051,10 +1124,33 @@ pub fn identify(
             why: "the stream's temperature, second differences".to_owned(),
         });
     }
+    // Soaked table points read the chamber's setpoint plus the electronics' self-heating.
+    let soaked = points.and_then(|p| {
+        let set = p.setpoint_c.as_ref()?;
+        let n = set.len().max(1) as f64;
+        Some(
+            p.records
+                .iter()
+                .zip(set)
+                .map(|(r, s)| r.temp_c - s)
+                .sum::<f64>()
+                / n,
+        )
+    });
+    if let Some(heat) = soaked {
+        params.self_heating_c = heat;
+        parameters.push(Parameter {
+            name: "self_heating_c".to_owned(),
+            value: heat,
+            std_error: None,
+            determined: true,
+            why: "the soaked points' readings above the chamber's setpoint".to_owned(),
+        });
+    }
     for (name, why) in [
         (
             "self_heating_c",
-            "needs the chamber air beside the sensor reading: nominal",
+            "needs the chamber's setpoint beside the sensor reading (a setpoint_c column): nominal",
         ),
         (
             "latitude_deg",
@@ -1064,8 +1160,14 @@ pub fn identify(
             "bias_instability_tau_s",
             "the Gauss–Markov correlation time is not read from the curve: nominal",
         ),
-        ("adc_bits", "not determined: nominal"),
+        (
+            "adc_bits",
+            "a logger's resolution is not in its means: nominal",
+        ),
     ] {
+        if name == "self_heating_c" && soaked.is_some() {
+            continue;
+        }
         parameters.push(Parameter {
             name: name.to_owned(),
             value: match name {
@@ -1133,21 +1235,12 @@ fn line(xy: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
 
 /// The noise terms of a stream's residual (°/s), over its longest run without a gap.
 fn noise_terms(stream: &Source, residual_dps: &[f64]) -> allan::Terms {
-    let t: Vec<f64> = stream.records.iter().map(|r| r.time_s.unwrap_or(0.0)).collect();
-    let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
-    steps.sort_by(f64::total_cmp);
-    let step = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
-    let mut best = (0, 0);
-    let mut start = 0;
-    for i in 1..=t.len() {
-        if i == t.len() || t[i] - t[i - 1] > GAP_FACTOR * step {
-            if i - start > best.1 - best.0 {
-                best = (start, i);
-            }
-            start = i;
-        }
-    }
-    allan::terms(&allan::overlapping(&residual_dps[best.0..best.1], step))
+    let t: Vec<f64> = stream
+        .records
+        .iter()
+        .map(|r| r.time_s.unwrap_or(0.0))
+        .collect();
+    allan::Analysis::of("the twin's residual", &t, residual_dps).terms
 }
 
 /// The Gauss–Markov σ (°/h, correlation time `corr_s`) whose Allan curve, with white noise of
@@ -1160,7 +1253,9 @@ pub fn gauss_markov_sigma(arw: f64, b: f64, corr_s: f64) -> f64 {
                 + allan::gauss_markov_avar(sigma / HOUR_S, corr_s, tau))
             .sqrt()
         };
-        let grid: Vec<f64> = (0..5000).map(|i| 10f64.powf(f64::from(i) / 1000.0)).collect();
+        let grid: Vec<f64> = (0..5000)
+            .map(|i| 10f64.powf(f64::from(i) / 1000.0))
+            .collect();
         grid.windows(2)
             .find(|w| curve(w[1]) >= curve(w[0]))
             .map_or_else(|| curve(1e5), |w| curve(w[0]))
@@ -1177,4 +1272,125 @@ pub fn gauss_markov_sigma(arw: f64, b: f64, corr_s: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// Loads a rate-table points CSV as identification reads it: `temp_c`, `voltage_v`, `rate_dps`,
+/// and `time_s` where `--map` gives one (a table recorded in time order).
+pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Source, DataError> {
+    let timed = maps.iter().any(|m| m.name == "time_s");
+    let mut numeric = vec!["temp_c", "voltage_v", "rate_dps"];
+    if timed {
+        numeric.push("time_s");
+    }
+    // A simulated table carries the chamber's setpoint; a real one may, under that name.
+    let header = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| t.lines().next().map(str::to_owned));
+    let with_setpoint = maps.iter().any(|m| m.name == "setpoint_c")
+        || header.is_some_and(|h| h.split([',', '\t']).any(|c| c.trim() == "setpoint_c"));
+    if with_setpoint {
+        numeric.push("setpoint_c");
+    }
+    let c = columns::read_columns(path, &numeric, &[], &[], maps)?;
+    let time = timed.then(|| c.get("time_s"));
+    Ok(Source {
+        kind: Kind::Points,
+        records: (0..c.len())
+            .map(|i| Record {
+                time_s: time.map(|t| t[i]),
+                temp_c: c.get("temp_c")[i],
+                output: c.get("voltage_v")[i],
+                rate_dps: c.get("rate_dps")[i],
+            })
+            .collect(),
+        setpoint_c: with_setpoint.then(|| c.get("setpoint_c").to_vec()),
+    })
+}
+
+impl From<&Stream> for Source {
+    /// The samples with a reference rate (those without, e.g. where the unit was handled, say
+    /// nothing of the map).
+    fn from(s: &Stream) -> Self {
+        Source {
+            kind: Kind::Stream,
+            records: (0..s.len())
+                .filter(|&i| s.rate_dps[i].is_finite())
+                .map(|i| Record {
+                    time_s: Some(s.time_s[i]),
+                    temp_c: s.temp_c[i],
+                    output: s.voltage_v[i],
+                    rate_dps: s.rate_dps[i],
+                })
+                .collect(),
+            setpoint_c: None,
+        }
+    }
+}
+
+/// A stream's held-out residual as one-minute means, time in hours from its start: what the
+/// figure draws (single samples are the white noise).
+pub fn minute_means(residual: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
+    let t0 = residual.first().map_or(0.0, |r| r.0);
+    let mut out: Vec<(f64, f64, f64, f64, usize)> = Vec::new();
+    for &(t, b, a) in residual {
+        let block = ((t - t0) / BLOCK_S).floor();
+        match out.last_mut() {
+            Some(last) if last.0 == block => {
+                last.1 += t;
+                last.2 += b;
+                last.3 += a;
+                last.4 += 1;
+            }
+            _ => out.push((block, t, b, a, 1)),
+        }
+    }
+    out.iter()
+        .map(|&(_, t, b, a, n)| {
+            let n = n as f64;
+            ((t / n - t0) / HOUR_S, b / n, a / n)
+        })
+        .collect()
+}
+
+/// The identification as text: every parameter, the effects and the fidelity.
+pub fn summary(id: &Identification) -> String {
+    let mut s = String::from("parameter                      value          ± 1σ       source\n");
+    for p in &id.parameters {
+        s.push_str(&format!(
+            "{:<28} {:>14.6e} {:>12} {}\n",
+            p.name,
+            p.value,
+            p.std_error
+                .map_or_else(|| "—".to_owned(), |e| format!("{e:.2e}")),
+            if p.determined {
+                p.why.clone()
+            } else {
+                format!("not determined: {}", p.why)
+            }
+        ));
+    }
+    for c in &id.candidates {
+        s.push_str(&format!(
+            "round {} {:<13} strength {:>10.4}  forward {:>9.3} °/h (without {:>9.3}){}\n",
+            c.round,
+            c.cause.id(),
+            c.strength,
+            c.forward_dph,
+            c.baseline_dph,
+            if c.kept { "  kept" } else { "" }
+        ));
+    }
+    let held = match id.held_out {
+        Kind::Stream => "the stream's last third in time, 60 s means",
+        Kind::Points => "the table's last third (in time where it has one, else every third point)",
+    };
+    s.push_str(&format!(
+        "effects: {}; held out ({held}, {} of {} measurements): {:.3} °/h static → {:.3} °/h with them",
+        id.causes.iter().map(|c| c.id()).collect::<Vec<_>>().join(" + "),
+        id.n_held_out,
+        id.n_held_out + id.n_train,
+        id.fidelity_before_dph,
+        id.fidelity_after_dph
+    ));
+    s
 }

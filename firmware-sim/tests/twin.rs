@@ -1,11 +1,11 @@
 //! Identification (issue 23): a twin recovers the simulator's own parameters from data it
 //! generated, and an effect the twin lacks is named and closes the gap on held-out data.
 
+use firmware_sim::cause::Cause;
 use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::paper;
-use firmware_sim::gyro::stream as gyro_stream;
 use firmware_sim::gyro::plant::GyroParams;
-use firmware_sim::cause::Cause;
+use firmware_sim::gyro::stream as gyro_stream;
 use firmware_sim::twin::{self, Kind, Record, Source};
 
 fn points(p: &GyroParams, seed: u64) -> Source {
@@ -20,6 +20,7 @@ fn points(p: &GyroParams, seed: u64) -> Source {
                 rate_dps: pt.rate_dps,
             })
             .collect(),
+        setpoint_c: None,
     }
 }
 
@@ -35,6 +36,7 @@ fn stream(p: &GyroParams, effect: Effect, seed: u64) -> Source {
                 rate_dps: r.rate_dps,
             })
             .collect(),
+        setpoint_c: None,
     }
 }
 
@@ -49,7 +51,11 @@ fn identification_recovers_the_simulators_own_parameters_for_random_units() {
         let id = twin::identify(Some(&points(&truth, unit)), None, None, |_| {}).unwrap();
         let value = |name: &str| {
             let p = id.parameters.iter().find(|p| p.name == name).unwrap();
-            assert!(p.determined, "unit {unit}: {name} not determined: {}", p.why);
+            assert!(
+                p.determined,
+                "unit {unit}: {name} not determined: {}",
+                p.why
+            );
             (p.value, p.std_error.unwrap())
         };
         let b = truth.bias_poly_dph;
@@ -73,7 +79,11 @@ fn identification_recovers_the_simulators_own_parameters_for_random_units() {
             );
         }
         // A table of soaked points says nothing of the noise or of transients: nominal, and why.
-        let arw = id.parameters.iter().find(|p| p.name == "arw_dpsqrth").unwrap();
+        let arw = id
+            .parameters
+            .iter()
+            .find(|p| p.name == "arw_dpsqrth")
+            .unwrap();
         assert!(!arw.determined && arw.why.contains("static log"));
         assert_eq!(id.causes, vec![Cause::None]);
     }

@@ -9,6 +9,7 @@ mod paper;
 mod real;
 mod report;
 mod sparse;
+mod twin;
 
 use std::path::{Path, PathBuf};
 

@@ -73,6 +73,8 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
         "error (°/h)",
         "filtered dT/dt (°C/min)",
         "Named causes: <b>thermal-rate</b>",
+        "cluster time τ (s)",
+        "Noise of the held-out stream",
         "GPR paper",
     ] {
         assert!(page.contains(text), "missing {text}");

@@ -41,6 +41,31 @@ pub(super) struct DiagnoseArgs {
     json: Option<PathBuf>,
 }
 
+/// The arguments of `trainer allan`.
+#[derive(Args)]
+pub(super) struct AllanArgs {
+    /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
+    #[arg(long)]
+    stream: PathBuf,
+    #[command(flatten)]
+    maps: Maps,
+    /// Use only this part of the stream: START:END, s from its first sample.
+    #[arg(long)]
+    window: Option<Window>,
+    /// The output in °/s as output / K (K in output units per °/s): the raw gyro.
+    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
+    scale_factor: Option<f64>,
+    /// The output in °/s as this model compensates it: the compensated gyro.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Write tau_s, adev_dps and the noise terms as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw the Allan deviation with the lines its terms come from, as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
 /// The arguments of `trainer investigate`.
 #[derive(Args)]
 pub(super) struct InvestigateArgs {
@@ -474,4 +499,89 @@ struct ChallengeReport<'a> {
     false_alarms_none: usize,
     cases: &'a [challenge::Case],
     summary: &'a challenge::Summary,
+}
+
+/// `trainer allan`: the Allan deviation of a log's rate, raw (output / K) or compensated by a
+/// model, less the reference where the log has one throughout; its noise terms and figure.
+pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let AllanArgs {
+        stream,
+        maps,
+        window,
+        scale_factor,
+        model,
+        json,
+        plot,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let inputs: Vec<&Path> = std::iter::once(stream.as_path())
+        .chain(model.as_deref())
+        .collect();
+    for out in json.iter().chain(&plot) {
+        ensure_not_input(out, &inputs)?;
+    }
+    let data = load_stream(&stream, &maps.list, window)?;
+    let (rate, what): (Vec<f64>, String) = match (&model, scale_factor) {
+        (Some(path), _) => {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+            let fw = firmware_sim::replay::decode(&bytes)
+                .with_context(|| format!("decoding {}", path.display()))?;
+            let comp = firmware_sim::replay::replay(&fw, &data);
+            (
+                comp.rate_dps.iter().map(|&w| f64::from(w)).collect(),
+                format!("the output compensated by {}", path.display()),
+            )
+        }
+        (None, Some(k)) => {
+            anyhow::ensure!(
+                k.is_finite() && k != 0.0,
+                "--scale-factor {k}: a scale factor is a finite non-zero number"
+            );
+            (
+                data.voltage_v.iter().map(|v| v / k).collect(),
+                format!("output / {k}"),
+            )
+        }
+        (None, None) => anyhow::bail!("give --scale-factor K or --model M"),
+    };
+    let referenced = data.rate_dps.iter().all(|r| r.is_finite());
+    let rate: Vec<f64> = if referenced {
+        rate.iter()
+            .zip(&data.rate_dps)
+            .map(|(w, r)| w - r)
+            .collect()
+    } else {
+        rate
+    };
+    let what = if referenced {
+        format!("{what} − reference")
+    } else {
+        what
+    };
+    let analysis = firmware_sim::allan::Analysis::of(&what, &data.time_s, &rate);
+    anyhow::ensure!(
+        analysis.tau_s.len() >= 3,
+        "{}: {} samples without a gap: too few for an Allan deviation",
+        stream.display(),
+        analysis.samples
+    );
+    console.result(&analysis.text());
+    if let Some(path) = &json {
+        write_json(path, &inputs, &analysis)?;
+    }
+    if let Some(path) = &plot {
+        let curve = analysis.curve();
+        let svg = firmware_sim::plot::allan(
+            &format!("Allan deviation: {what}"),
+            &[firmware_sim::plot::AllanSeries {
+                label: &what,
+                colour: firmware_sim::plot::BLUE,
+                curve: &curve,
+                terms: analysis.terms,
+            }],
+        )?;
+        write_atomically(path, svg.as_bytes())?;
+    }
+    Ok(())
 }

@@ -65,6 +65,14 @@ enum Command {
     ///
     /// Example: trainer inspect model.bin
     Inspect(fit::InspectArgs),
+    /// Allan deviation of a log (IEEE Std 952): the raw output divided by a scale factor, or the
+    /// output compensated by a model, less the reference rate; the noise terms read from it
+    /// (angle random walk, bias instability, rate random walk) and its figure.
+    ///
+    /// Example (a static log in rad/s): trainer allan --stream imu.tsv --map
+    /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
+    /// --map rate_dps=0 --scale-factor 1 --json allan.json --plot allan.svg
+    Allan(analyse::AllanArgs),
     /// Leave-one-out and leave-one-temperature-out evaluation of one method.
     ///
     /// Example: trainer loo --points points.csv --method gpr --json loo.json
@@ -99,6 +107,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Investigate(args) => analyse::investigate_command(args, flags),
         Command::Inspect(args) => fit::inspect_command(args, flags),
         Command::Loo(args) => analyse::loo_command(args, flags),
+        Command::Allan(args) => analyse::allan_command(args, flags),
         Command::Report(args) => report::report_command(args, flags),
         Command::Reproduce(args) => analyse::reproduce_command(args, flags),
         Command::Challenge(args) => analyse::challenge_command(args, flags),

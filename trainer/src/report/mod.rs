@@ -10,9 +10,11 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use firmware_sim::allan::Analysis as Allan;
 use firmware_sim::cause::Cause;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::io::write_atomically;
+use firmware_sim::plot::{AllanSeries, BLUE, GREY, ORANGE};
 use firmware_sim::replay::{self, Compensated};
 use indicatif::ProgressBar;
 use plots::{DiagnosisSeries, ReplaySeries};
@@ -25,7 +27,7 @@ use crate::data::points::Points;
 use crate::models::gp::GpConfig;
 
 /// The figure files, in page order: (file name, caption).
-pub const FIGURES: [(&str, &str); 6] = [
+pub const FIGURES: [(&str, &str); 7] = [
     (
         "rate_table.svg",
         "Rate table: output over temperature and rate (paper Fig. 1)",
@@ -50,6 +52,10 @@ pub const FIGURES: [(&str, &str); 6] = [
         "diagnosis.svg",
         "Diagnosis: the static model's residual against its cause and against temperature",
     ),
+    (
+        "allan.svg",
+        "Allan deviation of the held-out stream's error: raw, static and extended (lines: the slopes the noise terms are read from)",
+    ),
 ];
 
 /// Everything the page shows.
@@ -72,6 +78,15 @@ pub struct Report {
     pub regressor: Vec<f64>,
     /// Block-mean temperature, °C.
     pub block_temp_c: Vec<f64>,
+    /// Allan analyses of the held-out stream's error: raw (output over the table's scale
+    /// factor), static, extended.
+    pub allan: [Allan; 3],
+}
+
+/// The Allan deviation of a held-out stream's error, less its reference rate.
+fn allan_of(what: &str, valid: &Stream, rate_dps: impl Iterator<Item = f64>) -> Allan {
+    let error: Vec<f64> = rate_dps.zip(&valid.rate_dps).map(|(w, r)| w - r).collect();
+    Allan::of(what, &valid.time_s, &error)
 }
 
 /// Runs the evaluations and the investigation; `bar` counts their fits and steps.
@@ -116,6 +131,40 @@ pub fn build(
         .and_then(|c| res.regressor(cause, c.parameter as f32))
         .unwrap_or_default();
     let (residual, block_temp_c) = (res.r.clone(), res.temperature());
+    // The raw gyro in °/s: its output over the table's scale factor, a straight line through
+    // the points (what an uncompensated gyro's datasheet scale factor does).
+    let k = {
+        let n = points.len() as f64;
+        let (mw, mv) = (
+            points.rate_dps.iter().sum::<f64>() / n,
+            points.voltage_v.iter().sum::<f64>() / n,
+        );
+        let sxy: f64 = points
+            .rate_dps
+            .iter()
+            .zip(&points.voltage_v)
+            .map(|(w, v)| (w - mw) * (v - mv))
+            .sum();
+        let sxx: f64 = points.rate_dps.iter().map(|w| (w - mw) * (w - mw)).sum();
+        if sxx > 0.0 { sxy / sxx } else { 1.0 }
+    };
+    let allan = [
+        allan_of(
+            "raw (output / K)",
+            &valid,
+            valid.voltage_v.iter().map(|v| v / k),
+        ),
+        allan_of(
+            "static",
+            &valid,
+            replays[0].rate_dps.iter().map(|&w| f64::from(w)),
+        ),
+        allan_of(
+            "extended",
+            &valid,
+            replays[1].rate_dps.iter().map(|&w| f64::from(w)),
+        ),
+    ];
     Ok(Report {
         source: source.display().to_string(),
         points,
@@ -126,6 +175,7 @@ pub fn build(
         residual,
         regressor,
         block_temp_c,
+        allan,
     })
 }
 
@@ -232,6 +282,22 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
             residual_dps: &r.residual,
             temp_c: &r.block_temp_c,
         })?,
+        {
+            let curves: Vec<_> = r.allan.iter().map(Allan::curve).collect();
+            let series: Vec<AllanSeries<'_>> = r
+                .allan
+                .iter()
+                .zip(&curves)
+                .zip([GREY, BLUE, ORANGE])
+                .map(|((a, curve), colour)| AllanSeries {
+                    label: &a.of,
+                    colour,
+                    curve,
+                    terms: a.terms,
+                })
+                .collect();
+            firmware_sim::plot::allan("Held-out stream: Allan deviation of the error", &series)?
+        },
     ];
     Ok(FIGURES.iter().map(|f| f.0).zip(svgs).collect())
 }
@@ -349,7 +415,22 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
             c.id, c.score, c.forward_score, c.parameter, c.correlation, c.amplitude_dph
         );
     }
-    s.push_str("</table>\n<h2>Figures</h2>\n");
+    s.push_str("</table>\n<h3>Noise of the held-out stream's error (Allan deviation, IEEE 952)</h3>\n<table><tr><th>output</th><th>ARW (°/√h)</th><th>bias instability (°/h)</th><th>at τ (s)</th><th>rate random walk ((°/h)/√h)</th></tr>\n");
+    let cell = |v: Option<f64>| v.map_or("not shown".to_owned(), |v| format!("{v:.4}"));
+    for a in &r.allan {
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            escape(&a.of),
+            cell(a.terms.arw_deg_per_sqrt_h),
+            cell(a.terms.bias_instability_deg_per_h),
+            a.terms
+                .bias_instability_tau_s
+                .map_or("—".to_owned(), |t| format!("{t:.0}")),
+            cell(a.terms.rrw_deg_per_h_per_sqrt_h)
+        );
+    }
+    s.push_str("</table>\n<p>Compensation removes the temperature's slow drift, so the long-τ part falls; the short-τ part is the gyro's own white noise, which no model removes. A term \"not shown\" is one whose slope the curve never reaches (a log too short, or a residual still drifting).</p>\n<h2>Figures</h2>\n");
     for ((name, svg), (_, caption)) in figures.iter().zip(FIGURES) {
         let _ = writeln!(
             s,

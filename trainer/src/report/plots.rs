@@ -2,106 +2,11 @@
 //! browser renders the text). Each function draws one figure from plain series, so the figures can
 //! be checked without running a fit.
 
-use std::error::Error;
-
-use plotters::coord::Shift;
-use plotters::coord::types::RangedCoordf64;
+use firmware_sim::plot::{
+    BLUE, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes, cold_to_hot, legend, span,
+    svg,
+};
 use plotters::prelude::*;
-
-/// A figure that could not be drawn (plotters' error, as text).
-#[derive(Debug, thiserror::Error)]
-#[error("drawing {figure}: {message}")]
-pub struct PlotError {
-    /// The figure.
-    pub figure: &'static str,
-    /// What plotters said.
-    pub message: String,
-}
-
-type Draw<'a> = DrawingArea<SVGBackend<'a>, Shift>;
-type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
-
-const FONT: &str = "sans-serif";
-const TITLE: u32 = 20;
-const LABEL: u32 = 16;
-const TICK: u32 = 14;
-/// Static model, extended model, GPR, LS-SVR: one colour each across the figures.
-const BLUE: RGBColor = RGBColor(31, 119, 180);
-const ORANGE: RGBColor = RGBColor(230, 120, 20);
-const GREEN: RGBColor = RGBColor(44, 160, 44);
-const RED: RGBColor = RGBColor(214, 39, 40);
-const GREY: RGBColor = RGBColor(120, 120, 120);
-
-/// Renders `draw` on a `size` canvas and returns the SVG text.
-fn svg(
-    figure: &'static str,
-    size: (u32, u32),
-    draw: impl FnOnce(&Draw<'_>) -> DrawResult,
-) -> Result<String, PlotError> {
-    let mut text = String::new();
-    {
-        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
-        let result = root
-            .fill(&WHITE)
-            .map_err(Into::into)
-            .and_then(|()| draw(&root))
-            .and_then(|()| root.present().map_err(Into::into));
-        result.map_err(|e| PlotError {
-            figure,
-            message: e.to_string(),
-        })?;
-    }
-    Ok(text)
-}
-
-/// The charts here: f64 on both axes, drawn to SVG.
-type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-
-/// Grid, ticks and axis titles in the report's sizes.
-fn axes<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, x: &str, y: &str) -> DrawResult {
-    chart
-        .configure_mesh()
-        .x_desc(x)
-        .y_desc(y)
-        .label_style((FONT, TICK))
-        .axis_desc_style((FONT, LABEL))
-        .draw()?;
-    Ok(())
-}
-
-/// The legend box at `position`, over a translucent white background.
-fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) -> DrawResult {
-    chart
-        .configure_series_labels()
-        .position(position)
-        .label_font((FONT, TICK))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
-}
-
-/// Low and high of a series, padded by `pad` of the span (and kept apart when constant).
-fn span(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
-    let (lo, hi) = values
-        .into_iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if !lo.is_finite() {
-        return (-1.0, 1.0);
-    }
-    let width = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
-    (lo - pad * width, hi + pad * width)
-}
-
-/// Blue (cold) to red (hot) for `t` in [0, 1].
-fn cold_to_hot(t: f64) -> RGBColor {
-    let t = t.clamp(0.0, 1.0);
-    let mix = |a: u8, b: u8| (f64::from(a) + t * (f64::from(b) - f64::from(a))).round() as u8;
-    RGBColor(mix(BLUE.0, RED.0), mix(BLUE.1, RED.1), mix(BLUE.2, RED.2))
-}
 
 /// Distinct values of `xs`, sorted, merged when closer than `tol`.
 pub fn levels(xs: &[f64], tol: f64) -> Vec<f64> {
