@@ -960,8 +960,7 @@ pub fn identify(
                     strength,
                     lag: try_lag,
                     linear: try_linear,
-                }) if score < (1.0 - MIN_GAIN) * baseline =>
-                {
+                }) if score < (1.0 - MIN_GAIN) * baseline => {
                     if let Some(c) = candidates
                         .iter_mut()
                         .rev()
