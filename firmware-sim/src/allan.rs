@@ -129,9 +129,12 @@ pub fn terms(curve: &Curve) -> Terms {
     // Gauss–Markov bias falls again at τ ≫ T, so the global minimum can be the last point; the
     // bias instability is the first bottom. The longest τ has at least MIN_CLUSTERS clusters, so
     // these have at least MIN_CLUSTERS × MIN_BOTTOM_CLUSTERS.
+    // A curve that never fell first (a residual dominated by a drift or by steps from the first
+    // τ) has no white-noise floor to bottom out from: no bias instability is read from it.
     let bottom = (0..n - 1)
         .take_while(|&i| curve.tau_s[i] <= curve.tau_s[n - 1] / MIN_BOTTOM_CLUSTERS as f64)
-        .find(|&i| slope(curve, i) > -0.1);
+        .find(|&i| slope(curve, i) > -0.1)
+        .filter(|&i| i >= 2 && slope(curve, 0) < -0.25);
     let min_at = bottom.unwrap_or(n - 1);
     // A line of slope s through the points whose local slope is near s (±0.2), fitted in logs:
     // its value at τ = `at`.
@@ -143,8 +146,10 @@ pub fn terms(curve: &Curve) -> Terms {
         (!logs.is_empty())
             .then(|| (logs.iter().sum::<f64>() / logs.len() as f64 + s * at.ln()).exp())
     };
-    // ARW: σ(1 s) on the −½ line before the minimum; °/√s × 60 = °/√h.
-    let arw = line(-0.5, 0..min_at.max(1), 1.0).map(|s| s * 60.0);
+    // ARW: σ(1 s) on the −½ line of the curve's leading fall (white noise shows at the shortest
+    // τ, or nowhere); °/√s × 60 = °/√h.
+    let fall = (0..n - 1).take_while(|&i| slope(curve, i) < -0.25).count();
+    let arw = line(-0.5, 0..fall.min(min_at.max(1)), 1.0).map(|s| s * 60.0);
     let turned = bottom.is_some();
     let bi = turned.then(|| curve.adev[min_at] / FLICKER_FLOOR * HOUR_S);
     // RRW: σ(3 s) on the +½ line after the minimum; °/s/√s × 3600 × 60 = (°/h)/√h.
@@ -318,6 +323,7 @@ mod tests {
         let c = overlapping(&rate, 1.0);
         let t = terms(&c);
         let arw = t.arw_deg_per_sqrt_h.expect("white noise shows slope −½");
+        eprintln!("white noise: ARW {arw:.4} °/√h (simulated 0.1)");
         assert!((arw / 0.1 - 1.0).abs() < 0.1, "ARW {arw} °/√h");
         assert!((slope(&c, 0) + 0.5).abs() < 0.05);
         // The interval holds the value and narrows with τ's cluster count.
@@ -346,6 +352,10 @@ mod tests {
             .map_or(f64::NAN, |w| model(w[0]));
         let known = first / FLICKER_FLOOR * HOUR_S;
         let bi = t.bias_instability_deg_per_h.expect("a minimum");
+        eprintln!(
+            "Gauss–Markov: B {bi:.4} °/h (closed form {known:.4}), ARW {:?}",
+            t.arw_deg_per_sqrt_h
+        );
         assert!(
             (bi / known - 1.0).abs() < 0.1,
             "B {bi} °/h, closed form {known}"

@@ -1008,7 +1008,16 @@ pub fn identify(
     let mut parameters: Vec<Parameter> = Vec::new();
     for (j, name) in STATIC.iter().enumerate() {
         let (determined, std_error, why) = match free.statics.iter().position(|&k| k == j) {
-            Some(k) => (true, f.std_errors.get(k).copied(), "fitted".to_owned()),
+            Some(k) => {
+                let se = f.std_errors.get(k).copied();
+                let why = if se.is_some_and(|e| e > get(&params, j).abs()) {
+                    "fitted, but its uncertainty exceeds its value: the data barely tell it from \
+                     the parameters it trades with (an offset and the bias, at zero rate)"
+                } else {
+                    "fitted"
+                };
+                (true, se, why.to_owned())
+            }
             None => (
                 false,
                 None,
