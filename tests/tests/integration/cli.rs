@@ -202,11 +202,14 @@ fn leave_one_group_out_uses_the_named_column() {
     );
 }
 
+/// More points than a firmware model holds (140 rate points and 140 position tests: 280): the
+/// default fit chooses a sparse GP on the data, says what it costs against the exact GP, and
+/// writes a blob; asking for the exact GP is refused before any fitting, with the sizes.
 #[test]
-fn a_model_too_large_for_the_firmware_is_refused_with_the_limit() {
+fn the_default_fit_of_too_many_points_yields_a_firmware_model_and_exact_is_refused_with_the_limit()
+{
     let dir = tempfile::tempdir().unwrap();
     let points = at(dir.path(), "points.csv");
-    // 140 rate points and 140 position tests: 280 centres.
     sim(&[
         "generate",
         "paper",
@@ -218,11 +221,48 @@ fn a_model_too_large_for_the_firmware_is_refused_with_the_limit() {
     ])
     .unwrap();
     let out = at(dir.path(), "model.bin");
-    let e = trainer(&["fit", "--points", &points, "--out", &out]).unwrap_err();
+    let report = at(dir.path(), "fit.json");
+    trainer(&["fit", "--points", &points, "--out", &out, "--json", &report]).unwrap();
+    let fit = json(&report);
+    let choice = &fit["centres_choice"];
+    let chosen = choice["chosen"].as_u64().unwrap();
+    assert!([24, 48, 96, 160, 256].contains(&chosen), "{choice:#}");
+    assert!(fit["centres"].as_u64().unwrap() <= 256);
+    assert_eq!(choice["exact"]["exportable"], false);
+    assert!(
+        choice["verdict"]
+            .as_str()
+            .unwrap()
+            .contains("instructions per prediction")
+    );
+    // The rule: the fewest within 5% of the best candidate's held-out error.
+    let candidates = choice["candidates"].as_array().unwrap();
+    let best = candidates
+        .iter()
+        .map(|c| c["held_out_rmse_dps"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    let first = candidates
+        .iter()
+        .find(|c| c["held_out_rmse_dps"].as_f64().unwrap() <= 1.05 * best)
+        .unwrap();
+    assert_eq!(first["asked"].as_u64().unwrap(), chosen);
+    assert!(std::path::Path::new(&out).exists());
+
+    let exact = at(dir.path(), "exact.bin");
+    let e = trainer(&[
+        "fit",
+        "--points",
+        &points,
+        "--inducing",
+        "exact",
+        "--out",
+        &exact,
+    ])
+    .unwrap_err();
     assert!(format!("{e:#}").contains("280 centres"), "{e:#}");
     assert!(format!("{e:#}").contains("at most 256 centres"), "{e:#}");
     assert!(format!("{e:#}").contains("checked before fitting"), "{e:#}");
-    assert!(!std::path::Path::new(&out).exists());
+    assert!(!std::path::Path::new(&exact).exists());
 }
 
 /// `value` without the wall-clock fields (`*_seconds`): the only bytes a rerun may change.

@@ -3,8 +3,10 @@
 //! extension that answers it ([`extend`]), the forward-in-time investigation that decides whether
 //! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
 //! ([`pool`]), and the hidden-effect challenge that measures all of this on the
-//! simulator ([`challenge`]).
+//! simulator ([`challenge`]); and the size of a model the firmware can hold, chosen on the data
+//! ([`capacity`]).
 
+pub mod capacity;
 pub mod challenge;
 pub mod diagnose;
 pub mod evaluate;

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
 use super::text::{causes_text, log_starts};
+use crate::analysis::capacity;
 use crate::analysis::diagnose::Diagnosis;
 use crate::analysis::extend;
 use crate::analysis::investigate;
@@ -101,6 +102,9 @@ struct FitReport {
     /// The diagnosis of the stream and the forward check (`--features` with a stream).
     #[serde(flatten)]
     stream_choice: Option<StreamChoice>,
+    /// How the default chose a sparse GP's size for more points than the firmware holds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    centres_choice: Option<capacity::Choice>,
     handled: Vec<Handled>,
     firmware_agreement: AgreementReport,
     blob_bytes: usize,
@@ -163,6 +167,7 @@ impl FitReport {
             pool_check: None,
             extension: None,
             stream_choice: None,
+            centres_choice: None,
             handled: Vec::new(),
             firmware_agreement: agreement,
             blob_bytes,
@@ -210,7 +215,34 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         .map(|p| Ok((p.as_path(), load_stream(p, &input.maps.list, window)?)))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let points = input.static_points(&streams, pool_stream)?;
-    let gp = fit.gp();
+    let mut gp = fit.gp();
+    // More points than the firmware holds, by default: a sparse GP, its size chosen on the data.
+    let centres_choice = if capacity::needed(gp.inducing, points.len()) {
+        anyhow::ensure!(
+            !on_table && !input.offsets,
+            "{} points are more than the {} centres a firmware model holds, and {} needs an \
+             exact GP: fit without it (the default then chooses a sparse GP) or on at most {} \
+             points (checked before fitting)",
+            points.len(),
+            firmware_sim::replay::MAX_CENTRES,
+            if on_table {
+                "a time-ordered table's transient terms (--features auto)"
+            } else {
+                "--offsets"
+            },
+            firmware_sim::replay::MAX_CENTRES
+        );
+        let spinner = console.spinner("choosing the firmware model's size");
+        let choice = capacity::choose(&points, &gp, |step| {
+            spinner.set_message(format!("choosing the firmware model's size: {step}"));
+        })?;
+        spinner.finish_and_clear();
+        console.result(&choice.verdict);
+        gp.inducing = Inducing::Count(choice.chosen);
+        Some(choice)
+    } else {
+        None
+    };
     let centres = gp.inducing.count(points.len()).unwrap_or(points.len());
     anyhow::ensure!(
         centres <= firmware_sim::replay::MAX_CENTRES,
@@ -298,6 +330,7 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
     let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
     let mut summary = FitReport::new(&model, &points, agreement, blob.len());
     summary.pool_check = pool_check;
+    summary.centres_choice = centres_choice;
     if let Some(t) = &table {
         console.result(&format!(
             "diagnosis of the table (time order): {}",

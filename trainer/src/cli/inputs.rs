@@ -162,8 +162,9 @@ pub(super) struct FitOptions {
     /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = GpConfig::default().mean)]
     pub(super) mean: MeanBasis,
-    /// Exact GP or sparse (variational, this many inducing points): auto fits up to
-    /// 1,000 samples exactly and sparse with 24 inducing points above.
+    /// Exact GP or sparse (variational, this many inducing points). auto: exact up to 256 points
+    /// (what a firmware model holds); `fit` chooses a sparse GP's size on the data up to 1,000
+    /// (the other commands fit exactly there); 24 inducing points above.
     #[arg(long, default_value_t = GpConfig::default().inducing, value_name = "auto|exact|M")]
     pub(super) inducing: Inducing,
 }

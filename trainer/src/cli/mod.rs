@@ -9,6 +9,7 @@ mod analyse;
 mod demo;
 mod fit;
 mod inputs;
+mod look;
 mod report;
 mod text;
 
@@ -73,6 +74,14 @@ enum Command {
     /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
     /// --map rate_dps=0 --scale-factor 1 --json allan.json --plot allan.svg
     Allan(analyse::AllanArgs),
+    /// A look at a data file before anything is fitted: rows, the columns mapped, temperature and
+    /// rate ranges, plateaus, sampling and gaps, rows left out and why, the scale factor the data
+    /// show, and whether the earth rate seems to be in the reference. A wrong --map or unit shows
+    /// here.
+    ///
+    /// Example: trainer summarize --points run.csv --map temp_c=temp_C --map
+    /// voltage_v=gyro_raw_counts --map rate_dps=rig_rate_deg_s
+    Summarize(look::SummarizeArgs),
     /// Leave-one-out and leave-one-temperature-out evaluation of one method.
     ///
     /// Example: trainer loo --points points.csv --method gpr --json loo.json
@@ -108,6 +117,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(args) => fit::inspect_command(args, flags),
         Command::Loo(args) => analyse::loo_command(args, flags),
         Command::Allan(args) => analyse::allan_command(args, flags),
+        Command::Summarize(args) => look::summarize_command(args, flags),
         Command::Report(args) => report::report_command(args, flags),
         Command::Reproduce(args) => analyse::reproduce_command(args, flags),
         Command::Challenge(args) => analyse::challenge_command(args, flags),

@@ -1,0 +1,182 @@
+//! A model the firmware can hold, chosen from the data when there are more points than it holds.
+//!
+//! The firmware evaluates at most [`MAX_CENTRES`] centres, and an exact GP has one per training
+//! point; a lab's calibration run often has more (the UWRT turntable runs: 695 and 773 segments).
+//! Above that the default fit is a sparse GP, whose inducing points are its centres, with their
+//! number chosen by a stated rule, measured on the data itself: every fifth point is held out,
+//! a sparse GP with each of [`CANDIDATES`] inducing points is fitted on the rest, and the fewest
+//! whose held-out error is within [`TOLERANCE`] of the best of them is chosen (fewer centres, fewer
+//! instructions per prediction). The exact GP is fitted on the same split, to say what the choice
+//! costs against it. Beyond [`AUTO_EXACT_MAX`] points the comparison would take minutes per fit, so
+//! the default stays the accuracy–cost curve's 24 inducing points (docs/performance.md).
+
+use firmware_sim::replay::MAX_CENTRES;
+use serde::Serialize;
+
+use crate::data::points::Points;
+use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpError, GpModel, Inducing};
+
+/// Inducing-point counts tried, all exportable.
+pub const CANDIDATES: [usize; 5] = [24, 48, 96, 160, 256];
+/// How much worse than the best candidate's held-out error the chosen one may be.
+pub const TOLERANCE: f64 = 0.05;
+/// Every `HOLD_OUT_EVERY`-th point is held out.
+const HOLD_OUT_EVERY: usize = 5;
+
+/// Instructions of one mean prediction on the Cortex-M4F with `m` centres (two inputs): about
+/// 1,200 fixed and 73 per centre, as measured under QEMU (docs/firmware.md).
+pub fn instructions(m: usize) -> f64 {
+    1200.0 + 73.0 * m as f64
+}
+
+/// One model tried.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Tried {
+    /// Inducing points asked for (the training points for the exact GP).
+    pub asked: usize,
+    /// Centres the model has: a sparse fit drops inducing points its data cannot tell apart.
+    pub centres: usize,
+    /// `sparse` or `exact`.
+    pub kind: &'static str,
+    /// RMSE on the held-out points, °/s.
+    pub held_out_rmse_dps: f64,
+    /// Instructions per mean prediction on the Cortex-M4F (estimate, [`instructions`]).
+    pub instructions: f64,
+    /// Whether the firmware can hold it.
+    pub exportable: bool,
+    /// Fit time on the training part, s.
+    pub fit_seconds: f64,
+}
+
+/// The choice, as `fit --json` reports it (`centres_choice`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Choice {
+    /// The rule, in words.
+    pub rule: String,
+    /// Points in all.
+    pub n: usize,
+    /// Of which held out for the comparison.
+    pub held_out: usize,
+    /// Every sparse candidate.
+    pub candidates: Vec<Tried>,
+    /// The exact GP on the same split; its centres, instructions and exportability are those it
+    /// would have on all the points (more than the firmware holds).
+    pub exact: Tried,
+    /// Inducing points asked for by the choice.
+    pub chosen: usize,
+    /// What the choice costs against the exact GP, in words.
+    pub verdict: String,
+}
+
+/// Whether the default fit of `n` points needs a choice: more than the firmware holds, few
+/// enough to compare with the exact GP.
+pub fn needed(inducing: Inducing, n: usize) -> bool {
+    inducing == Inducing::Auto && n > MAX_CENTRES && n <= AUTO_EXACT_MAX
+}
+
+/// Chooses the inducing points for `points` (module doc); `progress` is told each fit.
+pub fn choose(
+    points: &Points,
+    cfg: &GpConfig,
+    mut progress: impl FnMut(&str),
+) -> Result<Choice, GpError> {
+    let n = points.len();
+    let (train, test): (Vec<usize>, Vec<usize>) =
+        (0..n).partition(|i| i % HOLD_OUT_EVERY != HOLD_OUT_EVERY - 1);
+    let fit_part = points.select(&train);
+    let test_part = points.select(&test);
+    let target = test_part.target();
+    let score = |inducing: Inducing| -> Result<(f64, f64, usize), GpError> {
+        let cfg = GpConfig {
+            inducing,
+            ..cfg.clone()
+        };
+        let model = GpModel::fit(fit_part.inputs(), &fit_part.target(), &cfg)?;
+        let x = test_part.inputs();
+        let sq: f64 = (0..x.nrows())
+            .map(|i| {
+                let row: Vec<f64> = x.row(i).iter().copied().collect();
+                (model.predict(&row).mean - target[i]).powi(2)
+            })
+            .sum();
+        Ok((
+            (sq / x.nrows().max(1) as f64).sqrt(),
+            model.fit_seconds,
+            model.posterior.xs.nrows(),
+        ))
+    };
+    let mut candidates = Vec::new();
+    for &m in CANDIDATES.iter().filter(|&&m| m < train.len()) {
+        progress(&format!("a sparse GP with {m} inducing points"));
+        let (rmse, secs, kept) = score(Inducing::Count(m))?;
+        candidates.push(Tried {
+            asked: m,
+            centres: kept,
+            kind: "sparse",
+            held_out_rmse_dps: rmse,
+            instructions: instructions(kept),
+            exportable: true,
+            fit_seconds: secs,
+        });
+    }
+    progress(&format!(
+        "the exact GP on {} points, for comparison",
+        train.len()
+    ));
+    let (rmse, secs, _) = score(Inducing::Exact)?;
+    let exact = Tried {
+        asked: train.len(),
+        centres: n,
+        kind: "exact",
+        held_out_rmse_dps: rmse,
+        instructions: instructions(n),
+        exportable: n <= MAX_CENTRES,
+        fit_seconds: secs,
+    };
+    let best = candidates
+        .iter()
+        .map(|c| c.held_out_rmse_dps)
+        .fold(f64::INFINITY, f64::min);
+    let pick = candidates
+        .iter()
+        .find(|c| c.held_out_rmse_dps <= (1.0 + TOLERANCE) * best)
+        .unwrap_or(&exact)
+        .clone();
+    let verdict = format!(
+        "{n} points are more than the {MAX_CENTRES} centres a firmware model holds: a sparse GP \
+         asking {} inducing points ({} kept), the fewest within {:.0}% of the best held-out error \
+         of {} (every {HOLD_OUT_EVERY}th point held out). It scores {:.3e} °/s ({:.1} °/h) there \
+         against the exact GP's {:.3e} °/s ({:.1} °/h), {:+.1}%, at about {:.0} instructions per \
+         prediction on the Cortex-M4F against the exact GP's {:.0}",
+        pick.asked,
+        pick.centres,
+        TOLERANCE * 100.0,
+        CANDIDATES
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join("/"),
+        pick.held_out_rmse_dps,
+        pick.held_out_rmse_dps * 3600.0,
+        exact.held_out_rmse_dps,
+        exact.held_out_rmse_dps * 3600.0,
+        (pick.held_out_rmse_dps / exact.held_out_rmse_dps - 1.0) * 100.0,
+        pick.instructions,
+        exact.instructions,
+    );
+    Ok(Choice {
+        rule: format!(
+            "exact up to {MAX_CENTRES} points; up to {AUTO_EXACT_MAX}, the fewest of {:?} inducing \
+             points within {:.0}% of the best held-out error (every {HOLD_OUT_EVERY}th point held \
+             out); above, 24",
+            CANDIDATES,
+            TOLERANCE * 100.0
+        ),
+        n,
+        held_out: test.len(),
+        candidates,
+        exact,
+        chosen: pick.asked,
+        verdict,
+    })
+}

@@ -1,0 +1,260 @@
+//! A look at a data file as the loader sees it, before anything is fitted: rows, ranges, plateaus,
+//! sampling and gaps, rows left out and why, whether the reference seems to carry the earth rate,
+//! and where each column came from. A wrong `--map` or unit shows here (a temperature of 300 °C,
+//! a scale factor a thousand times the gyro's), not after a fit that made sense of it.
+
+use serde::Serialize;
+
+use firmware_sim::data::columns::{ColumnMap, Source};
+use firmware_sim::data::stream::Stream;
+
+use super::points::{Implausible, Points, plateaus};
+
+/// The vertical earth rate at the poles, °/s (15.041 °/h): the most a reference can be off by it.
+const EARTH_DPS: f64 = 15.041 / 3600.0;
+
+/// What a file holds, as loaded.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// The file.
+    pub file: String,
+    /// `points` or `stream`.
+    pub kind: &'static str,
+    /// Rows used.
+    pub rows: usize,
+    /// Each canonical column and where it came from.
+    pub columns: Vec<(String, String)>,
+    /// Temperature, °C: lowest and highest.
+    pub temp_c: [f64; 2],
+    /// Reference rate, °/s.
+    pub rate_dps: [f64; 2],
+    /// Gyro output, in its units.
+    pub output: [f64; 2],
+    /// Temperature plateaus of a table (readings more than 1 °C apart), or soaks of a stream
+    /// (10 minutes within 0.5 °C).
+    pub plateaus: usize,
+    /// Distinct reference rates (to 0.01 °/s).
+    pub rates: usize,
+    /// A stream's typical sample interval, s.
+    pub sample_interval_s: Option<f64>,
+    /// A stream's gaps and other time problems, as text.
+    pub time_issues: Vec<String>,
+    /// Rows left out, and why.
+    pub excluded: Vec<String>,
+    /// Output per °/s of a straight line through the non-zero rates: the scale factor the data
+    /// show (a wrong unit shows here).
+    pub scale_factor_estimate: Option<f64>,
+    /// Whether the earth rate seems to be in the reference, and why.
+    pub earth_rate: String,
+}
+
+fn range(v: &[f64]) -> [f64; 2] {
+    v.iter()
+        .filter(|x| x.is_finite())
+        .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], &x| {
+            [lo.min(x), hi.max(x)]
+        })
+}
+
+fn distinct(v: &[f64], step: f64) -> usize {
+    let mut k: Vec<i64> = v
+        .iter()
+        .filter(|x| x.is_finite())
+        .map(|x| (x / step).round() as i64)
+        .collect();
+    k.sort_unstable();
+    k.dedup();
+    k.len()
+}
+
+/// Where each canonical column came from: its `--map`, or the column of that name.
+fn columns(names: &[&str], maps: &[ColumnMap]) -> Vec<(String, String)> {
+    names
+        .iter()
+        .map(|&name| {
+            let from = match maps.iter().find(|m| m.name == name).map(|m| &m.source) {
+                Some(Source::Column { name: col, factor }) if *factor == 1.0 => {
+                    format!("column {col}")
+                }
+                Some(Source::Column { name: col, factor }) => format!("column {col} × {factor}"),
+                Some(Source::Constant(v)) => format!("the constant {v}"),
+                None => format!("column {name}"),
+            };
+            (name.to_owned(), from)
+        })
+        .collect()
+}
+
+/// A straight line's slope through the rows with a non-zero rate: output per °/s.
+fn slope(rate: &[f64], output: &[f64]) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = rate
+        .iter()
+        .zip(output)
+        .filter(|(w, v)| w.is_finite() && v.is_finite() && w.abs() > 0.5)
+        .map(|(w, v)| (*w, *v))
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (mw, mv) = pts
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (w, v)| (a + w / n, b + v / n));
+    let sxy: f64 = pts.iter().map(|(w, v)| (w - mw) * (v - mv)).sum();
+    let sxx: f64 = pts.iter().map(|(w, _)| (w - mw) * (w - mw)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The earth rate in the reference, judged from how far the non-zero rates sit from round
+/// numbers: a table commanded at round rates whose reference adds the earth rate sits a few
+/// thousandths of a °/s off them, all by the same amount.
+fn earth_rate(rate: &[f64]) -> String {
+    let mut offsets: Vec<f64> = rate
+        .iter()
+        .filter(|w| w.is_finite() && w.abs() > 0.5)
+        .map(|w| w - (w * 10.0).round() / 10.0)
+        .collect();
+    if offsets.len() < 3 {
+        return "cannot tell: the reference is zero (a static log); the bias then includes the \
+                earth rate (up to 15 °/h)"
+            .to_owned();
+    }
+    offsets.sort_by(f64::total_cmp);
+    let median = offsets[offsets.len() / 2];
+    let spread = offsets[offsets.len() * 9 / 10] - offsets[offsets.len() / 10];
+    if spread > 1e-3 {
+        "cannot tell: the rates are not round numbers (a rig's own steps), so an earth-rate \
+         offset does not show"
+            .to_owned()
+    } else if median.abs() < 1e-4 {
+        "seems left out: the rates are round numbers, so the model will learn the earth rate \
+         (up to 15 °/h) as bias; add it to rate_dps where the bias matters"
+            .to_owned()
+    } else if median.abs() <= EARTH_DPS * 1.02 {
+        format!(
+            "seems included: every rate sits {median:+.2e} °/s off a round number, the earth \
+             rate at {:.0}° latitude with the axis vertical",
+            (median.abs() / EARTH_DPS).asin().to_degrees()
+        )
+    } else {
+        format!(
+            "not the earth rate: the rates sit {median:+.2e} °/s off round numbers, more than \
+             the earth rate can be (a reference offset?)"
+        )
+    }
+}
+
+/// A table's summary; `excluded` are the rows the loader's screen left out.
+pub fn of_points(
+    file: &str,
+    points: &Points,
+    maps: &[ColumnMap],
+    excluded: &[Implausible],
+) -> Summary {
+    let mut names = vec!["temp_c", "voltage_v", "rate_dps"];
+    if points.time_s.is_some() {
+        names.push("time_s");
+    }
+    let plateau_count = plateaus(&points.temp_c).iter().max().map_or(0, |m| m + 1);
+    Summary {
+        file: file.to_owned(),
+        kind: "points",
+        rows: points.len(),
+        columns: columns(&names, maps),
+        temp_c: range(&points.temp_c),
+        rate_dps: range(&points.rate_dps),
+        output: range(&points.voltage_v),
+        plateaus: plateau_count,
+        rates: distinct(&points.rate_dps, 0.01),
+        sample_interval_s: None,
+        time_issues: Vec::new(),
+        excluded: excluded.iter().map(ToString::to_string).collect(),
+        scale_factor_estimate: slope(&points.rate_dps, &points.voltage_v),
+        earth_rate: earth_rate(&points.rate_dps),
+    }
+}
+
+/// A stream's summary.
+pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
+    // Soaks: 10-minute windows whose temperature stays within 0.5 °C, counted once per run.
+    let window = (600.0 / stream.step_s.max(1e-9)).round().max(2.0) as usize;
+    let mut soaks = 0;
+    let mut in_soak = false;
+    let mut i = 0;
+    while i + window <= stream.len() {
+        let [lo, hi] = range(&stream.temp_c[i..i + window]);
+        let flat = hi - lo <= 0.5;
+        if flat && !in_soak {
+            soaks += 1;
+        }
+        in_soak = flat;
+        i += window / 2;
+    }
+    let unreferenced = stream.rate_dps.iter().filter(|r| !r.is_finite()).count();
+    let mut excluded: Vec<String> = stream.handled.iter().map(ToString::to_string).collect();
+    if unreferenced > 0 {
+        excluded.push(format!(
+            "{unreferenced} samples without a reference rate: replayed, not scored or fitted"
+        ));
+    }
+    Summary {
+        file: file.to_owned(),
+        kind: "stream",
+        rows: stream.len(),
+        columns: columns(&["time_s", "temp_c", "voltage_v", "rate_dps"], maps),
+        temp_c: range(&stream.temp_c),
+        rate_dps: range(&stream.rate_dps),
+        output: range(&stream.voltage_v),
+        plateaus: soaks,
+        rates: distinct(&stream.rate_dps, 0.01),
+        sample_interval_s: Some(stream.step_s),
+        time_issues: stream.time_issues.iter().map(ToString::to_string).collect(),
+        excluded,
+        scale_factor_estimate: slope(&stream.rate_dps, &stream.voltage_v),
+        earth_rate: earth_rate(&stream.rate_dps),
+    }
+}
+
+impl Summary {
+    /// As text, a line per fact.
+    pub fn text(&self) -> String {
+        let mut s = format!("{} ({}, {} rows)\n", self.file, self.kind, self.rows);
+        for (name, from) in &self.columns {
+            s.push_str(&format!("  {name:<10} ← {from}\n"));
+        }
+        s.push_str(&format!(
+            "  temperature {:.2} … {:.2} °C; reference rate {:.4} … {:.4} °/s ({} distinct); \
+             output {:.6e} … {:.6e}\n",
+            self.temp_c[0],
+            self.temp_c[1],
+            self.rate_dps[0],
+            self.rate_dps[1],
+            self.rates,
+            self.output[0],
+            self.output[1]
+        ));
+        s.push_str(&match self.kind {
+            "points" => format!("  {} temperature plateaus\n", self.plateaus),
+            _ => format!(
+                "  sampled every {:.3} s; {} soaks (10 min within 0.5 °C)\n",
+                self.sample_interval_s.unwrap_or(0.0),
+                self.plateaus
+            ),
+        });
+        for issue in &self.time_issues {
+            s.push_str(&format!("  time: {issue}\n"));
+        }
+        for row in &self.excluded {
+            s.push_str(&format!("  left out: {row}\n"));
+        }
+        s.push_str(&match self.scale_factor_estimate {
+            Some(k) => format!(
+                "  scale factor the data show: {k:.6e} output units per °/s (a straight line \
+                 through the non-zero rates)\n"
+            ),
+            None => "  scale factor: not shown (no non-zero rates)\n".to_owned(),
+        });
+        s.push_str(&format!("  earth rate in the reference: {}\n", self.earth_rate));
+        s
+    }
+}
