@@ -154,6 +154,8 @@ fn every_command_shows_an_example_in_its_help() {
         "report",
         "reproduce",
         "challenge",
+        "allan",
+        "summarize",
     ] {
         let out = trainer(&[cmd, "--help"], dir.path());
         assert_eq!(out.status.code(), Some(0));
@@ -167,12 +169,14 @@ fn every_command_shows_an_example_in_its_help() {
 }
 
 #[test]
-fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_are_refused() {
+fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_make_a_table_report() {
     let dir = tempfile::tempdir().unwrap();
     rate_table(dir.path());
-    let alone = trainer(&["report", "--points", "p.csv", "--out", "r"], dir.path());
-    assert_eq!(alone.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&alone.stderr).contains("--points needs --train-stream"));
+    let alone = trainer(&["report", "--points", "p.csv", "--out", "t"], dir.path());
+    assert_eq!(alone.status.code(), Some(0), "{alone:?}");
+    let table = dir.path().join("t");
+    assert!(table.join("report.html").exists() && table.join("loo_error.svg").exists());
+    assert!(!table.join("replay.svg").exists(), "a table alone has no stream to replay");
     let out = trainer(&["report", "--out", "r"], dir.path());
     assert_eq!(out.status.code(), Some(0), "{:?}", out);
     let text = String::from_utf8_lossy(&out.stdout);

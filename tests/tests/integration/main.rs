@@ -37,3 +37,22 @@ pub fn json(path: impl Into<PathBuf>) -> serde_json::Value {
     let text = std::fs::read_to_string(path.into()).expect("JSON output exists");
     serde_json::from_str(&text).expect("valid JSON")
 }
+
+/// The MIT-licensed MEMS thermal-cycle log copied in `tests/data/`.
+pub fn imu() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/tofupilot-imu-thermal/imu_raw_data.tsv")
+        .display()
+        .to_string()
+}
+
+/// The MEMS log's time, temperature and (static) reference columns; the gyro axis is mapped by
+/// each test.
+pub const IMU_MAPS: [&str; 6] = [
+    "--map",
+    "time_s=timestamp*1e-6",
+    "--map",
+    "temp_c=imu.temperature",
+    "--map",
+    "rate_dps=0",
+];

@@ -11,23 +11,7 @@ use trainer::analysis::table::{self, Transients};
 use trainer::data::points::Points;
 use trainer::models::gp::{GpConfig, GpModel};
 
-use crate::{at, json, trainer};
-
-fn imu() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/tofupilot-imu-thermal/imu_raw_data.tsv")
-        .display()
-        .to_string()
-}
-
-const IMU_MAPS: [&str; 6] = [
-    "--map",
-    "time_s=timestamp*1e-6",
-    "--map",
-    "temp_c=imu.temperature",
-    "--map",
-    "rate_dps=0",
-];
+use crate::{IMU_MAPS, at, imu, json, trainer};
 
 #[test]
 fn a_static_log_without_a_scale_factor_is_refused_with_the_reason() {

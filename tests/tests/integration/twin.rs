@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use crate::{at, json, sim, trainer};
+use crate::{at, imu, json, sim, trainer};
 
 /// A randomly drawn unit's rate table and a stream with a coil lagging its sensor by 8 min; the
 /// twin identified from them names the lag, and simulates the unit: its rate table, on the same
@@ -137,13 +137,6 @@ fn a_twin_from_a_table_and_a_stream_names_the_missing_lag_and_simulates_the_unit
             .to_string()
             .contains("already has a sensor-lag")
     );
-}
-
-fn imu() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/tofupilot-imu-thermal/imu_raw_data.tsv")
-        .display()
-        .to_string()
 }
 
 const IMU_X: [&str; 10] = [

@@ -68,9 +68,10 @@ enum Command {
     Inspect(fit::InspectArgs),
     /// Allan deviation of a log (IEEE Std 952): the raw output divided by a scale factor, or the
     /// output compensated by a model, less the reference rate; the noise terms read from it
-    /// (angle random walk, bias instability, rate random walk) and its figure.
+    /// (angle random walk, bias instability, rate random walk) and its figure. A static log in
+    /// rad/s, for example:
     ///
-    /// Example (a static log in rad/s): trainer allan --stream imu.tsv --map
+    /// Example: trainer allan --stream imu.tsv --map
     /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
     /// --map rate_dps=0 --scale-factor 1 --json allan.json --plot allan.svg
     Allan(analyse::AllanArgs),

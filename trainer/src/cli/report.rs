@@ -15,6 +15,7 @@ use firmware_sim::io::write_atomically;
 
 use super::demo::{self, Data};
 use super::inputs::{FitOptions, ModelInput, load_stream};
+use super::look::{points_summary, stream_summary};
 use crate::report;
 
 /// The arguments of `trainer report`.
@@ -24,6 +25,10 @@ pub(super) struct ReportArgs {
     input: ModelInput,
     #[command(flatten)]
     fit: FitOptions,
+    /// One stream or log: its first two thirds in time fit (the extension, and the static model
+    /// without --points), its last third is held out. A static log needs --scale-factor.
+    #[arg(long, conflicts_with_all = ["train_stream", "valid_stream"])]
+    stream: Option<PathBuf>,
     /// Stream the extension is fitted on.
     #[arg(long, requires = "valid_stream")]
     train_stream: Option<PathBuf>,
@@ -68,43 +73,112 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
 
-/// `trainer report`: the HTML report and its figures.
+/// `trainer report`: the HTML report and its figures, for whatever data the user brings.
 pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let ReportArgs {
         input,
         fit,
+        stream,
         train_stream,
         valid_stream,
         out: out_dir,
     } = args;
     input.without_offsets("report")?;
     let console = Console::new(flags, None);
-    let (input, train_stream, valid_stream) = match (train_stream, valid_stream) {
-        (Some(a), Some(b)) => (input, a, b),
-        _ if input.points.is_some() => anyhow::bail!(
-            "--points needs --train-stream and --valid-stream: the report replays a \
-             held-out stream (or give no data at all for the simulated gyro)"
-        ),
-        _ => simulated(&out_dir.join("data"), &console)?,
+    let (input, files) = match (stream, train_stream, valid_stream) {
+        (Some(s), _, _) => (input, Files::One(s)),
+        (None, Some(a), Some(b)) => (input, Files::Two(a, b)),
+        _ if input.points.is_some() => (input, Files::None),
+        _ => {
+            let (input, a, b) = simulated(&out_dir.join("data"), &console)?;
+            (input, Files::Two(a, b))
+        }
     };
     let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
-    inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
+    match &files {
+        Files::One(s) => inputs.push(s),
+        Files::Two(a, b) => inputs.extend([a.as_path(), b.as_path()]),
+        Files::None => {}
+    }
     let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);
     for name in names {
         ensure_not_input(&out_dir.join(name), &inputs)?;
     }
-    let train = [(
-        train_stream.as_path(),
-        load_stream(&train_stream, &input.maps.list, None)?,
-    )];
-    let valid = load_stream(&valid_stream, &input.maps.list, None)?;
-    let points = input.static_points(&train, false)?;
-    let source = input.points.as_deref().unwrap_or(train_stream.as_path());
+    let mut summaries = Vec::new();
+    if let Some(p) = &input.points {
+        summaries.push(points_summary(p, &input.maps, input.scale_factor)?);
+    }
     let bar = console.bar(0);
-    let r = report::build(source, points, &train[0].1, valid, &fit.gp(), &bar)?;
+    let gp = fit.gp();
+    let r = match files {
+        Files::None => {
+            let points = input.static_points(&[], false)?;
+            report::table(
+                &input.points.clone().unwrap_or_default(),
+                summaries,
+                points,
+                &gp,
+                &bar,
+            )?
+        }
+        Files::One(path) => {
+            summaries.push(stream_summary(&path, &input.maps)?);
+            let whole = load_stream(&path, &input.maps.list, None)?;
+            let (train, valid, split_s) = report::thirds(&whole);
+            let train = [(path.as_path(), train)];
+            let points = input.static_points(&train, false)?;
+            let (kind, source) = match &input.points {
+                Some(p) => (report::Kind::TableAndStream, p.clone()),
+                None => (report::Kind::Log, path.clone()),
+            };
+            report::with_streams(
+                &source,
+                kind,
+                summaries,
+                points,
+                &train[0].1,
+                valid,
+                format!(
+                    "{}'s last third in time, from {split_s:.0} s on",
+                    path.display()
+                ),
+                &gp,
+                &bar,
+            )?
+        }
+        Files::Two(a, b) => {
+            summaries.push(stream_summary(&a, &input.maps)?);
+            summaries.push(stream_summary(&b, &input.maps)?);
+            let train = [(a.as_path(), load_stream(&a, &input.maps.list, None)?)];
+            let valid = load_stream(&b, &input.maps.list, None)?;
+            let points = input.static_points(&train, false)?;
+            let source = input.points.clone().unwrap_or_else(|| a.clone());
+            report::with_streams(
+                &source,
+                report::Kind::Full,
+                summaries,
+                points,
+                &train[0].1,
+                valid,
+                format!("all of {}, a run of its own", b.display()),
+                &gp,
+                &bar,
+            )?
+        }
+    };
     bar.finish_and_clear();
     for path in report::write(&out_dir, &r)? {
         console.result(&format!("wrote {}", path.display()));
     }
     Ok(())
+}
+
+/// The streams a report is given besides the points.
+enum Files {
+    /// None: a rate table alone.
+    None,
+    /// One stream or log, split in time.
+    One(PathBuf),
+    /// A training stream and a held-out one.
+    Two(PathBuf, PathBuf),
 }

@@ -234,7 +234,10 @@ impl Summary {
             self.output[1]
         ));
         s.push_str(&match self.kind {
-            "points" => format!("  {} temperature plateaus\n", self.plateaus),
+            "points" => format!(
+                "  {} temperature plateaus (groups of readings more than 1 °C from the next)\n",
+                self.plateaus
+            ),
             _ => format!(
                 "  sampled every {:.3} s; {} soaks (10 min within 0.5 °C)\n",
                 self.sample_interval_s.unwrap_or(0.0),
@@ -254,7 +257,42 @@ impl Summary {
             ),
             None => "  scale factor: not shown (no non-zero rates)\n".to_owned(),
         });
-        s.push_str(&format!("  earth rate in the reference: {}\n", self.earth_rate));
+        s.push_str(&format!(
+            "  earth rate in the reference: {}\n",
+            self.earth_rate
+        ));
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_earth_rate_is_judged_by_how_far_the_rates_sit_from_round_numbers() {
+        let round = [-80.0, -10.0, 1.0, 5.0, 40.0, 80.0];
+        assert!(earth_rate(&round).starts_with("seems left out"));
+        let with: Vec<f64> = round.iter().map(|w| w + 2.954e-3).collect();
+        let text = earth_rate(&with);
+        assert!(
+            text.starts_with("seems included") && text.contains("45°"),
+            "{text}"
+        );
+        let rig: Vec<f64> = (1..40).map(|k| f64::from(k) * 3.7713).collect();
+        assert!(earth_rate(&rig).starts_with("cannot tell"));
+        assert!(earth_rate(&[0.0; 20]).contains("static log"));
+        let off: Vec<f64> = round.iter().map(|w| w + 0.03).collect();
+        assert!(earth_rate(&off).starts_with("not the earth rate"));
+    }
+
+    #[test]
+    fn a_wrong_unit_shows_in_the_scale_factor_and_the_ranges() {
+        // Output logged in mV where the table expects V: a thousand times the scale factor.
+        let rate = [-80.0, -40.0, -10.0, 10.0, 40.0, 80.0];
+        let mv: Vec<f64> = rate.iter().map(|w| 38.0 * w).collect();
+        assert!((slope(&rate, &mv).unwrap() - 38.0).abs() < 1e-9);
+        assert_eq!(range(&[3.0, f64::NAN, -1.0]), [-1.0, 3.0]);
+        assert_eq!(distinct(&rate, 0.01), 6);
     }
 }

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use firmware_sim::allan::Analysis as Allan;
 use firmware_sim::cause::Cause;
-use firmware_sim::data::stream::Stream;
+use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::io::write_atomically;
 use firmware_sim::plot::{AllanSeries, BLUE, GREY, ORANGE};
 use firmware_sim::replay::{self, Compensated};
@@ -24,10 +24,11 @@ use crate::analysis::evaluate::{self, EvalConfig, Method};
 use crate::analysis::investigate::{self, Investigation};
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
 use crate::data::points::Points;
+use crate::data::summary::Summary;
 use crate::models::gp::GpConfig;
 
 /// The figure files, in page order: (file name, caption).
-pub const FIGURES: [(&str, &str); 7] = [
+pub const FIGURES: [(&str, &str); 8] = [
     (
         "rate_table.svg",
         "Rate table: output over temperature and rate (paper Fig. 1)",
@@ -45,6 +46,10 @@ pub const FIGURES: [(&str, &str); 7] = [
         "Leave-one-out error over (T, rate), GPR and LS-SVR (paper Fig. 5–6)",
     ),
     (
+        "bias_vs_temperature.svg",
+        "The log's bias against temperature, heating and cooling apart",
+    ),
+    (
         "replay.svg",
         "Held-out stream replayed through the firmware: static and extended models",
     ),
@@ -58,15 +63,26 @@ pub const FIGURES: [(&str, &str); 7] = [
     ),
 ];
 
-/// Everything the page shows.
-pub struct Report {
-    /// Where the rate table came from.
-    pub source: String,
-    /// The points (rate table).
-    pub points: Points,
-    /// LOO evaluations and the Fig. 2 check.
-    pub reproduction: Reproduction,
-    /// The investigation on the held-out stream.
+/// What a report is made from: the data a user brings decides what it can show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A rate table alone (the paper's protocol).
+    Table,
+    /// A rate table and one stream: its first two thirds train the extension, the last third is
+    /// held out.
+    TableAndStream,
+    /// One log alone (a static log with its scale factor, or a ramp log): its first two thirds
+    /// fit the model, the last third is held out.
+    Log,
+    /// A rate table, a training stream and a held-out stream.
+    Full,
+}
+
+/// The held-out stream and what it shows.
+pub struct HeldOut {
+    /// How it was held out, in words.
+    pub split: String,
+    /// The investigation: diagnosis on the training stream, both models scored here.
     pub investigation: Investigation,
     /// The held-out stream.
     pub valid: Stream,
@@ -78,9 +94,32 @@ pub struct Report {
     pub regressor: Vec<f64>,
     /// Block-mean temperature, °C.
     pub block_temp_c: Vec<f64>,
-    /// Allan analyses of the held-out stream's error: raw (output over the table's scale
-    /// factor), static, extended.
+    /// Allan analyses of the held-out stream's error: raw (output over the scale factor),
+    /// static, extended.
     pub allan: [Allan; 3],
+}
+
+/// Everything the page shows.
+pub struct Report {
+    /// Where the data came from.
+    pub source: String,
+    /// What the data are.
+    pub kind: Kind,
+    /// Each file as the loader saw it: the page's first section.
+    pub summaries: Vec<Summary>,
+    /// The points the static model is fitted on (a rate table, or a log's 60 s means).
+    pub points: Points,
+    /// LOO evaluations and the Fig. 2 check (a rate table only).
+    pub reproduction: Option<Reproduction>,
+    /// The held-out stream (not for a rate table alone).
+    pub held_out: Option<HeldOut>,
+    /// A static log's bias against temperature: 60 s means of temperature and of output / K −
+    /// reference, °/h.
+    pub bias: Option<(Vec<f64>, Vec<f64>)>,
+    /// What these data could show, and what they could not.
+    pub could: Vec<String>,
+    /// What they could not.
+    pub could_not: Vec<String>,
 }
 
 /// The Allan deviation of a held-out stream's error, less its reference rate.
@@ -89,32 +128,33 @@ fn allan_of(what: &str, valid: &Stream, rate_dps: impl Iterator<Item = f64>) -> 
     Allan::of(what, &valid.time_s, &error)
 }
 
-/// Runs the evaluations and the investigation; `bar` counts their fits and steps.
-pub fn build(
-    source: &Path,
-    points: Points,
-    train: &Stream,
-    valid: Stream,
-    cfg: &GpConfig,
-    bar: &ProgressBar,
-) -> anyhow::Result<Report> {
+/// The paper's evaluations of a rate table; `bar` counts their fits.
+fn reproduce(points: &Points, cfg: &GpConfig, bar: &ProgressBar) -> anyhow::Result<Reproduction> {
     let eval = EvalConfig {
         gp: cfg.clone(),
         ..EvalConfig::default()
     };
-    let gpr = evaluate::evaluate(&points, Method::Gpr, &eval, bar)?;
-    let lssvr = evaluate::evaluate(&points, Method::Lssvr, &eval, bar)?;
-    let two_step = evaluate::evaluate(&points, Method::TwoStep, &eval, bar)?;
-    let reproduction = Reproduction {
-        gpr,
-        lssvr,
-        two_step,
-        fig2: evaluate::fig2(&points),
-    };
-    // A report's points are a rate table: the forward check never rebuilds them.
+    Ok(Reproduction {
+        gpr: evaluate::evaluate(points, Method::Gpr, &eval, bar)?,
+        lssvr: evaluate::evaluate(points, Method::Lssvr, &eval, bar)?,
+        two_step: evaluate::evaluate(points, Method::TwoStep, &eval, bar)?,
+        fig2: evaluate::fig2(points),
+    })
+}
+
+/// The investigation on `train`, scored on `valid`, with what the figures need.
+fn held_out(
+    points: &Points,
+    train: &Stream,
+    valid: Stream,
+    split: String,
+    cfg: &GpConfig,
+    bar: &ProgressBar,
+) -> anyhow::Result<HeldOut> {
+    // The static points are never rebuilt by the forward check: a rate table, or the log's means.
     let table = |_: &Stream| Ok(points.clone());
     let (investigation, blobs) =
-        investigate::investigate(&points, train, &valid, cfg, None, &table, bar)?;
+        investigate::investigate(points, train, &valid, cfg, None, &table, bar)?;
     let fw_static = firmware_sim::replay::decode(&blobs.static_blob)?;
     let fw_ext = firmware_sim::replay::decode(&blobs.extended_blob)?;
     let replays = [
@@ -131,9 +171,9 @@ pub fn build(
         .and_then(|c| res.regressor(cause, c.parameter as f32))
         .unwrap_or_default();
     let (residual, block_temp_c) = (res.r.clone(), res.temperature());
-    // The raw gyro in °/s: its output over the table's scale factor, a straight line through
-    // the points (what an uncompensated gyro's datasheet scale factor does).
-    let k = {
+    // The raw gyro in °/s: its output over the scale factor given, or over a straight line
+    // through the points (what an uncompensated gyro's datasheet scale factor does).
+    let k = points.scale_factor.unwrap_or_else(|| {
         let n = points.len() as f64;
         let (mw, mv) = (
             points.rate_dps.iter().sum::<f64>() / n,
@@ -147,7 +187,7 @@ pub fn build(
             .sum();
         let sxx: f64 = points.rate_dps.iter().map(|w| (w - mw) * (w - mw)).sum();
         if sxx > 0.0 { sxy / sxx } else { 1.0 }
-    };
+    });
     let allan = [
         allan_of(
             "raw (output / K)",
@@ -165,10 +205,8 @@ pub fn build(
             replays[1].rate_dps.iter().map(|&w| f64::from(w)),
         ),
     ];
-    Ok(Report {
-        source: source.display().to_string(),
-        points,
-        reproduction,
+    Ok(HeldOut {
+        split,
         investigation,
         valid,
         replays,
@@ -176,6 +214,170 @@ pub fn build(
         regressor,
         block_temp_c,
         allan,
+    })
+}
+
+/// A report on a rate table alone.
+pub fn table(
+    source: &Path,
+    summaries: Vec<Summary>,
+    points: Points,
+    cfg: &GpConfig,
+    bar: &ProgressBar,
+) -> anyhow::Result<Report> {
+    let reproduction = reproduce(&points, cfg, bar)?;
+    let could = vec![
+        "the static map ω = f(T, output) and how well it holds on points it did not see: \
+         leave-one-out and leave-one-temperature-out errors, and the error over (T, rate)"
+            .to_owned(),
+        format!(
+            "the trained range, {:.1} … {:.1} °C and {:.1} … {:.1} °/s: outside it the firmware \
+             flags every output Extrapolating",
+            min(&points.temp_c),
+            max(&points.temp_c),
+            min(&points.rate_dps),
+            max(&points.rate_dps)
+        ),
+    ];
+    let could_not = vec![
+        "transients (a lagging sensor, a thermal-rate bias, warm-up, hysteresis): soaked points \
+         hold none, and this report does not look for them in a table; a table recorded in time \
+         order is diagnosed by `trainer fit --map time_s=… --features auto`, a ramp run is added \
+         with --stream"
+            .to_owned(),
+        "the noise (Allan deviation): 2-minute means average it away; log the gyro at rest"
+            .to_owned(),
+        "how the firmware does on a stream in time: there is none to replay".to_owned(),
+    ];
+    Ok(Report {
+        source: source.display().to_string(),
+        kind: Kind::Table,
+        summaries,
+        points,
+        reproduction: Some(reproduction),
+        held_out: None,
+        bias: None,
+        could,
+        could_not,
+    })
+}
+
+fn min(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn max(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// The part of `stream` before (`true`) or from (`false`) two thirds of its time.
+pub fn thirds(stream: &Stream) -> (Stream, Stream, f64) {
+    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+    let t1 = stream.time_s.last().copied().unwrap_or(t0);
+    let split = (t1 - t0) * 2.0 / 3.0;
+    let before = stream.window(Window {
+        start_s: None,
+        end_s: Some(split),
+    });
+    let after = stream.window(Window {
+        start_s: Some(split),
+        end_s: None,
+    });
+    (before, after, split)
+}
+
+/// A report on a rate table and streams: `train` fits the extension, `valid` is held out.
+#[allow(clippy::too_many_arguments)]
+pub fn with_streams(
+    source: &Path,
+    kind: Kind,
+    summaries: Vec<Summary>,
+    points: Points,
+    train: &Stream,
+    valid: Stream,
+    split: String,
+    cfg: &GpConfig,
+    bar: &ProgressBar,
+) -> anyhow::Result<Report> {
+    let on_table = points.soaked;
+    let reproduction = if on_table {
+        Some(reproduce(&points, cfg, bar)?)
+    } else {
+        None
+    };
+    let static_log = points.scale_factor.is_some();
+    let bias = static_log.then(|| {
+        // Both parts, in time order: the whole log's 60 s means.
+        let k = points.scale_factor.unwrap_or(1.0);
+        let mut t = Vec::new();
+        let mut b = Vec::new();
+        for s in [train, &valid] {
+            let scored: Vec<usize> = (0..s.len())
+                .filter(|&i| s.rate_dps[i].is_finite())
+                .collect();
+            for block in replay::blocks(s, &scored) {
+                let n = block.len() as f64;
+                t.push(block.iter().map(|&i| s.temp_c[i]).sum::<f64>() / n);
+                b.push(
+                    block
+                        .iter()
+                        .map(|&i| (s.voltage_v[i] / k - s.rate_dps[i]) * 3600.0)
+                        .sum::<f64>()
+                        / n,
+                );
+            }
+        }
+        (t, b)
+    });
+    let held = held_out(&points, train, valid, split.clone(), cfg, bar)?;
+    let mut could = Vec::new();
+    let mut could_not = Vec::new();
+    if on_table {
+        could.push(
+            "the static map from the rate table, with the paper's leave-one-out tables and figures"
+                .to_owned(),
+        );
+    } else if static_log {
+        could.push(format!(
+            "the bias against temperature (output / {} − reference), heating and cooling apart",
+            points.scale_factor.unwrap_or(1.0)
+        ));
+        could_not.push(
+            "the scale factor and its temperature dependence: the reference never moves (the \
+             scale factor given is taken as it is), nor any error that grows with rate"
+                .to_owned(),
+        );
+    } else {
+        could.push("the static map from the log's 60 s means (no rate table)".to_owned());
+        could_not.push(
+            "the paper's leave-one-out tables: they need soaked rate-table points".to_owned(),
+        );
+    }
+    could.push(format!(
+        "what the static model misses on a stream, its cause and an extension, fitted on the \
+         training part and scored once on the held-out part ({split})"
+    ));
+    could.push(
+        "the noise of the held-out error (Allan deviation): raw, static and extended".to_owned(),
+    );
+    match kind {
+        Kind::TableAndStream | Kind::Log => could_not.push(
+            "a second, independent run: the held-out part is the same run's later hours (same \
+             power-on, same history); another run tells whether the model carries"
+                .to_owned(),
+        ),
+        _ => {}
+    }
+    Ok(Report {
+        source: source.display().to_string(),
+        kind,
+        summaries,
+        points,
+        reproduction,
+        held_out: Some(held),
+        bias,
+        could,
+        could_not,
     })
 }
 
@@ -220,86 +422,110 @@ fn replay_blocks(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>, Vec
     (time_h, temp, err, std)
 }
 
-/// Draws every figure: (file name, SVG text), in [`FIGURES`] order.
+/// Draws the figures the report's data support: (file name, SVG text), in [`FIGURES`] order.
 pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
     let p = &r.points;
-    let rep = &r.reproduction;
-    let (time_h, temp, err_s, std_s) = replay_blocks(&r.valid, &r.replays[0]);
-    let (_, _, err_e, std_e) = replay_blocks(&r.valid, &r.replays[1]);
-    let extended = if r.investigation.added_inputs.is_empty() {
-        "extended (nothing added)".to_owned()
-    } else {
-        format!("extended (+ {})", r.investigation.added_inputs.join(", "))
-    };
-    let cause = r.investigation.cause();
-    let line = r
-        .investigation
-        .diagnosis
-        .candidates
-        .iter()
-        .find(|c| c.id == cause)
-        .map_or((0.0, 0.0), |c| (c.intercept_dps, c.slope));
-    let svgs = [
-        plots::rate_table(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
-        plots::output_vs_temperature(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
-        plots::qq(&[
-            ("GPR", &rep.gpr.loo_errors_dps, rep.gpr.qq_correlation),
-            (
-                "LS-SVR",
-                &rep.lssvr.loo_errors_dps,
-                rep.lssvr.qq_correlation,
-            ),
-        ])?,
-        plots::loo_map(
-            &p.temp_c,
-            &p.rate_dps,
-            &[
-                ("GPR", &rep.gpr.loo_errors_dps),
-                ("LS-SVR", &rep.lssvr.loo_errors_dps),
-            ],
-        )?,
-        plots::replay(
-            &time_h,
-            &temp,
-            &[
-                ReplaySeries {
-                    name: "static",
-                    error_dps: &err_s,
-                    std_dps: &std_s,
-                },
-                ReplaySeries {
-                    name: &extended,
-                    error_dps: &err_e,
-                    std_dps: &std_e,
-                },
-            ],
-        )?,
-        plots::diagnosis(&DiagnosisSeries {
-            cause: cause.id(),
-            regressor_label: regressor_label(cause),
-            regressor: &r.regressor,
-            line,
-            residual_dps: &r.residual,
-            temp_c: &r.block_temp_c,
-        })?,
-        {
-            let curves: Vec<_> = r.allan.iter().map(Allan::curve).collect();
-            let series: Vec<AllanSeries<'_>> = r
-                .allan
-                .iter()
-                .zip(&curves)
-                .zip([GREY, BLUE, ORANGE])
-                .map(|((a, curve), colour)| AllanSeries {
-                    label: &a.of,
-                    colour,
-                    curve,
-                    terms: a.terms,
-                })
-                .collect();
-            firmware_sim::plot::allan("Held-out stream: Allan deviation of the error", &series)?
-        },
-    ];
-    Ok(FIGURES.iter().map(|f| f.0).zip(svgs).collect())
+    let mut out: Vec<(&'static str, String)> = Vec::new();
+    if let Some(rep) = &r.reproduction {
+        out.push((
+            "rate_table.svg",
+            plots::rate_table(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
+        ));
+        out.push((
+            "output_vs_temperature.svg",
+            plots::output_vs_temperature(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
+        ));
+        out.push((
+            "qq.svg",
+            plots::qq(&[
+                ("GPR", &rep.gpr.loo_errors_dps, rep.gpr.qq_correlation),
+                (
+                    "LS-SVR",
+                    &rep.lssvr.loo_errors_dps,
+                    rep.lssvr.qq_correlation,
+                ),
+            ])?,
+        ));
+        out.push((
+            "loo_error.svg",
+            plots::loo_map(
+                &p.temp_c,
+                &p.rate_dps,
+                &[
+                    ("GPR", &rep.gpr.loo_errors_dps),
+                    ("LS-SVR", &rep.lssvr.loo_errors_dps),
+                ],
+            )?,
+        ));
+    }
+    if let Some((t, b)) = &r.bias {
+        out.push(("bias_vs_temperature.svg", plots::bias_vs_temperature(t, b)?));
+    }
+    if let Some(h) = &r.held_out {
+        let (time_h, temp, err_s, std_s) = replay_blocks(&h.valid, &h.replays[0]);
+        let (_, _, err_e, std_e) = replay_blocks(&h.valid, &h.replays[1]);
+        let extended = if h.investigation.added_inputs.is_empty() {
+            "extended (nothing added)".to_owned()
+        } else {
+            format!("extended (+ {})", h.investigation.added_inputs.join(", "))
+        };
+        let cause = h.investigation.cause();
+        let line = h
+            .investigation
+            .diagnosis
+            .candidates
+            .iter()
+            .find(|c| c.id == cause)
+            .map_or((0.0, 0.0), |c| (c.intercept_dps, c.slope));
+        out.push((
+            "replay.svg",
+            plots::replay(
+                &time_h,
+                &temp,
+                &[
+                    ReplaySeries {
+                        name: "static",
+                        error_dps: &err_s,
+                        std_dps: &std_s,
+                    },
+                    ReplaySeries {
+                        name: &extended,
+                        error_dps: &err_e,
+                        std_dps: &std_e,
+                    },
+                ],
+            )?,
+        ));
+        out.push((
+            "diagnosis.svg",
+            plots::diagnosis(&DiagnosisSeries {
+                cause: cause.id(),
+                regressor_label: regressor_label(cause),
+                regressor: &h.regressor,
+                line,
+                residual_dps: &h.residual,
+                temp_c: &h.block_temp_c,
+            })?,
+        ));
+        let curves: Vec<_> = h.allan.iter().map(Allan::curve).collect();
+        let series: Vec<AllanSeries<'_>> = h
+            .allan
+            .iter()
+            .zip(&curves)
+            .zip([GREY, BLUE, ORANGE])
+            .map(|((a, curve), colour)| AllanSeries {
+                label: &a.of,
+                colour,
+                curve,
+                terms: a.terms,
+            })
+            .collect();
+        out.push((
+            "allan.svg",
+            firmware_sim::plot::allan("Held-out stream: Allan deviation of the error", &series)?,
+        ));
+    }
+    Ok(out)
 }
 
 fn escape(s: &str) -> String {
@@ -314,8 +540,6 @@ fn sci(v: f64) -> String {
 
 /// The page: summary tables beside the figures, every SVG inline.
 pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
-    let rep = &r.reproduction;
-    let inv = &r.investigation;
     let mut s = String::new();
     let _ = write!(
         s,
@@ -326,112 +550,138 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
          th{{background:#eee}}figure{{margin:2em 0}}figcaption{{font-weight:bold;margin-bottom:.5em}}\
          svg{{max-width:100%;height:auto}}</style></head><body>\n\
          <h1>FOG temperature-drift compensation report</h1>\n\
-         <p>Rate table: <code>{}</code>, {} points. Held-out stream: {} samples. \
-         Figures are also written as SVG files beside this page.</p>\n",
+         <p>Data: <code>{}</code> ({}). Figures are also written as SVG files beside this \
+         page.</p>\n",
         escape(&r.source),
-        r.points.len(),
-        r.valid.len()
+        match r.kind {
+            Kind::Table => "a rate table alone",
+            Kind::TableAndStream => "a rate table and one stream",
+            Kind::Log => "one log alone",
+            Kind::Full => "a rate table, a training stream and a held-out stream",
+        }
     );
-    s.push_str("<h2>How the model does on the rate table</h2>\n<table><tr><th>method</th><th>LOO RMSE (°/s)</th><th>LOO RMSE (°/h)</th><th>paper (°/s)</th><th>leave-one-temperature-out (°/s)</th><th>Q-Q r</th></tr>\n");
-    for (name, e, paper) in [
-        ("GPR", &rep.gpr, Some(PAPER_LOO_GPR)),
-        ("LS-SVR", &rep.lssvr, Some(PAPER_LOO_LSSVR)),
-        ("two-step", &rep.two_step, None),
-    ] {
-        let _ = writeln!(
-            s,
-            "<tr><td>{name}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
-            sci(e.rmse_dps),
-            e.rmse_dph,
-            paper.map_or("—".into(), sci),
-            sci(e.group_rmse_dps),
-            e.qq_correlation
-        );
+    s.push_str("<h2>The data, as loaded</h2>\n");
+    for summary in &r.summaries {
+        let _ = writeln!(s, "<pre>{}</pre>", escape(summary.text().trim_end()));
     }
-    s.push_str("</table>\n<h3>Leave-one-temperature-out beside the paper's Table 1 (°/s)</h3>\n<table><tr><th>T (°C)</th><th>GPR</th><th>GPR paper</th><th>LS-SVR</th><th>LS-SVR paper</th></tr>\n");
-    let mut order: Vec<usize> = (0..rep.gpr.per_temperature.len()).collect();
-    order.sort_by(|&a, &b| {
-        rep.gpr.per_temperature[a]
-            .temp_c
-            .total_cmp(&rep.gpr.per_temperature[b].temp_c)
-    });
-    let paired = order.len() == PAPER_LOTO.len();
-    for (rank, &i) in order.iter().enumerate() {
-        let g = &rep.gpr.per_temperature[i];
-        let lssvr = rep
-            .lssvr
-            .per_temperature
-            .iter()
-            .find(|x| x.group == g.group)
-            .map_or("—".into(), |x| sci(x.rmse_dps));
-        let (pg, pl) = if paired {
-            (sci(PAPER_LOTO[rank].2), sci(PAPER_LOTO[rank].1))
-        } else {
-            ("—".into(), "—".into())
-        };
-        let _ = writeln!(
-            s,
-            "<tr><td>{:.1}</td><td>{}</td><td>{pg}</td><td>{lssvr}</td><td>{pl}</td></tr>",
-            g.temp_c,
-            sci(g.rmse_dps)
-        );
+    s.push_str("<h3>What these data could show</h3>\n<ul>\n");
+    for c in &r.could {
+        let _ = writeln!(s, "<li>{}</li>", escape(c));
     }
-    let _ = write!(
-        s,
-        "</table>\n<h2>Diagnosis of the training stream, gain on the held-out stream</h2>\n<p>Named causes: <b>{}</b> — {}</p>\n\
+    s.push_str("</ul>\n<h3>What they could not</h3>\n<ul>\n");
+    for c in &r.could_not {
+        let _ = writeln!(s, "<li>{}</li>", escape(c));
+    }
+    s.push_str("</ul>\n");
+    if let Some(rep) = &r.reproduction {
+        s.push_str("<h2>How the model does on the rate table</h2>\n<table><tr><th>method</th><th>LOO RMSE (°/s)</th><th>LOO RMSE (°/h)</th><th>paper (°/s)</th><th>leave-one-temperature-out (°/s)</th><th>Q-Q r</th></tr>\n");
+        for (name, e, paper) in [
+            ("GPR", &rep.gpr, Some(PAPER_LOO_GPR)),
+            ("LS-SVR", &rep.lssvr, Some(PAPER_LOO_LSSVR)),
+            ("two-step", &rep.two_step, None),
+        ] {
+            let _ = writeln!(
+                s,
+                "<tr><td>{name}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
+                sci(e.rmse_dps),
+                e.rmse_dph,
+                paper.map_or("—".into(), sci),
+                sci(e.group_rmse_dps),
+                e.qq_correlation
+            );
+        }
+        s.push_str("</table>\n<h3>Leave-one-temperature-out beside the paper's Table 1 (°/s)</h3>\n<table><tr><th>T (°C)</th><th>GPR</th><th>GPR paper</th><th>LS-SVR</th><th>LS-SVR paper</th></tr>\n");
+        let mut order: Vec<usize> = (0..rep.gpr.per_temperature.len()).collect();
+        order.sort_by(|&a, &b| {
+            rep.gpr.per_temperature[a]
+                .temp_c
+                .total_cmp(&rep.gpr.per_temperature[b].temp_c)
+        });
+        let paired = order.len() == PAPER_LOTO.len();
+        for (rank, &i) in order.iter().enumerate() {
+            let g = &rep.gpr.per_temperature[i];
+            let lssvr = rep
+                .lssvr
+                .per_temperature
+                .iter()
+                .find(|x| x.group == g.group)
+                .map_or("—".into(), |x| sci(x.rmse_dps));
+            let (pg, pl) = if paired {
+                (sci(PAPER_LOTO[rank].2), sci(PAPER_LOTO[rank].1))
+            } else {
+                ("—".into(), "—".into())
+            };
+            let _ = writeln!(
+                s,
+                "<tr><td>{:.1}</td><td>{}</td><td>{pg}</td><td>{lssvr}</td><td>{pl}</td></tr>",
+                g.temp_c,
+                sci(g.rmse_dps)
+            );
+        }
+        s.push_str("</table>\n");
+    }
+    if let Some(h) = &r.held_out {
+        let inv = &h.investigation;
+        let _ = write!(
+            s,
+            "<h2>Diagnosis of the training stream, gain on the held-out stream</h2>\n<p>Held out: {}.</p>\n<p>Named causes: <b>{}</b> — {}</p>\n\
          <p>Shipped: <b>{:?}</b> — {}</p>\n\
          <table><tr><th>model</th><th>inputs added</th><th>rmse_60s (°/s)</th><th>rmse_60s (°/h)</th><th>gain</th></tr>\n\
          <tr><td>static</td><td>—</td><td>{}</td><td>{:.2}</td><td>1.00×</td></tr>\n\
          <tr><td>shipped</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}×</td></tr></table>\n\
          <table><tr><th>candidate cause</th><th>score (interleaved)</th><th>score (forward)</th><th>parameter</th><th>correlation</th><th>amplitude (°/h)</th></tr>\n",
-        if inv.diagnosis.causes.is_empty() {
-            "none".to_owned()
-        } else {
-            inv.diagnosis
-                .causes
-                .iter()
-                .map(|c| c.id())
-                .collect::<Vec<_>>()
-                .join(" + ")
-        },
-        escape(&inv.diagnosis.explanation),
-        inv.shipped,
-        escape(&inv.verdict),
-        sci(inv.static_score.rmse_60s_dps),
-        inv.static_score.rmse_60s_dps * 3600.0,
-        if inv.added_inputs.is_empty() {
-            "nothing".into()
-        } else {
-            inv.added_inputs.join(", ")
-        },
-        sci(inv.extended_score.rmse_60s_dps),
-        inv.extended_score.rmse_60s_dps * 3600.0,
-        inv.gain
-    );
-    for c in &inv.diagnosis.candidates {
-        let _ = writeln!(
-            s,
-            "<tr><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.1}</td><td>{:.3}</td><td>{:.2}</td></tr>",
-            c.id, c.score, c.forward_score, c.parameter, c.correlation, c.amplitude_dph
+            escape(&h.split),
+            if inv.diagnosis.causes.is_empty() {
+                "none".to_owned()
+            } else {
+                inv.diagnosis
+                    .causes
+                    .iter()
+                    .map(|c| c.id())
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            },
+            escape(&inv.diagnosis.explanation),
+            inv.shipped,
+            escape(&inv.verdict),
+            sci(inv.static_score.rmse_60s_dps),
+            inv.static_score.rmse_60s_dps * 3600.0,
+            if inv.added_inputs.is_empty() {
+                "nothing".into()
+            } else {
+                inv.added_inputs.join(", ")
+            },
+            sci(inv.extended_score.rmse_60s_dps),
+            inv.extended_score.rmse_60s_dps * 3600.0,
+            inv.gain
         );
+        for c in &inv.diagnosis.candidates {
+            let _ = writeln!(
+                s,
+                "<tr><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.1}</td><td>{:.3}</td><td>{:.2}</td></tr>",
+                c.id, c.score, c.forward_score, c.parameter, c.correlation, c.amplitude_dph
+            );
+        }
+        s.push_str("</table>\n<h3>Noise of the held-out stream's error (Allan deviation, IEEE 952)</h3>\n<table><tr><th>output</th><th>ARW (°/√h)</th><th>bias instability (°/h)</th><th>at τ (s)</th><th>rate random walk ((°/h)/√h)</th></tr>\n");
+        let cell = |v: Option<f64>| v.map_or("not shown".to_owned(), |v| format!("{v:.4}"));
+        for a in &h.allan {
+            let _ = writeln!(
+                s,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                escape(&a.of),
+                cell(a.terms.arw_deg_per_sqrt_h),
+                cell(a.terms.bias_instability_deg_per_h),
+                a.terms
+                    .bias_instability_tau_s
+                    .map_or("—".to_owned(), |t| format!("{t:.0}")),
+                cell(a.terms.rrw_deg_per_h_per_sqrt_h)
+            );
+        }
+        s.push_str("</table>\n<p>Compensation removes the temperature's slow drift, so the long-τ part falls; the short-τ part is the gyro's own white noise, which no model removes. A term \"not shown\" is one whose slope the curve never reaches (a log too short, or a residual still drifting).</p>\n");
     }
-    s.push_str("</table>\n<h3>Noise of the held-out stream's error (Allan deviation, IEEE 952)</h3>\n<table><tr><th>output</th><th>ARW (°/√h)</th><th>bias instability (°/h)</th><th>at τ (s)</th><th>rate random walk ((°/h)/√h)</th></tr>\n");
-    let cell = |v: Option<f64>| v.map_or("not shown".to_owned(), |v| format!("{v:.4}"));
-    for a in &r.allan {
-        let _ = writeln!(
-            s,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            escape(&a.of),
-            cell(a.terms.arw_deg_per_sqrt_h),
-            cell(a.terms.bias_instability_deg_per_h),
-            a.terms
-                .bias_instability_tau_s
-                .map_or("—".to_owned(), |t| format!("{t:.0}")),
-            cell(a.terms.rrw_deg_per_h_per_sqrt_h)
-        );
-    }
-    s.push_str("</table>\n<p>Compensation removes the temperature's slow drift, so the long-τ part falls; the short-τ part is the gyro's own white noise, which no model removes. A term \"not shown\" is one whose slope the curve never reaches (a log too short, or a residual still drifting).</p>\n<h2>Figures</h2>\n");
-    for ((name, svg), (_, caption)) in figures.iter().zip(FIGURES) {
+    s.push_str("<h2>Figures</h2>\n");
+    for (name, svg) in figures {
+        let caption = FIGURES.iter().find(|f| f.0 == *name).map_or("", |f| f.1);
         let _ = writeln!(
             s,
             "<figure id=\"{name}\"><figcaption>{caption} — <a href=\"{name}\">{name}</a></figcaption>\n{svg}\n</figure>"

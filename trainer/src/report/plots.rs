@@ -3,8 +3,8 @@
 //! be checked without running a fit.
 
 use firmware_sim::plot::{
-    BLUE, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes, cold_to_hot, legend, span,
-    svg,
+    BLUE, Draw, DrawResult, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes,
+    cold_to_hot, legend, span, svg,
 };
 use plotters::prelude::*;
 
@@ -390,37 +390,67 @@ pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
         } else {
             panels[0].titled("cause: none — the residual is noise", (FONT, 18))?;
         }
-        let t = d.temp_c;
-        let (x0, x1) = span(t.iter().copied(), 0.05);
-        let mut chart = ChartBuilder::on(&panels[1])
-            .caption("Static residual against temperature", (FONT, 18))
-            .margin(12)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d(x0..x1, r0..r1)?;
-        axes(&mut chart, "sensor T (°C)", "residual, 60 s means (°/h)")?;
-        // Heating or cooling by the block-to-block temperature step (a hysteresis loop opens up).
-        let dir = |i: usize| {
-            let next = t.get(i + 1).copied().unwrap_or(t[i]);
-            let prev = if i > 0 { t[i - 1] } else { t[i] };
-            next - prev
-        };
-        for (label, colour, keep) in [
-            ("heating", RED, (|s: f64| s > 0.01) as fn(f64) -> bool),
-            ("cooling", BLUE, |s: f64| s < -0.01),
-            ("steady", GREY, |s: f64| s.abs() <= 0.01),
-        ] {
-            chart
-                .draw_series(
-                    (0..t.len())
-                        .filter(|&i| keep(dir(i)))
-                        .map(|i| Circle::new((t[i], r[i]), 2, colour.mix(0.6).filled())),
-                )?
-                .label(label)
-                .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
-        }
-        legend(&mut chart, SeriesLabelPosition::MiddleMiddle)?;
-        Ok(())
+        by_direction(
+            &panels[1],
+            "Static residual against temperature",
+            "residual, 60 s means (°/h)",
+            d.temp_c,
+            &r,
+        )
+    })
+}
+
+/// 60 s means (°/h) against temperature, heating, cooling and steady blocks apart (by the
+/// block-to-block temperature step): where a hysteresis loop opens up.
+fn by_direction(
+    area: &Draw<'_>,
+    title: &str,
+    y_label: &str,
+    t: &[f64],
+    values_dph: &[f64],
+) -> DrawResult {
+    let (x0, x1) = span(t.iter().copied(), 0.05);
+    let (y0, y1) = span(values_dph.iter().copied(), 0.08);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 18))
+        .margin(12)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    axes(&mut chart, "sensor T (°C)", y_label)?;
+    let dir = |i: usize| {
+        let next = t.get(i + 1).copied().unwrap_or(t[i]);
+        let prev = if i > 0 { t[i - 1] } else { t[i] };
+        next - prev
+    };
+    for (label, colour, keep) in [
+        ("heating", RED, (|s: f64| s > 0.01) as fn(f64) -> bool),
+        ("cooling", BLUE, |s: f64| s < -0.01),
+        ("steady", GREY, |s: f64| s.abs() <= 0.01),
+    ] {
+        chart
+            .draw_series(
+                (0..t.len())
+                    .filter(|&i| keep(dir(i)))
+                    .map(|i| Circle::new((t[i], values_dph[i]), 2, colour.mix(0.6).filled())),
+            )?
+            .label(label)
+            .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
+    }
+    legend(&mut chart, SeriesLabelPosition::MiddleMiddle)
+}
+
+/// A static log's bias against temperature: its 60 s means of output / K − reference, heating
+/// and cooling apart.
+pub fn bias_vs_temperature(temp_c: &[f64], bias_dph: &[f64]) -> Result<String, PlotError> {
+    svg("the bias against temperature", (900, 560), |root| {
+        by_direction(
+            root,
+            "Bias against temperature, heating and cooling apart",
+            "bias, 60 s means (°/h)",
+            temp_c,
+            bias_dph,
+        )
     })
 }
 
