@@ -176,7 +176,10 @@ fn report_without_data_runs_on_the_simulated_gyro_and_points_alone_make_a_table_
     assert_eq!(alone.status.code(), Some(0), "{alone:?}");
     let table = dir.path().join("t");
     assert!(table.join("report.html").exists() && table.join("loo_error.svg").exists());
-    assert!(!table.join("replay.svg").exists(), "a table alone has no stream to replay");
+    assert!(
+        !table.join("replay.svg").exists(),
+        "a table alone has no stream to replay"
+    );
     let out = trainer(&["report", "--out", "r"], dir.path());
     assert_eq!(out.status.code(), Some(0), "{:?}", out);
     let text = String::from_utf8_lossy(&out.stdout);
