@@ -61,7 +61,7 @@ pub struct Terms {
 }
 
 /// Overlapping Allan deviation of `rate` (°/s) sampled every `tau0_s`, at about ten cluster times
-/// per decade from τ₀ up to the longest with [`MIN_CLUSTERS`] clusters.
+/// per decade from τ₀ up to the longest with three clusters.
 pub fn overlapping(rate: &[f64], tau0_s: f64) -> Curve {
     let n = rate.len();
     // θ_k: the angle after k samples.
