@@ -21,6 +21,8 @@
 
 use serde::Serialize;
 
+use crate::data::stream::{GAP_FACTOR, typical_step};
+
 /// Seconds per hour.
 const HOUR_S: f64 = 3600.0;
 /// Flicker (bias-instability) noise: σ(τ) on its flat bottom is 0.664·B.
@@ -166,19 +168,13 @@ pub fn terms(curve: &Curve) -> Terms {
 /// non-finite value of `rate`: the Allan deviation needs evenly spaced samples. Returns the range
 /// and the typical step, s.
 pub fn longest_run(time_s: &[f64], rate: &[f64]) -> (std::ops::Range<usize>, f64) {
-    let mut steps: Vec<f64> = time_s
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|d| *d > 0.0)
-        .collect();
-    steps.sort_by(f64::total_cmp);
-    let step = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+    let step = typical_step(time_s);
     let mut best = 0..0;
     let mut start = 0;
     for i in 0..=time_s.len() {
         let breaks = i == time_s.len()
             || !rate.get(i).is_some_and(|r| r.is_finite())
-            || (i > start && time_s[i] - time_s[i - 1] > 3.0 * step);
+            || (i > start && time_s[i] - time_s[i - 1] > GAP_FACTOR * step);
         if breaks {
             if i - start > best.len() {
                 best = start..i;

@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 use crate::allan;
 use crate::cause::Cause;
 use crate::data::columns::{self, ColumnMap, DataError};
-use crate::data::stream::{BLOCK_S, GAP_FACTOR, Stream};
+use crate::data::stream::{BLOCK_S, GAP_FACTOR, Stream, typical_step};
 use crate::gyro::effects::{Effect, EffectPlant};
 use crate::gyro::plant::GyroParams;
 
@@ -513,13 +513,8 @@ fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitted, Identify
 /// of more than [`GAP_FACTOR`] typical steps.
 fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> Vec<Row> {
     let recs = &source.records;
-    let mut steps: Vec<f64> = recs
-        .windows(2)
-        .filter_map(|w| Some(w[1].time_s? - w[0].time_s?))
-        .filter(|d| *d > 0.0)
-        .collect();
-    steps.sort_by(f64::total_cmp);
-    let typical = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+    let times: Vec<f64> = recs.iter().filter_map(|r| r.time_s).collect();
+    let typical = typical_step(&times);
     let lag = lag_min.map(|tau_min| Effect::SensorLag { tau_min });
     let unit_effect = |l: usize| match LINEAR[l] {
         Cause::ThermalRate => Effect::ThermalRate {

@@ -212,6 +212,17 @@ fn screen_handling(
     out
 }
 
+/// The typical (median) forward step of `time_s`, s; 1 s where it has none.
+pub fn typical_step(time_s: &[f64]) -> f64 {
+    let mut steps: Vec<f64> = time_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|d| *d > 0.0)
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    steps.get(steps.len() / 2).copied().unwrap_or(1.0)
+}
+
 impl Stream {
     /// Loads a stream CSV (any delimiter and column names, through `maps`).
     pub fn load(path: &Path, maps: &[ColumnMap]) -> Result<Self, DataError> {
@@ -223,13 +234,7 @@ impl Stream {
             maps,
         )?;
         let time_s = c.get("time_s").to_vec();
-        let mut steps: Vec<f64> = time_s
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|d| *d > 0.0)
-            .collect();
-        steps.sort_by(f64::total_cmp);
-        let typical = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+        let typical = typical_step(&time_s);
         let time_issues = time_s
             .windows(2)
             .zip(&c.lines[1..])

@@ -111,6 +111,26 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
     ])
     .unwrap();
     sim(&["generate", "stream", "--seed", "2", "--out", &p("s.csv")]).unwrap();
+    // The files as the loader sees them, before anything is fitted.
+    run_trainer(&[
+        "summarize",
+        "--points",
+        &p("points.csv"),
+        "--stream",
+        &p("s.csv"),
+        "--json",
+        &p("summary.json"),
+        "--quiet",
+    ])
+    .unwrap();
+    let summary = json(dir.path().join("summary.json"));
+    assert_eq!(summary[0]["rows"], 140);
+    assert_eq!(summary[0]["plateaus"], 10);
+    assert_eq!(summary[1]["kind"], "stream");
+    assert_eq!(summary[1]["sample_interval_s"], 1.0);
+    assert_eq!(summary[1]["time_issues"].as_array().unwrap().len(), 3);
+    let k = summary[0]["scale_factor_estimate"].as_f64().unwrap();
+    assert!((k / 0.038 - 1.0).abs() < 0.02, "{k}");
     let page =
         |out: &str| std::fs::read_to_string(dir.path().join(out).join("report.html")).unwrap();
     let figure = |out: &str, name: &str| dir.path().join(out).join(name).is_file();

@@ -137,6 +137,21 @@ fn a_twin_from_a_table_and_a_stream_names_the_missing_lag_and_simulates_the_unit
             .to_string()
             .contains("already has a sensor-lag")
     );
+
+    // A unit file no gyro could have is refused, naming the parameter.
+    let mut broken = unit_file.clone();
+    broken["params"]["scale_factor_v_per_dps"] = serde_json::json!(0.0);
+    std::fs::write(dir.path().join("broken.json"), broken.to_string()).unwrap();
+    let e = sim(&[
+        "generate",
+        "paper",
+        "--unit",
+        &p("broken.json"),
+        "--out",
+        &p("y.csv"),
+    ])
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("scale_factor_v_per_dps"), "{e:#}");
 }
 
 const IMU_X: [&str; 10] = [

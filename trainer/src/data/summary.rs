@@ -96,6 +96,11 @@ fn slope(rate: &[f64], output: &[f64]) -> Option<f64> {
     if pts.len() < 3 {
         return None;
     }
+    least_squares_slope(&pts)
+}
+
+/// The least-squares slope of y on x through `pts`; `None` where x does not vary.
+pub fn least_squares_slope(pts: &[(f64, f64)]) -> Option<f64> {
     let n = pts.len() as f64;
     let (mw, mv) = pts
         .iter()

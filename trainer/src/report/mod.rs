@@ -24,7 +24,7 @@ use crate::analysis::evaluate::{self, EvalConfig, Method};
 use crate::analysis::investigate::{self, Investigation};
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
 use crate::data::points::Points;
-use crate::data::summary::Summary;
+use crate::data::summary::{Summary, least_squares_slope};
 use crate::models::gp::GpConfig;
 
 /// The figure files, in page order: (file name, caption).
@@ -174,19 +174,13 @@ fn held_out(
     // The raw gyro in °/s: its output over the scale factor given, or over a straight line
     // through the points (what an uncompensated gyro's datasheet scale factor does).
     let k = points.scale_factor.unwrap_or_else(|| {
-        let n = points.len() as f64;
-        let (mw, mv) = (
-            points.rate_dps.iter().sum::<f64>() / n,
-            points.voltage_v.iter().sum::<f64>() / n,
-        );
-        let sxy: f64 = points
+        let pts: Vec<(f64, f64)> = points
             .rate_dps
             .iter()
-            .zip(&points.voltage_v)
-            .map(|(w, v)| (w - mw) * (v - mv))
-            .sum();
-        let sxx: f64 = points.rate_dps.iter().map(|w| (w - mw) * (w - mw)).sum();
-        if sxx > 0.0 { sxy / sxx } else { 1.0 }
+            .copied()
+            .zip(points.voltage_v.iter().copied())
+            .collect();
+        least_squares_slope(&pts).unwrap_or(1.0)
     });
     let allan = [
         allan_of(
