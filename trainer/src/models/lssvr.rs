@@ -106,12 +106,7 @@ impl Solved {
     }
 }
 
-/// Range of ln γ searched (γ in 1e-3…1e12). The length scales keep to the GP's range
-/// ([`Bounds`]: ℓ ≥ 0.1, normalized). Below it a rate table's setpoints become separate clusters,
-/// and a kernel that narrow in the output snaps each row to its setpoint's value, which
-/// leave-one-out cannot see: on the Aug FOG run one fold's search went there (ℓ = 0.02, LOO error
-/// 3e-6 of the residual's spread) and scored 2.8 °/h on its left-out sweep against 140–250 for
-/// every other fold.
+/// Range of ln γ searched (γ in 1e-3…1e12).
 const LOG_GAMMA: (f64, f64) = (-6.9, 27.6);
 /// Points of the first grid over ln γ, and of each finer grid between the best point's neighbours.
 const GAMMA_GRID: usize = 24;
@@ -239,7 +234,12 @@ impl CostFunction for Profile<'_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, log_lengths: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        // Outside the range the cost is a wall, not an error, so the simplex simply turns back.
+        // The GP's range of length scales (ℓ ≥ 0.1, normalized). Below it a rate table's setpoints
+        // become separate clusters, and a kernel that narrow in the output snaps each row to its
+        // setpoint's value, which leave-one-out cannot see: on the Aug FOG run one fold's search
+        // went there (ℓ = 0.02, LOO error 3e-6 of the residual's spread) and scored 2.8 °/h on its
+        // left-out sweep against 140–250 for every other fold. Outside the range the cost is a
+        // wall, not an error, so the simplex simply turns back.
         let (lo, hi) = Bounds::default().log_length;
         if !log_lengths.iter().all(|t| (lo..hi).contains(t)) {
             return Ok(1e300);
