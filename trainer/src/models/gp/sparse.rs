@@ -75,9 +75,13 @@ const SELECTION_MAX_LENGTH: f64 = 1.0;
 pub const SUBSET: usize = 300;
 /// Ratio of fitted to starting σ_n above which a sparse fit is flagged ([`SparseFit::noise_inflated`]).
 pub const NOISE_INFLATION: f64 = 3.0;
-/// Gradient tolerance and objective-call budget of the refinement on the bound (from a start that
-/// is already near the optimum).
-const REFINE: (f64, u64) = (1e-5, 60);
+/// How the refinement on the bound stops (from a start that is already near the optimum): on
+/// its tolerance or budget, not on a stall, so it keeps the fixed budget this module is built on.
+const REFINE: exact::Stopping = exact::Stopping {
+    tolerance: 1e-5,
+    budget: 60,
+    stall: false,
+};
 
 /// What a sparse fit was.
 #[derive(Debug, Clone, Serialize)]
