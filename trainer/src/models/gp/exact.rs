@@ -26,11 +26,12 @@
 //! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin, Moré–Thuente line search)
 //! from several starts in parallel, the paper's (all zero) among them, at a loose tolerance; then a
 //! short polish from the best at a tight one. A run also stops once its gains sink below the
-//! likelihood's rounding, which ill-conditioned K (tiny σ_n) makes coarse. Box bounds: the likelihood is evaluated at the
-//! clamped θ, with a quadratic wall outside, so no trial step builds a non-finite K. The bounds
-//! keep ℓ ≥ 0.1 and σ_f ≤ 10 (normalized units): below 0.1 each rate level becomes its own
-//! independent GP, and above 10 the GP and the basis trade off along a ridge with huge cancelling
-//! weights (f32 study). The closed-form LOO holds θ fixed (as R&W §5.4.2 does).
+//! likelihood's rounding, which ill-conditioned K (tiny σ_n) makes coarse. Box bounds: the
+//! likelihood is evaluated at the clamped θ, with a quadratic wall outside, so no trial step builds
+//! a non-finite K. The bounds keep ℓ ≥ 0.1 and σ_f ≤ 10 (normalized units): below 0.1 each rate
+//! level becomes its own independent GP, and above 10 the GP and the basis trade off along a ridge
+//! with huge cancelling weights (f32 study). The closed-form LOO holds θ fixed (as R&W §5.4.2
+//! does).
 
 use std::fmt;
 use std::str::FromStr;
