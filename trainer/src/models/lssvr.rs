@@ -18,7 +18,7 @@
 //! ```
 //!
 //! all in O(n²) from Uᵀ1, Uᵀy and U∘U: no refit, no factorization per γ, and a whole grid of γ in
-//! one matrix product. The best γ for ℓ comes from a grid over the range and finer grids around
+//! two matrix products. The best γ for ℓ comes from a grid over the range and finer grids around
 //! its best point; Nelder–Mead (argmin) searches ln ℓ over that profile (its logarithm, so the
 //! tolerance is relative) from several starts. At the Aug FOG run's 695 points one joint evaluation
 //! was an (n+1)² inverse; the profile spends one eigendecomposition per ℓ and tens of O(n²) γ
@@ -124,8 +124,10 @@ const LENGTH_TOLERANCE: f64 = 3e-4;
 /// closed-form LOO at any γ from it in O(n²) (module doc).
 struct Spectrum {
     values: DVector<f64>,
-    /// [U, U∘U]: H1, Hy and diag(H) for a batch of γ in one product (diag(H) = (U∘U) d).
-    basis: DMatrix<f64>,
+    /// U: H1 and Hy for a batch of γ in one product.
+    vectors: DMatrix<f64>,
+    /// U∘U: diag(H) for a batch of γ in one product (diag(H) = (U∘U) d).
+    squares: DMatrix<f64>,
     /// [Uᵀ1, Uᵀy].
     rotated: DMatrix<f64>,
 }
@@ -138,27 +140,25 @@ impl Spectrum {
         let mut ones_y = DMatrix::from_element(n, 2, 1.0);
         ones_y.set_column(1, y);
         let rotated = vectors.tr_mul(&ones_y);
-        let mut basis = DMatrix::zeros(n, 2 * n);
-        basis.columns_mut(0, n).copy_from(&vectors);
-        basis
-            .columns_mut(n, n)
-            .copy_from(&vectors.component_mul(&vectors));
+        let squares = vectors.component_mul(&vectors);
         Some(Self {
             values,
-            basis,
+            vectors,
+            squares,
             rotated,
         })
     }
 
     /// Mean squared closed-form LOO error at each ln γ of a batch, `None` where K + I/γ is not
     /// positive definite (an eigenvalue of K below −1/γ: numerically, at very large γ). The batch
-    /// is one matrix product, [U, U∘U] times the spectral weights of every γ: a γ step costs a
+    /// is two matrix products, U and U∘U times the spectral weights of every γ: a γ step costs a
     /// matrix–vector product's flops at a matrix product's speed.
     fn press(&self, log_gammas: &[f64]) -> Vec<Option<f64>> {
         let n = self.values.len();
         let g = log_gammas.len();
-        // Columns [0, g): d∘Uᵀ1, [g, 2g): d∘Uᵀy, [2g, 3g): d, over the rows of U; zero on U∘U's.
-        let mut weights = DMatrix::zeros(2 * n, 3 * g);
+        // Columns [0, g): d∘Uᵀ1, [g, 2g): d∘Uᵀy; `spectral`: d, for every γ.
+        let mut weights = DMatrix::zeros(n, 2 * g);
+        let mut spectral = DMatrix::zeros(n, g);
         let mut valid = vec![true; g];
         for (c, &lg) in log_gammas.iter().enumerate() {
             let ridge = (-lg).exp();
@@ -167,24 +167,24 @@ impl Spectrum {
                 valid[c] &= d.is_finite() && d > 0.0;
                 weights[(k, c)] = d * self.rotated[(k, 0)];
                 weights[(k, g + c)] = d * self.rotated[(k, 1)];
-                weights[(n + k, 2 * g + c)] = d;
+                spectral[(k, c)] = d;
             }
         }
-        // [H1 | Hy | diag H] for every γ.
-        let h = &self.basis * &weights;
+        // [H1 | Hy] and diag H for every γ.
+        let h = &self.vectors * &weights;
+        let diag = &self.squares * &spectral;
         (0..g)
             .map(|c| {
                 if !valid[c] {
                     return None;
                 }
-                let (w1, wy) = (weights.column(c), weights.column(g + c));
                 let r1 = self.rotated.column(0);
-                let s = r1.dot(&w1.rows(0, n));
-                let b = r1.dot(&wy.rows(0, n)) / s;
+                let s = r1.dot(&weights.column(c));
+                let b = r1.dot(&weights.column(g + c)) / s;
                 let sum: f64 = (0..n)
                     .map(|i| {
-                        let (h1, hy, diag) = (h[(i, c)], h[(i, g + c)], h[(i, 2 * g + c)]);
-                        let r = (hy - b * h1) / (diag - h1 * h1 / s);
+                        let (h1, hy) = (h[(i, c)], h[(i, g + c)]);
+                        let r = (hy - b * h1) / (diag[(i, c)] - h1 * h1 / s);
                         r * r
                     })
                     .sum();
@@ -218,12 +218,34 @@ impl Spectrum {
 }
 
 /// The tuning cost of length scales: the least LOO error over γ.
+#[derive(Clone, Copy)]
 struct Profile<'a> {
     z: &'a DMatrix<f64>,
     y: &'a DVector<f64>,
 }
 
 impl Profile<'_> {
+    /// Nelder–Mead over ln ℓ from `start`, its first simplex one unit wide along each axis, until
+    /// the simplex's costs spread less than [`LENGTH_TOLERANCE`]: the best point and its cost.
+    fn descend(&self, start: &[f64]) -> Option<(Vec<f64>, f64)> {
+        let simplex: Vec<Vec<f64>> = std::iter::once(start.to_vec())
+            .chain((0..start.len()).map(|j| {
+                let mut v = start.to_vec();
+                v[j] += 1.0;
+                v
+            }))
+            .collect();
+        let solver = NelderMead::new(simplex)
+            .with_sd_tolerance(LENGTH_TOLERANCE)
+            .ok()?;
+        let res = Executor::new(*self, solver)
+            .configure(|s| s.max_iters(200))
+            .run()
+            .ok()?;
+        let st = res.state();
+        Some((st.get_best_param()?.clone(), st.get_best_cost()))
+    }
+
     fn best(&self, log_lengths: &[f64]) -> Option<(f64, f64)> {
         let ls: Vec<f64> = log_lengths.iter().map(|t| t.exp()).collect();
         Spectrum::new(self.z, self.y, &ls)?.best_gamma()
@@ -291,25 +313,7 @@ impl LssvrModel {
         let profile = Profile { z: &z, y: &y };
         let best = [0.0, 1.0, -1.0, 2.0]
             .into_par_iter()
-            .filter_map(|l| {
-                let start = vec![l; d];
-                let simplex: Vec<Vec<f64>> = std::iter::once(start.clone())
-                    .chain((0..d).map(|j| {
-                        let mut v = start.clone();
-                        v[j] += 1.0;
-                        v
-                    }))
-                    .collect();
-                let solver = NelderMead::new(simplex)
-                    .with_sd_tolerance(LENGTH_TOLERANCE)
-                    .ok()?;
-                let res = Executor::new(Profile { z: &z, y: &y }, solver)
-                    .configure(|s| s.max_iters(200))
-                    .run()
-                    .ok()?;
-                let st = res.state();
-                Some((st.get_best_param()?.clone(), st.get_best_cost()))
-            })
+            .filter_map(|l| profile.descend(&vec![l; d]))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .ok_or(LssvrError::TuningFailed)?;
         let (log_gamma, _) = profile.best(&best.0).ok_or(LssvrError::TuningFailed)?;
