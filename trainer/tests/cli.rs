@@ -135,7 +135,7 @@ fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
     let verbose = trainer(&[fit, &["-v"][..]].concat(), dir.path());
     let err = String::from_utf8_lossy(&verbose.stderr);
     assert!(
-        err.contains("optimizer starts") && err.contains("Solver converged"),
+        err.contains("optimizer starts") && err.contains("convergence: "),
         "{err}"
     );
     assert!(String::from_utf8_lossy(&verbose.stdout).contains("wrote m.bin"));

@@ -155,7 +155,7 @@ pub(super) struct FitOptions {
     /// Seed of the random starts.
     #[arg(long, default_value_t = 0)]
     pub(super) seed: u64,
-    /// L-BFGS iteration cap of each optimizer start (a fit where no start converges says so).
+    /// L-BFGS-B iteration cap of each optimizer start (a fit where no start converges says so).
     #[arg(long, default_value_t = GpConfig::default().max_iters, value_parser = clap::value_parser!(u64).range(1..))]
     pub(super) max_iters: u64,
     /// Prior-mean basis: physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all

@@ -20,12 +20,12 @@ pub(super) fn log_starts(console: &Console, model: &GpModel) {
                 .join(", ")
         };
         console.detail(&format!(
-            "  {i:>2}: [{}] → [{}]  log ML {}  {} iterations, {} evaluations: {}",
+            "  {i:>2}: [{}] → [{}]  log ML {}  {} likelihoods, {} evaluations: {}",
             fmt(&s.start),
             s.end.as_deref().map_or("failed".to_owned(), fmt),
             s.log_marginal_likelihood
                 .map_or("—".to_owned(), |l| format!("{l:.3}")),
-            s.iterations,
+            s.likelihoods,
             s.evaluations,
             s.status
         ));

@@ -23,27 +23,27 @@
 //! B, B_ij = 1 where samples i and j share a group, and θ gains ln σ_g. Cross covariances k* never
 //! carry it: a prediction is for a run whose offset is unknown, as on the firmware.
 //!
-//! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS (argmin, Moré–Thuente line search)
-//! from several starts in parallel, the paper's (all zero) among them, at a loose tolerance; then a
-//! short polish from the best at a tight one. A run also stops once its gains sink below the
-//! likelihood's rounding, which ill-conditioned K (tiny σ_n) makes coarse. Box bounds: the
-//! likelihood is evaluated at the clamped θ, with a quadratic wall outside, so no trial step builds
-//! a non-finite K. The bounds keep ℓ ≥ 0.1 and σ_f ≤ 10 (normalized units): below 0.1 each rate
+//! θ = (ln ℓ_1 … ln ℓ_d, ln σ_f, ln σ_n), maximized with L-BFGS-B (`rcompat-lbfgsb`, the
+//! box-constrained quasi-Newton method scikit-learn's GP also uses) from several starts in
+//! parallel, the paper's (all zero) among them, at a loose tolerance; then a short polish from the
+//! best at a tight one. A run also stops once its gains sink below the likelihood's rounding, which
+//! ill-conditioned K (tiny σ_n) makes coarse. The bounds are the method's own: no trial step leaves
+//! them, so none builds a non-finite K, and a line search that meets one stops there instead of
+//! overshooting into it (with L-BFGS and a penalty wall it did, docs/performance.md). The bounds
+//! keep ℓ ≥ 0.1 and σ_f ≤ 10 (normalized units): below 0.1 each rate
 //! level becomes its own independent GP, and above 10 the GP and the basis trade off along a ridge
 //! with huge cancelling weights (f32 study). The closed-form LOO holds θ fixed (as R&W §5.4.2
 //! does).
 
+use std::cell::RefCell;
 use std::fmt;
 use std::str::FromStr;
-use std::sync::Mutex;
 
-use argmin::core::{CostFunction, Executor, Gradient, State, TerminationReason};
-use argmin::solver::linesearch::MoreThuenteLineSearch;
-use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+use rcompat_lbfgsb::{Bounds as BoxBounds, OptimControl, optim_lbfgsb_with_gradient};
 use serde::Serialize;
 
 use crate::models::dense;
@@ -138,7 +138,7 @@ pub struct GpConfig {
     pub mean: MeanBasis,
     /// Hyperparameter bounds.
     pub bounds: Bounds,
-    /// L-BFGS iteration cap per start.
+    /// L-BFGS-B iteration cap per start.
     pub max_iters: u64,
     /// Exact GP or sparse (inducing points), by size unless told.
     pub inducing: Inducing,
@@ -640,17 +640,17 @@ pub fn lml_and_gradient(
     Ok((post.log_marginal_likelihood, grad))
 }
 
-/// The L-BFGS objective: −log ML plus a quadratic penalty outside the bounds. Cost and gradient
-/// come from one evaluation, cached, because argmin asks for them separately. Where the likelihood
-/// is numerically rough (tiny noise, jitter switching on) a line search can stall; an evaluation
-/// budget stops it, and the best point seen is kept either way.
+/// The L-BFGS-B objective: −log ML per sample. Cost and gradient come from one evaluation,
+/// cached, because the solver asks for them separately. Where the likelihood is numerically rough
+/// (tiny noise, jitter switching on) a line search can stall; an evaluation budget stops it, and
+/// the best point seen is kept either way.
 struct Objective<'a> {
     likelihood: Likelihood<'a>,
     n: f64,
     inputs: usize,
     bounds: Bounds,
-    cache: Mutex<Option<Evaluated>>,
-    track: &'a Mutex<Track>,
+    cache: RefCell<Option<Evaluated>>,
+    track: RefCell<Track>,
     stopping: Stopping,
 }
 
@@ -660,8 +660,8 @@ pub(crate) type Likelihood<'a> = &'a (dyn Fn(&[f64]) -> Result<(f64, Vec<f64>), 
 /// One objective evaluation: θ, cost, gradient.
 type Evaluated = (Vec<f64>, f64, Vec<f64>);
 
-/// Evaluation count and the best in-bounds point seen: its cost, θ and log marginal likelihood
-/// (kept so the run's end needs no factorization of its own).
+/// Evaluation count and the best point seen: its cost, θ and log marginal likelihood (kept so the
+/// run's end needs no factorization of its own).
 #[derive(Default)]
 struct Track {
     evaluations: u64,
@@ -670,6 +670,8 @@ struct Track {
     /// The cost at the last gain larger than [`STALL`]'s, and the computations since.
     anchor: Option<f64>,
     stalled: u32,
+    /// Why the objective stopped answering (budget, stall, a failed likelihood), if it did.
+    stop: Option<String>,
 }
 
 /// A run whose best cost has not fallen by more than this (per sample) in this many likelihood
@@ -680,80 +682,52 @@ struct Track {
 /// the rejected trials of a first line search (up to four in a row there).
 const STALL: (u32, f64) = (6, 1e-6);
 
-/// Penalty weight outside the bounds, against a per-sample cost whose gradient is O(1).
-const PENALTY: f64 = 10.0;
-
 impl Objective<'_> {
-    fn evaluate(&self, theta: &[f64]) -> Result<(f64, Vec<f64>), argmin::core::Error> {
+    /// Cost and gradient at θ, or `None` once the run is to stop (the reason is in the track).
+    fn evaluate(&self, theta: &[f64]) -> Option<(f64, Vec<f64>)> {
+        let mut track = self.track.borrow_mut();
         // Every call counts, cached or not: a stalled line search may ask for one point forever.
-        if let Ok(mut t) = self.track.lock() {
-            if t.evaluations >= self.stopping.budget {
-                return Err(argmin::core::Error::msg("evaluation budget exhausted"));
+        if track.stop.is_none() {
+            if track.evaluations >= self.stopping.budget {
+                track.stop = Some("evaluation budget exhausted".to_owned());
+            } else if self.stopping.stall && track.stalled >= STALL.0 {
+                track.stop = Some("stalled: no gain above the likelihood's rounding".to_owned());
             }
-            if self.stopping.stall && t.stalled >= STALL.0 {
-                return Err(argmin::core::Error::msg(
-                    "stalled: no gain above the likelihood's rounding",
-                ));
-            }
-            t.evaluations += 1;
         }
-        if let Ok(cache) = self.cache.lock()
-            && let Some((t, c, g)) = cache.as_ref()
+        if track.stop.is_some() {
+            return None;
+        }
+        track.evaluations += 1;
+        if let Some((t, c, g)) = self.cache.borrow().as_ref()
             && t.as_slice() == theta
         {
-            return Ok((*c, g.clone()));
+            return Some((*c, g.clone()));
         }
-        // The likelihood is evaluated at the clamped point, so K stays finite whatever step the
-        // line search tries; outside the bounds a quadratic wall pulls back. Costs are per sample so
-        // that gradients are O(1) whatever n is, which keeps L-BFGS's first steps sane.
+        // L-BFGS-B keeps θ inside the bounds; the clamp only absorbs a rounding step across one.
+        // Costs are per sample so that gradients are O(1) whatever n is.
         let inside = self.bounds.clamp(theta, self.inputs);
-        if let Ok(mut t) = self.track.lock() {
-            t.computed += 1;
-        }
-        let (lml, grad) = (self.likelihood)(&inside)?;
+        track.computed += 1;
+        let (lml, grad) = match (self.likelihood)(&inside) {
+            Ok(v) => v,
+            Err(e) => {
+                track.stop = Some(format!("stopped: {e}"));
+                return None;
+            }
+        };
         let n = self.n;
-        let mut cost = -lml / n;
-        let mut g: Vec<f64> = grad.iter().map(|v| -v / n).collect();
-        let mut outside = false;
-        for (j, (&t, &c)) in theta.iter().zip(&inside).enumerate() {
-            let excess = t - c;
-            if excess != 0.0 {
-                outside = true;
-                cost += PENALTY * excess * excess;
-                g[j] = 2.0 * PENALTY * excess;
-            }
+        let cost = -lml / n;
+        let g: Vec<f64> = grad.iter().map(|v| -v / n).collect();
+        if cost.is_finite() && track.best.as_ref().is_none_or(|(c, _, _)| cost < *c) {
+            track.best = Some((cost, inside, lml));
         }
-        if let Ok(mut t) = self.track.lock() {
-            if !outside && cost.is_finite() && t.best.as_ref().is_none_or(|(c, _, _)| cost < *c) {
-                t.best = Some((cost, theta.to_vec(), lml));
-            }
-            if t.anchor.is_none_or(|a| cost < a - STALL.1) {
-                t.anchor = Some(cost);
-                t.stalled = 0;
-            } else {
-                t.stalled += 1;
-            }
+        if track.anchor.is_none_or(|a| cost < a - STALL.1) {
+            track.anchor = Some(cost);
+            track.stalled = 0;
+        } else {
+            track.stalled += 1;
         }
-        if let Ok(mut cache) = self.cache.lock() {
-            *cache = Some((theta.to_vec(), cost, g.clone()));
-        }
-        Ok((cost, g))
-    }
-}
-
-impl CostFunction for Objective<'_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, p: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        self.evaluate(p).map(|(c, _)| c)
-    }
-}
-
-impl Gradient for Objective<'_> {
-    type Param = Vec<f64>;
-    type Gradient = Vec<f64>;
-    fn gradient(&self, p: &Vec<f64>) -> Result<Vec<f64>, argmin::core::Error> {
-        self.evaluate(p).map(|(_, g)| g)
+        *self.cache.borrow_mut() = Some((theta.to_vec(), cost, g.clone()));
+        Some((cost, g))
     }
 }
 
@@ -769,8 +743,6 @@ pub struct StartReport {
     pub end: Option<Vec<f64>>,
     /// Log marginal likelihood at the end.
     pub log_marginal_likelihood: Option<f64>,
-    /// L-BFGS iterations.
-    pub iterations: u64,
     /// Objective calls (cost and gradient requests, cached ones included).
     pub evaluations: u64,
     /// Likelihood computations among them (each a factorization, an inverse and a gradient).
@@ -806,10 +778,10 @@ pub enum Optimization {
     },
 }
 
-/// How one L-BFGS run stops.
+/// How one L-BFGS-B run stops.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Stopping {
-    /// Gradient tolerance (per-sample cost); the cost tolerance is 1e-4 of it.
+    /// Projected-gradient tolerance (largest component, per-sample cost): L-BFGS-B's pgtol.
     pub tolerance: f64,
     /// Objective-call budget.
     pub budget: u64,
@@ -832,7 +804,15 @@ const POLISH: Stopping = Stopping {
     stall: true,
 };
 
-/// One L-BFGS run of `likelihood` (of `n` samples with `d` inputs) from `start`.
+/// L-BFGS-B's memory (correction pairs kept).
+const MEMORY: usize = 7;
+
+/// L-BFGS-B's relative-reduction test, in machine epsilons (scipy's and scikit-learn's default).
+/// Runs near the optimum end on [`STALL`] first; this ends the ones whose steps shrink smoothly.
+const FACTR: f64 = 1e7;
+
+/// One L-BFGS-B run of `likelihood` (of `n` samples with `d` inputs) from `start`, within the
+/// bounds of `cfg`.
 pub(crate) fn optimize_from(
     likelihood: Likelihood<'_>,
     (n, d): (usize, usize),
@@ -840,46 +820,55 @@ pub(crate) fn optimize_from(
     cfg: &GpConfig,
     stopping: Stopping,
 ) -> StartReport {
-    let track = Mutex::new(Track::default());
     let problem = Objective {
         likelihood,
         n: n as f64,
         inputs: d,
         bounds: cfg.bounds,
-        cache: Mutex::new(None),
-        track: &track,
+        cache: RefCell::new(None),
+        track: RefCell::new(Track::default()),
         stopping,
     };
-    let solver = LBFGS::new(MoreThuenteLineSearch::new(), 7)
-        .with_tolerance_grad(stopping.tolerance)
-        .and_then(|s| s.with_tolerance_cost(stopping.tolerance * 1e-4));
-    let result = solver.and_then(|solver| {
-        Executor::new(problem, solver)
-            .configure(|state| state.param(start.clone()).max_iters(cfg.max_iters))
-            .run()
-    });
-    let (iterations, status, converged) = match &result {
-        Ok(res) => (
-            res.state().get_iter(),
-            res.state().get_termination_status().to_string(),
-            res.state().get_termination_reason() == Some(&TerminationReason::SolverConverged),
-        ),
-        Err(e) => (0, format!("stopped: {e}"), false),
+    let (lower, upper): (Vec<f64>, Vec<f64>) =
+        (0..start.len()).map(|j| cfg.bounds.range(d, j)).unzip();
+    let control = OptimControl {
+        maxit: usize::try_from(cfg.max_iters).unwrap_or(usize::MAX),
+        factr: FACTR,
+        pgtol: stopping.tolerance,
+        lmm: MEMORY,
+        ..OptimControl::default_for_dimension(start.len())
     };
-    let (evaluations, computed, best) = track
-        .into_inner()
-        .map(|t| (t.evaluations, t.computed, t.best))
-        .unwrap_or_default();
-    // The solver's own best point may carry the out-of-bounds penalty; the tracked best never does.
-    let (end, lml) = best.map_or((None, None), |(_, t, l)| (Some(t), Some(l)));
+    // The objective answers NaN once it has stopped (its reason is in the track), which ends the
+    // solver's run with an error; the best point seen is kept either way.
+    let result = BoxBounds::new(lower, upper).and_then(|bounds| {
+        optim_lbfgsb_with_gradient(
+            cfg.bounds.clamp(&start, d),
+            bounds,
+            |t: &[f64]| problem.evaluate(t).map_or(f64::NAN, |(c, _)| c),
+            |t: &[f64]| {
+                problem
+                    .evaluate(t)
+                    .map_or_else(|| vec![f64::NAN; t.len()], |(_, g)| g)
+            },
+            control,
+        )
+    });
+    let track = problem.track.into_inner();
+    let (status, converged) = match (result, track.stop) {
+        (_, Some(reason)) => (reason, false),
+        (Ok(r), None) => (r.message.to_lowercase(), r.convergence == 0),
+        (Err(e), None) => (format!("stopped: {e}"), false),
+    };
+    let (end, lml) = track
+        .best
+        .map_or((None, None), |(_, t, l)| (Some(t), Some(l)));
     StartReport {
         samples: n,
         start,
         end,
         log_marginal_likelihood: lml,
-        iterations,
-        evaluations,
-        likelihoods: computed,
+        evaluations: track.evaluations,
+        likelihoods: track.computed,
         status,
         converged,
     }
@@ -1064,8 +1053,8 @@ const AT_BOUND: f64 = 0.01;
 
 /// Whether θ is a maximum of `likelihood` (of `n` samples) within the bounds: every gradient
 /// component is below [`STATIONARY`] per sample, except those pushing against a bound θ is at.
-/// Noise-free data put σ_f or σ_n at a bound, where L-BFGS with the penalty wall stalls instead of
-/// converging, though the point it stalls at is the constrained optimum.
+/// Noise-free data put σ_f or σ_n at a bound, where a run can stall on the likelihood's rounding
+/// short of its tolerance, though the point it stalls at is the constrained optimum.
 fn stationary(
     likelihood: Likelihood<'_>,
     theta: &[f64],
@@ -1385,7 +1374,6 @@ mod tests {
             start: vec![0.0; 4],
             end: Some(vec![1.0; 4]),
             log_marginal_likelihood: Some(f64::NAN),
-            iterations: 1,
             evaluations: 1,
             likelihoods: 1,
             status: String::new(),

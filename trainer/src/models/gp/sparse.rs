@@ -33,7 +33,7 @@
 //!
 //! The fit: hyperparameters of an exact GP on a subset of the samples, half spread over the inputs
 //! and half random (`start_subset`; all the optimizer starts of the exact GP, cheap at that size);
-//! inducing points chosen greedily in that kernel's metric ([`select`]); then L-BFGS on the bound
+//! inducing points chosen greedily in that kernel's metric ([`select`]); then L-BFGS-B on the bound
 //! from there. The prior mean stays the ordinary least-squares
 //! fit of the basis (the exact GP re-estimates it by GLS): with n ≫ m samples the two differ little,
 //! and marginalizing it through the bound would add a p×p term to every gradient for no measured gain.
