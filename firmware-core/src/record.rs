@@ -15,7 +15,8 @@ use crate::status::Status;
 pub const SAMPLE_BYTES: usize = 20;
 /// Bytes of one result record.
 pub const RESULT_BYTES: usize = 9;
-/// Flag bit of a sample at power-on (the feature state is reset before it).
+/// Flag bit of a sample at power-on (the feature state goes through
+/// [`crate::features::FeatureState::power_on`] before it).
 const POWER_ON: u32 = 1;
 
 /// A sample, and whether the gyro was powered on at it, as a record.

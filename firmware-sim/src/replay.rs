@@ -67,8 +67,10 @@ pub fn status_word(s: Status) -> &'static str {
     }
 }
 
-/// Per sample: whether the firmware restarts there (time jumps back or leaves a gap: a power
-/// cycle, or a reset the firmware would make), so its stateful features start afresh.
+/// Per sample: whether the gyro was powered on there (time jumps back or leaves a gap: a power
+/// cycle, or a reset the firmware would make). The feature state goes through
+/// [`FeatureState::power_on`] there: kept through the time off where the clock ran on, started
+/// afresh where it jumped back.
 pub fn restarts(stream: &Stream) -> Vec<bool> {
     let at: std::collections::HashSet<u64> = stream
         .time_issues
@@ -88,7 +90,8 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
     }
 }
 
-/// Runs every sample through the firmware, restarting its feature state at [`restarts`].
+/// Runs every sample through the firmware, its feature state kept through the power cycles at
+/// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
 pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     let mut scratch = vec![0.0f32; model.dims().m];
     let [_, noise_var] = model.variances();
@@ -96,7 +99,7 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     let mut out = Compensated::default();
     for (i, restart) in restarts(stream).into_iter().enumerate() {
         if restart {
-            state.reset();
+            state.power_on();
         }
         let sample = sample(stream, i);
         let (rate, var, status) = match model.compensate(&sample, &mut state, &mut scratch) {

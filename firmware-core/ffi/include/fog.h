@@ -175,12 +175,24 @@ extern "C" {
 // (`FogErrNull`).
 enum FogResult fog_model_decode(struct FogModel *model, const uint8_t *blob, size_t len);
 
-// Resets a channel's state: call it at every power-on, before the first sample (and to
-// initialize a new `FogState`).
+// Resets a channel's state: call it at a power-on, before the first sample, where the state was
+// not kept through the power-off (`fog_state_power_on` where it was), and to initialize a new
+// `FogState`.
 //
 // # Safety
 // `state` is null (`FogErrNull`) or points to a writable `FogState` (initialized or not).
 enum FogResult fog_state_reset(struct FogState *state);
+
+// The gyro was switched off and on again and `state` kept through it (its bytes stored at
+// power-down and restored before this call): the next sample is a power-on, and the coil
+// estimate and the play cross the time off along a straight line from the last reading to the
+// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was off; where there is none,
+// or nothing was stored, call `fog_state_reset` instead.
+//
+// # Safety
+// `state` is null (`FogErrNull`) or points to a writable `FogState`, initialized (by
+// `fog_state_reset`, or zeroed as a C `static` is: then `FogErrNoState`).
+enum FogResult fog_state_power_on(struct FogState *state);
 
 // Compensates one sample (time since power-on in s, temperature in °C, the gyro's output) with
 // the model, through the channel's state: the feature pipeline, then mean and variance.

@@ -68,7 +68,7 @@ int main(int argc, char **argv) {
     uint8_t rec[20];
     while (fread(rec, 1, sizeof rec, in) == sizeof rec) {
         if (u32_at(rec + 16) & 1u) {
-            fog_state_reset(&state); /* power-on: the filters start again */
+            fog_state_power_on(&state); /* power-on, the state kept through the power-off */
         }
         FogPrediction p;
         r = fog_compensate(&model, &state, f64_at(rec), f32_at(rec + 8), f32_at(rec + 12), &p);

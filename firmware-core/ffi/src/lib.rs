@@ -328,8 +328,9 @@ unsafe fn state<'a>(state: *mut FogState) -> Result<&'a mut State, FogResult> {
     Ok(unsafe { &mut *storage.words.as_mut_ptr().cast::<State>() })
 }
 
-/// Resets a channel's state: call it at every power-on, before the first sample (and to
-/// initialize a new `FogState`).
+/// Resets a channel's state: call it at a power-on, before the first sample, where the state was
+/// not kept through the power-off (`fog_state_power_on` where it was), and to initialize a new
+/// `FogState`.
 ///
 /// # Safety
 /// `state` is null (`FogErrNull`) or points to a writable `FogState` (initialized or not).
@@ -349,6 +350,27 @@ pub unsafe extern "C" fn fog_state_reset(state: *mut FogState) -> FogResult {
     unsafe { core::ptr::write(storage.words.as_mut_ptr().cast::<State>(), fresh) };
     storage.words[FOG_STATE_WORDS - 1] = RESET;
     FogResult::FogOk
+}
+
+/// The gyro was switched off and on again and `state` kept through it (its bytes stored at
+/// power-down and restored before this call): the next sample is a power-on, and the coil
+/// estimate and the play cross the time off along a straight line from the last reading to the
+/// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was off; where there is none,
+/// or nothing was stored, call `fog_state_reset` instead.
+///
+/// # Safety
+/// `state` is null (`FogErrNull`) or points to a writable `FogState`, initialized (by
+/// `fog_state_reset`, or zeroed as a C `static` is: then `FogErrNoState`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_state_power_on(state: *mut FogState) -> FogResult {
+    // SAFETY: forwarded from the caller.
+    match unsafe { self::state(state) } {
+        Ok(s) => {
+            s.features.power_on();
+            FogResult::FogOk
+        }
+        Err(e) => e,
+    }
 }
 
 /// Compensates one sample (time since power-on in s, temperature in °C, the gyro's output) with

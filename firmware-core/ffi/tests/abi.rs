@@ -14,15 +14,20 @@ fn zeroed<T>() -> Box<T> {
     unsafe { Box::new(std::mem::MaybeUninit::zeroed().assume_init()) }
 }
 
+/// A prediction no call has written yet.
+fn no_prediction() -> FogPrediction {
+    FogPrediction {
+        mean: f32::NAN,
+        variance: f32::NAN,
+        status: FogStatus::FogFault,
+    }
+}
+
 #[test]
 fn a_blob_decodes_into_static_storage_and_compensates() {
     let mut model: Box<FogModel> = zeroed();
     let mut state: Box<FogState> = zeroed();
-    let mut p = FogPrediction {
-        mean: f32::NAN,
-        variance: f32::NAN,
-        status: FogStatus::FogFault,
-    };
+    let mut p = no_prediction();
     // SAFETY: the pointers are to live, zero-initialized storage of the right types, or null on
     // purpose.
     unsafe {
@@ -88,6 +93,55 @@ fn a_blob_decodes_into_static_storage_and_compensates() {
     // The docs/firmware.md example's figure, through C: 0.38 V at 25 °C is 9.95 °/s.
     assert_eq!(p.status, FogStatus::FogValid);
     assert!((p.mean - 9.945).abs() < 1e-3, "{p:?}");
+}
+
+#[test]
+fn a_state_stored_through_a_power_off_goes_on_where_it_was() {
+    let mut model: Box<FogModel> = zeroed();
+    let mut state: Box<FogState> = zeroed();
+    let mut p = no_prediction();
+    // SAFETY: the pointers are to live storage of the right types, or null on purpose; the
+    // restored state is a byte copy of an initialized one, as flash would give it back.
+    unsafe {
+        assert_eq!(
+            fog_state_power_on(std::ptr::null_mut()),
+            FogResult::FogErrNull
+        );
+        assert_eq!(fog_state_power_on(&mut *state), FogResult::FogErrNoState);
+        assert_eq!(
+            fog_model_decode(&mut *model, BLOB.as_ptr(), BLOB.len()),
+            FogResult::FogOk
+        );
+        assert_eq!(fog_state_reset(&mut *state), FogResult::FogOk);
+        for k in 0..600 {
+            let t = 25.0 + k as f32 / 60.0;
+            assert_eq!(
+                fog_compensate(&*model, &mut *state, f64::from(k), t, 0.38, &mut p),
+                FogResult::FogOk
+            );
+        }
+        // Stored at power-down, restored at boot ten minutes later.
+        let mut restored: Box<FogState> = zeroed();
+        std::ptr::copy_nonoverlapping(&*state as *const FogState, &mut *restored, 1);
+        assert_eq!(fog_state_power_on(&mut *restored), FogResult::FogOk);
+        assert_eq!(
+            fog_compensate(&*model, &mut *restored, 1200.0, 30.0, 0.38, &mut p),
+            FogResult::FogOk
+        );
+        // This model has no filters: the same answer as from a reset state.
+        let mut cold = p;
+        assert_eq!(fog_state_reset(&mut *state), FogResult::FogOk);
+        assert_eq!(
+            fog_compensate(&*model, &mut *state, 1200.0, 30.0, 0.38, &mut cold),
+            FogResult::FogOk
+        );
+        assert_eq!(cold.mean.to_bits(), p.mean.to_bits());
+        assert_eq!(cold.status, p.status);
+    }
+    assert!(
+        p.mean.is_finite() && p.status != FogStatus::FogFault,
+        "{p:?}"
+    );
 }
 
 #[test]

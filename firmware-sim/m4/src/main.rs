@@ -142,7 +142,7 @@ fn main() -> ! {
             };
             let (sample, power_on) = record::decode_sample(record);
             if power_on {
-                state.reset();
+                state.power_on();
             }
             if let Some(slot) = first.get_mut(seen + i) {
                 *slot = sample;

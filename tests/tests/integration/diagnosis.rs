@@ -73,11 +73,13 @@ fn an_effect_drawn_by_seed_is_named() {
 
 #[test]
 fn two_effects_together_are_both_named_and_compensated_near_an_oracle() {
-    // Two of the challenge's pairs (docs/diagnosis.md); where one effect hides the other (a strong
-    // hysteresis beside a slow warm-up, a lag beside anything) one cause is named, counted there.
+    // Three of the challenge's pairs (docs/diagnosis.md), one a lag beside a drift, seen only
+    // since the coil estimate is carried through power cycles; where one effect hides the other
+    // (a temperature rate beside a hysteresis) one cause is named, counted there.
     for (pair, seed) in [
         ([Cause::ThermalRate, Cause::WarmUp], 1010),
         ([Cause::WarmUp, Cause::Hysteresis], 1020),
+        ([Cause::SensorLag, Cause::TimeDrift], 1000),
     ] {
         let case = run_case(&pair, seed, Strength::Documented, true).unwrap();
         assert!(
