@@ -388,6 +388,20 @@ mod tests {
         Feature::ThermalState { width_c: 1.0 },
     ];
 
+    /// The exact answer of [`KEPT`]'s 600 s lag, from its estimate in `heated` (80 °C at 3600 s),
+    /// after a straight line to `t1` over `dt_s`.
+    fn lag_across(heated: &FeatureState, dt_s: f64, t1: f64) -> f64 {
+        let mut last = [0.0f32; 3];
+        // The last sample again: no time passes.
+        assert_eq!(
+            compute(&KEPT, &at(3600.0, 80.0), &mut heated.clone(), &mut last),
+            Status::Valid
+        );
+        let (tau, t0) = (600.0, 80.0);
+        let e = (-dt_s / tau).exp();
+        t1 - (t1 - t0) * tau / dt_s * (1.0 - e) + (f64::from(last[0]) - t0) * e
+    }
+
     #[test]
     fn a_kept_state_crosses_a_power_off_along_a_straight_line() {
         let state = heated(&KEPT);
@@ -398,19 +412,8 @@ mod tests {
         kept.power_on();
         assert_eq!(compute(&KEPT, &back, &mut kept, &mut out), Status::Degraded);
         assert_eq!(out[1], 0.0, "time since power-on starts again");
-        // The lag's exact answer for a straight line 80 → 75 °C over 1200 s, from the coil
-        // 10 °C (less the half-step lag) behind the ramp.
-        let mut coil = state.clone();
-        let mut before = [0.0f32; 3];
-        // The last sample again (no time passes): the coil estimate when the power went off.
-        assert_eq!(
-            compute(&KEPT, &at(3600.0, 80.0), &mut coil, &mut before),
-            Status::Valid
-        );
-        let (tau, dt, t0, t1) = (600.0f64, 1200.0f64, 80.0f64, 75.0f64);
-        let e = (-dt / tau).exp();
-        let y0 = f64::from(before[0]);
-        let exact = t1 - (t1 - t0) * tau / dt * (1.0 - e) + (y0 - t0) * e;
+        // From the coil 10 °C (less the half-step lag) behind the ramp.
+        let exact = lag_across(&state, 1200.0, 75.0);
         assert!(
             (f64::from(out[0]) - exact).abs() < 1e-3,
             "{out:?} against {exact}"
@@ -434,6 +437,26 @@ mod tests {
         cold.reset();
         assert_eq!(compute(&KEPT, &back, &mut cold, &mut out), Status::Valid);
         assert_eq!(out, [75.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn lost_samples_are_crossed_along_a_straight_line() {
+        let mut state = heated(&KEPT);
+        let exact = lag_across(&state, 600.0, 70.0);
+        let mut out = [0.0f32; 3];
+        // Ten minutes lost, no power-off: 80 → 70 °C.
+        assert_eq!(
+            compute(&KEPT, &at(4200.0, 70.0), &mut state, &mut out),
+            Status::Degraded
+        );
+        assert!(
+            (f64::from(out[0]) - exact).abs() < 1e-3,
+            "{out:?} against {exact}"
+        );
+        assert!(
+            (out[1] - 4200.0 / 3600.0).abs() < 1e-6,
+            "no power-on: t_on runs on"
+        );
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`.ci/run` installs both).
 
 use firmware_sim::gyro::{effects::Effect, paper, plant::GyroParams, stream};
-use firmware_sim::qemu;
 use firmware_sim::replay;
+use firmware_sim::{c_replay, qemu};
 use trainer::data::points::POINT_FEATURES;
 use trainer::models::gp::{GpConfig, GpModel};
 
@@ -130,5 +130,10 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
     let m4 = qemu::run(&image, &blob, &data).unwrap();
     let agreement = qemu::compare(&host, &m4.compensated);
     assert_eq!(agreement.identical, data.len(), "{agreement:?}");
+    assert!(agreement.statuses_equal);
+    // The C program too: its thermal state goes through the stream's power cycles as the host's.
+    let c = c_replay::run(&c_replay::build().unwrap(), &blob, &data).unwrap();
+    let agreement = qemu::compare(&host, &c);
+    assert_eq!(agreement.identical, data.len(), "C: {agreement:?}");
     assert!(agreement.statuses_equal);
 }
