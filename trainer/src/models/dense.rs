@@ -1,5 +1,5 @@
 //! The O(n³) kernels of the exact GP and LS-SVR at the speed of the machine: Cholesky, the inverse
-//! from a Cholesky factor, and the symmetric eigendecomposition, on faer (blocked, SIMD, spread over
+//! from a Cholesky factor, the symmetric eigendecomposition and the symmetric product G Gᵀ, on faer (blocked, SIMD, spread over
 //! the cores by rayon). The rest of the trainer speaks nalgebra, so matrices cross over by copy:
 //! O(n²) against the O(n³) of the work. nalgebra's own Cholesky is unblocked and single-threaded;
 //! at n = 1,000 it and the hand-written inverse it replaces took most of every likelihood
@@ -7,7 +7,8 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, inverse};
-use faer::{MatMut, MatRef, Side};
+use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::{Accum, MatMut, MatRef, Side};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 /// A column-major nalgebra matrix seen as a faer one (both store columns contiguously): no copy.
@@ -70,6 +71,24 @@ pub fn inverse_from_cholesky(chol: &Cholesky<f64, Dyn>) -> DMatrix<f64> {
     inv
 }
 
+/// The lower triangle of G Gᵀ (the strict upper triangle is zero): half a general product's flops.
+pub fn outer_lower(g: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = g.nrows();
+    let mut out = DMatrix::zeros(n, n);
+    triangular::matmul(
+        view_mut(&mut out),
+        BlockStructure::TriangularLower,
+        Accum::Replace,
+        view(g),
+        BlockStructure::Rectangular,
+        view(g).transpose(),
+        BlockStructure::Rectangular,
+        1.0,
+        faer::get_global_parallelism(),
+    );
+    out
+}
+
 /// The eigendecomposition of a symmetric matrix (lower triangle read): eigenvalues in
 /// nondecreasing order and the orthonormal eigenvectors as columns, or `None` when it does not
 /// converge.
@@ -98,6 +117,18 @@ mod tests {
         let inv = inverse_from_cholesky(&ours);
         assert!((&inv * &k - DMatrix::identity(70, 70)).amax() < 1e-8);
         assert_eq!(inv, inv.transpose());
+    }
+
+    #[test]
+    fn the_outer_products_lower_triangle_is_nalgebras() {
+        let g = DMatrix::from_fn(40, 40, |i, j| ((i * 5 + j * 11) % 13) as f64 - 6.0);
+        let full = &g * g.transpose();
+        let lower = outer_lower(&g);
+        assert_eq!(
+            lower.upper_triangle(),
+            DMatrix::from_diagonal(&full.diagonal())
+        );
+        assert!((lower.lower_triangle() - full.lower_triangle()).amax() < 1e-9);
     }
 
     #[test]

@@ -10,27 +10,27 @@
 //! leave-one-out error of Cawley & Talbot (2004), `r_i = α_i / [C⁻¹]_ii` with C the full system
 //! matrix above. They are never left at defaults.
 //!
-//! The search is nested, because γ is cheap once ℓ is fixed. For length scales ℓ, K = U Λ Uᵀ once
-//! (`Spectrum`); then for any γ, with H = (K + I/γ)⁻¹ = U diag(1/(λ + 1/γ)) Uᵀ and s = 1ᵀH1,
+//! The search is L-BFGS-B on ln of that error over (ln ℓ, ln γ), with its analytic gradient
+//! (`loo_gradient`): one Cholesky factorization, its inverse and one symmetric matrix product
+//! per step, about 2n³ flops. Each of its four starts first takes the best γ for its length scales
+//! from K's eigendecomposition (`Spectrum`): with H = (K + I/γ)⁻¹ = U diag(1/(λ + 1/γ)) Uᵀ and
+//! s = 1ᵀH1,
 //!
 //! ```text
 //! b = 1ᵀHy / s,   α = H(y − b1),   [C⁻¹]_ii = H_ii − (H1)_i² / s   (i ≥ 1, the Schur complement)
 //! ```
 //!
-//! all in O(n²) from Uᵀ1, Uᵀy and U∘U: no refit, no factorization per γ, and a whole grid of γ in
-//! two matrix products. The best γ for ℓ comes from a grid over the range and finer grids around
-//! its best point; Nelder–Mead (argmin) searches ln ℓ over that profile (its logarithm, so the
-//! tolerance is relative) from several starts. At the Aug FOG run's 695 points one joint evaluation
-//! was an (n+1)² inverse; the profile spends one eigendecomposition per ℓ and tens of O(n²) γ
-//! steps (docs/performance.md).
+//! all in O(n²) from Uᵀ1, Uᵀy and U∘U, so a whole grid of γ over its range costs two matrix
+//! products: the descent starts in the right valley of γ, which is far from convex. On the Oct
+//! FOG run (773 points) a fit takes 54 of these steps, where a Nelder–Mead search over ln ℓ with
+//! γ profiled out at every point took 122 eigendecompositions, 3.5× the time (docs/performance.md).
 
-use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::neldermead::NelderMead;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::models::gp::{Bounds, Prepared};
+use crate::models::gp::exact::{Stopping, optimize_from};
+use crate::models::gp::{Bounds, GpError, Prepared};
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{MeanBasis, PolyPrior};
 use crate::models::{dense, kernel};
@@ -63,38 +63,59 @@ pub struct Solved {
     pub loo: Vec<f64>,
 }
 
+/// The LS-SVR system at one K and ridge 1/γ, through a Cholesky factor of K + I/γ.
+///
+/// With H = (K + I/γ)⁻¹ and s = 1ᵀH1, the system's inverse C⁻¹ has P = H − H11ᵀH/s as its
+/// lower-right block (the Schur complement of the border), so b = 1ᵀHy/s, α = Py, and the
+/// closed-form LOO error of row i is −α_i/P_ii.
+struct System {
+    p: DMatrix<f64>,
+    alpha: DVector<f64>,
+    bias: f64,
+}
+
+impl System {
+    /// `None` where K + I/γ is not positive definite.
+    fn new(gram: &DMatrix<f64>, y: &DVector<f64>, ridge: f64) -> Option<Self> {
+        let n = y.len();
+        let mut a = gram.clone();
+        for i in 0..n {
+            a[(i, i)] += ridge;
+        }
+        let chol = dense::cholesky(a)?;
+        // H1 and Hy through the factor, not the explicit inverse: at γ near 1e12 the inverse's
+        // rounding moved one Oct FOG fold's predictions by thousands of °/h.
+        let h1 = chol.solve(&DVector::from_element(n, 1.0));
+        let hy = chol.solve(y);
+        let mut p = dense::inverse_from_cholesky(&chol);
+        let s = h1.sum();
+        let bias = hy.sum() / s;
+        let alpha = &hy - &h1 * bias;
+        p.ger(-1.0 / s, &h1, &h1, 1.0);
+        Some(Self { p, alpha, bias })
+    }
+}
+
 /// Solves the LS-SVR system at θ = (ln ℓ…, ln γ), with its closed-form LOO errors.
 pub fn solve(z: &DMatrix<f64>, y: &DVector<f64>, theta: &[f64]) -> Result<Solved, LssvrError> {
     let d = z.ncols();
-    let n = z.nrows();
     let length_scales: Vec<f64> = theta[..d].iter().map(|t| t.exp()).collect();
     let gamma = theta[d].exp();
     let xs = kernel::scale_inputs(z, &length_scales);
-    let k = kernel::gram(&xs);
-    let mut c = DMatrix::zeros(n + 1, n + 1);
-    for i in 0..n {
-        c[(0, i + 1)] = 1.0;
-        c[(i + 1, 0)] = 1.0;
-        for j in 0..n {
-            c[(i + 1, j + 1)] = k[(i, j)];
-        }
-        c[(i + 1, i + 1)] += 1.0 / gamma;
-    }
-    let cinv = c
-        .try_inverse()
-        .filter(|m| m.iter().all(|v| v.is_finite()))
+    let System { p, alpha, bias } = System::new(&kernel::gram(&xs), y, 1.0 / gamma)
+        .filter(|s| s.alpha.iter().all(|v| v.is_finite()))
         .ok_or_else(|| LssvrError::Singular(theta.to_vec()))?;
-    let mut rhs = DVector::zeros(n + 1);
-    rhs.rows_mut(1, n).copy_from(y);
-    let sol = &cinv * rhs;
-    let alpha = sol.rows(1, n).into_owned();
-    let loo = (0..n).map(|i| -alpha[i] / cinv[(i + 1, i + 1)]).collect();
+    let loo = alpha
+        .iter()
+        .zip(p.diagonal().iter())
+        .map(|(a, pii)| -a / pii)
+        .collect();
     Ok(Solved {
         length_scales,
         gamma,
         xs,
         alpha,
-        bias: sol[0],
+        bias,
         loo,
     })
 }
@@ -114,11 +135,14 @@ const GAMMA_FINE: usize = 12;
 /// Finer grids after the first: each narrows the step 5.5-fold, so four leave it below 2e-3 in
 /// ln γ, where the LOO error is flat to far below any digit reported.
 const GAMMA_ROUNDS: usize = 4;
-/// Nelder–Mead stops when the simplex's ln LOO errors spread less than this: relative, so the
-/// same on a residual of 1e-3 as of 1 (normalized units). An absolute 1e-6 asked six digits of
-/// the Aug FOG run's nearly flat LOO error (589 s against 61 s); 1e-3 stopped its folds early
-/// enough to move the left-out-sweep error by 11% (docs/performance.md).
-const LENGTH_TOLERANCE: f64 = 3e-4;
+/// How the search over ln ℓ stops: its cost is ln of the LOO error, so the projected-gradient
+/// tolerance is relative.
+const TUNING: Stopping = Stopping {
+    tolerance: 1e-3,
+    budget: 60,
+    stall: true,
+};
+const TUNING_ITERATIONS: u32 = 100;
 
 /// K's eigendecomposition at one set of length scales, with the data rotated into it: the
 /// closed-form LOO at any γ from it in O(n²) (module doc).
@@ -217,58 +241,101 @@ impl Spectrum {
     }
 }
 
-/// The tuning cost of length scales: the least LOO error over γ.
+/// The mean squared closed-form LOO error at θ = (ln ℓ…, ln γ) and its gradient w.r.t. θ, from
+/// one Cholesky factorization of K + I/γ, or `None` where it is not positive definite.
+///
+/// With P, α of [`System`] and r_i = α_i/P_ii, a change dK moves dα = −P dK α and dP_ii = −(P dK P)_ii, so
+///
+/// ```text
+/// d mean(r²) = (2/n) Σ_jl dK_jl (M_jl − v_j α_l),   M = P diag(r²/P_ii) P,   v = P (r/P_ii)
+/// ```
+///
+/// one symmetric matrix product, then O(n²) per length scale (dK = K ∘ (x_j − x_l)²/ℓ²) and O(n) for γ
+/// (dK = −I/γ per unit of ln γ).
+fn loo_gradient(z: &DMatrix<f64>, y: &DVector<f64>, theta: &[f64]) -> Option<(f64, Vec<f64>)> {
+    let (n, d) = z.shape();
+    let length_scales: Vec<f64> = theta[..d].iter().map(|t| t.exp()).collect();
+    let ridge = (-theta[d]).exp();
+    let xs = kernel::scale_inputs(z, &length_scales);
+    let gram = kernel::gram(&xs);
+    let System { mut p, alpha, .. } = System::new(&gram, y, ridge)?;
+    let pd = p.diagonal();
+    let r = alpha.component_div(&pd);
+    let press = r.norm_squared() / n as f64;
+    let v = &p * r.component_div(&pd);
+    // M = G Gᵀ with G = P diag(|r|/√P_ii); both sums below are symmetric in (j, l) and vanish on
+    // the diagonal for ℓ, so the lower triangle carries them.
+    for (mut col, (ri, pi)) in p.column_iter_mut().zip(r.iter().zip(pd.iter())) {
+        col *= ri.abs() / pi.sqrt();
+    }
+    let m = dense::outer_lower(&p);
+    let scale = 2.0 / n as f64;
+    let mut grad: Vec<f64> = (0..d)
+        .map(|k| {
+            let mut sum = 0.0;
+            for l in 0..n {
+                let (xl, vl, al) = (xs[(l, k)], v[l], alpha[l]);
+                for j in (l + 1)..n {
+                    let dx = xs[(j, k)] - xl;
+                    let cross = 0.5 * (v[j] * al + vl * alpha[j]);
+                    sum += gram[(j, l)] * dx * dx * (m[(j, l)] - cross);
+                }
+            }
+            2.0 * scale * sum
+        })
+        .collect();
+    grad.push(-scale * ridge * (0..n).map(|j| m[(j, j)] - v[j] * alpha[j]).sum::<f64>());
+    (press.is_finite() && press > 0.0 && grad.iter().all(|g| g.is_finite()))
+        .then_some((press, grad))
+}
+
+/// The tuning problem: the data whose closed-form LOO error the hyperparameters minimize.
 #[derive(Clone, Copy)]
-struct Profile<'a> {
+struct Tuning<'a> {
     z: &'a DMatrix<f64>,
     y: &'a DVector<f64>,
 }
 
-impl Profile<'_> {
-    /// Nelder–Mead over ln ℓ from `start`, its first simplex one unit wide along each axis, until
-    /// the simplex's costs spread less than [`LENGTH_TOLERANCE`]: the best point and its cost.
+impl Tuning<'_> {
+    /// L-BFGS-B over (ln ℓ, ln γ) from length scales `start` and the best γ there, within the GP's
+    /// range of length scales: the best θ and its cost (ln of the mean squared LOO error).
+    ///
+    /// The range (ℓ ≥ 0.1, normalized) matters: below it a rate table's setpoints become separate
+    /// clusters, and a kernel that narrow in the output snaps each row to its setpoint's value,
+    /// which leave-one-out cannot see. On the Aug FOG run one fold's search went there (ℓ = 0.02,
+    /// LOO error 3e-6 of the residual's spread) and scored 2.8 °/h on its left-out sweep against
+    /// 140–250 for every other fold.
     fn descend(&self, start: &[f64]) -> Option<(Vec<f64>, f64)> {
-        let simplex: Vec<Vec<f64>> = std::iter::once(start.to_vec())
-            .chain((0..start.len()).map(|j| {
-                let mut v = start.to_vec();
-                v[j] += 1.0;
-                v
-            }))
-            .collect();
-        let solver = NelderMead::new(simplex)
-            .with_sd_tolerance(LENGTH_TOLERANCE)
-            .ok()?;
-        let res = Executor::new(*self, solver)
-            .configure(|s| s.max_iters(200))
-            .run()
-            .ok()?;
-        let st = res.state();
-        Some((st.get_best_param()?.clone(), st.get_best_cost()))
+        let objective = |t: &[f64]| self.objective(t);
+        let (log_gamma, _) = self.best(start)?;
+        let ranges: Vec<(f64, f64)> =
+            std::iter::repeat_n(Bounds::default().log_length, start.len())
+                .chain([LOG_GAMMA])
+                .collect();
+        let report = optimize_from(
+            &objective,
+            1,
+            start.iter().copied().chain([log_gamma]).collect(),
+            &ranges,
+            u64::from(TUNING_ITERATIONS),
+            TUNING,
+        );
+        Some((report.end?, -report.log_marginal_likelihood?))
     }
 
+    /// The search's objective as the GP optimizer takes it, a value to maximize and its gradient:
+    /// −ln of the mean squared LOO error at θ = (ln ℓ…, ln γ).
+    fn objective(&self, theta: &[f64]) -> Result<(f64, Vec<f64>), GpError> {
+        let (press, grad) = loo_gradient(self.z, self.y, theta)
+            .ok_or(GpError::Unevaluable("K + I/γ is not positive definite"))?;
+        Ok((-press.ln(), grad.iter().map(|g| -g / press).collect()))
+    }
+
+    /// The best ln γ at these length scales, and its LOO error: a whole grid through one
+    /// eigendecomposition.
     fn best(&self, log_lengths: &[f64]) -> Option<(f64, f64)> {
         let ls: Vec<f64> = log_lengths.iter().map(|t| t.exp()).collect();
         Spectrum::new(self.z, self.y, &ls)?.best_gamma()
-    }
-}
-
-impl CostFunction for Profile<'_> {
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, log_lengths: &Vec<f64>) -> Result<f64, argmin::core::Error> {
-        // The GP's range of length scales (ℓ ≥ 0.1, normalized). Below it a rate table's setpoints
-        // become separate clusters, and a kernel that narrow in the output snaps each row to its
-        // setpoint's value, which leave-one-out cannot see: on the Aug FOG run one fold's search
-        // went there (ℓ = 0.02, LOO error 3e-6 of the residual's spread) and scored 2.8 °/h on its
-        // left-out sweep against 140–250 for every other fold. Outside the range the cost is a
-        // wall, not an error, so the simplex simply turns back.
-        let (lo, hi) = Bounds::default().log_length;
-        if !log_lengths.iter().all(|t| (lo..hi).contains(t)) {
-            return Ok(1e300);
-        }
-        Ok(self
-            .best(log_lengths)
-            .map_or(1e300, |(_, press)| press.ln()))
     }
 }
 
@@ -310,15 +377,13 @@ impl LssvrModel {
             ..
         } = Prepared::new(x, target, basis);
         let d = z.ncols();
-        let profile = Profile { z: &z, y: &y };
+        let tuning = Tuning { z: &z, y: &y };
         let best = [0.0, 1.0, -1.0, 2.0]
             .into_par_iter()
-            .filter_map(|l| profile.descend(&vec![l; d]))
+            .filter_map(|l| tuning.descend(&vec![l; d]))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .ok_or(LssvrError::TuningFailed)?;
-        let (log_gamma, _) = profile.best(&best.0).ok_or(LssvrError::TuningFailed)?;
-        let theta: Vec<f64> = best.0.iter().copied().chain([log_gamma]).collect();
-        let solved = solve(&z, &y, &theta)?;
+        let solved = solve(&z, &y, &best.0)?;
         Ok(Self {
             input_norm,
             prior,
@@ -364,11 +429,16 @@ mod tests {
     #[test]
     fn solution_satisfies_its_linear_system() {
         let (z, y) = toy();
-        let s = solve(&z, &y, &[0.2, -0.1, 3.0]).unwrap();
-        assert!(s.alpha.sum().abs() < 1e-9, "Σα = {}", s.alpha.sum());
-        let k = kernel::gram(&s.xs);
-        let lhs = &k * &s.alpha + &s.alpha / s.gamma + DVector::from_element(25, s.bias);
-        assert!((lhs - &y).amax() < 1e-9);
+        // γ = 20 and γ ≈ 5e11, where K + I/γ is nearly singular and an explicit inverse's
+        // rounding would show in α.
+        for log_gamma in [3.0, 27.0] {
+            let s = solve(&z, &y, &[0.2, -0.1, log_gamma]).unwrap();
+            assert!(s.alpha.sum().abs() < 1e-9, "Σα = {}", s.alpha.sum());
+            let k = kernel::gram(&s.xs);
+            let lhs = &k * &s.alpha + &s.alpha / s.gamma + DVector::from_element(25, s.bias);
+            let off = (lhs - &y).amax();
+            assert!(off < 1e-9, "ln γ {log_gamma}: residual {off:e}");
+        }
     }
 
     #[test]
@@ -401,6 +471,36 @@ mod tests {
             assert!(
                 (through - press).abs() < 1e-8 * press,
                 "{through} vs {press}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_gradient_is_the_loo_errors_slope() {
+        let (z, y) = toy();
+        let theta = [0.2, -0.1, 3.0];
+        let press = |t: &[f64]| {
+            let loo = solve(&z, &y, t).unwrap().loo;
+            loo.iter().map(|e| e * e).sum::<f64>() / loo.len() as f64
+        };
+        let (at, grad) = loo_gradient(&z, &y, &theta).unwrap();
+        assert!(
+            (at - press(&theta)).abs() < 1e-10 * at,
+            "{at} vs {}",
+            press(&theta)
+        );
+        for k in 0..theta.len() {
+            let h = 1e-5;
+            let moved = |sign: f64| {
+                let mut t = theta;
+                t[k] += sign * h;
+                press(&t)
+            };
+            let numeric = (moved(1.0) - moved(-1.0)) / (2.0 * h);
+            assert!(
+                (grad[k] - numeric).abs() < 1e-6 * (1.0 + numeric.abs()),
+                "θ_{k}: {} vs {numeric}",
+                grad[k]
             );
         }
     }

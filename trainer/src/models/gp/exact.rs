@@ -78,6 +78,9 @@ pub enum GpError {
          fit on fewer samples (--inducing exact)"
     )]
     ExactOnly(usize),
+    /// An objective other than the likelihood (LS-SVR's LOO error) cannot be evaluated here.
+    #[error("{0}")]
+    Unevaluable(&'static str),
 }
 
 /// Box bounds on the log-hyperparameters (normalized units).
@@ -115,15 +118,9 @@ impl Bounds {
         }
     }
 
-    fn clamp(&self, theta: &[f64], d: usize) -> Vec<f64> {
-        theta
-            .iter()
-            .enumerate()
-            .map(|(j, &t)| {
-                let (lo, hi) = self.range(d, j);
-                t.clamp(lo, hi)
-            })
-            .collect()
+    /// The ranges of a θ of `params` entries for a model of `d` inputs.
+    pub(crate) fn ranges(&self, d: usize, params: usize) -> Vec<(f64, f64)> {
+        (0..params).map(|j| self.range(d, j)).collect()
     }
 }
 
@@ -647,8 +644,7 @@ pub fn lml_and_gradient(
 struct Objective<'a> {
     likelihood: Likelihood<'a>,
     n: f64,
-    inputs: usize,
-    bounds: Bounds,
+    ranges: &'a [(f64, f64)],
     cache: RefCell<Option<Evaluated>>,
     track: RefCell<Track>,
     stopping: Stopping,
@@ -705,7 +701,7 @@ impl Objective<'_> {
         }
         // L-BFGS-B keeps θ inside the bounds; the clamp only absorbs a rounding step across one.
         // Costs are per sample so that gradients are O(1) whatever n is.
-        let inside = self.bounds.clamp(theta, self.inputs);
+        let inside = clamp(theta, self.ranges);
         track.computed += 1;
         let (lml, grad) = match (self.likelihood)(&inside) {
             Ok(v) => v,
@@ -811,28 +807,36 @@ const MEMORY: usize = 7;
 /// Runs near the optimum end on [`STALL`] first; this ends the ones whose steps shrink smoothly.
 const FACTR: f64 = 1e7;
 
-/// One L-BFGS-B run of `likelihood` (of `n` samples with `d` inputs) from `start`, within the
-/// bounds of `cfg`.
+/// θ moved into its box.
+fn clamp(theta: &[f64], ranges: &[(f64, f64)]) -> Vec<f64> {
+    theta
+        .iter()
+        .zip(ranges)
+        .map(|(&t, &(lo, hi))| t.clamp(lo, hi))
+        .collect()
+}
+
+/// One L-BFGS-B run of `likelihood` (of `n` samples) from `start`, within `ranges` (one per entry
+/// of θ) and at most `max_iters` iterations.
 pub(crate) fn optimize_from(
     likelihood: Likelihood<'_>,
-    (n, d): (usize, usize),
+    n: usize,
     start: Vec<f64>,
-    cfg: &GpConfig,
+    ranges: &[(f64, f64)],
+    max_iters: u64,
     stopping: Stopping,
 ) -> StartReport {
     let problem = Objective {
         likelihood,
         n: n as f64,
-        inputs: d,
-        bounds: cfg.bounds,
+        ranges,
         cache: RefCell::new(None),
         track: RefCell::new(Track::default()),
         stopping,
     };
-    let (lower, upper): (Vec<f64>, Vec<f64>) =
-        (0..start.len()).map(|j| cfg.bounds.range(d, j)).unzip();
+    let (lower, upper): (Vec<f64>, Vec<f64>) = ranges.iter().copied().unzip();
     let control = OptimControl {
-        maxit: usize::try_from(cfg.max_iters).unwrap_or(usize::MAX),
+        maxit: usize::try_from(max_iters).unwrap_or(usize::MAX),
         factr: FACTR,
         pgtol: stopping.tolerance,
         lmm: MEMORY,
@@ -842,7 +846,7 @@ pub(crate) fn optimize_from(
     // solver's run with an error; the best point seen is kept either way.
     let result = BoxBounds::new(lower, upper).and_then(|bounds| {
         optim_lbfgsb_with_gradient(
-            cfg.bounds.clamp(&start, d),
+            clamp(&start, ranges),
             bounds,
             |t: &[f64]| problem.evaluate(t).map_or(f64::NAN, |(c, _)| c),
             |t: &[f64]| {
@@ -999,7 +1003,10 @@ pub(crate) fn search(
 ) -> Result<Searched, GpError> {
     let mut reports: Vec<StartReport> = starts(d, grouped, cfg)
         .into_par_iter()
-        .map(|s| optimize_from(likelihood, (n, d), s, cfg, SEARCH))
+        .map(|s| {
+            let ranges = cfg.bounds.ranges(d, s.len());
+            optimize_from(likelihood, n, s, &ranges, cfg.max_iters, SEARCH)
+        })
         .collect();
     let Some(searched) = best_of(&reports) else {
         let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
@@ -1017,9 +1024,10 @@ pub(crate) fn search(
     };
     reports.push(optimize_from(
         likelihood,
-        (n, d),
+        n,
         searched.clone(),
-        cfg,
+        &cfg.bounds.ranges(d, searched.len()),
+        cfg.max_iters,
         POLISH,
     ));
     let theta = best_of(&reports).unwrap_or(searched);
@@ -1456,8 +1464,9 @@ mod tests {
                 .collect();
             Ok((lml, grad))
         };
-        let cfg = GpConfig::default();
-        let run = optimize_from(&rough, (1000, 2), vec![0.4, 0.45, 0.3, 0.6], &cfg, POLISH);
+        let ranges = GpConfig::default().bounds.ranges(2, 4);
+        let start = vec![0.4, 0.45, 0.3, 0.6];
+        let run = optimize_from(&rough, 1000, start.clone(), &ranges, 100, POLISH);
         assert!(run.status.contains("stalled"), "{}", run.status);
         assert!(run.evaluations < POLISH.budget, "{}", run.evaluations);
         let end = run.end.unwrap();
@@ -1468,7 +1477,7 @@ mod tests {
             let lml = -n * t.iter().map(|v| (v - 0.5).powi(2)).sum::<f64>();
             Ok((lml, t.iter().map(|v| -2.0 * n * (v - 0.5)).collect()))
         };
-        let run = optimize_from(&smooth, (1000, 2), vec![0.4, 0.45, 0.3, 0.6], &cfg, POLISH);
+        let run = optimize_from(&smooth, 1000, start, &ranges, 100, POLISH);
         assert!(run.converged, "{}", run.status);
     }
 

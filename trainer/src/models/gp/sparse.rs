@@ -177,7 +177,8 @@ pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, G
         ));
         let bound = |t: &[f64]| bound_and_gradient(&data.z, &data.y, &u, t);
         let start = climb_noise(&bound, theta.clone(), cfg.bounds.log_noise.1);
-        let refined = exact::optimize_from(&bound, (n, d), start, cfg, REFINE);
+        let ranges = cfg.bounds.ranges(d, start.len());
+        let refined = exact::optimize_from(&bound, n, start, &ranges, cfg.max_iters, REFINE);
         let end = match (&refined.end, refined.log_marginal_likelihood) {
             (Some(end), Some(f)) => Some((end.clone(), f)),
             _ => None,
