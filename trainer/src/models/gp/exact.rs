@@ -788,12 +788,8 @@ pub(crate) struct Stopping {
 /// The search from every start, and the final polish from the best one: the searches only have to
 /// find the right basin, the polish converges in it. Near the optimum the likelihood is flat to
 /// rounding and line searches stall, so both stop when their gains sink below it ([`STALL`]).
-/// The searches stop at a projected gradient of 1e-2 per sample: on 41 fits (140–2,000 points,
-/// both FOG runs, constant and physics means) that kept every optimum (within 0.013 nats) with 13%
-/// fewer likelihoods than 1e-3; at 3e-2 the Aug FOG run's polish started in the wrong basin, 2
-/// nats lower (docs/performance.md).
 const SEARCH: Stopping = Stopping {
-    tolerance: 1e-2,
+    tolerance: 1e-3,
     budget: 120,
     stall: true,
 };
