@@ -1,9 +1,9 @@
 //! The O(n³) kernels of the exact GP and LS-SVR at the speed of the machine: Cholesky, the inverse
-//! from a Cholesky factor, the symmetric eigendecomposition and the symmetric product G Gᵀ, on faer (blocked, SIMD, spread over
-//! the cores by rayon). The rest of the trainer speaks nalgebra, so matrices cross over by copy:
-//! O(n²) against the O(n³) of the work. nalgebra's own Cholesky is unblocked and single-threaded;
-//! at n = 1,000 it and the hand-written inverse it replaces took most of every likelihood
-//! evaluation (docs/performance.md).
+//! from a Cholesky factor, the symmetric eigendecomposition and the symmetric product G Gᵀ, on
+//! faer (blocked, SIMD, spread over the cores by rayon). The rest of the trainer speaks nalgebra,
+//! so matrices cross over by copy: O(n²) against the O(n³) of the work. nalgebra's own Cholesky is
+//! unblocked and single-threaded; at n = 1,000 it and the hand-written inverse it replaces took
+//! most of every likelihood evaluation (docs/performance.md).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, inverse};
