@@ -308,8 +308,8 @@ fn degenerate_rate_tables_are_fitted_with_warnings_or_refused_with_the_reason() 
         (Family::FewTemperatures, fitted, 11),
         (Family::FewTemperatures, warned, 13),
         (Family::CollinearInputs, warned, PER_FAMILY),
-        (Family::FewPoints, warned, 19),
-        (Family::FewPoints, "refused: ill-conditioned for f32", 5),
+        (Family::FewPoints, warned, 21),
+        (Family::FewPoints, "refused: ill-conditioned for f32", 3),
         (Family::LargeOffset, fitted, PER_FAMILY),
     ];
     let expected: BTreeMap<(Family, String), usize> = expected

@@ -1,13 +1,15 @@
-//! The O(n³) kernels of the exact GP and LS-SVR at the speed of the machine: Cholesky, the inverse
-//! from a Cholesky factor, the symmetric eigendecomposition and the symmetric product G Gᵀ, on
-//! faer (blocked, SIMD, spread over the cores by rayon). The rest of the trainer speaks nalgebra,
-//! so matrices cross over by copy: O(n²) against the O(n³) of the work. nalgebra's own Cholesky is
-//! unblocked and single-threaded; at n = 1,000 it and the hand-written inverse it replaces took
-//! most of every likelihood evaluation (docs/performance.md).
+//! The O(n³) kernels of the exact GP and LS-SVR at the speed of the machine: Cholesky, triangular
+//! solves and the inverse from a Cholesky factor, the symmetric eigendecomposition and the
+//! symmetric product G Gᵀ, on faer (blocked, SIMD, spread over the cores by rayon). The rest of
+//! the trainer speaks nalgebra, so matrices cross over by copy: O(n²) against the O(n³) of the
+//! work. nalgebra's own Cholesky and triangular solves are unblocked and single-threaded; at
+//! n = 1,000 they and the hand-written inverse replaced here took most of every likelihood
+//! evaluation (docs/performance.md).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, inverse};
 use faer::linalg::matmul::triangular::{self, BlockStructure};
+use faer::linalg::triangular_solve;
 use faer::{Accum, MatMut, MatRef, Side};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
@@ -28,7 +30,7 @@ fn copy(m: MatRef<'_, f64>) -> DMatrix<f64> {
 }
 
 /// The Cholesky factorization of a symmetric positive definite matrix, in its own storage (its
-/// lower triangle is read and overwritten by the factor; the upper triangle is left as it was,
+/// lower triangle is read and overwritten by the factor; faer may use the upper triangle as scratch,
 /// which nalgebra's `l_dirty` allows), or `None` when it is not positive definite.
 pub fn cholesky(mut k: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     let n = k.nrows();
@@ -49,6 +51,26 @@ pub fn cholesky(mut k: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     // A factor with a non-finite entry (from a non-finite input) is no factor.
     let finite = (0..n).all(|j| k.column(j).rows_range(j..).iter().all(|v| v.is_finite()));
     finite.then(|| Cholesky::pack_dirty(k))
+}
+
+/// L⁻¹ B, for the factor L of `chol` (its lower triangle read), in B's storage.
+pub fn solve_lower(chol: &Cholesky<f64, Dyn>, mut b: DMatrix<f64>) -> DMatrix<f64> {
+    triangular_solve::solve_lower_triangular_in_place(
+        view(chol.l_dirty()),
+        view_mut(&mut b),
+        faer::get_global_parallelism(),
+    );
+    b
+}
+
+/// L⁻ᵀ B, for the factor L of `chol` (its lower triangle read), in B's storage.
+pub fn solve_lower_transpose(chol: &Cholesky<f64, Dyn>, mut b: DMatrix<f64>) -> DMatrix<f64> {
+    triangular_solve::solve_upper_triangular_in_place(
+        view(chol.l_dirty()).transpose(),
+        view_mut(&mut b),
+        faer::get_global_parallelism(),
+    );
+    b
 }
 
 /// The lower triangle of K⁻¹ from the Cholesky factor of K, as L⁻ᵀ L⁻¹ (the triangular inverse,
@@ -136,6 +158,19 @@ mod tests {
         let mut k = spd(5);
         k[(2, 2)] = -1.0;
         assert!(cholesky(k).is_none());
+    }
+
+    #[test]
+    fn triangular_solves_read_only_the_factor() {
+        // A dirty factor: its strict upper triangle holds what the factorization left, not zeros.
+        let k = spd(90);
+        let chol = cholesky(k.clone()).unwrap();
+        let l = chol.l();
+        let b = DMatrix::from_fn(90, 3, |i, j| (i as f64 * 0.37 + j as f64).sin());
+        let x = solve_lower(&chol, b.clone());
+        assert!((&l * &x - &b).amax() < 1e-9);
+        let xt = solve_lower_transpose(&chol, b.clone());
+        assert!((l.transpose() * &xt - &b).amax() < 1e-9);
     }
 
     #[test]
