@@ -20,8 +20,8 @@
 //! The choice uses the training rows alone: candidates are added one at a time while each cuts the
 //! closed-form leave-one-group-out error ([`crate::models::gp::exact::group_loo`], hyperparameters
 //! held at the static fit's) by at least [`MIN_GAIN`]; the extended model is then fitted with its
-//! own hyperparameters and shipped only if its own leave-one-group-out error is below the static
-//! model's. Scoring a whole left-out group (a half-sweep, a plateau) rather than one row keeps a
+//! own hyperparameters (searched from where the static fit's starts ended) and shipped only if its
+//! own leave-one-group-out error is below the static model's. Scoring a whole left-out group (a half-sweep, a plateau) rather than one row keeps a
 //! transient from looking predictive by following its neighbours in time.
 
 use firmware_core::Feature;
@@ -416,7 +416,7 @@ pub fn fit(
         ));
     }
     let terms = transients.design(rows, &chosen);
-    let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg)?;
+    let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg, &gp)?;
     let own = rmse(&extended.group_loo_with(x, &target, &terms, &groups)?);
     if own >= static_rmse {
         return Ok(static_model(

@@ -1016,7 +1016,18 @@ pub(crate) fn search(
     grouped: bool,
     cfg: &GpConfig,
 ) -> Result<Searched, GpError> {
-    let mut reports: Vec<StartReport> = starts(d, grouped, cfg)
+    search_from(likelihood, (n, d), starts(d, grouped, cfg), cfg)
+}
+
+/// [`search`] from the given starts.
+pub(crate) fn search_from(
+    likelihood: Likelihood<'_>,
+    (n, d): (usize, usize),
+    starts: Vec<Vec<f64>>,
+    cfg: &GpConfig,
+) -> Result<Searched, GpError> {
+    let grouped = starts.first().is_some_and(|s| s.len() > d + 2);
+    let mut reports: Vec<StartReport> = starts
         .into_par_iter()
         .map(|s| {
             let ranges = cfg.bounds.ranges(d, s.len());
@@ -1391,6 +1402,24 @@ mod tests {
         let m = GpModel::fit(&x, &y, &cfg).unwrap();
         let l = &m.posterior.hyper.length_scales;
         assert!(l[1] > 20.0 * l[0], "length scales {l:?}");
+    }
+
+    #[test]
+    fn an_extension_is_searched_from_where_the_nested_fits_starts_ended() {
+        let (x, y) = toy(60, 8);
+        let cfg = GpConfig::default();
+        let nested = GpModel::fit(&x, &y, &cfg).unwrap();
+        let ends = nested.start_ends();
+        // The four starts, not the polish from the best.
+        assert_eq!(ends.len(), 4);
+        assert_eq!(nested.starts.len(), 5);
+        let terms = DMatrix::from_fn(60, 1, |i, _| x[(i, 0)].powi(3));
+        let (extended, _) = GpModel::fit_with_terms(&x, &terms, &y, &[], &cfg, &nested).unwrap();
+        let started: Vec<Vec<f64>> = extended.starts[..4]
+            .iter()
+            .map(|r| r.start.clone())
+            .collect();
+        assert_eq!(started, ends);
     }
 
     #[test]
