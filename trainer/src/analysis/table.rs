@@ -21,8 +21,9 @@
 //! closed-form leave-one-group-out error ([`crate::models::gp::exact::group_loo`], hyperparameters
 //! held at the static fit's) by at least [`MIN_GAIN`]; the extended model is then fitted with its
 //! own hyperparameters (searched from where the static fit's starts ended) and shipped only if its
-//! own leave-one-group-out error is below the static model's. Scoring a whole left-out group (a half-sweep, a plateau) rather than one row keeps a
-//! transient from looking predictive by following its neighbours in time.
+//! own leave-one-group-out error is below the static model's. Scoring a whole left-out group (a
+//! half-sweep, a plateau) rather than one row keeps a transient from looking predictive by
+//! following its neighbours in time.
 
 use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};

@@ -1097,16 +1097,30 @@ fn raise_noise(
     bounds: &Bounds,
 ) -> Vec<f64> {
     let top = bounds.range(d, d + 1).1;
-    let mut best = theta;
-    while best[d + 1] < top {
-        let mut t = best.clone();
-        t[d + 1] = (t[d + 1] + NOISE_STEP).min(top);
-        match likelihood(&t) {
-            Ok((l, _)) if l >= lml - FLAT => best = t,
+    walk_noise(likelihood, theta, d + 1, (NOISE_STEP, top), |l| {
+        l >= lml - FLAT
+    })
+}
+
+/// θ with ln σ_n (entry `j`) raised in steps of `step` up to `top` as long as `accept` takes the
+/// likelihood at the next step; a step refused or not evaluable ends the walk. The search's end
+/// ([`raise_noise`]) and the sparse bound's start (`sparse::climb_noise`) walk this way.
+pub(crate) fn walk_noise(
+    likelihood: Likelihood<'_>,
+    mut theta: Vec<f64>,
+    j: usize,
+    (step, top): (f64, f64),
+    mut accept: impl FnMut(f64) -> bool,
+) -> Vec<f64> {
+    while theta[j] < top {
+        let mut next = theta.clone();
+        next[j] = (next[j] + step).min(top);
+        match likelihood(&next) {
+            Ok((l, _)) if accept(l) => theta = next,
             _ => break,
         }
     }
-    best
+    theta
 }
 
 /// Largest per-sample gradient component (in ln units) at which a point that no run declared

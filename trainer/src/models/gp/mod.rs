@@ -138,9 +138,8 @@ impl GpModel {
     /// Each of those is a local optimum the data chose, from the same spread of starts, and the
     /// terms move the optimum from there; on the Oct FOG run's leave-one-sweep-out these searches
     /// took 58% of the static searches' likelihoods where the fixed starts took as many, with the
-    /// same figures (docs/performance.md).
-    /// Starting from its best end alone left folds in the static model's basin. Where `nested`
-    /// has no end (a fallback fit), the fixed starts.
+    /// same figures (docs/performance.md). Starting from its best end alone left folds in the
+    /// static model's basin. Where `nested` has no end (a fallback fit), the fixed starts.
     pub fn fit_with_terms(
         x: &DMatrix<f64>,
         terms: &DMatrix<f64>,

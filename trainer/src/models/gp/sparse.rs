@@ -222,20 +222,19 @@ pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, G
 /// steep that L-BFGS's first line search stalled there (four inducing points on fine structure,
 /// 4,000 samples: bound −1.6e8, the refinement "converged" without moving). Where the start's σ_n
 /// is right this costs one evaluation.
-fn climb_noise(bound: exact::Likelihood<'_>, mut theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
+fn climb_noise(bound: exact::Likelihood<'_>, theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
     let last = theta.len() - 1;
     let Ok((mut best, _)) = bound(&theta) else {
         return theta;
     };
-    while theta[last] < max_log_noise {
-        let mut next = theta.clone();
-        next[last] = (next[last] + std::f64::consts::LN_2).min(max_log_noise);
-        match bound(&next) {
-            Ok((f, _)) if f > best => (best, theta) = (f, next),
-            _ => break,
+    let step = (std::f64::consts::LN_2, max_log_noise);
+    exact::walk_noise(bound, theta, last, step, |f| {
+        let higher = f > best;
+        if higher {
+            best = f;
         }
-    }
-    theta
+        higher
+    })
 }
 
 /// The samples of the exact GP that starts the hyperparameters: half spread over the inputs
