@@ -49,8 +49,16 @@ pub fn cholesky(mut k: DMatrix<f64>) -> Option<Cholesky<f64, Dyn>> {
     )
     .ok()?;
     // A factor with a non-finite entry (from a non-finite input) is no factor.
-    let finite = (0..n).all(|j| k.column(j).rows_range(j..).iter().all(|v| v.is_finite()));
-    finite.then(|| Cholesky::pack_dirty(k))
+    lower_finite(&k).then(|| Cholesky::pack_dirty(k))
+}
+
+/// Whether every entry of a square matrix's lower triangle is finite.
+pub fn lower_finite(k: &DMatrix<f64>) -> bool {
+    let n = k.nrows();
+    k.as_slice()
+        .chunks(n.max(1))
+        .enumerate()
+        .all(|(j, c)| c[j..].iter().all(|v| v.is_finite()))
 }
 
 /// L⁻¹ B, for the factor L of `chol` (its lower triangle read), in B's storage.
@@ -109,6 +117,21 @@ pub fn outer_lower(g: &DMatrix<f64>) -> DMatrix<f64> {
         faer::get_global_parallelism(),
     );
     out
+}
+
+/// A − G Gᵀ in A's lower triangle (its strict upper triangle is left alone).
+pub fn subtract_outer_lower(a: &mut DMatrix<f64>, g: &DMatrix<f64>) {
+    triangular::matmul(
+        view_mut(a),
+        BlockStructure::TriangularLower,
+        Accum::Add,
+        view(g),
+        BlockStructure::Rectangular,
+        view(g).transpose(),
+        BlockStructure::Rectangular,
+        -1.0,
+        faer::get_global_parallelism(),
+    );
 }
 
 /// The eigendecomposition of a symmetric matrix (lower triangle read): eigenvalues in

@@ -19,11 +19,20 @@ fn sq_dist(a: &DMatrix<f64>, i: usize, b: &DMatrix<f64>, j: usize) -> f64 {
 }
 
 /// The n×n kernel matrix of scaled inputs with unit signal variance: `exp(−½ r²)`.
+pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut k = gram_lower(xs);
+    k.fill_upper_triangle_with_lower_triangle();
+    k
+}
+
+/// The lower triangle of [`gram`] (the strict upper triangle is zero), for callers that read no
+/// more: the exact GP's factorization and likelihood gradient. Mirroring is a transposing pass
+/// over n² entries that they would not use.
 ///
 /// Its n²/2 exponentials cost a quarter of an exact likelihood evaluation at n = 700–1,000, so the
-/// columns of the lower triangle are filled in parallel (contiguous, each entry computed alone:
-/// the same bits whatever the threads), then mirrored.
-pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
+/// columns are filled in parallel (contiguous, each entry computed alone: the same bits whatever
+/// the threads).
+pub fn gram_lower(xs: &DMatrix<f64>) -> DMatrix<f64> {
     let (n, d) = xs.shape();
     // Row-major copy: the distance loop then reads contiguous memory.
     let rows: Vec<f64> = (0..n)
@@ -39,13 +48,14 @@ pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
         .for_each(|(j, column)| {
             column[j] = 1.0;
             let rj = &rows[j * d..(j + 1) * d];
-            for (i, v) in column.iter_mut().enumerate().skip(j + 1) {
-                let ri = &rows[i * d..(i + 1) * d];
+            for (v, ri) in column[j + 1..]
+                .iter_mut()
+                .zip(rows[(j + 1) * d..].chunks_exact(d))
+            {
                 let r2: f64 = ri.iter().zip(rj).map(|(a, b)| (a - b) * (a - b)).sum();
                 *v = (-0.5 * r2).exp();
             }
         });
-    k.fill_upper_triangle_with_lower_triangle();
     k
 }
 
