@@ -1704,4 +1704,16 @@ mod tests {
         let (_, jitter) = cholesky_with_jitter(k).unwrap();
         assert!(jitter > 0.0);
     }
+
+    #[test]
+    fn a_non_finite_covariance_is_refused_before_any_jitter() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut k = DMatrix::identity(4, 4) * 2.0;
+            k[(3, 1)] = bad;
+            assert!(matches!(
+                cholesky_with_jitter(k),
+                Err(GpError::NotPositiveDefinite { jitter: 0.0 })
+            ));
+        }
+    }
 }
