@@ -3,35 +3,17 @@
 //! (`benches/versus_sklearn.py`), so with the paper's constant mean, which is what scikit-learn's
 //! `normalize_y` GP implements, and always exact (scikit-learn has no sparse GP).
 //!
-//! The floor: every likelihood evaluation factors K (n³/3 flops) and inverts it from the factor
-//! (2n³/3); one such pair is timed here at the same n, so the floor is the fit's likelihood count
-//! times that time, and GFLOP/s is n³ over it.
+//! The floor is `DenseFloor`'s, the one `trainer fit` reports: the fit's likelihood count times one
+//! Cholesky + inverse timed at the same n, here against the median fit.
 //!
 //! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
 //! [--map NAME=SOURCE …] [--mean constant|physics|polyN] (constant unless told: scikit-learn's)
 
-use std::time::Instant;
-
 use firmware_sim::data::columns::ColumnMap;
-use nalgebra::DMatrix;
 use trainer::data::points::Points;
-use trainer::models::dense;
+use trainer::models::dense::DenseFloor;
 use trainer::models::gp::{GpConfig, GpModel, Inducing};
 use trainer::models::prior::MeanBasis;
-
-/// Seconds of one Cholesky and inverse of an n×n SPD matrix, the best of three.
-fn dense_seconds(n: usize) -> f64 {
-    let a = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 17) as f64 / 17.0 - 0.5);
-    let k = &a * a.transpose() + DMatrix::identity(n, n) * n as f64;
-    (0..3)
-        .map(|_| {
-            let t = Instant::now();
-            let chol = dense::cholesky(k.clone()).expect("SPD by construction");
-            std::hint::black_box(dense::inverse_lower(&chol));
-            t.elapsed().as_secs_f64()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
 
 const USAGE: &str =
     "usage: fit_timing POINTS [REPEATS] [--json] [--map NAME=SOURCE …] [--mean BASIS]";
@@ -67,11 +49,15 @@ fn main() -> anyhow::Result<()> {
     times.sort_by(f64::total_cmp);
     let median = times[repeats / 2];
     let last = fits.last().expect("at least one fit");
-    let likelihoods: u64 = last.starts.iter().map(|s| s.likelihoods).sum();
     let n = x.nrows();
-    let dense = dense_seconds(n);
-    let floor = likelihoods as f64 * dense;
-    let gflops = (n as f64).powi(3) / dense * 1e-9;
+    // The floor is set against the median fit, not the last one's own time.
+    let DenseFloor {
+        likelihoods,
+        dense_seconds: dense,
+        gflops,
+        floor_seconds: floor,
+        ..
+    } = DenseFloor::measure(n, last.starts.iter().map(|s| s.likelihoods).sum(), median);
     if json {
         println!(
             "{}",

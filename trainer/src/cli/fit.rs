@@ -20,6 +20,7 @@ use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, Extension};
+use crate::models::dense::DenseFloor;
 use crate::models::gp::sparse::SparseFit;
 use crate::models::gp::{
     AUTO_EXACT_MAX, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
@@ -89,6 +90,9 @@ struct FitReport {
     sparse: Option<SparseFit>,
     starts: Vec<StartReport>,
     optimization: Optimization,
+    /// The fit against this machine's dense floor (an exact GP).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    dense_floor: Option<DenseFloor>,
     warnings: Vec<String>,
     /// The diagnosis of a table recorded in time order (`--features auto` without a stream).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -162,6 +166,7 @@ impl FitReport {
             sparse: m.sparse.clone(),
             starts: m.starts.clone(),
             optimization: m.optimization.clone(),
+            dense_floor: m.dense_floor(),
             warnings: m.warnings(),
             table_diagnosis: None,
             pool_check: None,
@@ -417,6 +422,18 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         model.posterior.jitter,
         model.fit_seconds * 1e3
     ));
+    if let Some(f) = &summary.dense_floor {
+        console.result(&format!(
+            "the search's {} likelihoods took {:.2}× this machine's dense floor ({} × {:.2} ms, \
+             one Cholesky + inverse at n = {}: {:.0} GFLOP/s)",
+            f.likelihoods,
+            f.ratio,
+            f.likelihoods,
+            f.dense_seconds * 1e3,
+            model.y.len(),
+            f.gflops
+        ));
+    }
     if let Some(g) = model.posterior.hyper.offset_std {
         console.result(&format!(
             "offsets between groups: σ_g {:.3e} (output units), counted as noise in the \

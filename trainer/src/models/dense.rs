@@ -4,7 +4,10 @@
 //! the trainer speaks nalgebra, so matrices cross over by copy: O(n²) against the O(n³) of the
 //! work. nalgebra's own Cholesky and triangular solves are unblocked and single-threaded; at
 //! n = 1,000 they and the hand-written inverse replaced here took most of every likelihood
-//! evaluation (docs/performance.md).
+//! evaluation (docs/performance.md). [`DenseFloor`] times them to say how far a fit is from
+//! what they allow.
+
+use std::time::Instant;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, inverse};
@@ -12,6 +15,7 @@ use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::linalg::triangular_solve;
 use faer::{Accum, MatMut, MatRef, Side};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use serde::Serialize;
 
 /// A column-major nalgebra matrix seen as a faer one (both store columns contiguously): no copy.
 fn view(m: &DMatrix<f64>) -> MatRef<'_, f64> {
@@ -132,6 +136,49 @@ pub fn subtract_outer_lower(a: &mut DMatrix<f64>, g: &DMatrix<f64>) {
         -1.0,
         faer::get_global_parallelism(),
     );
+}
+
+/// How far an exact fit is from what this machine's dense linear algebra allows: every likelihood
+/// evaluation factors K (n³/3 flops) and inverts it from the factor (2n³/3), so the floor is the
+/// fit's likelihood count times one such pair, timed here at the same n. The rest of a fit's time
+/// is the O(n²) work around them and the search's own.
+#[derive(Debug, Clone, Serialize)]
+pub struct DenseFloor {
+    /// Likelihood evaluations of the fit's optimizer runs.
+    pub likelihoods: u64,
+    /// One Cholesky + inverse at the fit's n, the best of three, s.
+    pub dense_seconds: f64,
+    /// n³ over that time.
+    pub gflops: f64,
+    /// `likelihoods` × `dense_seconds`.
+    pub floor_seconds: f64,
+    /// The fit's time over the floor.
+    pub ratio: f64,
+}
+
+impl DenseFloor {
+    /// Times the dense pair at `n` and sets a fit of `likelihoods` evaluations that took
+    /// `fit_seconds` against it.
+    pub fn measure(n: usize, likelihoods: u64, fit_seconds: f64) -> Self {
+        let a = DMatrix::from_fn(n, n, |i, j| ((i * 7 + j * 13) % 17) as f64 / 17.0 - 0.5);
+        let k = &a * a.transpose() + DMatrix::identity(n, n) * n as f64;
+        let dense_seconds = (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                let chol = cholesky(k.clone()).expect("diagonally dominant: positive definite");
+                std::hint::black_box(inverse_lower(&chol));
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min);
+        let floor_seconds = likelihoods as f64 * dense_seconds;
+        Self {
+            likelihoods,
+            dense_seconds,
+            gflops: (n as f64).powi(3) / dense_seconds * 1e-9,
+            floor_seconds,
+            ratio: fit_seconds / floor_seconds,
+        }
+    }
 }
 
 /// The eigendecomposition of a symmetric matrix (lower triangle read): eigenvalues in

@@ -9,7 +9,7 @@ use exact::{group_loo, search, search_from, with_terms};
 use nalgebra::{DMatrix, DVector};
 use sparse::SparseFit;
 
-use crate::models::dense::inverse_from_cholesky;
+use crate::models::dense::{DenseFloor, inverse_from_cholesky};
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{DropReason, MeanBasis, PolyPrior};
 
@@ -112,6 +112,21 @@ impl GpModel {
             None,
             (found.reports, found.optimization),
             t0,
+        ))
+    }
+
+    /// How far this fit was from the machine's dense floor ([`DenseFloor`]; times one Cholesky +
+    /// inverse at its n), or `None` for a sparse GP, whose search ran on a subset and then on
+    /// the bound.
+    pub fn dense_floor(&self) -> Option<DenseFloor> {
+        if self.sparse.is_some() {
+            return None;
+        }
+        let likelihoods = self.starts.iter().map(|s| s.likelihoods).sum();
+        Some(DenseFloor::measure(
+            self.y.len(),
+            likelihoods,
+            self.fit_seconds,
         ))
     }
 
