@@ -125,7 +125,7 @@ impl ForwardCheck {
 /// Do no harm beyond the trained temperatures: where the static curve is fitted on the stream
 /// together with the extension, the extension also refits that curve, and a firmware meets
 /// temperatures its training did not reach. Both models are fitted on the samples inside the
-/// training span less [`OUTER_SHARE`] at each end and scored on the samples outside (the whole
+/// training span less a tenth of it at each end and scored on the samples outside (the whole
 /// stream replayed, so stateful inputs keep their history). On the MEMS thermal cycle's x axis
 /// the heating/cooling state won the forward test in time 4× and lost this one 1.6×; on the
 /// held-out part, two thirds of it beyond the trained temperatures, it did 0.71×
