@@ -1316,8 +1316,9 @@ impl From<&Stream> for Source {
     fn from(s: &Stream) -> Self {
         Source {
             kind: Kind::Stream,
-            records: (0..s.len())
-                .filter(|&i| s.rate_dps[i].is_finite())
+            records: s
+                .referenced()
+                .into_iter()
                 .map(|i| Record {
                     time_s: Some(s.time_s[i]),
                     temp_c: s.temp_c[i],

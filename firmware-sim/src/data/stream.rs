@@ -303,6 +303,13 @@ impl Stream {
         self.time_s.len()
     }
 
+    /// Indices of the samples with a reference rate: what fits and scores use.
+    pub fn referenced(&self) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&i| self.rate_dps[i].is_finite())
+            .collect()
+    }
+
     /// True when empty (never, once loaded).
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()

@@ -303,10 +303,7 @@ pub(crate) struct Forward {
 /// `None` when fewer than [`LATER_MIN_BLOCKS`] would be left after the cut. Blocks are counted
 /// as the diagnosis counts them (samples with a reference).
 pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
-    let scored: Vec<usize> = (0..stream.len())
-        .filter(|&i| stream.rate_dps[i].is_finite())
-        .collect();
-    let blocks = replay::blocks(stream, &scored);
+    let blocks = replay::blocks(stream, &stream.referenced());
     let n = blocks.len();
     let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
     if n < earlier + LATER_MIN_BLOCKS {
@@ -409,12 +406,7 @@ fn temperature_check(
     causes: &[Cause],
     rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
 ) -> anyhow::Result<Option<TemperatureCheck>> {
-    let scored = |s: &Stream| -> Vec<usize> {
-        (0..s.len())
-            .filter(|&i| s.rate_dps[i].is_finite())
-            .collect()
-    };
-    let temps = scored(train).into_iter().map(|i| train.temp_c[i]);
+    let temps = train.referenced().into_iter().map(|i| train.temp_c[i]);
     let (lo, hi) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
         (lo.min(t), hi.max(t))
     });
@@ -428,8 +420,8 @@ fn temperature_check(
             inside.rate_dps[i] = f64::NAN;
         }
     }
-    let inside_blocks = replay::blocks(&inside, &scored(&inside)).len();
-    let outside_blocks = replay::blocks(&outside, &scored(&outside)).len();
+    let inside_blocks = replay::blocks(&inside, &inside.referenced()).len();
+    let outside_blocks = replay::blocks(&outside, &outside.referenced()).len();
     if inside_blocks < EARLIER_MIN_BLOCKS || outside_blocks < LATER_MIN_BLOCKS {
         return Ok(None);
     }

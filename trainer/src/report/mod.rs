@@ -306,10 +306,7 @@ pub fn with_streams(
         let mut t = Vec::new();
         let mut b = Vec::new();
         for s in [train, &valid] {
-            let scored: Vec<usize> = (0..s.len())
-                .filter(|&i| s.rate_dps[i].is_finite())
-                .collect();
-            for block in replay::blocks(s, &scored) {
+            for block in replay::blocks(s, &s.referenced()) {
                 let n = block.len() as f64;
                 t.push(block.iter().map(|&i| s.temp_c[i]).sum::<f64>() / n);
                 b.push(
