@@ -291,13 +291,15 @@ fn cholesky_built(build: impl Fn() -> DMatrix<f64>) -> Result<(Cholesky<f64, Dyn
     if let Some(c) = dense::cholesky(k) {
         return Ok((c, 0.0));
     }
-    if !dense::lower_finite(&build()) {
+    let k = build();
+    if !dense::lower_finite(&k) {
         return Err(GpError::NotPositiveDefinite { jitter: 0.0 });
     }
+    let mut scanned = Some(k);
     let mut tried = 0.0;
     for jitter in (0..7).map(|e| mean_diag * 10f64.powi(e - 10)) {
         tried = jitter;
-        let mut kj = build();
+        let mut kj = scanned.take().unwrap_or_else(&build);
         for i in 0..kj.nrows() {
             kj[(i, i)] += jitter;
         }
