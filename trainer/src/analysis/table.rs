@@ -21,9 +21,11 @@
 //! closed-form leave-one-group-out error ([`crate::models::gp::exact::group_loo`], hyperparameters
 //! held at the static fit's) by at least [`MIN_GAIN`]; the extended model is then fitted with its
 //! own hyperparameters (searched from where the static fit's starts ended) and shipped only if its
-//! own leave-one-group-out error is below the static model's. Scoring a whole left-out group (a
-//! half-sweep, a plateau) rather than one row keeps a transient from looking predictive by
-//! following its neighbours in time.
+//! own leave-one-group-out error is below the static model's. The static fit used for this is the
+//! best end of its starts, not yet polished ([`GpModel::fit_grouped_unpolished`]): the polish
+//! converges a model that ships, and the static one is polished only when it does. Scoring a
+//! whole left-out group (a half-sweep, a plateau) rather than one row keeps a transient from
+//! looking predictive by following its neighbours in time.
 
 use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};
@@ -203,7 +205,9 @@ pub struct Tried {
 /// What the diagnosis of a table found and did.
 #[derive(Debug, Clone, Serialize)]
 pub struct TableDiagnosis {
-    /// Closed-form leave-one-group-out RMSE of the static GP on the training rows, °/s.
+    /// Closed-form leave-one-group-out RMSE of the static GP on the training rows, °/s, at the
+    /// hyperparameters the candidates were scored at: the best end of its search's starts
+    /// ([`GpModel::fit_grouped_unpolished`]; a static model that ships is polished from there).
     pub static_rmse_dps: f64,
     /// At each step, the best candidate of each family (cause and form), best first.
     pub steps: Vec<Vec<Tried>>,
@@ -321,7 +325,7 @@ pub fn fit(
     }
     let x = train.inputs();
     let target = train.target();
-    let gp = GpModel::fit_grouped(x, &target, &offsets, cfg)?;
+    let gp = GpModel::fit_grouped_unpolished(x, &target, &offsets, cfg)?;
     let kinv = gp.covariance_inverse();
     let score = |chosen: &[usize]| -> Result<f64, GpError> {
         let e = gp.group_loo_given(&kinv, x, &target, &transients.design(rows, chosen), &groups)?;
@@ -381,9 +385,9 @@ pub fn fit(
             .collect::<Vec<_>>()
             .join(" + ")
     };
-    let static_model =
-        |verdict: String, extended_rmse_dps: Option<f64>, tried: Vec<usize>| TableModel {
-            gp: gp.clone(),
+    let static_model = |verdict: String, extended_rmse_dps: Option<f64>, tried: Vec<usize>| {
+        Ok::<_, TableError>(TableModel {
+            gp: gp.clone().polished(x, &target, &offsets, cfg)?,
             terms: Vec::new(),
             diagnosis: TableDiagnosis {
                 static_rmse_dps: static_rmse,
@@ -394,7 +398,8 @@ pub fn fit(
                 shipped: false,
                 verdict,
             },
-        };
+        })
+    };
     if chosen.is_empty() {
         let best = steps.first().and_then(|s| s.first()).map_or(
             String::from("no candidate could be scored"),
@@ -407,20 +412,20 @@ pub fn fit(
                 )
             },
         );
-        return Ok(static_model(
+        return static_model(
             format!(
                 "none: leaving one group out, the static model's error is {:.3e} °/s; {best}",
                 static_rmse
             ),
             None,
             Vec::new(),
-        ));
+        );
     }
     let terms = transients.design(rows, &chosen);
     let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg, &gp)?;
     let own = rmse(&extended.group_loo_with(x, &target, &terms, &groups)?);
     if own >= static_rmse {
-        return Ok(static_model(
+        return static_model(
             format!(
                 "static: {} cut the leave-one-group-out error to {current:.3e} °/s at the static \
                  hyperparameters, but refitted with its own it made {own:.3e} against the static \
@@ -429,7 +434,7 @@ pub fn fit(
             ),
             Some(own),
             chosen,
-        ));
+        );
     }
     let fitted: Vec<FittedTerm> = chosen
         .iter()

@@ -66,6 +66,14 @@ pub enum GpError {
     /// Too few samples to fit.
     #[error("{0} training samples; at least 3 are needed")]
     TooFewSamples(usize),
+    /// A GP was to be polished on other data than it was fitted on.
+    #[error("a GP fitted on {fitted} samples cannot be polished on {given}")]
+    NotItsData {
+        /// Samples it was fitted on.
+        fitted: usize,
+        /// Samples given.
+        given: usize,
+    },
     /// The prior-mean basis is rank-deficient on the training inputs.
     #[error(
         "the prior-mean basis is degenerate on these inputs (collinear monomials): \
@@ -845,6 +853,8 @@ pub struct StartReport {
     pub status: String,
     /// It stopped at the tolerance (not on the iteration cap, the evaluation budget or an error).
     pub converged: bool,
+    /// It is the polish from the best start's end, not a start.
+    pub polish: bool,
 }
 
 /// How the hyperparameter search ended. For a sparse GP, the search on the start subset's exact GP:
@@ -977,6 +987,7 @@ pub(crate) fn optimize_from(
         likelihoods: track.computed,
         status,
         converged,
+        polish: false,
     }
 }
 
@@ -993,7 +1004,7 @@ fn informed(d: usize, grouped: bool) -> Vec<f64> {
 
 /// The optimizer starts: the paper's (all zero), the data-informed one ([`informed`]), then
 /// `random_starts` drawn inside the bounds' middle.
-fn starts(d: usize, grouped: bool, cfg: &GpConfig) -> Vec<Vec<f64>> {
+pub(crate) fn starts(d: usize, grouped: bool, cfg: &GpConfig) -> Vec<Vec<f64>> {
     let params = d + 2 + usize::from(grouped);
     let mut out = vec![vec![0.0; params], informed(d, grouped)];
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
@@ -1113,15 +1124,28 @@ pub(crate) fn search_from(
     starts: Vec<Vec<f64>>,
     cfg: &GpConfig,
 ) -> Result<Searched, GpError> {
+    let explored = explore(likelihood, (n, d), starts, cfg)?;
+    Ok(polish(likelihood, (n, d), explored, cfg))
+}
+
+/// The first half of [`search_from`]: every start searched in parallel to the searches'
+/// tolerance, θ the best end (the basin, not yet its optimum), or the fallback. The outcome is
+/// `Converged` where a run converged, `StoppedEarly` otherwise; [`polish`] settles it.
+pub(crate) fn explore(
+    likelihood: Likelihood<'_>,
+    (n, d): (usize, usize),
+    starts: Vec<Vec<f64>>,
+    cfg: &GpConfig,
+) -> Result<Searched, GpError> {
     let grouped = starts.first().is_some_and(|s| s.len() > d + 2);
-    let mut reports: Vec<StartReport> = starts
+    let reports: Vec<StartReport> = starts
         .into_par_iter()
         .map(|s| {
             let ranges = cfg.bounds.ranges(d, s.len());
             optimize_from(likelihood, n, s, &ranges, cfg.max_iters, SEARCH)
         })
         .collect();
-    let Some((searched, _)) = best_of(&reports) else {
+    let Some((theta, lml)) = best_of(&reports) else {
         let statuses: Vec<String> = reports.iter().map(|r| r.status.clone()).collect();
         let Some((theta, noise_std)) = fallback(likelihood, d, grouped, cfg) else {
             return Err(GpError::OptimizerFailed(statuses.join("; ")));
@@ -1135,14 +1159,48 @@ pub(crate) fn search_from(
             },
         });
     };
-    reports.push(optimize_from(
-        likelihood,
-        n,
-        searched.clone(),
-        &cfg.bounds.ranges(d, searched.len()),
-        cfg.max_iters,
-        POLISH,
-    ));
+    let optimization = if reports.iter().any(|r| r.converged) {
+        Optimization::Converged
+    } else {
+        Optimization::StoppedEarly {
+            log_marginal_likelihood: lml,
+        }
+    };
+    Ok(Searched {
+        theta,
+        reports,
+        optimization,
+    })
+}
+
+/// The second half of [`search_from`]: the polish from an [`explore`]d search's best end, σ_n
+/// raised where the likelihood is flat in it ([`raise_noise`]), and how the search ended. A
+/// fallback is returned as it is.
+pub(crate) fn polish(
+    likelihood: Likelihood<'_>,
+    (n, d): (usize, usize),
+    explored: Searched,
+    cfg: &GpConfig,
+) -> Searched {
+    if matches!(explored.optimization, Optimization::Fallback { .. }) {
+        return explored;
+    }
+    let Searched {
+        theta: searched,
+        mut reports,
+        ..
+    } = explored;
+    reports.push(StartReport {
+        polish: true,
+        ..optimize_from(
+            likelihood,
+            n,
+            searched.clone(),
+            &cfg.bounds.ranges(d, searched.len()),
+            cfg.max_iters,
+            POLISH,
+        )
+    });
     let theta = match best_of(&reports) {
         Some((best, lml)) => raise_noise(likelihood, best, lml, d, &cfg.bounds),
         None => searched,
@@ -1156,11 +1214,11 @@ pub(crate) fn search_from(
             log_marginal_likelihood: likelihood(&theta).map_or(f64::NAN, |(l, _)| l),
         }
     };
-    Ok(Searched {
+    Searched {
         theta,
         reports,
         optimization,
-    })
+    }
 }
 
 /// Nats of log marginal likelihood that raising σ_n may cost in all ([`raise_noise`]): a
@@ -1537,6 +1595,41 @@ mod tests {
     }
 
     #[test]
+    fn an_unpolished_fit_once_polished_is_the_fit() {
+        let (x, y) = toy(48, 6);
+        let groups: Vec<usize> = (0..48).map(|i| i / 12).collect();
+        let cfg = GpConfig::default();
+        let fit = GpModel::fit_grouped(&x, &y, &groups, &cfg).unwrap();
+        let rough = GpModel::fit_grouped_unpolished(&x, &y, &groups, &cfg).unwrap();
+        // The starts alone, ending where the fit's starts ended; the extension starts there too.
+        assert!(rough.starts.iter().all(|r| !r.polish));
+        assert_eq!(rough.start_ends(), fit.start_ends());
+        assert_eq!(rough.starts.len() + 1, fit.starts.len());
+        let polished = rough.clone().polished(&x, &y, &groups, &cfg).unwrap();
+        assert_eq!(
+            polished.posterior.hyper.to_log(),
+            fit.posterior.hyper.to_log()
+        );
+        assert_eq!(polished.optimization, fit.optimization);
+        assert!(polished.starts.last().is_some_and(|r| r.polish));
+        assert!(
+            polished.posterior.log_marginal_likelihood >= rough.posterior.log_marginal_likelihood
+        );
+        // A polished GP stays as it is; other data is refused.
+        let again = polished.clone().polished(&x, &y, &groups, &cfg).unwrap();
+        assert_eq!(again.starts.len(), polished.starts.len());
+        let fewer = x.rows(0, 24).into_owned();
+        let err = rough.polished(&fewer, &y.rows(0, 24).into_owned(), &groups[..24], &cfg);
+        assert!(matches!(
+            err,
+            Err(GpError::NotItsData {
+                fitted: 48,
+                given: 24
+            })
+        ));
+    }
+
+    #[test]
     fn fit_beats_every_start_and_predicts_the_function() {
         let (x, y) = toy(80, 4);
         let m = GpModel::fit(&x, &y, &GpConfig::default()).unwrap();
@@ -1579,6 +1672,7 @@ mod tests {
             likelihoods: 1,
             status: String::new(),
             converged: false,
+            polish: false,
         };
         let fine = StartReport {
             end: Some(vec![2.0; 4]),
