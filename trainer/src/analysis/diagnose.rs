@@ -46,6 +46,22 @@
 //! coefficients only; the extension's own forward check ([`crate::analysis::investigate`]) fits the
 //! static curve again on the earlier part.
 //!
+//! **A static model fitted on a soaked table** carries the heating/cooling state each plateau was
+//! soaked in (the chamber reached −30 °C by cooling and every later setpoint by heating): its GP
+//! absorbed that state's offset there, so wherever the stream's state differs the residual holds
+//! the table's offset too, as a function of temperature. A heating/cooling state is therefore
+//! fitted with a constant per plateau in place of the intercept ([`Constant`]), as the extension
+//! fits it. Without them, a temperature rate beside a hysteresis was never named as a pair (0 of 3
+//! in the challenge): fitted on the earlier blocks, the play's coefficient followed the −28 °C
+//! soak's table offset and the pair predicted the later blocks 1.6–4× worse than one cause alone.
+//! The plateau constants can also follow a static curve that is simply off at the table's
+//! temperatures, which named a state on a gyro with none; so the state must also predict its own
+//! share of what the design's other causes and the plateau constants alone leave
+//! ([`Step::state_share`]). Where the next larger design predicts more but its state fails that
+//! test, the state is redundant beside the larger design's other causes, and they take the place
+//! of the design with the state (a temperature rate beside a lag looked as good as a state until
+//! all three were fitted together).
+//!
 //! **Several causes.** Real logs mix effects, and mixed effects can imitate a third: a warm-up
 //! after a power-on that heats the housing plus a heating/cooling offset follow dT/dt better than
 //! either alone. Adding causes one at a time would lock in the imitation. So the selection is by
@@ -77,7 +93,7 @@ use itertools::Itertools;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::data::points::Points;
+use crate::data::points::{Points, plateaus};
 use crate::models::gp::GpModel;
 
 /// Seconds per hour.
@@ -149,6 +165,8 @@ pub struct Residual<'a> {
     restarts: Vec<bool>,
     /// The static GP and its inputs, where it was fitted on these very blocks (module doc).
     absorbed_by: Option<(&'a GpModel, &'a DMatrix<f64>)>,
+    /// The soaked table's plateaus, where the static GP was fitted on one (module doc).
+    plateaus: Option<Plateaus>,
 }
 
 impl<'a> Residual<'a> {
@@ -180,14 +198,21 @@ impl<'a> Residual<'a> {
             r,
             restarts: replay::restarts(stream),
             absorbed_by: None,
+            plateaus: None,
         }
     }
 
-    /// Where the static GP `gp` was fitted on `points` that are these blocks' own means (a static
-    /// model from the stream itself, no rate table): regressors become the part of each input
-    /// that the GP could not have absorbed (module doc). Otherwise unchanged.
-    pub fn fitted_on_itself(mut self, gp: &'a GpModel, points: &'a Points) -> Self {
+    /// The static GP `gp` was fitted on `points`. Where they are these blocks' own means (a
+    /// static model from the stream itself, no rate table), regressors become the part of each
+    /// input that the GP could not have absorbed; where they are a soaked table, a heating/cooling
+    /// state is fitted with a constant per plateau (module doc).
+    pub fn fitted_on(mut self, gp: &'a GpModel, points: &'a Points) -> Self {
         let temps = self.temperature();
+        if points.soaked && !points.is_empty() {
+            let knots = plateau_temperatures(&points.temp_c);
+            let weights = temps.iter().map(|&t| hat_weights(&knots, t)).collect();
+            self.plateaus = Some(Plateaus { knots, weights });
+        }
         let same = !points.soaked
             && points.len() == temps.len()
             && points
@@ -201,7 +226,21 @@ impl<'a> Residual<'a> {
         self
     }
 
-    /// Whether the static GP was fitted on these blocks ([`Self::fitted_on_itself`]).
+    /// The soaked table's plateau temperatures, ascending (empty where the static GP was not
+    /// fitted on one).
+    pub fn plateau_knots(&self) -> &[f64] {
+        self.plateaus.as_ref().map_or(&[], |p| &p.knots)
+    }
+
+    /// The constant of a regression on this residual with `causes` ([`Constant`]).
+    pub(crate) fn constant(&self, causes: &[Cause]) -> Constant<'_> {
+        match &self.plateaus {
+            Some(p) if causes.contains(&Cause::Hysteresis) => Constant::Plateaus(p),
+            _ => Constant::Intercept,
+        }
+    }
+
+    /// Whether the static GP was fitted on these blocks ([`Self::fitted_on`]).
     pub fn is_self_fitted(&self) -> bool {
         self.absorbed_by.is_some()
     }
@@ -331,35 +370,127 @@ fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
 }
 
-/// Least squares of y on [1, x₁ … x_k] over the blocks `idx`: the coefficients (intercept
-/// first) and the SSE. SVD, so a regressor that is constant or repeats another costs nothing.
-fn ols(xs: &[&[f64]], y: &[f64], idx: &[usize]) -> (Vec<f64>, f64) {
-    let k = xs.len() + 1;
-    let mut a = DMatrix::zeros(idx.len(), k);
-    let mut b = DVector::zeros(idx.len());
+/// A soaked table's plateaus as the blocks see them: the plateau temperatures and each block's
+/// piecewise-linear interpolation weights between them.
+pub struct Plateaus {
+    knots: Vec<f64>,
+    weights: Vec<[(usize, f64); 2]>,
+}
+
+/// The constant part of a regression on the residual. An intercept; or, for a design with a
+/// heating/cooling state over a soaked table, a piecewise-linear function of temperature over
+/// the table's plateaus: the table was soaked in one state per temperature, whichever way the
+/// chamber reached it, and the static GP absorbed that state's offset there, so the stream's
+/// residual carries minus that offset wherever its state differs
+/// ([`crate::analysis::extend::fit`] takes it out of the points the same way). Neighbouring
+/// plateau constants are tied by a weak penalty, so a plateau the blocks do not visit takes its
+/// neighbours' value.
+#[derive(Clone, Copy)]
+pub enum Constant<'a> {
+    /// One intercept.
+    Intercept,
+    /// One constant per plateau.
+    Plateaus(&'a Plateaus),
+}
+
+impl Constant<'_> {
+    /// Columns the constant takes.
+    pub(crate) fn columns(self) -> usize {
+        match self {
+            Self::Intercept => 1,
+            Self::Plateaus(p) => p.knots.len(),
+        }
+    }
+
+    /// The constant's value at block `i` under coefficients `beta`.
+    fn at(self, beta: &[f64], i: usize) -> f64 {
+        match self {
+            Self::Intercept => beta[0],
+            Self::Plateaus(p) => p.weights[i].iter().map(|&(j, w)| w * beta[j]).sum(),
+        }
+    }
+}
+
+/// Weight of a difference between neighbouring plateau constants against one 60 s block's
+/// residual: weak, so that it only decides constants the blocks do not visit.
+const PENALTY_WEIGHT: f64 = 1.0;
+
+/// Least squares of y on [constant, x₁ … x_k] over the blocks `idx`: the coefficients (the
+/// constant's first) and the SSE over those blocks. SVD, so a regressor that is constant or
+/// repeats another costs nothing.
+pub(crate) fn ols(
+    constant: Constant<'_>,
+    xs: &[&[f64]],
+    y: &[f64],
+    idx: &[usize],
+) -> (Vec<f64>, f64) {
+    let c = constant.columns();
+    let k = c + xs.len();
+    let m = idx.len();
+    let penalties = c - 1;
+    let mut a = DMatrix::zeros(m + penalties, k);
+    let mut b = DVector::zeros(m + penalties);
     for (r, &i) in idx.iter().enumerate() {
-        a[(r, 0)] = 1.0;
+        match constant {
+            Constant::Intercept => a[(r, 0)] = 1.0,
+            Constant::Plateaus(p) => {
+                for &(j, w) in &p.weights[i] {
+                    a[(r, j)] += w;
+                }
+            }
+        }
         for (j, x) in xs.iter().enumerate() {
-            a[(r, j + 1)] = x[i];
+            a[(r, c + j)] = x[i];
         }
         b[r] = y[i];
+    }
+    for j in 0..penalties {
+        a[(m + j, j)] = PENALTY_WEIGHT;
+        a[(m + j, j + 1)] = -PENALTY_WEIGHT;
     }
     let beta = a
         .clone()
         .svd(true, true)
         .solve(&b, 1e-12)
         .unwrap_or_else(|_| DVector::zeros(k));
-    let sse = (&b - &a * &beta).norm_squared();
+    let sse = (&b - &a * &beta).rows(0, m).norm_squared();
     (beta.iter().copied().collect(), sse)
 }
 
 /// Prediction of [`ols`] coefficients at block `i`.
-fn predict(beta: &[f64], xs: &[&[f64]], i: usize) -> f64 {
-    beta[0]
+fn predict(constant: Constant<'_>, beta: &[f64], xs: &[&[f64]], i: usize) -> f64 {
+    constant.at(beta, i)
         + xs.iter()
-            .zip(&beta[1..])
+            .zip(&beta[constant.columns()..])
             .map(|(x, b)| b * x[i])
             .sum::<f64>()
+}
+
+/// Mean temperature of each of the points' plateaus, ascending.
+fn plateau_temperatures(temps: &[f64]) -> Vec<f64> {
+    let id = plateaus(temps);
+    let count = id.iter().max().map_or(0, |m| m + 1);
+    let mut sum = vec![(0.0, 0usize); count];
+    for (&p, &t) in id.iter().zip(temps) {
+        sum[p].0 += t;
+        sum[p].1 += 1;
+    }
+    sum.into_iter().map(|(s, n)| s / n as f64).collect()
+}
+
+/// Piecewise-linear interpolation weights of `t` on ascending `knots` (held constant beyond the
+/// ends): two (index, weight) pairs summing to one.
+pub(crate) fn hat_weights(knots: &[f64], t: f64) -> [(usize, f64); 2] {
+    let last = knots.len() - 1;
+    let j = knots.partition_point(|&k| k <= t);
+    if j == 0 {
+        [(0, 1.0), (0, 0.0)]
+    } else if j > last {
+        [(last, 1.0), (last, 0.0)]
+    } else {
+        let w = (t - knots[j - 1]) / (knots[j] - knots[j - 1]);
+        [(j - 1, 1.0 - w), (j, w)]
+    }
 }
 
 /// A training/test split of the blocks.
@@ -395,18 +526,23 @@ fn forward_splits(n: usize) -> Vec<Split> {
 /// Test-set SSE of a design (the causes' candidate regressors, in order) and of the intercept
 /// alone, summed over `splits`. On each split's training blocks alone, each cause's parameter is
 /// chosen by grid in turn, given those chosen before it, and the coefficients by least squares.
-fn split_sse(y: &[f64], design: &[&Candidates], splits: &[Split]) -> (f64, f64) {
+fn split_sse(
+    y: &[f64],
+    constant: Constant<'_>,
+    design: &[&Candidates],
+    splits: &[Split],
+) -> (f64, f64) {
     let mut sse = 0.0;
     let mut sse_none = 0.0;
     for (train, test) in splits {
         if train.len() < MIN_TRAIN_BLOCKS || test.is_empty() {
             continue;
         }
-        let xs = choose(y, design, train);
-        let (beta, _) = ols(&xs, y, train);
-        let (mean, _) = ols(&[], y, train);
+        let xs = choose(y, constant, design, train);
+        let (beta, _) = ols(constant, &xs, y, train);
+        let (mean, _) = ols(Constant::Intercept, &[], y, train);
         for &i in test {
-            sse += (y[i] - predict(&beta, &xs, i)).powi(2);
+            sse += (y[i] - predict(constant, &beta, &xs, i)).powi(2);
             sse_none += (y[i] - mean[0]).powi(2);
         }
     }
@@ -415,7 +551,12 @@ fn split_sse(y: &[f64], design: &[&Candidates], splits: &[Split]) -> (f64, f64) 
 
 /// Each cause's regressor at the parameter that best fits `idx`, chosen in design order, each
 /// given those before it; a cause without a regressor (`none`) adds nothing.
-fn choose<'c>(y: &[f64], design: &[&'c Candidates], idx: &[usize]) -> Vec<&'c [f64]> {
+fn choose<'c>(
+    y: &[f64],
+    constant: Constant<'_>,
+    design: &[&'c Candidates],
+    idx: &[usize],
+) -> Vec<&'c [f64]> {
     let mut xs: Vec<&[f64]> = Vec::new();
     for candidates in design {
         let best = candidates
@@ -424,7 +565,7 @@ fn choose<'c>(y: &[f64], design: &[&'c Candidates], idx: &[usize]) -> Vec<&'c [f
             .map(|x| {
                 let mut with = xs.clone();
                 with.push(x);
-                (x, ols(&with, y, idx).1)
+                (x, ols(constant, &with, y, idx).1)
             })
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((x, _)) = best {
@@ -435,9 +576,9 @@ fn choose<'c>(y: &[f64], design: &[&'c Candidates], idx: &[usize]) -> Vec<&'c [f
 }
 
 /// The parameter of the last cause of `design` chosen on every block, given the others.
-fn chosen_parameter(y: &[f64], design: &[&Candidates]) -> f32 {
+fn chosen_parameter(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> f32 {
     let all: Vec<usize> = (0..y.len()).collect();
-    let xs = choose(y, design, &all);
+    let xs = choose(y, constant, design, &all);
     let (Some(last), Some(x)) = (design.last(), xs.last()) else {
         return 0.0;
     };
@@ -468,7 +609,8 @@ pub struct CauseFit {
     /// Its parameter fitted on all blocks: filter or lag or decay time constant (s), play
     /// half-width (°C); 0 where there is none.
     pub parameter: f64,
-    /// Intercept a, °/s.
+    /// Intercept a, °/s (the plateau constants' mean over the blocks, where they replace it:
+    /// [`Constant`]).
     pub intercept_dps: f64,
     /// Slope b, °/s per unit of the regressor.
     pub slope: f64,
@@ -508,14 +650,16 @@ pub fn fit_candidates(
         return None;
     }
     let y = &res.r;
+    let constant = res.constant(&[cause]);
     let score = |splits: &[Split]| {
-        let (sse, none) = split_sse(y, &[candidates], splits);
+        let (sse, none) = split_sse(y, constant, &[candidates], splits);
         share(sse, none)
     };
     let all: Vec<usize> = (0..n).collect();
-    let xs = choose(y, &[candidates], &all);
-    let (beta, _) = ols(&xs, y, &all);
-    let p = chosen_parameter(y, &[candidates]);
+    let xs = choose(y, constant, &[candidates], &all);
+    let (beta, _) = ols(constant, &xs, y, &all);
+    let p = chosen_parameter(y, constant, &[candidates]);
+    let cols = constant.columns();
     let (correlation, amplitude) = match xs.first() {
         Some(x) => {
             let mx = x.iter().sum::<f64>() / n as f64;
@@ -528,7 +672,7 @@ pub fn fit_candidates(
             } else {
                 0.0
             };
-            (c, beta[1].abs() * (sxx / n as f64).sqrt() * HOUR_S)
+            (c, beta[cols].abs() * (sxx / n as f64).sqrt() * HOUR_S)
         }
         None => (0.0, 0.0),
     };
@@ -537,8 +681,8 @@ pub fn fit_candidates(
         score: score(&interleaved_splits(n)),
         forward_score: score(&forward_splits(n)),
         parameter: f64::from(p),
-        intercept_dps: beta[0],
-        slope: beta.get(1).copied().unwrap_or(0.0),
+        intercept_dps: all.iter().map(|&i| constant.at(&beta, i)).sum::<f64>() / n as f64,
+        slope: beta.get(cols).copied().unwrap_or(0.0),
         correlation,
         amplitude_dph: amplitude,
     })
@@ -556,8 +700,28 @@ pub struct Step {
     pub score: f64,
     /// The same on the forward test.
     pub forward_score: f64,
+    /// With a heating/cooling state over a soaked table: the share of what the design's other
+    /// causes and the table's plateau constants alone leave that the state predicts, on
+    /// interleaved chunks and forward ([`Constant`]; it must pass the same bar itself).
+    pub state_share: Option<[f64; 2]>,
+    /// The heating/cooling state this design takes the place of: a larger design showed it
+    /// redundant beside this design's causes (module doc).
+    pub replaces: Option<Cause>,
     /// Whether it was taken.
     pub added: bool,
+}
+
+/// One design tried by [`select`].
+#[derive(Clone)]
+struct Try {
+    /// Its causes, as indices.
+    idx: Vec<usize>,
+    /// Test-set SSE, interleaved and forward.
+    sse: [f64; 2],
+    /// Share of what the design before it left, interleaved and forward.
+    share: [f64; 2],
+    /// [`Step::state_share`].
+    state_share: Option<[f64; 2]>,
 }
 
 /// The diagnosis of one stream (docs/design.md §6 `diagnose` JSON).
@@ -594,14 +758,14 @@ pub fn diagnose(model: &HostModel, stream: &Stream) -> Diagnosis {
 }
 
 /// Diagnoses `stream` against `model`, the firmware form of the static GP `gp` fitted on
-/// `points` ([`Residual::fitted_on_itself`]).
+/// `points` ([`Residual::fitted_on`]).
 pub fn diagnose_fitted(
     model: &HostModel,
     gp: &GpModel,
     points: &Points,
     stream: &Stream,
 ) -> Diagnosis {
-    let res = Residual::new(model, stream).fitted_on_itself(gp, points);
+    let res = Residual::new(model, stream).fitted_on(gp, points);
     diagnose_residual(&res)
 }
 
@@ -616,7 +780,7 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
         .filter_map(|(c, x)| fit_candidates(res, *c, x))
         .collect();
     candidates.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let (selected, steps) = select(&res.r, &regressors);
+    let (selected, steps) = select(&res.r, &regressors, res.plateaus.as_ref());
     let causes: Vec<Cause> = selected.iter().map(|(c, _)| *c).collect();
     let cause = causes.first().copied().unwrap_or(Cause::None);
     let runner_up = candidates.iter().map(|c| c.id).find(|id| *id != cause);
@@ -646,7 +810,11 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
 /// predict at least [`MIN_SCORE`] (first step) or [`MIN_NEXT_SCORE`] (later steps) of it there and
 /// forward in time; the first step that finds none ends the selection. Returns the named causes,
 /// strongest first, with their parameters, and the best design of each step.
-fn select(y: &[f64], regressors: &[(Cause, Candidates)]) -> (Vec<(Cause, f32)>, Vec<Step>) {
+fn select(
+    y: &[f64],
+    regressors: &[(Cause, Candidates)],
+    plateaus: Option<&Plateaus>,
+) -> (Vec<(Cause, f32)>, Vec<Step>) {
     let n = y.len();
     let mut steps = Vec::new();
     if n < 2 * FOLDS {
@@ -658,57 +826,106 @@ fn select(y: &[f64], regressors: &[(Cause, Candidates)]) -> (Vec<(Cause, f32)>, 
         .map(|(c, x)| (*c, x))
         .collect();
     let splits = [interleaved_splits(n), forward_splits(n)];
-    let sse = |idx: &[usize]| {
-        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        [0, 1].map(|k| split_sse(y, &design, &splits[k]).0)
+    let state = |i: usize| real[i].0 == Cause::Hysteresis;
+    let constant = |idx: &[usize]| match plateaus {
+        Some(p) if idx.iter().any(|&i| state(i)) => Constant::Plateaus(p),
+        _ => Constant::Intercept,
     };
+    let sse_with = |idx: &[usize], constant: Constant<'_>| {
+        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
+        [0, 1].map(|k| split_sse(y, constant, &design, &splits[k]).0)
+    };
+    let sse = |idx: &[usize]| sse_with(idx, constant(idx));
+    // The plateau constants come with a heating/cooling state; they can also follow a static
+    // curve that is off at the table's temperatures, so the state must predict by itself.
+    let state_share = |idx: &[usize], s: &[f64; 2]| {
+        let p = plateaus.filter(|_| idx.iter().any(|&i| state(i)))?;
+        let rest: Vec<usize> = idx.iter().copied().filter(|&i| !state(i)).collect();
+        let without = sse_with(&rest, Constant::Plateaus(p));
+        Some([0, 1].map(|k| share(s[k], without[k])))
+    };
+    let least = |size: usize| if size == 1 { MIN_SCORE } else { MIN_NEXT_SCORE };
     let mut taken: Vec<usize> = Vec::new();
     let mut current = sse(&[]);
+    let mut before_taken = current;
     for size in 1..=MAX_CAUSES.min(real.len()) {
-        let least = if size == 1 { MIN_SCORE } else { MIN_NEXT_SCORE };
-        let passes = |g: &[f64; 2]| g[0] >= least && g[1] >= least;
-        let tries: Vec<(Vec<usize>, [f64; 2], [f64; 2])> = (0..real.len())
+        let bar = |g: &[f64; 2]| g[0] >= least(size) && g[1] >= least(size);
+        let passes = |t: &Try| bar(&t.share) && t.state_share.as_ref().is_none_or(bar);
+        let tries: Vec<Try> = (0..real.len())
             .combinations(size)
             .map(|idx| {
                 let s = sse(&idx);
-                let g = [0, 1].map(|k| share(s[k], current[k]));
-                (idx, s, g)
+                Try {
+                    share: [0, 1].map(|k| share(s[k], current[k])),
+                    state_share: state_share(&idx, &s),
+                    idx,
+                    sse: s,
+                }
             })
             .collect();
-        let by_score = |a: &&(Vec<usize>, [f64; 2], [f64; 2]),
-                        b: &&(Vec<usize>, [f64; 2], [f64; 2])| {
-            (a.2[0] + a.2[1]).total_cmp(&(b.2[0] + b.2[1]))
-        };
-        let Some((idx, s, g)) = tries
+        let by_score =
+            |a: &&Try, b: &&Try| (a.share[0] + a.share[1]).total_cmp(&(b.share[0] + b.share[1]));
+        let Some(best) = tries
             .iter()
-            .filter(|t| passes(&t.2))
+            .filter(|t| passes(t))
             .max_by(by_score)
             .or_else(|| tries.iter().max_by(by_score))
             .cloned()
         else {
             break;
         };
-        let idx = strongest_first(idx, s[0], &sse);
+        let added = passes(&best);
+        let idx = strongest_first(best.idx, best.sse[0], &sse);
         let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        let added = passes(&g);
         steps.push(Step {
             causes: idx.iter().map(|&i| real[i].0).collect(),
-            parameters: parameters(y, &design).into_iter().map(f64::from).collect(),
-            score: g[0],
-            forward_score: g[1],
+            parameters: parameters(y, constant(&idx), &design)
+                .into_iter()
+                .map(f64::from)
+                .collect(),
+            score: best.share[0],
+            forward_score: best.share[1],
+            state_share: best.state_share,
+            replaces: None,
             added,
         });
         if !added {
+            // It predicts more, but its state is redundant beside its other causes: those take
+            // the place of the design taken, if they passed that design's own bar.
+            let rest: Vec<usize> = idx.iter().copied().filter(|&i| !state(i)).collect();
+            let swapped = bar(&best.share)
+                && rest.len() == taken.len()
+                && taken.iter().any(|&i| state(i))
+                && best.state_share.is_some_and(|g| !bar(&g));
+            let s = sse(&rest);
+            let g = [0, 1].map(|k| share(s[k], before_taken[k]));
+            if swapped && g[0] >= least(size - 1) && g[1] >= least(size - 1) {
+                let design: Vec<&Candidates> = rest.iter().map(|&i| real[i].1).collect();
+                steps.push(Step {
+                    causes: rest.iter().map(|&i| real[i].0).collect(),
+                    parameters: parameters(y, Constant::Intercept, &design)
+                        .into_iter()
+                        .map(f64::from)
+                        .collect(),
+                    score: g[0],
+                    forward_score: g[1],
+                    state_share: None,
+                    replaces: Some(Cause::Hysteresis),
+                    added: true,
+                });
+                taken = rest;
+            }
             break;
         }
         taken = idx;
-        current = s;
+        before_taken = current;
+        current = best.sse;
     }
     let design: Vec<&Candidates> = taken.iter().map(|&i| real[i].1).collect();
     let named = taken
         .iter()
         .map(|&i| real[i].0)
-        .zip(parameters(y, &design))
+        .zip(parameters(y, constant(&taken), &design))
         .collect();
     (named, steps)
 }
@@ -739,9 +956,9 @@ fn strongest_first(
 
 /// Each cause's parameter of `design` chosen on all blocks of `y`, in design order, each given
 /// those before it.
-fn parameters(y: &[f64], design: &[&Candidates]) -> Vec<f32> {
+fn parameters(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Vec<f32> {
     (1..=design.len())
-        .map(|k| chosen_parameter(y, &design[..k]))
+        .map(|k| chosen_parameter(y, constant, &design[..k]))
         .collect()
 }
 
@@ -763,7 +980,15 @@ fn explain(
         .windows(2)
         .map(|w| {
             let (before, s) = (&w[0], &w[1]);
-            if s.added {
+            if let Some(state) = s.replaces {
+                format!(
+                    "; so {} takes the place of the design with {state} (it predicted {:.0}% of \
+                     what the design before left, {:.0}% forward)",
+                    joined(&s.causes),
+                    100.0 * s.score,
+                    100.0 * s.forward_score
+                )
+            } else if s.added {
                 format!(
                     "; with more, {} predicts {:.0}% of what {} left ({:.0}% forward)",
                     joined(&s.causes),
@@ -851,8 +1076,17 @@ fn refusal(s: &Step) -> String {
             100.0 * s.forward_score
         )
     };
+    let state = s.state_share.map_or(String::new(), |g| {
+        format!(
+            "; the heating/cooling state itself, over a constant per plateau of the table, \
+             predicted {:.0}% ({:.0}% forward)",
+            100.0 * g[0],
+            100.0 * g[1]
+        )
+    });
     format!(
-        "{} predicted {:.0}% on interleaved chunks and, fitted on earlier blocks, {forward}",
+        "{} predicted {:.0}% on interleaved chunks and, fitted on earlier blocks, \
+         {forward}{state}",
         joined(&s.causes),
         100.0 * s.score
     )
@@ -891,18 +1125,84 @@ mod tests {
             (Cause::TimeDrift, one(&noise(n, 3))),
         ];
         let single = |x: &[f64]| {
-            let (sse, none) = split_sse(&y, &[&one(x)], &interleaved_splits(n));
+            let (sse, none) =
+                split_sse(&y, Constant::Intercept, &[&one(x)], &interleaved_splits(n));
             share(sse, none)
         };
         assert!(single(&decoy) > single(&a) && single(&decoy) > single(&b));
-        let (named, steps) = select(&y, &regressors);
+        let (named, steps) = select(&y, &regressors, None);
         let mut causes: Vec<Cause> = named.iter().map(|(c, _)| *c).collect();
         causes.sort();
         assert_eq!(causes, vec![Cause::WarmUp, Cause::Hysteresis], "{steps:?}");
         // Noise alone names nothing, and says what the best candidate did.
-        let (named, steps) = select(&noise(n, 4), &regressors);
+        let (named, steps) = select(&noise(n, 4), &regressors, None);
         assert!(named.is_empty());
         assert!(!steps[0].added && steps[0].score < MIN_SCORE, "{steps:?}");
+    }
+
+    #[test]
+    fn a_state_is_named_only_for_what_the_plateau_constants_cannot_follow() {
+        // A stream sweeping a soaked table's span up and down; the residual is a static curve
+        // that is off at the table's plateaus, which a constant per plateau follows exactly.
+        let n = 400;
+        let temp: Vec<f64> = (0..n)
+            .map(|i| {
+                let u = (i % 100) as f64 / 50.0;
+                -30.0 + 90.0 * if u < 1.0 { u } else { 2.0 - u }
+            })
+            .collect();
+        let heating: Vec<f64> = (0..n)
+            .map(|i| if i % 100 < 50 { 1.0 } else { -1.0 })
+            .collect();
+        let knots = vec![-30.0, -10.0, 10.0, 30.0, 60.0];
+        let plateaus = Plateaus {
+            weights: temp.iter().map(|&t| hat_weights(&knots, t)).collect(),
+            knots,
+        };
+        let off = [1.0, -1.0, 0.5, -0.5, 1.0];
+        let curve: Vec<f64> = (0..n)
+            .map(|i| plateaus.weights[i].iter().map(|&(j, w)| w * off[j]).sum())
+            .collect();
+        let e = noise(n, 5);
+        let one = |x: &[f64]| -> Candidates { vec![(1.0, Some(x.to_vec()))] };
+        let regressors = vec![
+            (Cause::Hysteresis, one(&heating)),
+            (Cause::TimeDrift, one(&noise(n, 6))),
+        ];
+        let y: Vec<f64> = (0..n).map(|i| curve[i] + 0.05 * e[i]).collect();
+        let (named, steps) = select(&y, &regressors, Some(&plateaus));
+        assert!(named.is_empty(), "{steps:?}");
+        let state = steps[0].state_share.unwrap();
+        assert!(
+            steps[0].score >= MIN_SCORE && state[0] < MIN_SCORE,
+            "{steps:?}"
+        );
+        // A heating/cooling offset beside it is named.
+        let y: Vec<f64> = (0..n)
+            .map(|i| curve[i] + 0.3 * heating[i] + 0.05 * e[i])
+            .collect();
+        let (named, steps) = select(&y, &regressors, Some(&plateaus));
+        assert_eq!(named.len(), 1, "{steps:?}");
+        assert_eq!(named[0].0, Cause::Hysteresis);
+        assert!(steps[0].state_share.unwrap()[1] >= MIN_SCORE, "{steps:?}");
+    }
+
+    #[test]
+    fn hat_weights_interpolate_and_hold_at_the_ends() {
+        let knots = [-30.0, -20.0, 0.0];
+        let w = |t| hat_weights(&knots, t);
+        assert_eq!(w(-40.0)[0], (0, 1.0));
+        assert_eq!(w(5.0)[0], (2, 1.0));
+        assert_eq!(w(-25.0), [(0, 0.5), (1, 0.5)]);
+        assert_eq!(w(-5.0), [(1, 0.25), (2, 0.75)]);
+        assert_eq!(w(0.0)[0], (2, 1.0));
+    }
+
+    #[test]
+    fn plateau_temperatures_are_means_ascending() {
+        let t = plateau_temperatures(&[20.1, -9.9, 19.9, -10.1, 40.0]);
+        assert_eq!(t.len(), 3);
+        assert!((t[0] + 10.0).abs() < 1e-12 && (t[1] - 20.0).abs() < 1e-12 && t[2] == 40.0);
     }
 
     #[test]

@@ -24,11 +24,11 @@ use argmin::solver::goldensectionsearch::GoldenSectionSearch;
 use firmware_core::Feature;
 use firmware_sim::cause::Cause;
 use firmware_sim::data::stream::Stream;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 use serde::Serialize;
 
 use crate::analysis::diagnose::{self, Candidates, CauseFit, Residual};
-use crate::data::points::{Points, plateaus};
+use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, ExportError, Extension, Term};
 use crate::models::gp::{GpError, GpModel};
 
@@ -143,7 +143,7 @@ pub fn fit(
 ) -> Result<Extended, ExtendError> {
     let blob = export::points_blob(model, points, &Extension::default())?;
     let fw = firmware_sim::replay::decode(&blob).map_err(ExportError::Blob)?;
-    let res = Residual::new(&fw, stream).fitted_on_itself(model, points);
+    let res = Residual::new(&fw, stream).fitted_on(model, points);
     if res.len() < 30 {
         return Err(ExtendError::TooShort(res.len()));
     }
@@ -176,41 +176,15 @@ pub fn fit(
         }
         fits.push(fit);
     }
-    let knots = if causes.contains(&Cause::Hysteresis) && points.soaked {
-        plateau_temperatures(&points.temp_c)
-    } else {
-        Vec::new()
-    };
-    // Least squares of the residual on [constant part, x_1 … x_k]; the model subtracts the fit.
+    // Least squares of the residual on [constant part, x_1 … x_k] (a constant per plateau of a
+    // soaked table with a thermal state); the model subtracts the fit.
     let n = y.len();
-    let k = knots.len().max(1);
-    let penalties = knots.len().saturating_sub(1);
-    let mut a = DMatrix::zeros(n + penalties, k + columns.len());
-    if knots.is_empty() {
-        a.view_mut((0, 0), (n, 1)).fill(1.0);
-    } else {
-        for (i, t) in res.temperature().iter().enumerate() {
-            for (j, w) in hat_weights(&knots, *t) {
-                a[(i, j)] += w;
-            }
-        }
-        for j in 0..penalties {
-            a[(n + j, j)] = PENALTY_WEIGHT;
-            a[(n + j, j + 1)] = -PENALTY_WEIGHT;
-        }
-    }
-    for (j, (_, _, _, x)) in columns.iter().enumerate() {
-        a.view_mut((0, k + j), (n, 1))
-            .copy_from(&DVector::from_column_slice(x));
-    }
-    let mut b = DVector::zeros(n + penalties);
-    b.rows_mut(0, n).copy_from_slice(&y);
-    let beta = a
-        .clone()
-        .svd(true, true)
-        .solve(&b, 1e-12)
-        .unwrap_or_else(|_| DVector::zeros(a.ncols()));
-    let after = (&b - &a * &beta).rows(0, n).norm_squared();
+    let constant = res.constant(causes);
+    let k = constant.columns();
+    let xs: Vec<&[f64]> = columns.iter().map(|(_, _, _, x)| x.as_slice()).collect();
+    let all: Vec<usize> = (0..n).collect();
+    let (beta, after) = diagnose::ols(constant, &xs, &y, &all);
+    let knots = res.plateau_knots();
     for (j, (feature, _, _, _)) in columns.iter().enumerate() {
         extension
             .terms
@@ -229,23 +203,24 @@ pub fn fit(
             }
         }
         (model.refit_targets(points.inputs(), &target)?, Vec::new())
-    } else if knots.is_empty() {
+    } else if k == 1 {
         extension.offset = -beta[0];
         (model.clone(), Vec::new())
     } else {
-        let offsets: Vec<f64> = beta.rows(0, k).iter().copied().collect();
+        let offsets = &beta[..k];
         let target =
             points
                 .target()
                 .zip_map(&DVector::from_column_slice(&points.temp_c), |w, t| {
-                    w - hat_weights(&knots, t)
-                        .map(|(j, h)| h * offsets[j])
+                    w - diagnose::hat_weights(knots, t)
+                        .iter()
+                        .map(|&(j, h)| h * offsets[j])
                         .sum::<f64>()
                 });
         let refit = model.refit_targets(points.inputs(), &target)?;
         let table = knots
             .iter()
-            .zip(&offsets)
+            .zip(offsets)
             .map(|(&temp_c, &offset_dps)| PointOffset { temp_c, offset_dps })
             .collect();
         (refit, table)
@@ -262,38 +237,6 @@ pub fn fit(
         blob,
         agreement,
     })
-}
-
-/// Weight of a difference between neighbouring plateau offsets against one 60 s block's
-/// residual: weak, so that it only decides offsets the stream does not visit.
-const PENALTY_WEIGHT: f64 = 1.0;
-
-/// Mean temperature of each of the points' plateaus, ascending.
-fn plateau_temperatures(temps: &[f64]) -> Vec<f64> {
-    let id = plateaus(temps);
-    let count = id.iter().max().map_or(0, |m| m + 1);
-    let mut sum = vec![(0.0, 0usize); count];
-    for (&p, &t) in id.iter().zip(temps) {
-        sum[p].0 += t;
-        sum[p].1 += 1;
-    }
-    sum.into_iter().map(|(s, n)| s / n as f64).collect()
-}
-
-/// Piecewise-linear interpolation weights of `t` on ascending `knots` (held constant beyond the
-/// ends): at most two (index, weight) pairs summing to one.
-fn hat_weights(knots: &[f64], t: f64) -> impl Iterator<Item = (usize, f64)> {
-    let last = knots.len() - 1;
-    let j = knots.partition_point(|&k| k <= t);
-    let pair = if j == 0 {
-        [(0, 1.0), (0, 0.0)]
-    } else if j > last {
-        [(last, 1.0), (last, 0.0)]
-    } else {
-        let w = (t - knots[j - 1]) / (knots[j] - knots[j - 1]);
-        [(j - 1, 1.0 - w), (j, w)]
-    };
-    pair.into_iter()
 }
 
 /// The coil lag whose estimate best removes the residual `r` (least squares with an offset),
@@ -354,28 +297,5 @@ impl CostFunction for LagFit<'_, '_> {
             .raw_regressor(Cause::SensorLag, *tau as f32)
             .ok_or_else(|| argmin::core::Error::msg("no temperature input"))?;
         Ok(centred_sse(self.r, &x))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn hat_weights_interpolate_and_hold_at_the_ends() {
-        let knots = [-30.0, -20.0, 0.0];
-        let w = |t| hat_weights(&knots, t).collect::<Vec<_>>();
-        assert_eq!(w(-40.0)[0], (0, 1.0));
-        assert_eq!(w(5.0)[0], (2, 1.0));
-        assert_eq!(w(-25.0), vec![(0, 0.5), (1, 0.5)]);
-        assert_eq!(w(-5.0), vec![(1, 0.25), (2, 0.75)]);
-        assert_eq!(w(0.0)[0], (2, 1.0));
-    }
-
-    #[test]
-    fn plateau_temperatures_are_means_ascending() {
-        let t = plateau_temperatures(&[20.1, -9.9, 19.9, -10.1, 40.0]);
-        assert_eq!(t.len(), 3);
-        assert!((t[0] + 10.0).abs() < 1e-12 && (t[1] - 20.0).abs() < 1e-12 && t[2] == 40.0);
     }
 }
