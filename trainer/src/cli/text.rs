@@ -69,8 +69,72 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
             causes_text(&st.causes),
             st.score,
             st.forward_score,
-            if st.added { "yes" } else { "no" }
+            match (st.added, st.replaces) {
+                (true, Some(state)) => format!("yes, in place of the design with {state}"),
+                (true, None) => "yes".to_owned(),
+                (false, _) => "no".to_owned(),
+            }
         ));
+        if let Some([score, forward]) = st.state_share {
+            s.push_str(&format!(
+                "             its heating/cooling state beside plateau constants {score:>7.3}   \
+                 {forward:>7.3}\n"
+            ));
+        }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::diagnose::Step;
+
+    #[test]
+    fn the_selection_shows_a_state_s_own_share_and_what_took_its_place() {
+        let step = |causes: Vec<Cause>, state_share, replaces, added| Step {
+            causes,
+            parameters: vec![0.0; 2],
+            score: 0.2,
+            forward_score: 0.2,
+            state_share,
+            replaces,
+            added,
+        };
+        let d = Diagnosis {
+            cause: Cause::SensorLag,
+            causes: vec![Cause::SensorLag, Cause::ThermalRate],
+            candidates: Vec::new(),
+            steps: vec![
+                step(
+                    vec![Cause::SensorLag, Cause::Hysteresis],
+                    Some([0.642, 0.699]),
+                    None,
+                    true,
+                ),
+                step(
+                    vec![Cause::SensorLag, Cause::ThermalRate],
+                    None,
+                    Some(Cause::Hysteresis),
+                    true,
+                ),
+            ],
+            residual_rmse_60s_dps: 1e-3,
+            n_blocks: 100,
+            runner_up: None,
+            explanation: String::new(),
+            add_feature: None,
+            add_features: Vec::new(),
+        };
+        let text = render_diagnosis(&d);
+        assert!(
+            text.contains("its heating/cooling state beside plateau constants   0.642     0.699"),
+            "{text}"
+        );
+        assert!(
+            text.contains("yes, in place of the design with hysteresis"),
+            "{text}"
+        );
+        assert_eq!(text.matches("plateau constants").count(), 1, "{text}");
+    }
 }
