@@ -234,10 +234,7 @@ impl<'a> Residual<'a> {
 
     /// The constant of a regression on this residual with `causes` ([`Constant`]).
     pub(crate) fn constant(&self, causes: &[Cause]) -> Constant<'_> {
-        match &self.plateaus {
-            Some(p) if causes.contains(&Cause::Hysteresis) => Constant::Plateaus(p),
-            _ => Constant::Intercept,
-        }
+        Constant::of(self.plateaus.as_ref(), causes.contains(&Cause::Hysteresis))
     }
 
     /// Whether the static GP was fitted on these blocks ([`Self::fitted_on`]).
@@ -393,7 +390,16 @@ pub enum Constant<'a> {
     Plateaus(&'a Plateaus),
 }
 
-impl Constant<'_> {
+impl<'a> Constant<'a> {
+    /// The constant of a design, with or without a heating/cooling state, over `plateaus` (a
+    /// soaked table's, if any).
+    fn of(plateaus: Option<&'a Plateaus>, with_state: bool) -> Self {
+        match plateaus {
+            Some(p) if with_state => Self::Plateaus(p),
+            _ => Self::Intercept,
+        }
+    }
+
     /// Columns the constant takes.
     pub(crate) fn columns(self) -> usize {
         match self {
@@ -827,10 +833,7 @@ fn select(
         .collect();
     let splits = [interleaved_splits(n), forward_splits(n)];
     let state = |i: usize| real[i].0 == Cause::Hysteresis;
-    let constant = |idx: &[usize]| match plateaus {
-        Some(p) if idx.iter().any(|&i| state(i)) => Constant::Plateaus(p),
-        _ => Constant::Intercept,
-    };
+    let constant = |idx: &[usize]| Constant::of(plateaus, idx.iter().any(|&i| state(i)));
     let sse_with = |idx: &[usize], constant: Constant<'_>| {
         let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
         [0, 1].map(|k| split_sse(y, constant, &design, &splits[k]).0)
@@ -897,9 +900,11 @@ fn select(
                 && rest.len() == taken.len()
                 && taken.iter().any(|&i| state(i))
                 && best.state_share.is_some_and(|g| !bar(&g));
-            let s = sse(&rest);
-            let g = [0, 1].map(|k| share(s[k], before_taken[k]));
-            if swapped && g[0] >= least(size - 1) && g[1] >= least(size - 1) {
+            let g = swapped.then(|| {
+                let s = sse(&rest);
+                [0, 1].map(|k| share(s[k], before_taken[k]))
+            });
+            if let Some(g) = g.filter(|g| g[0] >= least(size - 1) && g[1] >= least(size - 1)) {
                 let design: Vec<&Candidates> = rest.iter().map(|&i| real[i].1).collect();
                 steps.push(Step {
                     causes: rest.iter().map(|&i| real[i].0).collect(),
