@@ -839,12 +839,28 @@ fn select(
         [0, 1].map(|k| split_sse(y, constant, &design, &splits[k]).0)
     };
     let sse = |idx: &[usize]| sse_with(idx, constant(idx));
+    let without_state =
+        |idx: &[usize]| -> Vec<usize> { idx.iter().copied().filter(|&i| !state(i)).collect() };
+    let step = |idx: &[usize], share: [f64; 2], state_share, replaces, added| {
+        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
+        Step {
+            causes: idx.iter().map(|&i| real[i].0).collect(),
+            parameters: parameters(y, constant(idx), &design)
+                .into_iter()
+                .map(f64::from)
+                .collect(),
+            score: share[0],
+            forward_score: share[1],
+            state_share,
+            replaces,
+            added,
+        }
+    };
     // The plateau constants come with a heating/cooling state; they can also follow a static
     // curve that is off at the table's temperatures, so the state must predict by itself.
     let state_share = |idx: &[usize], s: &[f64; 2]| {
         let p = plateaus.filter(|_| idx.iter().any(|&i| state(i)))?;
-        let rest: Vec<usize> = idx.iter().copied().filter(|&i| !state(i)).collect();
-        let without = sse_with(&rest, Constant::Plateaus(p));
+        let without = sse_with(&without_state(idx), Constant::Plateaus(p));
         Some([0, 1].map(|k| share(s[k], without[k])))
     };
     let least = |size: usize| if size == 1 { MIN_SCORE } else { MIN_NEXT_SCORE };
@@ -879,23 +895,11 @@ fn select(
         };
         let added = passes(&best);
         let idx = strongest_first(best.idx, best.sse[0], &sse);
-        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        steps.push(Step {
-            causes: idx.iter().map(|&i| real[i].0).collect(),
-            parameters: parameters(y, constant(&idx), &design)
-                .into_iter()
-                .map(f64::from)
-                .collect(),
-            score: best.share[0],
-            forward_score: best.share[1],
-            state_share: best.state_share,
-            replaces: None,
-            added,
-        });
+        steps.push(step(&idx, best.share, best.state_share, None, added));
         if !added {
             // It predicts more, but its state is redundant beside its other causes: those take
             // the place of the design taken, if they passed that design's own bar.
-            let rest: Vec<usize> = idx.iter().copied().filter(|&i| !state(i)).collect();
+            let rest = without_state(&idx);
             let swapped = bar(&best.share)
                 && rest.len() == taken.len()
                 && taken.iter().any(|&i| state(i))
@@ -905,19 +909,7 @@ fn select(
                 [0, 1].map(|k| share(s[k], before_taken[k]))
             });
             if let Some(g) = g.filter(|g| g[0] >= least(size - 1) && g[1] >= least(size - 1)) {
-                let design: Vec<&Candidates> = rest.iter().map(|&i| real[i].1).collect();
-                steps.push(Step {
-                    causes: rest.iter().map(|&i| real[i].0).collect(),
-                    parameters: parameters(y, Constant::Intercept, &design)
-                        .into_iter()
-                        .map(f64::from)
-                        .collect(),
-                    score: g[0],
-                    forward_score: g[1],
-                    state_share: None,
-                    replaces: Some(Cause::Hysteresis),
-                    added: true,
-                });
+                steps.push(step(&rest, g, None, Some(Cause::Hysteresis), true));
                 taken = rest;
             }
             break;
