@@ -1,11 +1,11 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 4)
+//! # Layout (format version 5)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (4)
+//!  4      2    format version, u16 little-endian (5)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
@@ -19,11 +19,13 @@
 //! refused by a typed error before anything is decoded. The CRC covers the header after the magic,
 //! so a flipped bit in the sequence number or the sizes is caught like one in the payload; the
 //! magic is outside it because a calibration slot writes it last, as its commit
-//! ([`crate::slots`]). Version 3 blobs (18-byte header without the sequence, CRC over the payload
-//! alone) are still read, as sequence 0. The payload is three postcard sequences
-//! (each a varint length, then the elements): the `d` input features (enum index, then the f32
-//! parameter of the stateful ones), the `p·d`
-//! prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32:
+//! ([`crate::slots`]). Version 4 blobs (the same header, no error model) and version 3 blobs
+//! (18-byte header without the sequence, CRC over the payload alone, read as sequence 0) are still
+//! read; both get [`ErrorModel::noise_only`] with their noise variance. The payload is three
+//! postcard sequences (each a varint length, then the elements): the `d` input features (enum
+//! index, then the f32 parameter of the stateful ones), the `p·d` prior-mean exponents (u8, row
+//! per monomial), and one flat array of little-endian f32; then the [`ErrorModel`], six
+//! little-endian f32 in its field order. The flat array:
 //!
 //! ```text
 //! input_offset[d] input_scale[d]  z = (x − offset) / scale
@@ -53,7 +55,9 @@
 //! its raw linear term, as the additive terms of an extended model do) has length scale
 //! [`IGNORED_LENGTH_SCALE`] and centre coordinate 0: its distance term underflows to exactly 0 in
 //! f32, so the kernel is the static model's. Version 4 adds the sequence number, for the two
-//! power-safe calibration slots. A change of this layout bumps
+//! power-safe calibration slots. Version 5 adds the [`ErrorModel`]: what the variance of a
+//! compensated sample holds besides the GP's latent variance (docs/design.md §4, "The σ
+//! contract"). A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
 use core::fmt;
@@ -67,9 +71,11 @@ use crate::error::BlobError;
 
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
-/// The format version this crate writes (it also reads [`V3`]).
-pub const FORMAT_VERSION: u16 = 4;
-/// The previous format version, still read: no sequence number, CRC over the payload alone.
+/// The format version this crate writes (it also reads [`V4`] and [`V3`]).
+pub const FORMAT_VERSION: u16 = 5;
+/// The previous format version, still read: no error model.
+pub const V4: u16 = 4;
+/// The format version before it, still read: no sequence number, CRC over the payload alone.
 pub const V3: u16 = 3;
 /// Length scale of an input the kernel ignores (module doc).
 pub const IGNORED_LENGTH_SCALE: f32 = 1e30;
@@ -123,6 +129,101 @@ impl Feature {
             | Feature::PowerOnDecay { tau_s } => tau_s.is_finite() && tau_s > 0.0,
             Feature::ThermalState { width_c } => width_c.is_finite() && width_c > 0.0,
         }
+    }
+}
+
+/// What the variance of a compensated sample holds besides the GP's latent variance (format
+/// version 5): the white noise of one sample, and the model error the trainer measured on its
+/// own training data, predicting it forward in time, beyond the temperatures fitted and across
+/// the groups left out (docs/design.md §4, "The σ contract"). All variances are in output units²
+/// (°/s²); the evaluator ([`crate::model`]) adds, at inputs x and t hours since power-on,
+///
+/// ```text
+/// bias variance  = latent(x) + floor + extrapolation·e(x)² + walk·t + trend·t²
+/// noise variance = sample_noise (one sample of sample_interval_s)
+/// ```
+///
+/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)².
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ErrorModel {
+    /// White noise of one sample, output units²: what averages away over a mean.
+    pub sample_noise_var: f32,
+    /// The sample interval `sample_noise_var` describes, s: a mean over τ seconds has
+    /// `sample_noise_var · sample_interval_s / τ` of noise. 0 where it is not known (a blob of
+    /// format 3 or 4): the noise is then not divided.
+    pub sample_interval_s: f32,
+    /// Model error everywhere, output units².
+    pub floor_var: f32,
+    /// Model error per trained range width beyond it, squared (output units² per width²).
+    pub extrapolation_var: f32,
+    /// Model error growing as a random walk with time since power-on, output units² per hour.
+    pub walk_var_per_h: f32,
+    /// Model error growing as a drift of unknown rate, output units² per hour².
+    pub trend_var_per_h2: f32,
+}
+
+impl ErrorModel {
+    /// Numbers in its encoding.
+    pub const NUMBERS: usize = 6;
+
+    /// The error model of a blob without one (format 3 or 4): its noise variance as the sample
+    /// noise, at an unknown interval, and no model error. The evaluator's variances are then
+    /// what they were for those blobs.
+    pub const fn noise_only(noise_var: f32) -> Self {
+        Self {
+            sample_noise_var: noise_var,
+            sample_interval_s: 0.0,
+            floor_var: 0.0,
+            extrapolation_var: 0.0,
+            walk_var_per_h: 0.0,
+            trend_var_per_h2: 0.0,
+        }
+    }
+
+    /// Its numbers, in encoding order.
+    pub const fn numbers(&self) -> [f32; Self::NUMBERS] {
+        [
+            self.sample_noise_var,
+            self.sample_interval_s,
+            self.floor_var,
+            self.extrapolation_var,
+            self.walk_var_per_h,
+            self.trend_var_per_h2,
+        ]
+    }
+
+    /// The index of its first non-finite number, else whether every number is in its domain (not
+    /// negative).
+    pub fn check(&self) -> Result<(), BlobError> {
+        let numbers = self.numbers();
+        if let Some(i) = numbers.iter().position(|v| !v.is_finite()) {
+            return Err(BlobError::NonFinite(i));
+        }
+        if numbers.iter().all(|v| *v >= 0.0) {
+            Ok(())
+        } else {
+            Err(BlobError::InvalidParameter)
+        }
+    }
+
+    /// Noise variance of a mean over `window_s` seconds: the sample noise divided by the samples
+    /// in it (not divided where the interval is unknown, nor for a window shorter than a sample).
+    pub fn noise_of_mean(&self, window_s: f32) -> f32 {
+        if self.sample_interval_s > 0.0 && window_s > self.sample_interval_s {
+            self.sample_noise_var * self.sample_interval_s / window_s
+        } else {
+            self.sample_noise_var
+        }
+    }
+
+    /// The model error at `excess2` (e(x)², trained widths²) and `hours` since power-on.
+    pub fn model_error(&self, excess2: f32, hours: f32) -> f32 {
+        let h = hours.max(0.0);
+        self.floor_var
+            + self.extrapolation_var * excess2
+            + self.walk_var_per_h * h
+            + self.trend_var_per_h2 * h * h
     }
 }
 
@@ -222,6 +323,8 @@ pub struct Payload<Fe, Ex, Fl> {
     pub exponents: Ex,
     /// All numbers, in the layout of the module doc.
     pub floats: Fl,
+    /// The variance besides the latent one.
+    pub error: ErrorModel,
 }
 
 /// `len` entries from `start` (a `const` stand-in for a closure).
@@ -234,21 +337,25 @@ const fn at(start: usize, len: usize) -> Range<usize> {
 /// decodes into its own storage this way. Decoding a whole `Payload` by value puts the numbers on
 /// the stack and then moves them into the model, several times the model's size of stack on a
 /// microcontroller whose RAM holds the model once. `number` refusing a value (storage full) is
-/// [`BlobError::Malformed`], as postcard refuses a sequence longer than its container.
+/// [`BlobError::Malformed`], as postcard refuses a sequence longer than its container. A blob of
+/// format [`V4`] or [`V3`] has no error model (`None`).
 pub(crate) fn read_payload<'de, Fe, Ex>(
     payload: &'de [u8],
+    version: u16,
     mut number: impl FnMut(f32) -> Result<(), ()>,
-) -> Result<(Fe, Ex), BlobError>
+) -> Result<(Fe, Ex, Option<ErrorModel>), BlobError>
 where
     Fe: Deserialize<'de>,
     Ex: Deserialize<'de>,
 {
     let mut decoder = postcard::Deserializer::from_bytes(payload);
+    let with_error = version == FORMAT_VERSION;
     let fields = serde::Deserializer::deserialize_tuple(
         &mut decoder,
-        3,
+        if with_error { 4 } else { 3 },
         PayloadFields {
             number: &mut number,
+            with_error,
             fields: PhantomData,
         },
     )
@@ -263,9 +370,11 @@ where
     }
 }
 
-/// [`read_payload`]'s visitor: features and exponents by value, numbers one at a time.
+/// [`read_payload`]'s visitor: features and exponents by value, numbers one at a time, then the
+/// error model where the format has one.
 struct PayloadFields<'a, Fe, Ex, F> {
     number: &'a mut F,
+    with_error: bool,
     fields: PhantomData<(Fe, Ex)>,
 }
 
@@ -275,19 +384,24 @@ where
     Ex: Deserialize<'de>,
     F: FnMut(f32) -> Result<(), ()>,
 {
-    type Value = (Fe, Ex);
+    type Value = (Fe, Ex, Option<ErrorModel>);
 
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a model payload")
     }
 
     fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
-        let missing = |i| de::Error::invalid_length(i, &"three fields");
+        let missing = |i| de::Error::invalid_length(i, &"the payload's fields");
         let features = seq.next_element()?.ok_or_else(|| missing(0))?;
         let exponents = seq.next_element()?.ok_or_else(|| missing(1))?;
         seq.next_element_seed(Numbers(self.number))?
             .ok_or_else(|| missing(2))?;
-        Ok((features, exponents))
+        let error = if self.with_error {
+            Some(seq.next_element()?.ok_or_else(|| missing(3))?)
+        } else {
+            None
+        };
+        Ok((features, exponents, error))
     }
 }
 
@@ -375,7 +489,7 @@ const CRC_AT: usize = 18;
 /// The header bytes the CRC covers, before the payload: version to length.
 const CHECKED: Range<usize> = 4..CRC_AT;
 
-/// The CRC of a version-4 blob: header bytes [`CHECKED`], then the payload.
+/// The CRC of a blob of format 4 or later: header bytes [`CHECKED`], then the payload.
 fn checksum(header: &[u8], payload: &[u8]) -> u32 {
     let mut digest = CRC32.digest();
     digest.update(header.get(CHECKED).unwrap_or(&[]));
@@ -383,7 +497,7 @@ fn checksum(header: &[u8], payload: &[u8]) -> u32 {
     digest.finalize()
 }
 
-/// Writes the payload length and CRC into a version-4 header: what [`encode`] and
+/// Writes the payload length and CRC into a header of format 4 or later: what [`encode`] and
 /// [`set_sequence`] do last, and what a tool or test that edits a blob on purpose does to reach
 /// the decoder behind the integrity check. Shorter than a header: left as it is.
 pub fn reseal(blob: &mut [u8]) {
@@ -400,11 +514,11 @@ pub fn reseal(blob: &mut [u8]) {
     }
 }
 
-/// Stamps `sequence` into a valid version-4 blob and reseals it. A version-3 blob has no room
-/// for one: [`BlobError::NoSequence`].
+/// Stamps `sequence` into a valid blob of format 4 or later and reseals it. A version-3 blob has
+/// no room for one: [`BlobError::NoSequence`].
 pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
     let header = read_header(blob)?;
-    if header.version != FORMAT_VERSION {
+    if header.version == V3 {
         return Err(BlobError::NoSequence(header.version));
     }
     let dst = blob
@@ -415,12 +529,36 @@ pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
     Ok(())
 }
 
+/// Writes `error` as the error model of a valid blob of this format and reseals it: what the
+/// trainer does once it has measured a model's errors. The error model is the payload's last
+/// field, six f32 that postcard writes as their little-endian bytes, so it is the blob's last 24
+/// bytes. A blob of format 3 or 4 has none: [`BlobError::UnsupportedVersion`].
+pub fn set_error_model(blob: &mut [u8], error: &ErrorModel) -> Result<(), BlobError> {
+    let header = read_header(blob)?;
+    if header.version != FORMAT_VERSION {
+        return Err(BlobError::UnsupportedVersion(header.version));
+    }
+    error.check()?;
+    let at = blob
+        .len()
+        .checked_sub(4 * ErrorModel::NUMBERS)
+        .filter(|&at| at >= HEADER_LEN)
+        .ok_or(BlobError::Truncated)?;
+    for (k, v) in error.numbers().iter().enumerate() {
+        if let Some(dst) = blob.get_mut(at + 4 * k..at + 4 * k + 4) {
+            dst.copy_from_slice(&v.to_le_bytes());
+        }
+    }
+    reseal(blob);
+    Ok(())
+}
+
 /// The length in bytes, header included, that the header at the start of `bytes` declares for
 /// its blob (either version), unchecked: how much of a flash slot to give [`read_header`].
 pub fn declared_len(bytes: &[u8]) -> Option<usize> {
     let version = u16::from_le_bytes(le(bytes, 4).ok()?);
     let (len_at, header_len) = match version {
-        FORMAT_VERSION => (LEN_AT, HEADER_LEN),
+        FORMAT_VERSION | V4 => (LEN_AT, HEADER_LEN),
         V3 => (10, V3_HEADER_LEN),
         _ => return None,
     };
@@ -430,7 +568,7 @@ pub fn declared_len(bytes: &[u8]) -> Option<usize> {
 
 /// A checked header: dimensions, sequence and the payload bytes it covers.
 pub struct Header<'a> {
-    /// Format version ([`FORMAT_VERSION`] or [`V3`]).
+    /// Format version ([`FORMAT_VERSION`], [`V4`] or [`V3`]).
     pub version: u16,
     /// Model sizes.
     pub dims: Dims,
@@ -448,7 +586,7 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
 }
 
 /// Checks magic, version, payload length and CRC; returns the dimensions, the sequence and the
-/// payload. Reads [`FORMAT_VERSION`] and [`V3`].
+/// payload. Reads [`FORMAT_VERSION`], [`V4`] and [`V3`].
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
     if bytes.len() < V3_HEADER_LEN {
         return Err(BlobError::Truncated);
@@ -459,7 +597,7 @@ pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
     let version = u16::from_le_bytes(le(bytes, 4)?);
     // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
     let (len_at, crc_at, header_len, sequence) = match version {
-        FORMAT_VERSION => (
+        FORMAT_VERSION | V4 => (
             LEN_AT,
             CRC_AT,
             HEADER_LEN,
@@ -521,19 +659,30 @@ mod tests {
         0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
     ];
 
+    /// sample noise, interval, floor, extrapolation, walk, trend.
+    const GOLDEN_ERROR: ErrorModel = ErrorModel {
+        sample_noise_var: 1e-4,
+        sample_interval_s: 0.5,
+        floor_var: 2e-6,
+        extrapolation_var: 3e-5,
+        walk_var_per_h: 4e-7,
+        trend_var_per_h2: 0.0,
+    };
+
     #[test]
     fn golden_bytes_pin_the_encoding() {
         let payload = Payload {
             features: [Feature::TemperatureRate { tau_s: 60.0 }].as_slice(),
             exponents: [0u8].as_slice(),
             floats: GOLDEN.as_slice(),
+            error: GOLDEN_ERROR,
         };
         let dims = Dims { m: 1, d: 1, p: 1 };
         assert_eq!(dims.floats(), 13);
         let mut buf = [0u8; 128];
         let n = encode(dims, &payload, &mut buf).unwrap();
-        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 4, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-        expected.extend([61, 0, 0, 0]);
+        let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 5, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+        expected.extend([85, 0, 0, 0]);
         let mut digest = CRC32.digest();
         digest.update(&expected[4..]);
         digest.update(&buf[HEADER_LEN..n]);
@@ -543,7 +692,7 @@ mod tests {
         expected.extend([1, 2]);
         expected.extend(60.0f32.to_le_bytes());
         expected.extend([1, 0, 13]);
-        for v in GOLDEN {
+        for v in GOLDEN.iter().chain(&GOLDEN_ERROR.numbers()) {
             expected.extend(v.to_le_bytes());
         }
         assert_eq!(&buf[..n], expected.as_slice());
@@ -596,8 +745,76 @@ mod tests {
         );
     }
 
+    /// The same model as a version-4 blob: the payload without its error model.
+    fn as_v4(blob: &[u8]) -> Vec<u8> {
+        let mut v4 = blob[..blob.len() - 4 * ErrorModel::NUMBERS].to_vec();
+        v4[4..6].copy_from_slice(&V4.to_le_bytes());
+        reseal(&mut v4);
+        v4
+    }
+
+    #[test]
+    fn a_version_4_blob_still_decodes_with_its_noise_as_the_only_error() {
+        let good = Reference::small().blob();
+        let old = as_v4(&good);
+        let model = Small::decode(&old).unwrap();
+        assert_eq!(read_header(&old).unwrap().version, V4);
+        let [_, noise] = model.variances();
+        assert_eq!(model.error_model(), ErrorModel::noise_only(noise));
+        let mut stamped = old.clone();
+        set_sequence(&mut stamped, 7).unwrap();
+        assert_eq!(read_header(&stamped).unwrap().sequence, 7);
+        let new = Small::decode(&good).unwrap();
+        let mut scratch = [0.0f32; 5];
+        let (a, b) = (
+            model.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+            new.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+        );
+        assert_eq!(a.mean, b.mean);
+        assert_eq!(a.noise_variance, noise);
+    }
+
+    #[test]
+    fn an_error_model_written_into_a_blob_is_the_one_encoded() {
+        let r = Reference::small();
+        let mut b = r.blob_with_error(ErrorModel::noise_only(1e-6));
+        set_error_model(&mut b, &GOLDEN_ERROR).unwrap();
+        assert_eq!(b, r.blob_with_error(GOLDEN_ERROR));
+        assert_eq!(Small::decode(&b).unwrap().error_model(), GOLDEN_ERROR);
+        let bad = ErrorModel {
+            floor_var: f32::INFINITY,
+            ..GOLDEN_ERROR
+        };
+        assert_eq!(set_error_model(&mut b, &bad), Err(BlobError::NonFinite(2)));
+        let mut old = as_v4(&b);
+        assert_eq!(
+            set_error_model(&mut old, &GOLDEN_ERROR),
+            Err(BlobError::UnsupportedVersion(V4))
+        );
+    }
+
+    #[test]
+    fn the_error_model_is_checked_like_the_other_numbers() {
+        let bad = |error: ErrorModel| {
+            let r = Reference::small();
+            Small::decode(&r.blob_with_error(error)).unwrap_err()
+        };
+        let n = Dims { m: 5, d: 2, p: 3 }.floats();
+        let nan = ErrorModel {
+            walk_var_per_h: f32::NAN,
+            ..GOLDEN_ERROR
+        };
+        assert_eq!(bad(nan), BlobError::NonFinite(n + 4));
+        let negative = ErrorModel {
+            floor_var: -1.0,
+            ..GOLDEN_ERROR
+        };
+        assert_eq!(bad(negative), BlobError::InvalidParameter);
+    }
+
     /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.
     fn as_v3(blob: &[u8]) -> Vec<u8> {
+        let blob = as_v4(blob);
         let payload = &blob[HEADER_LEN..];
         let mut v3 = blob[..10].to_vec();
         v3[4..6].copy_from_slice(&V3.to_le_bytes());
@@ -611,7 +828,10 @@ mod tests {
     fn a_version_3_blob_still_decodes_as_sequence_0_and_cannot_take_one() {
         let good = Reference::small().blob();
         let mut old = as_v3(&good);
-        assert_eq!(Small::decode(&old).unwrap(), Small::decode(&good).unwrap());
+        assert_eq!(
+            Small::decode(&old).unwrap(),
+            Small::decode(&as_v4(&good)).unwrap()
+        );
         let header = read_header(&old).unwrap();
         assert_eq!((header.version, header.sequence), (V3, 0));
         assert_eq!(set_sequence(&mut old, 1), Err(BlobError::NoSequence(3)));

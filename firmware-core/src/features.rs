@@ -128,6 +128,12 @@ impl FeatureState {
     pub fn power_on(&mut self) {
         self.powered_off = self.times.is_some();
     }
+
+    /// Time since power-on of the last sample computed, s (0 before the first): what the model
+    /// error's time terms read ([`crate::blob::ErrorModel`]).
+    pub fn time_on_s(&self) -> f64 {
+        self.times.map_or(0.0, |(on, last)| (last - on).max(0.0))
+    }
 }
 
 /// First-order filter gain for a step of `dt_s` with time constant `tau_s`.

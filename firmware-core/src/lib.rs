@@ -15,7 +15,7 @@ pub mod status;
 #[cfg(test)]
 mod testing;
 
-pub use blob::{Dims, Feature};
+pub use blob::{Dims, ErrorModel, Feature};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_INPUTS, Sample};
 pub use model::{Mean, Model, Prediction};

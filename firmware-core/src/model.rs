@@ -13,7 +13,16 @@
 //! k̃_i  = exp(−½ Σ_k (s_k − c_ik)²)
 //! mean = Σ_i w_i k̃_i + Σ_j prior_j Π_k z_k^e_jk + Σ_k (hi_k + lo_k) x_k
 //! var  = σ_f² · max(0, 1 − |v|²),  L v = k̃             (forward substitution, packed rows)
+//! bias variance  = var + model error(e(x)², t)          ([`ErrorModel`])
+//! noise variance = σ_w², one sample's white noise
 //! ```
+//!
+//! The two variances are the σ contract (docs/design.md §4): the bias variance is the uncertainty
+//! of the compensated rate's slowly varying error, which a mean over any window keeps (a Kalman
+//! filter's bias state); the noise variance is one sample's white noise, which a mean of N samples
+//! divides by N (its measurement noise). A sample's own error has their sum
+//! ([`Prediction::variance`]); a mean over τ seconds has the bias variance plus
+//! [`ErrorModel::noise_of_mean`].
 //!
 //! Summation order, for f32: the kernel terms, then the prior monomials from the highest degree
 //! down, then the rounding parts of the raw linear terms, and their large products last, all
@@ -32,10 +41,13 @@ use core::ops::Range;
 
 use heapless::Vec;
 
-use crate::blob::{self, Dims, Feature};
+use crate::blob::{self, Dims, ErrorModel, Feature};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
+
+/// Seconds per hour: the model error's time terms are per hour.
+const HOUR_S: f64 = 3600.0;
 
 /// Predictive mean (output units, e.g. °/s) and its status.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,16 +59,28 @@ pub struct Mean {
     pub status: Status,
 }
 
-/// Predictive mean, latent variance (output units², never negative) and status.
+/// Predictive mean, its two variances (output units², never negative) and status: the σ
+/// contract of the module doc.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Prediction {
     /// Compensated rate.
     pub mean: f32,
-    /// Latent (model) variance, without observation noise.
-    pub variance: f32,
+    /// Variance of the compensated rate's slowly varying error: the GP's latent variance plus the
+    /// model error the trainer measured ([`ErrorModel`]). A mean over any window keeps it.
+    pub bias_variance: f32,
+    /// White noise of one sample (at the blob's sample interval): a mean of N samples has 1/N of
+    /// it.
+    pub noise_variance: f32,
     /// Validity.
     pub status: Status,
+}
+
+impl Prediction {
+    /// Variance of this one sample's error: bias plus noise.
+    pub fn variance(&self) -> f32 {
+        self.bias_variance + self.noise_variance
+    }
 }
 
 /// A model decoded from a blob into fixed-size storage.
@@ -66,6 +90,7 @@ pub struct Model<const D: usize, const E: usize, const N: usize> {
     features: Vec<Feature, D>,
     exponents: Vec<u8, E>,
     floats: Vec<f32, N>,
+    error: ErrorModel,
 }
 
 /// Neumaier-compensated sum: the running rounding error is carried and added once at the end.
@@ -184,6 +209,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             features: Vec::new(),
             exponents: Vec::new(),
             floats: Vec::new(),
+            error: ErrorModel::noise_only(0.0),
         }
     }
 
@@ -201,10 +227,11 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.floats.clear();
         let floats = &mut self.floats;
         match Self::read(bytes, |v| floats.push(v).map_err(|_| ())) {
-            Ok((dims, features, exponents)) => {
+            Ok((dims, features, exponents, error)) => {
                 self.dims = dims;
                 self.features = features;
                 self.exponents = exponents;
+                self.error = error.unwrap_or_else(|| ErrorModel::noise_only(self.variances()[1]));
                 Ok(())
             }
             Err(e) => {
@@ -220,6 +247,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.features.clear();
         self.exponents.clear();
         self.floats.clear();
+        self.error = ErrorModel::noise_only(0.0);
     }
 
     /// Checks a blob as [`Model::decode`] does, without storing it: what a calibration update
@@ -230,24 +258,24 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             held += 1;
             if held <= N { Ok(()) } else { Err(()) }
         })
-        .map(|(dims, _, _)| dims)
+        .map(|(dims, ..)| dims)
     }
 
     /// Reads and checks a blob, handing its numbers to `keep` in order; returns its sizes,
-    /// features and exponents.
+    /// features, exponents and error model (none in a blob of format 3 or 4).
     #[allow(clippy::type_complexity)]
     fn read(
         bytes: &[u8],
         mut keep: impl FnMut(f32) -> Result<(), ()>,
-    ) -> Result<(Dims, Vec<Feature, D>, Vec<u8, E>), BlobError> {
+    ) -> Result<(Dims, Vec<Feature, D>, Vec<u8, E>, Option<ErrorModel>), BlobError> {
         let header = blob::read_header(bytes)?;
         let dims = header.dims;
         capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
         capacity(Storage::Exponents, dims.exponents(), E)?;
         capacity(Storage::Floats, dims.floats(), N)?;
         let mut domains = Domains::<D>::new(dims);
-        let (features, exponents): (Vec<Feature, D>, Vec<u8, E>) =
-            blob::read_payload(header.payload, |v| {
+        let (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, _) =
+            blob::read_payload(header.payload, header.version, |v| {
                 domains.see(v);
                 keep(v)
             })?;
@@ -258,10 +286,17 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             return Err(BlobError::InconsistentDimensions);
         }
         domains.verdict()?;
+        if let Some(e) = &error {
+            e.check().map_err(|e| match e {
+                // Numbered after the flat array's.
+                BlobError::NonFinite(i) => BlobError::NonFinite(dims.floats() + i),
+                other => other,
+            })?;
+        }
         if !features.iter().all(Feature::is_valid) {
             return Err(BlobError::InvalidParameter);
         }
-        Ok((dims, features, exponents))
+        Ok((dims, features, exponents, error))
     }
 
     fn section(&self, range: Range<usize>) -> &[f32] {
@@ -278,7 +313,13 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         &self.features
     }
 
-    /// (σ_f², σ_n²) in output units².
+    /// The variance besides the latent one (format 3 and 4 blobs: their noise alone).
+    pub fn error_model(&self) -> ErrorModel {
+        self.error
+    }
+
+    /// (σ_f², σ_n²) in output units²: the GP's signal variance, and the noise level of the points
+    /// it was fitted on (a sample's own noise is the [`ErrorModel`]'s).
     pub fn variances(&self) -> [f32; 2] {
         let s = self.dims.sections();
         let v = self.section(s.variances);
@@ -288,15 +329,17 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         ]
     }
 
-    /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs.
-    fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> Status {
+    /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs and e(x)²,
+    /// how far they lie beyond the trained range in its widths, squared ([`ErrorModel`]).
+    fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> (Status, f32) {
         let sec = self.dims.sections();
         let d = self.dims.d;
         // d = 0: storage that holds no model.
         if d == 0 || x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
-            return Status::Fault;
+            return (Status::Fault, 0.0);
         }
         let mut status = Status::Valid;
+        let mut excess2 = 0.0f32;
         let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
         for (k, (zk, sk)) in z.iter_mut().zip(s.iter_mut()).take(d).enumerate() {
             let xk = x.get(k).copied().unwrap_or(0.0);
@@ -305,14 +348,16 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
                 let span = hi - lo;
                 let margin = if span > 0.0 { span } else { lo.abs().max(1.0) };
                 if xk < lo - margin || xk > hi + margin {
-                    return Status::Fault;
+                    return (Status::Fault, 0.0);
                 }
                 status = Status::Extrapolating;
+                let excess = (lo - xk).max(xk - hi) / margin;
+                excess2 += excess * excess;
             }
             *zk = (xk - at(sec.offset.start, k)) / at(sec.scale.start, k);
             *sk = *zk / at(sec.length.start, k);
         }
-        status
+        (status, excess2)
     }
 
     /// Adds the prior monomials, highest degree (smallest term) first.
@@ -378,13 +423,13 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
     }
 
-    /// Mean and status; the kernel values go to `k` when it is long enough.
-    fn mean_into(&self, x: &[f32], k: Option<&mut [f32]>) -> Mean {
+    /// Mean, status and e(x)²; the kernel values go to `k` when it is long enough.
+    fn mean_into(&self, x: &[f32], k: Option<&mut [f32]>) -> (Mean, f32) {
         let mut z = [0.0f32; D];
         let mut s = [0.0f32; D];
-        let status = self.normalize(x, &mut z, &mut s);
+        let (status, excess2) = self.normalize(x, &mut z, &mut s);
         if status == Status::Fault {
-            return Mean { mean: 0.0, status };
+            return (Mean { mean: 0.0, status }, excess2);
         }
         let sec = self.dims.sections();
         let d = self.dims.d;
@@ -407,19 +452,20 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.add_prior_mean(zd, &mut acc);
         self.add_raw_linear(x, &mut acc);
         let mean = acc.total();
-        if mean.is_finite() {
+        let mean = if mean.is_finite() {
             Mean { mean, status }
         } else {
             Mean {
                 mean: 0.0,
                 status: Status::Fault,
             }
-        }
+        };
+        (mean, excess2)
     }
 
     /// Predictive mean only: the cheap path (one exp and about 3·d operations per centre).
     pub fn predict_mean(&self, x: &[f32]) -> Mean {
-        self.mean_into(x, None)
+        self.mean_into(x, None).0
     }
 
     /// The feature pipeline on one raw sample, then [`Self::predict`] on its inputs.
@@ -433,32 +479,47 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         // `decode` checked d ≤ D, so the inputs always fit.
         let health = features::compute(&self.features, sample, state, &mut x);
         if health == Status::Fault {
-            let [signal, _] = self.variances();
-            return Ok(Prediction {
-                mean: 0.0,
-                variance: signal,
-                status: Status::Fault,
-            });
+            return Ok(self.fault());
         }
-        let mut p = self.predict(x.get(..self.dims.d).unwrap_or(&[]), scratch)?;
+        let hours = (state.time_on_s() / HOUR_S) as f32;
+        let mut p = self.predict_at(x.get(..self.dims.d).unwrap_or(&[]), hours, scratch)?;
         p.status = p.status.max(health);
         Ok(p)
     }
 
-    /// Predictive mean and latent variance. `scratch` must hold at least `m` numbers.
+    /// A `Fault`'s prediction: mean 0, the prior's variance.
+    fn fault(&self) -> Prediction {
+        let [signal, _] = self.variances();
+        Prediction {
+            mean: 0.0,
+            bias_variance: signal,
+            noise_variance: self.error.sample_noise_var,
+            status: Status::Fault,
+        }
+    }
+
+    /// Predictive mean and variances at inputs `x`, at power-on (no time term of the model
+    /// error: [`Self::predict_at`]). `scratch` must hold at least `m` numbers.
     pub fn predict(&self, x: &[f32], scratch: &mut [f32]) -> Result<Prediction, PredictError> {
+        self.predict_at(x, 0.0, scratch)
+    }
+
+    /// Predictive mean and variances at inputs `x`, `hours` after power-on. `scratch` must hold
+    /// at least `m` numbers.
+    pub fn predict_at(
+        &self,
+        x: &[f32],
+        hours: f32,
+        scratch: &mut [f32],
+    ) -> Result<Prediction, PredictError> {
         let m = self.dims.m;
         let v = scratch
             .get_mut(..m)
             .ok_or(PredictError::ScratchTooSmall { needed: m })?;
-        let Mean { mean, status } = self.mean_into(x, Some(v));
+        let (Mean { mean, status }, excess2) = self.mean_into(x, Some(v));
         let [signal, _] = self.variances();
         if status == Status::Fault {
-            return Ok(Prediction {
-                mean,
-                variance: signal,
-                status,
-            });
+            return Ok(self.fault());
         }
         // Forward substitution L v = k̃ on packed rows (row i holds L_i0 … L_ii), and 1 − |v|²,
         // both compensated: where the variance matters it is a small difference of O(1) numbers,
@@ -484,7 +545,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
         Ok(Prediction {
             mean,
-            variance: signal * rest.total().max(0.0),
+            bias_variance: signal * rest.total().max(0.0) + self.error.model_error(excess2, hours),
+            noise_variance: self.error.sample_noise_var,
             status,
         })
     }
@@ -504,16 +566,30 @@ mod tests {
         let mut scratch = [0.0f32; 8];
         for t in [-30.0f32, -5.0, 12.5, 40.0, 60.0] {
             for v in [-3.0f32, -0.7, 0.0, 0.4, 2.9] {
-                let (mean, var) = r.predict([f64::from(t), f64::from(v)]);
-                let p = m.predict(&[t, v], &mut scratch).unwrap();
-                assert_eq!(p.status, Status::Valid);
+                let x = [f64::from(t), f64::from(v)];
+                let (mean, var) = r.predict(x);
+                let hours = 2.5f32;
+                let p = m.predict_at(&[t, v], hours, &mut scratch).unwrap();
+                let expected = if (-30.0..=60.0).contains(&t) {
+                    Status::Valid
+                } else {
+                    Status::Extrapolating
+                };
+                assert_eq!(p.status, expected);
                 assert!(
                     (f64::from(p.mean) - mean).abs() < 1e-5,
                     "{t} {v}: {} vs {mean}",
                     p.mean
                 );
-                assert!(p.variance >= 0.0);
-                assert!((f64::from(p.variance) - var).abs() < 1e-3 * r.signal_var);
+                assert!(p.bias_variance >= 0.0);
+                let bias = var + r.model_error(x, f64::from(hours));
+                assert!(
+                    (f64::from(p.bias_variance) - bias).abs() < 1e-3 * r.signal_var,
+                    "{t} {v}: {} vs {bias}",
+                    p.bias_variance
+                );
+                assert_eq!(p.noise_variance, r.error.sample_noise_var);
+                assert_eq!(p.variance(), p.bias_variance + p.noise_variance);
                 assert_eq!(m.predict_mean(&[t, v]).mean, p.mean);
             }
         }
@@ -544,10 +620,18 @@ mod tests {
             (c[0] * r.scale[0] + r.offset[0]) as f32,
             (c[1] * r.scale[1] + r.offset[1]) as f32,
         ];
-        let at_centre = m.predict(&x, &mut scratch).unwrap().variance;
+        let floor = r.error.floor_var;
+        let at_centre = m.predict(&x, &mut scratch).unwrap().bias_variance - floor;
         assert!(at_centre < 1e-3 * r.signal_var as f32, "{at_centre}");
-        let far = m.predict(&[500.0, 40.0], &mut scratch).unwrap().variance;
-        assert!((far - r.signal_var as f32).abs() < 0.05 * r.signal_var as f32);
+        let far = m.predict(&[500.0, 40.0], &mut scratch).unwrap();
+        assert_eq!(far.status, Status::Fault);
+        let beyond = m.predict(&[100.0, 0.0], &mut scratch).unwrap();
+        assert_eq!(beyond.status, Status::Extrapolating);
+        // 40 °C beyond a 90 °C range: e² = (40/90)².
+        let expected = r.model_error([100.0, 0.0], 0.0) as f32;
+        let latent = beyond.bias_variance - expected;
+        assert!(latent > 0.5 * r.signal_var as f32, "{latent}");
+        assert!((latent - r.signal_var as f32).abs() < 0.05 * r.signal_var as f32);
     }
 
     #[test]
@@ -561,7 +645,7 @@ mod tests {
         ] {
             let p = m.predict(&x, &mut scratch).unwrap();
             assert_eq!(p.status, Status::Fault);
-            assert!(p.mean.is_finite() && p.variance.is_finite());
+            assert!(p.mean.is_finite() && p.variance().is_finite());
         }
         assert_eq!(m.predict_mean(&[20.0]).status, Status::Fault);
         let out = m.predict(&[70.0, 0.0], &mut scratch).unwrap();

@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! sample (20 bytes)  time_s f64 LE | temp_c f32 LE | output f32 LE | flags u32 LE (bit 0: power-on)
-//! result  (9 bytes)  mean f32 LE | latent variance f32 LE | status u8 (Valid 0, Extrapolating 1,
+//! result  (9 bytes)  mean f32 LE | bias variance f32 LE | status u8 (Valid 0, Extrapolating 1,
 //!                    Degraded 2, Fault 3)
 //! ```
 
@@ -62,7 +62,7 @@ pub fn decode_sample(record: &[u8; SAMPLE_BYTES]) -> (Sample, bool) {
     (sample, u32::from_le_bytes([f0, f1, f2, f3]) & POWER_ON != 0)
 }
 
-/// A prediction's mean, latent variance and status as a record.
+/// A prediction's mean, bias variance and status as a record (the noise variance is the blob's).
 pub fn encode_result(mean: f32, variance: f32, status: Status) -> [u8; RESULT_BYTES] {
     let mut out = [0u8; RESULT_BYTES];
     out[..4].copy_from_slice(&mean.to_le_bytes());
@@ -71,7 +71,7 @@ pub fn encode_result(mean: f32, variance: f32, status: Status) -> [u8; RESULT_BY
     out
 }
 
-/// The mean, latent variance and status of a record; a status byte beyond the known ones reads as
+/// The mean, bias variance and status of a record; a status byte beyond the known ones reads as
 /// `Fault`.
 pub fn decode_result(record: &[u8; RESULT_BYTES]) -> (f32, f32, Status) {
     let [m0, m1, m2, m3, v0, v1, v2, v3, s] = *record;

@@ -3,7 +3,7 @@
 
 use std::vec::Vec;
 
-use crate::blob::{self, Dims, Feature, Payload};
+use crate::blob::{self, Dims, ErrorModel, Feature, Payload};
 
 /// A model in f64, before it is rounded into a blob.
 pub struct Reference {
@@ -22,6 +22,8 @@ pub struct Reference {
     /// Centres in z (not divided by the length scales).
     pub centres: Vec<[f64; 2]>,
     pub weights: Vec<f64>,
+    /// The variance besides the latent one.
+    pub error: ErrorModel,
 }
 
 fn kernel(a: [f64; 2], b: [f64; 2], l: &[f64]) -> f64 {
@@ -53,6 +55,14 @@ impl Reference {
             noise_var: 1e-6,
             centres,
             weights: vec![0.3, -0.7, 0.45, -0.2, 0.6],
+            error: ErrorModel {
+                sample_noise_var: 4e-6,
+                sample_interval_s: 1.0,
+                floor_var: 1e-4,
+                extrapolation_var: 2e-3,
+                walk_var_per_h: 1e-5,
+                trend_var_per_h2: 1e-6,
+            },
         }
     }
 
@@ -107,6 +117,21 @@ impl Reference {
         (mean, var)
     }
 
+    /// The model error in f64 at `x` and `hours` since power-on (blob module doc).
+    pub fn model_error(&self, x: [f64; 2], hours: f64) -> f64 {
+        let e2: f64 = (0..2)
+            .map(|k| {
+                let excess = (self.min[k] - x[k]).max(x[k] - self.max[k]).max(0.0);
+                (excess / (self.max[k] - self.min[k])).powi(2)
+            })
+            .sum();
+        let e = &self.error;
+        f64::from(e.floor_var)
+            + f64::from(e.extrapolation_var) * e2
+            + f64::from(e.walk_var_per_h) * hours
+            + f64::from(e.trend_var_per_h2) * hours * hours
+    }
+
     /// The flat f32 array of the blob layout.
     pub fn floats(&self) -> Vec<f32> {
         let s = self.dims.sections();
@@ -140,12 +165,22 @@ impl Reference {
 
     /// The blob, with the flat array passed through `edit` first (to corrupt it on purpose).
     pub fn blob_with(&self, edit: impl FnOnce(&mut Vec<f32>)) -> Vec<u8> {
+        self.encoded(edit, self.error)
+    }
+
+    /// The blob with another error model.
+    pub fn blob_with_error(&self, error: ErrorModel) -> Vec<u8> {
+        self.encoded(|_| {}, error)
+    }
+
+    fn encoded(&self, edit: impl FnOnce(&mut Vec<f32>), error: ErrorModel) -> Vec<u8> {
         let mut floats = self.floats();
         edit(&mut floats);
         let payload = Payload {
             features: [Feature::Temperature, Feature::Voltage].as_slice(),
             exponents: self.exponents.as_slice(),
             floats: floats.as_slice(),
+            error,
         };
         let mut buf = vec![0u8; 4096];
         let n = blob::encode(self.dims, &payload, &mut buf).unwrap();

@@ -13,6 +13,7 @@ use crate::data::columns::ColumnMap;
 use crate::gyro::effects::{Effect, Hidden};
 use crate::gyro::{output, paper, plant::GyroParams, stream};
 use crate::io::{ensure_not_input, write_atomically, write_json};
+use crate::sigma;
 use crate::{plot, qemu, replay, twin};
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
@@ -452,7 +453,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }
             console.result(&format!(
                 "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
-                 rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s, 2σ coverage {:.3}",
+                 rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s\n\
+                 the firmware's σ: {}",
                 data.len(),
                 score.n,
                 score.n_extrapolating,
@@ -464,7 +466,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 score.rmse_60s_dps,
                 score.rmse_60s_dps * 3600.0,
                 score.max_abs_err_dps,
-                score.coverage_2sigma
+                sigma::describe(&score.sigma_samples, &score.sigma_60s)
             ));
             Ok(())
         }

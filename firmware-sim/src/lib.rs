@@ -27,4 +27,5 @@ pub mod io;
 pub mod plot;
 pub mod qemu;
 pub mod replay;
+pub mod sigma;
 pub mod twin;

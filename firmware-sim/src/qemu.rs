@@ -198,7 +198,7 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
 pub struct Agreement {
     /// Largest |M4 mean − host mean|, °/s.
     pub max_abs_mean_diff: f64,
-    /// Samples whose mean and standard deviation are bit-identical.
+    /// Samples whose mean and bias variance are bit-identical.
     pub identical: usize,
     /// Every status equal.
     pub statuses_equal: bool,
@@ -212,7 +212,7 @@ pub fn compare(host: &Compensated, m4: &Compensated) -> Agreement {
             .map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs())
             .fold(0.0, f64::max),
         identical: pairs()
-            .zip(host.std_dps.iter().zip(&m4.std_dps))
+            .zip(host.bias_var.iter().zip(&m4.bias_var))
             .filter(|((a, b), (sa, sb))| a.to_bits() == b.to_bits() && sa.to_bits() == sb.to_bits())
             .count(),
         statuses_equal: host.status == m4.status,

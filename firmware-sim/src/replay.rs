@@ -7,16 +7,18 @@
 //!
 //! Scores, over rows with a reference rate: `rmse_dps` and `max_abs_err_dps` per sample;
 //! `rmse_60s_dps` over 60 s block means of the error (blocks at least half filled), the figure that
-//! does not drown in angle random walk; `coverage_2sigma`, the fraction of samples whose error lies
-//! within twice the predicted standard deviation (latent variance plus the trained noise level,
-//! which describes 2-min means: per 1 Hz sample the gyro's white noise is larger, so this coverage
-//! is low by construction; the 60 s figure is the one to read).
+//! does not drown in angle random walk; and the firmware's σ scored against the errors
+//! ([`crate::sigma`]), per sample (σ² = bias + noise variance) and per 60 s mean (σ² = the block's
+//! mean bias variance + the noise variance of a mean that long: docs/design.md §4, "The σ
+//! contract"). `coverage_2sigma` is the per-sample fraction within 2σ.
 
 use firmware_core::blob::Dims;
 use firmware_core::model::Model;
 use firmware_core::record;
-use firmware_core::{BlobError, FeatureState, Sample, Status};
+use firmware_core::{BlobError, ErrorModel, FeatureState, Sample, Status};
 use serde::Serialize;
+
+use crate::sigma::Coverage;
 
 pub use crate::data::stream::BLOCK_S;
 use crate::data::stream::{Handled, Stream, TimeIssue, group_blocks};
@@ -47,14 +49,55 @@ pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
 }
 
 /// The firmware's output for every sample.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Compensated {
     /// Compensated rate, °/s.
     pub rate_dps: Vec<f32>,
-    /// Predicted standard deviation, °/s (latent plus trained noise).
-    pub std_dps: Vec<f32>,
+    /// Bias variance (°/s)²: latent plus model error.
+    pub bias_var: Vec<f32>,
+    /// Noise variance of the sample (°/s)².
+    pub noise_var: Vec<f32>,
     /// Status of each sample.
     pub status: Vec<Status>,
+    /// The blob's error model: how the noise of a mean shrinks.
+    pub error: ErrorModel,
+}
+
+impl Default for Compensated {
+    fn default() -> Self {
+        Self {
+            rate_dps: Vec::new(),
+            bias_var: Vec::new(),
+            noise_var: Vec::new(),
+            status: Vec::new(),
+            error: ErrorModel::noise_only(0.0),
+        }
+    }
+}
+
+impl Compensated {
+    /// Standard deviation of sample `i`'s error, °/s: bias and noise.
+    pub fn std_dps(&self, i: usize) -> f64 {
+        (f64::from(self.bias_var[i]) + f64::from(self.noise_var[i])).sqrt()
+    }
+
+    /// Standard deviation of the mean of samples `idx` spanning `window_s`, °/s: their mean bias
+    /// variance and the noise variance of a mean that long.
+    pub fn mean_std_dps(&self, idx: &[usize], window_s: f64) -> f64 {
+        let bias = idx
+            .iter()
+            .map(|&i| f64::from(self.bias_var[i]))
+            .sum::<f64>()
+            / idx.len().max(1) as f64;
+        (bias + f64::from(self.error.noise_of_mean(window_s as f32))).sqrt()
+    }
+
+    fn push(&mut self, rate: f32, bias_var: f32, noise_var: f32, status: Status) {
+        self.rate_dps.push(rate);
+        self.bias_var.push(bias_var);
+        self.noise_var.push(noise_var);
+        self.status.push(status);
+    }
 }
 
 /// Word for a status in the compensated CSV (docs/design.md §3).
@@ -94,21 +137,20 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
 /// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
 pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     let mut scratch = vec![0.0f32; model.dims().m];
-    let [_, noise_var] = model.variances();
     let mut state = FeatureState::default();
-    let mut out = Compensated::default();
+    let mut out = Compensated {
+        error: model.error_model(),
+        ..Compensated::default()
+    };
     for (i, restart) in restarts(stream).into_iter().enumerate() {
         if restart {
             state.power_on();
         }
         let sample = sample(stream, i);
-        let (rate, var, status) = match model.compensate(&sample, &mut state, &mut scratch) {
-            Ok(p) => (p.mean, p.variance, p.status),
-            Err(_) => (0.0, f32::INFINITY, Status::Fault),
-        };
-        out.rate_dps.push(rate);
-        out.std_dps.push((var + noise_var).sqrt());
-        out.status.push(status);
+        match model.compensate(&sample, &mut state, &mut scratch) {
+            Ok(p) => out.push(p.mean, p.bias_variance, p.noise_variance, p.status),
+            Err(_) => out.push(0.0, f32::INFINITY, 0.0, Status::Fault),
+        }
     }
     out
 }
@@ -123,17 +165,18 @@ pub fn sample_records(stream: &Stream) -> Vec<u8> {
     out
 }
 
-/// A device's result records as a replay of `blob`: standard deviations with the blob's noise
-/// variance added, as [`replay`] computes them.
+/// A device's result records as a replay of `blob`: the noise variance is the blob's, as the
+/// firmware reports it ([`replay`]).
 pub fn from_result_records(bytes: &[u8], blob: &[u8]) -> Compensated {
-    let [_, noise_var] = decode(blob).map(|m| m.variances()).unwrap_or([0.0, 0.0]);
-    let mut out = Compensated::default();
+    let error = decode(blob).map_or(ErrorModel::noise_only(0.0), |m| m.error_model());
+    let mut out = Compensated {
+        error,
+        ..Compensated::default()
+    };
     for rec in bytes.chunks_exact(record::RESULT_BYTES) {
         let Ok(rec) = rec.try_into() else { continue };
         let (mean, variance, status) = record::decode_result(rec);
-        out.rate_dps.push(mean);
-        out.std_dps.push((variance + noise_var).sqrt());
-        out.status.push(status);
+        out.push(mean, variance, error.sample_noise_var, status);
     }
     out
 }
@@ -151,6 +194,10 @@ pub struct Score {
     pub max_abs_err_dps: f64,
     /// Fraction of scored samples with |error| ≤ 2σ.
     pub coverage_2sigma: f64,
+    /// The firmware's σ against the errors of the scored samples.
+    pub sigma_samples: Coverage,
+    /// The σ of each 60 s mean against its error.
+    pub sigma_60s: Coverage,
     /// 60 s blocks scored.
     pub n_blocks: usize,
     /// RMSE of 60 s block means over the samples inside the trained range (status valid), °/s.
@@ -189,17 +236,20 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         }
     };
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
-    let covered = scored
-        .iter()
-        .filter(|&&i| err(i).abs() <= 2.0 * f64::from(comp.std_dps[i]))
-        .count();
+    let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
+    let sigma_samples = Coverage::of(&errors, &sigmas);
     let block_means = |idx: &[usize]| -> Vec<f64> {
         blocks(stream, idx)
             .iter()
             .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
             .collect()
     };
+    let scored_blocks = blocks(stream, &scored);
     let means = block_means(&scored);
+    let mean_sigmas: Vec<f64> = scored_blocks
+        .iter()
+        .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
+        .collect();
     let valid: Vec<usize> = scored
         .iter()
         .copied()
@@ -211,11 +261,9 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         rmse_dps: rms(&errors),
         rmse_60s_dps: rms(&means),
         max_abs_err_dps: errors.iter().fold(0.0, |m, e| m.max(e.abs())),
-        coverage_2sigma: if n == 0 {
-            f64::NAN
-        } else {
-            covered as f64 / n as f64
-        },
+        coverage_2sigma: sigma_samples.within_2sigma,
+        sigma_samples,
+        sigma_60s: Coverage::of(&means, &mean_sigmas),
         n_blocks: means.len(),
         rmse_60s_in_range_dps: rms(&means_in_range),
         n_blocks_in_range: means_in_range.len(),
@@ -248,10 +296,12 @@ pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
 }
 
 /// The compensated CSV (docs/design.md §3): the stream's canonical columns, then `comp_rate_dps`,
-/// `comp_std_dps`, `status`. An unknown reference stays an empty cell.
+/// `comp_std_dps` (the sample's σ: bias and noise), `status`, `comp_bias_std_dps` (the bias part
+/// alone, which a mean keeps). An unknown reference stays an empty cell.
 pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
-    let mut s =
-        String::from("time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,comp_std_dps,status\n");
+    let mut s = String::from(
+        "time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,comp_std_dps,status,comp_bias_std_dps\n",
+    );
     for i in 0..stream.len() {
         let reference = if stream.rate_dps[i].is_finite() {
             stream.rate_dps[i].to_string()
@@ -259,14 +309,15 @@ pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
             String::new()
         };
         s.push_str(&format!(
-            "{},{},{},{},{:e},{:e},{}\n",
+            "{},{},{},{},{:e},{:e},{},{:e}\n",
             stream.time_s[i],
             stream.temp_c[i],
             stream.voltage_v[i],
             reference,
             comp.rate_dps[i],
-            comp.std_dps[i],
-            status_word(comp.status[i])
+            comp.std_dps(i) as f32,
+            status_word(comp.status[i]),
+            comp.bias_var[i].sqrt()
         ));
     }
     s
@@ -296,10 +347,20 @@ mod tests {
         let mut rate = vec![0.0; 120];
         rate[5] = f64::NAN;
         let s = stream(&rate, 1.0);
+        // σ 1 for the first 30 samples, 0.1 after: bias 0.75 + noise 0.25, and 0.0075 + 0.0025.
         let comp = Compensated {
             rate_dps: (0..120).map(|i| if i < 60 { 1.0 } else { -1.0 }).collect(),
-            std_dps: (0..120).map(|i| if i < 30 { 1.0 } else { 0.1 }).collect(),
+            bias_var: (0..120)
+                .map(|i| if i < 30 { 0.75 } else { 0.0075 })
+                .collect(),
+            noise_var: (0..120)
+                .map(|i| if i < 30 { 0.25 } else { 0.0025 })
+                .collect(),
             status: vec![Status::Valid; 120],
+            error: ErrorModel {
+                sample_interval_s: 1.0,
+                ..ErrorModel::noise_only(0.25)
+            },
         };
         let sc = score(&s, &comp);
         assert_eq!(sc.n, 119);
@@ -308,6 +369,15 @@ mod tests {
         assert!((sc.rmse_60s_dps - 1.0).abs() < 1e-12);
         assert_eq!(sc.n_blocks, 2);
         assert!((sc.coverage_2sigma - 29.0 / 119.0).abs() < 1e-12);
+        assert_eq!(sc.sigma_samples.within_2sigma, sc.coverage_2sigma);
+        assert!((sc.sigma_samples.within_1sigma - 29.0 / 119.0).abs() < 1e-12);
+        // First block: mean bias (29·0.75 + 30·0.0075)/59 and 0.25/59 of noise: σ ≈ 0.61, error 1.
+        // Second: 0.0075 + 0.25/60: σ ≈ 0.108, error −1.
+        let first = ((29.0 * 0.75 + 30.0 * 0.0075) / 59.0 + 0.25 / 59.0f64).sqrt();
+        assert_eq!(sc.sigma_60s.n, 2);
+        assert_eq!(sc.sigma_60s.within_2sigma, 0.5);
+        assert_eq!(sc.sigma_60s.within_1sigma, 0.0);
+        assert!(sc.sigma_60s.median_sigma > 0.5 * first);
         let csv = to_csv(&s, &comp);
         assert!(csv.lines().nth(6).unwrap().starts_with("5,20,0,,"), "{csv}");
     }
@@ -320,8 +390,10 @@ mod tests {
             rate_dps: (0..600)
                 .map(|i| if i % 2 == 0 { 0.5 } else { -0.5 })
                 .collect(),
-            std_dps: vec![1.0; 600],
+            bias_var: vec![0.0; 600],
+            noise_var: vec![1.0; 600],
             status: vec![Status::Valid; 600],
+            error: ErrorModel::noise_only(1.0),
         };
         let sc = score(&s, &comp);
         assert!((sc.rmse_dps - 0.5).abs() < 1e-12);

@@ -12,7 +12,7 @@ type Nor = NorFlash<4096, 256>;
 /// The capacities of docs/firmware.md's 24-centre model (d = 2, p = 7).
 type Gyro = Model<2, 14, 395>;
 
-/// One sector per slot: the 24-centre blob is 1,622 bytes.
+/// One sector per slot: the 24-centre blob is 1,646 bytes.
 const LAYOUT: Layout = Layout {
     a: 0,
     b: 4096,
@@ -21,12 +21,15 @@ const LAYOUT: Layout = Layout {
 
 /// The firmware-integration example's model, as exported.
 const OLD: &[u8] = include_bytes!("../../firmware-core/doc/gyro.bin");
+/// The same model as a format-4 blob (before the error model).
+const V4: &[u8] = include_bytes!("../../firmware-core/doc/gyro-v4.bin");
 
 /// Another calibration of the same gyro: the same blob with one kernel weight 0.1% larger.
 fn recalibrated() -> Vec<u8> {
     let mut b = OLD.to_vec();
-    // Floats end the blob; the weights start after 7d + p + 2 + m·d = 71 of them.
-    let at = b.len() - 4 * 395 + 4 * 71;
+    // Floats end the blob before the error model's six; the weights start after
+    // 7d + p + 2 + m·d = 71 of them.
+    let at = b.len() - 4 * (395 + 6) + 4 * 71;
     let w = f32::from_le_bytes(b[at..at + 4].try_into().unwrap()) * 1.001;
     b[at..at + 4].copy_from_slice(&w.to_le_bytes());
     blob::reseal(&mut b);
@@ -148,15 +151,15 @@ fn an_update_refuses_what_could_not_boot_before_erasing_anything() {
         update(&mut f, &corrupt).unwrap_err(),
         SlotError::Blob(BlobError::CrcMismatch)
     );
-    let mut v3 = OLD[..10].to_vec();
+    let mut v3 = V4[..10].to_vec();
     v3[4] = 3;
-    let payload = &OLD[blob::HEADER_LEN..];
+    let payload = &V4[blob::HEADER_LEN..];
     v3.extend(u32::try_from(payload.len()).unwrap().to_le_bytes());
     v3.extend(crc32(payload).to_le_bytes());
     v3.extend(payload);
     assert_eq!(
         Gyro::decode(&v3).unwrap(),
-        model_of(1),
+        Gyro::decode(V4).unwrap(),
         "version 3 still decodes"
     );
     assert_eq!(

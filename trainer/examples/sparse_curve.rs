@@ -113,8 +113,8 @@ fn row(
                 for i in 0..valid.len() {
                     let p = model.predict(&[valid.temp_c[i], valid.voltage_v[i]]);
                     comp.rate_dps.push(p.mean as f32);
-                    comp.std_dps
-                        .push((p.latent_var + p.noise_var).sqrt() as f32);
+                    comp.bias_var.push(p.latent_var as f32);
+                    comp.noise_var.push(p.noise_var as f32);
                     comp.status.push(firmware_core::Status::Valid);
                 }
                 let na = "— (host)".to_string();

@@ -213,7 +213,7 @@ fn outcome(family: Family, dir: &Path, case: usize, rng: &mut impl Rng) -> Strin
                     .predict(&[r[0] as f32, r[1] as f32], &mut scratch)
                     .unwrap();
                 assert!(
-                    p.mean.is_finite() && p.variance.is_finite() && p.variance >= 0.0,
+                    p.mean.is_finite() && p.variance().is_finite() && p.variance() >= 0.0,
                     "{label}: {p:?} at {r:?}"
                 );
                 assert_ne!(p.status, firmware_core::Status::Fault, "{label}: at {r:?}");

@@ -107,12 +107,18 @@ typedef struct FogState {
   uint64_t words[FOG_STATE_WORDS];
 } FogState;
 
-// One compensated sample.
+// One compensated sample, with the two variances of the σ contract (docs/firmware.md, "What
+// the variance means"), output units², never negative.
 typedef struct FogPrediction {
   // The compensated rate, output units (°/s).
   float mean;
-  // Its latent variance, output units², never negative.
-  float variance;
+  // Variance of its slowly varying error (the GP's latent variance and the model error the
+  // training data showed): a mean over any window keeps it. A Kalman filter's bias-state
+  // uncertainty.
+  float bias_variance;
+  // White noise of this one sample: a mean of N samples has 1/N of it
+  // (`fog_noise_of_mean`). A Kalman filter's measurement noise.
+  float noise_variance;
   // Its validity.
   enum FogStatus status;
 } FogPrediction;
@@ -214,6 +220,16 @@ enum FogResult fog_compensate(const struct FogModel *model,
 // `model` points to an initialized `FogModel` (decoded into, or zeroed), `out` to a writable
 // `FogDims`; either may be null.
 enum FogResult fog_model_dims(const struct FogModel *model, struct FogDims *out);
+
+// The noise variance of a mean over `window_s` seconds of compensated samples, output units²:
+// the sample noise divided by the samples in the window (not divided where the blob does not
+// say its sample interval). The variance of the mean is this plus the mean of the samples'
+// `bias_variance`.
+//
+// # Safety
+// `model` points to an initialized `FogModel` (decoded into, or zeroed), `out` to a writable
+// `float`; either may be null.
+enum FogResult fog_noise_of_mean(const struct FogModel *model, float window_s, float *out);
 
 // Boots the calibration slot with the newest valid model into `model` (firmware-core's
 // `slots::boot`): `FogErrNoValidSlot` when neither holds one (`model` then holds no model).

@@ -6,7 +6,7 @@
  * model.bin is a blob `trainer fit` wrote. samples.bin holds one 20-byte record per sample (time
  * since power-on f64, temperature f32, gyro output f32, flags u32 with bit 0 set at a power-on;
  * all little-endian), as `firmware-sim` writes them for the Cortex-M4 image. out.bin gets one
- * 9-byte record per sample: mean f32, latent variance f32, status u8. Both formats are
+ * 9-byte record per sample: mean f32, bias variance f32, status u8. Both formats are
  * firmware-core's `record` module. Exit status 0 on success, 1 with a message on stderr.
  *
  * Build on the host, after `cargo build -p fog-ffi --release`:
@@ -78,7 +78,7 @@ int main(int argc, char **argv) {
         }
         uint8_t res[9];
         memcpy(res, &p.mean, 4);
-        memcpy(res + 4, &p.variance, 4);
+        memcpy(res + 4, &p.bias_variance, 4);
         res[8] = (uint8_t)p.status;
         if (fwrite(res, 1, sizeof res, out) != sizeof res) {
             return fail("write error");

@@ -140,14 +140,20 @@ pub enum FogStatus {
     FogFault = 3,
 }
 
-/// One compensated sample.
+/// One compensated sample, with the two variances of the σ contract (docs/firmware.md, "What
+/// the variance means"), output units², never negative.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FogPrediction {
     /// The compensated rate, output units (°/s).
     pub mean: f32,
-    /// Its latent variance, output units², never negative.
-    pub variance: f32,
+    /// Variance of its slowly varying error (the GP's latent variance and the model error the
+    /// training data showed): a mean over any window keeps it. A Kalman filter's bias-state
+    /// uncertainty.
+    pub bias_variance: f32,
+    /// White noise of this one sample: a mean of N samples has 1/N of it
+    /// (`fog_noise_of_mean`). A Kalman filter's measurement noise.
+    pub noise_variance: f32,
     /// Its validity.
     pub status: FogStatus,
 }
@@ -406,7 +412,8 @@ pub unsafe extern "C" fn fog_compensate(
         Ok(p) => {
             let prediction = FogPrediction {
                 mean: p.mean,
-                variance: p.variance,
+                bias_variance: p.bias_variance,
+                noise_variance: p.noise_variance,
                 status: p.status.into(),
             };
             // SAFETY: `out` is non-null and writable per the caller.
@@ -440,6 +447,33 @@ pub unsafe extern "C" fn fog_model_dims(model: *const FogModel, out: *mut FogDim
     };
     // SAFETY: `out` is non-null and writable per the caller.
     unsafe { out.write(dims) };
+    FogResult::FogOk
+}
+
+/// The noise variance of a mean over `window_s` seconds of compensated samples, output units²:
+/// the sample noise divided by the samples in the window (not divided where the blob does not
+/// say its sample interval). The variance of the mean is this plus the mean of the samples'
+/// `bias_variance`.
+///
+/// # Safety
+/// `model` points to an initialized `FogModel` (decoded into, or zeroed), `out` to a writable
+/// `float`; either may be null.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_noise_of_mean(
+    model: *const FogModel,
+    window_s: f32,
+    out: *mut f32,
+) -> FogResult {
+    if out.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `model`, forwarded.
+    let model = match unsafe { decoded(model) } {
+        Ok(m) => m,
+        Err(e) => return e,
+    };
+    // SAFETY: `out` is non-null and writable per the caller.
+    unsafe { out.write(model.error_model().noise_of_mean(window_s)) };
     FogResult::FogOk
 }
 

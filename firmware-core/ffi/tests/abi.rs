@@ -18,7 +18,8 @@ fn zeroed<T>() -> Box<T> {
 fn no_prediction() -> FogPrediction {
     FogPrediction {
         mean: f32::NAN,
-        variance: f32::NAN,
+        bias_variance: f32::NAN,
+        noise_variance: f32::NAN,
         status: FogStatus::FogFault,
     }
 }

@@ -57,7 +57,7 @@ pub fn exercise(model: &Roomy) -> usize {
             .predict(&x, &mut scratch)
             .expect("scratch holds every centre");
         check(mean, 0.0, &x);
-        check(p.mean, p.variance, &x);
+        check(p.mean, p.variance(), &x);
     }
     let mut state = FeatureState::default();
     for (k, &t) in PROBES.iter().enumerate() {
@@ -69,7 +69,7 @@ pub fn exercise(model: &Roomy) -> usize {
         let p = model
             .compensate(&sample, &mut state, &mut scratch)
             .expect("scratch holds every centre");
-        check(p.mean, p.variance, &sample);
+        check(p.mean, p.variance(), &sample);
     }
     checked
 }

@@ -149,7 +149,7 @@ fn main() -> ! {
             }
             let (mean, var, status) = match model.compensate(&sample, &mut state, &mut scratch[..m])
             {
-                Ok(p) => (p.mean, p.variance, p.status),
+                Ok(p) => (p.mean, p.bias_variance, p.status),
                 Err(_) => (0.0, f32::INFINITY, Status::Fault),
             };
             result.copy_from_slice(&record::encode_result(mean, var, status));

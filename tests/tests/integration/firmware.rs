@@ -78,6 +78,41 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
             "{hours} h: {b:?} vs {expected}"
         );
         // The kernel ignores the added input: the variance is the static model's.
-        assert!((b.variance - a.variance).abs() <= 1e-6 * a.variance.abs().max(1e-12));
+        assert!(
+            (b.bias_variance - a.bias_variance).abs() <= 1e-6 * a.bias_variance.abs().max(1e-12)
+        );
+    }
+}
+
+/// A blob of format 4, written before blobs carried an error model, still loads and compensates
+/// as it did: its noise variance is its sample noise and it adds no model error (issue 44). The
+/// same model exported now (format 5) gives the same means.
+#[test]
+fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
+    let old = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
+    let new = include_bytes!("../../../firmware-core/doc/gyro.bin");
+    let (a, b) = (
+        firmware_sim::replay::decode(old).unwrap(),
+        firmware_sim::replay::decode(new).unwrap(),
+    );
+    let [_, noise] = a.variances();
+    assert_eq!(
+        a.error_model(),
+        firmware_core::ErrorModel::noise_only(noise)
+    );
+    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 5);
+    let mut scratch = [0.0f32; 24];
+    for (t, v) in [(25.0f32, 0.38f32), (-20.0, -1.2), (55.0, 2.0)] {
+        let (pa, pb) = (
+            a.predict_at(&[t, v], 3.0, &mut scratch).unwrap(),
+            b.predict(&[t, v], &mut scratch).unwrap(),
+        );
+        assert_eq!(pa.noise_variance, noise);
+        assert!((pa.mean - pb.mean).abs() < 1e-3, "{t} {v}: {pa:?} {pb:?}");
+        // No model error: the bias variance is the latent one at any time since power-on.
+        assert_eq!(
+            pa.bias_variance,
+            a.predict(&[t, v], &mut scratch).unwrap().bias_variance
+        );
     }
 }

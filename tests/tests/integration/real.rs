@@ -92,6 +92,20 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
             _ => assert_eq!(gain, 1.0, "{axis}"),
         }
         assert!(gain >= 1.0, "{axis}: {gain}");
+        // Issue 44: the shipped σ, calibrated on the training window alone, covers the held-out
+        // part (two thirds of it beyond the trained temperatures, all of it later in time). x and
+        // y are covered entirely (their σ is wide: few training residuals), z at 97%.
+        let ext = &inv["extended_score"];
+        for of in ["sigma_samples", "sigma_60s"] {
+            let c = &ext[of];
+            let within = c["within_2sigma"].as_f64().unwrap();
+            assert!((0.85..=1.0).contains(&within), "{axis} {of}: {c}");
+            assert!(c["sharpness"].as_f64().unwrap() < 1.6, "{axis} {of}: {c}");
+        }
+        assert!(
+            inv["calibration"]["residuals"].as_u64().unwrap() >= 20,
+            "{axis}"
+        );
         match axis {
             "x" => {
                 let t = &inv["forward_check"]["temperature"];
@@ -147,6 +161,13 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     let poly = cross(Method::Poly);
     let two_step = cross(Method::TwoStep);
     assert_eq!(gp.n, 281);
+    // Issue 44: the GP's σ, measured on the Aug run's own left-out sweeps, covers the Oct run
+    // (98% at 2σ). The other way it does not (64%): nothing in the Oct run shows how different
+    // the Aug run is (docs/uncertainty.md).
+    let sigma = gp.sigma.unwrap();
+    assert!((0.85..=0.99).contains(&sigma.within_2sigma), "{sigma:?}");
+    assert!(sigma.sharpness < 1.5, "{sigma:?}");
+    assert!(poly.sigma.is_none());
     for c in [&gp, &poly] {
         assert!(c.rmse_dph < 400.0, "{c:?}");
     }
@@ -177,6 +198,10 @@ fn the_fog_runs_transient_is_found_from_the_training_sweeps_and_harms_neither_ru
     assert!(d.all_rows.shipped, "{}", d.all_rows.verdict);
     assert_eq!(d.terms[0].candidate.acts_on, table::ActsOn::ScaleFactor);
     assert!(e.group_rmse_dph < 65.0, "{}", e.group_rmse_dph);
+    // Issue 44: each fold's σ, from its own sweeps, on its left-out sweep.
+    let sigma = e.sigma_groups.unwrap();
+    assert!((0.85..=0.99).contains(&sigma.within_2sigma), "{sigma:?}");
+    assert!(sigma.sharpness < 1.5, "{sigma:?}");
 }
 
 /// Issue 19's offsets: on the Oct run a static GP without them spends its temperature length

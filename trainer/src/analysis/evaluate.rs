@@ -14,7 +14,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
+use firmware_sim::sigma::Coverage;
+
 use crate::analysis::table::{self, FittedTerm, TableDiagnosis, TableError, Transients};
+use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::{PLATEAU_GAP_C, Points};
 use crate::models::gp::{GpConfig, GpError, GpModel, Hyperparameters};
 use crate::models::lssvr::{LssvrError, LssvrHyper, LssvrModel};
@@ -172,6 +175,33 @@ impl Fitted {
         }
     }
 
+    /// The σ a GP's blob would state, measured on the points it was fitted on
+    /// ([`uncertainty::table_calibration`]); none for the methods that state no σ.
+    pub fn calibration(&self, points: &Points) -> Result<Option<Calibration>, EvalError> {
+        match self {
+            Self::Gpr(m) => Ok(Some(uncertainty::table_calibration(points, m)?)),
+            _ => Ok(None),
+        }
+    }
+
+    /// The prediction at point `i` of `points`, with the σ `calibration` gives it (NaN without).
+    pub fn predict_with_sigma(
+        &self,
+        points: &Points,
+        i: usize,
+        calibration: Option<&Calibration>,
+    ) -> (f64, f64) {
+        let mean = self.predict(points.temp_c[i], points.voltage_v[i]);
+        let sigma = match (self, calibration) {
+            (Self::Gpr(m), Some(c)) => {
+                let x: Vec<f64> = points.inputs().row(i).iter().copied().collect();
+                uncertainty::point_sigma(m, c, &x)
+            }
+            _ => f64::NAN,
+        };
+        (mean, sigma)
+    }
+
     /// What the fit warned of (a GP's [`GpModel::warnings`]; none for the others).
     pub fn warnings(&self) -> Vec<String> {
         match self {
@@ -272,6 +302,16 @@ pub struct Evaluation {
     pub warnings: Vec<String>,
     /// With `--features auto` on a timed table: what the diagnosis chose.
     pub diagnosis: Option<TableReport>,
+    /// The GP's σ on each left-out group, its error model fitted inside the fold from the
+    /// fold's own groups (null for the methods that state no σ).
+    pub sigma_groups: Option<Coverage>,
+    /// Every left-out (error, σ) behind `sigma_groups`, group by group (for the report's
+    /// reliability diagram).
+    #[serde(skip)]
+    pub group_errors: Vec<(f64, f64)>,
+    /// The σ of the model fitted on all points ([`Calibration`]), with its coverage of the
+    /// point (or group) residuals it was measured on (null for the methods that state no σ).
+    pub calibration: Option<Calibration>,
 }
 
 impl Evaluation {
@@ -280,10 +320,16 @@ impl Evaluation {
     fn from_errors(
         method: &'static str,
         errors: Vec<f64>,
-        (per_temperature, pooled): (Vec<GroupRmse>, Vec<f64>),
+        (per_temperature, pooled): LeftOut,
         [fit_seconds, loo_seconds]: [f64; 2],
     ) -> Self {
+        let group_errors = pooled.clone();
+        let (pooled, sigmas): (Vec<f64>, Vec<f64>) = pooled.into_iter().unzip();
         let group_rmse = rmse(&pooled);
+        let sigma_groups = sigmas
+            .iter()
+            .all(|s| s.is_finite())
+            .then(|| Coverage::of(&pooled, &sigmas));
         let r = rmse(&errors);
         Self {
             method,
@@ -300,6 +346,9 @@ impl Evaluation {
             parameters: None,
             warnings: Vec::new(),
             diagnosis: None,
+            sigma_groups,
+            group_errors,
+            calibration: None,
         }
     }
 }
@@ -343,15 +392,15 @@ fn groups(points: &Points) -> Result<Vec<(String, Vec<usize>)>, EvalError> {
     Ok(groups)
 }
 
+/// Each left-out group's RMSE, and every (error, σ), group by group.
+type LeftOut = (Vec<GroupRmse>, Vec<(f64, f64)>);
+
 /// Leave-one-group-out: `fold(kept, left_out)` fits on the kept rows and predicts the left-out
-/// ones. Returns the RMSE of each group and every error (prediction − reference), group by group.
-fn leave_groups_out<F>(
-    points: &Points,
-    bar: &ProgressBar,
-    fold: F,
-) -> Result<(Vec<GroupRmse>, Vec<f64>), EvalError>
+/// ones, each with its σ (NaN for a method that states none). Returns the RMSE of each group and
+/// every (error, σ), error = prediction − reference, group by group.
+fn leave_groups_out<F>(points: &Points, bar: &ProgressBar, fold: F) -> Result<LeftOut, EvalError>
 where
-    F: Fn(&[usize], &[usize]) -> Result<Vec<f64>, EvalError> + Sync,
+    F: Fn(&[usize], &[usize]) -> Result<Vec<(f64, f64)>, EvalError> + Sync,
 {
     let per_group = groups(points)?
         .into_par_iter()
@@ -367,12 +416,12 @@ where
                     span,
                 });
             }
-            let e: Vec<f64> = fold(&keep, &members)?
+            let e: Vec<(f64, f64)> = fold(&keep, &members)?
                 .into_iter()
                 .zip(&members)
-                .map(|(p, &i)| p - points.rate_dps[i])
+                .map(|((p, sigma), &i)| (p - points.rate_dps[i], sigma))
                 .collect();
-            let r = rmse(&e);
+            let r = rmse(&e.iter().map(|(e, _)| *e).collect::<Vec<_>>());
             bar.inc(1);
             Ok((
                 e,
@@ -414,15 +463,18 @@ pub fn evaluate(
     bar.inc(1);
     bar.set_message(format!("{}: leave one group out", method.name()));
     let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
-        let m = Fitted::fit(&points.select(keep), method, cfg)?;
+        let train = points.select(keep);
+        let m = Fitted::fit(&train, method, cfg)?;
+        let calibration = m.calibration(&train)?;
         Ok(members
             .iter()
-            .map(|&i| m.predict(points.temp_c[i], points.voltage_v[i]))
+            .map(|&i| m.predict_with_sigma(points, i, calibration.as_ref()))
             .collect())
     })?;
     Ok(Evaluation {
         parameters: Some(fitted.parameters()),
         warnings: fitted.warnings(),
+        calibration: fitted.calibration(points)?,
         ..Evaluation::from_errors(
             method.name(),
             errors,
@@ -477,6 +529,7 @@ pub fn evaluate_table(
     let choices = std::sync::Mutex::new(Vec::new());
     let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
         let m = table::fit(points, &transients, keep, (&cfg.gp, cfg.offsets))?;
+        let calibration = m.calibration(points, &transients, keep)?;
         if let Ok(mut c) = choices.lock() {
             c.push(FoldChoice {
                 group: points.group[members[0]].clone(),
@@ -485,7 +538,13 @@ pub fn evaluate_table(
         }
         Ok(members
             .iter()
-            .map(|&i| m.predict(points, &transients, i))
+            .map(|&i| {
+                let x: Vec<f64> = points.inputs().row(i).iter().copied().collect();
+                (
+                    m.predict(points, &transients, i),
+                    uncertainty::point_sigma(&m.gp, &calibration, &x),
+                )
+            })
             .collect())
     })?;
     let mut per_group = choices.into_inner().unwrap_or_default();
@@ -494,6 +553,7 @@ pub fn evaluate_table(
     Ok(Evaluation {
         parameters: Some(Parameters::Gpr(model.gp.posterior.hyper.clone())),
         warnings: model.gp.warnings(),
+        calibration: Some(model.calibration(points, &transients, &all)?),
         diagnosis: Some(TableReport {
             all_rows: model.diagnosis,
             terms: model.terms,
@@ -525,6 +585,9 @@ pub struct CrossRun {
     pub rmse_dps: f64,
     /// Same, °/h.
     pub rmse_dph: f64,
+    /// The GP's σ there, its error model measured on the training run alone (null for the
+    /// methods that state no σ).
+    pub sigma: Option<Coverage>,
 }
 
 /// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
@@ -558,11 +621,15 @@ pub fn cross_run(
         method.name()
     ));
     let m = Fitted::fit(train, method, cfg)?;
+    let calibration = m.calibration(train)?;
     bar.inc(1);
-    let e: Vec<f64> = inside
+    let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
         .iter()
-        .map(|&i| m.predict(test.temp_c[i], test.voltage_v[i]) - test.rate_dps[i])
-        .collect();
+        .map(|&i| {
+            let (p, sigma) = m.predict_with_sigma(test, i, calibration.as_ref());
+            (p - test.rate_dps[i], sigma)
+        })
+        .unzip();
     let r = rmse(&e);
     Ok(CrossRun {
         method: method.name(),
@@ -572,6 +639,7 @@ pub fn cross_run(
         max_abs_rate_dps: w,
         rmse_dps: r,
         rmse_dph: r * DPH_PER_DPS,
+        sigma: calibration.map(|_| Coverage::of(&e, &sigmas)),
     })
 }
 

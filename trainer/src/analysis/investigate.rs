@@ -15,9 +15,14 @@ use serde::Serialize;
 
 use crate::analysis::diagnose::{self, Diagnosis, joined};
 use crate::analysis::extend::{self, Extended, Fitted};
+use crate::analysis::uncertainty::{self, Calibration, SampleNoise, Source};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
+
+/// Makes the static points from part of a training stream, as the points were made from all of
+/// it (a rate table's, unchanged).
+pub type Rebuild<'a> = dyn Fn(&Stream) -> anyhow::Result<Points> + 'a;
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
 pub const STEPS: u64 = 5;
@@ -59,6 +64,10 @@ pub struct Investigation {
     /// Windows of the training stream where the unit was handled, left out (the held-out
     /// stream's are in its scores).
     pub train_handled: Vec<Handled>,
+    /// The shipped model's σ, measured on the training data alone.
+    pub calibration: Calibration,
+    /// The static model's σ, the same way.
+    pub static_calibration: Calibration,
 }
 
 impl Investigation {
@@ -166,6 +175,97 @@ pub struct Choice {
     pub extended: Option<Extended>,
     /// Why the shipped model is the one it is, in words.
     pub verdict: String,
+    /// The models fitted on part of the training stream, scored on the rest: the evidence of the
+    /// forward check and of the σ's calibration.
+    pub splits: Vec<Split>,
+}
+
+/// A model fitted on part of the training stream and the rest it is scored on.
+pub struct Split {
+    /// The test: forward in time, or across temperature.
+    pub source: Source,
+    /// The training stream with its reference only where scored (replayed whole, so the stateful
+    /// inputs keep their history).
+    pub scored: Stream,
+    /// Hours from each sample to the data fitted (NaN where fitted).
+    pub hours: Vec<f64>,
+    /// The static model fitted without the scored part (a rate table's, where there is one).
+    pub static_blob: Vec<u8>,
+    /// The extension of the named causes fitted without it, where causes were named.
+    pub extended_blob: Option<Vec<u8>>,
+}
+
+impl Split {
+    /// `rmse_60s_dps` of the static model and of the extension (the static one's where none).
+    fn scores(&self) -> anyhow::Result<(f64, f64)> {
+        let rmse = |blob: &[u8]| -> anyhow::Result<f64> {
+            let fw = firmware_sim::replay::decode(blob)?;
+            Ok(replay::score(&self.scored, &replay::replay(&fw, &self.scored)).rmse_60s_dps)
+        };
+        let static_rmse = rmse(&self.static_blob)?;
+        let extended_rmse = match &self.extended_blob {
+            Some(b) => rmse(b)?,
+            None => static_rmse,
+        };
+        Ok((static_rmse, extended_rmse))
+    }
+}
+
+/// The σ of a model chosen on a training stream, measured on the training data alone
+/// ([`uncertainty`]): the table's groups left out (where the static model is a rate table's),
+/// and the stream's splits scored by the model of the kind shipped, fitted without them. Where
+/// the static model never saw the stream (a table's), the whole training stream is out of sample
+/// for it, in hours since power-on. The sample noise is the white part of `shipped_blob`'s errors
+/// on the training stream.
+pub fn calibrate(
+    points: &Points,
+    static_model: &GpModel,
+    static_blob: &[u8],
+    shipped_blob: &[u8],
+    kind: Shipped,
+    train: &Stream,
+    splits: &[Split],
+) -> anyhow::Result<Calibration> {
+    let fw = firmware_sim::replay::decode(shipped_blob)?;
+    let comp = replay::replay(&fw, train);
+    let errors: Vec<f64> = (0..train.len())
+        .map(|i| f64::from(comp.rate_dps[i]) - train.rate_dps[i])
+        .collect();
+    let noise = SampleNoise::from_errors(train, &errors).unwrap_or(SampleNoise {
+        var: f64::from(fw.variances()[1]),
+        interval_s: 0.0,
+    });
+    let mut series = Vec::new();
+    if points.soaked {
+        series.push(uncertainty::table_series(static_model, points)?);
+    }
+    match (points.soaked, kind) {
+        (true, Shipped::Static) => series.push(uncertainty::stream_series(
+            Source::Stream,
+            static_blob,
+            train,
+            &uncertainty::hours_on(train),
+            noise,
+        )?),
+        _ => {
+            for split in splits {
+                let blob = match kind {
+                    Shipped::Static => Some(&split.static_blob),
+                    Shipped::Extended => split.extended_blob.as_ref(),
+                };
+                if let Some(blob) = blob {
+                    series.push(uncertainty::stream_series(
+                        split.source,
+                        blob,
+                        &split.scored,
+                        &split.hours,
+                        noise,
+                    )?);
+                }
+            }
+        }
+    }
+    Ok(uncertainty::calibrate(&series, noise))
 }
 
 /// Diagnoses `train` against the static `model` (fitted on `points`), fits the named causes' (or
@@ -182,7 +282,7 @@ pub fn choose(
     train: &Stream,
     cfg: &GpConfig,
     asked: Option<&[Cause]>,
-    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
+    rebuild: &Rebuild<'_>,
 ) -> anyhow::Result<Choice> {
     let diagnosis = diagnose::diagnose_fitted(fw, model, points, train);
     let causes: Vec<Cause> = asked
@@ -191,22 +291,24 @@ pub fn choose(
         .copied()
         .filter(|c| *c != Cause::None)
         .collect();
-    let static_choice = |diagnosis, causes, check, verdict| Choice {
+    let static_choice = |diagnosis, causes, check, verdict, splits| Choice {
         diagnosis,
         causes,
         check,
         shipped: Shipped::Static,
         extended: None,
         verdict,
+        splits,
     };
     if causes.is_empty() {
         let verdict = "nothing named: the static model is shipped".to_owned();
-        return Ok(static_choice(diagnosis, causes, None, verdict));
+        let splits = splits(points, model, train, cfg, &[], rebuild)?;
+        return Ok(static_choice(diagnosis, causes, None, verdict, splits));
     }
     let names = joined(&causes);
     let fitted = forward_check(points, model, train, cfg, &causes, rebuild)
         .and_then(|check| Ok((check, extend::fit(model, points, train, &causes)?)));
-    let (check, extended) = match (fitted, asked) {
+    let ((check, splits), extended) = match (fitted, asked) {
         (Ok(both), _) => both,
         (Err(e), Some(_)) => return Err(e),
         (Err(e), None) => {
@@ -214,7 +316,8 @@ pub fn choose(
                 "{names} named, but its extension could not be fitted and checked ({e:#}): the \
                  static model is shipped"
             );
-            return Ok(static_choice(diagnosis, causes, None, verdict));
+            let splits = splits(points, model, train, cfg, &[], rebuild)?;
+            return Ok(static_choice(diagnosis, causes, None, verdict, splits));
         }
     };
     let (shipped, verdict) = match (&check, asked.is_some()) {
@@ -281,6 +384,7 @@ pub fn choose(
         shipped,
         extended: Some(extended),
         verdict,
+        splits,
     })
 }
 
@@ -330,82 +434,143 @@ pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
     })
 }
 
-/// The forward check of [`choose`]: `None` where the stream is too short for one. Blocks are
-/// counted as the diagnosis counts them (samples with a reference).
+/// The forward check of [`choose`] (`None` where the stream is too short for one), and the splits
+/// it fitted. Blocks are counted as the diagnosis counts them (samples with a reference).
 fn forward_check(
     points: &Points,
     model: &GpModel,
     train: &Stream,
     cfg: &GpConfig,
     causes: &[Cause],
-    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
-) -> anyhow::Result<Option<ForwardCheck>> {
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<(Option<ForwardCheck>, Vec<Split>)> {
+    let splits = splits(points, model, train, cfg, causes, rebuild)?;
     let Some(Forward {
         split_s,
-        earlier_blocks: earlier,
+        earlier_blocks,
         later_blocks,
-        early,
-        later,
+        ..
     }) = forward(train)
     else {
-        return Ok(None);
+        return Ok((None, splits));
     };
-    let (static_model, static_points) = if points.soaked {
-        (model.clone(), points.clone())
-    } else {
-        let p = rebuild(&early)?;
-        (GpModel::fit(p.inputs(), &p.target(), cfg)?, p)
+    let scored = |source| splits.iter().find(|s| s.source == source);
+    let Some(f) = scored(Source::Forward) else {
+        return Ok((None, splits));
     };
-    let causes = causes.to_vec();
-    let (static_rmse, extended_rmse) =
-        static_and_extended(&static_model, &static_points, &early, &later, &causes)?;
-    let temperature = if points.soaked || causes.is_empty() {
-        None
-    } else {
-        temperature_check(train, cfg, &causes, rebuild)?
+    let (static_rmse, extended_rmse) = f.scores()?;
+    let temperature = match scored(Source::Temperature) {
+        Some(t) if !causes.is_empty() => {
+            let (static_rmse_60s_dps, extended_rmse_60s_dps) = t.scores()?;
+            let (inside_c, inside_blocks, outside_blocks) = inside(train);
+            Some(TemperatureCheck {
+                inside_c,
+                inside_blocks,
+                outside_blocks,
+                static_rmse_60s_dps,
+                extended_rmse_60s_dps,
+            })
+        }
+        _ => None,
     };
-    Ok(Some(ForwardCheck {
+    let check = ForwardCheck {
         split_s,
-        earlier_blocks: earlier,
+        earlier_blocks,
         later_blocks,
-        causes,
+        causes: causes.to_vec(),
         static_rmse_60s_dps: static_rmse,
         extended_rmse_60s_dps: extended_rmse,
         temperature,
-    }))
+    };
+    Ok((Some(check), splits))
 }
 
-/// `rmse_60s_dps` on `scored` of the static model and of its extension by `causes` fitted on
-/// `fit_on` (the static one's where no cause is given).
-fn static_and_extended(
-    model: &GpModel,
+/// The models of a training stream's splits: forward in time ([`forward`]), and, where the static
+/// model is fitted on the stream itself, across temperature ([`TemperatureCheck`]); each the
+/// static model fitted without the scored part (a rate table's model as it is) and its extension
+/// by `causes` (none without causes). A split the stream is too short for is left out.
+pub(crate) fn splits(
     points: &Points,
-    fit_on: &Stream,
-    scored: &Stream,
-    causes: &[Cause],
-) -> anyhow::Result<(f64, f64)> {
-    let rmse = |fw: &HostModel| replay::score(scored, &replay::replay(fw, scored)).rmse_60s_dps;
-    let static_fw =
-        firmware_sim::replay::decode(&export::points_blob(model, points, &Extension::default())?)?;
-    let static_rmse = rmse(&static_fw);
-    if causes.is_empty() {
-        return Ok((static_rmse, static_rmse));
-    }
-    let ext = extend::fit(model, points, fit_on, causes)?;
-    Ok((
-        static_rmse,
-        rmse(&*firmware_sim::replay::decode(&ext.blob)?),
-    ))
-}
-
-/// The [`TemperatureCheck`] of `train`: `None` where fewer than [`EARLIER_MIN_BLOCKS`] blocks lie
-/// inside or fewer than [`LATER_MIN_BLOCKS`] outside. A sample counts by its own temperature.
-fn temperature_check(
+    model: &GpModel,
     train: &Stream,
     cfg: &GpConfig,
     causes: &[Cause],
-    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
-) -> anyhow::Result<Option<TemperatureCheck>> {
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Vec<Split>> {
+    let mut out = Vec::new();
+    if let Some(Forward {
+        split_s,
+        early,
+        later,
+        ..
+    }) = forward(train)
+    {
+        let (static_model, static_points) = if points.soaked {
+            (model.clone(), points.clone())
+        } else {
+            let p = rebuild(&early)?;
+            (GpModel::fit(p.inputs(), &p.target(), cfg)?, p)
+        };
+        let (static_blob, extended_blob) =
+            split_blobs(&static_model, &static_points, &early, causes)?;
+        let t0 = train.time_s.first().copied().unwrap_or(0.0);
+        let fitted: Vec<usize> = (0..train.len())
+            .filter(|&i| train.time_s[i] - t0 < split_s)
+            .collect();
+        out.push(Split {
+            source: Source::Forward,
+            hours: uncertainty::hours_from(&later, &fitted),
+            scored: later,
+            static_blob,
+            extended_blob,
+        });
+    }
+    if !points.soaked {
+        let ((lo, hi), inside_blocks, outside_blocks) = inside(train);
+        if inside_blocks >= EARLIER_MIN_BLOCKS && outside_blocks >= LATER_MIN_BLOCKS {
+            let (mut fit_on, mut scored) = (train.clone(), train.clone());
+            for (i, &t) in train.temp_c.iter().enumerate() {
+                if (lo..=hi).contains(&t) {
+                    scored.rate_dps[i] = f64::NAN;
+                } else {
+                    fit_on.rate_dps[i] = f64::NAN;
+                }
+            }
+            let p = rebuild(&fit_on)?;
+            let m = GpModel::fit(p.inputs(), &p.target(), cfg)?;
+            let (static_blob, extended_blob) = split_blobs(&m, &p, &fit_on, causes)?;
+            out.push(Split {
+                source: Source::Temperature,
+                hours: uncertainty::hours_from(&scored, &fit_on.referenced()),
+                scored,
+                static_blob,
+                extended_blob,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The blobs of a static model fitted on `points` and of its extension by `causes` fitted on
+/// `fit_on` (none without causes).
+fn split_blobs(
+    model: &GpModel,
+    points: &Points,
+    fit_on: &Stream,
+    causes: &[Cause],
+) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
+    let static_blob = export::points_blob(model, points, &Extension::default())?;
+    if causes.is_empty() {
+        return Ok((static_blob, None));
+    }
+    let ext = extend::fit(model, points, fit_on, causes)?;
+    Ok((static_blob, Some(ext.blob)))
+}
+
+/// The temperatures of the temperature check (the training span less [`OUTER_SHARE`] of it at
+/// each end), and the 60 s blocks inside and outside them. A sample counts by its own
+/// temperature.
+fn inside(train: &Stream) -> ((f64, f64), usize, usize) {
     let temps = train.referenced().into_iter().map(|i| train.temp_c[i]);
     let (lo, hi) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
         (lo.min(t), hi.max(t))
@@ -422,20 +587,7 @@ fn temperature_check(
     }
     let inside_blocks = replay::blocks(&inside, &inside.referenced()).len();
     let outside_blocks = replay::blocks(&outside, &outside.referenced()).len();
-    if inside_blocks < EARLIER_MIN_BLOCKS || outside_blocks < LATER_MIN_BLOCKS {
-        return Ok(None);
-    }
-    let points = rebuild(&inside)?;
-    let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
-    let (static_rmse, extended_rmse) =
-        static_and_extended(&model, &points, &inside, &outside, causes)?;
-    Ok(Some(TemperatureCheck {
-        inside_c,
-        inside_blocks,
-        outside_blocks,
-        static_rmse_60s_dps: static_rmse,
-        extended_rmse_60s_dps: extended_rmse,
-    }))
+    (inside_c, inside_blocks, outside_blocks)
 }
 
 /// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes
@@ -446,7 +598,7 @@ pub fn investigate(
     valid: &Stream,
     cfg: &GpConfig,
     asked: Option<&[Cause]>,
-    rebuild: &dyn Fn(&Stream) -> anyhow::Result<Points>,
+    rebuild: &Rebuild<'_>,
     bar: &ProgressBar,
 ) -> anyhow::Result<(Investigation, Blobs)> {
     bar.inc_length(STEPS);
@@ -476,6 +628,22 @@ pub fn investigate(
     if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
         warnings.push(choice.verdict.clone());
     }
+    let calibrated = |blob: &[u8], kind| {
+        calibrate(
+            points,
+            &model,
+            &static_blob,
+            blob,
+            kind,
+            train,
+            &choice.splits,
+        )
+    };
+    let static_calibration = calibrated(&static_blob, Shipped::Static)?;
+    let calibration = calibrated(&extended_blob, choice.shipped)?;
+    let static_blob = static_calibration.apply(&static_blob)?;
+    let extended_blob = calibration.apply(&extended_blob)?;
+    let fw = firmware_sim::replay::decode(&static_blob)?;
     let static_score = replay::score(valid, &replay::replay(&fw, valid));
     let shipped = firmware_sim::replay::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
@@ -501,6 +669,8 @@ pub fn investigate(
             gain,
             warnings,
             train_handled: train.handled.clone(),
+            calibration,
+            static_calibration,
         },
         Blobs {
             static_blob,

@@ -3,8 +3,8 @@
 //! extension that answers it ([`extend`]), the forward-in-time investigation that decides whether
 //! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
 //! ([`pool`]), and the hidden-effect challenge that measures all of this on the
-//! simulator ([`challenge`]); and the size of a model the firmware can hold, chosen on the data
-//! ([`capacity`]).
+//! simulator ([`challenge`]); the size of a model the firmware can hold, chosen on the data
+//! ([`capacity`]); and the σ it states, measured on its own training data ([`uncertainty`]).
 
 pub mod capacity;
 pub mod challenge;
@@ -15,3 +15,4 @@ pub mod investigate;
 pub mod pool;
 pub mod reproduce;
 pub mod table;
+pub mod uncertainty;

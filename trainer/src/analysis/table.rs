@@ -33,6 +33,7 @@ use firmware_sim::cause::Cause;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
 use crate::firmware::export::{Extension, Term};
 use crate::models::gp::{GpConfig, GpError, GpModel};
@@ -300,6 +301,41 @@ impl TableModel {
             &transients.design(rows, &chosen),
             &singles,
         )
+    }
+}
+
+impl TableModel {
+    /// The σ its blob would state, measured on the training `rows` (their groups left out, closed
+    /// form with the hyperparameters and terms held; [`uncertainty`]). The left-out variance is
+    /// the GP's at the row, noise included.
+    pub fn calibration(
+        &self,
+        points: &Points,
+        transients: &Transients,
+        rows: &[usize],
+    ) -> Result<Calibration, GpError> {
+        let train = points.select(rows);
+        let (source, groups) = uncertainty::table_groups(&self.gp, &train);
+        let chosen: Vec<usize> = self.terms.iter().map(|t| t.column).collect();
+        let errors = self.gp.group_loo_with(
+            train.inputs(),
+            &train.target(),
+            &transients.design(rows, &chosen),
+            &groups,
+        )?;
+        let loo: Vec<(f64, f64)> = errors
+            .into_iter()
+            .zip(train.inputs().row_iter())
+            .map(|(e, x)| {
+                let p = self.gp.predict(&x.iter().copied().collect::<Vec<_>>());
+                (e, p.latent_var + p.noise_var)
+            })
+            .collect();
+        let series = uncertainty::series_of(&train, source, &groups, &loo);
+        Ok(uncertainty::calibrate(
+            &[series],
+            uncertainty::table_noise(&train, &self.gp),
+        ))
     }
 }
 

@@ -10,6 +10,7 @@ use firmware_sim::cli::Maps;
 use firmware_sim::console::{Console, ConsoleFlags};
 use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
+use firmware_sim::sigma::{self, Coverage};
 use serde::Serialize;
 
 use super::inputs::{FitOptions, Input, MethodArg, ModelInput, load_points, load_stream};
@@ -233,6 +234,17 @@ pub(super) fn investigate_command(
         inv.extended_score.rmse_60s_dps * 3600.0,
         inv.gain
     ));
+    console.result(&format!(
+        "shipped model's {}",
+        inv.calibration.describe("°/s")
+    ));
+    console.result(&format!(
+        "on the held-out stream, the shipped model's σ: {}",
+        sigma::describe(
+            &inv.extended_score.sigma_samples,
+            &inv.extended_score.sigma_60s
+        )
+    ));
     if let Some(path) = out {
         write_atomically(&path, &blobs.extended_blob)?;
     }
@@ -295,6 +307,9 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
                 c.max_abs_rate_dps,
                 c.n_outside
             ));
+            if let Some(sigma) = &c.sigma {
+                console.result(&format!("  its σ there: {}", sigma_line(sigma)));
+            }
             Some(c)
         }
         None => None,
@@ -344,6 +359,15 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         e.group_rmse_dph,
         e.per_temperature.len()
     ));
+    if let Some(sigma) = &e.sigma_groups {
+        console.result(&format!(
+            "σ on the left-out groups (each fold's error model from its own groups): {}",
+            sigma_line(sigma)
+        ));
+    }
+    if let Some(c) = &e.calibration {
+        console.result(&format!("the model on all points: {}", c.describe("°/s")));
+    }
     console.result("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
     for g in &e.per_temperature {
         console.result(&format!(
@@ -361,6 +385,17 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         write_json(&path, &inputs, &report)?;
     }
     Ok(())
+}
+
+/// Coverage at 1, 2 and 3 σ and sharpness, in one phrase.
+fn sigma_line(c: &Coverage) -> String {
+    format!(
+        "{:.0}/{:.0}/{:.0}% within 1/2/3σ (a Gaussian: 68/95/99.7%), median σ {:.2}× the RMS error",
+        100.0 * c.within_1sigma,
+        100.0 * c.within_2sigma,
+        100.0 * c.within_3sigma,
+        c.sharpness
+    )
 }
 
 /// What `trainer loo --json` writes: the evaluation's fields, and the cross-run test when one

@@ -18,6 +18,7 @@ use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
+use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, Extension};
 use crate::models::dense::DenseFloor;
@@ -110,6 +111,8 @@ struct FitReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     centres_choice: Option<capacity::Choice>,
     handled: Vec<Handled>,
+    /// The shipped model's σ, measured on the training data alone.
+    calibration: Option<Calibration>,
     firmware_agreement: AgreementReport,
     blob_bytes: usize,
 }
@@ -174,6 +177,7 @@ impl FitReport {
             stream_choice: None,
             centres_choice: None,
             handled: Vec::new(),
+            calibration: None,
             firmware_agreement: agreement,
             blob_bytes,
         }
@@ -345,57 +349,106 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         summary.extension = Some(ExtensionReport::Table(extension.clone()));
         summary.features = Inputs::Firmware(firmware.features().to_vec());
     }
-    if let ([(path, data)], Some(list)) = (streams.as_slice(), &features) {
-        let asked = match list.as_str() {
-            "auto" => None,
-            list => Some(extend::parse_features(list)?),
-        };
+    let static_blob = blob.clone();
+    let mut calibration = None;
+    if let [(path, data)] = streams.as_slice() {
         let rebuild = |part: &Stream| input.static_points(&[(path, part.clone())], pool_stream);
-        let choice = investigate::choose(
-            &points,
-            &model,
-            &firmware,
-            data,
-            &gp,
-            asked.as_deref(),
-            &rebuild,
-        )?;
-        if asked.is_none() {
-            console.result(&format!(
-                "diagnosis of {}: {} — {}",
-                path.display(),
-                causes_text(&choice.diagnosis.causes),
-                choice.diagnosis.explanation
-            ));
+        let choice = match &features {
+            Some(list) => {
+                let asked = match list.as_str() {
+                    "auto" => None,
+                    list => Some(extend::parse_features(list)?),
+                };
+                let choice = investigate::choose(
+                    &points,
+                    &model,
+                    &firmware,
+                    data,
+                    &gp,
+                    asked.as_deref(),
+                    &rebuild,
+                )?;
+                if asked.is_none() {
+                    console.result(&format!(
+                        "diagnosis of {}: {} — {}",
+                        path.display(),
+                        causes_text(&choice.diagnosis.causes),
+                        choice.diagnosis.explanation
+                    ));
+                }
+                Some(choice)
+            }
+            _ => None,
+        };
+        let (kind, splits) = match &choice {
+            Some(c) => (c.shipped, None),
+            None if !pool_stream => (
+                investigate::Shipped::Static,
+                Some(investigate::splits(
+                    &points,
+                    &model,
+                    data,
+                    &gp,
+                    &[],
+                    &rebuild,
+                )?),
+            ),
+            None => (investigate::Shipped::Static, None),
+        };
+        if let Some(choice) = &choice {
+            summary.stream_choice = Some(StreamChoice {
+                diagnosis: choice.diagnosis.clone(),
+                forward_check: choice.check.clone(),
+                shipped: choice.shipped,
+                verdict: choice.verdict.clone(),
+            });
+            if let (Some(extended), investigate::Shipped::Extended) =
+                (&choice.extended, choice.shipped)
+            {
+                let fitted = extended.fitted.clone();
+                blob = extended.blob.clone();
+                agreement = extended.agreement;
+                let ext = firmware_sim::replay::decode(&blob)?;
+                console.result(&format!(
+                    "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
+                    ext.features(),
+                    path.display(),
+                    fitted.train_rmse_60s_dps[0],
+                    fitted.train_rmse_60s_dps[1]
+                ));
+                summary.features = Inputs::Firmware(ext.features().to_vec());
+                summary.extension = Some(ExtensionReport::Stream(fitted));
+            }
+            if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
+                console.warn(&choice.verdict);
+            } else {
+                console.result(&choice.verdict);
+            }
         }
-        summary.stream_choice = Some(StreamChoice {
-            diagnosis: choice.diagnosis.clone(),
-            forward_check: choice.check.clone(),
-            shipped: choice.shipped,
-            verdict: choice.verdict.clone(),
-        });
-        if let (Some(extended), investigate::Shipped::Extended) = (choice.extended, choice.shipped)
-        {
-            let fitted = extended.fitted;
-            blob = extended.blob;
-            agreement = extended.agreement;
-            let ext = firmware_sim::replay::decode(&blob)?;
-            console.result(&format!(
-                "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
-                ext.features(),
-                path.display(),
-                fitted.train_rmse_60s_dps[0],
-                fitted.train_rmse_60s_dps[1]
-            ));
-            summary.features = Inputs::Firmware(ext.features().to_vec());
-            summary.extension = Some(ExtensionReport::Stream(fitted));
-        }
-        if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
-            console.warn(&choice.verdict);
-        } else {
-            console.result(&choice.verdict);
+        if let Some(splits) = choice.as_ref().map(|c| &c.splits).or(splits.as_ref()) {
+            calibration = Some(investigate::calibrate(
+                &points,
+                &model,
+                &static_blob,
+                &blob,
+                kind,
+                data,
+                splits,
+            )?);
         }
     }
+    let blob_is_static = blob == static_blob;
+    let calibration = match calibration {
+        Some(c) => c,
+        None => uncertainty::table_calibration(&points, &model)?,
+    };
+    blob = calibration.apply(&blob)?;
+    if blob_is_static {
+        // The agreement of the blob as written, with its error model.
+        agreement = export::verify(&model, &blob, &points, &extension)?.1;
+    }
+    console.result(&format!("the blob's {}", calibration.describe("°/s")));
+    summary.calibration = Some(calibration);
     summary.handled = streams
         .iter()
         .flat_map(|(_, s)| s.handled.iter().cloned())

@@ -6,6 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use firmware_sim::cli::Maps;
 use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::stream::Stream;
 use firmware_sim::gyro::effects::Hidden;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream::{self, StreamConfig};
@@ -127,6 +128,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             let (train, valid, split_s) = report::thirds(&whole);
             let train = [(path.as_path(), train)];
             let points = input.static_points(&train, false)?;
+            let rebuild =
+                |part: &Stream| input.static_points(&[(path.as_path(), part.clone())], false);
             let (kind, source) = match &input.points {
                 Some(p) => (report::Kind::TableAndStream, p.clone()),
                 None => (report::Kind::Log, path.clone()),
@@ -142,7 +145,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                     "{}'s last third in time, from {split_s:.0} s on",
                     path.display()
                 ),
-                &gp,
+                (&gp, &rebuild),
                 &bar,
             )?
         }
@@ -152,6 +155,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             let train = [(a.as_path(), load_stream(&a, &input.maps.list, None)?)];
             let valid = load_stream(&b, &input.maps.list, None)?;
             let points = input.static_points(&train, false)?;
+            let rebuild =
+                |part: &Stream| input.static_points(&[(a.as_path(), part.clone())], false);
             let source = input.points.clone().unwrap_or_else(|| a.clone());
             report::with_streams(
                 &source,
@@ -161,7 +166,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 &train[0].1,
                 valid,
                 format!("all of {}, a run of its own", b.display()),
-                &gp,
+                (&gp, &rebuild),
                 &bar,
             )?
         }

@@ -8,7 +8,7 @@
 //! coefficient split into an f32 `hi` and the f32 rounding of its remainder `lo` (why: blob module
 //! doc of firmware-core).
 
-use firmware_core::blob::{self, Dims, Feature, HEADER_LEN, Payload};
+use firmware_core::blob::{self, Dims, ErrorModel, Feature, HEADER_LEN, Payload};
 use firmware_sim::replay::{self, HostModel, MAX_CENTRES, MAX_INPUTS};
 use serde::Serialize;
 
@@ -315,14 +315,25 @@ pub fn to_blob_extended(
     let floats: Vec<f32> = floats.into_iter().map(|v| v as f32).collect();
     let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
     let payload = Payload {
-        features: features.as_slice(),
-        exponents: exponents.as_slice(),
-        floats: floats.as_slice(),
+        features,
+        exponents,
+        floats,
+        error: ErrorModel::noise_only((h.observation_var() * sy * sy) as f32),
     };
-    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + exponents.len() + 5 * floats.len()];
+    let numbers = payload.floats.len() + ErrorModel::NUMBERS;
+    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + payload.exponents.len() + 5 * numbers];
     let n = blob::encode(dims, &payload, &mut buf).map_err(ExportError::Blob)?;
     buf.truncate(n);
     Ok(buf)
+}
+
+/// `blob` with `error` as its error model (the variance besides the latent one): what the
+/// trainer writes once it has measured the model's errors on its own training data
+/// ([`crate::analysis::uncertainty`]). Exported blobs start with their noise variance alone.
+pub fn with_error_model(blob: &[u8], error: &ErrorModel) -> Result<Vec<u8>, ExportError> {
+    let mut out = blob.to_vec();
+    blob::set_error_model(&mut out, error)?;
+    Ok(out)
 }
 
 /// How closely the firmware (f32) follows the host (f64) over one set of inputs.
@@ -332,9 +343,9 @@ pub struct Agreement {
     pub n: usize,
     /// Largest |firmware mean − host mean|, output units.
     pub max_abs_mean_diff: f64,
-    /// Largest |firmware variance − host variance| / host variance where the host's latent
-    /// variance exceeds 1e-3 of the signal variance (below that, it is rounding noise of a
-    /// near-zero number).
+    /// Largest |firmware bias variance − host's| / host's (latent variance and the blob's model
+    /// error) where the host's exceeds 1e-3 of the signal variance (below that, it is rounding
+    /// noise of a near-zero number).
     pub max_rel_var_diff: f64,
     /// Inputs the relative variance figure covers.
     pub n_var: usize,
@@ -410,7 +421,7 @@ pub fn agreement(
             continue;
         };
         a.n += 1;
-        a.all_finite &= fw.mean.is_finite() && fw.variance.is_finite();
+        a.all_finite &= fw.mean.is_finite() && fw.bias_variance.is_finite();
         a.n_extrapolating += usize::from(fw.status == firmware_core::Status::Extrapolating);
         a.max_abs_host_mean = a.max_abs_host_mean.max(host.mean.abs());
         if fw.status == firmware_core::Status::Fault {
@@ -420,13 +431,29 @@ pub fn agreement(
         a.max_abs_mean_diff = a
             .max_abs_mean_diff
             .max((f64::from(fw.mean) - host.mean).abs());
-        if host.latent_var > threshold {
+        let e2 = excess2(&exact, &model.input_range);
+        let host_bias =
+            host.latent_var + f64::from(firmware.error_model().model_error(e2 as f32, 0.0));
+        if host_bias > threshold {
             a.n_var += 1;
-            let rel = (f64::from(fw.variance) - host.latent_var).abs() / host.latent_var;
+            let rel = (f64::from(fw.bias_variance) - host_bias).abs() / host_bias;
             a.max_rel_var_diff = a.max_rel_var_diff.max(rel);
         }
     }
     a
+}
+
+/// e(x)² of the error model, in f64: how far `x` lies beyond `range`, in its widths, squared
+/// (firmware-core's `blob::ErrorModel`; the firmware's own f32 is what is checked against it).
+pub fn excess2(x: &[f64], range: &[(f64, f64)]) -> f64 {
+    x.iter()
+        .zip(range)
+        .map(|(&v, &(lo, hi))| {
+            let excess = (lo - v).max(v - hi).max(0.0);
+            let width = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
+            (excess / width).powi(2)
+        })
+        .sum()
 }
 
 /// Rows of a `GRID`ⁿ grid over `range` widened by `widen` of its width each side; with
@@ -616,6 +643,29 @@ mod tests {
             "{e}"
         );
         assert!(e.to_string().contains("the training points"), "{e}");
+    }
+
+    #[test]
+    fn the_firmware_variance_with_an_error_model_follows_the_host() {
+        let p = points(None);
+        let (m, blob) = fitted(&p);
+        let error = ErrorModel {
+            sample_noise_var: 1e-6,
+            sample_interval_s: 1.0,
+            floor_var: 2e-6,
+            extrapolation_var: 5e-3,
+            walk_var_per_h: 0.0,
+            trend_var_per_h2: 0.0,
+        };
+        let blob = with_error_model(&blob, &error).unwrap();
+        let fw = replay::decode(&blob).unwrap();
+        assert_eq!(fw.error_model(), error);
+        let report = agreement_report(&m, &fw, p.inputs(), &Extension::default());
+        // Beyond the range the extrapolation term dominates the bias variance; the f32 sum
+        // follows the f64 one there to well inside 1e-3.
+        let a = report.grid_beyond;
+        assert!(a.n_var > 100 && a.n_extrapolating > 0, "{a:?}");
+        assert!(a.max_rel_var_diff < 1e-3, "{a:?}");
     }
 
     #[test]

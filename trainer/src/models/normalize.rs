@@ -1,5 +1,6 @@
 //! Input and output normalization: models work on z-scored inputs so that length scales and
-//! polynomial coefficients are O(1) whatever the units (°C, V, counts).
+//! polynomial coefficients are O(1) whatever the units (°C, V, counts). And the trained range of
+//! an input: where its data are.
 
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -46,6 +47,25 @@ impl Normalizer {
     }
 }
 
+/// Share of the values left out at each end of a trained range ([`trained_range`]).
+pub const RANGE_TAIL: f64 = 0.005;
+
+/// The trained range of an input: where its data are, not where its extremes are. The values
+/// beyond the 0.5% and 99.5% quantiles (nearest rank) are left out, so a handful of blocks at the
+/// edge of a long log (two stray minutes of a 74-hour log) do not make a band count as trained
+/// that the model has barely seen; with fewer than 200 values it is the minimum and maximum. The
+/// firmware flags a reading outside it `Extrapolating`, and its variance grows there
+/// (docs/design.md §4). (NaN, NaN) for no values.
+pub fn trained_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    v.sort_by(f64::total_cmp);
+    let cut = (RANGE_TAIL * v.len() as f64).floor() as usize;
+    (v[cut], v[v.len() - 1 - cut])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -59,5 +79,17 @@ mod tests {
         assert!((z.column(0).norm_squared() / 4.0 - 1.0).abs() < 1e-12);
         assert_eq!(n.scale[1], 1.0);
         assert_eq!(n.apply_row(&[2.5, 10.0]), vec![0.0, 0.0]);
+    }
+
+    #[test]
+    fn a_handful_of_values_at_the_edge_do_not_stretch_the_trained_range() {
+        // 1,000 values at 30…40 and 3 stray ones at 20: not trained there.
+        let mut v: Vec<f64> = (0..1000).map(|i| 30.0 + 0.01 * f64::from(i)).collect();
+        v.extend([20.0, 20.5, 21.0]);
+        let (lo, hi) = trained_range(v.iter().copied());
+        assert!(lo > 30.0 && lo < 30.1, "{lo}");
+        assert!(hi > 39.9, "{hi}");
+        // A short table keeps its extremes.
+        assert_eq!(trained_range([3.0, 1.0, 2.0].into_iter()), (1.0, 3.0));
     }
 }

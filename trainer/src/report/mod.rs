@@ -17,18 +17,18 @@ use firmware_sim::io::write_atomically;
 use firmware_sim::plot::{AllanSeries, BLUE, GREY, ORANGE};
 use firmware_sim::replay::{self, Compensated};
 use indicatif::ProgressBar;
-use plots::{DiagnosisSeries, ReplaySeries};
+use plots::{DiagnosisSeries, ReliabilitySeries, ReplaySeries};
 
 use crate::analysis::diagnose::Residual;
 use crate::analysis::evaluate::{self, EvalConfig, Method};
-use crate::analysis::investigate::{self, Investigation};
+use crate::analysis::investigate::{self, Investigation, Rebuild};
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
 use crate::data::points::Points;
 use crate::data::summary::{Summary, least_squares_slope};
 use crate::models::gp::GpConfig;
 
 /// The figure files, in page order: (file name, caption).
-pub const FIGURES: [(&str, &str); 8] = [
+pub const FIGURES: [(&str, &str); 9] = [
     (
         "rate_table.svg",
         "Rate table: output over temperature and rate (paper Fig. 1)",
@@ -56,6 +56,10 @@ pub const FIGURES: [(&str, &str); 8] = [
     (
         "diagnosis.svg",
         "Diagnosis: the static model's residual against its cause and against temperature",
+    ),
+    (
+        "reliability.svg",
+        "Reliability of the σ: the fraction of errors within the interval it claims, at every level",
     ),
     (
         "allan.svg",
@@ -148,13 +152,11 @@ fn held_out(
     train: &Stream,
     valid: Stream,
     split: String,
-    cfg: &GpConfig,
+    (cfg, rebuild): (&GpConfig, &Rebuild<'_>),
     bar: &ProgressBar,
 ) -> anyhow::Result<HeldOut> {
-    // The static points are never rebuilt by the forward check: a rate table, or the log's means.
-    let table = |_: &Stream| Ok(points.clone());
     let (investigation, blobs) =
-        investigate::investigate(points, train, &valid, cfg, None, &table, bar)?;
+        investigate::investigate(points, train, &valid, cfg, None, rebuild, bar)?;
     let fw_static = firmware_sim::replay::decode(&blobs.static_blob)?;
     let fw_ext = firmware_sim::replay::decode(&blobs.extended_blob)?;
     let replays = [
@@ -280,7 +282,9 @@ pub fn thirds(stream: &Stream) -> (Stream, Stream, f64) {
     (before, after, split)
 }
 
-/// A report on a rate table and streams: `train` fits the extension, `valid` is held out.
+/// A report on a rate table and streams: `train` fits the extension, `valid` is held out;
+/// `rebuild` makes the static points from part of `train`, as `points` were made from all of it
+/// (the forward check fits on the earlier part alone).
 #[allow(clippy::too_many_arguments)]
 pub fn with_streams(
     source: &Path,
@@ -290,12 +294,12 @@ pub fn with_streams(
     train: &Stream,
     valid: Stream,
     split: String,
-    cfg: &GpConfig,
+    fitting: (&GpConfig, &Rebuild<'_>),
     bar: &ProgressBar,
 ) -> anyhow::Result<Report> {
     let on_table = points.soaked;
     let reproduction = if on_table {
-        Some(reproduce(&points, cfg, bar)?)
+        Some(reproduce(&points, fitting.0, bar)?)
     } else {
         None
     };
@@ -320,7 +324,7 @@ pub fn with_streams(
         }
         (t, b)
     });
-    let held = held_out(&points, train, valid, split.clone(), cfg, bar)?;
+    let held = held_out(&points, train, valid, split.clone(), fitting, bar)?;
     let mut could = Vec::new();
     let mut could_not = Vec::new();
     if on_table {
@@ -384,7 +388,8 @@ fn regressor_label(cause: Cause) -> &'static str {
     }
 }
 
-/// 60 s block means of the replay error and σ, with block mid-times in hours.
+/// 60 s block means of the replay error and the σ of each mean (the firmware's bias variance
+/// and the noise of a mean that long), with block mid-times in hours.
 fn replay_blocks(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
     let scored: Vec<usize> = (0..valid.len())
         .filter(|&i| valid.rate_dps[i].is_finite() && comp.rate_dps[i].is_finite())
@@ -408,9 +413,24 @@ fn replay_blocks(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>, Vec
         .collect();
     let std = blocks
         .iter()
-        .map(|b| mean(b, &|i| f64::from(comp.std_dps[i])))
+        .map(|b| comp.mean_std_dps(b, b.len() as f64 * valid.step_s))
         .collect();
     (time_h, temp, err, std)
+}
+
+/// Every scored sample's error and σ of a replay.
+fn sample_errors(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>) {
+    (0..valid.len())
+        .filter(|&i| {
+            valid.rate_dps[i].is_finite() && comp.status[i] != firmware_core::Status::Fault
+        })
+        .map(|i| {
+            (
+                f64::from(comp.rate_dps[i]) - valid.rate_dps[i],
+                comp.std_dps(i),
+            )
+        })
+        .unzip()
 }
 
 /// Draws the figures the report's data support: (file name, SVG text), in [`FIGURES`] order.
@@ -447,6 +467,20 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
                     ("LS-SVR", &rep.lssvr.loo_errors_dps),
                 ],
             )?,
+        ));
+    }
+    if let Some(rep) = &r.reproduction
+        && r.held_out.is_none()
+        && !rep.gpr.group_errors.is_empty()
+    {
+        let (errors, sigmas): (Vec<f64>, Vec<f64>) = rep.gpr.group_errors.iter().copied().unzip();
+        out.push((
+            "reliability.svg",
+            plots::reliability(&[ReliabilitySeries {
+                name: "GPR, groups left out (each fold's σ)".to_owned(),
+                errors: &errors,
+                sigmas: &sigmas,
+            }])?,
         ));
     }
     if let Some((t, b)) = &r.bias {
@@ -498,6 +532,27 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
                 temp_c: &h.block_temp_c,
             })?,
         ));
+        let (samples_e, samples_s) = sample_errors(&h.valid, &h.replays[1]);
+        out.push((
+            "reliability.svg",
+            plots::reliability(&[
+                ReliabilitySeries {
+                    name: "static, 60 s means".to_owned(),
+                    errors: &err_s,
+                    sigmas: &std_s,
+                },
+                ReliabilitySeries {
+                    name: format!("{extended}, 60 s means"),
+                    errors: &err_e,
+                    sigmas: &std_e,
+                },
+                ReliabilitySeries {
+                    name: format!("{extended}, samples"),
+                    errors: &samples_e,
+                    sigmas: &samples_s,
+                },
+            ])?,
+        ));
         let curves: Vec<_> = h.allan.iter().map(Allan::curve).collect();
         let series: Vec<AllanSeries<'_>> = h
             .allan
@@ -517,6 +572,44 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
         ));
     }
     Ok(out)
+}
+
+/// The σ each model states on the held-out stream, scored: coverage at 1, 2 and 3σ of samples and
+/// of 60 s means, and the median σ over the RMS error; then how the shipped σ was calibrated.
+fn sigma_table(inv: &Investigation) -> String {
+    let mut s = String::from(
+        "<h3>The firmware's σ on the held-out stream</h3>\n<table><tr><th>model</th><th>of</th>\
+         <th>RMS error (°/h)</th><th>median σ (°/h)</th><th>within 1σ</th><th>2σ</th><th>3σ</th>\
+         <th>median σ / RMS</th></tr>\n",
+    );
+    for (name, score) in [
+        ("static", &inv.static_score),
+        ("shipped", &inv.extended_score),
+    ] {
+        for (of, c) in [
+            ("samples", &score.sigma_samples),
+            ("60 s means", &score.sigma_60s),
+        ] {
+            let _ = writeln!(
+                s,
+                "<tr><td>{name}</td><td>{of}</td><td>{:.2}</td><td>{:.2}</td><td>{:.0}%</td>\
+                 <td>{:.0}%</td><td>{:.0}%</td><td>{:.2}</td></tr>",
+                c.rmse * 3600.0,
+                c.median_sigma * 3600.0,
+                100.0 * c.within_1sigma,
+                100.0 * c.within_2sigma,
+                100.0 * c.within_3sigma,
+                c.sharpness
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "</table>\n<p>A Gaussian σ covers 68/95/99.7% at 1/2/3σ, with a median σ about the RMS \
+         error. The shipped model's {}.</p>",
+        escape(&inv.calibration.describe("°/s"))
+    );
+    s
 }
 
 fn escape(s: &str) -> String {
@@ -653,7 +746,9 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
                 c.id, c.score, c.forward_score, c.parameter, c.correlation, c.amplitude_dph
             );
         }
-        s.push_str("</table>\n<h3>Noise of the held-out stream's error (Allan deviation, IEEE 952)</h3>\n<table><tr><th>output</th><th>ARW (°/√h)</th><th>bias instability (°/h)</th><th>at τ (s)</th><th>rate random walk ((°/h)/√h)</th></tr>\n");
+        s.push_str("</table>\n");
+        s.push_str(&sigma_table(inv));
+        s.push_str("<h3>Noise of the held-out stream's error (Allan deviation, IEEE 952)</h3>\n<table><tr><th>output</th><th>ARW (°/√h)</th><th>bias instability (°/h)</th><th>at τ (s)</th><th>rate random walk ((°/h)/√h)</th></tr>\n");
         let cell = |v: Option<f64>| v.map_or("not shown".to_owned(), |v| format!("{v:.4}"));
         for a in &h.allan {
             let _ = writeln!(

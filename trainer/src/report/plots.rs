@@ -6,6 +6,7 @@ use firmware_sim::plot::{
     BLUE, Draw, DrawResult, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes,
     cold_to_hot, legend, span, svg,
 };
+use firmware_sim::sigma::Coverage;
 use plotters::prelude::*;
 
 /// Distinct values of `xs`, sorted, merged when closer than `tol`.
@@ -178,6 +179,67 @@ pub fn qq(methods: &[(&str, &[f64], f64)]) -> Result<String, PlotError> {
     })
 }
 
+/// One σ's reliability: errors and the σ stated for each.
+pub struct ReliabilitySeries<'a> {
+    /// Legend name.
+    pub name: String,
+    /// Errors, output units.
+    pub errors: &'a [f64],
+    /// The σ stated for each.
+    pub sigmas: &'a [f64],
+}
+
+/// Nominal central coverage levels of the reliability diagram.
+const LEVELS: [f64; 12] = [
+    0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.683, 0.8, 0.9, 0.954, 0.99, 0.997,
+];
+
+/// The reliability diagram: for each nominal central coverage p, the fraction of errors within
+/// the Gaussian interval the σ claims (±z σ, z the normal quantile of (1 + p)/2). On the diagonal
+/// the σ is what it says; below it the σ is too small (the filter trusts a wrong rate), above it
+/// too wide.
+pub fn reliability(series: &[ReliabilitySeries<'_>]) -> Result<String, PlotError> {
+    svg("the reliability diagram", (760, 620), |root| {
+        let normal = statrs::distribution::Normal::standard();
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                "Reliability of the firmware's σ: nominal against observed coverage",
+                (FONT, 18),
+            )
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..1.0, 0.0..1.0)?;
+        axes(&mut chart, "nominal coverage (±zσ)", "observed coverage")?;
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, 0.0), (1.0, 1.0)],
+                GREY.stroke_width(1),
+            ))?
+            .label("as claimed")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], GREY.stroke_width(2)));
+        for (m, colour) in series.iter().zip([BLUE, ORANGE, GREEN, RED]) {
+            let pts: Vec<(f64, f64)> = LEVELS
+                .iter()
+                .map(|&p| {
+                    let z =
+                        statrs::distribution::ContinuousCDF::inverse_cdf(&normal, 0.5 + 0.5 * p);
+                    (p, Coverage::within(m.errors, m.sigmas, z))
+                })
+                .collect();
+            chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))?;
+            chart
+                .draw_series(LineSeries::new(pts, colour.stroke_width(2)))?
+                .label(format!("{} (n = {})", m.name, m.errors.len()))
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                });
+        }
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+        Ok(())
+    })
+}
+
 /// Fig. 5–6: leave-one-out error over (temperature, rate), one panel per method on a shared
 /// scale: circle area ∝ |error|, red where the model reads high, blue where low.
 /// `methods`: (name, error of every point, °/s).
@@ -249,11 +311,13 @@ pub struct ReplaySeries<'a> {
     pub name: &'a str,
     /// Block mean of compensated − reference, °/s.
     pub error_dps: &'a [f64],
-    /// Block mean of the firmware's predicted σ, °/s.
+    /// The firmware's σ of each 60 s mean, °/s.
     pub std_dps: &'a [f64],
 }
 
-/// The stream replay: temperature over time, then each model's 60 s error with its ±2σ band.
+/// The stream replay: temperature over time, then each model's 60 s error with the ±2σ band the
+/// firmware claims for it, drawn around zero: where the error line leaves its band, the firmware
+/// said it was surer than it was.
 pub fn replay(
     time_h: &[f64],
     temp_c: &[f64],
@@ -283,13 +347,13 @@ pub fn replay(
                 m.error_dps
                     .iter()
                     .zip(m.std_dps)
-                    .flat_map(|(e, s)| [(e - 2.0 * s) * to_dph, (e + 2.0 * s) * to_dph])
+                    .flat_map(|(e, s)| [e * to_dph, -2.0 * s * to_dph, 2.0 * s * to_dph])
             }),
             0.05,
         );
         let mut chart = ChartBuilder::on(&bottom)
             .caption(
-                "Compensated rate error, 60 s means, with the firmware's ±2σ band",
+                "Compensated rate error, 60 s means, and the firmware's ±2σ of a mean around zero",
                 (FONT, TITLE),
             )
             .margin(12)
@@ -298,28 +362,22 @@ pub fn replay(
             .build_cartesian_2d(x0..x1, e0..e1)?;
         axes(&mut chart, "time (h)", "error (°/h)")?;
         for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
-            let at = |i: usize, sign: f64| {
-                (
-                    time_h[i],
-                    (m.error_dps[i] + sign * 2.0 * m.std_dps[i]) * to_dph,
-                )
-            };
+            let band_at = |i: usize, sign: f64| (time_h[i], sign * 2.0 * m.std_dps[i] * to_dph);
+            let at = |i: usize| (time_h[i], m.error_dps[i] * to_dph);
             let rms = (m.error_dps.iter().map(|e| e * e).sum::<f64>()
                 / m.error_dps.len().max(1) as f64)
                 .sqrt();
             for (k, run) in runs.iter().enumerate() {
                 let band = run
                     .clone()
-                    .map(|i| at(i, 1.0))
-                    .chain(run.clone().rev().map(|i| at(i, -1.0)));
+                    .map(|i| band_at(i, 1.0))
+                    .chain(run.clone().rev().map(|i| band_at(i, -1.0)));
                 chart.draw_series(std::iter::once(Polygon::new(
                     band.collect::<Vec<_>>(),
                     colour.mix(0.15).filled(),
                 )))?;
-                let line = chart.draw_series(LineSeries::new(
-                    run.clone().map(|i| at(i, 0.0)),
-                    colour.stroke_width(2),
-                ))?;
+                let line = chart
+                    .draw_series(LineSeries::new(run.clone().map(at), colour.stroke_width(2)))?;
                 if k == 0 {
                     line.label(format!("{}: rmse_60s {:.2} °/h", m.name, rms * to_dph))
                         .legend(move |(x, y)| {

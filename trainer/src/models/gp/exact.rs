@@ -543,6 +543,29 @@ impl Posterior {
     }
 }
 
+impl Posterior {
+    /// Closed-form leave-one-group-out with the basis re-estimated in every fold, hyperparameters
+    /// held ([`group_loo`]'s errors), with each left-out sample's predictive variance, noise
+    /// included: the group's predictive covariance is (P_GG)⁻¹. (prediction − target, variance)
+    /// per sample, normalized units. Samples in no group are left at (NaN, NaN).
+    pub fn group_loo_predictive(&self, groups: &[Vec<usize>]) -> Result<Vec<(f64, f64)>, GpError> {
+        let p = self.projected_inverse();
+        let mut out = vec![(f64::NAN, f64::NAN); self.alpha.len()];
+        for g in groups {
+            let block = DMatrix::from_fn(g.len(), g.len(), |a, b| p[(g[a], g[b])]);
+            let inv = block
+                .try_inverse()
+                .ok_or(GpError::NotPositiveDefinite { jitter: 0.0 })?;
+            let alpha = DVector::from_iterator(g.len(), g.iter().map(|&i| self.alpha[i]));
+            let e = -(&inv * alpha);
+            for (k, &i) in g.iter().enumerate() {
+                out[i] = (e[k], inv[(k, k)]);
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// The basis `h` with `terms` appended, each column divided by its RMS (returned, 1 for an
 /// all-zero column) so that GLS sees columns of the basis' order.
 pub(super) fn with_terms(h: &DMatrix<f64>, terms: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>) {

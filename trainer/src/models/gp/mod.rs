@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 use sparse::SparseFit;
 
 use crate::models::dense::{DenseFloor, inverse_from_cholesky};
-use crate::models::normalize::Normalizer;
+use crate::models::normalize::{Normalizer, trained_range};
 use crate::models::prior::{DropReason, MeanBasis, PolyPrior};
 
 pub mod exact;
@@ -28,7 +28,8 @@ pub use exact::{
 pub struct GpModel {
     /// Input normalization.
     pub input_norm: Normalizer,
-    /// Trained range (min, max) of each raw input: beyond it the model extrapolates.
+    /// Trained range of each raw input, where its data are ([`trained_range`]): beyond it the
+    /// model extrapolates.
     pub input_range: Vec<(f64, f64)>,
     /// Basis of the prior mean.
     pub basis: MeanBasis,
@@ -353,7 +354,10 @@ impl GpModel {
         (starts, optimization): (Vec<StartReport>, Optimization),
         t0: Instant,
     ) -> Self {
-        let input_range = x.column_iter().map(|c| (c.min(), c.max())).collect();
+        let input_range = x
+            .column_iter()
+            .map(|c| trained_range(c.iter().copied()))
+            .collect();
         // The mean in output units: c₀ + s_y β̂.
         let mut prior = data.prior;
         for (c, b) in prior.coefficients.iter_mut().zip(&posterior.beta) {
@@ -394,6 +398,36 @@ impl GpModel {
             None => self.posterior.loo().into_iter().map(|(e, _)| e).collect(),
         };
         loo.into_iter().map(|e| e * self.output_scale).collect()
+    }
+
+    /// Leave-one-group-out of every training sample, closed form with the hyperparameters held,
+    /// as (prediction − target, predictive variance with noise) in output units: the exact GP's
+    /// own ([`Posterior::group_loo_predictive`]); a sparse GP's point LOO errors, with its
+    /// variance at the sample (`x`, the training inputs), which has no group form.
+    pub fn group_loo_predictive(
+        &self,
+        x: &DMatrix<f64>,
+        groups: &[Vec<usize>],
+    ) -> Result<Vec<(f64, f64)>, GpError> {
+        let s2 = self.output_scale.powi(2);
+        match &self.sparse {
+            None => Ok(self
+                .posterior
+                .group_loo_predictive(groups)?
+                .into_iter()
+                .map(|(e, v)| (e * self.output_scale, v * s2))
+                .collect()),
+            Some(s) => Ok(s
+                .loo
+                .iter()
+                .zip(x.row_iter())
+                .map(|(e, row)| {
+                    let row: Vec<f64> = row.iter().copied().collect();
+                    let p = self.predict(&row);
+                    (e * self.output_scale, p.latent_var + p.noise_var)
+                })
+                .collect()),
+        }
     }
 
     /// What the user should be told about this fit, one sentence each: an optimizer that did

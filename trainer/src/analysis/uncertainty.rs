@@ -1,0 +1,823 @@
+//! The σ a shipped model states, measured on its own training data.
+//!
+//! A navigation filter takes the firmware's variance as the uncertainty of the rate, so it has to
+//! hold where the model is wrong, not only where the GP's assumptions are right. The GP's latent
+//! variance knows how far a sample lies from the data in the kernel's metric; it does not know a
+//! cause the model lacks, a trend that the prior mean extrapolates, or the bias wandering after
+//! the data ended. So the blob carries an error model besides it (firmware-core's
+//! `blob::ErrorModel`; docs/design.md §4, "The σ contract"):
+//!
+//! ```text
+//! bias variance  = latent(x) + c₀ + c_x·e(x)² + c_w·t + c_d·t²
+//! noise variance = σ_w²                        (one sample; a mean of N has σ_w²/N)
+//! ```
+//!
+//! with e(x) the distance beyond the trained range in its widths and t the hours since power-on.
+//! Each term has a physical reading: c₀ what the model misses everywhere (an unmodelled cause),
+//! c_x its growth beyond the temperatures trained, c_w the bias random walk, c_d a drift of
+//! unknown rate; σ_w the white noise (angle random walk) of one sample.
+//!
+//! **Fitted from the training data alone.** The coefficients come from out-of-sample residuals of
+//! the training data: a rate table's groups (or points) left out, closed form; a stream cut
+//! forward in time, and across temperature, each part predicted by a model fitted without it
+//! ([`Series`]). Each residual r of a 60 s mean or a point is taken as Gaussian with variance
+//! `b + Σ c_k φ_k`, b what the predicting model already states (its latent variance and the noise
+//! of the mean), φ = (1, e², t, t²); the c_k ≥ 0 maximize the likelihood (L-BFGS-B within the
+//! bounds). A term whose covariate does not vary over the residuals is not fitted: those data
+//! cannot see it, so it abstains (0).
+//!
+//! **Few residuals are weak evidence.** A variance estimated from ν independent residuals is
+//! itself uncertain: the predictive distribution of the next error is a Student t, whose 95 %
+//! interval is wider than ±2σ of the point estimate. The model-error terms are scaled by
+//! (t₀.₉₇₅(ν)/1.96)², ν the effective number of independent residuals (each series' count reduced
+//! by its lag-1 autocorrelation) less the terms fitted, at least 2. With hundreds of residuals
+//! that factor is 1.
+
+use firmware_core::ErrorModel;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::replay;
+use firmware_sim::sigma::{Coverage, median, rms};
+use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+
+use crate::data::points::Points;
+use crate::firmware::export::{self, ExportError};
+use crate::models::gp::{GpError, GpModel};
+use crate::models::normalize::trained_range;
+
+/// Seconds per hour: the time terms are per hour.
+const HOUR_S: f64 = 3600.0;
+/// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
+/// e(x)², t and t² ([`Residual::terms`]).
+const TERMS: usize = 5;
+/// Fewest degrees of freedom the small-sample factor takes (module doc): below it a variance is
+/// not estimated but guessed, and the factor would grow without bound (6.5 at ν = 1).
+const MIN_DOF: f64 = 2.0;
+/// Residuals that must reach [`SEEN_AT`] for a growth term to be fitted ([`seen`]).
+const MIN_SEEN: usize = 3;
+/// The covariate a residual must reach to show a growth term: e² at 5% of a width beyond the
+/// range, t and t² at 3 minutes (the floors' entries are not used).
+const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
+/// Largest lag-1 autocorrelation taken: a series that drifts slowly still counts as one residual.
+const MAX_RHO: f64 = 0.95;
+
+/// Where a series of residuals comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Source {
+    /// A rate table's groups, each left out in turn (closed form, hyperparameters held).
+    Groups,
+    /// A rate table's points, each left out in turn (closed form).
+    Points,
+    /// A stream, forward in time: fitted on its earlier part, scored on the later one.
+    Forward,
+    /// A stream across temperature: fitted inside the middle of its span, scored outside.
+    Temperature,
+    /// A stream the model was not fitted on.
+    Stream,
+}
+
+impl Source {
+    /// Whether its residuals are of a run (a stream), as a gyro meets in service, rather than of
+    /// a rate table's groups or points.
+    pub fn is_run(self) -> bool {
+        matches!(self, Self::Forward | Self::Temperature | Self::Stream)
+    }
+
+    /// In words, for the terminal.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Groups => "from the table's groups left out",
+            Self::Points => "from the table's points left out",
+            Self::Forward => "from the training stream forward in time",
+            Self::Temperature => "from the training stream beyond the temperatures fitted",
+            Self::Stream => "from the training stream (not fitted on)",
+        }
+    }
+}
+
+/// One out-of-sample error: a 60 s mean of a stream, or a table point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Residual {
+    /// Prediction − reference, output units.
+    pub error: f64,
+    /// The variance the predicting model states for it without an error model: its latent
+    /// variance and the noise of the mean (or point), output units².
+    pub base_var: f64,
+    /// e(x)²: how far beyond the predicting model's trained range, in widths, squared.
+    pub excess2: f64,
+    /// Hours since the data the predicting model was fitted on (time since power-on, for a run it
+    /// never saw).
+    pub hours: f64,
+}
+
+impl Residual {
+    /// The covariates of the model-error terms, for a residual of a run or of a table.
+    fn terms(&self, run: bool) -> [f64; TERMS] {
+        let (table, stream) = if run { (0.0, 1.0) } else { (1.0, 0.0) };
+        [
+            table,
+            stream,
+            self.excess2,
+            self.hours,
+            self.hours * self.hours,
+        ]
+    }
+}
+
+/// Residuals of one test, in time (or group) order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// The test.
+    pub source: Source,
+    /// Its residuals.
+    pub residuals: Vec<Residual>,
+}
+
+/// The white noise of one sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SampleNoise {
+    /// Variance of one sample, output units².
+    pub var: f64,
+    /// The sample interval it describes, s (0: not known, as for a rate table's points).
+    pub interval_s: f64,
+}
+
+impl SampleNoise {
+    /// The noise variance of a mean over `window_s`.
+    pub fn of_mean(&self, window_s: f64) -> f64 {
+        if self.interval_s > 0.0 && window_s > self.interval_s {
+            self.var * self.interval_s / window_s
+        } else {
+            self.var
+        }
+    }
+
+    /// From a stream's per-sample errors (`error[i]`, NaN where not scored): half the variance of
+    /// the differences of consecutive scored samples, robustly (1.4826 × their median absolute
+    /// deviation), which a drift slower than a sample leaves out. `None` with fewer than 10
+    /// differences.
+    pub fn from_errors(stream: &Stream, error: &[f64]) -> Option<Self> {
+        let gap = 1.5 * stream.step_s;
+        let d: Vec<f64> = (1..stream.len())
+            .filter(|&i| stream.time_s[i] - stream.time_s[i - 1] <= gap)
+            .map(|i| error[i] - error[i - 1])
+            .filter(|v| v.is_finite())
+            .collect();
+        if d.len() < 10 {
+            return None;
+        }
+        let m = median(&d);
+        let mad = median(&d.iter().map(|v| (v - m).abs()).collect::<Vec<_>>());
+        let sd = 1.4826 * mad / std::f64::consts::SQRT_2;
+        Some(Self {
+            var: sd * sd,
+            interval_s: stream.step_s,
+        })
+    }
+}
+
+/// What one test's residuals show.
+#[derive(Debug, Clone, Serialize)]
+pub struct SourceSummary {
+    /// The test.
+    pub source: Source,
+    /// Residuals.
+    pub n: usize,
+    /// Independent residuals they are worth (lag-1 autocorrelation taken out).
+    pub effective: f64,
+    /// Their RMS, output units.
+    pub rmse: f64,
+    /// The shipped σ on them.
+    pub coverage: Coverage,
+}
+
+/// The error model of a shipped model and the evidence behind it (`calibration` in the JSON).
+#[derive(Debug, Clone, Serialize)]
+pub struct Calibration {
+    /// What the blob carries.
+    #[serde(skip)]
+    pub error_model: ErrorModel,
+    /// σ_w: one sample's white noise, output units.
+    pub sample_noise_std: f64,
+    /// The sample interval σ_w describes, s (0: not known).
+    pub sample_interval_s: f64,
+    /// √c₀: model error everywhere, output units: in a run where the training data hold one (a
+    /// stream), else on the table's points.
+    pub floor_std: f64,
+    /// The floor the table's left-out groups or points showed, where they were used beside a
+    /// run's (not shipped: a gyro in service is in a run, with the whole table trained).
+    pub table_floor_std: Option<f64>,
+    /// √c_x: model error one trained width beyond the range, output units.
+    pub extrapolation_std: f64,
+    /// √c_w: random walk, output units per √h.
+    pub walk_std_per_sqrt_h: f64,
+    /// √c_d: drift of unknown rate, output units per h.
+    pub trend_std_per_h: f64,
+    /// Residuals the terms were fitted on.
+    pub residuals: usize,
+    /// Independent residuals they are worth.
+    pub effective: f64,
+    /// The small-sample factor on the model-error variance.
+    pub inflation: f64,
+    /// The terms fitted (the others' covariates did not reach where they would show: they
+    /// abstain).
+    pub fitted_terms: Vec<&'static str>,
+    /// Each test.
+    pub sources: Vec<SourceSummary>,
+    /// The GP's σ alone on those residuals.
+    pub before: Option<Coverage>,
+    /// The shipped σ on the residuals of runs where there are any, else on all (in sample for
+    /// the error model; out of sample for the mean).
+    pub coverage: Option<Coverage>,
+    /// Why there is no error model, when there is none.
+    pub note: Option<String>,
+}
+
+/// Names of the model-error terms, in covariate order.
+const TERM_NAMES: [&str; TERMS] = ["table floor", "floor", "extrapolation", "walk", "trend"];
+
+impl Calibration {
+    /// The σ of the blob alone: its noise, no model error.
+    pub fn uncalibrated(noise: SampleNoise, note: String) -> Self {
+        let error_model = ErrorModel {
+            sample_noise_var: noise.var as f32,
+            sample_interval_s: noise.interval_s as f32,
+            ..ErrorModel::noise_only(0.0)
+        };
+        Self {
+            error_model,
+            sample_noise_std: noise.var.sqrt(),
+            sample_interval_s: noise.interval_s,
+            floor_std: 0.0,
+            table_floor_std: None,
+            extrapolation_std: 0.0,
+            walk_std_per_sqrt_h: 0.0,
+            trend_std_per_h: 0.0,
+            residuals: 0,
+            effective: 0.0,
+            inflation: 1.0,
+            fitted_terms: Vec::new(),
+            sources: Vec::new(),
+            before: None,
+            coverage: None,
+            note: Some(note),
+        }
+    }
+
+    /// `blob` with this error model.
+    pub fn apply(&self, blob: &[u8]) -> Result<Vec<u8>, ExportError> {
+        export::with_error_model(blob, &self.error_model)
+    }
+
+    /// One line for a person.
+    pub fn describe(&self, units: &str) -> String {
+        let Some(c) = &self.coverage else {
+            return format!(
+                "σ: the GP's own, with one sample's noise {:.3e} {units} ({})",
+                self.sample_noise_std,
+                self.note.as_deref().unwrap_or("no error model")
+            );
+        };
+        let before = self
+            .before
+            .map(|b| format!("{:.0}%", 100.0 * b.within_2sigma))
+            .unwrap_or_default();
+        format!(
+            "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
+             {}): model error {:.3e} {units}, {:.3e} per trained width beyond the range, {:.3e} \
+             per √h, {:.3e} per h (× {:.2} for the few residuals), one sample's noise {:.3e}; \
+             ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their RMS",
+            self.residuals,
+            self.effective,
+            self.sources
+                .iter()
+                .map(|s| format!("{} {}", s.n, s.source.describe()))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.floor_std,
+            self.extrapolation_std,
+            self.walk_std_per_sqrt_h,
+            self.trend_std_per_h,
+            self.inflation.sqrt(),
+            self.sample_noise_std,
+            100.0 * c.within_2sigma,
+            c.sharpness
+        )
+    }
+}
+
+/// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
+/// its standardized residuals (clamped to 0 … [`MAX_RHO`]).
+fn effective(z: &[f64]) -> f64 {
+    let n = z.len() as f64;
+    if z.len() < 3 {
+        return n;
+    }
+    let mean = z.iter().sum::<f64>() / n;
+    let c0: f64 = z.iter().map(|v| (v - mean).powi(2)).sum();
+    let c1: f64 = z.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
+    let rho = if c0 > 0.0 {
+        (c1 / c0).clamp(0.0, MAX_RHO)
+    } else {
+        0.0
+    };
+    n * (1.0 - rho) / (1.0 + rho)
+}
+
+/// Fits the error model to `series` (module doc); `noise` is one sample's white noise. A table's
+/// residuals and a run's each get their floor; the blob carries the run's where there are runs
+/// (a gyro in service is in one, with every group of the table trained), the table's otherwise.
+pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
+    let all: Vec<(Residual, bool)> = series
+        .iter()
+        .flat_map(|s| s.residuals.iter().map(|r| (*r, s.source.is_run())))
+        .filter(|(r, _)| r.error.is_finite() && r.base_var.is_finite() && r.base_var >= 0.0)
+        .collect();
+    if all.len() < 3 {
+        return Calibration::uncalibrated(
+            noise,
+            format!(
+                "{} out-of-sample residuals in the training data: too few to measure the model \
+                 error",
+                all.len()
+            ),
+        );
+    }
+    let seen = seen(&all);
+    let c = maximum_likelihood(&all, &seen);
+    let fitted: Vec<usize> = (0..TERMS).filter(|&k| seen[k]).collect();
+    let var = |r: &Residual, run: bool, c: &[f64; TERMS]| {
+        r.base_var + r.terms(run).iter().zip(c).map(|(p, c)| p * c).sum::<f64>()
+    };
+    let standardized: Vec<Vec<f64>> = series
+        .iter()
+        .map(|s| {
+            s.residuals
+                .iter()
+                .map(|r| r.error / var(r, s.source.is_run(), &c).sqrt())
+                .filter(|z| z.is_finite())
+                .collect()
+        })
+        .collect();
+    let eff: f64 = standardized.iter().map(|z| effective(z)).sum();
+    let dof = (eff - fitted.len() as f64).max(MIN_DOF);
+    let inflation = match (StudentsT::new(0.0, 1.0, dof), Normal::new(0.0, 1.0)) {
+        (Ok(t), Ok(n)) => (t.inverse_cdf(0.975) / n.inverse_cdf(0.975)).powi(2),
+        _ => 1.0,
+    };
+    let c = c.map(|v| v * inflation);
+    let runs = all.iter().any(|(_, run)| *run);
+    // What the blob carries: the run's floor (the table's where there is no run), for every
+    // residual alike.
+    let floor = if runs { c[1] } else { c[0] };
+    let shipped = [0.0, floor, c[2], c[3], c[4]];
+    let shipped_sigma = |r: &Residual| var(r, true, &shipped).sqrt();
+    let coverage = |rs: &[&Residual], c: &dyn Fn(&Residual) -> f64| {
+        let errors: Vec<f64> = rs.iter().map(|r| r.error).collect();
+        let sigmas: Vec<f64> = rs.iter().map(|r| c(r)).collect();
+        Coverage::of(&errors, &sigmas)
+    };
+    let sources = series
+        .iter()
+        .zip(&standardized)
+        .filter(|(s, _)| !s.residuals.is_empty())
+        .map(|(s, z)| {
+            let rs: Vec<&Residual> = s.residuals.iter().collect();
+            SourceSummary {
+                source: s.source,
+                n: rs.len(),
+                effective: effective(z),
+                rmse: rms(&rs.iter().map(|r| r.error).collect::<Vec<_>>()),
+                coverage: coverage(&rs, &shipped_sigma),
+            }
+        })
+        .collect();
+    let scored: Vec<&Residual> = all
+        .iter()
+        .filter(|(_, run)| *run || !runs)
+        .map(|(r, _)| r)
+        .collect();
+    let error_model = ErrorModel {
+        sample_noise_var: noise.var as f32,
+        sample_interval_s: noise.interval_s as f32,
+        floor_var: floor as f32,
+        extrapolation_var: c[2] as f32,
+        walk_var_per_h: c[3] as f32,
+        trend_var_per_h2: c[4] as f32,
+    };
+    Calibration {
+        error_model,
+        sample_noise_std: noise.var.sqrt(),
+        sample_interval_s: noise.interval_s,
+        floor_std: floor.sqrt(),
+        table_floor_std: (runs && seen[0]).then(|| c[0].sqrt()),
+        extrapolation_std: c[2].sqrt(),
+        walk_std_per_sqrt_h: c[3].sqrt(),
+        trend_std_per_h: c[4].sqrt(),
+        residuals: all.len(),
+        effective: eff,
+        inflation,
+        fitted_terms: fitted.iter().map(|&k| TERM_NAMES[k]).collect(),
+        sources,
+        before: Some(coverage(&scored, &|r| r.base_var.sqrt())),
+        coverage: Some(coverage(&scored, &shipped_sigma)),
+        note: None,
+    }
+}
+
+/// Which terms the residuals can show: a floor where there are residuals of its kind; a growth
+/// term where at least [`MIN_SEEN`] residuals reach [`SEEN_AT`] of its covariate (5% of a trained
+/// width beyond the range, 3 minutes). A term fitted on covariates that barely move would be
+/// extrapolated from nothing: residuals 0.01% of a width beyond the range say nothing about one
+/// width beyond.
+fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
+    let mut seen = [false; TERMS];
+    let mut reached = [0usize; TERMS];
+    for (r, run) in all {
+        let t = r.terms(*run);
+        seen[0] |= !run;
+        seen[1] |= *run;
+        for k in 2..TERMS {
+            reached[k] += usize::from(t[k] >= SEEN_AT[k]);
+        }
+    }
+    for k in 2..TERMS {
+        seen[k] = reached[k] >= MIN_SEEN;
+    }
+    seen
+}
+
+/// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
+/// `seen` (the others 0). Each term is scaled to the residuals' size and its covariate's so the
+/// search sees numbers of order one.
+fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; TERMS] {
+    let scale = all.iter().map(|(r, _)| r.error * r.error).sum::<f64>() / all.len() as f64;
+    if scale.is_nan() || scale <= 0.0 {
+        return [0.0; TERMS];
+    }
+    let spread: Vec<f64> = (0..TERMS)
+        .map(|k| {
+            all.iter()
+                .map(|(r, run)| r.terms(*run)[k])
+                .fold(0.0f64, f64::max)
+        })
+        .collect();
+    // u_k = c_k · spread_k / scale: the share of the residuals' variance term k explains at its
+    // largest covariate.
+    let unit = |k: usize| {
+        if seen[k] && spread[k] > 0.0 {
+            scale / spread[k]
+        } else {
+            0.0
+        }
+    };
+    let nll = |u: &[f64]| -> (f64, Vec<f64>) {
+        let mut f = 0.0;
+        let mut g = vec![0.0; TERMS];
+        for (r, run) in all {
+            let phi = r.terms(*run);
+            let v = r.base_var + (0..TERMS).map(|k| u[k] * unit(k) * phi[k]).sum::<f64>();
+            let v = v.max(f64::MIN_POSITIVE);
+            f += 0.5 * (v.ln() + r.error * r.error / v);
+            let dv = 0.5 * (1.0 / v - r.error * r.error / (v * v));
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk += dv * unit(k) * phi[k];
+            }
+        }
+        (f, g)
+    };
+    let upper: Vec<f64> = seen.iter().map(|&s| if s { 1e6 } else { 0.0 }).collect();
+    let start: Vec<f64> = seen.iter().map(|&s| if s { 0.1 } else { 0.0 }).collect();
+    let best = Bounds::new(vec![0.0; TERMS], upper)
+        .ok()
+        .and_then(|bounds| {
+            optim_lbfgsb_with_gradient(
+                start.clone(),
+                bounds,
+                |u: &[f64]| nll(u).0,
+                |u: &[f64]| nll(u).1,
+                OptimControl {
+                    maxit: 500,
+                    ..OptimControl::default_for_dimension(TERMS)
+                },
+            )
+            .ok()
+        })
+        .map_or(start, |r| r.par);
+    let mut c = [0.0; TERMS];
+    for (k, ck) in c.iter_mut().enumerate() {
+        *ck = best[k].max(0.0) * unit(k);
+    }
+    c
+}
+
+/// The residuals of a model fitted on part of `stream` and scored on another: the 60 s means of
+/// the samples with a reference in `stream` (the whole stream is replayed, so the stateful inputs
+/// keep their history), each with the blob's latent variance, e(x)² and `hours[i]` (time since
+/// the data it was fitted on) of its samples. `blob` is the model as exported, before any error
+/// model; the latent variance and e(x)² come from the firmware's own evaluation of it.
+pub fn stream_series(
+    source: Source,
+    blob: &[u8],
+    stream: &Stream,
+    hours: &[f64],
+    noise: SampleNoise,
+) -> Result<Series, ExportError> {
+    let plain = ErrorModel::noise_only(0.0);
+    let probe = ErrorModel {
+        extrapolation_var: 1.0,
+        ..plain
+    };
+    let latent = replay::replay(
+        &*replay::decode(&export::with_error_model(blob, &plain)?)?,
+        stream,
+    );
+    let beyond = replay::replay(
+        &*replay::decode(&export::with_error_model(blob, &probe)?)?,
+        stream,
+    );
+    let scored: Vec<usize> = (0..stream.len())
+        .filter(|&i| {
+            stream.rate_dps[i].is_finite()
+                && latent.status[i] != firmware_core::Status::Fault
+                && hours[i].is_finite()
+        })
+        .collect();
+    let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
+        b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
+    };
+    let residuals = replay::blocks(stream, &scored)
+        .iter()
+        .map(|b| {
+            let latent_var = mean(b, &|i| f64::from(latent.bias_var[i]));
+            Residual {
+                error: mean(b, &|i| f64::from(latent.rate_dps[i]) - stream.rate_dps[i]),
+                base_var: latent_var + noise.of_mean(b.len() as f64 * stream.step_s),
+                excess2: mean(b, &|i| {
+                    f64::from(beyond.bias_var[i]) - f64::from(latent.bias_var[i])
+                })
+                .max(0.0),
+                hours: mean(b, &|i| hours[i]),
+            }
+        })
+        .collect();
+    Ok(Series { source, residuals })
+}
+
+/// The σ of a model fitted on a rate table alone: its groups (or points) left out
+/// ([`table_series`]), and the points' own noise as a point's.
+pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration, GpError> {
+    Ok(calibrate(
+        &[table_series(model, points)?],
+        table_noise(points, model),
+    ))
+}
+
+/// A table point's noise: the GP's noise level on the points it was fitted on.
+pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
+    SampleNoise {
+        var: model.predict(&vec![0.0; points.inputs().ncols()]).noise_var,
+        interval_s: 0.0,
+    }
+}
+
+/// How a rate table is left out for its residuals: each group in turn where there are two or
+/// more (and the GP is exact), each point otherwise.
+pub fn table_groups(model: &GpModel, points: &Points) -> (Source, Vec<Vec<usize>>) {
+    let groups: Vec<Vec<usize>> = points.groups().into_iter().map(|(_, g)| g).collect();
+    if groups.len() >= 2 && model.sparse.is_none() {
+        (Source::Groups, groups)
+    } else {
+        (Source::Points, (0..points.len()).map(|i| vec![i]).collect())
+    }
+}
+
+/// The residuals of a rate table ([`table_groups`]), closed form with `model`'s hyperparameters
+/// held; e(x) against the trained range of the rows left in.
+pub fn table_series(model: &GpModel, points: &Points) -> Result<Series, GpError> {
+    let (source, groups) = table_groups(model, points);
+    let loo = model.group_loo_predictive(points.inputs(), &groups)?;
+    Ok(series_of(points, source, &groups, &loo))
+}
+
+/// A table's residuals from its left-out predictions `loo` (error, predictive variance with
+/// noise, per point), e(x) against the trained range of the rows left in for each group.
+pub fn series_of(
+    points: &Points,
+    source: Source,
+    groups: &[Vec<usize>],
+    loo: &[(f64, f64)],
+) -> Series {
+    let x = points.inputs();
+    let mut residuals = vec![None; points.len()];
+    for g in groups {
+        let range: Vec<(f64, f64)> = x
+            .column_iter()
+            .map(|c| trained_range((0..c.len()).filter(|i| !g.contains(i)).map(|i| c[i])))
+            .collect();
+        for &i in g {
+            let (error, base_var) = loo[i];
+            let row: Vec<f64> = x.row(i).iter().copied().collect();
+            residuals[i] = Some(Residual {
+                error,
+                base_var,
+                excess2: export::excess2(&row, &range),
+                hours: 0.0,
+            });
+        }
+    }
+    Series {
+        source,
+        residuals: residuals.into_iter().flatten().collect(),
+    }
+}
+
+/// The σ a blob with `calibration` states for a rate-table point `x` of `model` (f64; the
+/// firmware computes the same in f32): latent, noise and model error at power-on.
+pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
+    let p = model.predict(x);
+    let e2 = export::excess2(x, &model.input_range);
+    let error = f64::from(calibration.error_model.model_error(e2 as f32, 0.0));
+    (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
+}
+
+/// Hours since power-on of every sample of `stream` (a power cycle where the replay has one),
+/// for a run the model never saw.
+pub fn hours_on(stream: &Stream) -> Vec<f64> {
+    let mut on = stream.time_s.first().copied().unwrap_or(0.0);
+    replay::restarts(stream)
+        .into_iter()
+        .zip(&stream.time_s)
+        .map(|(restart, &t)| {
+            if restart {
+                on = t;
+            }
+            (t - on).max(0.0) / HOUR_S
+        })
+        .collect()
+}
+
+/// Hours from every sample of `stream` to the nearest of the `fitted` ones (sorted indices), NaN
+/// for the fitted ones themselves: the time since (or until) the data a model saw.
+pub fn hours_from(stream: &Stream, fitted: &[usize]) -> Vec<f64> {
+    let mut is_fitted = vec![false; stream.len()];
+    for &i in fitted {
+        is_fitted[i] = true;
+    }
+    let times: Vec<f64> = fitted.iter().map(|&i| stream.time_s[i]).collect();
+    (0..stream.len())
+        .map(|i| {
+            if is_fitted[i] || times.is_empty() {
+                return f64::NAN;
+            }
+            let t = stream.time_s[i];
+            let k = times.partition_point(|&x| x < t);
+            let before = k.checked_sub(1).map(|j| t - times[j]);
+            let after = times.get(k).map(|x| x - t);
+            before
+                .into_iter()
+                .chain(after)
+                .fold(f64::INFINITY, f64::min)
+                / HOUR_S
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal as Gauss};
+
+    fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let unit = Gauss::new(0.0, 1.0).unwrap();
+        (0..n)
+            .map(|i| {
+                let hours = i as f64 / n as f64;
+                let excess2 = if i % 4 == 0 { 1.0 } else { 0.0 };
+                Residual {
+                    error: sd(excess2, hours) * unit.sample(&mut rng),
+                    base_var: 1e-4,
+                    excess2,
+                    hours,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_terms_the_residuals_show_are_found_and_the_others_stay_near_zero() {
+        // Model error 0.1 everywhere and 0.5 one width beyond the range; no time growth.
+        let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
+        let series = [Series {
+            source: Source::Forward,
+            residuals: r,
+        }];
+        let noise = SampleNoise {
+            var: 4e-4,
+            interval_s: 1.0,
+        };
+        let c = calibrate(&series, noise);
+        assert!((c.floor_std - 0.1).abs() < 0.02, "{c:?}");
+        assert!((c.extrapolation_std - 0.5).abs() < 0.05, "{c:?}");
+        assert!(
+            c.walk_std_per_sqrt_h < 0.05 && c.trend_std_per_h < 0.05,
+            "{c:?}"
+        );
+        assert!((c.inflation - 1.0).abs() < 0.01);
+        let cov = c.coverage.unwrap();
+        assert!((cov.within_2sigma - 0.954).abs() < 0.02, "{cov:?}");
+        assert_eq!(c.error_model.sample_noise_var, 4e-4);
+        assert!(c.before.unwrap().within_2sigma < 0.5);
+    }
+
+    #[test]
+    fn a_term_whose_covariate_does_not_move_abstains() {
+        let mut r = residuals(500, 2, |_, h| (0.01 + 0.04 * h).sqrt());
+        for x in &mut r {
+            x.excess2 = 0.0;
+        }
+        let c = calibrate(
+            &[Series {
+                source: Source::Groups,
+                residuals: r,
+            }],
+            SampleNoise {
+                var: 0.0,
+                interval_s: 0.0,
+            },
+        );
+        assert_eq!(c.extrapolation_std, 0.0);
+        assert_eq!(c.fitted_terms, vec!["table floor", "walk", "trend"]);
+        assert!(c.walk_std_per_sqrt_h > 0.1, "{c:?}");
+    }
+
+    #[test]
+    fn few_correlated_residuals_widen_the_sigma() {
+        // 12 residuals of a slow drift: worth about two independent ones.
+        let r: Vec<Residual> = (0..12)
+            .map(|i| Residual {
+                error: 0.1 * (f64::from(i) / 12.0 - 0.5),
+                base_var: 1e-6,
+                excess2: 0.0,
+                hours: 0.0,
+            })
+            .collect();
+        let z: Vec<f64> = r.iter().map(|x| x.error).collect();
+        assert!(effective(&z) < 3.0);
+        let c = calibrate(
+            &[Series {
+                source: Source::Forward,
+                residuals: r,
+            }],
+            SampleNoise {
+                var: 0.0,
+                interval_s: 0.0,
+            },
+        );
+        assert!(c.inflation > 2.0, "{c:?}");
+        assert!(
+            calibrate(
+                &[],
+                SampleNoise {
+                    var: 1.0,
+                    interval_s: 1.0
+                }
+            )
+            .note
+            .is_some()
+        );
+    }
+
+    #[test]
+    fn the_sample_noise_is_the_white_part_of_the_errors() {
+        let n = 20_000;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let unit = Gauss::new(0.0, 1.0).unwrap();
+        // White noise of 0.02 on a drift of 1 per 1,000 samples.
+        let error: Vec<f64> = (0..n)
+            .map(|i| 1e-3 * i as f64 + 0.02 * unit.sample(&mut rng))
+            .collect();
+        let stream = Stream {
+            time_s: (0..n).map(|i| i as f64).collect(),
+            temp_c: vec![20.0; n],
+            voltage_v: vec![0.0; n],
+            rate_dps: vec![0.0; n],
+            lines: (2..n as u64 + 2).collect(),
+            step_s: 1.0,
+            time_issues: vec![],
+            handled: vec![],
+        };
+        let noise = SampleNoise::from_errors(&stream, &error).unwrap();
+        assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
+        assert_eq!(noise.of_mean(60.0), noise.var / 60.0);
+        let fitted: Vec<usize> = (0..100).collect();
+        let h = hours_from(&stream, &fitted);
+        assert!(h[50].is_nan());
+        assert!((h[3699] - 1.0).abs() < 1e-12);
+        assert_eq!(hours_on(&stream)[3600], 1.0);
+    }
+}
