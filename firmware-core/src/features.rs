@@ -74,9 +74,9 @@ const HOUR_S: f64 = 3600.0;
 /// Temperatures a FOG's sensor can read, °C; beyond them the reading is a fault.
 const TEMP_RANGE_C: core::ops::RangeInclusive<f32> = -100.0..=200.0;
 /// A step longer than this, s, and [`JUMP_STEPS`] regular steps, is a time jump.
-const JUMP_MIN_S: f64 = 60.0;
+pub const JUMP_MIN_S: f64 = 60.0;
 /// Regular steps in a time jump (with [`JUMP_MIN_S`]).
-const JUMP_STEPS: f64 = 20.0;
+pub const JUMP_STEPS: f64 = 20.0;
 /// A temperature reading unchanged (bit for bit) this long, s, is a stuck sensor.
 const STUCK_S: f64 = 600.0;
 /// Time constants of the slowest filter during which outputs stay degraded after an anomaly.

@@ -65,15 +65,29 @@ pub struct Terms {
 /// Overlapping Allan deviation of `rate` (°/s) sampled every `tau0_s`, at about ten cluster times
 /// per decade from τ₀ up to the longest with three clusters.
 pub fn overlapping(rate: &[f64], tau0_s: f64) -> Curve {
-    let n = rate.len();
-    // θ_k: the angle after k samples.
-    let mut theta = Vec::with_capacity(n + 1);
-    theta.push(0.0);
-    let mut acc = 0.0;
-    for r in rate {
-        acc += r * tau0_s;
-        theta.push(acc);
-    }
+    overlapping_runs(&[rate], tau0_s)
+}
+
+/// [`overlapping`] over several evenly sampled runs of one log (the stretches between its gaps
+/// and the windows left out of it): each run contributes the clusters it holds whole, and the sums
+/// are pooled, so a left-out minute costs the clusters across it, not the log.
+pub fn overlapping_runs(runs: &[&[f64]], tau0_s: f64) -> Curve {
+    // θ_k of each run: the angle after k samples.
+    let thetas: Vec<Vec<f64>> = runs
+        .iter()
+        .map(|rate| {
+            let mut theta = Vec::with_capacity(rate.len() + 1);
+            theta.push(0.0);
+            let mut acc = 0.0;
+            for r in *rate {
+                acc += r * tau0_s;
+                theta.push(acc);
+            }
+            theta
+        })
+        .collect();
+    let n: usize = runs.iter().map(|r| r.len()).sum();
+    let longest = runs.iter().map(|r| r.len()).max().unwrap_or(0);
     let mut curve = Curve {
         tau_s: Vec::new(),
         adev: Vec::new(),
@@ -87,16 +101,20 @@ pub fn overlapping(rate: &[f64], tau0_s: f64) -> Curve {
             continue;
         }
         last = m;
-        if n < MIN_CLUSTERS * m || 2 * m >= theta.len() {
+        if n < MIN_CLUSTERS * m || 2 * m > longest {
             break;
         }
-        let terms = theta.len() - 2 * m;
-        let sum: f64 = (0..terms)
-            .map(|i| {
-                let d = theta[i + 2 * m] - 2.0 * theta[i + m] + theta[i];
-                d * d
-            })
-            .sum();
+        let (mut terms, mut sum) = (0usize, 0.0);
+        for theta in thetas.iter().filter(|t| t.len() > 2 * m) {
+            let k = theta.len() - 2 * m;
+            terms += k;
+            sum += (0..k)
+                .map(|i| {
+                    let d = theta[i + 2 * m] - 2.0 * theta[i + m] + theta[i];
+                    d * d
+                })
+                .sum::<f64>();
+        }
         let tau = m as f64 * tau0_s;
         let adev = (sum / (2.0 * tau * tau * terms as f64)).sqrt();
         let clusters = n as f64 / m as f64;
@@ -164,20 +182,20 @@ pub fn terms(curve: &Curve) -> Terms {
     }
 }
 
-/// The longest stretch of `time_s` without a gap (a step over three times the typical one) or a
-/// non-finite value of `rate`: the Allan deviation needs evenly spaced samples. Returns the range
-/// and the typical step, s.
-pub fn longest_run(time_s: &[f64], rate: &[f64]) -> (std::ops::Range<usize>, f64) {
+/// The stretches of `time_s` without a gap (a step over three times the typical one) or a
+/// non-finite value of `rate` (a window left out): the Allan deviation needs evenly spaced
+/// samples. Returns the ranges and the typical step, s.
+pub fn runs(time_s: &[f64], rate: &[f64]) -> (Vec<std::ops::Range<usize>>, f64) {
     let step = typical_step(time_s);
-    let mut best = 0..0;
+    let mut out = Vec::new();
     let mut start = 0;
     for i in 0..=time_s.len() {
         let breaks = i == time_s.len()
             || !rate.get(i).is_some_and(|r| r.is_finite())
             || (i > start && time_s[i] - time_s[i - 1] > GAP_FACTOR * step);
         if breaks {
-            if i - start > best.len() {
-                best = start..i;
+            if i > start {
+                out.push(start..i);
             }
             start = if i < time_s.len() && rate[i].is_finite() {
                 i
@@ -186,7 +204,7 @@ pub fn longest_run(time_s: &[f64], rate: &[f64]) -> (std::ops::Range<usize>, f64
             };
         }
     }
-    (best, step)
+    (out, step)
 }
 
 /// An Allan analysis of a log: the curve, its terms, and what it was computed over.
@@ -194,8 +212,10 @@ pub fn longest_run(time_s: &[f64], rate: &[f64]) -> (std::ops::Range<usize>, f64
 pub struct Analysis {
     /// What the rate is (e.g. "output/K − reference").
     pub of: String,
-    /// Samples used: the longest stretch without a gap.
+    /// Samples used: every stretch without a gap or a window left out.
     pub samples: usize,
+    /// Those stretches.
+    pub runs: usize,
     /// Sample interval, s.
     pub tau0_s: f64,
     /// Cluster times, s.
@@ -212,15 +232,17 @@ pub struct Analysis {
 }
 
 impl Analysis {
-    /// The Allan analysis of `rate_dps` sampled at `time_s`, over its longest stretch without a
-    /// gap.
+    /// The Allan analysis of `rate_dps` sampled at `time_s`, over its stretches without a gap or
+    /// a non-finite value (a window left out: [`overlapping_runs`]).
     pub fn of(what: &str, time_s: &[f64], rate_dps: &[f64]) -> Self {
-        let (run, step) = longest_run(time_s, rate_dps);
-        let curve = overlapping(&rate_dps[run.clone()], step);
+        let (runs, step) = runs(time_s, rate_dps);
+        let parts: Vec<&[f64]> = runs.iter().map(|r| &rate_dps[r.clone()]).collect();
+        let curve = overlapping_runs(&parts, step);
         let terms = terms(&curve);
         Self {
             of: what.to_owned(),
-            samples: run.len(),
+            samples: parts.iter().map(|p| p.len()).sum(),
+            runs: parts.len(),
             tau0_s: step,
             tau_s: curve.tau_s,
             adev_dps: curve.adev,
@@ -244,10 +266,15 @@ impl Analysis {
     pub fn text(&self) -> String {
         let or = |v: Option<f64>, f: &dyn Fn(f64) -> String, why: &str| v.map_or(why.to_owned(), f);
         format!(
-            "Allan deviation of {} over {} samples (τ₀ {:.3} s): ARW {}; bias instability {}; \
+            "Allan deviation of {} over {} samples{} (τ₀ {:.3} s): ARW {}; bias instability {}; \
              rate random walk {}",
             self.of,
             self.samples,
+            if self.runs > 1 {
+                format!(" in {} stretches", self.runs)
+            } else {
+                String::new()
+            },
             self.tau0_s,
             or(
                 self.terms.arw_deg_per_sqrt_h,
@@ -268,6 +295,38 @@ impl Analysis {
             ),
         )
     }
+}
+
+/// The step of a quantized signal: where every value of `values` is a whole multiple of one step
+/// (a decimated logger keeps the ADC's raw steps; an averaging one does not) and the values repeat
+/// (fewer distinct values than half the samples), that step; `None` otherwise. Quantization adds
+/// white noise of step/√12 per sample, which the Allan deviation reads as angle random walk
+/// ([`quantization_arw`]).
+pub fn quantization_step(values: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 20 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    let step = v
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    if !(step.is_finite() && step > 0.0) || 2 * v.len() > values.len() {
+        return None;
+    }
+    let whole = v.iter().all(|x| {
+        let k = x / step;
+        (k - k.round()).abs() < 1e-3
+    });
+    whole.then_some(step)
+}
+
+/// Angle random walk of quantization alone, °/√h, for a rate (°/s) quantized in `step` and sampled
+/// every `tau0_s`: white noise of step/√12 per sample.
+pub fn quantization_arw(step: f64, tau0_s: f64) -> f64 {
+    step / 12f64.sqrt() * tau0_s.sqrt() * 60.0
 }
 
 /// Closed-form Allan variance at `tau_s` of a first-order Gauss–Markov rate with standard deviation
@@ -372,6 +431,44 @@ mod tests {
                 model(tau)
             );
         }
+    }
+
+    #[test]
+    fn a_quantized_log_is_told_from_an_averaged_one() {
+        let rate = simulate(5_000, 0.1, 0.0, 300.0, 5);
+        assert_eq!(quantization_step(&rate), None);
+        let lsb = 0.01;
+        let steps: Vec<f64> = rate.iter().map(|r| (r / lsb).round() * lsb + 0.5).collect();
+        let q = quantization_step(&steps).expect("quantized");
+        assert!((q - lsb).abs() < 1e-9, "{q}");
+        // 0.01 °/s steps at 1 Hz: 0.173 °/√h of ARW from the quantizer alone.
+        assert!((quantization_arw(q, 1.0) - 0.1732).abs() < 1e-3);
+    }
+
+    #[test]
+    fn windows_left_out_cost_only_the_clusters_across_them() {
+        // White noise with two handled minutes of huge scatter, left out (NaN): the ARW is the
+        // white noise's, as for the whole quiet log.
+        let mut rate = simulate(20_000, 0.1, 0.0, 300.0, 4);
+        let time: Vec<f64> = (0..rate.len()).map(|i| i as f64).collect();
+        let whole = Analysis::of("quiet", &time, &rate);
+        for i in (5_000..5_060).chain(12_000..12_060) {
+            rate[i] = f64::NAN;
+        }
+        let cut = Analysis::of("cut", &time, &rate);
+        assert_eq!((cut.runs, cut.samples), (3, 20_000 - 120));
+        let (a, b) = (
+            whole.terms.arw_deg_per_sqrt_h.unwrap(),
+            cut.terms.arw_deg_per_sqrt_h.unwrap(),
+        );
+        assert!((a / b - 1.0).abs() < 0.02, "{a} {b}");
+        // Only the longest τ, whose clusters no stretch holds whole, are lost.
+        assert!(
+            cut.tau_s.len() + 4 >= whole.tau_s.len(),
+            "{} {}",
+            cut.tau_s.len(),
+            whole.tau_s.len()
+        );
     }
 
     #[test]

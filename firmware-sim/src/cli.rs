@@ -10,6 +10,7 @@ use serde::Serialize;
 use crate::cause::Cause;
 use crate::console::{AFTER_HELP, Console, ConsoleFlags};
 use crate::data::columns::ColumnMap;
+use crate::data::stream::Window;
 use crate::gyro::effects::{Effect, Hidden};
 use crate::gyro::{output, paper, plant::GyroParams, stream};
 use crate::io::{ensure_not_input, write_atomically, write_json};
@@ -33,6 +34,64 @@ pub struct Maps {
     /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
     #[arg(long = "map", value_name = "NAME=SOURCE")]
     pub list: Vec<ColumnMap>,
+}
+
+/// The `--exclude` flag of every command that reads a log, in both programs.
+#[derive(Args, Clone, Default)]
+pub struct Excludes {
+    /// Leave START:END out of every fit, score and Allan deviation, as a handled window is (s
+    /// from the log's first sample; repeatable): a handling event the screening missed, a door
+    /// opened, a cable touched.
+    #[arg(long = "exclude", id = "exclude", value_name = "START:END")]
+    pub list: Vec<Window>,
+}
+
+/// Loads a log as the commands read it: `exclude` left out (s from its first sample), then the
+/// part inside `window` kept. The windows left out (the handled ones the loader found and those
+/// named) are said in one line, each under `--verbose`; the time problems a line each.
+pub fn load_log(
+    path: &std::path::Path,
+    maps: &[ColumnMap],
+    (window, exclude): (Option<Window>, &[Window]),
+    console: &Console,
+) -> anyhow::Result<crate::data::stream::Stream> {
+    let mut s = crate::data::stream::Stream::load(path, maps)?;
+    s.exclude(exclude)?;
+    let s = match window {
+        Some(w) => {
+            let part = s.window(w);
+            anyhow::ensure!(
+                part.len() >= 2,
+                "{}: the window {w} s holds {} samples",
+                path.display(),
+                part.len()
+            );
+            part
+        }
+        None => s,
+    };
+    if s.time_issues.len() <= 3 {
+        for issue in &s.time_issues {
+            console.warn(&format!("{} {issue}", path.display()));
+        }
+    } else {
+        console.warn(&format!(
+            "{}: {} time problems (jumps, steps back, repeated stamps), the first {} (each with -v)",
+            path.display(),
+            s.time_issues.len(),
+            s.time_issues[0]
+        ));
+        for issue in &s.time_issues {
+            console.detail(&format!("{} {issue}", path.display()));
+        }
+    }
+    if let Some(line) = crate::data::stream::left_out_summary(&s.handled) {
+        console.warn(&format!("{}: {line}", path.display()));
+    }
+    for h in &s.handled {
+        console.detail(&format!("{} {h}", path.display()));
+    }
+    Ok(s)
 }
 
 #[derive(Subcommand)]
@@ -70,6 +129,11 @@ enum Command {
         stream: Option<PathBuf>,
         #[command(flatten)]
         maps: Maps,
+        /// Use only this part of the stream: START:END, s from its first sample.
+        #[arg(long, requires = "stream")]
+        window: Option<Window>,
+        #[command(flatten)]
+        exclude: Excludes,
         /// Nominal scale factor, output units per °/s, where the data show none (a static log).
         #[arg(long)]
         scale_factor: Option<f64>,
@@ -111,6 +175,11 @@ struct ReplayInput {
     stream: PathBuf,
     #[command(flatten)]
     maps: Maps,
+    /// Use only this part of the stream: START:END, s from its first sample (either end open).
+    #[arg(long)]
+    window: Option<Window>,
+    #[command(flatten)]
+    exclude: Excludes,
 }
 
 impl ReplayInput {
@@ -132,13 +201,12 @@ impl ReplayInput {
             .with_context(|| format!("reading {}", self.model.display()))?;
         let firmware =
             replay::decode(&blob).with_context(|| format!("decoding {}", self.model.display()))?;
-        let data = crate::data::stream::Stream::load(&self.stream, &self.maps.list)?;
-        for issue in &data.time_issues {
-            console.warn(&format!("{} {issue}", self.stream.display()));
-        }
-        for h in &data.handled {
-            console.warn(&format!("{} {h}", self.stream.display()));
-        }
+        let data = load_log(
+            &self.stream,
+            &self.maps.list,
+            (self.window, &self.exclude.list),
+            console,
+        )?;
         Ok((blob, firmware, data))
     }
 }
@@ -169,7 +237,8 @@ enum Generate {
     /// A stream at 1 Hz, the rate table stepping through the paper's rates and zero: by default
     /// from power-on, chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min, three power cycles
     /// (8.75 hours); or (--design ramps) eight 0.5 °C/min legs between 60 and −30 °C from a warm
-    /// start (30.7 hours).
+    /// start (30.7 hours); or the shapes labs record, each from one power-on: power-on (340 min
+    /// of soaks and ramps), short (60 min), warm-up (180 min at 25 °C), cool-down (200 min).
     ///
     /// Example: firmware-sim generate stream --seed 2 --effect thermal-rate --strength 10 --out s.csv
     Stream {
@@ -188,6 +257,15 @@ enum Design {
     Chamber,
     /// Eight slow legs between 60 and −30 °C from a warm start, never switched off.
     Ramps,
+    /// One cold power-on, then 340 minutes of soaks and ramps over −20…60 °C, never switched off:
+    /// the commonest calibration log.
+    PowerOn,
+    /// 60 minutes from power-on: a soak and one ramp, over before a transient is.
+    Short,
+    /// 180 minutes at 25 °C from power-on: a warm-up alone.
+    WarmUp,
+    /// From power-on at 60 °C, one ramp down to −20 °C (200 minutes).
+    CoolDown,
 }
 
 /// What every generator takes.
@@ -363,6 +441,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             let cfg = match design {
                 Design::Chamber => stream::StreamConfig::default(),
                 Design::Ramps => stream::StreamConfig::ramps(),
+                Design::PowerOn => stream::StreamConfig::power_on(),
+                Design::Short => stream::StreamConfig::short(),
+                Design::WarmUp => stream::StreamConfig::warm_up(),
+                Design::CoolDown => stream::StreamConfig::cool_down(),
             };
             let rows = stream::run(&params, &cfg, effects.clone(), common.seed);
             common.write(
@@ -377,6 +459,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             points,
             stream,
             maps,
+            window,
+            exclude,
             scale_factor,
             out,
             json,
@@ -394,10 +478,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 .transpose()?;
             let stream = match &stream {
                 Some(path) => {
-                    let s = crate::data::stream::Stream::load(path, &maps.list)?;
-                    for issue in &s.time_issues {
-                        console.warn(&format!("{} {issue}", path.display()));
-                    }
+                    let s = load_log(path, &maps.list, (window, &exclude.list), &console)?;
                     Some(twin::Source::from(&s))
                 }
                 None => None,
@@ -468,6 +549,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 score.max_abs_err_dps,
                 sigma::describe(&score.sigma_samples, &score.sigma_60s)
             ));
+            if let Some(why) = replay::degraded_reason(&data, &score) {
+                console.warn(&why);
+            }
             Ok(())
         }
         Command::Qemu { input, out, json } => {

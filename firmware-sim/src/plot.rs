@@ -186,25 +186,22 @@ pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotErro
                     PathElement::new([(x, y), (x + 18, y)], s.colour.stroke_width(2))
                 });
             let guide = s.colour.mix(0.6).stroke_width(1);
+            let ys = (y0 / 1.5, y1 * 1.5);
             // N °/√h at τ = 1 s: σ = N/60 /√τ °/s, i.e. N·60/√τ °/h.
-            if let Some(n) = s.terms.arw_deg_per_sqrt_h {
-                chart.draw_series(LineSeries::new(
-                    [t0, t1].map(|t| (t, n * 60.0 / t.sqrt())),
-                    guide,
-                ))?;
-            }
-            if let Some(b) = s.terms.bias_instability_deg_per_h {
-                chart.draw_series(LineSeries::new(
-                    [t0, t1].map(|t| (t, b * crate::allan::FLICKER_FLOOR)),
-                    guide,
-                ))?;
-            }
-            // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
-            if let Some(k) = s.terms.rrw_deg_per_h_per_sqrt_h {
-                chart.draw_series(LineSeries::new(
-                    [t0, t1].map(|t| (t, k * (t / 3.0).sqrt() / 60.0)),
-                    guide,
-                ))?;
+            let lines = [
+                s.terms.arw_deg_per_sqrt_h.map(|n| (n * 60.0, -0.5)),
+                s.terms
+                    .bias_instability_deg_per_h
+                    .map(|b| (b * crate::allan::FLICKER_FLOOR, 0.0)),
+                // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
+                s.terms
+                    .rrw_deg_per_h_per_sqrt_h
+                    .map(|k| (k / 60.0 / 3f64.sqrt(), 0.5)),
+            ];
+            for (a, p) in lines.into_iter().flatten() {
+                if let Some(ends) = power_line(a, p, (t0, t1), ys) {
+                    chart.draw_series(LineSeries::new(ends, guide))?;
+                }
             }
         }
         chart
@@ -216,6 +213,24 @@ pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotErro
             .draw()?;
         Ok(())
     })
+}
+
+/// The ends of the line y = a·τ^p inside the box (τ in `t`, y in `y`), for a guide drawn at its
+/// true slope: the box clips the τ range to where the line stays inside, rather than the plot
+/// clamping each end onto its edge (which bends the slope). `None` where it never enters.
+fn power_line(a: f64, p: f64, t: (f64, f64), y: (f64, f64)) -> Option<[(f64, f64); 2]> {
+    let at = |tau: f64| a * tau.powf(p);
+    let (mut lo, mut hi) = t;
+    if p != 0.0 {
+        // Where the line crosses the box's bottom and top.
+        let cross = |v: f64| (v / a).powf(1.0 / p);
+        let (c0, c1) = (cross(y.0), cross(y.1));
+        let (c_lo, c_hi) = if c0 < c1 { (c0, c1) } else { (c1, c0) };
+        lo = lo.max(c_lo);
+        hi = hi.min(c_hi);
+    }
+    let inside = |v: f64| v >= y.0 && v <= y.1;
+    (lo < hi && inside(at(lo)) && inside(at(hi))).then(|| [(lo, at(lo)), (hi, at(hi))])
 }
 
 /// What the simulation gets wrong: the held-out difference between the measured output and the
@@ -251,4 +266,21 @@ pub fn twin(
         }
         legend(&mut chart, SeriesLabelPosition::UpperRight)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::power_line;
+
+    #[test]
+    fn a_guide_keeps_its_slope_inside_the_box() {
+        // Slope −½ through 1000 at τ = 1 s, τ 1…10⁴ s, the box 1…100: it enters through the top
+        // at τ = 100 s and keeps its slope to the end.
+        let [(t0, y0), (t1, y1)] = power_line(1000.0, -0.5, (1.0, 1e4), (1.0, 100.0)).unwrap();
+        assert!(((y1 / y0).ln() / (t1 / t0).ln() + 0.5).abs() < 1e-12);
+        assert!((t0 - 100.0).abs() < 1e-9 && (y0 - 100.0).abs() < 1e-9);
+        assert_eq!(t1, 1e4);
+        // A flat line outside the box is not drawn.
+        assert!(power_line(500.0, 0.0, (1.0, 10.0), (1.0, 100.0)).is_none());
+    }
 }

@@ -285,6 +285,24 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
     }
 }
 
+/// Why most of a replay came out `Degraded`, where the stream says: samples further apart than the
+/// firmware's time jump (a clock in milliseconds read as seconds shows every step as a jump).
+/// `None` where fewer than half are degraded or the steps are not the reason.
+pub fn degraded_reason(stream: &Stream, score: &Score) -> Option<String> {
+    use firmware_core::features::{JUMP_MIN_S, JUMP_STEPS};
+    (2 * score.n_degraded > stream.len() && stream.step_s > JUMP_MIN_S).then(|| {
+        format!(
+            "{} of {} samples degraded: they are {} s apart, and the firmware takes any step over \
+             {JUMP_MIN_S} s (and {JUMP_STEPS} regular steps) for a time jump, after which its \
+             filters settle; is the time in other units than seconds (milliseconds: --map \
+             time_s=COLUMN*0.001)?",
+            score.n_degraded,
+            stream.len(),
+            stream.step_s
+        )
+    })
+}
+
 /// The samples `scored` grouped into 60 s blocks, counted from the first sample of the stream, in
 /// time order; a block counts when at least half of it is there.
 pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
@@ -326,6 +344,9 @@ pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The firmware-integration example's model.
+    const GYRO: &[u8] = include_bytes!("../../firmware-core/doc/gyro.bin");
 
     fn stream(rate: &[f64], step: f64) -> Stream {
         let n = rate.len();
@@ -380,6 +401,21 @@ mod tests {
         assert!(sc.sigma_60s.median_sigma > 0.5 * first);
         let csv = to_csv(&s, &comp);
         assert!(csv.lines().nth(6).unwrap().starts_with("5,20,0,,"), "{csv}");
+    }
+
+    #[test]
+    fn a_clock_in_milliseconds_read_as_seconds_is_named_as_the_reason_for_degraded() {
+        // 1 Hz samples whose time column is in ms, mapped as s: every step is 1,000 "s".
+        let s = stream(&[0.0; 300], 1000.0);
+        let comp = replay(&decode(GYRO).unwrap(), &s);
+        let sc = score(&s, &comp);
+        assert!(sc.n_degraded > 250, "{}", sc.n_degraded);
+        let why = degraded_reason(&s, &sc).unwrap();
+        assert!(
+            why.contains("1000 s apart") && why.contains("milliseconds"),
+            "{why}"
+        );
+        assert!(degraded_reason(&stream(&[0.0; 300], 1.0), &sc).is_none());
     }
 
     #[test]

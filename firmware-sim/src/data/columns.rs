@@ -3,7 +3,9 @@
 //!
 //! Files keep their own names, units and delimiters: `--map NAME=SOURCE` maps a canonical column
 //! (`temp_c`, `voltage_v`, `rate_dps`, …) onto a source column, a source column times a factor
-//! (`imu.gyro.x*57.29577951`) or a constant (`rate_dps=0`). Comma or tab is detected from the header.
+//! (`imu.gyro.x*57.29577951`) or a constant (`rate_dps=0`). Comma, tab or semicolon is detected
+//! from the header; a semicolon file is a spreadsheet's export where the decimal separator may be a
+//! comma (`12,5`), and its numbers are read so.
 //! A UTF-8 byte-order mark and CRLF line ends are accepted. Every error names the file, and where it
 //! can, the line (1-based, header is line 1) and the column.
 
@@ -115,6 +117,9 @@ pub enum DataError {
         /// What a constant column makes impossible.
         why: &'static str,
     },
+    /// A window to leave out holds no sample of the log.
+    #[error("--exclude {0}: no sample of the log lies there (seconds from its first sample)")]
+    EmptyWindow(String),
     /// The file is not valid CSV (e.g. broken quoting or invalid UTF-8).
     #[error("{path} line {line}: {message}")]
     Malformed {
@@ -276,9 +281,13 @@ pub fn read_columns(
     }
     let delimiter = if header_line.contains(&b'\t') {
         b'\t'
+    } else if header_line.contains(&b';') && !header_line.contains(&b',') {
+        b';'
     } else {
         b','
     };
+    // A spreadsheet's export with semicolons writes its decimals with a comma.
+    let decimal_comma = delimiter == b';';
     let mut reader = csv::ReaderBuilder::new()
         .delimiter(delimiter)
         .flexible(true)
@@ -361,7 +370,12 @@ pub fn read_columns(
                 }
                 Resolved::Column(i, col, factor) => {
                     let field = record.get(*i).unwrap_or_default();
-                    let v: f64 = field.parse().map_err(|_| DataError::NotANumber {
+                    let parsed = if decimal_comma && field.matches(',').count() == 1 {
+                        field.replacen(',', ".", 1).parse()
+                    } else {
+                        field.parse()
+                    };
+                    let v: f64 = parsed.map_err(|_| DataError::NotANumber {
                         path: path.to_owned(),
                         line,
                         column: col.clone(),
@@ -497,6 +511,19 @@ mod tests {
         assert_eq!(c.get("time_s"), &[1.0, 2.0]);
         assert_eq!(c.get("rate_dps"), &[0.0, 0.0]);
         assert_eq!(c.lines, vec![2, 3]);
+    }
+
+    #[test]
+    fn a_spreadsheet_export_with_semicolons_and_decimal_commas_is_read() {
+        let f = file("temp_c;voltage_v;rate_dps\n25,5;0,38;10\n-3,25;1.5;-20,0\n");
+        let c = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap();
+        assert_eq!(c.get("temp_c"), &[25.5, -3.25]);
+        assert_eq!(c.get("voltage_v"), &[0.38, 1.5]);
+        assert_eq!(c.get("rate_dps"), &[10.0, -20.0]);
+        // A field that is not a number stays an error that names it.
+        let f = file("temp_c;voltage_v;rate_dps\n25,5;0,3,8;10\n");
+        let e = read_plain(&f, &["temp_c", "voltage_v", "rate_dps"]).unwrap_err();
+        assert!(e.to_string().contains("'0,3,8' is not a number"), "{e}");
     }
 
     /// Canonical columns, none nullable, no labels, no maps.

@@ -107,8 +107,11 @@ pub struct Handled {
     pub span_s: [f64; 2],
     /// Samples in it.
     pub n: usize,
-    /// Its output's standard deviation over the log's median one.
+    /// Its output's standard deviation over the log's median one (0 for a window the user
+    /// named).
     pub scatter_ratio: f64,
+    /// Left out because the user named it (`--exclude`), not by the screening.
+    pub asked: bool,
 }
 
 impl Handled {
@@ -128,12 +131,20 @@ impl Handled {
             span_s: [time_s[first] - new_t0, time_s[last] - new_t0],
             n: rows.len(),
             scatter_ratio: self.scatter_ratio,
+            asked: self.asked,
         })
     }
 }
 
 impl fmt::Display for Handled {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.asked {
+            return write!(
+                f,
+                "line {}: {:.0}–{:.0} s, left out as --exclude asked (every fit and score)",
+                self.line, self.span_s[0], self.span_s[1]
+            );
+        }
         write!(
             f,
             "line {}: {:.0}–{:.0} s, output scatter {:.0}× the log's own: handled, left out of \
@@ -141,6 +152,53 @@ impl fmt::Display for Handled {
             self.line, self.span_s[0], self.span_s[1], self.scatter_ratio
         )
     }
+}
+
+/// The windows of a log left out of every fit and score, in one line: how many the screening
+/// found handled (with the range of their scatter) and how many `--exclude` named, the samples
+/// they hold and where; `None` where there are none. Each window is in the JSON and under
+/// `--verbose`.
+pub fn left_out_summary(handled: &[Handled]) -> Option<String> {
+    if handled.is_empty() {
+        return None;
+    }
+    let screened: Vec<&Handled> = handled.iter().filter(|h| !h.asked).collect();
+    let asked = handled.len() - screened.len();
+    let samples: usize = handled.iter().map(|h| h.n).sum();
+    let mut parts = Vec::new();
+    if !screened.is_empty() {
+        let (lo, hi) = screened
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), h| {
+                (lo.min(h.scatter_ratio), hi.max(h.scatter_ratio))
+            });
+        let scatter = if hi / lo < 1.05 {
+            format!("{hi:.0}×")
+        } else {
+            format!("{lo:.0}–{hi:.0}×")
+        };
+        parts.push(format!(
+            "{} minute{} where the unit was handled (output scatter {scatter} the log's own)",
+            screened.len(),
+            if screened.len() == 1 { "" } else { "s" }
+        ));
+    }
+    if asked > 0 {
+        parts.push(format!(
+            "{asked} window{} named by --exclude",
+            if asked == 1 { "" } else { "s" }
+        ));
+    }
+    let first = &handled[0];
+    let last = &handled[handled.len() - 1];
+    Some(format!(
+        "{}: {samples} samples between {:.0} and {:.0} s (line {} on), left out of every fit, score \
+         and Allan deviation (each in the JSON and with -v)",
+        parts.join(" and "),
+        first.span_s[0],
+        last.span_s[1],
+        first.line
+    ))
 }
 
 /// The samples `idx` grouped into [`BLOCK_S`] blocks counted from the first sample of `time_s`,
@@ -207,6 +265,7 @@ fn screen_handling(
             span_s: [time_s[b[0]] - t0, time_s[b[b.len() - 1]] - t0],
             n: b.len(),
             scatter_ratio: s / typical,
+            asked: false,
         });
     }
     out
@@ -298,6 +357,34 @@ impl Stream {
         }
     }
 
+    /// Leaves the samples inside `windows` (s from the first sample) out of every fit and score:
+    /// their references are removed, and each window is recorded with the handled ones. A window
+    /// that holds no sample is reported as such.
+    pub fn exclude(&mut self, windows: &[Window]) -> Result<(), DataError> {
+        let t0 = self.time_s.first().copied().unwrap_or(0.0);
+        for w in windows {
+            let rows: Vec<usize> = (0..self.len())
+                .filter(|&i| w.contains(self.time_s[i] - t0))
+                .collect();
+            let (Some(&first), Some(&last)) = (rows.first(), rows.last()) else {
+                return Err(DataError::EmptyWindow(w.to_string()));
+            };
+            for &i in &rows {
+                self.rate_dps[i] = f64::NAN;
+            }
+            self.handled.push(Handled {
+                line: self.lines[first],
+                span_s: [self.time_s[first] - t0, self.time_s[last] - t0],
+                n: rows.len(),
+                scatter_ratio: 0.0,
+                asked: true,
+            });
+        }
+        self.handled
+            .sort_by(|a, b| a.span_s[0].total_cmp(&b.span_s[0]));
+        Ok(())
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.time_s.len()
@@ -337,6 +424,13 @@ impl Window {
 #[derive(Debug, thiserror::Error)]
 #[error("window '{0}': expected START:END in seconds from the first sample, e.g. 0:2400 or 2400:")]
 pub struct BadWindow(String);
+
+impl fmt::Display for Window {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let end = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+        write!(f, "{}:{}", end(self.start_s), end(self.end_s))
+    }
+}
 
 impl std::str::FromStr for Window {
     type Err = BadWindow;

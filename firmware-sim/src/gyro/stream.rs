@@ -73,16 +73,20 @@ pub struct StreamConfig {
     pub warm_start: bool,
 }
 
+/// Go to `target_c` at `rate_c_per_min`, then hold `soak_min`.
+fn seg(target_c: f64, rate_c_per_min: f64, soak_min: f64) -> Segment {
+    Segment {
+        target_c,
+        rate_c_per_min,
+        soak_min,
+    }
+}
+
 impl Default for StreamConfig {
     /// 8.75 hours: soak at 25 °C, cool to −30 at 1 °C/min, heat to 60 at 0.5 °C/min, cool to 0 at
     /// 0.75 °C/min, heat to 40 at 1 °C/min, each followed by a soak; switched off for 15–20 min in
     /// three of the soaks, so there are four power-ons.
     fn default() -> Self {
-        let seg = |target_c, rate_c_per_min, soak_min| Segment {
-            target_c,
-            rate_c_per_min,
-            soak_min,
-        };
         let off = |at_min, off_min| PowerOff { at_min, off_min };
         Self {
             start_c: 25.0,
@@ -118,6 +122,50 @@ impl StreamConfig {
                 .collect(),
             power_offs: Vec::new(),
             warm_start: true,
+        }
+    }
+
+    /// The commonest calibration log, 340 minutes from one power-on (cold, at 25 °C) and never
+    /// switched off: a 20 min soak, cooling to −20 °C at 0.75 °C/min, a 30 min soak, heating to
+    /// 60 °C at 0.5 °C/min, a 30 min soak, cooling to 40 °C at 1 °C/min and a 20 min soak. A
+    /// warm-up is over in its first hour and never comes back.
+    pub fn power_on() -> Self {
+        Self::from_power_on(
+            25.0,
+            20.0,
+            vec![
+                seg(-20.0, 0.75, 30.0),
+                seg(60.0, 0.5, 30.0),
+                seg(40.0, 1.0, 20.0),
+            ],
+        )
+    }
+
+    /// A log that ends before its transient: 60 minutes from power-on at 25 °C, a 10 min soak
+    /// and a ramp to 0 °C at 0.5 °C/min.
+    pub fn short() -> Self {
+        Self::from_power_on(25.0, 10.0, vec![seg(0.0, 0.5, 0.0)])
+    }
+
+    /// A warm-up alone: 180 minutes at 25 °C from power-on.
+    pub fn warm_up() -> Self {
+        Self::from_power_on(25.0, 180.0, Vec::new())
+    }
+
+    /// A cool-down alone: from power-on at 60 °C, a 20 min soak, cooling to −20 °C at
+    /// 0.5 °C/min and a 20 min soak (200 minutes).
+    pub fn cool_down() -> Self {
+        Self::from_power_on(60.0, 20.0, vec![seg(-20.0, 0.5, 20.0)])
+    }
+
+    /// A program logged from one cold power-on, never switched off.
+    fn from_power_on(start_c: f64, initial_soak_min: f64, segments: Vec<Segment>) -> Self {
+        Self {
+            start_c,
+            initial_soak_min,
+            segments,
+            power_offs: Vec::new(),
+            warm_start: false,
         }
     }
 

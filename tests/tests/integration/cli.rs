@@ -352,3 +352,81 @@ fn the_same_inputs_and_seed_give_the_same_bytes() {
         assert_eq!(read("1"), read("2"), "{name} JSON");
     }
 }
+
+/// A static log at 1 Hz: white noise of `sd` °/s on a 0.38 V output at 25 °C, with a handling
+/// event (a ±0.5 °/s swing for 60 s) at each of `handled` (s); returns its CSV text.
+fn static_log(n: usize, sd: f64, handled: &[usize]) -> String {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut csv = String::from("time_s,temp_c,voltage_v,rate_dps\n");
+    for i in 0..n {
+        // Box–Muller: a standard normal from two uniforms.
+        let (u, v): (f64, f64) = (rng.random(), rng.random());
+        let z = (-2.0 * (1.0 - u).ln()).sqrt() * (std::f64::consts::TAU * v).cos();
+        let moved = handled.iter().any(|&h| (h..h + 60).contains(&i));
+        let swing = if moved {
+            0.5 * (i as f64 / 3.0).sin()
+        } else {
+            0.0
+        };
+        csv.push_str(&format!("{i},25,{},0\n", 0.38 + sd * z + swing));
+    }
+    csv
+}
+
+/// Issue 45: handling stays out of the Allan deviation (its angle random walk within 20% of the
+/// quiet log's), `--exclude` leaves a named window out of a replay's scores, and the windows left
+/// out are said in one line.
+#[test]
+fn handling_and_excluded_windows_stay_out_of_the_allan_deviation_and_the_scores() {
+    let dir = tempfile::tempdir().unwrap();
+    let (quiet, moved) = (at(dir.path(), "quiet.csv"), at(dir.path(), "moved.csv"));
+    std::fs::write(&quiet, static_log(7200, 0.01, &[])).unwrap();
+    std::fs::write(
+        &moved,
+        static_log(7200, 0.01, &[600, 1800, 3000, 4200, 5400]),
+    )
+    .unwrap();
+    let arw = |path: &str, name: &str| {
+        let out = at(dir.path(), name);
+        trainer(&[
+            "allan",
+            "--stream",
+            path,
+            "--scale-factor",
+            "1",
+            "--json",
+            &out,
+        ])
+        .unwrap();
+        json(&out)["arw_deg_per_sqrt_h"].as_f64().unwrap()
+    };
+    let (a, b) = (arw(&quiet, "q.json"), arw(&moved, "m.json"));
+    assert!(
+        (b / a - 1.0).abs() < 0.2,
+        "ARW {b} with handling, {a} quiet"
+    );
+    // A window named by --exclude is left out of the replay's scores like a handled one.
+    let blob = concat!(env!("CARGO_MANIFEST_DIR"), "/../firmware-core/doc/gyro.bin");
+    let replay = |extra: &[&str], name: &str| {
+        let out = at(dir.path(), name);
+        let args = [
+            &[
+                "replay", "--model", blob, "--stream", &quiet, "--json", &out,
+            ][..],
+            extra,
+        ]
+        .concat();
+        sim(&args).unwrap();
+        json(&out)
+    };
+    let all = replay(&[], "all.json");
+    let cut = replay(&["--exclude", "100:700", "--window", ":7000"], "cut.json");
+    assert_eq!(all["n_handled"], 0);
+    assert_eq!(cut["n_handled"], 600);
+    assert_eq!(cut["handled"][0]["asked"], true);
+    assert_eq!(
+        cut["n"].as_u64().unwrap() + 600 + 200,
+        all["n"].as_u64().unwrap()
+    );
+}

@@ -101,3 +101,33 @@ fn weak_effects_are_never_misnamed_and_never_made_worse() {
         assert!(case.gain >= 1.0, "{case:?}");
     }
 }
+
+/// Issue 45: the commonest calibration log, one power-on at its start, with a warm-up hidden
+/// (τ 22 min here). The forward tests predict the later part of the log, where the warm-up is
+/// over: they cannot see it and abstain, so the warm-up is named and shipped, and gains what an
+/// investigation told the truth gains. With no effect the same log names nothing.
+#[test]
+fn a_warm_up_after_the_one_power_on_of_a_log_is_named_and_shipped() {
+    use firmware_sim::gyro::stream::StreamConfig;
+    use trainer::analysis::challenge::{lab_warm_up, run_hidden};
+    let seed = 1020;
+    let case = run_hidden(
+        lab_warm_up(seed),
+        ("power-on", StreamConfig::power_on()),
+        seed,
+        true,
+    )
+    .unwrap();
+    assert_eq!(case.named, vec![Cause::WarmUp], "{case:?}");
+    assert!(case.shipped_extension, "{}", case.verdict);
+    assert!(case.gain > 3.0, "{case:?}");
+    assert!(case.gain >= 0.95 * case.oracle_gain.unwrap(), "{case:?}");
+    let none = run_hidden(
+        firmware_sim::gyro::effects::Hidden(Vec::new()),
+        ("power-on", StreamConfig::power_on()),
+        seed,
+        false,
+    )
+    .unwrap();
+    assert!(none.named.is_empty(), "{none:?}");
+}

@@ -7,14 +7,17 @@
 //! a sparse GP with each of [`CANDIDATES`] inducing points is fitted on the rest, and the fewest
 //! whose held-out error is within [`TOLERANCE`] of the best of them is chosen (fewer centres, fewer
 //! instructions per prediction). The exact GP is fitted on the same split, to say what the choice
-//! costs against it. Beyond [`AUTO_EXACT_MAX`] points the comparison would take minutes per fit, so
-//! the default stays the accuracy–cost curve's 24 inducing points (docs/performance.md).
+//! costs against it, and a choice more than [`WORSE_THAN_EXACT`] times worse than the exact GP is
+//! not made: the most accurate size is, and the output says what it costs. Above [`COMPARE_MAX`]
+//! points the comparison is made on that many, evenly spaced (the exact GP costs O(n³)); the
+//! chosen size is then fitted on all of them. Every command that fits the default model resolves
+//! it here ([`resolve`]), so an evaluation evaluates what `fit` would ship.
 
 use firmware_sim::replay::MAX_CENTRES;
 use serde::Serialize;
 
 use crate::data::points::Points;
-use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpError, GpModel, Inducing};
+use crate::models::gp::{GpConfig, GpError, GpModel, Inducing};
 
 /// Inducing-point counts tried, all exportable.
 pub const CANDIDATES: [usize; 5] = [24, 48, 96, 160, 256];
@@ -22,6 +25,11 @@ pub const CANDIDATES: [usize; 5] = [24, 48, 96, 160, 256];
 pub const TOLERANCE: f64 = 0.05;
 /// Every `HOLD_OUT_EVERY`-th point is held out.
 const HOLD_OUT_EVERY: usize = 5;
+/// Most points the comparison is made on (module doc).
+pub const COMPARE_MAX: usize = 2500;
+/// How much worse than the exact GP held out a default may be before it says so and takes the
+/// most accurate size instead.
+pub const WORSE_THAN_EXACT: f64 = 1.5;
 
 /// Instructions of one mean prediction on the Cortex-M4F with `m` centres (two inputs): about
 /// 1,200 fixed and 73 per centre, as measured under QEMU (docs/firmware.md).
@@ -68,10 +76,27 @@ pub struct Choice {
     pub verdict: String,
 }
 
-/// Whether the default fit of `n` points needs a choice: more than the firmware holds, few
-/// enough to compare with the exact GP.
+/// Whether the default fit of `n` points needs a choice: more than the firmware holds.
 pub fn needed(inducing: Inducing, n: usize) -> bool {
-    inducing == Inducing::Auto && n > MAX_CENTRES && n <= AUTO_EXACT_MAX
+    inducing == Inducing::Auto && n > MAX_CENTRES
+}
+
+/// `cfg` with its size resolved for `points` as the default fit resolves it: the exact GP where
+/// the firmware holds it or the size was asked for, else the choice ([`choose`]), returned.
+pub fn resolve(
+    points: &Points,
+    cfg: &GpConfig,
+    progress: impl FnMut(&str),
+) -> Result<(GpConfig, Option<Choice>), GpError> {
+    if !needed(cfg.inducing, points.len()) {
+        return Ok((cfg.clone(), None));
+    }
+    let choice = choose(points, cfg, progress)?;
+    let resolved = GpConfig {
+        inducing: Inducing::Count(choice.chosen),
+        ..cfg.clone()
+    };
+    Ok((resolved, Some(choice)))
 }
 
 /// Chooses the inducing points for `points` (module doc); `progress` is told each fit.
@@ -81,8 +106,18 @@ pub fn choose(
     mut progress: impl FnMut(&str),
 ) -> Result<Choice, GpError> {
     let n = points.len();
-    let (train, test): (Vec<usize>, Vec<usize>) =
-        (0..n).partition(|i| i % HOLD_OUT_EVERY != HOLD_OUT_EVERY - 1);
+    let stride = n.div_ceil(COMPARE_MAX);
+    let compared: Vec<usize> = (0..n).step_by(stride).collect();
+    let held = |k: usize| k % HOLD_OUT_EVERY == HOLD_OUT_EVERY - 1;
+    let pick = |out: bool| -> Vec<usize> {
+        compared
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| held(*k) == out)
+            .map(|(_, &i)| i)
+            .collect()
+    };
+    let (train, test) = (pick(false), pick(true));
     let fit_part = points.select(&train);
     let test_part = points.select(&test);
     let target = test_part.target();
@@ -137,20 +172,68 @@ pub fn choose(
         .iter()
         .map(|c| c.held_out_rmse_dps)
         .fold(f64::INFINITY, f64::min);
-    let pick = candidates
+    let fewest = candidates
         .iter()
         .find(|c| c.held_out_rmse_dps <= (1.0 + TOLERANCE) * best)
         .unwrap_or(&exact)
         .clone();
+    let limit = WORSE_THAN_EXACT * exact.held_out_rmse_dps;
+    let (pick, how) = if fewest.held_out_rmse_dps <= limit {
+        (
+            fewest,
+            format!(
+                "the fewest within {:.0}% of the best held-out error",
+                TOLERANCE * 100.0
+            ),
+        )
+    } else {
+        let most = candidates
+            .iter()
+            .min_by(|a, b| a.held_out_rmse_dps.total_cmp(&b.held_out_rmse_dps))
+            .unwrap_or(&exact)
+            .clone();
+        let how = format!(
+            "the most accurate: the fewest within {:.0}% of the best ({}) is {:.1}× worse than \
+             the exact GP held out{}",
+            TOLERANCE * 100.0,
+            fewest.asked,
+            fewest.held_out_rmse_dps / exact.held_out_rmse_dps,
+            if most.held_out_rmse_dps > limit {
+                let kept = candidates.iter().map(|c| c.centres).max().unwrap_or(0);
+                let why = if 2 * kept < most.asked.max(1) {
+                    format!(
+                        "none keeps more than {kept} centres: the rest are nearly dependent in \
+                         this model's metric, where the firmware's f32 cannot follow them (a \
+                         prior mean that carries more of the signal, the default --mean \
+                         physics, leaves the kernel less to do)"
+                    )
+                } else {
+                    "these data want more centres than a firmware model has".to_owned()
+                };
+                format!(
+                    ", and so is every size the firmware holds (the best, {}, {:.1}×): {why}",
+                    most.asked,
+                    most.held_out_rmse_dps / exact.held_out_rmse_dps
+                )
+            } else {
+                String::new()
+            }
+        );
+        (most, how)
+    };
+    let sampled = if stride > 1 {
+        format!(" of every {stride}th of the {n} points")
+    } else {
+        String::new()
+    };
     let verdict = format!(
         "{n} points are more than the {MAX_CENTRES} centres a firmware model holds: a sparse GP \
-         asking {} inducing points ({} kept), the fewest within {:.0}% of the best held-out error \
-         of {} (every {HOLD_OUT_EVERY}th point held out). It scores {:.3e} °/s ({:.1} °/h) there \
-         against the exact GP's {:.3e} °/s ({:.1} °/h), {:+.1}%, at about {:.0} instructions per \
-         prediction on the Cortex-M4F against the exact GP's {:.0}",
+         asking {} inducing points ({} kept), {how}, of {} (every {HOLD_OUT_EVERY}th{sampled} held \
+         out). It scores {:.3e} °/s ({:.1} °/h) there against the exact GP's {:.3e} °/s ({:.1} \
+         °/h), {:+.1}%, at about {:.0} instructions per prediction on the Cortex-M4F against the \
+         exact GP's {:.0}",
         pick.asked,
         pick.centres,
-        TOLERANCE * 100.0,
         CANDIDATES
             .iter()
             .map(ToString::to_string)
@@ -166,9 +249,10 @@ pub fn choose(
     );
     Ok(Choice {
         rule: format!(
-            "exact up to {MAX_CENTRES} points; up to {AUTO_EXACT_MAX}, the fewest of {:?} inducing \
-             points within {:.0}% of the best held-out error (every {HOLD_OUT_EVERY}th point held \
-             out); above, 24",
+            "exact up to {MAX_CENTRES} points; above, the fewest of {:?} inducing points within \
+             {:.0}% of the best held-out error (every {HOLD_OUT_EVERY}th point held out, of at \
+             most {COMPARE_MAX}), unless that is more than {WORSE_THAN_EXACT}× the exact GP's: \
+             then the most accurate",
             CANDIDATES,
             TOLERANCE * 100.0
         ),

@@ -2,6 +2,8 @@
 //!
 //! Each case draws one effect, or two acting together, and their magnitudes from the documented
 //! ranges (or below them: weak effects) by seed ([`Hidden::draw`]), simulates the paper-protocol points and two streams of one gyro with it
+//! (the chamber design, or for [`Kind::Lab`] the shapes of log labs record, each from one
+//! power-on)
 //! (training and held-out: other noise, other rate order), writes them as CSV files and hands only
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
 //! both cores (rayon); each is deterministic by its seed.
@@ -9,13 +11,13 @@
 use firmware_sim::cause::Cause;
 use firmware_sim::console::ProgressBar;
 use firmware_sim::data::stream::Stream;
-use firmware_sim::gyro::effects::{Hidden, Strength};
+use firmware_sim::gyro::effects::{Effect, Hidden, Strength};
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::{output, paper, stream};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::analysis::investigate;
+use crate::analysis::{diagnose, investigate};
 use crate::data::points::Points;
 use crate::models::gp::GpConfig;
 
@@ -30,6 +32,33 @@ pub enum Kind {
     Pairs,
     /// Every cause alone, weaker than the documented ranges ([`Strength::Weak`]).
     Weak,
+    /// The shapes of log labs record, each from one power-on and never switched off ([`LAB`]):
+    /// a warm-up of τ 10–40 min hidden, or none.
+    Lab,
+}
+
+/// A named chamber program.
+pub type Design = (&'static str, fn() -> stream::StreamConfig);
+
+/// The shapes of [`Kind::Lab`]: (name, chamber program).
+pub const LAB: [Design; 4] = [
+    ("power-on", stream::StreamConfig::power_on),
+    ("short", stream::StreamConfig::short),
+    ("warm-up", stream::StreamConfig::warm_up),
+    ("cool-down", stream::StreamConfig::cool_down),
+];
+
+/// A warm-up drawn by `seed`: amplitude over the documented range, τ 10–40 min (a cold start of a
+/// large coil is slower than the simulator's nominal 15 min).
+pub fn lab_warm_up(seed: u64) -> Hidden {
+    let Effect::WarmUp { amplitude_dph, .. } = Effect::draw(Cause::WarmUp, seed) else {
+        return Hidden(Vec::new());
+    };
+    let share = (seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11) as f64 / (1u64 << 53) as f64;
+    Hidden(vec![Effect::WarmUp {
+        amplitude_dph,
+        tau_min: 10.0 + 30.0 * share,
+    }])
 }
 
 /// One case and what the investigation made of it.
@@ -37,6 +66,8 @@ pub enum Kind {
 pub struct Case {
     /// The hidden effects.
     pub hidden: Hidden,
+    /// The streams' chamber program: `chamber`, or a [`LAB`] shape.
+    pub design: &'static str,
     /// Seed of the case.
     pub seed: u64,
     /// The causes named, strongest first.
@@ -49,8 +80,10 @@ pub struct Case {
     pub extended_rmse_60s_dps: f64,
     /// Their ratio.
     pub gain: f64,
-    /// The gain of an investigation told the true causes (pairs only).
+    /// The gain of an investigation told the true causes (pairs and lab).
     pub oracle_gain: Option<f64>,
+    /// Why the shipped model is the one it is.
+    pub verdict: String,
 }
 
 impl Case {
@@ -88,13 +121,27 @@ pub fn run_case(
     strength: Strength,
     oracle: bool,
 ) -> anyhow::Result<Case> {
-    let params = GyroParams::nominal();
     let hidden = Hidden::draw(causes, seed, strength);
+    run_hidden(
+        hidden,
+        ("chamber", stream::StreamConfig::default()),
+        seed,
+        oracle,
+    )
+}
+
+/// Runs one case of `hidden` with streams of `design` (its name and program).
+pub fn run_hidden(
+    hidden: Hidden,
+    (design, cfg): (&'static str, stream::StreamConfig),
+    seed: u64,
+    oracle: bool,
+) -> anyhow::Result<Case> {
+    let params = GyroParams::nominal();
     let dir = tempfile::tempdir()?;
     let points_path = dir.path().join("points.csv");
     let train_path = dir.path().join("train.csv");
     let valid_path = dir.path().join("valid.csv");
-    let cfg = stream::StreamConfig::default();
     std::fs::write(
         &points_path,
         output::points_csv(&paper::run(&params, hidden.clone(), seed, false)),
@@ -130,6 +177,7 @@ pub fn run_case(
     };
     Ok(Case {
         hidden,
+        design,
         seed,
         named: inv.diagnosis.causes.clone(),
         shipped_extension: inv.shipped == investigate::Shipped::Extended,
@@ -137,6 +185,7 @@ pub fn run_case(
         extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
         gain: inv.gain,
         oracle_gain,
+        verdict: inv.verdict,
     })
 }
 
@@ -149,6 +198,7 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
     match kind {
         Kind::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
         Kind::Weak => real.into_iter().map(|c| vec![c]).collect(),
+        Kind::Lab => vec![vec![Cause::WarmUp], vec![Cause::None]],
         Kind::Pairs => real
             .iter()
             .enumerate()
@@ -162,11 +212,16 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
 pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
     let strength = match kind {
         Kind::Weak => Strength::Weak,
-        Kind::Single | Kind::Pairs => Strength::Documented,
+        Kind::Single | Kind::Pairs | Kind::Lab => Strength::Documented,
     };
-    let jobs: Vec<(Vec<Cause>, u64)> = designs(kind)
+    let shapes: Vec<Option<usize>> = match kind {
+        Kind::Lab => (0..LAB.len()).map(Some).collect(),
+        _ => vec![None],
+    };
+    let jobs: Vec<(Vec<Cause>, Option<usize>, u64)> = designs(kind)
         .into_iter()
-        .flat_map(|c| (0..seeds).map(move |k| (c.clone(), first + 10 * k)))
+        .flat_map(|c| shapes.iter().map(move |&shape| (c.clone(), shape)))
+        .flat_map(|(c, shape)| (0..seeds).map(move |k| (c.clone(), shape, first + 10 * k)))
         .collect();
     bar.inc_length(jobs.len() as u64);
     // Each case decodes firmware models, whose heapless storage is inline (about 140 KB at the
@@ -177,8 +232,18 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Res
         .build()?;
     pool.install(|| {
         jobs.into_par_iter()
-            .map(|(c, s)| {
-                let case = run_case(&c, s, strength, kind == Kind::Pairs);
+            .map(|(c, shape, s)| {
+                let case = match shape {
+                    Some(k) => {
+                        let hidden = if c.contains(&Cause::WarmUp) {
+                            lab_warm_up(s)
+                        } else {
+                            Hidden(Vec::new())
+                        };
+                        run_hidden(hidden, (LAB[k].0, LAB[k].1()), s, true)
+                    }
+                    None => run_case(&c, s, strength, kind == Kind::Pairs),
+                };
                 bar.inc(1);
                 case
             })
@@ -201,6 +266,8 @@ pub struct Summary {
     pub false_alarms_none: usize,
     /// Cases whose shipped model did worse on the held-out stream than the static one.
     pub worse_than_static: usize,
+    /// Of those, the ones worse by more than [`diagnose::HARM`].
+    pub harmed: usize,
     /// Smallest and median gain.
     pub gain_min_median: [f64; 2],
     /// Smallest and median gain over the oracle's (pairs).
@@ -214,13 +281,16 @@ impl Summary {
     pub fn text(&self) -> String {
         let mut s = format!(
             "{} cases: first cause right {}, every hidden cause named {}, a wrong name {}, false \
-             alarms on none {}, shipped worse than static {}; gain min {:.2}× median {:.2}×",
+             alarms on none {}, shipped worse than static {} (by more than {:.0}%: {}); gain min \
+             {:.2}× median {:.2}×",
             self.cases,
             self.first_named_right,
             self.all_named,
             self.wrong_names,
             self.false_alarms_none,
             self.worse_than_static,
+            100.0 * diagnose::HARM,
+            self.harmed,
             self.gain_min_median[0],
             self.gain_min_median[1]
         );
@@ -265,6 +335,7 @@ pub fn summary(cases: &[Case]) -> Summary {
         wrong_names: count(&|c| !c.wrong_names().is_empty()),
         false_alarms_none: count(&|c| c.hidden.0.is_empty() && !c.named.is_empty()),
         worse_than_static: count(&|c| c.gain < 1.0),
+        harmed: count(&|c| c.gain < 1.0 / (1.0 + diagnose::HARM)),
         gain_min_median: min_median(cases.iter().map(|c| c.gain).collect()),
         at_least_70pc_of_oracle: of_oracle.iter().filter(|r| **r >= 0.7).count(),
         of_oracle_min_median: (!of_oracle.is_empty()).then(|| min_median(of_oracle)),

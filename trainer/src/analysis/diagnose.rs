@@ -33,6 +33,14 @@
 //! predicts at least [`MIN_SCORE`] of the variance on both tests; otherwise the answer is `none`,
 //! with what the best candidate did on each.
 //!
+//! **A test that cannot see a cause abstains.** The forward test predicts the stream's later half;
+//! a warm-up after the one power-on at the start of a log has died out there, so fitted on the
+//! earlier blocks it predicts nothing, which is no evidence against it. Where none of a design's
+//! regressors moves in those blocks by [`VISIBLE`] of its spread over the whole stream, the
+//! forward test abstains: it neither names the design nor refuses it, and the design is ranked by
+//! the interleaved test alone. It still refuses what it can measure: a design that makes the later
+//! blocks worse by more than [`HARM`] (RMS) is not named.
+//!
 //! **A static model fitted on the stream itself** (no rate table) has already absorbed the part of
 //! an effect that its temperature input can follow: a thermal-rate bias on a one-way ramp looks
 //! like a temperature curve. Adding a term on top then finds only the rest. So there the static and
@@ -106,6 +114,12 @@ const CHUNK_BLOCKS: usize = 10;
 const FOLDS: usize = 5;
 /// Origins of the forward test, as fractions of the blocks (module doc).
 const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
+/// Share of a regressor's spread over the whole stream that it must show in the blocks a test
+/// scores for the test to see it (module doc: below, the test abstains).
+pub const VISIBLE: f64 = 0.2;
+/// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
+/// as harm (module doc; [`crate::analysis::investigate`] keeps the same rule).
+pub const HARM: f64 = 0.02;
 /// Fewest training blocks a split needs to be scored.
 const MIN_TRAIN_BLOCKS: usize = 5;
 /// Most causes named at once.
@@ -532,12 +546,23 @@ fn forward_splits(n: usize) -> Vec<Split> {
 /// Test-set SSE of a design (the causes' candidate regressors, in order) and of the intercept
 /// alone, summed over `splits`. On each split's training blocks alone, each cause's parameter is
 /// chosen by grid in turn, given those chosen before it, and the coefficients by least squares.
+/// `centred` takes each model's mean test residual out per split: what a test that cannot see a
+/// design judges harm on (module doc).
 fn split_sse(
     y: &[f64],
     constant: Constant<'_>,
     design: &[&Candidates],
     splits: &[Split],
+    centred: bool,
 ) -> (f64, f64) {
+    let sum_sq = |r: &[f64]| {
+        let m = if centred {
+            r.iter().sum::<f64>() / r.len().max(1) as f64
+        } else {
+            0.0
+        };
+        r.iter().map(|v| (v - m).powi(2)).sum::<f64>()
+    };
     let mut sse = 0.0;
     let mut sse_none = 0.0;
     for (train, test) in splits {
@@ -547,10 +572,13 @@ fn split_sse(
         let xs = choose(y, constant, design, train);
         let (beta, _) = ols(constant, &xs, y, train);
         let (mean, _) = ols(Constant::Intercept, &[], y, train);
-        for &i in test {
-            sse += (y[i] - predict(constant, &beta, &xs, i)).powi(2);
-            sse_none += (y[i] - mean[0]).powi(2);
-        }
+        let r: Vec<f64> = test
+            .iter()
+            .map(|&i| y[i] - predict(constant, &beta, &xs, i))
+            .collect();
+        let r0: Vec<f64> = test.iter().map(|&i| y[i] - mean[0]).collect();
+        sse += sum_sq(&r);
+        sse_none += sum_sq(&r0);
     }
     (sse, sse_none)
 }
@@ -593,6 +621,48 @@ fn chosen_parameter(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -
         .map_or(0.0, |(p, _)| *p)
 }
 
+/// Whether `values` moves in `scored` (indices) by at least [`VISIBLE`] of its spread over all
+/// of them: whether a test scoring `scored` can see what `values` carries.
+pub fn sees(values: &[f64], scored: &[usize]) -> bool {
+    let sd = |v: &mut dyn Iterator<Item = f64>| {
+        let v: Vec<f64> = v.collect();
+        let n = v.len().max(1) as f64;
+        let m = v.iter().sum::<f64>() / n;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let all = sd(&mut values.iter().copied());
+    let part = sd(&mut scored.iter().filter_map(|&i| values.get(i).copied()));
+    all > 0.0 && part >= VISIBLE * all
+}
+
+/// Whether a share of the SSE (1 − SSE/SSE_ref) is a worsening of the RMS error beyond [`HARM`].
+fn harms(share: f64) -> bool {
+    (1.0 - share).sqrt() - 1.0 > HARM
+}
+
+/// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
+/// worse on the later ones than the intercept alone by more than [`HARM`], each with its mean
+/// over the later blocks taken out (the design's intercept, fitted beside a transient on the
+/// earlier blocks alone, is not the one fitted on the whole stream; module doc).
+fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
+    let (sse, none) = split_sse(y, constant, design, &forward_splits(y.len()), true);
+    harms(share(sse, none))
+}
+
+/// Whether the forward test sees `design`: some cause's regressor, at its parameter chosen on all
+/// blocks, moves in the blocks the test predicts (module doc).
+fn forward_sees(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
+    let n = y.len();
+    let all: Vec<usize> = (0..n).collect();
+    let tested: Vec<usize> = forward_splits(n)
+        .into_iter()
+        .flat_map(|(_, test)| test)
+        .collect();
+    choose(y, constant, design, &all)
+        .iter()
+        .any(|x| sees(x, &tested))
+}
+
 /// 1 − SSE/SSE_reference, 0 where the reference is 0.
 fn share(sse: f64, reference: f64) -> f64 {
     if reference > 0.0 {
@@ -612,6 +682,9 @@ pub struct CauseFit {
     pub score: f64,
     /// The same on the forward test: fitted on earlier blocks, predicting later ones.
     pub forward_score: f64,
+    /// Whether its regressor moves in the blocks the forward test predicts; where it does not,
+    /// the forward test abstains (module doc).
+    pub forward_sees: bool,
     /// Its parameter fitted on all blocks: filter or lag or decay time constant (s), play
     /// half-width (°C); 0 where there is none.
     pub parameter: f64,
@@ -658,7 +731,7 @@ pub fn fit_candidates(
     let y = &res.r;
     let constant = res.constant(&[cause]);
     let score = |splits: &[Split]| {
-        let (sse, none) = split_sse(y, constant, &[candidates], splits);
+        let (sse, none) = split_sse(y, constant, &[candidates], splits, false);
         share(sse, none)
     };
     let all: Vec<usize> = (0..n).collect();
@@ -686,6 +759,7 @@ pub fn fit_candidates(
         id: cause,
         score: score(&interleaved_splits(n)),
         forward_score: score(&forward_splits(n)),
+        forward_sees: forward_sees(y, constant, &[candidates]),
         parameter: f64::from(p),
         intercept_dps: all.iter().map(|&i| constant.at(&beta, i)).sum::<f64>() / n as f64,
         slope: beta.get(cols).copied().unwrap_or(0.0),
@@ -706,6 +780,9 @@ pub struct Step {
     pub score: f64,
     /// The same on the forward test.
     pub forward_score: f64,
+    /// Whether the forward test could see the design (module doc): where it could not, it
+    /// abstained, and only harm beyond [`HARM`] counted.
+    pub forward_sees: bool,
     /// With a heating/cooling state over a soaked table: the share of what the design's other
     /// causes and the table's plateau constants alone leave that the state predicts, on
     /// interleaved chunks and forward ([`Constant`]; it must pass the same bar itself).
@@ -728,6 +805,22 @@ struct Try {
     share: [f64; 2],
     /// [`Step::state_share`].
     state_share: Option<[f64; 2]>,
+    /// [`Step::forward_sees`].
+    sees: bool,
+    /// Where the forward test cannot see it: whether it harms there all the same
+    /// ([`blind_harm`]).
+    blind_harm: bool,
+}
+
+impl Try {
+    /// What it predicts on the tests that could see it, on the scale of both tests together.
+    fn rank(&self) -> f64 {
+        if self.sees {
+            self.share[0] + self.share[1]
+        } else {
+            2.0 * self.share[0]
+        }
+    }
 }
 
 /// The diagnosis of one stream (docs/design.md §6 `diagnose` JSON).
@@ -836,11 +929,15 @@ fn select(
     let constant = |idx: &[usize]| Constant::of(plateaus, idx.iter().any(|&i| state(i)));
     let sse_with = |idx: &[usize], constant: Constant<'_>| {
         let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        [0, 1].map(|k| split_sse(y, constant, &design, &splits[k]).0)
+        [0, 1].map(|k| split_sse(y, constant, &design, &splits[k], false).0)
     };
     let sse = |idx: &[usize]| sse_with(idx, constant(idx));
     let without_state =
         |idx: &[usize]| -> Vec<usize> { idx.iter().copied().filter(|&i| !state(i)).collect() };
+    let sees = |idx: &[usize]| {
+        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
+        forward_sees(y, constant(idx), &design)
+    };
     let step = |idx: &[usize], share: [f64; 2], state_share, replaces, added| {
         let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
         Step {
@@ -851,6 +948,7 @@ fn select(
                 .collect(),
             score: share[0],
             forward_score: share[1],
+            forward_sees: sees(idx),
             state_share,
             replaces,
             added,
@@ -868,22 +966,33 @@ fn select(
     let mut current = sse(&[]);
     let mut before_taken = current;
     for size in 1..=MAX_CAUSES.min(real.len()) {
+        // The forward test counts where it sees the design; where it does not, only its harm.
         let bar = |g: &[f64; 2]| g[0] >= least(size) && g[1] >= least(size);
-        let passes = |t: &Try| bar(&t.share) && t.state_share.as_ref().is_none_or(bar);
+        let bar_seen = |t: &Try| {
+            if t.sees {
+                bar(&t.share)
+            } else {
+                t.share[0] >= least(size) && !t.blind_harm
+            }
+        };
+        let passes = |t: &Try| bar_seen(t) && t.state_share.as_ref().is_none_or(bar);
         let tries: Vec<Try> = (0..real.len())
             .combinations(size)
             .map(|idx| {
                 let s = sse(&idx);
+                let seen = sees(&idx);
+                let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
                 Try {
                     share: [0, 1].map(|k| share(s[k], current[k])),
                     state_share: state_share(&idx, &s),
+                    sees: seen,
+                    blind_harm: !seen && blind_harm(y, constant(&idx), &design),
                     idx,
                     sse: s,
                 }
             })
             .collect();
-        let by_score =
-            |a: &&Try, b: &&Try| (a.share[0] + a.share[1]).total_cmp(&(b.share[0] + b.share[1]));
+        let by_score = |a: &&Try, b: &&Try| a.rank().total_cmp(&b.rank());
         let Some(best) = tries
             .iter()
             .filter(|t| passes(t))
@@ -894,13 +1003,13 @@ fn select(
             break;
         };
         let added = passes(&best);
-        let idx = strongest_first(best.idx, best.sse[0], &sse);
+        let idx = strongest_first(best.idx.clone(), best.sse[0], &sse);
         steps.push(step(&idx, best.share, best.state_share, None, added));
         if !added {
             // It predicts more, but its state is redundant beside its other causes: those take
             // the place of the design taken, if they passed that design's own bar.
             let rest = without_state(&idx);
-            let swapped = bar(&best.share)
+            let swapped = bar_seen(&best)
                 && rest.len() == taken.len()
                 && taken.iter().any(|&i| state(i))
                 && best.state_share.is_some_and(|g| !bar(&g));
@@ -1044,10 +1153,16 @@ fn explain(
         ),
         Cause::None => String::new(),
     };
+    let forward = if c.forward_sees {
+        format!("{:.0}% forward in time", 100.0 * c.forward_score)
+    } else {
+        "forward in time it cannot be seen: its input barely moves in the later half, so that \
+         test abstains"
+            .to_owned()
+    };
     format!(
-        "{what}. It predicts {share:.0}% of the residual variance out of sample ({:.0}% forward in \
-         time){rival}{more}",
-        100.0 * c.forward_score
+        "{what}. It predicts {share:.0}% of the residual variance out of sample \
+         ({forward}){rival}{more}"
     )
 }
 
@@ -1062,7 +1177,9 @@ pub fn joined(causes: &[Cause]) -> String {
 
 /// Why a step's design was not taken, in words.
 fn refusal(s: &Step) -> String {
-    let forward = if s.forward_score < 0.0 {
+    let forward = if !s.forward_sees {
+        "could not be seen forward in time (its input barely moves in the later blocks)".to_owned()
+    } else if s.forward_score < 0.0 {
         format!(
             "made the later blocks worse by {:.0}%",
             100.0 * ((1.0 - s.forward_score).sqrt() - 1.0)
@@ -1122,8 +1239,13 @@ mod tests {
             (Cause::TimeDrift, one(&noise(n, 3))),
         ];
         let single = |x: &[f64]| {
-            let (sse, none) =
-                split_sse(&y, Constant::Intercept, &[&one(x)], &interleaved_splits(n));
+            let (sse, none) = split_sse(
+                &y,
+                Constant::Intercept,
+                &[&one(x)],
+                &interleaved_splits(n),
+                false,
+            );
             share(sse, none)
         };
         assert!(single(&decoy) > single(&a) && single(&decoy) > single(&b));
@@ -1200,6 +1322,19 @@ mod tests {
         let t = plateau_temperatures(&[20.1, -9.9, 19.9, -10.1, 40.0]);
         assert_eq!(t.len(), 3);
         assert!((t[0] + 10.0).abs() < 1e-12 && (t[1] - 20.0).abs() < 1e-12 && t[2] == 40.0);
+    }
+
+    #[test]
+    fn a_regressor_flat_where_a_test_scores_is_not_seen_there() {
+        // A warm-up exp(−t/τ) over 300 blocks, τ 15: gone before the later half.
+        let decay: Vec<f64> = (0..300).map(|b| (-f64::from(b) / 15.0).exp()).collect();
+        let later: Vec<usize> = (150..300).collect();
+        assert!(!sees(&decay, &later));
+        let early: Vec<usize> = (0..150).collect();
+        assert!(sees(&decay, &early));
+        // A drift growing with time is seen in its later half.
+        let drift: Vec<f64> = (0..300).map(f64::from).collect();
+        assert!(sees(&drift, &later));
     }
 
     #[test]

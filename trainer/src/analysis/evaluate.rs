@@ -302,6 +302,9 @@ pub struct Evaluation {
     pub warnings: Vec<String>,
     /// With `--features auto` on a timed table: what the diagnosis chose.
     pub diagnosis: Option<TableReport>,
+    /// What could not be computed on these points, and why (a group that cannot be left out, or
+    /// a single group): the rest is.
+    pub skipped: Vec<String>,
     /// The GP's σ on each left-out group, its error model fitted inside the fold from the
     /// fold's own groups (null for the methods that state no σ).
     pub sigma_groups: Option<Coverage>,
@@ -320,15 +323,23 @@ impl Evaluation {
     fn from_errors(
         method: &'static str,
         errors: Vec<f64>,
-        (per_temperature, pooled): LeftOut,
+        left_out: LeftOut,
         [fit_seconds, loo_seconds]: [f64; 2],
     ) -> Self {
+        let LeftOut {
+            per_group: per_temperature,
+            pooled,
+            skipped,
+        } = left_out;
         let group_errors = pooled.clone();
         let (pooled, sigmas): (Vec<f64>, Vec<f64>) = pooled.into_iter().unzip();
-        let group_rmse = rmse(&pooled);
-        let sigma_groups = sigmas
-            .iter()
-            .all(|s| s.is_finite())
+        // No group left out (one group): no figure, not a zero.
+        let group_rmse = if pooled.is_empty() {
+            f64::NAN
+        } else {
+            rmse(&pooled)
+        };
+        let sigma_groups = (!sigmas.is_empty() && sigmas.iter().all(|s| s.is_finite()))
             .then(|| Coverage::of(&pooled, &sigmas));
         let r = rmse(&errors);
         Self {
@@ -349,6 +360,7 @@ impl Evaluation {
             sigma_groups,
             group_errors,
             calibration: None,
+            skipped,
         }
     }
 }
@@ -380,29 +392,39 @@ pub fn qq_correlation(values: &[f64]) -> f64 {
     cov / (sv * sq)
 }
 
-/// The points' groups, refused when there is one: nothing could be left out.
-fn groups(points: &Points) -> Result<Vec<(String, Vec<usize>)>, EvalError> {
+/// The points' groups that can be left out: none where there is only one (nothing could be
+/// left out and fitted on the rest), with the reason.
+fn groups(points: &Points) -> (Vec<(String, Vec<usize>)>, Option<EvalError>) {
     let groups = points.groups();
     if let [(group, members)] = groups.as_slice() {
-        return Err(EvalError::OneGroup {
+        let why = EvalError::OneGroup {
             group: group.clone(),
             n: members.len(),
-        });
+        };
+        return (Vec::new(), Some(why));
     }
-    Ok(groups)
+    (groups, None)
 }
 
-/// Each left-out group's RMSE, and every (error, σ), group by group.
-type LeftOut = (Vec<GroupRmse>, Vec<(f64, f64)>);
+/// Each left-out group's RMSE, every (error, σ) group by group, and why the groups left out of
+/// the test were (a group whose leaving out leaves too little to fit, or a single group).
+struct LeftOut {
+    per_group: Vec<GroupRmse>,
+    pooled: Vec<(f64, f64)>,
+    skipped: Vec<String>,
+}
 
 /// Leave-one-group-out: `fold(kept, left_out)` fits on the kept rows and predicts the left-out
-/// ones, each with its σ (NaN for a method that states none). Returns the RMSE of each group and
-/// every (error, σ), error = prediction − reference, group by group.
+/// ones, each with its σ (NaN for a method that states none). Every group that can be left out is
+/// (one whose leaving out leaves too little to fit is skipped, with the reason); the test is
+/// skipped, not failed, where there is one group.
 fn leave_groups_out<F>(points: &Points, bar: &ProgressBar, fold: F) -> Result<LeftOut, EvalError>
 where
     F: Fn(&[usize], &[usize]) -> Result<Vec<(f64, f64)>, EvalError> + Sync,
 {
-    let per_group = groups(points)?
+    let (groups, none) = groups(points);
+    let mut skipped: Vec<String> = none.iter().map(ToString::to_string).collect();
+    let per_group = groups
         .into_par_iter()
         .map(|(group, members)| {
             let keep: Vec<usize> = (0..points.len()).filter(|i| !members.contains(i)).collect();
@@ -410,11 +432,12 @@ where
                 &keep.iter().map(|&i| points.temp_c[i]).collect::<Vec<_>>(),
             );
             if span <= PLATEAU_GAP_C || keep.len() < 4 {
-                return Err(EvalError::FoldTooSmall {
+                bar.inc(1);
+                return Ok(Err(EvalError::FoldTooSmall {
                     group,
                     remaining: keep.len(),
                     span,
-                });
+                }));
             }
             let e: Vec<(f64, f64)> = fold(&keep, &members)?
                 .into_iter()
@@ -423,7 +446,7 @@ where
                 .collect();
             let r = rmse(&e.iter().map(|(e, _)| *e).collect::<Vec<_>>());
             bar.inc(1);
-            Ok((
+            Ok(Ok((
                 e,
                 GroupRmse {
                     group,
@@ -433,11 +456,21 @@ where
                     rmse_dps: r,
                     rmse_dph: r * DPH_PER_DPS,
                 },
-            ))
+            )))
         })
         .collect::<Result<Vec<_>, EvalError>>()?;
-    let pooled = per_group.iter().flat_map(|(e, _)| e.clone()).collect();
-    Ok((per_group.into_iter().map(|(_, g)| g).collect(), pooled))
+    let mut done = Vec::new();
+    for g in per_group {
+        match g {
+            Ok(g) => done.push(g),
+            Err(why) => skipped.push(format!("{why}: that group is not scored")),
+        }
+    }
+    Ok(LeftOut {
+        pooled: done.iter().flat_map(|(e, _)| e.clone()).collect(),
+        per_group: done.into_iter().map(|(_, g)| g).collect(),
+        skipped,
+    })
 }
 
 /// Evaluates one method on the points; `bar` counts its fits (the full one, then one per group).
@@ -447,8 +480,7 @@ pub fn evaluate(
     cfg: &EvalConfig,
     bar: &ProgressBar,
 ) -> Result<Evaluation, EvalError> {
-    let groups = groups(points)?;
-    bar.inc_length(1 + groups.len() as u64);
+    bar.inc_length(1 + groups(points).0.len() as u64);
     bar.set_message(format!(
         "{}: fit on all {} points",
         method.name(),
@@ -462,7 +494,7 @@ pub fn evaluate(
     let loo_seconds = t1.elapsed().as_secs_f64();
     bar.inc(1);
     bar.set_message(format!("{}: leave one group out", method.name()));
-    let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
+    let left_out = leave_groups_out(points, bar, |keep, members| {
         let train = points.select(keep);
         let m = Fitted::fit(&train, method, cfg)?;
         let calibration = m.calibration(&train)?;
@@ -475,12 +507,7 @@ pub fn evaluate(
         parameters: Some(fitted.parameters()),
         warnings: fitted.warnings(),
         calibration: fitted.calibration(points)?,
-        ..Evaluation::from_errors(
-            method.name(),
-            errors,
-            (per_temperature, pooled),
-            [fit_seconds, loo_seconds],
-        )
+        ..Evaluation::from_errors(method.name(), errors, left_out, [fit_seconds, loo_seconds])
     })
 }
 
@@ -514,7 +541,7 @@ pub fn evaluate_table(
     bar: &ProgressBar,
 ) -> Result<Evaluation, EvalError> {
     let transients = Transients::compute(points)?;
-    let groups = groups(points)?;
+    let (groups, _) = groups(points);
     bar.inc_length(1 + groups.len() as u64);
     bar.set_message(format!("gpr + diagnosis: all {} points", points.len()));
     let all: Vec<usize> = (0..points.len()).collect();
@@ -527,7 +554,7 @@ pub fn evaluate_table(
     bar.inc(1);
     bar.set_message("gpr + diagnosis: leave one group out");
     let choices = std::sync::Mutex::new(Vec::new());
-    let (per_temperature, pooled) = leave_groups_out(points, bar, |keep, members| {
+    let left_out = leave_groups_out(points, bar, |keep, members| {
         let m = table::fit(points, &transients, keep, (&cfg.gp, cfg.offsets))?;
         let calibration = m.calibration(points, &transients, keep)?;
         if let Ok(mut c) = choices.lock() {
@@ -562,7 +589,7 @@ pub fn evaluate_table(
         ..Evaluation::from_errors(
             Method::Gpr.name(),
             errors,
-            (per_temperature, pooled),
+            left_out,
             [fit_seconds, loo_seconds],
         )
     })
@@ -730,6 +757,39 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
+
+    /// A table of `temps` × rates ±10, ±40, grouped by `group`.
+    fn table(temps: &[f64], group: impl Fn(usize) -> String) -> Points {
+        let (mut t, mut v, mut w, mut g) = (vec![], vec![], vec![], vec![]);
+        for (k, &temp) in temps.iter().enumerate() {
+            for rate in [-40.0, -10.0, 10.0, 40.0] {
+                t.push(temp);
+                w.push(rate);
+                v.push(0.05 * rate * (1.0 + 1e-4 * temp) + 0.002 * temp + 1e-5 * (k as f64));
+                g.push(group(k));
+            }
+        }
+        Points::new(t, v, w, g, None, true, None)
+    }
+
+    #[test]
+    fn a_group_that_cannot_be_left_out_is_skipped_with_the_reason_not_fatal() {
+        let cfg = EvalConfig::default();
+        // Three groups, the last alone at 40 °C: leaving it out leaves 0.5 °C of the table.
+        let temps = [10.0, 10.3, 10.5, 40.0];
+        let p = table(&temps, |k| ["a", "a", "b", "c"][k].to_owned());
+        let e = evaluate(&p, Method::Gpr, &cfg, &ProgressBar::hidden()).unwrap();
+        assert_eq!(e.per_temperature.len(), 2, "{:?}", e.skipped);
+        assert_eq!(e.skipped.len(), 1, "{:?}", e.skipped);
+        assert!(e.skipped[0].contains("too few to fit"), "{:?}", e.skipped);
+        assert!(e.rmse_dps.is_finite());
+        // One group: leave-one-group-out is skipped, point LOO is not.
+        let p = table(&[10.0, 20.0, 30.0, 40.0], |_| "all".to_owned());
+        let e = evaluate(&p, Method::Gpr, &cfg, &ProgressBar::hidden()).unwrap();
+        assert!(e.per_temperature.is_empty());
+        assert!(e.skipped[0].contains("one group"), "{:?}", e.skipped);
+        assert!(e.rmse_dps.is_finite());
+    }
 
     #[test]
     fn qq_correlation_separates_normal_from_skewed() {

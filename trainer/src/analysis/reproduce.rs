@@ -1,9 +1,11 @@
 //! Our figures beside the reference paper's (He, Liu, Zhao, Liu; docs/design.md §1), from one
 //! points file.
 
+use indicatif::ProgressBar;
 use serde::Serialize;
 
-use crate::analysis::evaluate::{Evaluation, Fig2};
+use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Fig2, Method};
+use crate::data::points::Points;
 
 /// The paper's leave-one-temperature-out table: (°C, LS-SVR RMSE, GPR RMSE), °/s.
 pub const PAPER_LOTO: [(f64, f64, f64); 10] = [
@@ -30,12 +32,41 @@ pub const PAPER_FIG2: (f64, f64, f64) = (4.8, 0.13, -80.0);
 pub struct Reproduction {
     /// GPR evaluation.
     pub gpr: Evaluation,
-    /// LS-SVR evaluation.
-    pub lssvr: Evaluation,
-    /// Two-step evaluation.
-    pub two_step: Evaluation,
+    /// LS-SVR evaluation (none where it could not be fitted: `skipped` says why).
+    pub lssvr: Option<Evaluation>,
+    /// Two-step evaluation (none where it could not be fitted).
+    pub two_step: Option<Evaluation>,
     /// The Fig. 2 check.
     pub fig2: Fig2,
+    /// The methods these points could not be evaluated with, and why.
+    pub skipped: Vec<String>,
+}
+
+/// The paper's evaluations of `points`: the GP's (an error where it fails), and each rival's
+/// where it can be fitted (a two-step model needs soaked plateaus), skipped with the reason where
+/// not. `bar` counts the fits.
+pub fn reproduce(
+    points: &Points,
+    cfg: &EvalConfig,
+    bar: &ProgressBar,
+) -> Result<Reproduction, EvalError> {
+    let gpr = evaluate::evaluate(points, Method::Gpr, cfg, bar)?;
+    let mut skipped = Vec::new();
+    let mut rival = |method: Method| match evaluate::evaluate(points, method, cfg, bar) {
+        Ok(e) => Some(e),
+        Err(e) => {
+            skipped.push(format!("{}: {e}", method.name()));
+            None
+        }
+    };
+    let (lssvr, two_step) = (rival(Method::Lssvr), rival(Method::TwoStep));
+    Ok(Reproduction {
+        gpr,
+        lssvr,
+        two_step,
+        fig2: evaluate::fig2(points),
+        skipped,
+    })
 }
 
 fn fmt(v: f64) -> String {
@@ -53,14 +84,14 @@ impl Reproduction {
         ));
         s.push_str("leave-one-out RMSE          ours (°/s)   ours (°/h)   paper (°/s)\n");
         for (name, e, paper) in [
-            ("GPR", &self.gpr, Some(PAPER_LOO_GPR)),
-            ("LS-SVR", &self.lssvr, Some(PAPER_LOO_LSSVR)),
-            ("two-step", &self.two_step, None),
+            ("GPR", Some(&self.gpr), Some(PAPER_LOO_GPR)),
+            ("LS-SVR", self.lssvr.as_ref(), Some(PAPER_LOO_LSSVR)),
+            ("two-step", self.two_step.as_ref(), None),
         ] {
             s.push_str(&format!(
-                "  {name:<24}  {:>10}   {:>10.2}   {:>10}\n",
-                fmt(e.rmse_dps),
-                e.rmse_dph,
+                "  {name:<24}  {:>10}   {:>10}   {:>10}\n",
+                e.map_or("—".into(), |e| fmt(e.rmse_dps)),
+                e.map_or("—".into(), |e| format!("{:.2}", e.rmse_dph)),
                 paper.map_or("—".into(), fmt)
             ));
         }
@@ -75,10 +106,8 @@ impl Reproduction {
         });
         for (rank, &i) in order.iter().enumerate() {
             let g = &self.gpr.per_temperature[i];
-            let find = |e: &Evaluation| {
-                e.per_temperature
-                    .iter()
-                    .find(|x| x.group == g.group)
+            let find = |e: Option<&Evaluation>| {
+                e.and_then(|e| e.per_temperature.iter().find(|x| x.group == g.group))
                     .map_or("—".into(), |x| fmt(x.rmse_dps))
             };
             let (pg, pl) = if paired {
@@ -92,9 +121,9 @@ impl Reproduction {
                 g.temp_c,
                 fmt(g.rmse_dps),
                 pg,
-                find(&self.lssvr),
+                find(self.lssvr.as_ref()),
                 pl,
-                find(&self.two_step)
+                find(self.two_step.as_ref())
             ));
         }
         if let Some(w) = &self.fig2.worst {
@@ -110,10 +139,17 @@ impl Reproduction {
                 PAPER_FIG2.2
             ));
         }
+        let qq =
+            |e: Option<&Evaluation>| e.map_or("—".into(), |e| format!("{:.4}", e.qq_correlation));
         s.push_str(&format!(
-            "Q-Q correlation of LOO residuals (1 = normal): GPR {:.4}, LS-SVR {:.4}, two-step {:.4}\n",
-            self.gpr.qq_correlation, self.lssvr.qq_correlation, self.two_step.qq_correlation
+            "Q-Q correlation of LOO residuals (1 = normal): GPR {:.4}, LS-SVR {}, two-step {}\n",
+            self.gpr.qq_correlation,
+            qq(self.lssvr.as_ref()),
+            qq(self.two_step.as_ref())
         ));
+        for why in self.skipped.iter().chain(&self.gpr.skipped) {
+            s.push_str(&format!("skipped: {why}\n"));
+        }
         s
     }
 }

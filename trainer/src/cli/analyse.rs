@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use firmware_sim::cause::Cause;
-use firmware_sim::cli::Maps;
+use firmware_sim::cli::{Excludes, Maps};
 use firmware_sim::console::{Console, ConsoleFlags};
 use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
@@ -15,12 +15,13 @@ use serde::Serialize;
 
 use super::inputs::{FitOptions, Input, MethodArg, ModelInput, load_points, load_stream};
 use super::text::{causes_text, render_diagnosis};
+use crate::analysis::capacity;
 use crate::analysis::challenge;
 use crate::analysis::diagnose;
-use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation, Method};
+use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
-use crate::analysis::reproduce::Reproduction;
+use crate::analysis::reproduce;
 use crate::data::points::Points;
 
 /// The arguments of `trainer diagnose`.
@@ -34,6 +35,8 @@ pub(super) struct DiagnoseArgs {
     stream: PathBuf,
     #[command(flatten)]
     maps: Maps,
+    #[command(flatten)]
+    exclude: Excludes,
     /// Use only this part of the stream: START:END, s from its first sample.
     #[arg(long)]
     window: Option<Window>,
@@ -50,6 +53,8 @@ pub(super) struct AllanArgs {
     stream: PathBuf,
     #[command(flatten)]
     maps: Maps,
+    #[command(flatten)]
+    exclude: Excludes,
     /// Use only this part of the stream: START:END, s from its first sample.
     #[arg(long)]
     window: Option<Window>,
@@ -149,6 +154,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
         model,
         stream,
         maps,
+        exclude,
         window,
         json,
     } = args;
@@ -156,7 +162,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
     let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
     let fw = firmware_sim::replay::decode(&bytes)
         .with_context(|| format!("decoding {}", model.display()))?;
-    let data = load_stream(&stream, &maps.list, window)?;
+    let data = load_stream(&stream, &maps.list, (window, &exclude.list), &console)?;
     let d = diagnose::diagnose(&fw, &data);
     console.result(render_diagnosis(&d).trim_end());
     if let Some(path) = json {
@@ -192,9 +198,19 @@ pub(super) fn investigate_command(
     }
     let train = [(
         train_stream.as_path(),
-        load_stream(&train_stream, &input.maps.list, train_window)?,
+        load_stream(
+            &train_stream,
+            &input.maps.list,
+            (train_window, &input.exclude.list),
+            &console,
+        )?,
     )];
-    let valid = load_stream(&valid_stream, &input.maps.list, valid_window)?;
+    let valid = load_stream(
+        &valid_stream,
+        &input.maps.list,
+        (valid_window, &input.exclude.list),
+        &console,
+    )?;
     let points = input.static_points(&train, false)?;
     let [(_, train)] = train;
     let asked = match features.as_str() {
@@ -284,15 +300,56 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         input.exclude_implausible,
     )?;
     let bar = console.bar(0);
-    let cfg = EvalConfig {
+    let mut cfg = EvalConfig {
         gp: fit.gp(),
         offsets,
         ..EvalConfig::default()
     };
+    // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
+    let centres_choice =
+        if method != MethodArg::Gpr {
+            None
+        } else if features.is_some() || offsets {
+            if capacity::needed(cfg.gp.inducing, points.len()) {
+                console.warn(&format!(
+                "{} points are more than the {} centres a firmware model holds, and {} needs the \
+                 exact GP: these are the exact GP's figures, which `fit` would refuse to export",
+                points.len(),
+                firmware_sim::replay::MAX_CENTRES,
+                if offsets { "--offsets" } else { "--features auto" }
+            ));
+            }
+            None
+        } else {
+            let spinner = console.spinner("choosing the model `fit` would ship");
+            let (gp, choice) = capacity::resolve(&points, &cfg.gp, |step| {
+                spinner.set_message(format!("choosing the model `fit` would ship: {step}"));
+            })?;
+            spinner.finish_and_clear();
+            if let Some(c) = &choice {
+                console.result(&format!(
+                    "evaluating what `fit` would ship (--inducing exact: the exact GP): {}",
+                    c.verdict
+                ));
+            }
+            cfg.gp = gp;
+            choice
+        };
     let cross = match &test_points {
         Some(path) => {
             let test = Points::load(path, &input.maps.list, None, None)?;
-            let c = evaluate::cross_run(&points, &test, method.into(), &cfg, &bar)?;
+            match evaluate::cross_run(&points, &test, method.into(), &cfg, &bar) {
+                Err(e @ evaluate::EvalError::NoOverlap) => {
+                    console.warn(&format!("skipped the test on {}: {e}", path.display()));
+                    None
+                }
+                other => Some((path, other?)),
+            }
+        }
+        None => None,
+    };
+    let cross = match cross {
+        Some((path, c)) => {
             console.result(&format!(
                 "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
                  in {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
@@ -349,16 +406,21 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
     for w in &e.warnings {
         console.warn(w);
     }
+    if !e.skipped.is_empty() {
+        console.warn(&format!("skipped: {}", e.skipped.join("; ")));
+    }
     console.result(&format!(
         "{}: leave-one-out RMSE {:.3e} °/s ({:.2} °/h) over {} points; Q-Q correlation {:.4}",
         e.method, e.rmse_dps, e.rmse_dph, e.n, e.qq_correlation
     ));
-    console.result(&format!(
-        "leave-one-group-out RMSE {:.3e} °/s ({:.2} °/h) over {} groups",
-        e.group_rmse_dps,
-        e.group_rmse_dph,
-        e.per_temperature.len()
-    ));
+    if !e.per_temperature.is_empty() {
+        console.result(&format!(
+            "leave-one-group-out RMSE {:.3e} °/s ({:.2} °/h) over {} groups",
+            e.group_rmse_dps,
+            e.group_rmse_dph,
+            e.per_temperature.len()
+        ));
+    }
     if let Some(sigma) = &e.sigma_groups {
         console.result(&format!(
             "σ on the left-out groups (each fold's error model from its own groups): {}",
@@ -368,7 +430,9 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
     if let Some(c) = &e.calibration {
         console.result(&format!("the model on all points: {}", c.describe("°/s")));
     }
-    console.result("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
+    if !e.per_temperature.is_empty() {
+        console.result("leave-one-group-out:  group   T (°C)     n   RMSE (°/s)   RMSE (°/h)");
+    }
     for g in &e.per_temperature {
         console.result(&format!(
             "                     {:>6}  {:>7.2}  {:>4}   {:>10.3e}   {:>10.2}",
@@ -381,6 +445,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         let report = LooReport {
             evaluation: &e,
             cross_run: cross.as_ref(),
+            centres_choice: centres_choice.as_ref(),
         };
         write_json(&path, &inputs, &report)?;
     }
@@ -405,6 +470,8 @@ struct LooReport<'a> {
     #[serde(flatten)]
     evaluation: &'a Evaluation,
     cross_run: Option<&'a CrossRun>,
+    /// How the default chose the size `fit` would ship (more points than the firmware holds).
+    centres_choice: Option<&'a capacity::Choice>,
 }
 
 /// `trainer reproduce`: our figures beside the reference paper's.
@@ -423,12 +490,8 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
         ..EvalConfig::default()
     };
     let bar = console.bar(0);
-    let r = Reproduction {
-        gpr: evaluate::evaluate(&points, Method::Gpr, &cfg, &bar)?,
-        lssvr: evaluate::evaluate(&points, Method::Lssvr, &cfg, &bar)?,
-        two_step: evaluate::evaluate(&points, Method::TwoStep, &cfg, &bar)?,
-        fig2: evaluate::fig2(&points),
-    };
+    let r = reproduce::reproduce(&points, &cfg, &bar)?;
+
     bar.finish_and_clear();
     console.result(r.render(&input.points.display().to_string()).trim_end());
     if let Some(path) = json {
@@ -442,7 +505,8 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
 pub(super) struct ChallengeArgs {
     /// single: every cause alone and none; pairs: every two distinct causes together, each
     /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
-    /// lower end of its documented strength.
+    /// lower end of its documented strength; lab: the shapes of log labs record, each from one
+    /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none.
     #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
     kind: challenge::Kind,
     /// Seeds per cause (per pair).
@@ -488,7 +552,8 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
             .map(|e| format!("{:.2}", e.strength()))
             .collect();
         console.result(&format!(
-            "{:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+            "{:<10} {:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+            c.design,
             ids(&c.hidden.causes()),
             strengths.join("+"),
             c.seed,
@@ -542,6 +607,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
     let AllanArgs {
         stream,
         maps,
+        exclude,
         window,
         scale_factor,
         model,
@@ -555,7 +621,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
     for out in json.iter().chain(&plot) {
         ensure_not_input(out, &inputs)?;
     }
-    let data = load_stream(&stream, &maps.list, window)?;
+    let data = load_stream(&stream, &maps.list, (window, &exclude.list), &console)?;
     let (rate, what): (Vec<f64>, String) = match (&model, scale_factor) {
         (Some(path), _) => {
             let bytes =
@@ -580,7 +646,9 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
         }
         (None, None) => anyhow::bail!("give --scale-factor K or --model M"),
     };
-    let referenced = data.rate_dps.iter().all(|r| r.is_finite());
+    // Against the reference where the log has one: the samples without (handled windows, the
+    // windows --exclude names) are left out of the clusters, not fed in raw.
+    let referenced = data.rate_dps.iter().any(|r| r.is_finite());
     let rate: Vec<f64> = if referenced {
         rate.iter()
             .zip(&data.rate_dps)
@@ -594,6 +662,13 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
     } else {
         what
     };
+    let left_out = data.rate_dps.iter().filter(|r| !r.is_finite()).count();
+    if referenced && left_out > 0 {
+        console.result(&format!(
+            "left out of the Allan deviation: the {left_out} samples without a reference (the \
+             windows above); it is computed over the stretches between them"
+        ));
+    }
     let analysis = firmware_sim::allan::Analysis::of(&what, &data.time_s, &rate);
     anyhow::ensure!(
         analysis.tau_s.len() >= 3,
@@ -602,6 +677,27 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
         analysis.samples
     );
     console.result(&analysis.text());
+    if let Some(step) = firmware_sim::allan::quantization_step(&data.voltage_v) {
+        let arw = analysis.terms.arw_deg_per_sqrt_h;
+        match (scale_factor.filter(|_| model.is_none()), arw) {
+            (Some(k), Some(arw)) => {
+                let q = firmware_sim::allan::quantization_arw(step / k.abs(), analysis.tau0_s);
+                if q >= 0.3 * arw {
+                    console.warn(&format!(
+                        "the output is quantized in steps of {step:e} (a logger that keeps every \
+                         n-th raw sample rather than averaging): the steps alone make an ARW of \
+                         {q:.4} °/√h, {:.0}% of the {arw:.4} measured, which is the quantizer's as \
+                         much as the gyro's",
+                        100.0 * q / arw
+                    ));
+                }
+            }
+            _ => console.warn(&format!(
+                "the output is quantized in steps of {step:e}: the quantizer adds white noise of \
+                 step/√12 per sample to the angle random walk"
+            )),
+        }
+    }
     if let Some(path) = &json {
         write_json(path, &inputs, &analysis)?;
     }

@@ -221,7 +221,10 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
     );
     let streams = stream
         .iter()
-        .map(|p| Ok((p.as_path(), load_stream(p, &input.maps.list, window)?)))
+        .map(|p| {
+            let s = load_stream(p, &input.maps.list, (window, &input.exclude.list), &console)?;
+            Ok((p.as_path(), s))
+        })
         .collect::<anyhow::Result<Vec<_>>>()?;
     let points = input.static_points(&streams, pool_stream)?;
     let mut gp = fit.gp();
@@ -302,12 +305,20 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
             let spinner = console
                 .spinner("checking the pooled model against the table's alone, forward in time");
             let table_points = input.static_points(&[], false)?;
+            // The size chosen for the pooled points is theirs; a table the firmware holds whole
+            // keeps its exact GP.
+            let table_gp = fit.gp();
             let fit_static = |p: &Points| {
+                let cfg = if p.len() <= firmware_sim::replay::MAX_CENTRES {
+                    &table_gp
+                } else {
+                    &gp
+                };
                 GpModel::fit_grouped(
                     p.inputs(),
                     &p.target(),
                     &p.offset_groups(input.offsets),
-                    &gp,
+                    cfg,
                 )
             };
             let table_model = fit_static(&table_points)?;

@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use firmware_sim::cli::Maps;
+use firmware_sim::cli::{Excludes, Maps};
+use firmware_sim::console::Console;
 use firmware_sim::data::columns::ColumnMap;
 use firmware_sim::data::stream::{Stream, Window};
 
@@ -36,6 +37,8 @@ pub(super) struct ModelInput {
     pub(super) points: Option<PathBuf>,
     #[command(flatten)]
     pub(super) maps: Maps,
+    #[command(flatten)]
+    pub(super) exclude: Excludes,
     /// Nominal scale factor K, output units per °/s: learn the bias (output/K − rate) from
     /// temperature instead of the map ω = f(T, output) — all a static log allows.
     #[arg(long, value_name = "K")]
@@ -123,27 +126,15 @@ pub(super) fn load_points(
     Ok(points)
 }
 
-/// Loads a stream and keeps the part inside `window`.
+/// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in
+/// one line ([`firmware_sim::cli::load_log`]).
 pub(super) fn load_stream(
     path: &Path,
     maps: &[ColumnMap],
-    window: Option<Window>,
+    (window, exclude): (Option<Window>, &[Window]),
+    console: &Console,
 ) -> anyhow::Result<Stream> {
-    let s = Stream::load(path, maps)?;
-    for h in &s.handled {
-        eprintln!("warning: {} {h}", path.display());
-    }
-    let Some(w) = window else { return Ok(s) };
-    let part = s.window(w);
-    anyhow::ensure!(
-        part.len() >= 2,
-        "{}: the window {:?}..{:?} s holds {} samples",
-        path.display(),
-        w.start_s,
-        w.end_s,
-        part.len()
-    );
-    Ok(part)
+    firmware_sim::cli::load_log(path, maps, (window, exclude), console)
 }
 
 #[derive(Args, Clone)]

@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use firmware_sim::cli::Maps;
+use firmware_sim::cli::{Excludes, Maps};
 use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::stream::Stream;
+use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::gyro::effects::Hidden;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream::{self, StreamConfig};
@@ -27,9 +27,17 @@ pub(super) struct ReportArgs {
     #[command(flatten)]
     fit: FitOptions,
     /// One stream or log: its first two thirds in time fit (the extension, and the static model
-    /// without --points), its last third is held out. A static log needs --scale-factor.
+    /// without --points), its last third is held out (or from --hold-out-from on). A static log
+    /// needs --scale-factor.
     #[arg(long, conflicts_with_all = ["train_stream", "valid_stream"])]
     stream: Option<PathBuf>,
+    /// With --stream: hold out the part from this time on, s from the first sample used (default:
+    /// its last third); the part before it fits.
+    #[arg(long, requires = "stream", value_name = "SECONDS")]
+    hold_out_from: Option<f64>,
+    /// Use only this part of each stream: START:END, s from its first sample (either end open).
+    #[arg(long)]
+    window: Option<Window>,
     /// Stream the extension is fitted on.
     #[arg(long, requires = "valid_stream")]
     train_stream: Option<PathBuf>,
@@ -66,6 +74,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
     let input = ModelInput {
         points: Some(dir.join("points.csv")),
         maps: Maps::default(),
+        exclude: Excludes::default(),
         scale_factor: None,
         exclude_implausible: false,
         group: None,
@@ -80,6 +89,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         input,
         fit,
         stream,
+        hold_out_from,
+        window,
         train_stream,
         valid_stream,
         out: out_dir,
@@ -124,8 +135,9 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         }
         Files::One(path) => {
             summaries.push(stream_summary(&path, &input.maps)?);
-            let whole = load_stream(&path, &input.maps.list, None)?;
-            let (train, valid, split_s) = report::thirds(&whole);
+            let parts = (window, input.exclude.list.as_slice());
+            let whole = load_stream(&path, &input.maps.list, parts, &console)?;
+            let (train, valid, split_s) = report::split(&whole, hold_out_from)?;
             let train = [(path.as_path(), train)];
             let points = input.static_points(&train, false)?;
             let rebuild =
@@ -141,10 +153,13 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 points,
                 &train[0].1,
                 valid,
-                format!(
-                    "{}'s last third in time, from {split_s:.0} s on",
-                    path.display()
-                ),
+                match hold_out_from {
+                    Some(_) => format!("{} from {split_s:.0} s on", path.display()),
+                    None => format!(
+                        "{}'s last third in time, from {split_s:.0} s on",
+                        path.display()
+                    ),
+                },
                 (&gp, &rebuild),
                 &bar,
             )?
@@ -152,8 +167,12 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         Files::Two(a, b) => {
             summaries.push(stream_summary(&a, &input.maps)?);
             summaries.push(stream_summary(&b, &input.maps)?);
-            let train = [(a.as_path(), load_stream(&a, &input.maps.list, None)?)];
-            let valid = load_stream(&b, &input.maps.list, None)?;
+            let parts = (window, input.exclude.list.as_slice());
+            let train = [(
+                a.as_path(),
+                load_stream(&a, &input.maps.list, parts, &console)?,
+            )];
+            let valid = load_stream(&b, &input.maps.list, parts, &console)?;
             let points = input.static_points(&train, false)?;
             let rebuild =
                 |part: &Stream| input.static_points(&[(a.as_path(), part.clone())], false);

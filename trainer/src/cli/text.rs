@@ -51,12 +51,20 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
         d.residual_rmse_60s_dps * 3600.0,
         d.n_blocks
     );
+    // A forward score the test could not see (the input flat in the later half) is marked.
+    let forward = |score: f64, sees: bool| {
+        if sees {
+            format!("{score:>7.3}")
+        } else {
+            format!("{score:>6.3}*")
+        }
+    };
     for c in &d.candidates {
         s.push_str(&format!(
-            "{:<14} {:>6.3}   {:>7.3}   {:>9.1}   {:>11.3}   {:>15.2}\n",
+            "{:<14} {:>6.3}   {}   {:>9.1}   {:>11.3}   {:>15.2}\n",
             c.id.id(),
             c.score,
-            c.forward_score,
+            forward(c.forward_score, c.forward_sees),
             c.parameter,
             c.correlation,
             c.amplitude_dph
@@ -65,10 +73,10 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
     s.push_str("selection: causes                                of what is left: score   forward   taken\n");
     for st in &d.steps {
         s.push_str(&format!(
-            "           {:<38} {:>21.3}   {:>7.3}   {}\n",
+            "           {:<38} {:>21.3}   {}   {}\n",
             causes_text(&st.causes),
             st.score,
-            st.forward_score,
+            forward(st.forward_score, st.forward_sees),
             match (st.added, st.replaces) {
                 (true, Some(state)) => format!("yes, in place of the design with {state}"),
                 (true, None) => "yes".to_owned(),
@@ -97,6 +105,7 @@ mod tests {
             parameters: vec![0.0; 2],
             score: 0.2,
             forward_score: 0.2,
+            forward_sees: true,
             state_share,
             replaces,
             added,

@@ -41,6 +41,12 @@ pub struct Summary {
     pub time_issues: Vec<String>,
     /// Rows left out, and why.
     pub excluded: Vec<String>,
+    /// The same in one line for the terminal, where windows were left out of a log.
+    #[serde(skip)]
+    pub excluded_line: Option<String>,
+    /// A stream's output step, where every value is a whole multiple of one (a decimated log:
+    /// [`firmware_sim::allan::quantization_step`]).
+    pub output_step: Option<f64>,
     /// Output per °/s of a straight line through the non-zero rates: the scale factor the data
     /// show (a wrong unit shows here).
     pub scale_factor_estimate: Option<f64>,
@@ -174,6 +180,8 @@ pub fn of_points(
         sample_interval_s: None,
         time_issues: Vec::new(),
         excluded: excluded.iter().map(ToString::to_string).collect(),
+        excluded_line: None,
+        output_step: None,
         scale_factor_estimate: slope(&points.rate_dps, &points.voltage_v),
         earth_rate: earth_rate(&points.rate_dps),
     }
@@ -214,7 +222,15 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
         rates: distinct(&stream.rate_dps, 0.01),
         sample_interval_s: Some(stream.step_s),
         time_issues: stream.time_issues.iter().map(ToString::to_string).collect(),
+        excluded_line: firmware_sim::data::stream::left_out_summary(&stream.handled).map(|l| {
+            if unreferenced > stream.handled.iter().map(|h| h.n).sum::<usize>() {
+                format!("{l}; and samples without a reference rate: replayed, not scored or fitted")
+            } else {
+                l
+            }
+        }),
         excluded,
+        output_step: firmware_sim::allan::quantization_step(&stream.voltage_v),
         scale_factor_estimate: slope(&stream.rate_dps, &stream.voltage_v),
         earth_rate: earth_rate(&stream.rate_dps),
     }
@@ -252,8 +268,20 @@ impl Summary {
         for issue in &self.time_issues {
             s.push_str(&format!("  time: {issue}\n"));
         }
-        for row in &self.excluded {
-            s.push_str(&format!("  left out: {row}\n"));
+        match &self.excluded_line {
+            Some(line) => s.push_str(&format!("  left out: {line}\n")),
+            None => {
+                for row in &self.excluded {
+                    s.push_str(&format!("  left out: {row}\n"));
+                }
+            }
+        }
+        if let Some(step) = self.output_step {
+            s.push_str(&format!(
+                "  output quantized in steps of {step:e}: a logger that keeps raw samples rather \
+                 than averaging them; the steps add step/√12 of white noise per sample to the \
+                 angle random walk (trainer allan says how much)\n"
+            ));
         }
         s.push_str(&match self.scale_factor_estimate {
             Some(k) => format!(

@@ -20,7 +20,7 @@ use indicatif::ProgressBar;
 use plots::{DiagnosisSeries, ReliabilitySeries, ReplaySeries};
 
 use crate::analysis::diagnose::Residual;
-use crate::analysis::evaluate::{self, EvalConfig, Method};
+use crate::analysis::evaluate::EvalConfig;
 use crate::analysis::investigate::{self, Investigation, Rebuild};
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO, Reproduction};
 use crate::data::points::Points;
@@ -138,12 +138,7 @@ fn reproduce(points: &Points, cfg: &GpConfig, bar: &ProgressBar) -> anyhow::Resu
         gp: cfg.clone(),
         ..EvalConfig::default()
     };
-    Ok(Reproduction {
-        gpr: evaluate::evaluate(points, Method::Gpr, &eval, bar)?,
-        lssvr: evaluate::evaluate(points, Method::Lssvr, &eval, bar)?,
-        two_step: evaluate::evaluate(points, Method::TwoStep, &eval, bar)?,
-        fig2: evaluate::fig2(points),
-    })
+    Ok(crate::analysis::reproduce::reproduce(points, &eval, bar)?)
 }
 
 /// The investigation on `train`, scored on `valid`, with what the figures need.
@@ -222,6 +217,13 @@ pub fn table(
     bar: &ProgressBar,
 ) -> anyhow::Result<Report> {
     let reproduction = reproduce(&points, cfg, bar)?;
+    let skipped: Vec<String> = reproduction
+        .gpr
+        .skipped
+        .iter()
+        .map(|s| format!("part of leave-one-group-out: {s}"))
+        .chain(reproduction.skipped.iter().map(|s| format!("the {s}")))
+        .collect();
     let could = vec![
         "the static map ω = f(T, output) and how well it holds on points it did not see: \
          leave-one-out and leave-one-temperature-out errors, and the error over (T, rate)"
@@ -244,7 +246,10 @@ pub fn table(
         "the noise (Allan deviation): 2-minute means average it away; log the gyro at rest"
             .to_owned(),
         "how the firmware does on a stream in time: there is none to replay".to_owned(),
-    ];
+    ]
+    .into_iter()
+    .chain(skipped)
+    .collect();
     Ok(Report {
         source: source.display().to_string(),
         kind: Kind::Table,
@@ -266,11 +271,18 @@ fn max(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
-/// The part of `stream` before (`true`) or from (`false`) two thirds of its time.
-pub fn thirds(stream: &Stream) -> (Stream, Stream, f64) {
+/// The parts of `stream` before and from `from_s` (s from its first sample; default two thirds of
+/// its time), and where it was cut.
+pub fn split(stream: &Stream, from_s: Option<f64>) -> anyhow::Result<(Stream, Stream, f64)> {
     let t0 = stream.time_s.first().copied().unwrap_or(0.0);
     let t1 = stream.time_s.last().copied().unwrap_or(t0);
-    let split = (t1 - t0) * 2.0 / 3.0;
+    let split = from_s.unwrap_or((t1 - t0) * 2.0 / 3.0);
+    anyhow::ensure!(
+        split > 0.0 && split < t1 - t0,
+        "--hold-out-from {split} s: the stream runs from 0 to {:.0} s, so nothing would be left \
+         to fit on or to hold out",
+        t1 - t0
+    );
     let before = stream.window(Window {
         start_s: None,
         end_s: Some(split),
@@ -279,7 +291,7 @@ pub fn thirds(stream: &Stream) -> (Stream, Stream, f64) {
         start_s: Some(split),
         end_s: None,
     });
-    (before, after, split)
+    Ok((before, after, split))
 }
 
 /// A report on a rate table and streams: `train` fits the extension, `valid` is held out;
@@ -446,27 +458,22 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
             "output_vs_temperature.svg",
             plots::output_vs_temperature(&p.temp_c, &p.rate_dps, &p.voltage_v)?,
         ));
-        out.push((
-            "qq.svg",
-            plots::qq(&[
-                ("GPR", &rep.gpr.loo_errors_dps, rep.gpr.qq_correlation),
-                (
-                    "LS-SVR",
-                    &rep.lssvr.loo_errors_dps,
-                    rep.lssvr.qq_correlation,
-                ),
-            ])?,
-        ));
+        let methods: Vec<(&str, &crate::analysis::evaluate::Evaluation)> =
+            std::iter::once(("GPR", &rep.gpr))
+                .chain(rep.lssvr.as_ref().map(|e| ("LS-SVR", e)))
+                .collect();
+        let qq: Vec<(&str, &[f64], f64)> = methods
+            .iter()
+            .map(|(n, e)| (*n, e.loo_errors_dps.as_slice(), e.qq_correlation))
+            .collect();
+        out.push(("qq.svg", plots::qq(&qq)?));
+        let maps: Vec<(&str, &[f64])> = methods
+            .iter()
+            .map(|(n, e)| (*n, e.loo_errors_dps.as_slice()))
+            .collect();
         out.push((
             "loo_error.svg",
-            plots::loo_map(
-                &p.temp_c,
-                &p.rate_dps,
-                &[
-                    ("GPR", &rep.gpr.loo_errors_dps),
-                    ("LS-SVR", &rep.lssvr.loo_errors_dps),
-                ],
-            )?,
+            plots::loo_map(&p.temp_c, &p.rate_dps, &maps)?,
         ));
     }
     if let Some(rep) = &r.reproduction
@@ -574,6 +581,46 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
     Ok(out)
 }
 
+/// What the Allan table shows at the longest τ the raw and the shipped curves share, in words that
+/// follow its figures: compensation should lower the long-τ part (the temperature's slow drift),
+/// and where it does not, the page says so.
+fn allan_sentence(allan: &[Allan; 3]) -> String {
+    let (raw, shipped) = (&allan[0], &allan[2]);
+    let longest = raw
+        .tau_s
+        .iter()
+        .zip(&raw.adev_dps)
+        .rev()
+        .find_map(|(t, r)| {
+            let k = shipped
+                .tau_s
+                .iter()
+                .position(|s| (s - t).abs() <= 1e-9 * t)?;
+            Some((*t, *r, shipped.adev_dps[k]))
+        });
+    let long = match longest {
+        Some((tau, r, e)) if e < r => format!(
+            "Compensation lowers the long-τ part, the temperature's slow drift: at τ = {tau:.0} s \
+             the Allan deviation falls from {:.3} to {:.3} °/h.",
+            r * 3600.0,
+            e * 3600.0
+        ),
+        Some((tau, r, e)) => format!(
+            "Compensation does not lower the long-τ part here: at τ = {tau:.0} s the Allan \
+             deviation goes from {:.3} to {:.3} °/h, so what drifts slowly in this stream is not \
+             the static temperature curve the model removes.",
+            r * 3600.0,
+            e * 3600.0
+        ),
+        None => "The curves share no τ to compare.".to_owned(),
+    };
+    format!(
+        "<p>{long} The short-τ part is the gyro's own white noise, which no model removes. A term \
+         \"not shown\" is one whose slope the curve never reaches (a log too short, or a residual \
+         still drifting).</p>\n"
+    )
+}
+
 /// The σ each model states on the held-out stream, scored: coverage at 1, 2 and 3σ of samples and
 /// of 60 s means, and the median σ over the RMS error; then how the shipped σ was calibrated.
 fn sigma_table(inv: &Investigation) -> String {
@@ -660,10 +707,17 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
     if let Some(rep) = &r.reproduction {
         s.push_str("<h2>How the model does on the rate table</h2>\n<table><tr><th>method</th><th>LOO RMSE (°/s)</th><th>LOO RMSE (°/h)</th><th>paper (°/s)</th><th>leave-one-temperature-out (°/s)</th><th>Q-Q r</th></tr>\n");
         for (name, e, paper) in [
-            ("GPR", &rep.gpr, Some(PAPER_LOO_GPR)),
-            ("LS-SVR", &rep.lssvr, Some(PAPER_LOO_LSSVR)),
-            ("two-step", &rep.two_step, None),
+            ("GPR", Some(&rep.gpr), Some(PAPER_LOO_GPR)),
+            ("LS-SVR", rep.lssvr.as_ref(), Some(PAPER_LOO_LSSVR)),
+            ("two-step", rep.two_step.as_ref(), None),
         ] {
+            let Some(e) = e else {
+                let _ = writeln!(
+                    s,
+                    "<tr><td>{name}</td><td colspan=\"5\">could not be fitted on these points</td></tr>"
+                );
+                continue;
+            };
             let _ = writeln!(
                 s,
                 "<tr><td>{name}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{:.4}</td></tr>",
@@ -686,8 +740,8 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
             let g = &rep.gpr.per_temperature[i];
             let lssvr = rep
                 .lssvr
-                .per_temperature
                 .iter()
+                .flat_map(|e| e.per_temperature.iter())
                 .find(|x| x.group == g.group)
                 .map_or("—".into(), |x| sci(x.rmse_dps));
             let (pg, pl) = if paired {
@@ -763,7 +817,8 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
                 cell(a.terms.rrw_deg_per_h_per_sqrt_h)
             );
         }
-        s.push_str("</table>\n<p>Compensation removes the temperature's slow drift, so the long-τ part falls; the short-τ part is the gyro's own white noise, which no model removes. A term \"not shown\" is one whose slope the curve never reaches (a log too short, or a residual still drifting).</p>\n");
+        s.push_str("</table>\n");
+        s.push_str(&allan_sentence(&h.allan));
     }
     s.push_str("<h2>Figures</h2>\n");
     for (name, svg) in figures {
@@ -791,4 +846,27 @@ pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
     write_atomically(&page, html(r, &figures).as_bytes())?;
     written.push(page);
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_allan_sentence_follows_the_curves_it_describes() {
+        let time: Vec<f64> = (0..4000).map(f64::from).collect();
+        let white: Vec<f64> = (0..4000)
+            .map(|i| 1e-3 * ((f64::from(i) * 7.77).sin() + (f64::from(i) * 3.1).cos()))
+            .collect();
+        let drifting: Vec<f64> = white
+            .iter()
+            .enumerate()
+            .map(|(i, w)| w + 1e-6 * i as f64)
+            .collect();
+        let of = |r: &[f64]| Allan::of("x", &time, r);
+        let lowered = allan_sentence(&[of(&drifting), of(&white), of(&white)]);
+        assert!(lowered.contains("lowers the long-τ part"), "{lowered}");
+        let raised = allan_sentence(&[of(&white), of(&white), of(&drifting)]);
+        assert!(raised.contains("does not lower"), "{raised}");
+    }
 }
