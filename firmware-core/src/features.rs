@@ -39,8 +39,11 @@
 //! of the time off, not the rate at its end (the housing cools and warms again with the
 //! self-heating, not in a straight line), and carried through, that slope left a residual after
 //! each power-on which a heating/cooling state took up (docs/diagnosis.md). It needs a clock
-//! that ran while the gyro was off (a real-time clock, or the host's time); a sample time before
-//! the last one says it did not, and the state starts again as after a reset.
+//! that ran while the gyro was off (a real-time clock, or the host's time); a sample time no later
+//! than the last one (no time off) says it did not, and the state starts again as after a reset, its outputs
+//! `Degraded` until the filters have settled. So pass a time that keeps running through power-offs
+//! (the sample's `time_s`); a time since power-on is right only where the state is reset, not
+//! kept, at every power-on.
 //!
 //! # Sensor faults
 //!
@@ -55,6 +58,7 @@
 //! | time jumping ahead by more than max(60 s, 20 steps) (lost samples, a stalled logger) | `Degraded` | filters advance exactly over the gap, for a temperature moving in a straight line across it |
 //! | temperature bit-identical for 600 s (a stuck sensor; real ones show their noise) | `Degraded` while stuck | filters follow the stuck reading |
 //! | a changed sample rate | `Valid` | filters advance by the actual Δt: exact |
+//! | after [`FeatureState::power_on`], a time no later than the last one (the clock passed stopped while the gyro was off: a time since power-on, a counter that restarted) | `Degraded` until the filters settle | starts again from this sample, as after a reset (the time off is unknown) |
 //!
 //! After a time anomaly (and a power-on with the state kept, after more than such a jump), and
 //! after a stuck sensor frees itself, outputs stay `Degraded` for three time constants of the
@@ -170,10 +174,14 @@ pub fn compute(
         return Status::Fault;
     }
     let warm = core::mem::take(&mut state.powered_off);
+    let mut restarted = false;
     if let (true, Some((_, previous))) = (warm, state.times) {
-        if sample.time_s < previous {
-            // The clock did not run through the power-off: the time off is unknown.
+        if sample.time_s <= previous {
+            // No time off: the clock did not run through the power-off (a time since power-on, or a reset
+            // counter): the time off is unknown, so the state starts again from this reading,
+            // and the outputs say so until its filters have settled (module doc).
             state.reset();
+            restarted = true;
         } else {
             // A power-on: time since power-on starts again here; what held before it is over.
             state.times = Some((sample.time_s, previous));
@@ -221,14 +229,15 @@ pub fn compute(
         }
         state.held = (t.to_bits(), t_on);
     }
-    if anomaly || (warm && jump) {
+    if anomaly || (warm && jump) || restarted {
         state.settle_until_s = t_on + settle;
     }
-    let health = if anomaly || t_on - state.held.1 >= STUCK_S || t_on < state.settle_until_s {
-        Status::Degraded
-    } else {
-        Status::Valid
-    };
+    let health =
+        if anomaly || restarted || t_on - state.held.1 >= STUCK_S || t_on < state.settle_until_s {
+            Status::Degraded
+        } else {
+            Status::Valid
+        };
     for ((slot, feature), y) in out.iter_mut().zip(features).zip(&mut state.filters) {
         *slot = match *feature {
             Feature::Temperature => t,
@@ -479,15 +488,37 @@ mod tests {
     }
 
     #[test]
-    fn a_clock_that_stopped_while_off_starts_the_state_again() {
+    fn a_clock_that_stopped_while_off_starts_the_state_again_and_says_so() {
         let mut kept = heated(&KEPT);
         kept.power_on();
         let mut out = [0.0f32; 3];
+        // A time since power-on passed after a power-on with the state kept: it went back.
         assert_eq!(
             compute(&KEPT, &at(12.0, 30.0), &mut kept, &mut out),
-            Status::Valid
+            Status::Degraded
         );
         assert_eq!(out, [30.0, 0.0, 0.0]);
+        // A power-on with no time off at all says the same.
+        let mut same = heated(&KEPT);
+        let last = same.times.unwrap().1;
+        same.power_on();
+        assert_eq!(
+            compute(&KEPT, &at(last, 30.0), &mut same, &mut out),
+            Status::Degraded
+        );
+        // Degraded while the restarted filters settle (three of the slowest τ), then valid.
+        let settle = settle_s(&KEPT);
+        let mut last = Status::Degraded;
+        let mut t = 12.0;
+        while t < 12.0 + settle + 2.0 {
+            t += 1.0;
+            // A reading that moves, as a real sensor's does (a fixed one is a stuck sensor).
+            last = compute(&KEPT, &at(t, 30.0 + 1e-3 * t as f32), &mut kept, &mut out);
+            if t < 12.0 + settle - 1.0 {
+                assert_eq!(last, Status::Degraded, "{t}");
+            }
+        }
+        assert_eq!(last, Status::Valid);
     }
 
     #[test]

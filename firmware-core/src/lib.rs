@@ -19,7 +19,7 @@ pub use blob::{Dims, ErrorModel, Feature};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_INPUTS, Sample};
 pub use model::{Mean, Model, Prediction};
-pub use slots::{Flash, FlashError, Layout, Slot, SlotError};
+pub use slots::{Flash, FlashError, Layout, LayoutError, Slot, SlotError};
 pub use status::Status;
 
 /// The firmware-integration guide, whose Rust example is compiled and run as a doc test of this

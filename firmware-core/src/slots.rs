@@ -16,6 +16,13 @@
 //! flipped bit in either slot fails that slot's CRC and boot takes the other. A slot is only ever
 //! a whole blob that the trainer wrote, so a model is never a mix of two.
 //!
+//! **A driver that fails.** A failed read says nothing about a slot's content: it is an error,
+//! never a verdict that the slot is invalid. An update whose reads fail stops before it erases
+//! anything (it could otherwise pick the slot in use as the one to write); a boot whose reads
+//! fail stops with the error rather than take the other slot, which would be the older model. A
+//! failed erase or program stops the update before its commit, so the model in use stays. The
+//! [`Layout`] is checked against the device before anything is read ([`Layout::check`]).
+//!
 //! The flash itself is the integrator's ([`Flash`]): a HAL's driver on the gyro, the simulated
 //! NOR of `firmware-sim` in tests.
 
@@ -25,6 +32,8 @@ use crate::model::Model;
 
 /// NOR flash as the slots use it. Addresses are byte offsets into the device.
 pub trait Flash {
+    /// Bytes of the device: every address is below it.
+    fn size(&self) -> usize;
     /// Erase unit, bytes (a sector erases to 0xFF).
     fn sector(&self) -> usize;
     /// Program unit, bytes: one program operation stays inside one page.
@@ -68,6 +77,25 @@ pub enum SlotError {
     Flash(FlashError),
     /// The slot read back differs from what was written.
     Verify,
+    /// The layout does not fit the device ([`Layout::check`]).
+    Layout(LayoutError),
+}
+
+/// Why a [`Layout`] was refused, before anything was read, erased or programmed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LayoutError {
+    /// A slot of zero bytes, or a device with a zero-byte sector or page.
+    Empty,
+    /// The slot length is not a whole number of sectors: erasing its last sector would erase
+    /// beyond it.
+    NotWholeSectors,
+    /// A slot does not start on a sector boundary.
+    Unaligned,
+    /// The two slots overlap.
+    Overlap,
+    /// A slot reaches beyond the device (or beyond the address space).
+    OutsideDevice,
 }
 
 impl From<FlashError> for SlotError {
@@ -93,6 +121,7 @@ impl core::fmt::Display for SlotError {
             Self::Blob(e) => write!(f, "blob refused: {e}"),
             Self::Flash(e) => write!(f, "flash failed: {e:?}"),
             Self::Verify => write!(f, "slot read back differs from the blob written"),
+            Self::Layout(e) => write!(f, "slot layout refused: {e:?}"),
         }
     }
 }
@@ -137,6 +166,29 @@ impl Layout {
             Slot::B => self.b,
         }
     }
+
+    /// Checks the layout against `flash`: slots of a whole, non-zero number of sectors, each
+    /// starting on a sector, apart, and inside the device.
+    pub fn check<F: Flash>(&self, flash: &F) -> Result<(), LayoutError> {
+        let (sector, size) = (flash.sector(), flash.size());
+        if self.len == 0 || sector == 0 || flash.page() == 0 {
+            return Err(LayoutError::Empty);
+        }
+        if !self.len.is_multiple_of(sector) {
+            return Err(LayoutError::NotWholeSectors);
+        }
+        if !self.a.is_multiple_of(sector) || !self.b.is_multiple_of(sector) {
+            return Err(LayoutError::Unaligned);
+        }
+        let end = |start: usize| start.checked_add(self.len).filter(|&e| e <= size);
+        let (Some(a_end), Some(b_end)) = (end(self.a), end(self.b)) else {
+            return Err(LayoutError::OutsideDevice);
+        };
+        if self.a < b_end && self.b < a_end {
+            return Err(LayoutError::Overlap);
+        }
+        Ok(())
+    }
 }
 
 /// Where the model a boot took came from: which slot, with which sequence.
@@ -149,30 +201,47 @@ pub struct Booted {
 }
 
 /// The blob in `slot`, if the slot holds a valid one: read into `buf`, checked (magic, version,
-/// length, CRC); returns its length and sequence.
-fn valid<F: Flash>(flash: &F, layout: &Layout, slot: Slot, buf: &mut [u8]) -> Option<(usize, u32)> {
-    let buf = buf.get_mut(..layout.len)?;
-    flash.read(layout.addr(slot), buf).ok()?;
+/// length, CRC); its length and sequence. A failed read is an error, not an invalid slot.
+fn valid<F: Flash>(
+    flash: &F,
+    layout: &Layout,
+    slot: Slot,
+    buf: &mut [u8],
+) -> Result<Option<(usize, u32)>, FlashError> {
+    let Some(buf) = buf.get_mut(..layout.len) else {
+        return Ok(None);
+    };
+    flash.read(layout.addr(slot), buf)?;
     // The header says how long the blob is; the slot's erased tail must not count as payload.
-    let len = blob::declared_len(buf)?;
-    let h = blob::read_header(buf.get(..len)?).ok()?;
-    Some((len, h.sequence))
+    let Some(len) = blob::declared_len(buf) else {
+        return Ok(None);
+    };
+    Ok(buf
+        .get(..len)
+        .and_then(|b| blob::read_header(b).ok())
+        .map(|h| (len, h.sequence)))
 }
 
-/// The valid slots' sequences, newest first.
-fn newest<F: Flash>(flash: &F, layout: &Layout, buf: &mut [u8]) -> [Option<(Slot, u32)>; 2] {
-    let a = valid(flash, layout, Slot::A, buf).map(|(_, s)| (Slot::A, s));
-    let b = valid(flash, layout, Slot::B, buf).map(|(_, s)| (Slot::B, s));
-    match (a, b) {
+/// The valid slots' sequences, newest first; an error where either slot could not be read.
+fn newest<F: Flash>(
+    flash: &F,
+    layout: &Layout,
+    buf: &mut [u8],
+) -> Result<[Option<(Slot, u32)>; 2], FlashError> {
+    let a = valid(flash, layout, Slot::A, buf)?.map(|(_, s)| (Slot::A, s));
+    let b = valid(flash, layout, Slot::B, buf)?.map(|(_, s)| (Slot::B, s));
+    Ok(match (a, b) {
         (Some(x), Some(y)) if y.1 > x.1 => [b, a],
         (None, Some(_)) => [b, None],
         _ => [a, b],
-    }
+    })
 }
 
 /// Boots the valid slot with the newest sequence (the other where the newest does not decode),
 /// decoding it into `model` (typically a `static`: [`Model::decode_into`]). `buf` holds at least
-/// one slot. Where no slot holds a valid model, `model` holds none either.
+/// one slot. Where no slot holds a valid model, `model` holds none either; so it is where a read
+/// fails ([`SlotError::Flash`]): taking the other slot then could boot the older model, so the
+/// caller retries (module doc).
 pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
     flash: &F,
     layout: &Layout,
@@ -180,11 +249,12 @@ pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
     model: &mut Model<D, E, N>,
 ) -> Result<Booted, SlotError> {
     model.clear();
+    layout.check(flash).map_err(SlotError::Layout)?;
     if buf.len() < layout.len {
         return Err(SlotError::BufferTooSmall);
     }
-    for (slot, sequence) in newest(flash, layout, buf).into_iter().flatten() {
-        let Some((len, _)) = valid(flash, layout, slot, buf) else {
+    for (slot, sequence) in newest(flash, layout, buf)?.into_iter().flatten() {
+        let Some((len, _)) = valid(flash, layout, slot, buf)? else {
             continue;
         };
         if let Some(Ok(())) = buf.get(..len).map(|b| model.decode_into(b)) {
@@ -194,16 +264,20 @@ pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
     Err(SlotError::NoValidSlot)
 }
 
-/// Writes `blob` (a valid version-4 blob, stamped here with the next sequence) into the slot not
-/// holding the newest valid model, committing by its magic last (module doc). Returns that slot
-/// and the sequence. `buf` holds at least one slot (it reads the slots, then verifies the write).
-/// A power cut or a failure before the commit leaves the model in use as it was.
+/// Writes `blob` (a valid blob of format 4 or later, stamped here with the next sequence) into the
+/// slot not holding the newest valid model, committing by its magic last (module doc). Returns
+/// that slot and the sequence. `buf` holds at least one slot (it reads the slots, then verifies
+/// the write). A power cut or a failure before the commit leaves the model in use as it was; a
+/// read that fails before anything is erased stops the update with the error. A failure of the
+/// read that verifies the commit is reported too: the new model may then be in place, and the
+/// next boot says which.
 pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
     flash: &mut F,
     layout: &Layout,
     blob: &mut [u8],
     buf: &mut [u8],
 ) -> Result<(Slot, u32), SlotError> {
+    layout.check(flash).map_err(SlotError::Layout)?;
     if buf.len() < layout.len {
         return Err(SlotError::BufferTooSmall);
     }
@@ -215,7 +289,7 @@ pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
     }
     // Refuse what the firmware could not boot before anything is erased.
     Model::<D, E, N>::check(blob)?;
-    let [current, _] = newest(flash, layout, buf);
+    let [current, _] = newest(flash, layout, buf)?;
     let (target, sequence) = match current {
         Some((slot, s)) => (slot.other(), s.wrapping_add(1)),
         None => (Slot::A, 1),

@@ -66,18 +66,44 @@ fn build_library(triple: Option<&str>) -> Result<(PathBuf, PathBuf), CReplayErro
     Ok((root, target))
 }
 
+/// A C program of the interface's: the replay example (`include/fog_replay.c`) or the self-test
+/// of its promises (`tests/c/fog_selftest.c`), with the C flags it is built with.
+#[derive(Debug, Clone, Copy)]
+pub struct Program {
+    /// Its source, from `firmware-core/ffi`.
+    pub source: &'static str,
+    /// The executable's name.
+    pub name: &'static str,
+    /// Extra C flags (e.g. `-fno-short-enums`).
+    pub flags: &'static [&'static str],
+}
+
+/// The replay example of docs/firmware.md.
+pub const REPLAY: Program = Program {
+    source: "include/fog_replay.c",
+    name: "fog_replay",
+    flags: &[],
+};
+
 /// Builds `libfog_ffi.a` (cargo, release, in `target/ffi`) and the C program against it (`cc`,
 /// or `$CC`); returns the program. The commands are the ones docs/firmware.md gives.
 pub fn build() -> Result<PathBuf, CReplayError> {
+    build_program(REPLAY)
+}
+
+/// [`build`] for any [`Program`].
+pub fn build_program(program: Program) -> Result<PathBuf, CReplayError> {
     let (root, target) = build_library(None)?;
-    let include = root.join("firmware-core").join("ffi").join("include");
-    let exe = target.join("fog_replay");
+    let ffi = root.join("firmware-core").join("ffi");
+    let exe = target.join(program.name);
     let cc = std::env::var_os("CC").unwrap_or_else(|| "cc".into());
     run_ok(
         Command::new(cc)
-            .args(["-O2", "-Wall", "-Wextra", "-Werror", "-I"])
-            .arg(&include)
-            .arg(include.join("fog_replay.c"))
+            .args(["-O2", "-Wall", "-Wextra", "-Werror"])
+            .args(program.flags)
+            .arg("-I")
+            .arg(ffi.join("include"))
+            .arg(ffi.join(program.source))
             .arg(target.join("release").join("libfog_ffi.a"))
             .args(["-lm", "-lpthread", "-ldl", "-o"])
             .arg(&exe),
@@ -89,9 +115,14 @@ pub fn build() -> Result<PathBuf, CReplayError> {
 /// `arm-none-eabi-gcc`, newlib's semihosting start-up (rdimon) and `firmware-core/ffi/m4`'s
 /// vector table and linker script; returns the ELF image for QEMU's mps2-an386.
 pub fn build_m4() -> Result<PathBuf, CReplayError> {
+    build_program_m4(REPLAY)
+}
+
+/// [`build_m4`] for any [`Program`].
+pub fn build_program_m4(program: Program) -> Result<PathBuf, CReplayError> {
     let (root, target) = build_library(Some("thumbv7em-none-eabihf"))?;
     let ffi = root.join("firmware-core").join("ffi");
-    let elf = target.join("fog_replay.elf");
+    let elf = target.join(format!("{}.elf", program.name));
     let crt0 = Command::new("arm-none-eabi-gcc")
         .args(M4_FLAGS)
         .arg("-print-file-name=rdimon-crt0.o")
@@ -102,6 +133,7 @@ pub fn build_m4() -> Result<PathBuf, CReplayError> {
         Command::new("arm-none-eabi-gcc")
             .args(["-O2", "-Wall", "-Wextra", "-Werror"])
             .args(M4_FLAGS)
+            .args(program.flags)
             .args([
                 "--specs=rdimon.specs",
                 "-nostartfiles",
@@ -112,7 +144,7 @@ pub fn build_m4() -> Result<PathBuf, CReplayError> {
             .arg("-I")
             .arg(ffi.join("include"))
             .arg(ffi.join("m4").join("startup.c"))
-            .arg(ffi.join("include").join("fog_replay.c"))
+            .arg(ffi.join(program.source))
             .arg(crt0)
             .arg(
                 target
@@ -181,6 +213,34 @@ pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<M4Run, CReplay
         compensated,
         stack_bytes,
     })
+}
+
+/// Runs a program built by [`build_program`] (host) or [`build_program_m4`] (`m4`: under QEMU)
+/// with `args`; returns what it wrote on stdout, or why it failed.
+pub fn run_program(exe: &Path, m4: bool, args: &[&str]) -> Result<String, CReplayError> {
+    let out = if m4 {
+        let mut config = String::from("enable=on,target=native,arg=program");
+        for a in args {
+            config.push_str(",arg=");
+            config.push_str(a);
+        }
+        Command::new("qemu-system-arm")
+            .args(&crate::qemu::QEMU_ARGS[..9])
+            .args(["-semihosting-config", &config, "-kernel"])
+            .arg(exe)
+            .output()?
+    } else {
+        Command::new(exe).args(args).output()?
+    };
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    if out.status.success() {
+        Ok(stdout)
+    } else {
+        Err(CReplayError::Run(format!(
+            "{stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        )))
+    }
 }
 
 /// Writes the blob and the sample records, runs `program` on (model, samples, out) and reads the

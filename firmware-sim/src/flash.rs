@@ -8,11 +8,17 @@
 //! the low four of the bits it should), the rest are untouched, and every later erase or program
 //! fails until the power comes back ([`NorFlash::power_on`]). Erases proceed byte by byte from
 //! the sector's start, so a cut erase leaves a sector part erased and part old.
+//!
+//! And as a driver can: any one operation (a read, an erase or a program, counted from
+//! [`NorFlash::fail_once`]) reports a device failure and does nothing, once.
+
+use std::cell::Cell;
 
 use firmware_core::slots::{Flash, FlashError};
 
-/// A NOR device of `SECTOR`-byte sectors and `PAGE`-byte pages.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A NOR device of `SECTOR`-byte sectors and `PAGE`-byte pages. Two devices are equal when their
+/// cells are.
+#[derive(Debug, Clone)]
 pub struct NorFlash<const SECTOR: usize, const PAGE: usize> {
     cells: Vec<u8>,
     /// Bytes the device may still erase or program before the power goes (`None`: unlimited).
@@ -20,7 +26,18 @@ pub struct NorFlash<const SECTOR: usize, const PAGE: usize> {
     /// Bytes erased or programmed since the count was last reset.
     worked: usize,
     powered: bool,
+    /// Operations since [`Self::fail_once`], and which of them fails.
+    ops: Cell<usize>,
+    fail_at: Option<usize>,
 }
+
+impl<const SECTOR: usize, const PAGE: usize> PartialEq for NorFlash<SECTOR, PAGE> {
+    fn eq(&self, other: &Self) -> bool {
+        self.cells == other.cells
+    }
+}
+
+impl<const SECTOR: usize, const PAGE: usize> Eq for NorFlash<SECTOR, PAGE> {}
 
 impl<const SECTOR: usize, const PAGE: usize> NorFlash<SECTOR, PAGE> {
     /// An erased device of `sectors` sectors.
@@ -30,7 +47,28 @@ impl<const SECTOR: usize, const PAGE: usize> NorFlash<SECTOR, PAGE> {
             budget: None,
             worked: 0,
             powered: true,
+            ops: Cell::new(0),
+            fail_at: None,
         }
+    }
+
+    /// Operation `k` from now (0: the next read, erase or program) reports a device failure and
+    /// does nothing; the others work.
+    pub fn fail_once(&mut self, k: usize) {
+        self.ops.set(0);
+        self.fail_at = Some(k);
+    }
+
+    /// Operations since [`Self::fail_once`] (or since the device was made).
+    pub fn ops(&self) -> usize {
+        self.ops.get()
+    }
+
+    /// Counts an operation; whether it is the one that fails.
+    fn fails(&self) -> bool {
+        let k = self.ops.get();
+        self.ops.set(k + 1);
+        self.fail_at == Some(k)
     }
 
     /// The power goes after `bytes` more bytes of erase or program work.
@@ -88,6 +126,10 @@ impl<const SECTOR: usize, const PAGE: usize> NorFlash<SECTOR, PAGE> {
 }
 
 impl<const SECTOR: usize, const PAGE: usize> Flash for NorFlash<SECTOR, PAGE> {
+    fn size(&self) -> usize {
+        self.cells.len()
+    }
+
     fn sector(&self) -> usize {
         SECTOR
     }
@@ -97,6 +139,9 @@ impl<const SECTOR: usize, const PAGE: usize> Flash for NorFlash<SECTOR, PAGE> {
     }
 
     fn read(&self, addr: usize, buf: &mut [u8]) -> Result<(), FlashError> {
+        if self.fails() {
+            return Err(FlashError::Device);
+        }
         let src = self
             .cells
             .get(addr..addr + buf.len())
@@ -109,7 +154,7 @@ impl<const SECTOR: usize, const PAGE: usize> Flash for NorFlash<SECTOR, PAGE> {
         if !addr.is_multiple_of(SECTOR) || addr + SECTOR > self.cells.len() {
             return Err(FlashError::OutOfRange);
         }
-        if !self.powered {
+        if self.fails() || !self.powered {
             return Err(FlashError::Device);
         }
         for a in addr..addr + SECTOR {
@@ -125,7 +170,7 @@ impl<const SECTOR: usize, const PAGE: usize> Flash for NorFlash<SECTOR, PAGE> {
         if end > self.cells.len() || (!data.is_empty() && addr / PAGE != (end - 1) / PAGE) {
             return Err(FlashError::OutOfRange);
         }
-        if !self.powered {
+        if self.fails() || !self.powered {
             return Err(FlashError::Device);
         }
         for (a, &v) in (addr..end).zip(data) {

@@ -1,9 +1,12 @@
 //! Two calibration slots on simulated NOR flash (issue 22): an update cut by a power loss at
 //! every byte of its work, and a bit flipped anywhere in either slot, always boot a valid model —
-//! the old one or the new one, whole, never none and never a mix.
+//! the old one or the new one, whole, never none and never a mix. And (issue 46) with a driver
+//! that fails any one read, erase or program, then loses power anywhere: still the old or the
+//! new, never none, never an older one; a layout that does not fit the device is refused before
+//! anything is touched.
 
 use firmware_core::blob;
-use firmware_core::slots::{self, Booted, Layout, Slot, SlotError};
+use firmware_core::slots::{self, Booted, Flash, FlashError, Layout, LayoutError, Slot, SlotError};
 use firmware_core::{BlobError, Model};
 use firmware_sim::flash::NorFlash;
 
@@ -121,6 +124,194 @@ fn a_power_cut_at_every_byte_of_an_update_boots_the_old_model_or_the_new() {
             assert_eq!(booted.sequence, expected, "cut at {cut}");
             assert_eq!(booted.model, model_of(expected), "cut at {cut}");
         }
+    }
+}
+
+#[test]
+fn a_driver_that_fails_once_then_loses_power_never_loses_the_model_nor_rolls_it_back() {
+    // The first install, A → B, and B → A (the model in use in B, an older one in A).
+    for before in [0, 1, 2] {
+        let flash = if before == 0 {
+            Nor::new(2)
+        } else {
+            after_updates(before)
+        };
+        let next = blob_of(before + 1);
+        let mut whole = flash.clone();
+        whole.fail_once(usize::MAX);
+        update(&mut whole, &next).unwrap();
+        let (ops, work) = (whole.ops(), whole.worked() - flash.worked());
+        let mut cases = 0;
+        for fail in 0..ops {
+            for cut in (0..=work).step_by(3).chain([work]) {
+                let mut f = flash.clone();
+                f.fail_once(fail);
+                f.cut_after(cut);
+                let written = update(&mut f, &next);
+                f.power_on();
+                f.fail_once(usize::MAX);
+                let what = format!("{before}: operation {fail} failed, power cut at {cut}");
+                match boot(&f) {
+                    Ok(b) => {
+                        assert!(
+                            b.sequence == before || b.sequence == before + 1,
+                            "{what}: booted {}",
+                            b.sequence
+                        );
+                        assert_eq!(b.model, model_of(b.sequence), "{what}");
+                        if written.is_ok() {
+                            assert_eq!(b.sequence, before + 1, "{what}");
+                        }
+                    }
+                    Err(e) => assert_eq!(before, 0, "{what}: no model ({e})"),
+                }
+                cases += 1;
+            }
+        }
+        assert!(cases > 5_000, "{cases}");
+    }
+}
+
+#[test]
+fn a_boot_whose_read_fails_says_so_rather_than_boot_the_older_model() {
+    let flash = after_updates(2);
+    for fail in 0..2 {
+        let mut f = flash.clone();
+        f.fail_once(fail);
+        let mut model = Gyro::new();
+        model.decode_into(&blob_of(1)).unwrap();
+        let e = slots::boot(&f, &LAYOUT, &mut [0u8; 4096], &mut model).unwrap_err();
+        assert_eq!(e, SlotError::Flash(FlashError::Device), "read {fail}");
+        assert_eq!(model, Gyro::new(), "no stale model after a failed boot");
+        // Tried again, it boots the newest.
+        assert_eq!(boot(&f).unwrap().sequence, 2);
+    }
+}
+
+#[test]
+fn a_layout_that_does_not_fit_the_device_is_refused_before_anything_is_touched() {
+    let mut flash = Nor::new(4);
+    update(&mut flash, &blob_of(1)).unwrap();
+    let size = flash.size();
+    let bad = [
+        (
+            Layout {
+                a: 0,
+                b: 4096,
+                len: 0,
+            },
+            LayoutError::Empty,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 5000,
+                len: 5000,
+            },
+            LayoutError::NotWholeSectors,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 4096,
+                len: 4095,
+            },
+            LayoutError::NotWholeSectors,
+        ),
+        (
+            Layout {
+                a: 100,
+                b: 4096,
+                len: 4096,
+            },
+            LayoutError::Unaligned,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 4100,
+                len: 4096,
+            },
+            LayoutError::Unaligned,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 0,
+                len: 4096,
+            },
+            LayoutError::Overlap,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 4096,
+                len: 8192,
+            },
+            LayoutError::Overlap,
+        ),
+        (
+            Layout {
+                a: 8192,
+                b: 4096,
+                len: 8192,
+            },
+            LayoutError::Overlap,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: size,
+                len: 4096,
+            },
+            LayoutError::OutsideDevice,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: 4096,
+                len: size,
+            },
+            LayoutError::OutsideDevice,
+        ),
+        (
+            Layout {
+                a: usize::MAX - 4095,
+                b: 0,
+                len: 4096,
+            },
+            LayoutError::OutsideDevice,
+        ),
+        (
+            Layout {
+                a: usize::MAX - 4094,
+                b: 0,
+                len: 4096,
+            },
+            LayoutError::Unaligned,
+        ),
+        (
+            Layout {
+                a: 0,
+                b: usize::MAX / 4096 * 4096,
+                len: 8192,
+            },
+            LayoutError::OutsideDevice,
+        ),
+    ];
+    for (layout, why) in bad {
+        let mut f = flash.clone();
+        f.fail_once(usize::MAX);
+        let e = slots::update::<_, 2, 14, 395>(&mut f, &layout, &mut blob_of(2), &mut [0u8; 8192]);
+        assert_eq!(e, Err(SlotError::Layout(why)), "{layout:?}");
+        assert_eq!(
+            (f.ops(), f.worked()),
+            (0, flash.worked()),
+            "{layout:?}: touched"
+        );
+        let mut model = Gyro::new();
+        let e = slots::boot(&f, &layout, &mut [0u8; 8192], &mut model).unwrap_err();
+        assert_eq!(e, SlotError::Layout(why), "{layout:?}");
     }
 }
 

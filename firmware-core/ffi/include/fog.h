@@ -83,6 +83,16 @@ typedef enum FogResult {
   FOG_ERR_FLASH_DEVICE = 21,
   // `SlotError::Verify`: the slot read back differs from the blob written.
   FOG_ERR_VERIFY = 22,
+  // `SlotError::Layout`: the slots do not fit the device (a length that is not a whole
+  // number of sectors, a slot not on a sector boundary, slots that overlap, a slot beyond the
+  // device); nothing was read, erased or programmed.
+  FOG_ERR_LAYOUT = 23,
+  // `fog_abi_check`: the caller was built against another header (other capacities, other
+  // sizes) than the library.
+  FOG_ERR_ABI = 24,
+  // Not a result: holds the enum to 32 bits whatever the C compiler's enum size
+  // (`-fshort-enums`, the Arm EABI's default, or not).
+  FOG_RESULT_WIDTH = 2147483647,
 } FogResult;
 
 // A prediction's validity, as `firmware_core::Status`.
@@ -95,6 +105,8 @@ typedef enum FogStatus {
   FOG_DEGRADED = 2,
   // NaN, infinite or impossible input: do not use the mean.
   FOG_FAULT = 3,
+  // Not a status: holds the enum to 32 bits whatever the C compiler's enum size.
+  FOG_STATUS_WIDTH = 2147483647,
 } FogStatus;
 
 // Storage for one decoded model: opaque, aligned, at least as large as the model it holds.
@@ -139,6 +151,8 @@ typedef struct FogDims {
 typedef struct FogFlash {
   // Passed back to every function (the driver's own state).
   void *context;
+  // Bytes of the device: the slots must lie below it.
+  uint32_t size;
   // Erase unit, bytes.
   uint32_t sector;
   // Program unit, bytes: one `program` call stays inside one page.
@@ -151,7 +165,9 @@ typedef struct FogFlash {
   int32_t (*program)(void*, uint32_t, const uint8_t*, size_t);
 } FogFlash;
 
-// Where the two calibration slots are: each `len` bytes, sector-aligned, not overlapping.
+// Where the two calibration slots are: each `len` bytes (a whole number of sectors), each
+// starting on a sector, apart, inside the device. The library checks this before it reads,
+// erases or programs anything (`FogErrLayout`).
 typedef struct FogLayout {
   // Address of slot A.
   uint32_t a;
@@ -173,8 +189,8 @@ typedef struct FogSlot {
 extern "C" {
 #endif // __cplusplus
 
-// Decodes the blob of `len` bytes at `blob` into `model`. On an error `model` is left marked as
-// holding no model, whatever it held before.
+// Decodes the blob of `len` bytes at `blob` into `model`. On any error (a null `blob`
+// included) `model` is left holding no model, whatever it held before.
 //
 // # Safety
 // `model` points to a writable `FogModel`; `blob` to `len` readable bytes. Either may be null
@@ -192,16 +208,25 @@ enum FogResult fog_state_reset(struct FogState *state);
 // The gyro was switched off and on again and `state` kept through it (its bytes stored at
 // power-down and restored before this call): the next sample is a power-on, and the coil
 // estimate and the play cross the time off along a straight line from the last reading to the
-// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was off; where there is none,
-// or nothing was stored, call `fog_state_reset` instead.
+// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was
+// off (`fog_compensate`); where there is none, or nothing was stored, call `fog_state_reset`
+// instead.
 //
 // # Safety
 // `state` is null (`FogErrNull`) or points to a writable `FogState`, initialized (by
 // `fog_state_reset`, or zeroed as a C `static` is: then `FogErrNoState`).
 enum FogResult fog_state_power_on(struct FogState *state);
 
-// Compensates one sample (time since power-on in s, temperature in °C, the gyro's output) with
-// the model, through the channel's state: the feature pipeline, then mean and variance.
+// Compensates one sample (time in s, temperature in °C, the gyro's output) with the model,
+// through the channel's state: the feature pipeline, then mean and variances.
+//
+// Which clock: where the state is kept through power-offs (`fog_state_power_on`), `time_s` is a
+// clock that keeps running while the gyro is off (a real-time clock), so the coil estimate can
+// cross the time off; where the state is reset at every power-on (`fog_state_reset`), a time
+// since power-on does. A time no later than the last one after `fog_state_power_on` (no time
+// off) says the clock did not run: the state starts again from that sample and its outputs are `FOG_DEGRADED` until its
+// filters settle. Time since power-on for the model's warm-up and drift inputs is counted from
+// the first sample after a power-on, whichever clock.
 //
 // # Safety
 // `model` points to a `FogModel` and `channel` to a `FogState`, each initialized (by its
@@ -230,6 +255,17 @@ enum FogResult fog_model_dims(const struct FogModel *model, struct FogDims *out)
 // `model` points to an initialized `FogModel` (decoded into, or zeroed), `out` to a writable
 // `float`; either may be null.
 enum FogResult fog_noise_of_mean(const struct FogModel *model, float window_s, float *out);
+
+// Checks that the caller was built against the header this library was: call it once at
+// start-up, as `FOG_ABI_CHECK()` does with the caller's `sizeof`s and capacities.
+// `FogErrAbi` where any differs (a header edited to other capacities, a library not rebuilt):
+// then nothing else is safe to call.
+enum FogResult fog_abi_check(size_t model_bytes,
+                             size_t state_bytes,
+                             size_t prediction_bytes,
+                             uint32_t max_centres,
+                             uint32_t max_inputs,
+                             uint32_t max_monomials);
 
 // Boots the calibration slot with the newest valid model into `model` (firmware-core's
 // `slots::boot`): `FogErrNoValidSlot` when neither holds one (`model` then holds no model).
@@ -265,3 +301,23 @@ enum FogResult fog_slots_update(const struct FogFlash *flash,
 #endif  // __cplusplus
 
 #endif  /* FOG_H */
+
+#ifndef FOG_H_CHECKS
+#define FOG_H_CHECKS
+/* Every type crossing the interface has one width, whatever the compiler's options (such as
+ * -fshort-enums or -fno-short-enums): a mismatched build fails here, at compile time. */
+#ifdef __cplusplus
+#define FOG_STATIC_ASSERT static_assert
+#else
+#define FOG_STATIC_ASSERT _Static_assert
+#endif
+FOG_STATIC_ASSERT(sizeof(FogResult) == 4, "FogResult must be 32 bits (FOG_RESULT_WIDTH)");
+FOG_STATIC_ASSERT(sizeof(FogStatus) == 4, "FogStatus must be 32 bits (FOG_STATUS_WIDTH)");
+FOG_STATIC_ASSERT(sizeof(FogPrediction) == 16, "FogPrediction: three floats, a 32-bit status");
+
+/* Checks at start-up that the library was built against this header: FOG_OK, or FOG_ERR_ABI
+ * (then nothing else is safe to call). */
+#define FOG_ABI_CHECK() \
+  fog_abi_check(sizeof(FogModel), sizeof(FogState), sizeof(FogPrediction), FOG_MAX_CENTRES, \
+                FOG_MAX_INPUTS, FOG_MAX_MONOMIALS)
+#endif  /* FOG_H_CHECKS */

@@ -41,6 +41,9 @@ int main(int argc, char **argv) {
     if (argc != 4) {
         return fail("usage: fog_replay model.bin samples.bin out.bin");
     }
+    if (FOG_ABI_CHECK() != FOG_OK) {
+        return fail("the library was built against another fog.h");
+    }
     FILE *f = fopen(argv[1], "rb");
     if (!f) {
         return fail("cannot open the model");

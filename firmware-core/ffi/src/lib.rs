@@ -124,6 +124,16 @@ pub enum FogResult {
     FogErrFlashDevice = 21,
     /// `SlotError::Verify`: the slot read back differs from the blob written.
     FogErrVerify = 22,
+    /// `SlotError::Layout`: the slots do not fit the device (a length that is not a whole
+    /// number of sectors, a slot not on a sector boundary, slots that overlap, a slot beyond the
+    /// device); nothing was read, erased or programmed.
+    FogErrLayout = 23,
+    /// `fog_abi_check`: the caller was built against another header (other capacities, other
+    /// sizes) than the library.
+    FogErrAbi = 24,
+    /// Not a result: holds the enum to 32 bits whatever the C compiler's enum size
+    /// (`-fshort-enums`, the Arm EABI's default, or not).
+    FogResultWidth = 0x7FFF_FFFF,
 }
 
 /// A prediction's validity, as `firmware_core::Status`.
@@ -138,6 +148,8 @@ pub enum FogStatus {
     FogDegraded = 2,
     /// NaN, infinite or impossible input: do not use the mean.
     FogFault = 3,
+    /// Not a status: holds the enum to 32 bits whatever the C compiler's enum size.
+    FogStatusWidth = 0x7FFF_FFFF,
 }
 
 /// One compensated sample, with the two variances of the σ contract (docs/firmware.md, "What
@@ -210,6 +222,7 @@ impl From<SlotError> for FogResult {
             SlotError::Flash(FlashError::OutOfRange) => Self::FogErrFlashOutOfRange,
             SlotError::Flash(FlashError::Device) => Self::FogErrFlashDevice,
             SlotError::Verify => Self::FogErrVerify,
+            SlotError::Layout(_) => Self::FogErrLayout,
         }
     }
 }
@@ -233,8 +246,8 @@ const DECODED: u64 = 0x464F_475F_4D4F_444C;
 const MODEL_WORDS: usize = size_of::<Inner>().div_ceil(8);
 const _: () = assert!(MODEL_WORDS < FOG_MODEL_WORDS);
 
-/// Decodes the blob of `len` bytes at `blob` into `model`. On an error `model` is left marked as
-/// holding no model, whatever it held before.
+/// Decodes the blob of `len` bytes at `blob` into `model`. On any error (a null `blob`
+/// included) `model` is left holding no model, whatever it held before.
 ///
 /// # Safety
 /// `model` points to a writable `FogModel`; `blob` to `len` readable bytes. Either may be null
@@ -245,7 +258,12 @@ pub unsafe extern "C" fn fog_model_decode(
     blob: *const u8,
     len: usize,
 ) -> FogResult {
-    if model.is_null() || blob.is_null() {
+    if model.is_null() {
+        return FogResult::FogErrNull;
+    }
+    if blob.is_null() {
+        // SAFETY: `model` is non-null and points to a FogModel the caller lets us write.
+        unsafe { forget(&mut *model) };
         return FogResult::FogErrNull;
     }
     // SAFETY: the caller guarantees `blob` points to `len` readable bytes (checked non-null).
@@ -290,6 +308,11 @@ unsafe fn emptied(storage: &mut FogModel) -> &mut Inner {
             &mut *inner
         }
     }
+}
+
+/// Leaves `storage` holding no model: its marker cleared, so every call sees `FogErrNoModel`.
+fn forget(storage: &mut FogModel) {
+    storage.words[MODEL_WORDS] = 0;
 }
 
 /// The model in `model`, if it holds one.
@@ -361,8 +384,9 @@ pub unsafe extern "C" fn fog_state_reset(state: *mut FogState) -> FogResult {
 /// The gyro was switched off and on again and `state` kept through it (its bytes stored at
 /// power-down and restored before this call): the next sample is a power-on, and the coil
 /// estimate and the play cross the time off along a straight line from the last reading to the
-/// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was off; where there is none,
-/// or nothing was stored, call `fog_state_reset` instead.
+/// next (firmware-core's `FeatureState::power_on`). Needs a clock that ran while the gyro was
+/// off (`fog_compensate`); where there is none, or nothing was stored, call `fog_state_reset`
+/// instead.
 ///
 /// # Safety
 /// `state` is null (`FogErrNull`) or points to a writable `FogState`, initialized (by
@@ -379,8 +403,16 @@ pub unsafe extern "C" fn fog_state_power_on(state: *mut FogState) -> FogResult {
     }
 }
 
-/// Compensates one sample (time since power-on in s, temperature in °C, the gyro's output) with
-/// the model, through the channel's state: the feature pipeline, then mean and variance.
+/// Compensates one sample (time in s, temperature in °C, the gyro's output) with the model,
+/// through the channel's state: the feature pipeline, then mean and variances.
+///
+/// Which clock: where the state is kept through power-offs (`fog_state_power_on`), `time_s` is a
+/// clock that keeps running while the gyro is off (a real-time clock), so the coil estimate can
+/// cross the time off; where the state is reset at every power-on (`fog_state_reset`), a time
+/// since power-on does. A time no later than the last one after `fog_state_power_on` (no time
+/// off) says the clock did not run: the state starts again from that sample and its outputs are `FOG_DEGRADED` until its
+/// filters settle. Time since power-on for the model's warm-up and drift inputs is counted from
+/// the first sample after a power-on, whichever clock.
 ///
 /// # Safety
 /// `model` points to a `FogModel` and `channel` to a `FogState`, each initialized (by its
@@ -477,6 +509,42 @@ pub unsafe extern "C" fn fog_noise_of_mean(
     FogResult::FogOk
 }
 
+/// Checks that the caller was built against the header this library was: call it once at
+/// start-up, as `FOG_ABI_CHECK()` does with the caller's `sizeof`s and capacities.
+/// `FogErrAbi` where any differs (a header edited to other capacities, a library not rebuilt):
+/// then nothing else is safe to call.
+#[unsafe(no_mangle)]
+pub extern "C" fn fog_abi_check(
+    model_bytes: usize,
+    state_bytes: usize,
+    prediction_bytes: usize,
+    max_centres: u32,
+    max_inputs: u32,
+    max_monomials: u32,
+) -> FogResult {
+    let ours = (
+        size_of::<FogModel>(),
+        size_of::<FogState>(),
+        size_of::<FogPrediction>(),
+        FOG_MAX_CENTRES,
+        FOG_MAX_INPUTS,
+        FOG_MAX_MONOMIALS,
+    );
+    let theirs = (
+        model_bytes,
+        state_bytes,
+        prediction_bytes,
+        max_centres as usize,
+        max_inputs as usize,
+        max_monomials as usize,
+    );
+    if ours == theirs {
+        FogResult::FogOk
+    } else {
+        FogResult::FogErrAbi
+    }
+}
+
 /// The C side's flash driver, for the calibration slots (docs/firmware.md). Each function gets
 /// `context` back and returns 0 on success, 1 for an address outside the device, anything else
 /// for a device failure.
@@ -484,6 +552,8 @@ pub unsafe extern "C" fn fog_noise_of_mean(
 pub struct FogFlash {
     /// Passed back to every function (the driver's own state).
     pub context: *mut c_void,
+    /// Bytes of the device: the slots must lie below it.
+    pub size: u32,
     /// Erase unit, bytes.
     pub sector: u32,
     /// Program unit, bytes: one `program` call stays inside one page.
@@ -496,7 +566,9 @@ pub struct FogFlash {
     pub program: Option<unsafe extern "C" fn(*mut c_void, u32, *const u8, usize) -> i32>,
 }
 
-/// Where the two calibration slots are: each `len` bytes, sector-aligned, not overlapping.
+/// Where the two calibration slots are: each `len` bytes (a whole number of sectors), each
+/// starting on a sector, apart, inside the device. The library checks this before it reads,
+/// erases or programs anything (`FogErrLayout`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FogLayout {
@@ -534,6 +606,10 @@ fn address(addr: usize) -> Result<u32, FlashError> {
 }
 
 impl Flash for CFlash<'_> {
+    fn size(&self) -> usize {
+        self.0.size as usize
+    }
+
     fn sector(&self) -> usize {
         self.0.sector as usize
     }
@@ -596,7 +672,12 @@ pub unsafe extern "C" fn fog_slots_boot(
     model: *mut FogModel,
     out: *mut FogSlot,
 ) -> FogResult {
-    if flash.is_null() || slots_layout.is_null() || buf.is_null() || model.is_null() {
+    if model.is_null() {
+        return FogResult::FogErrNull;
+    }
+    if flash.is_null() || slots_layout.is_null() || buf.is_null() {
+        // SAFETY: `model` is non-null and points to a FogModel the caller lets us write.
+        unsafe { forget(&mut *model) };
         return FogResult::FogErrNull;
     }
     // SAFETY: non-null and valid per the caller; shared or exclusive for this call as used.

@@ -173,7 +173,70 @@ fn every_rust_error_has_its_own_result_code() {
         FogResult::FogErrNull,
         FogResult::FogErrNoModel,
         FogResult::FogErrNoState,
+        FogResult::FogErrLayout,
+        FogResult::FogErrAbi,
     ] {
         assert!(codes.insert(own as i32), "{own:?}");
     }
+}
+
+#[test]
+fn a_failed_decode_for_any_reason_leaves_no_model() {
+    let mut model: Box<FogModel> = zeroed();
+    let mut state: Box<FogState> = zeroed();
+    let mut p = no_prediction();
+    let mut corrupt = BLOB.to_vec();
+    corrupt[100] ^= 1;
+    // SAFETY: live storage of the right types, or null on purpose.
+    unsafe {
+        assert_eq!(fog_state_reset(&mut *state), FogResult::FogOk);
+        for (blob, len, why) in [
+            (std::ptr::null(), BLOB.len(), FogResult::FogErrNull),
+            (
+                corrupt.as_ptr(),
+                corrupt.len(),
+                FogResult::FogErrCrcMismatch,
+            ),
+            (BLOB.as_ptr(), 10, FogResult::FogErrTruncated),
+        ] {
+            assert_eq!(
+                fog_model_decode(&mut *model, BLOB.as_ptr(), BLOB.len()),
+                FogResult::FogOk
+            );
+            assert_eq!(fog_model_decode(&mut *model, blob, len), why);
+            assert_eq!(
+                fog_compensate(&*model, &mut *state, 60.0, 25.0, 0.38, &mut p),
+                FogResult::FogErrNoModel,
+                "{why:?}: the old model is gone"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_caller_built_against_another_header_is_told_at_start_up() {
+    use std::mem::size_of;
+    let ok = fog_abi_check(
+        size_of::<FogModel>(),
+        size_of::<FogState>(),
+        size_of::<FogPrediction>(),
+        FOG_MAX_CENTRES as u32,
+        FOG_MAX_INPUTS as u32,
+        FOG_MAX_MONOMIALS as u32,
+    );
+    assert_eq!(ok, FogResult::FogOk);
+    // A header edited to 140 centres, the library not rebuilt.
+    let other = fog_abi_check(
+        size_of::<FogModel>() - 8,
+        size_of::<FogState>(),
+        size_of::<FogPrediction>(),
+        140,
+        FOG_MAX_INPUTS as u32,
+        FOG_MAX_MONOMIALS as u32,
+    );
+    assert_eq!(other, FogResult::FogErrAbi);
+    // Every status and result is 32 bits on every target.
+    assert_eq!(size_of::<FogResult>(), 4);
+    assert_eq!(size_of::<FogStatus>(), 4);
+    assert_eq!(size_of::<FogPrediction>(), 16);
 }

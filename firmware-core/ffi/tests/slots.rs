@@ -69,6 +69,7 @@ const LAYOUT: FogLayout = FogLayout {
 fn driver(device: &mut Device) -> FogFlash {
     FogFlash {
         context: (device as *mut Device).cast(),
+        size: device.cells.len() as u32,
         sector: SECTOR as u32,
         page: 256,
         read: Some(read),
