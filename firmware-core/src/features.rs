@@ -68,13 +68,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::blob::Feature;
 use crate::status::Status;
+use crate::units::SECONDS_PER_HOUR;
 
 /// Most model inputs the pipeline computes and any evaluator accepts, whatever its capacity: the
 /// evaluator's kernel loop is compiled for each input count up to this.
 pub const MAX_INPUTS: usize = 8;
 
-/// Seconds per hour.
-const HOUR_S: f64 = 3600.0;
 /// Temperatures a FOG's sensor can read, °C; beyond them the reading is a fault.
 const TEMP_RANGE_C: core::ops::RangeInclusive<f32> = -100.0..=200.0;
 /// A step longer than this, s, and [`JUMP_STEPS`] regular steps, is a time jump.
@@ -259,7 +258,7 @@ pub fn compute(
                 *y
             }
             Feature::PowerOnDecay { tau_s } => libm::exp(-t_on / f64::from(tau_s)) as f32,
-            Feature::TimeOn => (t_on / HOUR_S) as f32,
+            Feature::TimeOn => (t_on / SECONDS_PER_HOUR) as f32,
             Feature::ThermalState { width_c } => {
                 if first {
                     *y = t;

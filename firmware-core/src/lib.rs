@@ -14,11 +14,12 @@ pub mod slots;
 pub mod status;
 #[cfg(test)]
 mod testing;
+pub mod units;
 
 pub use blob::{Dims, ErrorModel, Feature};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_INPUTS, Sample};
-pub use model::{Mean, Model, Prediction};
+pub use model::{MAX_CENTRES, Mean, Model, Prediction};
 pub use slots::{Flash, FlashError, Layout, LayoutError, Slot, SlotError};
 pub use status::Status;
 

@@ -45,9 +45,13 @@ use crate::blob::{self, Dims, ErrorModel, Feature};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
+use crate::units::SECONDS_PER_HOUR;
 
-/// Seconds per hour: the model error's time terms are per hour.
-const HOUR_S: f64 = 3600.0;
+/// Most centres (inducing points, or training points of an exact GP) in a model this project
+/// exports: 256 already need about 132 KB of f32 on the microcontroller, the top of a
+/// Cortex-M4's RAM. The trainer refuses larger models, the host decodes into this capacity, and
+/// the C interface's `FOG_MAX_CENTRES` must not exceed it.
+pub const MAX_CENTRES: usize = 256;
 
 /// Predictive mean (output units, e.g. °/s) and its status.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -101,6 +105,9 @@ struct Accumulator {
 }
 
 impl Accumulator {
+    // Inlined always: the variance's double loop calls it m(m+1)/2 times per sample, and a call
+    // there costs more than the addition (the Cortex-M4's release build inlines it anyway).
+    #[inline(always)]
     fn add(&mut self, term: f32) {
         let t = self.sum + term;
         self.carry += if self.sum.abs() >= term.abs() {
@@ -481,10 +488,37 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         if health == Status::Fault {
             return Ok(self.fault());
         }
-        let hours = (state.time_on_s() / HOUR_S) as f32;
+        let hours = (state.time_on_s() / SECONDS_PER_HOUR) as f32;
         let mut p = self.predict_at(x.get(..self.dims.d).unwrap_or(&[]), hours, scratch)?;
         p.status = p.status.max(health);
         Ok(p)
+    }
+
+    /// [`Self::compensate`]'s mean and status alone, the cheap path (no variance), with e(x)²:
+    /// how far the inputs lie beyond the trained range, squared, in length scales (what the
+    /// model error's extrapolation term scales; 0 inside the range). The mean and status are
+    /// those `compensate` returns for the same sample and state.
+    pub fn compensate_mean(&self, sample: &Sample, state: &mut FeatureState) -> (Mean, f32) {
+        let mut x = [0.0f32; D];
+        let health = features::compute(&self.features, sample, state, &mut x);
+        let fault = Mean {
+            mean: 0.0,
+            status: Status::Fault,
+        };
+        if health == Status::Fault {
+            return (fault, 0.0);
+        }
+        let (m, excess2) = self.mean_into(x.get(..self.dims.d).unwrap_or(&[]), None);
+        if m.status == Status::Fault {
+            return (fault, excess2);
+        }
+        (
+            Mean {
+                mean: m.mean,
+                status: m.status.max(health),
+            },
+            excess2,
+        )
     }
 
     /// A `Fault`'s prediction: mean 0, the prior's variance.

@@ -19,14 +19,12 @@ pub enum CReplayError {
     /// The program failed.
     #[error("the C replay failed: {0}")]
     Run(String),
+    /// No source tree to build from.
+    #[error(transparent)]
+    Source(#[from] crate::source_tree::NotFound),
     /// File exchange failed.
     #[error(transparent)]
     Io(#[from] std::io::Error),
-}
-
-/// The workspace root.
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
 fn run_ok(cmd: &mut Command) -> Result<(), CReplayError> {
@@ -44,7 +42,7 @@ fn run_ok(cmd: &mut Command) -> Result<(), CReplayError> {
 /// Builds `libfog_ffi.a` (cargo, release, in `target/ffi`) for the host or `triple`; returns the
 /// workspace root and that target directory.
 fn build_library(triple: Option<&str>) -> Result<(PathBuf, PathBuf), CReplayError> {
-    let root = root();
+    let root = crate::source_tree::locate(None)?;
     let target = root.join("target").join("ffi");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);

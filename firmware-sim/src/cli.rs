@@ -5,17 +5,18 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use firmware_core::units::DPH_PER_DPS;
 use serde::Serialize;
 
 use crate::cause::Cause;
 use crate::console::{AFTER_HELP, Console, ConsoleFlags};
-use crate::data::columns::ColumnMap;
-use crate::data::stream::Window;
+use crate::data::log::LogArgs;
 use crate::gyro::effects::{Effect, Hidden};
+use crate::gyro::unit::Unit as UnitFile;
 use crate::gyro::{output, paper, plant::GyroParams, stream};
 use crate::io::{ensure_not_input, write_atomically, write_json};
 use crate::sigma;
-use crate::{plot, qemu, replay, twin};
+use crate::{qemu, replay};
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
@@ -26,72 +27,6 @@ pub struct Cli {
     command: Command,
     #[command(flatten)]
     console: ConsoleFlags,
-}
-
-/// The `--map` flag of every data-reading command, in both programs.
-#[derive(Args, Clone, Default)]
-pub struct Maps {
-    /// Map a canonical column onto a source column, COLUMN*FACTOR, or a constant (repeatable).
-    #[arg(long = "map", value_name = "NAME=SOURCE")]
-    pub list: Vec<ColumnMap>,
-}
-
-/// The `--exclude` flag of every command that reads a log, in both programs.
-#[derive(Args, Clone, Default)]
-pub struct Excludes {
-    /// Leave START:END out of every fit, score and Allan deviation, as a handled window is (s
-    /// from the log's first sample; repeatable): a handling event the screening missed, a door
-    /// opened, a cable touched.
-    #[arg(long = "exclude", id = "exclude", value_name = "START:END")]
-    pub list: Vec<Window>,
-}
-
-/// Loads a log as the commands read it: `exclude` left out (s from its first sample), then the
-/// part inside `window` kept. The windows left out (the handled ones the loader found and those
-/// named) are said in one line, each under `--verbose`; the time problems a line each.
-pub fn load_log(
-    path: &std::path::Path,
-    maps: &[ColumnMap],
-    (window, exclude): (Option<Window>, &[Window]),
-    console: &Console,
-) -> anyhow::Result<crate::data::stream::Stream> {
-    let mut s = crate::data::stream::Stream::load(path, maps)?;
-    s.exclude(exclude)?;
-    let s = match window {
-        Some(w) => {
-            let part = s.window(w);
-            anyhow::ensure!(
-                part.len() >= 2,
-                "{}: the window {w} s holds {} samples",
-                path.display(),
-                part.len()
-            );
-            part
-        }
-        None => s,
-    };
-    if s.time_issues.len() <= 3 {
-        for issue in &s.time_issues {
-            console.warn(&format!("{} {issue}", path.display()));
-        }
-    } else {
-        console.warn(&format!(
-            "{}: {} time problems (jumps, steps back, repeated stamps), the first {} (each with -v)",
-            path.display(),
-            s.time_issues.len(),
-            s.time_issues[0]
-        ));
-        for issue in &s.time_issues {
-            console.detail(&format!("{} {issue}", path.display()));
-        }
-    }
-    if let Some(line) = crate::data::stream::left_out_summary(&s.handled) {
-        console.warn(&format!("{}: {line}", path.display()));
-    }
-    for h in &s.handled {
-        console.detail(&format!("{} {h}", path.display()));
-    }
-    Ok(s)
 }
 
 #[derive(Subcommand)]
@@ -113,41 +48,6 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Identify a twin of a real gyro: the simulator's parameters fitted to measured data (a rate
-    /// table and/or a stream or static log), the effects the twin lacks named and fitted on the
-    /// training data, and its fidelity on the held-out last third before and after. Writes a unit
-    /// file that `generate paper|stream --unit FILE` simulates.
-    ///
-    /// Example: firmware-sim identify --points points.csv --stream s.csv --out unit.json --json id.json
-    Identify {
-        /// Rate-table points CSV: temp_c,voltage_v,rate_dps (and time_s, through --map, for a
-        /// table recorded in time order).
-        #[arg(long)]
-        points: Option<PathBuf>,
-        /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
-        #[arg(long)]
-        stream: Option<PathBuf>,
-        #[command(flatten)]
-        maps: Maps,
-        /// Use only this part of the stream: START:END, s from its first sample.
-        #[arg(long, requires = "stream")]
-        window: Option<Window>,
-        #[command(flatten)]
-        exclude: Excludes,
-        /// Nominal scale factor, output units per °/s, where the data show none (a static log).
-        #[arg(long)]
-        scale_factor: Option<f64>,
-        /// The unit file to write.
-        #[arg(long)]
-        out: PathBuf,
-        /// Every parameter (value, standard error, determined or why not), the candidates tried
-        /// and the fidelity before and after, as JSON.
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// The held-out difference between measured and twin, before and after, as SVG.
-        #[arg(long)]
-        plot: Option<PathBuf>,
-    },
     /// Replay a stream on the Cortex-M4F build of the firmware under qemu-system-arm, compare with
     /// the host replay, and measure instructions per prediction.
     ///
@@ -161,6 +61,10 @@ enum Command {
         /// Scores, agreement with the host replay and cost as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// The project's source tree, where the image is built (default: $FOG_SOURCE_DIR, else the
+        /// checkout holding the current folder, else the one this program was built from).
+        #[arg(long, value_name = "DIR")]
+        source: Option<PathBuf>,
     },
 }
 
@@ -170,16 +74,8 @@ struct ReplayInput {
     /// Model blob (from `trainer fit --out`).
     #[arg(long)]
     model: PathBuf,
-    /// Stream CSV: time_s,temp_c,voltage_v,rate_dps (rate_dps may be empty where unknown).
-    #[arg(long)]
-    stream: PathBuf,
     #[command(flatten)]
-    maps: Maps,
-    /// Use only this part of the stream: START:END, s from its first sample (either end open).
-    #[arg(long)]
-    window: Option<Window>,
-    #[command(flatten)]
-    exclude: Excludes,
+    log: LogArgs,
 }
 
 impl ReplayInput {
@@ -193,7 +89,7 @@ impl ReplayInput {
         Box<crate::replay::HostModel>,
         crate::data::stream::Stream,
     )> {
-        let inputs = [self.model.as_path(), self.stream.as_path()];
+        let inputs = [self.model.as_path(), self.log.stream.as_path()];
         for o in outputs {
             ensure_not_input(o, &inputs)?;
         }
@@ -201,13 +97,7 @@ impl ReplayInput {
             .with_context(|| format!("reading {}", self.model.display()))?;
         let firmware =
             replay::decode(&blob).with_context(|| format!("decoding {}", self.model.display()))?;
-        let data = load_log(
-            &self.stream,
-            &self.maps.list,
-            (self.window, &self.exclude.list),
-            console,
-        )?;
-        Ok((blob, firmware, data))
+        Ok((blob, firmware, self.log.load(console)?))
     }
 }
 
@@ -311,7 +201,7 @@ impl GenerateCommon {
             Unit::Nominal => Ok((GyroParams::nominal(), flagged)),
             Unit::Random => Ok((GyroParams::random_unit(seed), flagged)),
             Unit::File(path) => {
-                let unit = twin::Unit::load(path)?;
+                let unit = UnitFile::load(path)?;
                 let mut effects = unit.effects;
                 for e in flagged.0.into_iter().filter(|e| *e != Effect::None) {
                     if effects.iter().any(|u| u.cause() == e.cause()) {
@@ -455,168 +345,125 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 flags,
             )
         }
-        Command::Identify {
-            points,
-            stream,
-            maps,
-            window,
-            exclude,
-            scale_factor,
+        Command::Replay { input, out, json } => replay_command(&input, out, json, flags),
+        Command::Qemu {
+            input,
             out,
             json,
-            plot: figure,
-        } => {
-            let console = Console::new(flags, json.as_deref());
-            let inputs: Vec<&std::path::Path> =
-                points.iter().chain(&stream).map(|p| p.as_path()).collect();
-            for o in std::iter::once(&out).chain(&json).chain(&figure) {
-                ensure_not_input(o, &inputs)?;
-            }
-            let points = points
-                .as_deref()
-                .map(|p| twin::load_points(p, &maps.list))
-                .transpose()?;
-            let stream = match &stream {
-                Some(path) => {
-                    let s = load_log(path, &maps.list, (window, &exclude.list), &console)?;
-                    Some(twin::Source::from(&s))
-                }
-                None => None,
-            };
-            let spinner = console.spinner("identifying");
-            let id = twin::identify(points.as_ref(), stream.as_ref(), scale_factor, |step| {
-                spinner.set_message(format!("identifying: {step}"));
-            })?;
-            spinner.finish_and_clear();
-            write_json(&out, &inputs, &id.unit)?;
-            if let Some(path) = &json {
-                write_json(path, &inputs, &id)?;
-            }
-            if let Some(path) = &figure {
-                let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
-                    twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
-                    twin::Kind::Points => ("point (file order)", id.residual.clone()),
-                };
-                let after = format!(
-                    "with {}",
-                    id.causes
-                        .iter()
-                        .map(|c| c.id())
-                        .collect::<Vec<_>>()
-                        .join(" + ")
-                );
-                let svg = plot::twin(
-                    &format!(
-                        "Held out: measured − twin, {:.2} → {:.2} °/h",
-                        id.fidelity_before_dph, id.fidelity_after_dph
-                    ),
-                    axis,
-                    &pts,
-                    &after,
-                )?;
-                write_atomically(path, svg.as_bytes())?;
-            }
-            console.result(&twin::summary(&id));
-            console.result(&format!("wrote {}", out.display()));
-            Ok(())
-        }
-        Command::Replay { input, out, json } => {
-            let console = Console::new(flags, json.as_deref());
-            let (_, firmware, data) =
-                input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
-            let comp = replay::replay(&firmware, &data);
-            let score = replay::score(&data, &comp);
-            if let Some(path) = out {
-                write_atomically(&path, replay::to_csv(&data, &comp).as_bytes())?;
-            }
-            if let Some(path) = json {
-                write_json(&path, &[], &score)?;
-            }
-            console.result(&format!(
-                "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
-                 rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s\n\
-                 the firmware's σ: {}",
-                data.len(),
-                score.n,
-                score.n_extrapolating,
-                score.n_degraded,
-                score.n_fault,
-                score.time_issues.len(),
-                score.n_handled,
-                score.rmse_dps,
-                score.rmse_60s_dps,
-                score.rmse_60s_dps * 3600.0,
-                score.max_abs_err_dps,
-                sigma::describe(&score.sigma_samples, &score.sigma_60s)
-            ));
-            if let Some(why) = replay::degraded_reason(&data, &score) {
-                console.warn(&why);
-            }
-            Ok(())
-        }
-        Command::Qemu { input, out, json } => {
-            let console = Console::new(flags, json.as_deref());
-            let (blob, firmware, data) =
-                input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
-            console.detail(&format!(
-                "cargo build --release (in {})",
-                qemu::image_crate().display()
-            ));
-            let spinner = console.spinner("building the Cortex-M4 image");
-            let image = qemu::build_image()?;
-            spinner.suspend(|| {
-                console.detail(&format!(
-                    "qemu-system-arm {} {}",
-                    qemu::QEMU_ARGS.join(" "),
-                    image.display()
-                ))
-            });
-            spinner.set_message(format!(
-                "running {} samples on the Cortex-M4 under QEMU",
-                data.len()
-            ));
-            let m4 = qemu::run(&image, &blob, &data)?;
-            spinner.set_message("host replay, for the comparison");
-            let host = replay::replay(&firmware, &data);
-            spinner.finish_and_clear();
-            let agreement = qemu::compare(&host, &m4.compensated);
-            let score = replay::score(&data, &m4.compensated);
-            if let Some(path) = out {
-                write_atomically(&path, replay::to_csv(&data, &m4.compensated).as_bytes())?;
-            }
-            if let Some(path) = json {
-                let report = QemuReport {
-                    score: &score,
-                    agreement_with_host: agreement,
-                    cost: m4.cost,
-                };
-                write_json(&path, &[], &report)?;
-            }
-            console.result(&format!(
-                "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \
-                 bit-identical, statuses equal: {}",
-                data.len(),
-                agreement.max_abs_mean_diff,
-                agreement.identical,
-                data.len(),
-                agreement.statuses_equal
-            ));
-            let dims = firmware.dims();
-            let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
-            console.result(&format!(
-                "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
-                score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
-            ));
-            console.result(&format!(
-                "arithmetic minimum of the mean path: {} centres × (expf {:.0} + 3·{} multiply-adds) = \
-                 {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions per SysTick tick)",
-                dims.m,
-                m4.cost.exp_instructions,
-                dims.d,
-                m4.cost.mean_instructions / minimum,
-                m4.cost.instructions_per_tick
-            ));
-            Ok(())
-        }
+            source,
+        } => qemu_command(&input, (out, json), source, flags),
     }
+}
+
+/// `firmware-sim replay`: every sample through the firmware evaluator on the host, and the scores.
+fn replay_command(
+    input: &ReplayInput,
+    out: Option<PathBuf>,
+    json: Option<PathBuf>,
+    flags: ConsoleFlags,
+) -> anyhow::Result<()> {
+    let console = Console::new(flags, json.as_deref());
+    let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+    let comp = replay::replay(&firmware, &data);
+    let score = replay::score(&data, &comp);
+    if let Some(path) = out {
+        write_atomically(&path, replay::to_csv(&data, &comp).as_bytes())?;
+    }
+    if let Some(path) = json {
+        write_json(&path, &[], &score)?;
+    }
+    console.result(&format!(
+        "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
+         rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s\n\
+         the firmware's σ: {}",
+        data.len(),
+        score.n,
+        score.n_extrapolating,
+        score.n_degraded,
+        score.n_fault,
+        score.time_issues.len(),
+        score.n_handled,
+        score.rmse_dps,
+        score.rmse_60s_dps,
+        score.rmse_60s_dps * DPH_PER_DPS,
+        score.max_abs_err_dps,
+        sigma::describe(&score.sigma_samples, &score.sigma_60s)
+    ));
+    if let Some(why) = replay::degraded_reason(&data, &score) {
+        console.warn(&why);
+    }
+    Ok(())
+}
+
+/// `firmware-sim qemu`: the same on the Cortex-M4F image under QEMU, built from the source tree,
+/// compared with the host replay, with its cost.
+fn qemu_command(
+    input: &ReplayInput,
+    (out, json): (Option<PathBuf>, Option<PathBuf>),
+    source: Option<PathBuf>,
+    flags: ConsoleFlags,
+) -> anyhow::Result<()> {
+    let console = Console::new(flags, json.as_deref());
+    let (blob, firmware, data) =
+        input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+    let root = crate::source_tree::locate(source.as_deref())?;
+    console.detail(&format!(
+        "cargo build --release (in {})",
+        qemu::image_crate(&root).display()
+    ));
+    let spinner = console.spinner("building the Cortex-M4 image");
+    let image = qemu::build_image(&root)?;
+    spinner.suspend(|| {
+        console.detail(&format!(
+            "qemu-system-arm {} {}",
+            qemu::QEMU_ARGS.join(" "),
+            image.display()
+        ))
+    });
+    spinner.set_message(format!(
+        "running {} samples on the Cortex-M4 under QEMU",
+        data.len()
+    ));
+    let m4 = qemu::run(&image, &blob, &data)?;
+    spinner.set_message("host replay, for the comparison");
+    let host = replay::replay(&firmware, &data);
+    spinner.finish_and_clear();
+    let agreement = qemu::compare(&host, &m4.compensated);
+    let score = replay::score(&data, &m4.compensated);
+    if let Some(path) = out {
+        write_atomically(&path, replay::to_csv(&data, &m4.compensated).as_bytes())?;
+    }
+    if let Some(path) = json {
+        let report = QemuReport {
+            score: &score,
+            agreement_with_host: agreement,
+            cost: m4.cost,
+        };
+        write_json(&path, &[], &report)?;
+    }
+    console.result(&format!(
+        "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \
+         bit-identical, statuses equal: {}",
+        data.len(),
+        agreement.max_abs_mean_diff,
+        agreement.identical,
+        data.len(),
+        agreement.statuses_equal
+    ));
+    let dims = firmware.dims();
+    let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
+    console.result(&format!(
+        "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
+        score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
+    ));
+    console.result(&format!(
+        "arithmetic minimum of the mean path: {} centres × (expf {:.0} + 3·{} multiply-adds) = \
+         {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions per SysTick tick)",
+        dims.m,
+        m4.cost.exp_instructions,
+        dims.d,
+        m4.cost.mean_instructions / minimum,
+        m4.cost.instructions_per_tick
+    ));
+    Ok(())
 }

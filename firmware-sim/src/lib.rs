@@ -9,13 +9,9 @@
 //!   scores; [`qemu`]: the same on the Cortex-M4F image under QEMU; [`c_replay`]: the same
 //!   through firmware-core's C interface, from a C program; [`flash`]: NOR flash with power
 //!   cuts, for the firmware's calibration slots.
-//! - [`allan`]: a log's Allan deviation and noise terms; [`twin`]: the simulator's parameters
-//!   identified from measured data, and the effects it lacks; [`plot`]: the figures both
-//!   programs draw.
 //! - [`console`], [`io`], [`cli`]: what the person at the terminal sees, how files are written,
 //!   and the `firmware-sim` command line; the trainer's command line uses the first two as well.
 
-pub mod allan;
 pub mod c_replay;
 pub mod cause;
 pub mod cli;
@@ -24,8 +20,8 @@ pub mod data;
 pub mod flash;
 pub mod gyro;
 pub mod io;
-pub mod plot;
 pub mod qemu;
 pub mod replay;
 pub mod sigma;
-pub mod twin;
+pub mod source_tree;
+pub mod stats;

@@ -56,6 +56,9 @@ pub enum QemuError {
     /// QEMU ran longer than [`TIMEOUT`].
     #[error("QEMU did not finish within {0:?}")]
     Timeout(Duration),
+    /// No source tree to build the image from.
+    #[error(transparent)]
+    Source(#[from] crate::source_tree::NotFound),
     /// File exchange failed.
     #[error("{0}")]
     Io(#[from] std::io::Error),
@@ -92,22 +95,17 @@ pub struct QemuRun {
     pub cost: Cost,
 }
 
-/// Directory of the image's crate.
-pub fn image_crate() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("m4")
-}
-
-/// The release ELF of the image.
-pub fn image_path() -> PathBuf {
-    image_crate().join("target/thumbv7em-none-eabihf/release/fog-m4")
+/// Directory of the image's crate in the source tree `root` ([`crate::source_tree`]).
+pub fn image_crate(root: &Path) -> PathBuf {
+    root.join("firmware-sim").join("m4")
 }
 
 /// Builds the image (cargo, release, its own target directory); cheap when it is up to date.
-pub fn build_image() -> Result<PathBuf, QemuError> {
+pub fn build_image(root: &Path) -> Result<PathBuf, QemuError> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let out = Command::new(cargo)
         .args(["build", "--release", "--quiet"])
-        .current_dir(image_crate())
+        .current_dir(image_crate(root))
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_TARGET_DIR")
         .output()?;
@@ -116,7 +114,7 @@ pub fn build_image() -> Result<PathBuf, QemuError> {
             String::from_utf8_lossy(&out.stderr).into_owned(),
         ));
     }
-    Ok(image_path())
+    Ok(image_crate(root).join("target/thumbv7em-none-eabihf/release/fog-m4"))
 }
 
 /// Runs `image` on `blob` and every sample of `stream`.

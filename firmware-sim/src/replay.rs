@@ -20,16 +20,13 @@ use serde::Serialize;
 
 use crate::sigma::Coverage;
 
-pub use crate::data::stream::BLOCK_S;
-use crate::data::stream::{Handled, Stream, TimeIssue, group_blocks};
+use crate::data::blocks::half_filled;
+use crate::data::stream::{Handled, Stream, TimeIssue};
+use crate::stats::rms;
 
-/// The largest model the host handles (the trainer exports no larger): 256 centres already need
-/// about 132 KB of f32 on the microcontroller, the top of a Cortex-M4's RAM. The host decodes blobs
-/// back into these capacities (heapless storage is inline, so they also bound the host's stack
-/// use).
-pub const MAX_CENTRES: usize = 256;
-/// Host-side input capacity: all the evaluator accepts.
-pub use firmware_core::MAX_INPUTS;
+/// The host decodes blobs into the firmware's largest capacities ([`MAX_CENTRES`] centres,
+/// [`MAX_INPUTS`] inputs; heapless storage is inline, so they also bound the host's stack use).
+use firmware_core::{MAX_CENTRES, MAX_INPUTS};
 /// Host-side exponent capacity.
 pub const MAX_EXPONENTS: usize = 8 * 165;
 /// Host-side float capacity, for MAX_CENTRES centres.
@@ -155,6 +152,34 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     out
 }
 
+/// A replay's means alone ([`means`]): the cheap path where no variance is read.
+#[derive(Debug, Clone, Default)]
+pub struct Means {
+    /// Compensated rate, °/s: as [`replay`] gives it.
+    pub rate_dps: Vec<f32>,
+    /// Status of each sample: as [`replay`] gives it.
+    pub status: Vec<Status>,
+    /// e(x)² of each sample ([`firmware_core::Model::compensate_mean`]).
+    pub excess2: Vec<f32>,
+}
+
+/// Every sample of `stream` through `model`'s mean alone: the rates and statuses of [`replay`]
+/// at a fraction of its cost (the variance is O(m²) per sample, the mean O(m·d)).
+pub fn means(model: &HostModel, stream: &Stream) -> Means {
+    let mut state = FeatureState::default();
+    let mut out = Means::default();
+    for (i, restart) in restarts(stream).into_iter().enumerate() {
+        if restart {
+            state.power_on();
+        }
+        let (m, excess2) = model.compensate_mean(&sample(stream, i), &mut state);
+        out.rate_dps.push(m.mean);
+        out.status.push(m.status);
+        out.excess2.push(excess2);
+    }
+    out
+}
+
 /// The stream as sample records (`firmware_core::record`), [`restarts`] as power-on flags: what a
 /// device replay (the Cortex-M4 image, the C program) reads.
 pub fn sample_records(stream: &Stream) -> Vec<u8> {
@@ -228,23 +253,16 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .collect();
     let err = |i: usize| f64::from(comp.rate_dps[i]) - stream.rate_dps[i];
     let n = scored.len();
-    let rms = |v: &[f64]| {
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
-        }
-    };
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
     let block_means = |idx: &[usize]| -> Vec<f64> {
-        blocks(stream, idx)
+        half_filled(stream, idx)
             .iter()
             .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
             .collect()
     };
-    let scored_blocks = blocks(stream, &scored);
+    let scored_blocks = half_filled(stream, &scored);
     let means = block_means(&scored);
     let mean_sigmas: Vec<f64> = scored_blocks
         .iter()
@@ -301,16 +319,6 @@ pub fn degraded_reason(stream: &Stream, score: &Score) -> Option<String> {
             stream.step_s
         )
     })
-}
-
-/// The samples `scored` grouped into 60 s blocks, counted from the first sample of the stream, in
-/// time order; a block counts when at least half of it is there.
-pub fn blocks(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
-    let need = (0.5 * BLOCK_S / stream.step_s).ceil().max(1.0) as usize;
-    group_blocks(&stream.time_s, scored)
-        .into_iter()
-        .filter(|b| b.len() >= need)
-        .collect()
 }
 
 /// The compensated CSV (docs/design.md §3): the stream's canonical columns, then `comp_rate_dps`,
@@ -416,6 +424,21 @@ mod tests {
             "{why}"
         );
         assert!(degraded_reason(&stream(&[0.0; 300], 1.0), &sc).is_none());
+    }
+
+    #[test]
+    fn the_mean_path_gives_the_replays_rates_and_statuses_bit_for_bit() {
+        // Temperatures from inside the trained range to far beyond it, across a power-on.
+        let mut s = stream(&[0.0; 400], 1.0);
+        for (i, t) in s.temp_c.iter_mut().enumerate() {
+            *t = -60.0 + 0.5 * i as f64;
+        }
+        let model = decode(GYRO).unwrap();
+        let (full, means) = (replay(&model, &s), means(&model, &s));
+        assert_eq!(full.rate_dps, means.rate_dps);
+        assert_eq!(full.status, means.status);
+        assert!(means.excess2.iter().any(|&e| e > 0.0));
+        assert!(means.excess2.contains(&0.0));
     }
 
     #[test]

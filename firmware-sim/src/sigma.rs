@@ -10,6 +10,8 @@
 
 use serde::Serialize;
 
+use crate::stats::{median, rms};
+
 /// How a set of σ describes the errors they go with.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Coverage {
@@ -80,30 +82,6 @@ pub fn describe(samples: &Coverage, means: &Coverage) -> String {
     )
 }
 
-/// Root mean square; NaN for no values.
-pub fn rms(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
-    }
-}
-
-/// Median; NaN for no values.
-pub fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let h = s.len() / 2;
-    if s.len() % 2 == 1 {
-        s[h]
-    } else {
-        0.5 * (s[h - 1] + s[h])
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -122,6 +100,5 @@ mod tests {
         assert!((c.rmse - rmse).abs() < 1e-12);
         assert!((c.sharpness - 1.0 / rmse).abs() < 1e-12);
         assert!(Coverage::of(&[], &[]).within_2sigma.is_nan());
-        assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
     }
 }

@@ -3,8 +3,8 @@
 //! (`benches/versus_sklearn.py`), so with the paper's constant mean, which is what scikit-learn's
 //! `normalize_y` GP implements, and always exact (scikit-learn has no sparse GP).
 //!
-//! The floor is `DenseFloor`'s, the one `trainer fit` reports: the fit's likelihood count times one
-//! Cholesky + inverse timed at the same n, here against the median fit.
+//! The floor is `DenseFloor`'s: the fit's likelihood count times one Cholesky + inverse timed at
+//! the same n, here against the median fit.
 //!
 //! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
 //! [--map NAME=SOURCE …] [--mean constant|physics|polyN] (constant unless told: scikit-learn's)
@@ -16,8 +16,7 @@ use trainer::models::gp::{GpConfig, GpModel, Inducing};
 use trainer::models::prior::MeanBasis;
 
 /// The trainer's own allocator (`trainer/src/main.rs`), so that the fits timed here are the ones
-/// `trainer fit` runs: under glibc's, every likelihood's n × n buffers went back to the kernel
-/// and a fit at n = 2,000 spent 7% of its time in page faults.
+/// `trainer fit` runs.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

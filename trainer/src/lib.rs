@@ -5,12 +5,13 @@
 //!
 //! Layers, each using only those listed before it (and firmware-sim, firmware-core below):
 //! [`data`] (rate-table points as model inputs), [`models`] (the regressions), [`firmware`] (the
-//! blob and its checks), [`analysis`] (evaluation, diagnosis, extension, investigation),
-//! [`report`], [`cli`].
+//! blob and its checks), [`analysis`] (evaluation, diagnosis, extension, investigation, noise
+//! terms, the simulator's twin), [`plot`] (the figures' common drawing), [`report`], [`cli`].
 
 pub mod analysis;
 pub mod cli;
 pub mod data;
 pub mod firmware;
 pub mod models;
+pub mod plot;
 pub mod report;

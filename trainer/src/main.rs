@@ -1,7 +1,7 @@
 //! `trainer` binary: parses the command line and reports errors; the work lives in the library.
-//! Its allocator is mimalloc: the exact GP's n × n buffers, allocated and freed at every
-//! likelihood, went back to the kernel under glibc each time (a leave-one-sweep-out run spent 4–9 s
-//! of system time on it, 0.8 s with mimalloc; docs/performance.md).
+//! Its allocator is mimalloc: the exact GP's n × n buffers are allocated and freed at every
+//! likelihood, and glibc's allocator hands such large blocks back to the kernel each time, so a
+//! fit would spend its time in page faults.
 
 use std::process::ExitCode;
 

@@ -125,20 +125,9 @@ fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).expect("stdout is JSON alone");
     assert_eq!(v["n_train"], 48);
     assert!(!dir.path().join("-").exists());
-    // An exact fit is set against the machine's dense floor: its own likelihoods, a time per pair.
-    let floor = &v["dense_floor"];
-    let runs: u64 = v["starts"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["likelihoods"].as_u64().unwrap())
-        .sum();
-    assert_eq!(floor["likelihoods"].as_u64(), Some(runs));
-    let (dense, ratio) = (floor["dense_seconds"].as_f64(), floor["ratio"].as_f64());
-    assert!(
-        dense.is_some_and(|d| d > 0.0) && ratio.is_some_and(|r| r > 0.0),
-        "{floor}"
-    );
+    // An exact fit says nothing of this machine's speed: that is the benchmark's
+    // (`examples/fit_timing.rs`), not every fit's.
+    assert!(v.get("dense_floor").is_none(), "{v}");
 
     std::fs::remove_file(dir.path().join("m.bin")).unwrap();
     let quiet = trainer(&[fit, &["--quiet"][..]].concat(), dir.path());
@@ -153,10 +142,7 @@ fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
         "{err}"
     );
     let out = String::from_utf8_lossy(&verbose.stdout);
-    assert!(
-        out.contains("wrote m.bin") && out.contains("dense floor"),
-        "{out}"
-    );
+    assert!(out.contains("wrote m.bin"), "{out}");
 }
 
 #[test]

@@ -29,6 +29,7 @@ pub const FOG_MAX_MONOMIALS: usize = 16;
 /// largest model the product ships and regenerate the header (docs/firmware.md gives the figures
 /// at 24, 140 and 256).
 pub const FOG_MAX_CENTRES: usize = 256;
+const _: () = assert!(FOG_MAX_CENTRES <= firmware_core::MAX_CENTRES);
 /// Numbers in the model's flat array at those capacities (firmware-core's `Dims::floats`).
 pub const FOG_MODEL_FLOATS: usize = 7 * FOG_MAX_INPUTS
     + FOG_MAX_MONOMIALS

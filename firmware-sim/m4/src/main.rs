@@ -31,10 +31,11 @@ use firmware_core::{FeatureState, Model, Sample, Status, features};
 use semihosting::io::{Read, Write};
 use semihosting::{c, eprintln, fs, process};
 
-/// Capacities: up to 4 inputs, 16 prior monomials and 256 centres (as the trainer's export limit).
+/// Capacities: up to 4 inputs, 16 prior monomials and the trainer's export limit of centres.
 const D: usize = 4;
 const E: usize = 16 * D;
-const N: usize = 7 * D + 16 + 2 + 256 * D + 256 + 256 * 257 / 2;
+const M: usize = firmware_core::MAX_CENTRES;
+const N: usize = 7 * D + 16 + 2 + M * D + M + M * (M + 1) / 2;
 /// Largest blob the image reads: header, postcard lengths, and 5 bytes per number at most.
 #[cfg(not(feature = "embedded-model"))]
 const BLOB_MAX: usize = 64 + E + D + 5 * N;

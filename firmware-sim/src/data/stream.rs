@@ -9,6 +9,7 @@
 use std::fmt;
 use std::path::Path;
 
+use crate::data::blocks;
 use crate::data::columns::{self, ColumnMap, DataError};
 
 /// A step longer than this many typical steps is a gap.
@@ -86,9 +87,6 @@ pub struct Stream {
     /// removed, so no fit or score uses them.
     pub handled: Vec<Handled>,
 }
-
-/// Length of the blocks of `rmse_60s_dps`, and of the windows screened for handling, s.
-pub const BLOCK_S: f64 = 60.0;
 
 /// How many times the log's typical scatter a block's output scatter must exceed to count as
 /// handled. A MEMS start-up transient reaches 7× (the MIT log's first minute); moving or tapping
@@ -201,20 +199,6 @@ pub fn left_out_summary(handled: &[Handled]) -> Option<String> {
     ))
 }
 
-/// The samples `idx` grouped into [`BLOCK_S`] blocks counted from the first sample of `time_s`,
-/// in time order (every block, however few samples it holds).
-pub fn group_blocks(time_s: &[f64], idx: &[usize]) -> Vec<Vec<usize>> {
-    let t0 = time_s.first().copied().unwrap_or(0.0);
-    let mut blocks: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
-    for &i in idx {
-        blocks
-            .entry(((time_s[i] - t0) / BLOCK_S).floor() as i64)
-            .or_default()
-            .push(i);
-    }
-    blocks.into_values().collect()
-}
-
 /// The handled windows of a static log (every reference the same: the unit at rest), and
 /// their references removed; other streams are left alone.
 fn screen_handling(
@@ -235,7 +219,7 @@ fn screen_handling(
         let m = b.iter().map(|&i| output[i]).sum::<f64>() / b.len() as f64;
         (b.iter().map(|&i| (output[i] - m).powi(2)).sum::<f64>() / b.len() as f64).sqrt()
     };
-    let spread: Vec<(Vec<usize>, f64)> = group_blocks(time_s, &scored)
+    let spread: Vec<(Vec<usize>, f64)> = blocks::group(time_s, &scored)
         .into_iter()
         .filter(|b| b.len() >= 2)
         .map(|b| {

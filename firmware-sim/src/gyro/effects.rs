@@ -21,20 +21,19 @@
 //! state relaxes rather than switching; the drift saturates), so a diagnosis that works here does
 //! not work only because it mirrors the plant.
 
+use firmware_core::units::SECONDS_PER_HOUR;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::cause::Cause;
 
-/// Seconds per hour.
-const HOUR_S: f64 = 3600.0;
 /// Relaxation time of the hysteresis state while the coil temperature moves, s.
 const HYSTERESIS_TAU_S: f64 = 600.0;
 /// Coil temperature rate above which the hysteresis state moves, °C/min.
 const HYSTERESIS_MIN_RATE_C_PER_MIN: f64 = 0.05;
 /// Time constant of the in-run drift's saturation, s.
-const DRIFT_TAU_S: f64 = 20.0 * HOUR_S;
+const DRIFT_TAU_S: f64 = 20.0 * SECONDS_PER_HOUR;
 
 /// One hidden effect with its magnitude.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
@@ -359,10 +358,10 @@ impl EffectPlant {
             } => amplitude_dph * (-t_on_s / (tau_min * 60.0)).exp(),
             Effect::Hysteresis { offset_dph } => offset_dph * self.hysteresis,
             Effect::TimeDrift { dph_per_h } => {
-                dph_per_h * DRIFT_TAU_S / HOUR_S * (1.0 - (-t_on_s / DRIFT_TAU_S).exp())
+                dph_per_h * DRIFT_TAU_S / SECONDS_PER_HOUR * (1.0 - (-t_on_s / DRIFT_TAU_S).exp())
             }
         };
-        dph / HOUR_S
+        dph / SECONDS_PER_HOUR
     }
 }
 
@@ -395,7 +394,7 @@ mod tests {
             plant.step(20.0 + f64::from(k) / 60.0, 1.0);
         }
         // 1 °C/min × 10 (°/h)/(°C/min) = 10 °/h.
-        assert!((plant.bias_dps(0.0) * HOUR_S - 10.0).abs() < 1e-9);
+        assert!((plant.bias_dps(0.0) * SECONDS_PER_HOUR - 10.0).abs() < 1e-9);
     }
 
     #[test]
@@ -416,12 +415,12 @@ mod tests {
         for k in 1..=1800 {
             plant.step(f64::from(k) / 60.0, 1.0);
         }
-        let heated = plant.bias_dps(0.0) * HOUR_S;
+        let heated = plant.bias_dps(0.0) * SECONDS_PER_HOUR;
         for _ in 0..7200 {
             plant.step(30.0, 1.0);
         }
         assert!(heated > 9.0);
-        assert_eq!(plant.bias_dps(0.0) * HOUR_S, heated);
+        assert_eq!(plant.bias_dps(0.0) * SECONDS_PER_HOUR, heated);
     }
 
     #[test]
@@ -433,7 +432,7 @@ mod tests {
             plant.step(20.0 + f64::from(k) / 60.0, 1.0);
         }
         // Warm-up 30 °/h at power-on plus 1 °C/min × 10 (°/h)/(°C/min).
-        assert!((plant.bias_dps(0.0) * HOUR_S - 40.0).abs() < 1e-9);
+        assert!((plant.bias_dps(0.0) * SECONDS_PER_HOUR - 40.0).abs() < 1e-9);
         assert!(Hidden::new(&[Cause::WarmUp, Cause::WarmUp], &[]).is_err());
         assert!(Hidden::new(&[Cause::None, Cause::WarmUp], &[]).is_err());
         assert!(Hidden::new(&[Cause::WarmUp, Cause::Hysteresis], &[30.0]).is_err());
@@ -455,10 +454,10 @@ mod tests {
             },
             20.0,
         );
-        assert!((w.bias_dps(0.0) * HOUR_S - 30.0).abs() < 1e-12);
-        assert!(w.bias_dps(3600.0) * HOUR_S < 0.1);
+        assert!((w.bias_dps(0.0) * SECONDS_PER_HOUR - 30.0).abs() < 1e-12);
+        assert!(w.bias_dps(3600.0) * SECONDS_PER_HOUR < 0.1);
         let d = EffectPlant::new(Effect::TimeDrift { dph_per_h: 3.0 }, 20.0);
-        let two_hours = d.bias_dps(7200.0) * HOUR_S;
+        let two_hours = d.bias_dps(7200.0) * SECONDS_PER_HOUR;
         assert!((5.5..6.0).contains(&two_hours), "{two_hours}");
     }
 }

@@ -1,9 +1,10 @@
 //! The simulated gyro and its rigs: the open-loop FOG ([`plant`]), the hidden physical effects
 //! ([`effects`]), the paper's rate-table protocol ([`paper`]), the chamber-ramp stream
-//! ([`stream`]), and their CSV output ([`output`]).
+//! ([`stream`]), their CSV output ([`output`]), and the unit file that names one gyro ([`mod@unit`]).
 
 pub mod effects;
 pub mod output;
 pub mod paper;
 pub mod plant;
 pub mod stream;
+pub mod unit;

@@ -20,6 +20,7 @@
 //!
 //! Units: temperatures in °C, rates in °/s (parameters in °/h where the literature uses it), volts.
 
+use firmware_core::units::SECONDS_PER_HOUR;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -27,8 +28,6 @@ use serde::Serialize;
 
 /// Vertical component of the earth rate per unit sin(latitude), °/h (WGS-84 sidereal rate).
 pub const EARTH_RATE_DPH: f64 = 15.041;
-/// Seconds per hour, to convert °/h to °/s.
-const SECONDS_PER_HOUR: f64 = 3600.0;
 /// Reference temperature of the scale-factor and bias polynomials, °C.
 const T_REF_C: f64 = 25.0;
 

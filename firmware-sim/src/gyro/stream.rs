@@ -301,7 +301,7 @@ mod tests {
         assert_eq!(c.air_c(1800.0), 25.0);
         assert!((c.air_c(1800.0 + 600.0) - 15.0).abs() < 1e-9);
         assert_eq!(c.air_c(1800.0 + 55.0 * 60.0 + 1200.0), -30.0);
-        let hours = c.duration_s() / 3600.0;
+        let hours = c.duration_s() / firmware_core::units::SECONDS_PER_HOUR;
         assert!((8.0..9.0).contains(&hours), "{hours} h");
         assert!(c.powered(0.0) && !c.powered(100.0 * 60.0) && c.powered(115.0 * 60.0));
         assert_eq!(c.air_c(c.duration_s() + 10.0), 40.0);

@@ -25,7 +25,7 @@ fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
     assert!(data.len() > 25_000, "a full stream: {} samples", data.len());
 
     let host = replay::replay(&firmware, &data);
-    let image = qemu::build_image().unwrap();
+    let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let m4 = qemu::run(&image, &blob, &data).unwrap();
     let agreement = qemu::compare(&host, &m4.compensated);
     assert!(agreement.max_abs_mean_diff <= 1e-6, "{agreement:?}");
@@ -126,7 +126,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
     let data =
         firmware_sim::data::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
     let host = replay::replay(&firmware, &data);
-    let image = qemu::build_image().unwrap();
+    let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let m4 = qemu::run(&image, &blob, &data).unwrap();
     let agreement = qemu::compare(&host, &m4.compensated);
     assert_eq!(agreement.identical, data.len(), "{agreement:?}");

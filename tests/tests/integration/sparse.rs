@@ -86,7 +86,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
             start_s: None,
             end_s: Some(7200.0),
         });
-    let image = qemu::build_image().unwrap();
+    let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let mut costs = Vec::new();
     for name in ["sparse.bin", "exact.bin"] {
         let blob = std::fs::read(dir.path().join(name)).unwrap();

@@ -13,7 +13,8 @@
 //! chosen size is then fitted on all of them. Every command that fits the default model resolves
 //! it here ([`resolve`]), so an evaluation evaluates what `fit` would ship.
 
-use firmware_sim::replay::MAX_CENTRES;
+use firmware_core::MAX_CENTRES;
+use firmware_core::units::DPH_PER_DPS;
 use serde::Serialize;
 
 use crate::data::points::Points;
@@ -168,6 +169,30 @@ pub fn choose(
         exportable: n <= MAX_CENTRES,
         fit_seconds: secs,
     };
+    let (pick, how) = rule(&candidates, &exact);
+    let verdict = verdict(n, stride, &pick, &how, &exact);
+    Ok(Choice {
+        rule: format!(
+            "exact up to {MAX_CENTRES} points; above, the fewest of {:?} inducing points within \
+             {:.0}% of the best held-out error (every {HOLD_OUT_EVERY}th point held out, of at \
+             most {COMPARE_MAX}), unless that is more than {WORSE_THAN_EXACT}× the exact GP's: \
+             then the most accurate",
+            CANDIDATES,
+            TOLERANCE * 100.0
+        ),
+        n,
+        held_out: test.len(),
+        candidates,
+        exact,
+        chosen: pick.asked,
+        verdict,
+    })
+}
+
+/// The rule's pick among the sparse `candidates`, beside the `exact` GP, and how it was picked
+/// in words: the fewest inducing points within [`TOLERANCE`] of the best held-out error, unless
+/// that is more than [`WORSE_THAN_EXACT`] times the exact GP's: then the most accurate.
+fn rule(candidates: &[Tried], exact: &Tried) -> (Tried, String) {
     let best = candidates
         .iter()
         .map(|c| c.held_out_rmse_dps)
@@ -175,10 +200,10 @@ pub fn choose(
     let fewest = candidates
         .iter()
         .find(|c| c.held_out_rmse_dps <= (1.0 + TOLERANCE) * best)
-        .unwrap_or(&exact)
+        .unwrap_or(exact)
         .clone();
     let limit = WORSE_THAN_EXACT * exact.held_out_rmse_dps;
-    let (pick, how) = if fewest.held_out_rmse_dps <= limit {
+    if fewest.held_out_rmse_dps <= limit {
         (
             fewest,
             format!(
@@ -190,7 +215,7 @@ pub fn choose(
         let most = candidates
             .iter()
             .min_by(|a, b| a.held_out_rmse_dps.total_cmp(&b.held_out_rmse_dps))
-            .unwrap_or(&exact)
+            .unwrap_or(exact)
             .clone();
         let how = format!(
             "the most accurate: the fewest within {:.0}% of the best ({}) is {:.1}× worse than \
@@ -220,13 +245,18 @@ pub fn choose(
             }
         );
         (most, how)
-    };
+    }
+}
+
+/// The choice in words: what was asked and kept, how, and its held-out error and cost against
+/// the exact GP's.
+fn verdict(n: usize, stride: usize, pick: &Tried, how: &str, exact: &Tried) -> String {
     let sampled = if stride > 1 {
         format!(" of every {stride}th of the {n} points")
     } else {
         String::new()
     };
-    let verdict = format!(
+    format!(
         "{n} points are more than the {MAX_CENTRES} centres a firmware model holds: a sparse GP \
          asking {} inducing points ({} kept), {how}, of {} (every {HOLD_OUT_EVERY}th{sampled} held \
          out). It scores {:.3e} °/s ({:.1} °/h) there against the exact GP's {:.3e} °/s ({:.1} \
@@ -240,27 +270,11 @@ pub fn choose(
             .collect::<Vec<_>>()
             .join("/"),
         pick.held_out_rmse_dps,
-        pick.held_out_rmse_dps * 3600.0,
+        pick.held_out_rmse_dps * DPH_PER_DPS,
         exact.held_out_rmse_dps,
-        exact.held_out_rmse_dps * 3600.0,
+        exact.held_out_rmse_dps * DPH_PER_DPS,
         (pick.held_out_rmse_dps / exact.held_out_rmse_dps - 1.0) * 100.0,
         pick.instructions,
         exact.instructions,
-    );
-    Ok(Choice {
-        rule: format!(
-            "exact up to {MAX_CENTRES} points; above, the fewest of {:?} inducing points within \
-             {:.0}% of the best held-out error (every {HOLD_OUT_EVERY}th point held out, of at \
-             most {COMPARE_MAX}), unless that is more than {WORSE_THAN_EXACT}× the exact GP's: \
-             then the most accurate",
-            CANDIDATES,
-            TOLERANCE * 100.0
-        ),
-        n,
-        held_out: test.len(),
-        candidates,
-        exact,
-        chosen: pick.asked,
-        verdict,
-    })
+    )
 }

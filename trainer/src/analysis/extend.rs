@@ -19,8 +19,6 @@
 //! measured in docs/design.md §5 to generalize worse (held-out 0.1–1.0× against 4–20× for the
 //! additive form).
 
-use argmin::core::{CostFunction, Executor, State};
-use argmin::solver::goldensectionsearch::GoldenSectionSearch;
 use firmware_core::Feature;
 use firmware_sim::cause::Cause;
 use firmware_sim::data::stream::Stream;
@@ -28,6 +26,7 @@ use nalgebra::DVector;
 use serde::Serialize;
 
 use crate::analysis::diagnose::{self, Candidates, CauseFit, Residual};
+use crate::analysis::minimize::golden_section;
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, ExportError, Extension, Term};
 use crate::models::gp::{GpError, GpModel};
@@ -245,7 +244,6 @@ pub fn fit(
 /// the coil estimate 0.25 °C off, tens of °/h at high rates through the scale factor's
 /// temperature coefficient.
 fn best_lag(res: &Residual<'_>, r: &[f64], candidates: &Candidates) -> Option<(f32, Vec<f64>)> {
-    let fit = LagFit { res, r };
     let (j, _) = candidates
         .iter()
         .enumerate()
@@ -256,16 +254,15 @@ fn best_lag(res: &Residual<'_>, r: &[f64], candidates: &Candidates) -> Option<(f
         grid(j.saturating_sub(1)),
         grid((j + 1).min(candidates.len() - 1)),
     );
-    let refined = GoldenSectionSearch::new(lo, hi)
-        .and_then(|s| s.with_tolerance(LAG_TOLERANCE))
-        .and_then(|solver| {
-            Executor::new(fit, solver)
-                .configure(|state| state.param(grid(j)).max_iters(LAG_ITERS))
-                .run()
-        })
+    let sse = |tau: f64| {
+        res.raw_regressor(Cause::SensorLag, tau as f32)
+            .map(|x| centred_sse(r, &x))
+            .ok_or(())
+    };
+    let refined = golden_section(sse, (lo, hi), grid(j), LAG_TOLERANCE, LAG_ITERS)
         .ok()
-        .and_then(|result| result.state().get_best_param().copied());
-    let tau = refined.unwrap_or(grid(j)) as f32;
+        .flatten();
+    let tau = refined.map_or(grid(j), |(tau, _)| tau) as f32;
     let x = res.raw_regressor(Cause::SensorLag, tau)?;
     Some((tau, x))
 }
@@ -273,29 +270,11 @@ fn best_lag(res: &Residual<'_>, r: &[f64], candidates: &Candidates) -> Option<(f
 /// Relative bracket width at which the lag search stops.
 const LAG_TOLERANCE: f64 = 1e-3;
 /// Most iterations of the lag search.
-const LAG_ITERS: u64 = 40;
+const LAG_ITERS: u32 = 40;
 
 /// Sum of squares of r + x about its mean.
 fn centred_sse(r: &[f64], x: &[f64]) -> f64 {
     let z: Vec<f64> = r.iter().zip(x).map(|(r, x)| r + x).collect();
     let m = z.iter().sum::<f64>() / z.len().max(1) as f64;
     z.iter().map(|v| (v - m).powi(2)).sum()
-}
-
-/// The objective of [`best_lag`]: [`centred_sse`] at a lag, s.
-struct LagFit<'r, 'a> {
-    res: &'r Residual<'a>,
-    r: &'r [f64],
-}
-
-impl CostFunction for LagFit<'_, '_> {
-    type Param = f64;
-    type Output = f64;
-    fn cost(&self, tau: &f64) -> Result<f64, argmin::core::Error> {
-        let x = self
-            .res
-            .raw_regressor(Cause::SensorLag, *tau as f32)
-            .ok_or_else(|| argmin::core::Error::msg("no temperature input"))?;
-        Ok(centred_sse(self.r, &x))
-    }
 }

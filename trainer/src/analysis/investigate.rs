@@ -7,10 +7,10 @@
 //! extension are part of the model, so they come from the training data alone ([`choose`]).
 
 use firmware_sim::cause::Cause;
+use firmware_sim::data::blocks;
 use firmware_sim::data::stream::{Handled, Stream, Window};
-use firmware_sim::replay::HostModel;
-use firmware_sim::replay::{self, Score};
-use firmware_sim::sigma::rms;
+use firmware_sim::replay::{self, HostModel, Score};
+use firmware_sim::stats::rms;
 use indicatif::ProgressBar;
 use serde::Serialize;
 
@@ -21,8 +21,12 @@ use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
 
-/// Makes the static points from part of a training stream, as the points were made from all of
-/// it (a rate table's, unchanged).
+mod check;
+
+use check::forward_check;
+pub use check::splits;
+
+/// Makes the static points from part of a training stream as from all of it (a table's: as is).
 pub type Rebuild<'a> = dyn Fn(&Stream) -> anyhow::Result<Points> + 'a;
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
@@ -35,8 +39,8 @@ const LATER_MIN_BLOCKS: usize = 8;
 /// Share of the training stream's blocks the earlier part holds, when it is long enough.
 const EARLIER_SHARE: f64 = 2.0 / 3.0;
 /// Share of the training stream's temperature span left out at each end by the temperature check
-/// ([`TemperatureCheck`]). A fifth of the span in all: on the MEMS thermal cycle's 40 training
-/// minutes a wider cut leaves fewer than the 30 blocks an extension needs inside.
+/// ([`TemperatureCheck`]): a fifth of the span in all, as a wider cut leaves a 40-minute log fewer
+/// than the 30 blocks an extension needs inside.
 const OUTER_SHARE: f64 = 0.1;
 
 /// The result (docs/design.md §6 names where they exist).
@@ -256,7 +260,7 @@ impl Split {
             None => static_run.clone(),
         };
         let all: Vec<usize> = (0..self.scored.len()).collect();
-        let blocks = replay::blocks(&self.scored, &all);
+        let blocks = blocks::half_filled(&self.scored, &all);
         let block_mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
             b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
         };
@@ -412,7 +416,23 @@ pub fn choose(
             return Ok(static_choice(diagnosis, causes, None, verdict, splits));
         }
     };
-    let (shipped, verdict) = match (&check, asked.is_some()) {
+    let (shipped, verdict) = decide(check.as_ref(), &names, asked.is_some());
+    Ok(Choice {
+        diagnosis,
+        causes,
+        check,
+        shipped,
+        extended: Some(extended),
+        verdict,
+        splits,
+    })
+}
+
+/// Which model ships after the forward `check` of the extension by `names`, and why in words:
+/// the extension where it helps on every check that can see it (or where it was `asked` for),
+/// the static model otherwise, and where the stream is too short to check.
+fn decide(check: Option<&ForwardCheck>, names: &str, asked: bool) -> (Shipped, String) {
+    match (check, asked) {
         (None, true) => (
             Shipped::Extended,
             format!("{names} as asked; the training stream is too short to check it forward"),
@@ -492,16 +512,7 @@ pub fn choose(
                 ),
             }
         }
-    };
-    Ok(Choice {
-        diagnosis,
-        causes,
-        check,
-        shipped,
-        extended: Some(extended),
-        verdict,
-        splits,
-    })
+    }
 }
 
 /// A stream cut forward in time ([`forward`]).
@@ -523,7 +534,7 @@ pub(crate) struct Forward {
 /// `None` when fewer than [`LATER_MIN_BLOCKS`] would be left after the cut. Blocks are counted
 /// as the diagnosis counts them (samples with a reference).
 pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
-    let blocks = replay::blocks(stream, &stream.referenced());
+    let blocks = blocks::half_filled(stream, &stream.referenced());
     let n = blocks.len();
     let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
     if n < earlier + LATER_MIN_BLOCKS {
@@ -548,164 +559,6 @@ pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
         early,
         later,
     })
-}
-
-/// The forward check of [`choose`] (`None` where the stream is too short for one), and the splits
-/// it fitted. Blocks are counted as the diagnosis counts them (samples with a reference).
-fn forward_check(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
-    causes: &[Cause],
-    rebuild: &Rebuild<'_>,
-) -> anyhow::Result<(Option<ForwardCheck>, Vec<Split>)> {
-    let splits = splits(points, model, train, cfg, causes, rebuild)?;
-    let Some(Forward {
-        split_s,
-        earlier_blocks,
-        later_blocks,
-        ..
-    }) = forward(train)
-    else {
-        return Ok((None, splits));
-    };
-    let scored = |source| splits.iter().find(|s| s.source == source);
-    let Some(f) = scored(Source::Forward) else {
-        return Ok((None, splits));
-    };
-    let (static_rmse, extended_rmse, sight) = f.scores()?;
-    let temperature = match scored(Source::Temperature) {
-        Some(t) if !causes.is_empty() => {
-            let (static_rmse_60s_dps, extended_rmse_60s_dps, sight) = t.scores()?;
-            let (inside_c, inside_blocks, outside_blocks) = inside(train);
-            Some(TemperatureCheck {
-                inside_c,
-                inside_blocks,
-                outside_blocks,
-                static_rmse_60s_dps,
-                extended_rmse_60s_dps,
-                sight,
-            })
-        }
-        _ => None,
-    };
-    let check = ForwardCheck {
-        split_s,
-        earlier_blocks,
-        later_blocks,
-        causes: causes.to_vec(),
-        static_rmse_60s_dps: static_rmse,
-        extended_rmse_60s_dps: extended_rmse,
-        sight,
-        temperature,
-    };
-    Ok((Some(check), splits))
-}
-
-/// The models of a training stream's splits: forward in time ([`forward`]), and, where the static
-/// model is fitted on the stream itself, across temperature ([`TemperatureCheck`]); each the
-/// static model fitted without the scored part (a rate table's model as it is) and its extension
-/// by `causes` (none without causes). A split the stream is too short for is left out.
-pub(crate) fn splits(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
-    causes: &[Cause],
-    rebuild: &Rebuild<'_>,
-) -> anyhow::Result<Vec<Split>> {
-    let mut out = Vec::new();
-    if let Some(Forward {
-        split_s,
-        early,
-        later,
-        ..
-    }) = forward(train)
-    {
-        let (static_model, static_points) = if points.soaked {
-            (model.clone(), points.clone())
-        } else {
-            let p = rebuild(&early)?;
-            (GpModel::fit(p.inputs(), &p.target(), cfg)?, p)
-        };
-        let (static_blob, extended_blob) =
-            split_blobs(&static_model, &static_points, &early, causes)?;
-        let t0 = train.time_s.first().copied().unwrap_or(0.0);
-        let fitted: Vec<usize> = (0..train.len())
-            .filter(|&i| train.time_s[i] - t0 < split_s)
-            .collect();
-        out.push(Split {
-            source: Source::Forward,
-            hours: uncertainty::hours_from(&later, &fitted),
-            scored: later,
-            static_blob,
-            extended_blob,
-        });
-    }
-    if !points.soaked {
-        let ((lo, hi), inside_blocks, outside_blocks) = inside(train);
-        if inside_blocks >= EARLIER_MIN_BLOCKS && outside_blocks >= LATER_MIN_BLOCKS {
-            let (mut fit_on, mut scored) = (train.clone(), train.clone());
-            for (i, &t) in train.temp_c.iter().enumerate() {
-                if (lo..=hi).contains(&t) {
-                    scored.rate_dps[i] = f64::NAN;
-                } else {
-                    fit_on.rate_dps[i] = f64::NAN;
-                }
-            }
-            let p = rebuild(&fit_on)?;
-            let m = GpModel::fit(p.inputs(), &p.target(), cfg)?;
-            let (static_blob, extended_blob) = split_blobs(&m, &p, &fit_on, causes)?;
-            out.push(Split {
-                source: Source::Temperature,
-                hours: uncertainty::hours_from(&scored, &fit_on.referenced()),
-                scored,
-                static_blob,
-                extended_blob,
-            });
-        }
-    }
-    Ok(out)
-}
-
-/// The blobs of a static model fitted on `points` and of its extension by `causes` fitted on
-/// `fit_on` (none without causes).
-fn split_blobs(
-    model: &GpModel,
-    points: &Points,
-    fit_on: &Stream,
-    causes: &[Cause],
-) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
-    let static_blob = export::points_blob(model, points, &Extension::default())?;
-    if causes.is_empty() {
-        return Ok((static_blob, None));
-    }
-    let ext = extend::fit(model, points, fit_on, causes)?;
-    Ok((static_blob, Some(ext.blob)))
-}
-
-/// The temperatures of the temperature check (the training span less [`OUTER_SHARE`] of it at
-/// each end), and the 60 s blocks inside and outside them. A sample counts by its own
-/// temperature.
-fn inside(train: &Stream) -> ((f64, f64), usize, usize) {
-    let temps = train.referenced().into_iter().map(|i| train.temp_c[i]);
-    let (lo, hi) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-        (lo.min(t), hi.max(t))
-    });
-    let margin = OUTER_SHARE * (hi - lo);
-    let inside_c = (lo + margin, hi - margin);
-    let (mut inside, mut outside) = (train.clone(), train.clone());
-    for (i, &t) in train.temp_c.iter().enumerate() {
-        if (inside_c.0..=inside_c.1).contains(&t) {
-            outside.rate_dps[i] = f64::NAN;
-        } else {
-            inside.rate_dps[i] = f64::NAN;
-        }
-    }
-    let inside_blocks = replay::blocks(&inside, &inside.referenced()).len();
-    let outside_blocks = replay::blocks(&outside, &outside.referenced()).len();
-    (inside_c, inside_blocks, outside_blocks)
 }
 
 /// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes
@@ -798,22 +651,4 @@ pub fn investigate(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_test_that_cannot_see_the_extension_abstains_but_still_refuses_harm() {
-        let sight = |sees, centred| Sight {
-            sees,
-            centred_rmse_60s_dps: centred,
-        };
-        // Seen: a gain is needed.
-        assert!(vote(1.0, 0.9, &sight(true, [1.0, 0.9])));
-        assert!(!vote(1.0, 1.01, &sight(true, [1.0, 1.01])));
-        // Not seen: worse by 1% (noise) is no evidence either way; by 5% in what it can measure,
-        // harm. Its constant alone is not judged.
-        assert!(vote(1.0, 1.01, &sight(false, [1.0, 1.01])));
-        assert!(vote(1.0, 1.6, &sight(false, [1.0, 1.0])));
-        assert!(!vote(1.0, 1.0, &sight(false, [1.0, 1.05])));
-    }
-}
+mod tests;

@@ -30,6 +30,7 @@
 use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};
 use firmware_sim::cause::Cause;
+use firmware_sim::stats::rms;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -339,10 +340,6 @@ impl TableModel {
     }
 }
 
-fn rmse(e: &[f64]) -> f64 {
-    (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt()
-}
-
 /// Fits the static GP on `rows` of the table, diagnoses which transients it lacks from those rows
 /// alone (module doc) and returns the model that ships: extended when the extension wins its
 /// leave-one-group-out test, static otherwise. With `offsets`, every GP gives each group its own
@@ -365,56 +362,10 @@ pub fn fit(
     let kinv = gp.covariance_inverse();
     let score = |chosen: &[usize]| -> Result<f64, GpError> {
         let e = gp.group_loo_given(&kinv, x, &target, &transients.design(rows, chosen), &groups)?;
-        Ok(rmse(&e))
+        Ok(rms(&e))
     };
     let static_rmse = score(&[])?;
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut current = static_rmse;
-    let mut steps = Vec::new();
-    while chosen.len() < MAX_TERMS {
-        let mut tried: Vec<(usize, f64)> = Vec::new();
-        for (j, c) in transients.candidates.iter().enumerate() {
-            if chosen
-                .iter()
-                .any(|&k| transients.candidates[k].same_family(c))
-            {
-                continue;
-            }
-            let mut with = chosen.clone();
-            with.push(j);
-            // A degenerate design (a constant column on these rows) is not a candidate.
-            if let Ok(r) = score(&with) {
-                tried.push((j, r));
-            }
-        }
-        tried.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let mut best_per_family: Vec<(usize, f64)> = Vec::new();
-        for &(j, r) in &tried {
-            let c = &transients.candidates[j];
-            if !best_per_family
-                .iter()
-                .any(|&(k, _)| transients.candidates[k].same_family(c))
-            {
-                best_per_family.push((j, r));
-            }
-        }
-        steps.push(
-            best_per_family
-                .iter()
-                .map(|&(j, r)| Tried {
-                    name: transients.candidates[j].name(),
-                    rmse_dps: r,
-                })
-                .collect(),
-        );
-        match tried.first() {
-            Some(&(j, r)) if r < current * (1.0 - MIN_GAIN) => {
-                chosen.push(j);
-                current = r;
-            }
-            _ => break,
-        }
-    }
+    let (chosen, current, steps) = search(transients, &score, static_rmse);
     let names = |c: &[usize]| {
         c.iter()
             .map(|&j| transients.candidates[j].name())
@@ -459,7 +410,7 @@ pub fn fit(
     }
     let terms = transients.design(rows, &chosen);
     let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg, &gp)?;
-    let own = rmse(&extended.group_loo_with(x, &target, &terms, &groups)?);
+    let own = rms(&extended.group_loo_with(x, &target, &terms, &groups)?);
     if own >= static_rmse {
         return static_model(
             format!(
@@ -509,6 +460,65 @@ pub fn fit(
             ),
         },
     })
+}
+
+/// The terms, one family at a time: each round scores every candidate of a family not yet taken
+/// with those taken (`score`: the leave-one-group-out error), keeps the best while it cuts the
+/// error by [`MIN_GAIN`], up to [`MAX_TERMS`]. The terms taken, the error with them, and each
+/// round's best per family.
+fn search(
+    transients: &Transients,
+    score: &dyn Fn(&[usize]) -> Result<f64, GpError>,
+    static_rmse: f64,
+) -> (Vec<usize>, f64, Vec<Vec<Tried>>) {
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut current = static_rmse;
+    let mut steps = Vec::new();
+    while chosen.len() < MAX_TERMS {
+        let mut tried: Vec<(usize, f64)> = Vec::new();
+        for (j, c) in transients.candidates.iter().enumerate() {
+            if chosen
+                .iter()
+                .any(|&k| transients.candidates[k].same_family(c))
+            {
+                continue;
+            }
+            let mut with = chosen.clone();
+            with.push(j);
+            // A degenerate design (a constant column on these rows) is not a candidate.
+            if let Ok(r) = score(&with) {
+                tried.push((j, r));
+            }
+        }
+        tried.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let mut best_per_family: Vec<(usize, f64)> = Vec::new();
+        for &(j, r) in &tried {
+            let c = &transients.candidates[j];
+            if !best_per_family
+                .iter()
+                .any(|&(k, _)| transients.candidates[k].same_family(c))
+            {
+                best_per_family.push((j, r));
+            }
+        }
+        steps.push(
+            best_per_family
+                .iter()
+                .map(|&(j, r)| Tried {
+                    name: transients.candidates[j].name(),
+                    rmse_dps: r,
+                })
+                .collect(),
+        );
+        match tried.first() {
+            Some(&(j, r)) if r < current * (1.0 - MIN_GAIN) => {
+                chosen.push(j);
+                current = r;
+            }
+            _ => break,
+        }
+    }
+    (chosen, current, steps)
 }
 
 #[cfg(test)]
@@ -579,11 +589,9 @@ mod tests {
         let later = turntable(120.0, 2);
         let tl = Transients::compute(&later).unwrap();
         let e = |model: &TableModel| {
-            rmse(
-                &(0..later.len())
-                    .map(|i| model.predict(&later, &tl, i) - later.rate_dps[i])
-                    .collect::<Vec<_>>(),
-            )
+            rms(&(0..later.len())
+                .map(|i| model.predict(&later, &tl, i) - later.rate_dps[i])
+                .collect::<Vec<_>>())
         };
         let static_model = TableModel {
             terms: Vec::new(),

@@ -34,9 +34,12 @@
 //! that factor is 1.
 
 use firmware_core::ErrorModel;
+use firmware_core::units::SECONDS_PER_HOUR;
+use firmware_sim::data::blocks;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::replay;
-use firmware_sim::sigma::{Coverage, median, rms};
+use firmware_sim::sigma::Coverage;
+use firmware_sim::stats::{median, rms};
 use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
@@ -44,10 +47,8 @@ use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::{GpError, GpModel};
-use crate::models::normalize::trained_range;
+use crate::models::normalize::Sorted;
 
-/// Seconds per hour: the time terms are per hour.
-const HOUR_S: f64 = 3600.0;
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
 const TERMS: usize = 5;
@@ -525,19 +526,15 @@ pub fn stream_series(
     hours: &[f64],
     noise: SampleNoise,
 ) -> Result<Series, ExportError> {
-    let plain = ErrorModel::noise_only(0.0);
-    let probe = ErrorModel {
-        extrapolation_var: 1.0,
-        ..plain
-    };
-    let latent = replay::replay(
-        &*replay::decode(&export::with_error_model(blob, &plain)?)?,
-        stream,
-    );
-    let beyond = replay::replay(
-        &*replay::decode(&export::with_error_model(blob, &probe)?)?,
-        stream,
-    );
+    // The latent variance from the firmware's own evaluation, and e(x)² from its mean path: the
+    // variance it would state with an extrapolation term of 1 is the latent one plus e(x)², in
+    // the same f32 addition.
+    let model = replay::decode(&export::with_error_model(
+        blob,
+        &ErrorModel::noise_only(0.0),
+    )?)?;
+    let latent = replay::replay(&model, stream);
+    let excess2 = replay::means(&model, stream).excess2;
     let scored: Vec<usize> = (0..stream.len())
         .filter(|&i| {
             stream.rate_dps[i].is_finite()
@@ -548,7 +545,7 @@ pub fn stream_series(
     let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
         b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
     };
-    let residuals = replay::blocks(stream, &scored)
+    let residuals = blocks::half_filled(stream, &scored)
         .iter()
         .map(|b| {
             let latent_var = mean(b, &|i| f64::from(latent.bias_var[i]));
@@ -556,7 +553,7 @@ pub fn stream_series(
                 error: mean(b, &|i| f64::from(latent.rate_dps[i]) - stream.rate_dps[i]),
                 base_var: latent_var + noise.of_mean(b.len() as f64 * stream.step_s),
                 excess2: mean(b, &|i| {
-                    f64::from(beyond.bias_var[i]) - f64::from(latent.bias_var[i])
+                    f64::from(latent.bias_var[i] + excess2[i]) - f64::from(latent.bias_var[i])
                 })
                 .max(0.0),
                 hours: mean(b, &|i| hours[i]),
@@ -611,12 +608,13 @@ pub fn series_of(
     loo: &[(f64, f64)],
 ) -> Series {
     let x = points.inputs();
+    let columns: Vec<Sorted> = x
+        .column_iter()
+        .map(|c| Sorted::new(c.iter().copied()))
+        .collect();
     let mut residuals = vec![None; points.len()];
     for g in groups {
-        let range: Vec<(f64, f64)> = x
-            .column_iter()
-            .map(|c| trained_range((0..c.len()).filter(|i| !g.contains(i)).map(|i| c[i])))
-            .collect();
+        let range: Vec<(f64, f64)> = columns.iter().map(|c| c.range_without(g)).collect();
         for &i in g {
             let (error, base_var) = loo[i];
             let row: Vec<f64> = x.row(i).iter().copied().collect();
@@ -654,7 +652,7 @@ pub fn hours_on(stream: &Stream) -> Vec<f64> {
             if restart {
                 on = t;
             }
-            (t - on).max(0.0) / HOUR_S
+            (t - on).max(0.0) / SECONDS_PER_HOUR
         })
         .collect()
 }
@@ -680,144 +678,10 @@ pub fn hours_from(stream: &Stream, fitted: &[usize]) -> Vec<f64> {
                 .into_iter()
                 .chain(after)
                 .fold(f64::INFINITY, f64::min)
-                / HOUR_S
+                / SECONDS_PER_HOUR
         })
         .collect()
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal as Gauss};
-
-    fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        let unit = Gauss::new(0.0, 1.0).unwrap();
-        (0..n)
-            .map(|i| {
-                let hours = i as f64 / n as f64;
-                let excess2 = if i % 4 == 0 { 1.0 } else { 0.0 };
-                Residual {
-                    error: sd(excess2, hours) * unit.sample(&mut rng),
-                    base_var: 1e-4,
-                    excess2,
-                    hours,
-                }
-            })
-            .collect()
-    }
-
-    #[test]
-    fn the_terms_the_residuals_show_are_found_and_the_others_stay_near_zero() {
-        // Model error 0.1 everywhere and 0.5 one width beyond the range; no time growth.
-        let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
-        let series = [Series {
-            source: Source::Forward,
-            residuals: r,
-        }];
-        let noise = SampleNoise {
-            var: 4e-4,
-            interval_s: 1.0,
-        };
-        let c = calibrate(&series, noise);
-        assert!((c.floor_std - 0.1).abs() < 0.02, "{c:?}");
-        assert!((c.extrapolation_std - 0.5).abs() < 0.05, "{c:?}");
-        assert!(
-            c.walk_std_per_sqrt_h < 0.05 && c.trend_std_per_h < 0.05,
-            "{c:?}"
-        );
-        assert!((c.inflation - 1.0).abs() < 0.01);
-        let cov = c.coverage.unwrap();
-        assert!((cov.within_2sigma - 0.954).abs() < 0.02, "{cov:?}");
-        assert_eq!(c.error_model.sample_noise_var, 4e-4);
-        assert!(c.before.unwrap().within_2sigma < 0.5);
-    }
-
-    #[test]
-    fn a_term_whose_covariate_does_not_move_abstains() {
-        let mut r = residuals(500, 2, |_, h| (0.01 + 0.04 * h).sqrt());
-        for x in &mut r {
-            x.excess2 = 0.0;
-        }
-        let c = calibrate(
-            &[Series {
-                source: Source::Groups,
-                residuals: r,
-            }],
-            SampleNoise {
-                var: 0.0,
-                interval_s: 0.0,
-            },
-        );
-        assert_eq!(c.extrapolation_std, 0.0);
-        assert_eq!(c.fitted_terms, vec!["table floor", "walk", "trend"]);
-        assert!(c.walk_std_per_sqrt_h > 0.1, "{c:?}");
-    }
-
-    #[test]
-    fn few_correlated_residuals_widen_the_sigma() {
-        // 12 residuals of a slow drift: worth about two independent ones.
-        let r: Vec<Residual> = (0..12)
-            .map(|i| Residual {
-                error: 0.1 * (f64::from(i) / 12.0 - 0.5),
-                base_var: 1e-6,
-                excess2: 0.0,
-                hours: 0.0,
-            })
-            .collect();
-        let z: Vec<f64> = r.iter().map(|x| x.error).collect();
-        assert!(effective(&z) < 3.0);
-        let c = calibrate(
-            &[Series {
-                source: Source::Forward,
-                residuals: r,
-            }],
-            SampleNoise {
-                var: 0.0,
-                interval_s: 0.0,
-            },
-        );
-        assert!(c.inflation > 2.0, "{c:?}");
-        assert!(
-            calibrate(
-                &[],
-                SampleNoise {
-                    var: 1.0,
-                    interval_s: 1.0
-                }
-            )
-            .note
-            .is_some()
-        );
-    }
-
-    #[test]
-    fn the_sample_noise_is_the_white_part_of_the_errors() {
-        let n = 20_000;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let unit = Gauss::new(0.0, 1.0).unwrap();
-        // White noise of 0.02 on a drift of 1 per 1,000 samples.
-        let error: Vec<f64> = (0..n)
-            .map(|i| 1e-3 * i as f64 + 0.02 * unit.sample(&mut rng))
-            .collect();
-        let stream = Stream {
-            time_s: (0..n).map(|i| i as f64).collect(),
-            temp_c: vec![20.0; n],
-            voltage_v: vec![0.0; n],
-            rate_dps: vec![0.0; n],
-            lines: (2..n as u64 + 2).collect(),
-            step_s: 1.0,
-            time_issues: vec![],
-            handled: vec![],
-        };
-        let noise = SampleNoise::from_errors(&stream, &error).unwrap();
-        assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
-        assert_eq!(noise.of_mean(60.0), noise.var / 60.0);
-        let fitted: Vec<usize> = (0..100).collect();
-        let h = hours_from(&stream, &fitted);
-        assert!(h[50].is_nan());
-        assert!((h[3699] - 1.0).abs() < 1e-12);
-        assert_eq!(hours_on(&stream)[3600], 1.0);
-    }
-}
+mod tests;

@@ -5,9 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
+use firmware_core::units::DPH_PER_DPS;
 use firmware_sim::cause::Cause;
-use firmware_sim::cli::{Excludes, Maps};
 use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::log::LogArgs;
 use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
 use firmware_sim::sigma::{self, Coverage};
@@ -23,6 +24,7 @@ use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
+use crate::models::gp::GpConfig;
 
 /// The arguments of `trainer diagnose`.
 #[derive(Args)]
@@ -30,46 +32,11 @@ pub(super) struct DiagnoseArgs {
     /// Model blob.
     #[arg(long)]
     model: PathBuf,
-    /// Stream CSV: time_s,temp_c,voltage_v,rate_dps.
-    #[arg(long)]
-    stream: PathBuf,
     #[command(flatten)]
-    maps: Maps,
-    #[command(flatten)]
-    exclude: Excludes,
-    /// Use only this part of the stream: START:END, s from its first sample.
-    #[arg(long)]
-    window: Option<Window>,
+    log: LogArgs,
     /// Write the diagnosis as JSON here (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
-}
-
-/// The arguments of `trainer allan`.
-#[derive(Args)]
-pub(super) struct AllanArgs {
-    /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
-    #[arg(long)]
-    stream: PathBuf,
-    #[command(flatten)]
-    maps: Maps,
-    #[command(flatten)]
-    exclude: Excludes,
-    /// Use only this part of the stream: START:END, s from its first sample.
-    #[arg(long)]
-    window: Option<Window>,
-    /// The output in °/s as output / K (K in output units per °/s): the raw gyro.
-    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
-    scale_factor: Option<f64>,
-    /// The output in °/s as this model compensates it: the compensated gyro.
-    #[arg(long)]
-    model: Option<PathBuf>,
-    /// Write tau_s, adev_dps and the noise terms as JSON here (`-`: stdout, alone).
-    #[arg(long)]
-    json: Option<PathBuf>,
-    /// Draw the Allan deviation with the lines its terms come from, as SVG.
-    #[arg(long)]
-    plot: Option<PathBuf>,
 }
 
 /// The arguments of `trainer investigate`.
@@ -150,23 +117,16 @@ pub(super) struct ReproduceArgs {
 
 /// `trainer diagnose`: replays a stream through a blob and names the cause of its residual.
 pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
-    let DiagnoseArgs {
-        model,
-        stream,
-        maps,
-        exclude,
-        window,
-        json,
-    } = args;
+    let DiagnoseArgs { model, log, json } = args;
     let console = Console::new(flags, json.as_deref());
     let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
     let fw = firmware_sim::replay::decode(&bytes)
         .with_context(|| format!("decoding {}", model.display()))?;
-    let data = load_stream(&stream, &maps.list, (window, &exclude.list), &console)?;
+    let data = log.load(&console)?;
     let d = diagnose::diagnose(&fw, &data);
     console.result(render_diagnosis(&d).trim_end());
     if let Some(path) = json {
-        write_json(&path, &[model.as_path(), stream.as_path()], &d)?;
+        write_json(&path, &[model.as_path(), log.stream.as_path()], &d)?;
     }
     Ok(())
 }
@@ -239,7 +199,7 @@ pub(super) fn investigate_command(
         "static rmse_60s {:.3e} °/s ({:.2} °/h) | causes {} | added {} | shipped rmse_60s \
          {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
         inv.static_score.rmse_60s_dps,
-        inv.static_score.rmse_60s_dps * 3600.0,
+        inv.static_score.rmse_60s_dps * DPH_PER_DPS,
         causes_text(&inv.diagnosis.causes),
         if inv.added_inputs.is_empty() {
             "nothing".to_owned()
@@ -247,7 +207,7 @@ pub(super) fn investigate_command(
             inv.added_inputs.join(", ")
         },
         inv.extended_score.rmse_60s_dps,
-        inv.extended_score.rmse_60s_dps * 3600.0,
+        inv.extended_score.rmse_60s_dps * DPH_PER_DPS,
         inv.gain
     ));
     console.result(&format!(
@@ -306,35 +266,17 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         ..EvalConfig::default()
     };
     // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
-    let centres_choice =
-        if method != MethodArg::Gpr {
-            None
-        } else if features.is_some() || offsets {
-            if capacity::needed(cfg.gp.inducing, points.len()) {
-                console.warn(&format!(
-                "{} points are more than the {} centres a firmware model holds, and {} needs the \
-                 exact GP: these are the exact GP's figures, which `fit` would refuse to export",
-                points.len(),
-                firmware_sim::replay::MAX_CENTRES,
-                if offsets { "--offsets" } else { "--features auto" }
-            ));
-            }
-            None
-        } else {
-            let spinner = console.spinner("choosing the model `fit` would ship");
-            let (gp, choice) = capacity::resolve(&points, &cfg.gp, |step| {
-                spinner.set_message(format!("choosing the model `fit` would ship: {step}"));
-            })?;
-            spinner.finish_and_clear();
-            if let Some(c) = &choice {
-                console.result(&format!(
-                    "evaluating what `fit` would ship (--inducing exact: the exact GP): {}",
-                    c.verdict
-                ));
-            }
-            cfg.gp = gp;
-            choice
-        };
+    let centres_choice = if method == MethodArg::Gpr {
+        resolve_loo_size(
+            &points,
+            &mut cfg.gp,
+            features.is_some() || offsets,
+            offsets,
+            &console,
+        )?
+    } else {
+        None
+    };
     let cross = match &test_points {
         Some(path) => {
             let test = Points::load(path, &input.maps.list, None, None)?;
@@ -376,6 +318,64 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         None => evaluate::evaluate(&points, method.into(), &cfg, &bar)?,
     };
     bar.finish_and_clear();
+    print_loo(&console, &e);
+    if let Some(path) = json {
+        let mut inputs = vec![input.points.as_path()];
+        inputs.extend(test_points.as_deref());
+        let report = LooReport {
+            evaluation: &e,
+            cross_run: cross.as_ref(),
+            centres_choice: centres_choice.as_ref(),
+        };
+        write_json(&path, &inputs, &report)?;
+    }
+    Ok(())
+}
+
+/// The size of the GP `loo` evaluates: what `fit` would ship ([`capacity::resolve`]), or, where
+/// the evaluation needs the exact GP (`exact_only`: `--features auto`, `--offsets`), the exact GP
+/// with a warning where `fit` would refuse to export it.
+fn resolve_loo_size(
+    points: &Points,
+    gp: &mut GpConfig,
+    exact_only: bool,
+    offsets: bool,
+    console: &Console,
+) -> anyhow::Result<Option<capacity::Choice>> {
+    if exact_only {
+        if capacity::needed(gp.inducing, points.len()) {
+            console.warn(&format!(
+                "{} points are more than the {} centres a firmware model holds, and {} needs the \
+                 exact GP: these are the exact GP's figures, which `fit` would refuse to export",
+                points.len(),
+                firmware_core::MAX_CENTRES,
+                if offsets {
+                    "--offsets"
+                } else {
+                    "--features auto"
+                }
+            ));
+        }
+        return Ok(None);
+    }
+    let spinner = console.spinner("choosing the model `fit` would ship");
+    let (resolved, choice) = capacity::resolve(points, gp, |step| {
+        spinner.set_message(format!("choosing the model `fit` would ship: {step}"));
+    })?;
+    spinner.finish_and_clear();
+    if let Some(c) = &choice {
+        console.result(&format!(
+            "evaluating what `fit` would ship (--inducing exact: the exact GP): {}",
+            c.verdict
+        ));
+    }
+    *gp = resolved;
+    Ok(choice)
+}
+
+/// What `loo` prints of an evaluation: the diagnosis of a table in time order where there is
+/// one, the figures, the σ and each left-out group.
+fn print_loo(console: &Console, e: &Evaluation) {
     if let Some(d) = &e.diagnosis {
         console.result(&format!("diagnosis on all points: {}", d.all_rows.verdict));
         for t in &d.terms {
@@ -439,17 +439,6 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
             g.group, g.temp_c, g.n, g.rmse_dps, g.rmse_dph
         ));
     }
-    if let Some(path) = json {
-        let mut inputs = vec![input.points.as_path()];
-        inputs.extend(test_points.as_deref());
-        let report = LooReport {
-            evaluation: &e,
-            cross_run: cross.as_ref(),
-            centres_choice: centres_choice.as_ref(),
-        };
-        write_json(&path, &inputs, &report)?;
-    }
-    Ok(())
 }
 
 /// Coverage at 1, 2 and 3 σ and sharpness, in one phrase.
@@ -599,120 +588,4 @@ struct ChallengeReport<'a> {
     false_alarms_none: usize,
     cases: &'a [challenge::Case],
     summary: &'a challenge::Summary,
-}
-
-/// `trainer allan`: the Allan deviation of a log's rate, raw (output / K) or compensated by a
-/// model, less the reference where the log has one throughout; its noise terms and figure.
-pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
-    let AllanArgs {
-        stream,
-        maps,
-        exclude,
-        window,
-        scale_factor,
-        model,
-        json,
-        plot,
-    } = args;
-    let console = Console::new(flags, json.as_deref());
-    let inputs: Vec<&Path> = std::iter::once(stream.as_path())
-        .chain(model.as_deref())
-        .collect();
-    for out in json.iter().chain(&plot) {
-        ensure_not_input(out, &inputs)?;
-    }
-    let data = load_stream(&stream, &maps.list, (window, &exclude.list), &console)?;
-    let (rate, what): (Vec<f64>, String) = match (&model, scale_factor) {
-        (Some(path), _) => {
-            let bytes =
-                std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-            let fw = firmware_sim::replay::decode(&bytes)
-                .with_context(|| format!("decoding {}", path.display()))?;
-            let comp = firmware_sim::replay::replay(&fw, &data);
-            (
-                comp.rate_dps.iter().map(|&w| f64::from(w)).collect(),
-                format!("the output compensated by {}", path.display()),
-            )
-        }
-        (None, Some(k)) => {
-            anyhow::ensure!(
-                k.is_finite() && k != 0.0,
-                "--scale-factor {k}: a scale factor is a finite non-zero number"
-            );
-            (
-                data.voltage_v.iter().map(|v| v / k).collect(),
-                format!("output / {k}"),
-            )
-        }
-        (None, None) => anyhow::bail!("give --scale-factor K or --model M"),
-    };
-    // Against the reference where the log has one: the samples without (handled windows, the
-    // windows --exclude names) are left out of the clusters, not fed in raw.
-    let referenced = data.rate_dps.iter().any(|r| r.is_finite());
-    let rate: Vec<f64> = if referenced {
-        rate.iter()
-            .zip(&data.rate_dps)
-            .map(|(w, r)| w - r)
-            .collect()
-    } else {
-        rate
-    };
-    let what = if referenced {
-        format!("{what} − reference")
-    } else {
-        what
-    };
-    let left_out = data.rate_dps.iter().filter(|r| !r.is_finite()).count();
-    if referenced && left_out > 0 {
-        console.result(&format!(
-            "left out of the Allan deviation: the {left_out} samples without a reference (the \
-             windows above); it is computed over the stretches between them"
-        ));
-    }
-    let analysis = firmware_sim::allan::Analysis::of(&what, &data.time_s, &rate);
-    anyhow::ensure!(
-        analysis.tau_s.len() >= 3,
-        "{}: {} samples without a gap: too few for an Allan deviation",
-        stream.display(),
-        analysis.samples
-    );
-    console.result(&analysis.text());
-    if let Some(step) = firmware_sim::allan::quantization_step(&data.voltage_v) {
-        let arw = analysis.terms.arw_deg_per_sqrt_h;
-        match (scale_factor.filter(|_| model.is_none()), arw) {
-            (Some(k), Some(arw)) => {
-                let q = firmware_sim::allan::quantization_arw(step / k.abs(), analysis.tau0_s);
-                if q >= 0.3 * arw {
-                    console.warn(&format!(
-                        "the output is quantized in steps of {step:e} (a logger that keeps every \
-                         n-th raw sample rather than averaging): the steps alone make an ARW of \
-                         {q:.4} °/√h, {:.0}% of the {arw:.4} measured, which is the quantizer's as \
-                         much as the gyro's",
-                        100.0 * q / arw
-                    ));
-                }
-            }
-            _ => console.warn(&format!(
-                "the output is quantized in steps of {step:e}: the quantizer adds white noise of \
-                 step/√12 per sample to the angle random walk"
-            )),
-        }
-    }
-    if let Some(path) = &json {
-        write_json(path, &inputs, &analysis)?;
-    }
-    if let Some(path) = &plot {
-        let curve = analysis.curve();
-        let svg = firmware_sim::plot::allan(
-            &format!("Allan deviation: {what}"),
-            &[firmware_sim::plot::AllanSeries {
-                label: &what,
-                colour: firmware_sim::plot::BLUE,
-                curve: &curve,
-                terms: analysis.terms,
-            }],
-        )?;
-        write_atomically(path, svg.as_bytes())?;
-    }
-    Ok(())
 }

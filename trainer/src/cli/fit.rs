@@ -4,10 +4,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use firmware_core::Feature;
+use firmware_core::{Feature, MAX_CENTRES};
+use firmware_sim::cause::Cause;
 use firmware_sim::console::{Console, ConsoleFlags};
 use firmware_sim::data::stream::{Handled, Stream, Window};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
+use firmware_sim::replay::HostModel;
 use serde::Serialize;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
@@ -21,10 +23,9 @@ use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
 use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, Extension};
-use crate::models::dense::DenseFloor;
 use crate::models::gp::sparse::SparseFit;
 use crate::models::gp::{
-    AUTO_EXACT_MAX, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
+    AUTO_EXACT_MAX, GpConfig, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
 };
 use crate::models::prior::{MeanBasis, PolyPrior};
 
@@ -91,9 +92,6 @@ struct FitReport {
     sparse: Option<SparseFit>,
     starts: Vec<StartReport>,
     optimization: Optimization,
-    /// The fit against this machine's dense floor (an exact GP).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    dense_floor: Option<DenseFloor>,
     warnings: Vec<String>,
     /// The diagnosis of a table recorded in time order (`--features auto` without a stream).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -169,7 +167,6 @@ impl FitReport {
             sparse: m.sparse.clone(),
             starts: m.starts.clone(),
             optimization: m.optimization.clone(),
-            dense_floor: m.dense_floor(),
             warnings: m.warnings(),
             table_diagnosis: None,
             pool_check: None,
@@ -184,198 +181,318 @@ impl FitReport {
     }
 }
 
-/// `trainer fit`: the static model (or a table diagnosed in time order, or a stream's extension)
-/// and its blob.
-pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
-    let FitArgs {
-        input,
-        fit,
-        stream,
-        window,
-        pool_stream,
-        features,
-        out,
-        json,
-    } = args;
-    let console = Console::new(flags, json.as_deref());
-    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
-    inputs.extend(stream.iter().map(PathBuf::as_path));
-    ensure_not_input(&out, &inputs)?;
-    // Without a stream, --features auto diagnoses a table recorded in time order.
-    let on_table = features.is_some() && stream.is_empty() && input.points.is_some();
-    anyhow::ensure!(
-        features.is_none() || stream.len() == 1 || on_table,
-        "--features are fitted on one stream, or (auto) on a rate table recorded in time \
-         order; {} streams given",
-        stream.len()
-    );
-    anyhow::ensure!(
-        !on_table || features.as_deref() == Some("auto"),
-        "on a rate table the inputs are chosen by its diagnosis: --features auto"
-    );
-    anyhow::ensure!(
-        input.points.is_none() || stream.is_empty() || features.is_some() || pool_stream,
-        "--stream would not be used: with --points the static model is fitted on the rate \
-         table; add --pool-stream to fit on the stream's samples too, or --features to \
-         extend the model by inputs fitted on the stream"
-    );
-    let streams = stream
-        .iter()
-        .map(|p| {
-            let s = load_stream(p, &input.maps.list, (window, &input.exclude.list), &console)?;
-            Ok((p.as_path(), s))
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let points = input.static_points(&streams, pool_stream)?;
-    let mut gp = fit.gp();
-    // More points than the firmware holds, by default: a sparse GP, its size chosen on the data.
-    let centres_choice = if capacity::needed(gp.inducing, points.len()) {
+/// What the static model is extended by, as `trainer fit` was asked.
+enum Extend {
+    /// Nothing: the static model ships.
+    Nothing,
+    /// The transients of a rate table recorded in time order (`--features auto`, no stream).
+    TableTransients,
+    /// Inputs fitted on the one stream: those its diagnosis calls for (`None`: `auto`), or those
+    /// of the causes named.
+    Stream(Option<Vec<Cause>>),
+}
+
+/// `trainer fit`'s arguments checked once: which combinations make sense is decided here, and
+/// the pipeline ([`FitPlan::run`]) only follows the plan.
+struct FitPlan {
+    input: ModelInput,
+    fit: FitOptions,
+    streams: Vec<PathBuf>,
+    window: Option<Window>,
+    pool: bool,
+    extend: Extend,
+    out: PathBuf,
+    json: Option<PathBuf>,
+}
+
+impl FitPlan {
+    /// The plan of `args`, or why they do not make one.
+    fn check(args: FitArgs) -> anyhow::Result<Self> {
+        let FitArgs {
+            input,
+            fit,
+            stream,
+            window,
+            pool_stream,
+            features,
+            out,
+            json,
+        } = args;
+        let extend = match (features.as_deref(), stream.len(), &input.points) {
+            (None, _, _) => Extend::Nothing,
+            (Some("auto"), 0, Some(_)) => Extend::TableTransients,
+            (Some(_), 0, Some(_)) => anyhow::bail!(
+                "on a rate table the inputs are chosen by its diagnosis: --features auto"
+            ),
+            (Some("auto"), 1, _) => Extend::Stream(None),
+            (Some(list), 1, _) => Extend::Stream(Some(extend::parse_features(list)?)),
+            (Some(_), n, _) => anyhow::bail!(
+                "--features are fitted on one stream, or (auto) on a rate table recorded in time \
+                 order; {n} streams given"
+            ),
+        };
         anyhow::ensure!(
-            !on_table && !input.offsets,
-            "{} points are more than the {} centres a firmware model holds, and {} needs an \
-             exact GP: fit without it (the default then chooses a sparse GP) or on at most {} \
-             points (checked before fitting)",
-            points.len(),
-            firmware_sim::replay::MAX_CENTRES,
-            if on_table {
-                "a time-ordered table's transient terms (--features auto)"
-            } else {
-                "--offsets"
-            },
-            firmware_sim::replay::MAX_CENTRES
+            input.points.is_none()
+                || stream.is_empty()
+                || !matches!(extend, Extend::Nothing)
+                || pool_stream,
+            "--stream would not be used: with --points the static model is fitted on the rate \
+             table; add --pool-stream to fit on the stream's samples too, or --features to \
+             extend the model by inputs fitted on the stream"
         );
-        let spinner = console.spinner("choosing the firmware model's size");
-        let choice = capacity::choose(&points, &gp, |step| {
-            spinner.set_message(format!("choosing the firmware model's size: {step}"));
+        Ok(Self {
+            input,
+            fit,
+            streams: stream,
+            window,
+            pool: pool_stream,
+            extend,
+            out,
+            json,
+        })
+    }
+
+    /// The files read.
+    fn inputs(&self) -> Vec<&Path> {
+        self.input
+            .points
+            .iter()
+            .chain(&self.streams)
+            .map(PathBuf::as_path)
+            .collect()
+    }
+
+    /// The static model, its extension and its σ, checked against the firmware and written.
+    fn run(self, flags: ConsoleFlags) -> anyhow::Result<()> {
+        let console = Console::new(flags, self.json.as_deref());
+        ensure_not_input(&self.out, &self.inputs())?;
+        let streams = self
+            .streams
+            .iter()
+            .map(|p| {
+                let s = load_stream(
+                    p,
+                    &self.input.maps.list,
+                    (self.window, &self.input.exclude.list),
+                    &console,
+                )?;
+                Ok((p.as_path(), s))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let points = self.input.static_points(&streams, self.pool)?;
+        let (gp, centres_choice) = self.size(&points, &console)?;
+        let (points, model, table, pool_check) =
+            self.static_model(points, &gp, &streams, &console)?;
+        log_starts(&console, &model);
+        // Before the f32 check: a warning may explain why it refuses the blob.
+        for w in model.warnings() {
+            console.warn(&w);
+        }
+        let extension = table
+            .as_ref()
+            .map(TableModel::extension)
+            .unwrap_or_default();
+        let static_blob = export::points_blob(&model, &points, &extension)?;
+        let (firmware, agreement) = export::verify(&model, &static_blob, &points, &extension)?;
+        let mut summary = FitReport::new(&model, &points, agreement, static_blob.len());
+        summary.pool_check = pool_check;
+        summary.centres_choice = centres_choice;
+        if let Some(t) = &table {
+            console.result(&format!(
+                "diagnosis of the table (time order): {}",
+                t.diagnosis.verdict
+            ));
+            summary.table_diagnosis = Some(t.diagnosis.clone());
+            summary.extension = Some(ExtensionReport::Table(extension.clone()));
+            summary.features = Inputs::Firmware(firmware.features().to_vec());
+        }
+        let shipped = match streams.as_slice() {
+            [(path, data)] => self.on_stream(
+                (path, data),
+                (&points, &model, &firmware, &gp),
+                &static_blob,
+                &mut summary,
+                &console,
+            )?,
+            _ => None,
+        };
+        let (mut blob, mut agreement, calibration) = match shipped {
+            Some(s) => s,
+            None => (
+                static_blob.clone(),
+                agreement,
+                uncertainty::table_calibration(&points, &model)?,
+            ),
+        };
+        let blob_is_static = blob == static_blob;
+        blob = calibration.apply(&blob)?;
+        if blob_is_static {
+            // The agreement of the blob as written, with its error model.
+            agreement = export::verify(&model, &blob, &points, &extension)?.1;
+        }
+        console.result(&format!("the blob's {}", calibration.describe("°/s")));
+        summary.calibration = Some(calibration);
+        summary.handled = streams
+            .iter()
+            .flat_map(|(_, s)| s.handled.iter().cloned())
+            .collect();
+        summary.firmware_agreement = agreement;
+        summary.blob_bytes = blob.len();
+        write_atomically(&self.out, &blob)?;
+        if let Some(path) = &self.json {
+            write_json(path, &self.inputs(), &summary)?;
+        }
+        print_fit(
+            &console,
+            &model,
+            points.len(),
+            (&self.out, blob.len()),
+            &agreement,
+        );
+        Ok(())
+    }
+
+    /// The GP's settings with its size resolved for `points` ([`capacity::resolve`]: the exact GP
+    /// where the firmware holds it or a size was asked for, else the size chosen on the data),
+    /// refused before any fit when the firmware could not hold the result.
+    fn size(
+        &self,
+        points: &Points,
+        console: &Console,
+    ) -> anyhow::Result<(GpConfig, Option<capacity::Choice>)> {
+        let asked = self.fit.gp();
+        let n = points.len();
+        let exact_only = matches!(self.extend, Extend::TableTransients) || self.input.offsets;
+        anyhow::ensure!(
+            !(exact_only && capacity::needed(asked.inducing, n)),
+            "{n} points are more than the {MAX_CENTRES} centres a firmware model holds, and {} \
+             needs an exact GP: fit without it (the default then chooses a sparse GP) or on at \
+             most {MAX_CENTRES} points (checked before fitting)",
+            if self.input.offsets {
+                "--offsets"
+            } else {
+                "a time-ordered table's transient terms (--features auto)"
+            },
+        );
+        let spinner = capacity::needed(asked.inducing, n)
+            .then(|| console.spinner("choosing the firmware model's size"));
+        let (gp, choice) = capacity::resolve(points, &asked, |step| {
+            if let Some(s) = &spinner {
+                s.set_message(format!("choosing the firmware model's size: {step}"));
+            }
         })?;
-        spinner.finish_and_clear();
-        console.result(&choice.verdict);
-        gp.inducing = Inducing::Count(choice.chosen);
-        Some(choice)
-    } else {
-        None
-    };
-    let centres = gp.inducing.count(points.len()).unwrap_or(points.len());
-    anyhow::ensure!(
-        centres <= firmware_sim::replay::MAX_CENTRES,
-        "model too large to export: {} gives {centres} centres, and a firmware model holds at \
-         most {} centres; ask for a sparse GP (--inducing {}) or fit on fewer points \
-         (checked before fitting)",
-        match gp.inducing {
-            Inducing::Auto => format!(
-                "an exact GP on {} points (the default up to {AUTO_EXACT_MAX})",
+        if let Some(s) = spinner {
+            s.finish_and_clear();
+        }
+        if let Some(c) = &choice {
+            console.result(&c.verdict);
+        }
+        let centres = gp.inducing.count(n).unwrap_or(n);
+        anyhow::ensure!(
+            centres <= MAX_CENTRES,
+            "model too large to export: {} gives {centres} centres, and a firmware model holds at \
+             most {MAX_CENTRES} centres; ask for a sparse GP (--inducing {MAX_CENTRES}) or fit on \
+             fewer points (checked before fitting)",
+            match gp.inducing {
+                Inducing::Auto =>
+                    format!("an exact GP on {n} points (the default up to {AUTO_EXACT_MAX})"),
+                asked => format!("--inducing {asked} on {n} points"),
+            },
+        );
+        Ok((gp, choice))
+    }
+
+    /// The static model on `points` (with a time-ordered table's transient terms where asked),
+    /// and, for a pooled fit beside a rate table, the check that decides which of the two ships:
+    /// the points and model that ship, the table's fit, and the check.
+    #[allow(clippy::type_complexity)]
+    fn static_model(
+        &self,
+        points: Points,
+        gp: &GpConfig,
+        streams: &[(&Path, Stream)],
+        console: &Console,
+    ) -> anyhow::Result<(Points, GpModel, Option<TableModel>, Option<PoolCheck>)> {
+        let spinner = console.spinner(&match gp.inducing.count(points.len()) {
+            Some(m) => format!(
+                "fitting a sparse GP ({m} inducing points) on {} samples",
                 points.len()
             ),
-            asked => format!("--inducing {asked} on {} points", points.len()),
-        },
-        firmware_sim::replay::MAX_CENTRES,
-        firmware_sim::replay::MAX_CENTRES
-    );
-    let spinner = console.spinner(&match gp.inducing.count(points.len()) {
-        Some(m) => format!(
-            "fitting a sparse GP ({m} inducing points) on {} samples",
-            points.len()
-        ),
-        None => format!("fitting an exact GP on {} points", points.len()),
-    });
-    let table = if on_table {
-        let transients = Transients::compute(&points)?;
-        let all: Vec<usize> = (0..points.len()).collect();
-        Some(table::fit(
-            &points,
-            &transients,
-            &all,
-            (&gp, input.offsets),
-        )?)
-    } else {
-        None
-    };
-    let model = match &table {
-        Some(t) => t.gp.clone(),
-        None => GpModel::fit_grouped(
-            points.inputs(),
-            &points.target(),
-            &points.offset_groups(input.offsets),
-            &gp,
-        )?,
-    };
-    spinner.finish_and_clear();
-    let (points, model, pool_check) = match (&input.points, pool_stream) {
-        (Some(_), true) => {
-            let spinner = console
-                .spinner("checking the pooled model against the table's alone, forward in time");
-            let table_points = input.static_points(&[], false)?;
-            // The size chosen for the pooled points is theirs; a table the firmware holds whole
-            // keeps its exact GP.
-            let table_gp = fit.gp();
-            let fit_static = |p: &Points| {
-                let cfg = if p.len() <= firmware_sim::replay::MAX_CENTRES {
-                    &table_gp
-                } else {
-                    &gp
-                };
-                GpModel::fit_grouped(
-                    p.inputs(),
-                    &p.target(),
-                    &p.offset_groups(input.offsets),
-                    cfg,
-                )
-            };
-            let table_model = fit_static(&table_points)?;
-            let check = pool::check(&table_points, &table_model, &streams, &fit_static)?;
-            spinner.finish_and_clear();
-            match check.shipped {
-                Pooling::Pooled => {
-                    console.result(&check.verdict);
-                    (points, model, Some(check))
-                }
-                Pooling::TableOnly => {
-                    console.warn(&check.verdict);
-                    (table_points, table_model, Some(check))
-                }
+            None => format!("fitting an exact GP on {} points", points.len()),
+        });
+        let offsets = self.input.offsets;
+        let table = match self.extend {
+            Extend::TableTransients => {
+                let transients = Transients::compute(&points)?;
+                let all: Vec<usize> = (0..points.len()).collect();
+                Some(table::fit(&points, &transients, &all, (gp, offsets))?)
             }
+            _ => None,
+        };
+        let model = match &table {
+            Some(t) => t.gp.clone(),
+            None => GpModel::fit_grouped(
+                points.inputs(),
+                &points.target(),
+                &points.offset_groups(offsets),
+                gp,
+            )?,
+        };
+        spinner.finish_and_clear();
+        if !(self.pool && self.input.points.is_some()) {
+            return Ok((points, model, table, None));
         }
-        _ => (points, model, None),
-    };
-    log_starts(&console, &model);
-    // Before the f32 check: a warning may explain why it refuses the blob.
-    for w in model.warnings() {
-        console.warn(&w);
+        let spinner =
+            console.spinner("checking the pooled model against the table's alone, forward in time");
+        let table_points = self.input.static_points(&[], false)?;
+        // The size chosen for the pooled points is theirs; a table the firmware holds whole keeps
+        // its exact GP.
+        let table_gp = self.fit.gp();
+        let fit_static = |p: &Points| {
+            let cfg = if p.len() <= MAX_CENTRES {
+                &table_gp
+            } else {
+                gp
+            };
+            GpModel::fit_grouped(p.inputs(), &p.target(), &p.offset_groups(offsets), cfg)
+        };
+        let table_model = fit_static(&table_points)?;
+        let check = pool::check(&table_points, &table_model, streams, &fit_static)?;
+        spinner.finish_and_clear();
+        Ok(match check.shipped {
+            Pooling::Pooled => {
+                console.result(&check.verdict);
+                (points, model, table, Some(check))
+            }
+            Pooling::TableOnly => {
+                console.warn(&check.verdict);
+                (table_points, table_model, table, Some(check))
+            }
+        })
     }
-    let extension = table
-        .as_ref()
-        .map(TableModel::extension)
-        .unwrap_or_default();
-    let mut blob = export::points_blob(&model, &points, &extension)?;
-    let (firmware, mut agreement) = export::verify(&model, &blob, &points, &extension)?;
-    let mut summary = FitReport::new(&model, &points, agreement, blob.len());
-    summary.pool_check = pool_check;
-    summary.centres_choice = centres_choice;
-    if let Some(t) = &table {
-        console.result(&format!(
-            "diagnosis of the table (time order): {}",
-            t.diagnosis.verdict
-        ));
-        summary.table_diagnosis = Some(t.diagnosis.clone());
-        summary.extension = Some(ExtensionReport::Table(extension.clone()));
-        summary.features = Inputs::Firmware(firmware.features().to_vec());
-    }
-    let static_blob = blob.clone();
-    let mut calibration = None;
-    if let [(path, data)] = streams.as_slice() {
-        let rebuild = |part: &Stream| input.static_points(&[(path, part.clone())], pool_stream);
-        let choice = match &features {
-            Some(list) => {
-                let asked = match list.as_str() {
-                    "auto" => None,
-                    list => Some(extend::parse_features(list)?),
-                };
+
+    /// With one stream: the extension it calls for (or was asked for) where it wins its forward
+    /// check, and the σ of what ships, calibrated on the stream's own splits. The blob, its
+    /// agreement and its calibration; `None` where the stream gives no splits to calibrate on (a
+    /// pooled fit not extended), so the table's calibration stands.
+    #[allow(clippy::type_complexity)]
+    fn on_stream(
+        &self,
+        (path, data): (&Path, &Stream),
+        (points, model, firmware, gp): (&Points, &GpModel, &HostModel, &GpConfig),
+        static_blob: &[u8],
+        summary: &mut FitReport,
+        console: &Console,
+    ) -> anyhow::Result<Option<(Vec<u8>, AgreementReport, Calibration)>> {
+        let rebuild = |part: &Stream| self.input.static_points(&[(path, part.clone())], self.pool);
+        let choice = match &self.extend {
+            Extend::Stream(asked) => {
                 let choice = investigate::choose(
-                    &points,
-                    &model,
-                    &firmware,
+                    points,
+                    model,
+                    firmware,
                     data,
-                    &gp,
+                    gp,
                     asked.as_deref(),
                     &rebuild,
                 )?;
@@ -393,19 +510,14 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         };
         let (kind, splits) = match &choice {
             Some(c) => (c.shipped, None),
-            None if !pool_stream => (
+            None if !self.pool => (
                 investigate::Shipped::Static,
-                Some(investigate::splits(
-                    &points,
-                    &model,
-                    data,
-                    &gp,
-                    &[],
-                    &rebuild,
-                )?),
+                Some(investigate::splits(points, model, data, gp, &[], &rebuild)?),
             ),
             None => (investigate::Shipped::Static, None),
         };
+        let mut blob = static_blob.to_vec();
+        let mut agreement = summary.firmware_agreement;
         if let Some(choice) = &choice {
             summary.stream_choice = Some(StreamChoice {
                 diagnosis: choice.diagnosis.clone(),
@@ -436,40 +548,30 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
                 console.result(&choice.verdict);
             }
         }
-        if let Some(splits) = choice.as_ref().map(|c| &c.splits).or(splits.as_ref()) {
-            calibration = Some(investigate::calibrate(
-                &points,
-                &model,
-                &static_blob,
-                &blob,
-                kind,
-                data,
-                splits,
-            )?);
-        }
+        let Some(splits) = choice.as_ref().map(|c| &c.splits).or(splits.as_ref()) else {
+            return Ok(None);
+        };
+        let calibration =
+            investigate::calibrate(points, model, static_blob, &blob, kind, data, splits)?;
+        Ok(Some((blob, agreement, calibration)))
     }
-    let blob_is_static = blob == static_blob;
-    let calibration = match calibration {
-        Some(c) => c,
-        None => uncertainty::table_calibration(&points, &model)?,
-    };
-    blob = calibration.apply(&blob)?;
-    if blob_is_static {
-        // The agreement of the blob as written, with its error model.
-        agreement = export::verify(&model, &blob, &points, &extension)?.1;
-    }
-    console.result(&format!("the blob's {}", calibration.describe("°/s")));
-    summary.calibration = Some(calibration);
-    summary.handled = streams
-        .iter()
-        .flat_map(|(_, s)| s.handled.iter().cloned())
-        .collect();
-    summary.firmware_agreement = agreement;
-    summary.blob_bytes = blob.len();
-    write_atomically(&out, &blob)?;
-    if let Some(path) = json {
-        write_json(&path, &inputs, &summary)?;
-    }
+}
+
+/// `trainer fit`: the static model (or a table diagnosed in time order, or a stream's extension)
+/// and its blob.
+pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    FitPlan::check(args)?.run(flags)
+}
+
+/// What `trainer fit` prints of the model it wrote: the GP, the blob, and the firmware's f32
+/// evaluation against the host's.
+fn print_fit(
+    console: &Console,
+    model: &GpModel,
+    n: usize,
+    (out, bytes): (&Path, usize),
+    agreement: &AgreementReport,
+) {
     if let Some(s) = &model.sparse {
         console.result(&format!(
             "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
@@ -477,8 +579,7 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         ));
     }
     console.result(&format!(
-        "fitted GP on {} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
-        points.len(),
+        "fitted GP on {n} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
         model.log_marginal_likelihood(),
         model.posterior.hyper.length_scales,
         model.posterior.hyper.signal_std,
@@ -486,18 +587,6 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
         model.posterior.jitter,
         model.fit_seconds * 1e3
     ));
-    if let Some(f) = &summary.dense_floor {
-        console.result(&format!(
-            "the search's {} likelihoods took {:.2}× this machine's dense floor ({} × {:.2} ms, \
-             one Cholesky + inverse at n = {}: {:.0} GFLOP/s)",
-            f.likelihoods,
-            f.ratio,
-            f.likelihoods,
-            f.dense_seconds * 1e3,
-            model.y.len(),
-            f.gflops
-        ));
-    }
     if let Some(g) = model.posterior.hyper.offset_std {
         console.result(&format!(
             "offsets between groups: σ_g {:.3e} (output units), counted as noise in the \
@@ -505,7 +594,7 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
             g * model.output_scale
         ));
     }
-    console.result(&format!("wrote {} ({} bytes)", out.display(), blob.len()));
+    console.result(&format!("wrote {} ({bytes} bytes)", out.display()));
     console.result(
         "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating",
     );
@@ -519,7 +608,6 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
             a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
         ));
     }
-    Ok(())
 }
 
 /// `trainer inspect`: a blob's size and static memory on the firmware.

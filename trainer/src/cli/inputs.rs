@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use firmware_sim::cli::{Excludes, Maps};
 use firmware_sim::console::Console;
 use firmware_sim::data::columns::ColumnMap;
+use firmware_sim::data::log::{Excludes, Maps};
 use firmware_sim::data::stream::{Stream, Window};
 
 use crate::analysis::evaluate::Method;
@@ -127,14 +127,14 @@ pub(super) fn load_points(
 }
 
 /// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in
-/// one line ([`firmware_sim::cli::load_log`]).
+/// one line ([`firmware_sim::data::log::load_log`]).
 pub(super) fn load_stream(
     path: &Path,
     maps: &[ColumnMap],
     (window, exclude): (Option<Window>, &[Window]),
     console: &Console,
 ) -> anyhow::Result<Stream> {
-    firmware_sim::cli::load_log(path, maps, (window, exclude), console)
+    firmware_sim::data::log::load_log(path, maps, (window, exclude), console)
 }
 
 #[derive(Args, Clone)]
@@ -153,9 +153,10 @@ pub(super) struct FitOptions {
     /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = GpConfig::default().mean)]
     pub(super) mean: MeanBasis,
-    /// Exact GP or sparse (variational, this many inducing points). auto: exact up to 256 points
-    /// (what a firmware model holds); `fit` chooses a sparse GP's size on the data up to 1,000
-    /// (the other commands fit exactly there); 24 inducing points above.
+    /// Exact GP or sparse (variational, this many inducing points). auto: for `fit` and `loo`,
+    /// the exact GP up to 256 points (what a firmware model holds), else a sparse GP whose size
+    /// is chosen on held-out data; the models other commands fit along the way and do not
+    /// export are exact up to 1,000 points and have 24 inducing points above.
     #[arg(long, default_value_t = GpConfig::default().inducing, value_name = "auto|exact|M")]
     pub(super) inducing: Inducing,
 }

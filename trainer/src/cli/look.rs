@@ -3,8 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use firmware_sim::cli::Maps;
 use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::log::Maps;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::io::{ensure_not_input, write_json};
 

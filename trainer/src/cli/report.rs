@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use firmware_sim::cli::{Excludes, Maps};
 use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::log::{Excludes, Maps};
 use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::gyro::effects::Hidden;
 use firmware_sim::gyro::plant::GyroParams;

@@ -1,5 +1,6 @@
 //! How results read on a terminal: the optimizer's starts, named causes, a diagnosis.
 
+use firmware_core::units::DPH_PER_DPS;
 use firmware_sim::cause::Cause;
 use firmware_sim::console::Console;
 
@@ -48,7 +49,7 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
         causes_text(&d.causes),
         d.explanation,
         d.residual_rmse_60s_dps,
-        d.residual_rmse_60s_dps * 3600.0,
+        d.residual_rmse_60s_dps * DPH_PER_DPS,
         d.n_blocks
     );
     // A forward score the test could not see (the input flat in the later half) is marked.

@@ -6,6 +6,7 @@ use std::sync::OnceLock;
 
 use firmware_core::features::{self, FeatureState, Sample};
 use firmware_core::{Feature, Status};
+use firmware_sim::data::blocks;
 use firmware_sim::data::columns::{self, ColumnMap, DataError};
 use firmware_sim::data::stream::Stream;
 use firmware_sim::replay;
@@ -382,7 +383,7 @@ impl Points {
         scale_factor: Option<f64>,
     ) -> Result<Self, PointsError> {
         let scored = scored(stream);
-        let blocks = replay::blocks(stream, &scored);
+        let blocks = blocks::half_filled(stream, &scored);
         if blocks.len() < 10 {
             return Err(PointsError::TooFewBlocks {
                 path: path.display().to_string(),

@@ -7,11 +7,12 @@ use serde::Serialize;
 
 use firmware_sim::data::columns::{ColumnMap, Source};
 use firmware_sim::data::stream::Stream;
+use firmware_sim::stats::Line;
 
 use super::points::{Implausible, Points, plateaus};
 
 /// The vertical earth rate at the poles, °/s (15.041 °/h): the most a reference can be off by it.
-const EARTH_DPS: f64 = 15.041 / 3600.0;
+const EARTH_DPS: f64 = 15.041 / firmware_core::units::DPH_PER_DPS;
 
 /// What a file holds, as loaded.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -45,7 +46,7 @@ pub struct Summary {
     #[serde(skip)]
     pub excluded_line: Option<String>,
     /// A stream's output step, where every value is a whole multiple of one (a decimated log:
-    /// [`firmware_sim::allan::quantization_step`]).
+    /// [`crate::analysis::allan::quantization_step`]).
     pub output_step: Option<f64>,
     /// Output per °/s of a straight line through the non-zero rates: the scale factor the data
     /// show (a wrong unit shows here).
@@ -102,18 +103,7 @@ fn slope(rate: &[f64], output: &[f64]) -> Option<f64> {
     if pts.len() < 3 {
         return None;
     }
-    least_squares_slope(&pts)
-}
-
-/// The least-squares slope of y on x through `pts`; `None` where x does not vary.
-pub fn least_squares_slope(pts: &[(f64, f64)]) -> Option<f64> {
-    let n = pts.len() as f64;
-    let (mw, mv) = pts
-        .iter()
-        .fold((0.0, 0.0), |(a, b), (w, v)| (a + w / n, b + v / n));
-    let sxy: f64 = pts.iter().map(|(w, v)| (w - mw) * (v - mv)).sum();
-    let sxx: f64 = pts.iter().map(|(w, _)| (w - mw) * (w - mw)).sum();
-    (sxx > 0.0).then(|| sxy / sxx)
+    Line::fit(pts).map(|l| l.slope)
 }
 
 /// The earth rate in the reference, judged from how far the non-zero rates sit from round
@@ -230,7 +220,7 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
             }
         }),
         excluded,
-        output_step: firmware_sim::allan::quantization_step(&stream.voltage_v),
+        output_step: crate::analysis::allan::quantization_step(&stream.voltage_v),
         scale_factor_estimate: slope(&stream.rate_dps, &stream.voltage_v),
         earth_rate: earth_rate(&stream.rate_dps),
     }

@@ -9,7 +9,8 @@
 //! doc of firmware-core).
 
 use firmware_core::blob::{self, Dims, ErrorModel, Feature, HEADER_LEN, Payload};
-use firmware_sim::replay::{self, HostModel, MAX_CENTRES, MAX_INPUTS};
+use firmware_core::{MAX_CENTRES, MAX_INPUTS};
+use firmware_sim::replay::{self, HostModel};
 use serde::Serialize;
 
 use crate::data::points::Points;

@@ -2,10 +2,10 @@
 //! solves and the inverse from a Cholesky factor, the symmetric eigendecomposition and the
 //! symmetric product G Gᵀ, on faer (blocked, SIMD, spread over the cores by rayon). The rest of
 //! the trainer speaks nalgebra, so matrices cross over by copy: O(n²) against the O(n³) of the
-//! work. nalgebra's own Cholesky and triangular solves are unblocked and single-threaded; at
-//! n = 1,000 they and the hand-written inverse replaced here took most of every likelihood
-//! evaluation (docs/performance.md). [`DenseFloor`] times them to say how far a fit is from
-//! what they allow.
+//! work. nalgebra's own Cholesky and triangular solves are unblocked and single-threaded, and
+//! these kernels are most of a likelihood evaluation at the sizes an exact GP is fitted at.
+//! [`DenseFloor`] times them (the `fit_timing` example) to say how far a fit is from what they
+//! allow.
 
 use std::time::Instant;
 

@@ -30,9 +30,9 @@ pub fn gram(xs: &DMatrix<f64>) -> DMatrix<f64> {
 /// more: the exact GP's factorization and likelihood gradient. Mirroring is a transposing pass
 /// over n² entries that they would not use.
 ///
-/// Its n²/2 exponentials cost a quarter of an exact likelihood evaluation at n = 700–1,000, so the
-/// columns are filled in parallel (contiguous, each entry computed alone: the same bits whatever
-/// the threads).
+/// Its n²/2 exponentials are a large share of an exact likelihood evaluation, so the columns are
+/// filled in parallel (contiguous, each entry computed alone: the same bits whatever the
+/// threads).
 pub fn gram_lower(xs: &DMatrix<f64>) -> DMatrix<f64> {
     let (n, d) = xs.shape();
     // Row-major copy: the distance loop then reads contiguous memory.
@@ -93,8 +93,8 @@ pub fn cross(xs: &DMatrix<f64>, z: &[f64], length_scales: &[f64]) -> DVector<f64
 
 /// Replaces every squared distance r² by the unit-variance kernel exp(−½ r²), in place.
 ///
-/// Why by hand: these n²/2 exponentials took a tenth of an exact likelihood (n = 730) through the
-/// C library's `exp`, which computes one value per call. This form has no branch and no table,
+/// Why by hand: the C library's `exp` computes one value per call, and these n²/2 exponentials are
+/// a share of every exact likelihood. This form has no branch and no table,
 /// so the loop is vectorized (four lanes where the CPU has AVX2, chosen at run time by
 /// `multiversion`; two with the baseline SSE2), and it gives the same bits on every path (no
 /// fused multiply-add). The method is the textbook one: e^x = 2^k e^r with k = round(x / ln 2),

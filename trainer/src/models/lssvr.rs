@@ -21,9 +21,8 @@
 //! ```
 //!
 //! all in O(n²) from Uᵀ1, Uᵀy and U∘U, so a whole grid of γ over its range costs two matrix
-//! products: the descent starts in the right valley of γ, which is far from convex. On the Oct
-//! FOG run (773 points) a fit takes 54 of these steps, where a Nelder–Mead search over ln ℓ with
-//! γ profiled out at every point took 122 eigendecompositions, 3.5× the time (docs/performance.md).
+//! products: the descent starts in the right valley of γ, which is far from convex, and needs far
+//! fewer eigendecompositions than a search over ln ℓ that profiles γ out at every point.
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -136,8 +135,8 @@ const GAMMA_FINE: usize = 12;
 /// ln γ, where the LOO error is flat to far below any digit reported.
 const GAMMA_ROUNDS: usize = 4;
 /// How the search over (ln ℓ, ln γ) stops: its cost is ln of the LOO error, so the
-/// projected-gradient tolerance is relative. Not looser: the Aug FOG run's LOO error varies by 2%
-/// over the whole range of ℓ, and at 1e-2 every start stopped where it began.
+/// projected-gradient tolerance is relative. Not looser: a LOO error can vary by a few percent
+/// over the whole range of ℓ, and a looser tolerance stops every start where it began.
 const TUNING: Stopping = Stopping {
     tolerance: 1e-3,
     budget: 60,
@@ -304,9 +303,8 @@ impl Tuning<'_> {
     ///
     /// The range (ℓ ≥ 0.1, normalized) matters: below it a rate table's setpoints become separate
     /// clusters, and a kernel that narrow in the output snaps each row to its setpoint's value,
-    /// which leave-one-out cannot see. On the Aug FOG run one fold's search went there (ℓ = 0.02,
-    /// LOO error 3e-6 of the residual's spread) and scored 2.8 °/h on its left-out sweep against
-    /// 140–250 for every other fold.
+    /// which leave-one-out cannot see: such a fold's LOO error is near zero while its left-out
+    /// sweep scores far worse than the others.
     fn descend(&self, start: &[f64]) -> Option<(Vec<f64>, f64)> {
         let objective = |t: &[f64]| self.objective(t);
         let (log_gamma, _) = self.best(start)?;

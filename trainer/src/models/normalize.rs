@@ -57,13 +57,66 @@ pub const RANGE_TAIL: f64 = 0.005;
 /// firmware flags a reading outside it `Extrapolating`, and its variance grows there
 /// (docs/design.md §4). (NaN, NaN) for no values.
 pub fn trained_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN);
+    Sorted::new(values).range_without(&[])
+}
+
+/// A column's finite values in ascending order, with their rows: the trained range of the rows
+/// left in when some are left out ([`Self::range_without`]), without sorting again for each, as
+/// leaving every point of a pooled table out in turn needs.
+pub struct Sorted {
+    values: Vec<(f64, usize)>,
+    present: Vec<bool>,
+}
+
+impl Sorted {
+    /// The column `values` (row i is the i-th value), sorted.
+    pub fn new(values: impl Iterator<Item = f64>) -> Self {
+        let mut present = Vec::new();
+        let mut sorted = Vec::new();
+        for (i, x) in values.enumerate() {
+            present.push(x.is_finite());
+            if x.is_finite() {
+                sorted.push((x, i));
+            }
+        }
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Self {
+            values: sorted,
+            present,
+        }
     }
-    v.sort_by(f64::total_cmp);
-    let cut = (RANGE_TAIL * v.len() as f64).floor() as usize;
-    (v[cut], v[v.len() - 1 - cut])
+
+    /// [`trained_range`] of the rows not in `left_out`: the k-th kept value from each end of the
+    /// sorted column, k from the count kept.
+    pub fn range_without(&self, left_out: &[usize]) -> (f64, f64) {
+        // A large group is looked up in a set, a small one (a point) in place.
+        let set: Option<std::collections::HashSet<usize>> =
+            (left_out.len() > 16).then(|| left_out.iter().copied().collect());
+        let out = |i: usize| match &set {
+            Some(s) => s.contains(&i),
+            None => left_out.contains(&i),
+        };
+        let gone = left_out
+            .iter()
+            .filter(|&&i| self.present.get(i).copied().unwrap_or(false))
+            .count();
+        let m = self.values.len().saturating_sub(gone);
+        if m == 0 {
+            return (f64::NAN, f64::NAN);
+        }
+        let cut = (RANGE_TAIL * m as f64).floor() as usize;
+        let mut kept = self.values.iter().filter(|(_, i)| !out(*i)).map(|v| v.0);
+        let lo = kept.nth(cut).unwrap_or(f64::NAN);
+        let hi = self
+            .values
+            .iter()
+            .rev()
+            .filter(|(_, i)| !out(*i))
+            .map(|v| v.0)
+            .nth(cut)
+            .unwrap_or(f64::NAN);
+        (lo, hi)
+    }
 }
 
 #[cfg(test)]
@@ -91,5 +144,36 @@ mod tests {
         assert!(hi > 39.9, "{hi}");
         // A short table keeps its extremes.
         assert_eq!(trained_range([3.0, 1.0, 2.0].into_iter()), (1.0, 3.0));
+    }
+
+    #[test]
+    fn a_range_without_some_rows_is_the_range_of_the_rows_left_in() {
+        // 450 values in a scrambled order (every 7th missing), left out singly and in groups.
+        let v: Vec<f64> = (0..450)
+            .map(|i| {
+                if i % 7 == 3 {
+                    f64::NAN
+                } else {
+                    f64::from((i * 37) % 450)
+                }
+            })
+            .collect();
+        let sorted = Sorted::new(v.iter().copied());
+        let groups: Vec<Vec<usize>> = vec![
+            vec![],
+            vec![0],
+            vec![3],
+            (0..40).map(|k| k * 11).collect(),
+            (0..449).collect(),
+        ];
+        for g in groups {
+            let kept = (0..v.len()).filter(|i| !g.contains(i)).map(|i| v[i]);
+            let (a, b) = (sorted.range_without(&g), trained_range(kept));
+            assert!(
+                (a.0 == b.0 || a.0.is_nan() && b.0.is_nan())
+                    && (a.1 == b.1 || a.1.is_nan() && b.1.is_nan()),
+                "{g:?}: {a:?} vs {b:?}"
+            );
+        }
     }
 }

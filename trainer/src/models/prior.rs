@@ -6,8 +6,8 @@
 //! weights of 1e5 that cancel to 1e-5 relative; in the firmware's f32 they cost degrees per second
 //! (docs/paper.md, "Measured for the firmware"). With the basis {1, t, t²} × {1, v, v³} (bias and
 //! scale factor quadratic in temperature, the sine response's cubic with them) the weights stay
-//! below 10 °/s and f32 carries the model to 4e-6 °/s, at a leave-one-out error within 0.95–1.2× of
-//! the constant mean (f32 study, `trainer/benches/f32_study`).
+//! small and f32 carries the model to a few µ°/s, at a leave-one-out error close to the constant
+//! mean's (`trainer/benches/f32_study` measures both).
 //!
 //! The basis coefficients are not fixed beforehand: the GP marginalizes them (Rasmussen & Williams
 //! §2.7, vague prior), so they are estimated by generalized least squares with the GP's covariance

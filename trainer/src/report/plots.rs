@@ -2,11 +2,13 @@
 //! browser renders the text). Each function draws one figure from plain series, so the figures can
 //! be checked without running a fit.
 
-use firmware_sim::plot::{
+use crate::plot::{
     BLUE, Draw, DrawResult, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes,
     cold_to_hot, legend, span, svg,
 };
+use firmware_core::units::DPH_PER_DPS;
 use firmware_sim::sigma::Coverage;
+use firmware_sim::stats::{self, Line};
 use plotters::prelude::*;
 
 /// Distinct values of `xs`, sorted, merged when closer than `tol`.
@@ -62,17 +64,6 @@ pub fn rate_table(temp_c: &[f64], rate_dps: &[f64], output: &[f64]) -> Result<St
     })
 }
 
-/// Least-squares line y = a + b·x.
-fn line(x: &[f64], y: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let mx = x.iter().sum::<f64>() / n;
-    let my = y.iter().sum::<f64>() / n;
-    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
-    let sxy: f64 = x.iter().zip(y).map(|(u, v)| (u - mx) * (v - my)).sum();
-    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    (my - b * mx, b)
-}
-
 /// Fig. 2: per rate, the output against temperature with its first-order fit, as the deviation
 /// from that rate's mean output in thousandths of the output unit (mV for an analog gyro), one
 /// panel per rate so that the curvature a straight line misses is visible.
@@ -99,7 +90,8 @@ pub fn output_vs_temperature(
             let v: Vec<f64> = idx.iter().map(|&i| output[i]).collect();
             let mean = v.iter().sum::<f64>() / v.len() as f64;
             let dev: Vec<f64> = v.iter().map(|x| 1e3 * (x - mean)).collect();
-            let (a, b) = line(&t, &dev);
+            let (a, b) = Line::fit(t.iter().copied().zip(dev.iter().copied()))
+                .map_or((stats::mean(&dev), 0.0), |l| (l.intercept, l.slope));
             let (x0, x1) = span(t.iter().copied(), 0.05);
             let (y0, y1) = span(dev.iter().copied(), 0.1);
             let mut chart = ChartBuilder::on(panel)
@@ -265,7 +257,7 @@ pub fn loo_map(
         let (x0, x1) = span(temp_c.iter().copied(), 0.06);
         let (y0, y1) = span(rate_dps.iter().copied(), 0.06);
         for (panel, (name, err)) in body.split_evenly((1, methods.len())).iter().zip(methods) {
-            let rms = (err.iter().map(|e| e * e).sum::<f64>() / err.len().max(1) as f64).sqrt();
+            let rms = stats::rms(err);
             let mut chart = ChartBuilder::on(panel)
                 .caption(format!("{name}: RMSE {rms:.2e} °/s"), (FONT, LABEL))
                 .margin(12)
@@ -341,7 +333,7 @@ pub fn replay(
                 RED.stroke_width(2),
             ))?;
         }
-        let to_dph = 3600.0;
+        let to_dph = DPH_PER_DPS;
         let (e0, e1) = span(
             models.iter().flat_map(|m| {
                 m.error_dps
@@ -364,9 +356,7 @@ pub fn replay(
         for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
             let band_at = |i: usize, sign: f64| (time_h[i], sign * 2.0 * m.std_dps[i] * to_dph);
             let at = |i: usize| (time_h[i], m.error_dps[i] * to_dph);
-            let rms = (m.error_dps.iter().map(|e| e * e).sum::<f64>()
-                / m.error_dps.len().max(1) as f64)
-                .sqrt();
+            let rms = stats::rms(m.error_dps);
             for (k, run) in runs.iter().enumerate() {
                 let band = run
                     .clone()
@@ -412,7 +402,7 @@ pub struct DiagnosisSeries<'a> {
 pub fn diagnosis(d: &DiagnosisSeries<'_>) -> Result<String, PlotError> {
     svg("the diagnosis", (1100, 520), |root| {
         let panels = root.split_evenly((1, 2));
-        let to_dph = 3600.0;
+        let to_dph = DPH_PER_DPS;
         let r: Vec<f64> = d.residual_dps.iter().map(|v| v * to_dph).collect();
         let (r0, r1) = span(r.iter().copied(), 0.08);
         if !d.regressor.is_empty() {

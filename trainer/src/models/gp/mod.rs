@@ -11,7 +11,7 @@ use exact::{
 use nalgebra::{DMatrix, DVector};
 use sparse::SparseFit;
 
-use crate::models::dense::{DenseFloor, inverse_from_cholesky};
+use crate::models::dense::inverse_from_cholesky;
 use crate::models::normalize::{Normalizer, trained_range};
 use crate::models::prior::{DropReason, MeanBasis, PolyPrior};
 
@@ -147,21 +147,6 @@ impl GpModel {
         ))
     }
 
-    /// How far this fit was from the machine's dense floor ([`DenseFloor`]; times one Cholesky +
-    /// inverse at its n), or `None` for a sparse GP, whose search ran on a subset and then on
-    /// the bound.
-    pub fn dense_floor(&self) -> Option<DenseFloor> {
-        if self.sparse.is_some() {
-            return None;
-        }
-        let likelihoods = self.starts.iter().map(|s| s.likelihoods).sum();
-        Some(DenseFloor::measure(
-            self.y.len(),
-            likelihoods,
-            self.fit_seconds,
-        ))
-    }
-
     /// Where the starts of its hyperparameter search ended (θ), the polish from the best left out.
     fn start_ends(&self) -> Vec<Vec<f64>> {
         self.starts
@@ -238,10 +223,9 @@ impl GpModel {
     /// `nested` is the GP already fitted to the same data without the terms (a model nested in
     /// this one, as the static model is in a diagnosis): the search starts where its starts ended.
     /// Each of those is a local optimum the data chose, from the same spread of starts, and the
-    /// terms move the optimum from there; on the Oct FOG run's leave-one-sweep-out these searches
-    /// took 58% of the static searches' likelihoods where the fixed starts took as many, with the
-    /// same figures (docs/performance.md). Starting from its best end alone left folds in the
-    /// static model's basin. Where `nested` has no end (a fallback fit), the fixed starts.
+    /// terms move the optimum from there, so these searches are short. All the ends rather than
+    /// the best alone: from one, a fold can stay in the static model's basin. Where `nested` has
+    /// no end (a fallback fit), the fixed starts.
     pub fn fit_with_terms(
         x: &DMatrix<f64>,
         terms: &DMatrix<f64>,

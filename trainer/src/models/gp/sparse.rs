@@ -219,9 +219,8 @@ pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, G
 /// θ with σ_n doubled while that raises the bound (up to `max_log_noise`). The bound's trace term,
 /// tr(K_nn − Q)/(2σ²), grows with n: when the inducing points are too few for the structure, the
 /// start subset's σ_n sits orders of magnitude down a slope only σ_n can climb, with a gradient so
-/// steep that L-BFGS's first line search stalled there (four inducing points on fine structure,
-/// 4,000 samples: bound −1.6e8, the refinement "converged" without moving). Where the start's σ_n
-/// is right this costs one evaluation.
+/// steep that L-BFGS's first line search can stall there and report convergence without moving.
+/// Where the start's σ_n is right this costs one evaluation.
 fn climb_noise(bound: exact::Likelihood<'_>, theta: Vec<f64>, max_log_noise: f64) -> Vec<f64> {
     let last = theta.len() - 1;
     let Ok((mut best, _)) = bound(&theta) else {
@@ -747,7 +746,7 @@ mod tests {
         // The noise is uniform on ±0.05: σ = 0.029.
         assert!((noise - 0.0289).abs() < 0.004, "σ_n {noise}");
         let loo = sparse.loo_errors();
-        let rmse = (loo.iter().map(|e| e * e).sum::<f64>() / loo.len() as f64).sqrt();
+        let rmse = firmware_sim::stats::rms(&loo);
         assert!(rmse < 0.035, "LOO rmse {rmse}");
         assert!(!fit.noise_inflated(sparse.posterior.hyper.noise_std));
     }

@@ -1,10 +1,12 @@
-//! Figures as SVG text, for both programs (plotters' SVG backend: no fonts needed at build time,
-//! the browser renders the text): the canvas, axes and colours every figure shares, and the
-//! figures of this crate's own analyses (an Allan deviation, a twin against measured data). Each
-//! function draws one figure from plain series, so the figures can be checked without a fit.
+//! Figures as SVG text (plotters' SVG backend: no fonts needed at build time, the browser renders
+//! the text): the canvas, axes and colours every figure shares, and the figures of the noise and
+//! twin analyses (an Allan deviation, a twin against measured data); the report's own figures are
+//! in `report::plots`. Each function draws one figure from plain series, so the figures can be
+//! checked without a fit.
 
 use std::error::Error;
 
+use firmware_core::units::DPH_PER_DPS;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -122,16 +124,15 @@ pub struct AllanSeries<'a> {
     /// Its colour.
     pub colour: RGBColor,
     /// The curve (°/s).
-    pub curve: &'a crate::allan::Curve,
+    pub curve: &'a crate::analysis::allan::Curve,
     /// The terms read from it, drawn as the slope lines they come from.
-    pub terms: crate::allan::Terms,
+    pub terms: crate::analysis::allan::Terms,
 }
 
 /// Allan deviation on log-log axes (°/h against τ), each curve with its one-sigma band and the
 /// lines its noise terms were read from: slope −½ through N at 1 s, the flat B·0.664, slope +½
 /// through K at 3 s.
 pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotError> {
-    const HOUR: f64 = 3600.0;
     svg("the Allan deviation", (900, 600), |root| {
         let taus = series.iter().flat_map(|s| s.curve.tau_s.iter().copied());
         let (t0, t1) = taus.fold((f64::INFINITY, 0.0f64), |(a, b), t| (a.min(t), b.max(t)));
@@ -140,7 +141,7 @@ pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotErro
                 .adev_lo
                 .iter()
                 .chain(&s.curve.adev_hi)
-                .map(|v| v * HOUR)
+                .map(|v| v * DPH_PER_DPS)
                 .filter(|v| *v > 0.0)
         });
         let (y0, y1) = values.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
@@ -166,19 +167,22 @@ pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotErro
                 .tau_s
                 .iter()
                 .zip(&c.adev_hi)
-                .map(|(t, v)| (*t, v * HOUR))
+                .map(|(t, v)| (*t, v * DPH_PER_DPS))
                 .chain(
                     c.tau_s
                         .iter()
                         .zip(&c.adev_lo)
                         .rev()
-                        .map(|(t, v)| (*t, (v * HOUR).max(y0 / 1.5))),
+                        .map(|(t, v)| (*t, (v * DPH_PER_DPS).max(y0 / 1.5))),
                 )
                 .collect();
             chart.draw_series(std::iter::once(Polygon::new(band, s.colour.mix(0.15))))?;
             chart
                 .draw_series(LineSeries::new(
-                    c.tau_s.iter().zip(&c.adev).map(|(t, v)| (*t, v * HOUR)),
+                    c.tau_s
+                        .iter()
+                        .zip(&c.adev)
+                        .map(|(t, v)| (*t, v * DPH_PER_DPS)),
                     s.colour.stroke_width(2),
                 ))?
                 .label(s.label)
@@ -192,7 +196,7 @@ pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotErro
                 s.terms.arw_deg_per_sqrt_h.map(|n| (n * 60.0, -0.5)),
                 s.terms
                     .bias_instability_deg_per_h
-                    .map(|b| (b * crate::allan::FLICKER_FLOOR, 0.0)),
+                    .map(|b| (b * crate::analysis::allan::FLICKER_FLOOR, 0.0)),
                 // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
                 s.terms
                     .rrw_deg_per_h_per_sqrt_h

@@ -6,7 +6,7 @@ use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::paper;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream as gyro_stream;
-use firmware_sim::twin::{self, Kind, Record, Source};
+use trainer::analysis::twin::{self, Kind, Record, Source};
 
 fn points(p: &GyroParams, seed: u64) -> Source {
     Source {

@@ -15,16 +15,15 @@
 //! random walk, or one whose minimum is its last point. The confidence interval is the standard
 //! approximation for `N/m` clusters, σ·(1 ± 1/√(2(N/m − 1))) (IEEE 952, C.2).
 //!
-//! The simulator's bias instability is a first-order Gauss–Markov process ([`crate::gyro::plant`]);
+//! The simulator's bias instability is a first-order Gauss–Markov process ([`firmware_sim::gyro::plant`]);
 //! [`gauss_markov_avar`] is its closed-form Allan variance, which identification inverts to turn a
 //! measured minimum into the process's standard deviation.
 
 use serde::Serialize;
 
-use crate::data::stream::{GAP_FACTOR, typical_step};
+use firmware_core::units::SECONDS_PER_HOUR;
+use firmware_sim::data::stream::{GAP_FACTOR, typical_step};
 
-/// Seconds per hour.
-const HOUR_S: f64 = 3600.0;
 /// Flicker (bias-instability) noise: σ(τ) on its flat bottom is 0.664·B.
 pub const FLICKER_FLOOR: f64 = 0.664;
 /// Cluster sizes per decade of τ.
@@ -171,9 +170,9 @@ pub fn terms(curve: &Curve) -> Terms {
     let fall = (0..n - 1).take_while(|&i| slope(curve, i) < -0.25).count();
     let arw = line(-0.5, 0..fall.min(min_at.max(1)), 1.0).map(|s| s * 60.0);
     let turned = bottom.is_some();
-    let bi = turned.then(|| curve.adev[min_at] / FLICKER_FLOOR * HOUR_S);
+    let bi = turned.then(|| curve.adev[min_at] / FLICKER_FLOOR * SECONDS_PER_HOUR);
     // RRW: σ(3 s) on the +½ line after the minimum; °/s/√s × 3600 × 60 = (°/h)/√h.
-    let rrw = line(0.5, min_at..n, 3.0).map(|s| s * HOUR_S * 60.0);
+    let rrw = line(0.5, min_at..n, 3.0).map(|s| s * SECONDS_PER_HOUR * 60.0);
     Terms {
         arw_deg_per_sqrt_h: arw,
         bias_instability_deg_per_h: bi,
@@ -358,7 +357,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let white = arw_dpsqrth / 60.0;
         let phi = (-1.0 / corr_s).exp();
-        let gm_sigma = gm_dph / HOUR_S;
+        let gm_sigma = gm_dph / SECONDS_PER_HOUR;
         let z: f64 = StandardNormal.sample(&mut rng);
         let mut gm = gm_sigma * z;
         (0..n)
@@ -396,7 +395,8 @@ mod tests {
         // The known value: the minimum of the closed-form curve over τ, / 0.664.
         // The known value: the closed-form curve's first bottom, / 0.664.
         let model = |tau: f64| {
-            (white_avar(arw / 60.0, tau) + gauss_markov_avar(gm / HOUR_S, corr, tau)).sqrt()
+            (white_avar(arw / 60.0, tau) + gauss_markov_avar(gm / SECONDS_PER_HOUR, corr, tau))
+                .sqrt()
         };
         let grid: Vec<f64> = (0..4000)
             .map(|i| 10f64.powf(f64::from(i) / 1000.0))
@@ -405,7 +405,7 @@ mod tests {
             .windows(2)
             .find(|w| model(w[1]) >= model(w[0]))
             .map_or(f64::NAN, |w| model(w[0]));
-        let known = first / FLICKER_FLOOR * HOUR_S;
+        let known = first / FLICKER_FLOOR * SECONDS_PER_HOUR;
         let bi = t.bias_instability_deg_per_h.expect("a minimum");
         eprintln!(
             "Gauss–Markov: B {bi:.4} °/h (closed form {known:.4}), ARW {:?}",

@@ -1,0 +1,242 @@
+use super::*;
+use crate::error::Storage;
+use crate::model::Model;
+use crate::testing::Reference;
+
+type Small = Model<2, 6, 64>;
+
+/// A hand-edited blob with its payload length and CRC made consistent again.
+fn resealed(mut b: Vec<u8>) -> Vec<u8> {
+    reseal(&mut b);
+    b
+}
+
+/// offset scale min max length prior raw_hi raw_lo σf² σn² centre weight factor.
+const GOLDEN: [f32; 13] = [
+    0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
+];
+
+/// sample noise, interval, floor, extrapolation, walk, trend.
+const GOLDEN_ERROR: ErrorModel = ErrorModel {
+    sample_noise_var: 1e-4,
+    sample_interval_s: 0.5,
+    floor_var: 2e-6,
+    extrapolation_var: 3e-5,
+    walk_var_per_h: 4e-7,
+    trend_var_per_h2: 0.0,
+};
+
+#[test]
+fn golden_bytes_pin_the_encoding() {
+    let payload = Payload {
+        features: [Feature::TemperatureRate { tau_s: 60.0 }].as_slice(),
+        exponents: [0u8].as_slice(),
+        floats: GOLDEN.as_slice(),
+        error: GOLDEN_ERROR,
+    };
+    let dims = Dims { m: 1, d: 1, p: 1 };
+    assert_eq!(dims.floats(), 13);
+    let mut buf = [0u8; 128];
+    let n = encode(dims, &payload, &mut buf).unwrap();
+    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 5, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+    expected.extend([85, 0, 0, 0]);
+    let mut digest = CRC32.digest();
+    digest.update(&expected[4..]);
+    digest.update(&buf[HEADER_LEN..n]);
+    expected.extend(digest.finalize().to_le_bytes());
+    // features: len 1, variant 2 with its f32 parameter; exponents: len 1, 0; floats: len 13,
+    // then f32 LE.
+    expected.extend([1, 2]);
+    expected.extend(60.0f32.to_le_bytes());
+    expected.extend([1, 0, 13]);
+    for v in GOLDEN.iter().chain(&GOLDEN_ERROR.numbers()) {
+        expected.extend(v.to_le_bytes());
+    }
+    assert_eq!(&buf[..n], expected.as_slice());
+    // CRC-32/ISO-HDLC check value, so the flavour cannot drift.
+    assert_eq!(CRC32.checksum(b"123456789"), 0xCBF4_3926);
+}
+
+#[test]
+fn a_good_blob_decodes() {
+    let m = Small::decode(&Reference::small().blob()).unwrap();
+    assert_eq!(m.dims(), Dims { m: 5, d: 2, p: 3 });
+    assert_eq!(m.features(), &[Feature::Temperature, Feature::Voltage]);
+}
+
+#[test]
+fn every_defect_has_its_error() {
+    let good = Reference::small().blob();
+    let with = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = good.clone();
+        f(&mut b);
+        Small::decode(&b).unwrap_err()
+    };
+    assert_eq!(with(&|b| b[0] = b'X'), BlobError::BadMagic);
+    assert_eq!(with(&|b| b[4] = 1), BlobError::UnsupportedVersion(1));
+    assert_eq!(with(&|b| b.truncate(b.len() - 1)), BlobError::Truncated);
+    assert_eq!(with(&|b| b.truncate(10)), BlobError::Truncated);
+    assert_eq!(with(&|b| b.push(0)), BlobError::TrailingBytes);
+    assert_eq!(with(&|b| b[40] ^= 0x10), BlobError::CrcMismatch);
+    let garbage = resealed([&good[..HEADER_LEN], &[0xFF; 8]].concat());
+    assert_eq!(Small::decode(&garbage).unwrap_err(), BlobError::Malformed);
+    let mut wrong_m = good.clone();
+    wrong_m[6] = 4;
+    assert_eq!(Small::decode(&wrong_m).unwrap_err(), BlobError::CrcMismatch);
+    let wrong_m = resealed(wrong_m);
+    assert_eq!(
+        Small::decode(&wrong_m).unwrap_err(),
+        BlobError::InconsistentDimensions
+    );
+    let nan = Reference::small().blob_with(|f| f[7] = f32::NAN);
+    assert_eq!(Small::decode(&nan).unwrap_err(), BlobError::NonFinite(7));
+    let zero_scale = Reference::small().blob_with(|f| f[2] = 0.0);
+    assert_eq!(
+        Small::decode(&zero_scale).unwrap_err(),
+        BlobError::InvalidParameter
+    );
+    let bad_diag = Reference::small().blob_with(|f| *f.last_mut().unwrap() = -1.0);
+    assert_eq!(
+        Small::decode(&bad_diag).unwrap_err(),
+        BlobError::InvalidParameter
+    );
+}
+
+/// The same model as a version-4 blob: the payload without its error model.
+fn as_v4(blob: &[u8]) -> Vec<u8> {
+    let mut v4 = blob[..blob.len() - 4 * ErrorModel::NUMBERS].to_vec();
+    v4[4..6].copy_from_slice(&V4.to_le_bytes());
+    reseal(&mut v4);
+    v4
+}
+
+#[test]
+fn a_version_4_blob_still_decodes_with_its_noise_as_the_only_error() {
+    let good = Reference::small().blob();
+    let old = as_v4(&good);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(read_header(&old).unwrap().version, V4);
+    let [_, noise] = model.variances();
+    assert_eq!(model.error_model(), ErrorModel::noise_only(noise));
+    let mut stamped = old.clone();
+    set_sequence(&mut stamped, 7).unwrap();
+    assert_eq!(read_header(&stamped).unwrap().sequence, 7);
+    let new = Small::decode(&good).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let (a, b) = (
+        model.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+        new.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+    );
+    assert_eq!(a.mean, b.mean);
+    assert_eq!(a.noise_variance, noise);
+}
+
+#[test]
+fn an_error_model_written_into_a_blob_is_the_one_encoded() {
+    let r = Reference::small();
+    let mut b = r.blob_with_error(ErrorModel::noise_only(1e-6));
+    set_error_model(&mut b, &GOLDEN_ERROR).unwrap();
+    assert_eq!(b, r.blob_with_error(GOLDEN_ERROR));
+    assert_eq!(Small::decode(&b).unwrap().error_model(), GOLDEN_ERROR);
+    let bad = ErrorModel {
+        floor_var: f32::INFINITY,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(set_error_model(&mut b, &bad), Err(BlobError::NonFinite(2)));
+    let mut old = as_v4(&b);
+    assert_eq!(
+        set_error_model(&mut old, &GOLDEN_ERROR),
+        Err(BlobError::UnsupportedVersion(V4))
+    );
+}
+
+#[test]
+fn the_error_model_is_checked_like_the_other_numbers() {
+    let bad = |error: ErrorModel| {
+        let r = Reference::small();
+        Small::decode(&r.blob_with_error(error)).unwrap_err()
+    };
+    let n = Dims { m: 5, d: 2, p: 3 }.floats();
+    let nan = ErrorModel {
+        walk_var_per_h: f32::NAN,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(nan), BlobError::NonFinite(n + 4));
+    let negative = ErrorModel {
+        floor_var: -1.0,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(negative), BlobError::InvalidParameter);
+}
+
+/// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.
+fn as_v3(blob: &[u8]) -> Vec<u8> {
+    let blob = as_v4(blob);
+    let payload = &blob[HEADER_LEN..];
+    let mut v3 = blob[..10].to_vec();
+    v3[4..6].copy_from_slice(&V3.to_le_bytes());
+    v3.extend(u32::try_from(payload.len()).unwrap().to_le_bytes());
+    v3.extend(CRC32.checksum(payload).to_le_bytes());
+    v3.extend(payload);
+    v3
+}
+
+#[test]
+fn a_version_3_blob_still_decodes_as_sequence_0_and_cannot_take_one() {
+    let good = Reference::small().blob();
+    let mut old = as_v3(&good);
+    assert_eq!(
+        Small::decode(&old).unwrap(),
+        Small::decode(&as_v4(&good)).unwrap()
+    );
+    let header = read_header(&old).unwrap();
+    assert_eq!((header.version, header.sequence), (V3, 0));
+    assert_eq!(set_sequence(&mut old, 1), Err(BlobError::NoSequence(3)));
+    old[30] ^= 1;
+    assert_eq!(Small::decode(&old).unwrap_err(), BlobError::CrcMismatch);
+}
+
+#[test]
+fn the_sequence_is_stamped_and_checked_by_the_crc() {
+    let mut b = Reference::small().blob();
+    assert_eq!(read_header(&b).unwrap().sequence, 0);
+    set_sequence(&mut b, 0xDEAD_BEEF).unwrap();
+    assert_eq!(read_header(&b).unwrap().sequence, 0xDEAD_BEEF);
+    assert_eq!(
+        Small::decode(&b).unwrap(),
+        Small::decode(&Reference::small().blob()).unwrap()
+    );
+    for bit in 0..32 {
+        let mut flipped = b.clone();
+        flipped[SEQUENCE_AT + bit / 8] ^= 1 << (bit % 8);
+        assert_eq!(read_header(&flipped).err(), Some(BlobError::CrcMismatch));
+    }
+}
+
+#[test]
+fn a_blob_larger_than_the_capacity_is_refused_not_truncated() {
+    let b = Reference::small().blob();
+    let needed = Dims { m: 5, d: 2, p: 3 }.floats();
+    assert_eq!(
+        Model::<2, 6, 32>::decode(&b).unwrap_err(),
+        BlobError::CapacityExceeded {
+            what: Storage::Floats,
+            needed,
+            capacity: 32
+        }
+    );
+    assert!(matches!(
+        Model::<1, 6, 64>::decode(&b).unwrap_err(),
+        BlobError::CapacityExceeded {
+            what: Storage::Inputs,
+            ..
+        }
+    ));
+    assert!(matches!(
+        Model::<2, 4, 64>::decode(&b).unwrap_err(),
+        BlobError::CapacityExceeded {
+            what: Storage::Exponents,
+            ..
+        }
+    ));
+}

@@ -1,0 +1,83 @@
+//! The summary statistics every layer uses, defined once. Each is NaN for no values: an RMS of
+//! nothing is not zero error, and a NaN shows in a report where a zero would pass for a result.
+
+/// Arithmetic mean; NaN for no values.
+pub fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// Root mean square; NaN for no values.
+pub fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|e| e * e).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Standard deviation about the mean, dividing by n (the spread of these values, not an estimate
+/// of a population's); NaN for no values.
+pub fn spread(v: &[f64]) -> f64 {
+    let m = mean(v);
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Median; NaN for no values.
+pub fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let h = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[h]
+    } else {
+        0.5 * (s[h - 1] + s[h])
+    }
+}
+
+/// A least-squares straight line y = intercept + slope·x.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Line {
+    /// y at x = 0.
+    pub intercept: f64,
+    /// dy/dx.
+    pub slope: f64,
+}
+
+impl Line {
+    /// The least-squares line through (x, y) pairs; `None` where x does not vary (or there are
+    /// no pairs), which each caller settles in its own terms.
+    pub fn fit(xy: impl IntoIterator<Item = (f64, f64)>) -> Option<Line> {
+        let (x, y): (Vec<f64>, Vec<f64>) = xy.into_iter().unzip();
+        let (mx, my) = (mean(&x), mean(&y));
+        let sxx: f64 = x.iter().map(|u| (u - mx).powi(2)).sum();
+        let sxy: f64 = x.iter().zip(&y).map(|(u, v)| (u - mx) * (v - my)).sum();
+        (sxx > 0.0).then(|| {
+            let slope = sxy / sxx;
+            Line {
+                intercept: my - slope * mx,
+                slope,
+            }
+        })
+    }
+
+    /// The line's value at `x`.
+    pub fn at(&self, x: f64) -> f64 {
+        self.intercept + self.slope * x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_statistic_follows_its_definition_and_is_nan_for_nothing() {
+        assert_eq!(rms(&[3.0, -4.0]), (12.5f64).sqrt());
+        assert_eq!(mean(&[1.0, 2.0, 6.0]), 3.0);
+        assert_eq!(spread(&[1.0, 3.0]), 1.0);
+        assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
+        assert!(rms(&[]).is_nan() && mean(&[]).is_nan() && median(&[]).is_nan());
+        let l = Line::fit([(0.0, 1.0), (1.0, 3.0), (2.0, 5.0)]).unwrap();
+        assert_eq!((l.intercept, l.slope, l.at(3.0)), (1.0, 2.0, 7.0));
+        assert_eq!(Line::fit([(1.0, 1.0), (1.0, 2.0)]), None);
+    }
+}

@@ -1,0 +1,158 @@
+//! The out-of-sample evidence: interleaved and forward-in-time splits of the blocks, the score of
+//! a design on them, and whether a test can see a candidate at all.
+
+use super::{
+    CHUNK_BLOCKS, Candidates, Constant, FOLDS, FORWARD_ORIGINS, HARM, MIN_TRAIN_BLOCKS, VISIBLE,
+    ols, predict,
+};
+use crate::analysis::selection::share;
+use firmware_sim::stats::spread;
+
+/// A training/test split of the blocks.
+pub(super) type Split = (Vec<usize>, Vec<usize>);
+
+/// The interleaved splits: 10-minute chunks, chunk k in fold k mod 5 (module doc).
+pub(super) fn interleaved_splits(n: usize) -> Vec<Split> {
+    let folds: Vec<usize> = (0..n).map(|b| (b / CHUNK_BLOCKS) % FOLDS).collect();
+    (0..FOLDS)
+        .map(|f| {
+            (
+                (0..n).filter(|&i| folds[i] != f).collect(),
+                (0..n).filter(|&i| folds[i] == f).collect(),
+            )
+        })
+        .collect()
+}
+
+/// The forward splits (rolling origin): the blocks before each origin in [`FORWARD_ORIGINS`]
+/// train, the blocks up to the next origin (or the end) test.
+pub(super) fn forward_splits(n: usize) -> Vec<Split> {
+    let cut = |f: f64| ((f * n as f64).round() as usize).min(n);
+    FORWARD_ORIGINS
+        .iter()
+        .enumerate()
+        .map(|(k, &o)| {
+            let end = FORWARD_ORIGINS.get(k + 1).map_or(n, |&e| cut(e));
+            ((0..cut(o)).collect(), (cut(o)..end).collect())
+        })
+        .collect()
+}
+
+/// Test-set SSE of a design (the causes' candidate regressors, in order) and of the intercept
+/// alone, summed over `splits`. On each split's training blocks alone, each cause's parameter is
+/// chosen by grid in turn, given those chosen before it, and the coefficients by least squares.
+/// `centred` takes each model's mean test residual out per split: what a test that cannot see a
+/// design judges harm on (module doc).
+pub(super) fn split_sse(
+    y: &[f64],
+    constant: Constant<'_>,
+    design: &[&Candidates],
+    splits: &[Split],
+    centred: bool,
+) -> (f64, f64) {
+    let sum_sq = |r: &[f64]| {
+        let m = if centred {
+            r.iter().sum::<f64>() / r.len().max(1) as f64
+        } else {
+            0.0
+        };
+        r.iter().map(|v| (v - m).powi(2)).sum::<f64>()
+    };
+    let mut sse = 0.0;
+    let mut sse_none = 0.0;
+    for (train, test) in splits {
+        if train.len() < MIN_TRAIN_BLOCKS || test.is_empty() {
+            continue;
+        }
+        let xs = choose(y, constant, design, train);
+        let (beta, _) = ols(constant, &xs, y, train);
+        let (mean, _) = ols(Constant::Intercept, &[], y, train);
+        let r: Vec<f64> = test
+            .iter()
+            .map(|&i| y[i] - predict(constant, &beta, &xs, i))
+            .collect();
+        let r0: Vec<f64> = test.iter().map(|&i| y[i] - mean[0]).collect();
+        sse += sum_sq(&r);
+        sse_none += sum_sq(&r0);
+    }
+    (sse, sse_none)
+}
+
+/// Each cause's regressor at the parameter that best fits `idx`, chosen in design order, each
+/// given those before it; a cause without a regressor (`none`) adds nothing.
+pub(super) fn choose<'c>(
+    y: &[f64],
+    constant: Constant<'_>,
+    design: &[&'c Candidates],
+    idx: &[usize],
+) -> Vec<&'c [f64]> {
+    let mut xs: Vec<&[f64]> = Vec::new();
+    for candidates in design {
+        let best = candidates
+            .iter()
+            .filter_map(|(_, x)| x.as_deref())
+            .map(|x| {
+                let mut with = xs.clone();
+                with.push(x);
+                (x, ols(constant, &with, y, idx).1)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((x, _)) = best {
+            xs.push(x);
+        }
+    }
+    xs
+}
+
+/// The parameter of the last cause of `design` chosen on every block, given the others.
+pub(super) fn chosen_parameter(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> f32 {
+    let all: Vec<usize> = (0..y.len()).collect();
+    let xs = choose(y, constant, design, &all);
+    let (Some(last), Some(x)) = (design.last(), xs.last()) else {
+        return 0.0;
+    };
+    last.iter()
+        .find(|(_, c)| c.as_deref().is_some_and(|c| std::ptr::eq(c, *x)))
+        .map_or(0.0, |(p, _)| *p)
+}
+
+/// Whether `values` moves in `scored` (indices) by at least [`VISIBLE`] of its spread over all
+/// of them: whether a test scoring `scored` can see what `values` carries.
+pub fn sees(values: &[f64], scored: &[usize]) -> bool {
+    let all = spread(values);
+    let part = spread(
+        &scored
+            .iter()
+            .filter_map(|&i| values.get(i).copied())
+            .collect::<Vec<_>>(),
+    );
+    all > 0.0 && part >= VISIBLE * all
+}
+
+/// Whether a share of the SSE (1 − SSE/SSE_ref) is a worsening of the RMS error beyond [`HARM`].
+pub(super) fn harms(share: f64) -> bool {
+    (1.0 - share).sqrt() - 1.0 > HARM
+}
+
+/// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
+/// worse on the later ones than the intercept alone by more than [`HARM`], each with its mean
+/// over the later blocks taken out (the design's intercept, fitted beside a transient on the
+/// earlier blocks alone, is not the one fitted on the whole stream; module doc).
+pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
+    let (sse, none) = split_sse(y, constant, design, &forward_splits(y.len()), true);
+    harms(share(sse, none))
+}
+
+/// Whether the forward test sees `design`: some cause's regressor, at its parameter chosen on all
+/// blocks, moves in the blocks the test predicts (module doc).
+pub(super) fn forward_sees(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
+    let n = y.len();
+    let all: Vec<usize> = (0..n).collect();
+    let tested: Vec<usize> = forward_splits(n)
+        .into_iter()
+        .flat_map(|(_, test)| test)
+        .collect();
+    choose(y, constant, design, &all)
+        .iter()
+        .any(|x| sees(x, &tested))
+}

@@ -1,0 +1,223 @@
+//! The residual a diagnosis studies: a stream replayed through a static model, in 60 s blocks,
+//! and each candidate cause's input along it as the firmware would compute it.
+
+use firmware_core::{Feature, FeatureState, Status};
+use firmware_sim::cause::Cause;
+use firmware_sim::data::blocks;
+use firmware_sim::data::stream::Stream;
+use firmware_sim::replay;
+use firmware_sim::replay::HostModel;
+use firmware_sim::stats::rms;
+use nalgebra::{DMatrix, DVector};
+
+use super::{Constant, Plateaus, feature_for, hat_weights, plateau_temperatures};
+use crate::data::points::Points;
+use crate::models::gp::GpModel;
+
+/// A stream replayed through a static model, reduced to 60 s blocks.
+pub struct Residual<'a> {
+    pub(super) model: &'a HostModel,
+    pub(super) stream: &'a Stream,
+    /// Sample indices of each block.
+    pub(super) blocks: Vec<Vec<usize>>,
+    /// Block means of the residual, °/s.
+    pub r: Vec<f64>,
+    /// Where the gyro was powered on (the feature state goes through a power-on).
+    pub(super) restarts: Vec<bool>,
+    /// The static GP and its inputs, where it was fitted on these very blocks (module doc).
+    pub(super) absorbed_by: Option<(&'a GpModel, &'a DMatrix<f64>)>,
+    /// The soaked table's plateaus, where the static GP was fitted on one (module doc).
+    pub(super) plateaus: Option<Plateaus>,
+}
+
+impl<'a> Residual<'a> {
+    /// Replays `stream` through `model` and keeps the blocks of scored, non-fault samples.
+    pub fn new(model: &'a HostModel, stream: &'a Stream) -> Self {
+        let m = replay::means(model, stream);
+        Self::from_replay(model, stream, (&m.rate_dps, &m.status))
+    }
+
+    /// As [`Self::new`] with the replay already done: its compensated rates and statuses.
+    pub fn from_replay(
+        model: &'a HostModel,
+        stream: &'a Stream,
+        (rate_dps, status): (&[f32], &[Status]),
+    ) -> Self {
+        let scored: Vec<usize> = (0..stream.len())
+            .filter(|&i| stream.rate_dps[i].is_finite() && status[i] != Status::Fault)
+            .collect();
+        let blocks = blocks::half_filled(stream, &scored);
+        let r = blocks
+            .iter()
+            .map(|b| {
+                b.iter()
+                    .map(|&i| f64::from(rate_dps[i]) - stream.rate_dps[i])
+                    .sum::<f64>()
+                    / b.len() as f64
+            })
+            .collect();
+        Self {
+            model,
+            stream,
+            blocks,
+            r,
+            restarts: replay::restarts(stream),
+            absorbed_by: None,
+            plateaus: None,
+        }
+    }
+
+    /// The static GP `gp` was fitted on `points`. Where they are these blocks' own means (a
+    /// static model from the stream itself, no rate table), regressors become the part of each
+    /// input that the GP could not have absorbed; where they are a soaked table, a heating/cooling
+    /// state is fitted with a constant per plateau (module doc).
+    pub fn fitted_on(mut self, gp: &'a GpModel, points: &'a Points) -> Self {
+        let temps = self.temperature();
+        if points.soaked && !points.is_empty() {
+            let knots = plateau_temperatures(&points.temp_c);
+            let weights = temps.iter().map(|&t| hat_weights(&knots, t)).collect();
+            self.plateaus = Some(Plateaus { knots, weights });
+        }
+        let same = !points.soaked
+            && points.len() == temps.len()
+            && points
+                .temp_c
+                .iter()
+                .zip(&temps)
+                .all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs().max(1.0));
+        if same {
+            self.absorbed_by = Some((gp, points.inputs()));
+        }
+        self
+    }
+
+    /// The soaked table's plateau temperatures, ascending (empty where the static GP was not
+    /// fitted on one).
+    pub fn plateau_knots(&self) -> &[f64] {
+        self.plateaus.as_ref().map_or(&[], |p| &p.knots)
+    }
+
+    /// The constant of a regression on this residual with `causes` ([`Constant`]).
+    pub(crate) fn constant(&self, causes: &[Cause]) -> Constant<'_> {
+        Constant::of(self.plateaus.as_ref(), causes.contains(&Cause::Hysteresis))
+    }
+
+    /// Whether the static GP was fitted on these blocks ([`Self::fitted_on`]).
+    pub fn is_self_fitted(&self) -> bool {
+        self.absorbed_by.is_some()
+    }
+
+    /// Number of blocks.
+    pub fn len(&self) -> usize {
+        self.r.len()
+    }
+
+    /// Whether no block was scored.
+    pub fn is_empty(&self) -> bool {
+        self.r.is_empty()
+    }
+
+    /// RMS of the block means, °/s.
+    pub fn rmse_60s(&self) -> f64 {
+        rms(&self.r)
+    }
+
+    /// Block means of a per-sample series.
+    fn block_means(&self, x: &[f64]) -> Vec<f64> {
+        blocks::means(x, &self.blocks)
+    }
+
+    /// Block means of the sensor temperature, °C.
+    pub fn temperature(&self) -> Vec<f64> {
+        self.block_means(&self.stream.temp_c)
+    }
+
+    /// One feature along the stream, as the firmware computes it (state through power-ons);
+    /// NaN at a sample the firmware refuses (no block holds one).
+    fn series(&self, feature: Feature) -> Vec<f64> {
+        let mut state = FeatureState::default();
+        let mut out = [0.0f32; 1];
+        (0..self.stream.len())
+            .map(|i| {
+                if self.restarts[i] {
+                    state.power_on();
+                }
+                let s = replay::sample(self.stream, i);
+                match firmware_core::features::compute(&[feature], &s, &mut state, &mut out) {
+                    Status::Fault => f64::NAN,
+                    _ => f64::from(out[0]),
+                }
+            })
+            .collect()
+    }
+
+    /// Range of a feature along the stream, widened by 10% of its span each side: the trained
+    /// range of an additive input.
+    pub fn range(&self, feature: Feature) -> (f64, f64) {
+        let x = self.series(feature);
+        let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let pad = 0.1 * (hi - lo);
+        (lo - pad, hi + pad)
+    }
+
+    /// The regressor x of `cause` at parameter `p`, as block means; `None` where the cause does
+    /// not apply (no temperature input for a lag). Where the static GP was fitted on these blocks,
+    /// the part of x it could have absorbed is taken out: x − S·x, S the GP's smoother.
+    pub fn regressor(&self, cause: Cause, p: f32) -> Option<Vec<f64>> {
+        let x = self.raw_regressor(cause, p)?;
+        match &self.absorbed_by {
+            Some((gp, inputs)) if cause != Cause::SensorLag => {
+                let smoothed = gp
+                    .refit_targets(inputs, &DVector::from_column_slice(&x))
+                    .ok()?;
+                Some(
+                    x.iter()
+                        .enumerate()
+                        .map(|(i, v)| {
+                            let row: Vec<f64> = inputs.row(i).iter().copied().collect();
+                            v - smoothed.predict(&row).mean
+                        })
+                        .collect(),
+                )
+            }
+            _ => Some(x),
+        }
+    }
+
+    /// The regressor x of `cause` at parameter `p` as the firmware computes it, as block means.
+    pub fn raw_regressor(&self, cause: Cause, p: f32) -> Option<Vec<f64>> {
+        let feature = feature_for(cause, p)?;
+        if cause != Cause::SensorLag {
+            return Some(self.block_means(&self.series(feature)));
+        }
+        // f(inputs with the coil estimate in place of the sensor) − f(inputs).
+        let features = self.model.features();
+        let k = features.iter().position(|f| *f == Feature::Temperature)?;
+        let mut lagged = features.to_vec();
+        lagged[k] = feature;
+        let mut state = [FeatureState::default(), FeatureState::default()];
+        let d = features.len();
+        let mut x0 = vec![0.0f32; d];
+        let mut x1 = vec![0.0f32; d];
+        let diff: Vec<f64> = (0..self.stream.len())
+            .map(|i| {
+                if self.restarts[i] {
+                    state.iter_mut().for_each(FeatureState::power_on);
+                }
+                let s = replay::sample(self.stream, i);
+                let health = [
+                    firmware_core::features::compute(features, &s, &mut state[0], &mut x0),
+                    firmware_core::features::compute(&lagged, &s, &mut state[1], &mut x1),
+                ];
+                if health.contains(&Status::Fault) {
+                    return f64::NAN;
+                }
+                let a = self.model.predict_mean(&x0).mean;
+                let b = self.model.predict_mean(&x1).mean;
+                f64::from(b) - f64::from(a)
+            })
+            .collect();
+        Some(self.block_means(&diff))
+    }
+}

@@ -1,0 +1,17 @@
+use super::*;
+
+#[test]
+fn a_test_that_cannot_see_the_extension_abstains_but_still_refuses_harm() {
+    let sight = |sees, centred| Sight {
+        sees,
+        centred_rmse_60s_dps: centred,
+    };
+    // Seen: a gain is needed.
+    assert!(vote(1.0, 0.9, &sight(true, [1.0, 0.9])));
+    assert!(!vote(1.0, 1.01, &sight(true, [1.0, 1.01])));
+    // Not seen: worse by 1% (noise) is no evidence either way; by 5% in what it can measure,
+    // harm. Its constant alone is not judged.
+    assert!(vote(1.0, 1.01, &sight(false, [1.0, 1.01])));
+    assert!(vote(1.0, 1.6, &sight(false, [1.0, 1.0])));
+    assert!(!vote(1.0, 1.0, &sight(false, [1.0, 1.05])));
+}

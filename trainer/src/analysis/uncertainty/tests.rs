@@ -1,0 +1,133 @@
+use super::*;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal as Gauss};
+
+fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    (0..n)
+        .map(|i| {
+            let hours = i as f64 / n as f64;
+            let excess2 = if i % 4 == 0 { 1.0 } else { 0.0 };
+            Residual {
+                error: sd(excess2, hours) * unit.sample(&mut rng),
+                base_var: 1e-4,
+                excess2,
+                hours,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn the_terms_the_residuals_show_are_found_and_the_others_stay_near_zero() {
+    // Model error 0.1 everywhere and 0.5 one width beyond the range; no time growth.
+    let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
+    let series = [Series {
+        source: Source::Forward,
+        residuals: r,
+    }];
+    let noise = SampleNoise {
+        var: 4e-4,
+        interval_s: 1.0,
+    };
+    let c = calibrate(&series, noise);
+    assert!((c.floor_std - 0.1).abs() < 0.02, "{c:?}");
+    assert!((c.extrapolation_std - 0.5).abs() < 0.05, "{c:?}");
+    assert!(
+        c.walk_std_per_sqrt_h < 0.05 && c.trend_std_per_h < 0.05,
+        "{c:?}"
+    );
+    assert!((c.inflation - 1.0).abs() < 0.01);
+    let cov = c.coverage.unwrap();
+    assert!((cov.within_2sigma - 0.954).abs() < 0.02, "{cov:?}");
+    assert_eq!(c.error_model.sample_noise_var, 4e-4);
+    assert!(c.before.unwrap().within_2sigma < 0.5);
+}
+
+#[test]
+fn a_term_whose_covariate_does_not_move_abstains() {
+    let mut r = residuals(500, 2, |_, h| (0.01 + 0.04 * h).sqrt());
+    for x in &mut r {
+        x.excess2 = 0.0;
+    }
+    let c = calibrate(
+        &[Series {
+            source: Source::Groups,
+            residuals: r,
+        }],
+        SampleNoise {
+            var: 0.0,
+            interval_s: 0.0,
+        },
+    );
+    assert_eq!(c.extrapolation_std, 0.0);
+    assert_eq!(c.fitted_terms, vec!["table floor", "walk", "trend"]);
+    assert!(c.walk_std_per_sqrt_h > 0.1, "{c:?}");
+}
+
+#[test]
+fn few_correlated_residuals_widen_the_sigma() {
+    // 12 residuals of a slow drift: worth about two independent ones.
+    let r: Vec<Residual> = (0..12)
+        .map(|i| Residual {
+            error: 0.1 * (f64::from(i) / 12.0 - 0.5),
+            base_var: 1e-6,
+            excess2: 0.0,
+            hours: 0.0,
+        })
+        .collect();
+    let z: Vec<f64> = r.iter().map(|x| x.error).collect();
+    assert!(effective(&z) < 3.0);
+    let c = calibrate(
+        &[Series {
+            source: Source::Forward,
+            residuals: r,
+        }],
+        SampleNoise {
+            var: 0.0,
+            interval_s: 0.0,
+        },
+    );
+    assert!(c.inflation > 2.0, "{c:?}");
+    assert!(
+        calibrate(
+            &[],
+            SampleNoise {
+                var: 1.0,
+                interval_s: 1.0
+            }
+        )
+        .note
+        .is_some()
+    );
+}
+
+#[test]
+fn the_sample_noise_is_the_white_part_of_the_errors() {
+    let n = 20_000;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    // White noise of 0.02 on a drift of 1 per 1,000 samples.
+    let error: Vec<f64> = (0..n)
+        .map(|i| 1e-3 * i as f64 + 0.02 * unit.sample(&mut rng))
+        .collect();
+    let stream = Stream {
+        time_s: (0..n).map(|i| i as f64).collect(),
+        temp_c: vec![20.0; n],
+        voltage_v: vec![0.0; n],
+        rate_dps: vec![0.0; n],
+        lines: (2..n as u64 + 2).collect(),
+        step_s: 1.0,
+        time_issues: vec![],
+        handled: vec![],
+    };
+    let noise = SampleNoise::from_errors(&stream, &error).unwrap();
+    assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
+    assert_eq!(noise.of_mean(60.0), noise.var / 60.0);
+    let fitted: Vec<usize> = (0..100).collect();
+    let h = hours_from(&stream, &fitted);
+    assert!(h[50].is_nan());
+    assert!((h[3699] - 1.0).abs() < 1e-12);
+    assert_eq!(hours_on(&stream)[3600], 1.0);
+}

@@ -1,0 +1,248 @@
+//! The measured gyro's own properties, read from its logs: `trainer allan` (its noise terms) and
+//! `trainer identify` (the simulator's twin of it, with the effects the twin lacks).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use firmware_sim::console::{Console, ConsoleFlags};
+use firmware_sim::data::log::{Excludes, LogArgs, Maps};
+use firmware_sim::data::stream::Window;
+use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
+
+use super::inputs::load_stream;
+use crate::analysis::{allan, twin};
+use crate::plot;
+
+/// The arguments of `trainer allan`.
+#[derive(Args)]
+pub(super) struct AllanArgs {
+    #[command(flatten)]
+    log: LogArgs,
+    /// The output in °/s as output / K (K in output units per °/s): the raw gyro.
+    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
+    scale_factor: Option<f64>,
+    /// The output in °/s as this model compensates it: the compensated gyro.
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Write tau_s, adev_dps and the noise terms as JSON here (`-`: stdout, alone).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Draw the Allan deviation with the lines its terms come from, as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// The arguments of `trainer identify`.
+#[derive(Args)]
+pub(super) struct IdentifyArgs {
+    /// Rate-table points CSV: temp_c,voltage_v,rate_dps (and time_s, through --map, for a table
+    /// recorded in time order).
+    #[arg(long, required_unless_present = "stream")]
+    points: Option<PathBuf>,
+    /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
+    #[arg(long)]
+    stream: Option<PathBuf>,
+    #[command(flatten)]
+    maps: Maps,
+    /// Use only this part of the stream: START:END, s from its first sample.
+    #[arg(long, requires = "stream")]
+    window: Option<Window>,
+    #[command(flatten)]
+    exclude: Excludes,
+    /// Nominal scale factor, output units per °/s, where the data show none (a static log).
+    #[arg(long)]
+    scale_factor: Option<f64>,
+    /// The unit file to write (`firmware-sim generate paper|stream --unit FILE` simulates it).
+    #[arg(long)]
+    out: PathBuf,
+    /// Every parameter (value, standard error, determined or why not), the candidates tried and
+    /// the fidelity before and after, as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// The held-out difference between measured and twin, before and after, as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+}
+
+/// `trainer allan`: the Allan deviation of a log's rate, raw (output / K) or compensated by a
+/// model, less the reference where the log has one throughout; its noise terms and figure.
+pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let AllanArgs {
+        log,
+        scale_factor,
+        model,
+        json,
+        plot,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let stream = &log.stream;
+    let inputs: Vec<&Path> = std::iter::once(stream.as_path())
+        .chain(model.as_deref())
+        .collect();
+    for out in json.iter().chain(&plot) {
+        ensure_not_input(out, &inputs)?;
+    }
+    let data = log.load(&console)?;
+    let (rate, what): (Vec<f64>, String) = match (&model, scale_factor) {
+        (Some(path), _) => {
+            let bytes =
+                std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+            let fw = firmware_sim::replay::decode(&bytes)
+                .with_context(|| format!("decoding {}", path.display()))?;
+            let comp = firmware_sim::replay::replay(&fw, &data);
+            (
+                comp.rate_dps.iter().map(|&w| f64::from(w)).collect(),
+                format!("the output compensated by {}", path.display()),
+            )
+        }
+        (None, Some(k)) => {
+            anyhow::ensure!(
+                k.is_finite() && k != 0.0,
+                "--scale-factor {k}: a scale factor is a finite non-zero number"
+            );
+            (
+                data.voltage_v.iter().map(|v| v / k).collect(),
+                format!("output / {k}"),
+            )
+        }
+        (None, None) => anyhow::bail!("give --scale-factor K or --model M"),
+    };
+    // Against the reference where the log has one: the samples without (handled windows, the
+    // windows --exclude names) are left out of the clusters, not fed in raw.
+    let referenced = data.rate_dps.iter().any(|r| r.is_finite());
+    let rate: Vec<f64> = if referenced {
+        rate.iter()
+            .zip(&data.rate_dps)
+            .map(|(w, r)| w - r)
+            .collect()
+    } else {
+        rate
+    };
+    let what = if referenced {
+        format!("{what} − reference")
+    } else {
+        what
+    };
+    let left_out = data.rate_dps.iter().filter(|r| !r.is_finite()).count();
+    if referenced && left_out > 0 {
+        console.result(&format!(
+            "left out of the Allan deviation: the {left_out} samples without a reference (the \
+             windows above); it is computed over the stretches between them"
+        ));
+    }
+    let analysis = allan::Analysis::of(&what, &data.time_s, &rate);
+    anyhow::ensure!(
+        analysis.tau_s.len() >= 3,
+        "{}: {} samples without a gap: too few for an Allan deviation",
+        stream.display(),
+        analysis.samples
+    );
+    console.result(&analysis.text());
+    if let Some(step) = allan::quantization_step(&data.voltage_v) {
+        let arw = analysis.terms.arw_deg_per_sqrt_h;
+        match (scale_factor.filter(|_| model.is_none()), arw) {
+            (Some(k), Some(arw)) => {
+                let q = allan::quantization_arw(step / k.abs(), analysis.tau0_s);
+                if q >= 0.3 * arw {
+                    console.warn(&format!(
+                        "the output is quantized in steps of {step:e} (a logger that keeps every \
+                         n-th raw sample rather than averaging): the steps alone make an ARW of \
+                         {q:.4} °/√h, {:.0}% of the {arw:.4} measured, which is the quantizer's as \
+                         much as the gyro's",
+                        100.0 * q / arw
+                    ));
+                }
+            }
+            _ => console.warn(&format!(
+                "the output is quantized in steps of {step:e}: the quantizer adds white noise of \
+                 step/√12 per sample to the angle random walk"
+            )),
+        }
+    }
+    if let Some(path) = &json {
+        write_json(path, &inputs, &analysis)?;
+    }
+    if let Some(path) = &plot {
+        let curve = analysis.curve();
+        let svg = plot::allan(
+            &format!("Allan deviation: {what}"),
+            &[plot::AllanSeries {
+                label: &what,
+                colour: plot::BLUE,
+                curve: &curve,
+                terms: analysis.terms,
+            }],
+        )?;
+        write_atomically(path, svg.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// `trainer identify`: the simulator's twin of a measured gyro, its unit file, and what it
+/// still gets wrong on the held-out part before and after the effects it names.
+pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let IdentifyArgs {
+        points,
+        stream,
+        maps,
+        window,
+        exclude,
+        scale_factor,
+        out,
+        json,
+        plot: figure,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let inputs: Vec<&Path> = points.iter().chain(&stream).map(|p| p.as_path()).collect();
+    for o in std::iter::once(&out).chain(&json).chain(&figure) {
+        ensure_not_input(o, &inputs)?;
+    }
+    let points = points
+        .as_deref()
+        .map(|p| twin::load_points(p, &maps.list))
+        .transpose()?;
+    let stream = match &stream {
+        Some(path) => {
+            let s = load_stream(path, &maps.list, (window, &exclude.list), &console)?;
+            Some(twin::Source::from(&s))
+        }
+        None => None,
+    };
+    let spinner = console.spinner("identifying");
+    let id = twin::identify(points.as_ref(), stream.as_ref(), scale_factor, |step| {
+        spinner.set_message(format!("identifying: {step}"));
+    })?;
+    spinner.finish_and_clear();
+    write_json(&out, &inputs, &id.unit)?;
+    if let Some(path) = &json {
+        write_json(path, &inputs, &id)?;
+    }
+    if let Some(path) = &figure {
+        let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
+            twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
+            twin::Kind::Points => ("point (file order)", id.residual.clone()),
+        };
+        let after = format!(
+            "with {}",
+            id.causes
+                .iter()
+                .map(|c| c.id())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        );
+        let svg = plot::twin(
+            &format!(
+                "Held out: measured − twin, {:.2} → {:.2} °/h",
+                id.fidelity_before_dph, id.fidelity_after_dph
+            ),
+            axis,
+            &pts,
+            &after,
+        )?;
+        write_atomically(path, svg.as_bytes())?;
+    }
+    console.result(&twin::summary(&id));
+    console.result(&format!("wrote {}", out.display()));
+    Ok(())
+}
