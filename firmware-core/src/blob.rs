@@ -48,8 +48,8 @@
 //! already 5e-6 °/s per rounding. Computed on z, its coefficient, the normalization and the product
 //! round three times; on the raw input, with the coefficient split into `hi + lo` (two f32 whose sum
 //! carries 48 bits) and `hi·x` split exactly by an FMA, the term rounds once, when it is added
-//! last. The trainer moves every pure linear monomial of the prior mean here (measured in
-//! `trainer/benches/f32_study`: 1.2–2e-5 → 4e-6 °/s).
+//! last. The trainer moves every pure linear monomial of the prior mean here
+//! (`trainer/benches/f32_study` measures the gain).
 //!
 //! Version 3 adds the stateful features. An input the kernel ignores (one that enters only through
 //! its raw linear term, as the additive terms of an extended model do) has length scale

@@ -161,8 +161,8 @@ impl GpModel {
     /// which is what a diagnosis needs from its static model: candidates are scored at these
     /// hyperparameters, and an extension's search starts where the starts ended. Only a static
     /// model that ships needs converging; [`Self::polished`] then gives exactly what
-    /// `fit_grouped` returns. On the Oct FOG run's `loo --offsets --features auto`, where every
-    /// fold ships its extension, that leaves out 246 of 3,278 likelihoods.
+    /// `fit_grouped` returns, and a diagnosis whose every fold ships its extension never pays for
+    /// the static model's polish.
     pub fn fit_grouped_unpolished(
         x: &DMatrix<f64>,
         target: &DVector<f64>,
