@@ -206,6 +206,54 @@ pub fn to_blob_extended(
             inputs: d0,
         });
     }
+    let Basis {
+        features,
+        exponents,
+        coefficients,
+        raw,
+    } = basis(model, features, extension)?;
+    let (d, p) = (features.len(), coefficients.len());
+    if m > MAX_CENTRES || d > MAX_INPUTS {
+        return Err(ExportError::TooLarge(format!(
+            "{m} centres × {d} inputs; a firmware model holds at most {MAX_CENTRES} centres \
+             (about 132 KB of f32 on the microcontroller) and {MAX_INPUTS} inputs: fit on fewer points"
+        )));
+    }
+    let dims = Dims { m, d, p };
+    let sy = model.output_scale;
+    let floats = numbers(model, extension, dims, &coefficients, &raw);
+    let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
+    let payload = Payload {
+        features,
+        exponents,
+        floats,
+        error: ErrorModel::noise_only((h.observation_var() * sy * sy) as f32),
+    };
+    let numbers = payload.floats.len() + ErrorModel::NUMBERS;
+    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + payload.exponents.len() + 5 * numbers];
+    let n = blob::encode(dims, &payload, &mut buf).map_err(ExportError::Blob)?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// The inputs of an extended blob and its prior mean: the model's features (the temperature
+/// replaced by the extension's, where it has one) then one per term; the prior-mean monomials and
+/// coefficients with the extension's offset and its scale-factor terms; the raw linear
+/// coefficients with the bias terms'.
+struct Basis {
+    features: Vec<Feature>,
+    exponents: Vec<Vec<u8>>,
+    coefficients: Vec<f64>,
+    raw: Vec<f64>,
+}
+
+/// [`Basis`] of `model` (its inputs `features`) extended by `extension`.
+fn basis(
+    model: &GpModel,
+    features: &[Feature],
+    extension: &Extension,
+) -> Result<Basis, ExportError> {
+    let d0 = features.len();
     let mut features: Vec<Feature> = features.to_vec();
     if let Some(t) = extension.temperature {
         for f in features.iter_mut().filter(|f| **f == Feature::Temperature) {
@@ -250,14 +298,25 @@ pub fn to_blob_extended(
         coefficients.push(t.coefficient * sv);
         raw.push(t.coefficient * o);
     }
-    let p = coefficients.len();
-    if m > MAX_CENTRES || d > MAX_INPUTS {
-        return Err(ExportError::TooLarge(format!(
-            "{m} centres × {d} inputs; a firmware model holds at most {MAX_CENTRES} centres \
-             (about 132 KB of f32 on the microcontroller) and {MAX_INPUTS} inputs: fit on fewer points"
-        )));
-    }
-    let dims = Dims { m, d, p };
+    Ok(Basis {
+        features,
+        exponents,
+        coefficients,
+        raw,
+    })
+}
+
+/// The blob's numbers in the format's section order (`Dims::sections`), rounded to f32 once.
+fn numbers(
+    model: &GpModel,
+    extension: &Extension,
+    dims: Dims,
+    coefficients: &[f64],
+    raw: &[f64],
+) -> Vec<f32> {
+    let post = &model.posterior;
+    let h = &post.hyper;
+    let (m, d, d0) = (dims.m, dims.d, post.xs.ncols());
     let sf2 = h.signal_std.powi(2);
     let sy = model.output_scale;
     // The model's own inputs, then one per extension term (after the model's, in `features`).
@@ -294,7 +353,7 @@ pub fn to_blob_extended(
             f64::from(blob::IGNORED_LENGTH_SCALE)
         }),
     );
-    put(s.prior, &coefficients);
+    put(s.prior, coefficients);
     // hi is an f32 (so exact in f64); lo is what it misses, rounded once below.
     let hi: Vec<f64> = raw.iter().map(|&r| f64::from(r as f32)).collect();
     let lo: Vec<f64> = raw.iter().zip(&hi).map(|(r, h)| r - h).collect();
@@ -313,19 +372,7 @@ pub fn to_blob_extended(
         .flat_map(|i| (0..=i).map(move |j| l[(i, j)] / sf))
         .collect();
     put(s.factor, &factor);
-    let floats: Vec<f32> = floats.into_iter().map(|v| v as f32).collect();
-    let exponents: Vec<u8> = exponents.into_iter().flatten().collect();
-    let payload = Payload {
-        features,
-        exponents,
-        floats,
-        error: ErrorModel::noise_only((h.observation_var() * sy * sy) as f32),
-    };
-    let numbers = payload.floats.len() + ErrorModel::NUMBERS;
-    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + payload.exponents.len() + 5 * numbers];
-    let n = blob::encode(dims, &payload, &mut buf).map_err(ExportError::Blob)?;
-    buf.truncate(n);
-    Ok(buf)
+    floats.into_iter().map(|v| v as f32).collect()
 }
 
 /// `blob` with `error` as its error model (the variance besides the latent one): what the

@@ -504,90 +504,98 @@ pub fn figures(r: &Report) -> anyhow::Result<Vec<(&'static str, String)>> {
         out.push(("bias_vs_temperature.svg", plots::bias_vs_temperature(t, b)?));
     }
     if let Some(h) = &r.held_out {
-        let (time_h, temp, err_s, std_s) = replay_blocks(&h.valid, &h.replays[0]);
-        let (_, _, err_e, std_e) = replay_blocks(&h.valid, &h.replays[1]);
-        let extended = if h.investigation.added_inputs.is_empty() {
-            "extended (nothing added)".to_owned()
-        } else {
-            format!("extended (+ {})", h.investigation.added_inputs.join(", "))
-        };
-        let cause = h.investigation.cause();
-        let line = h
-            .investigation
-            .diagnosis
-            .candidates
-            .iter()
-            .find(|c| c.id == cause)
-            .map_or((0.0, 0.0), |c| (c.intercept_dps, c.slope));
-        out.push((
-            "replay.svg",
-            plots::replay(
-                &time_h,
-                &temp,
-                &[
-                    ReplaySeries {
-                        name: "static",
-                        error_dps: &err_s,
-                        std_dps: &std_s,
-                    },
-                    ReplaySeries {
-                        name: &extended,
-                        error_dps: &err_e,
-                        std_dps: &std_e,
-                    },
-                ],
-            )?,
-        ));
-        out.push((
-            "diagnosis.svg",
-            plots::diagnosis(&DiagnosisSeries {
-                cause: cause.id(),
-                regressor_label: regressor_label(cause),
-                regressor: &h.regressor,
-                line,
-                residual_dps: &h.residual,
-                temp_c: &h.block_temp_c,
-            })?,
-        ));
-        let (samples_e, samples_s) = sample_errors(&h.valid, &h.replays[1]);
-        out.push((
-            "reliability.svg",
-            plots::reliability(&[
-                ReliabilitySeries {
-                    name: "static, 60 s means".to_owned(),
-                    errors: &err_s,
-                    sigmas: &std_s,
-                },
-                ReliabilitySeries {
-                    name: format!("{extended}, 60 s means"),
-                    errors: &err_e,
-                    sigmas: &std_e,
-                },
-                ReliabilitySeries {
-                    name: format!("{extended}, samples"),
-                    errors: &samples_e,
-                    sigmas: &samples_s,
-                },
-            ])?,
-        ));
-        let curves: Vec<_> = h.allan.iter().map(Allan::curve).collect();
-        let series: Vec<AllanSeries<'_>> = h
-            .allan
-            .iter()
-            .zip(&curves)
-            .zip([GREY, BLUE, ORANGE])
-            .map(|((a, curve), colour)| AllanSeries {
-                label: &a.of,
-                colour,
-                curve,
-                terms: a.terms,
-            })
-            .collect();
-        out.push((
-            "allan.svg",
-            crate::plot::allan("Held-out stream: Allan deviation of the error", &series)?,
-        ));
+        out.extend(held_out_figures(h)?);
     }
+    Ok(out)
+}
+
+/// The held-out stream's figures: the replay of both models with their bands, the diagnosis, the
+/// reliability diagram and the Allan deviations of the error.
+fn held_out_figures(h: &HeldOut) -> anyhow::Result<Vec<(&'static str, String)>> {
+    let mut out: Vec<(&'static str, String)> = Vec::new();
+    let (time_h, temp, err_s, std_s) = replay_blocks(&h.valid, &h.replays[0]);
+    let (_, _, err_e, std_e) = replay_blocks(&h.valid, &h.replays[1]);
+    let extended = if h.investigation.added_inputs.is_empty() {
+        "extended (nothing added)".to_owned()
+    } else {
+        format!("extended (+ {})", h.investigation.added_inputs.join(", "))
+    };
+    let cause = h.investigation.cause();
+    let line = h
+        .investigation
+        .diagnosis
+        .candidates
+        .iter()
+        .find(|c| c.id == cause)
+        .map_or((0.0, 0.0), |c| (c.intercept_dps, c.slope));
+    out.push((
+        "replay.svg",
+        plots::replay(
+            &time_h,
+            &temp,
+            &[
+                ReplaySeries {
+                    name: "static",
+                    error_dps: &err_s,
+                    std_dps: &std_s,
+                },
+                ReplaySeries {
+                    name: &extended,
+                    error_dps: &err_e,
+                    std_dps: &std_e,
+                },
+            ],
+        )?,
+    ));
+    out.push((
+        "diagnosis.svg",
+        plots::diagnosis(&DiagnosisSeries {
+            cause: cause.id(),
+            regressor_label: regressor_label(cause),
+            regressor: &h.regressor,
+            line,
+            residual_dps: &h.residual,
+            temp_c: &h.block_temp_c,
+        })?,
+    ));
+    let (samples_e, samples_s) = sample_errors(&h.valid, &h.replays[1]);
+    out.push((
+        "reliability.svg",
+        plots::reliability(&[
+            ReliabilitySeries {
+                name: "static, 60 s means".to_owned(),
+                errors: &err_s,
+                sigmas: &std_s,
+            },
+            ReliabilitySeries {
+                name: format!("{extended}, 60 s means"),
+                errors: &err_e,
+                sigmas: &std_e,
+            },
+            ReliabilitySeries {
+                name: format!("{extended}, samples"),
+                errors: &samples_e,
+                sigmas: &samples_s,
+            },
+        ])?,
+    ));
+    let curves: Vec<_> = h.allan.iter().map(Allan::curve).collect();
+    let series: Vec<AllanSeries<'_>> = h
+        .allan
+        .iter()
+        .zip(&curves)
+        .zip([GREY, BLUE, ORANGE])
+        .map(|((a, curve), colour)| AllanSeries {
+            label: &a.of,
+            colour,
+            curve,
+            terms: a.terms,
+        })
+        .collect();
+    out.push((
+        "allan.svg",
+        crate::plot::allan("Held-out stream: Allan deviation of the error", &series)?,
+    ));
     Ok(out)
 }
 
