@@ -458,6 +458,45 @@ fn flags_that_would_be_ignored_are_refused_and_a_test_that_cannot_run_is_skipped
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--stream would not be used"), "{err}");
+    // Each other combination `fit` has no plan for is refused before anything is read or fitted:
+    // named inputs on a table, inputs with no stream to fit them on, an unknown input.
+    for (args, expected) in [
+        (
+            &["--points", "p.csv", "--features", "time-on"][..],
+            "on a rate table the inputs are chosen by its diagnosis",
+        ),
+        (
+            &[
+                "--stream",
+                "a.csv",
+                "--stream",
+                "b.csv",
+                "--features",
+                "auto",
+            ][..],
+            "2 streams given",
+        ),
+        (
+            &[
+                "--points",
+                "p.csv",
+                "--stream",
+                "s.csv",
+                "--features",
+                "warp-drive",
+            ][..],
+            "warp-drive",
+        ),
+    ] {
+        let out = trainer(
+            &[&["fit"][..], args, &["--out", "m.bin"]].concat(),
+            dir.path(),
+        );
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expected), "{args:?}: {err}");
+        assert!(!dir.path().join("m.bin").exists());
+    }
 
     // A temperature drifting through the run: one group, nothing to leave out.
     let mut csv = String::from("temp_c,voltage_v,rate_dps\n");
