@@ -69,6 +69,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::BlobError;
 
+pub mod unit;
+
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
 /// The format version this crate writes (it also reads [`V4`] and [`V3`]).
@@ -514,12 +516,12 @@ pub fn reseal(blob: &mut [u8]) {
     }
 }
 
-/// Stamps `sequence` into a valid blob of format 4 or later and reseals it. A version-3 blob has
-/// no room for one: [`BlobError::NoSequence`].
+/// Stamps `sequence` into a valid blob of format 4 or later (or a unit blob, [`unit`]) and
+/// reseals it. A version-3 blob has no room for one: [`BlobError::NoSequence`].
 pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
-    let header = read_header(blob)?;
-    if header.version == V3 {
-        return Err(BlobError::NoSequence(header.version));
+    let sealed = read_sealed(blob)?;
+    if sealed.magic == MAGIC && sealed.version == V3 {
+        return Err(BlobError::NoSequence(sealed.version));
     }
     let dst = blob
         .get_mut(SEQUENCE_AT..SEQUENCE_AT + 4)
@@ -554,16 +556,85 @@ pub fn set_error_model(blob: &mut [u8], error: &ErrorModel) -> Result<(), BlobEr
 }
 
 /// The length in bytes, header included, that the header at the start of `bytes` declares for
-/// its blob (either version), unchecked: how much of a flash slot to give [`read_header`].
+/// its blob (a model blob of any version read, or a unit blob), unchecked: how much of a flash
+/// slot to give [`read_sealed`].
 pub fn declared_len(bytes: &[u8]) -> Option<usize> {
+    let magic = le::<4>(bytes, 0).ok()?;
     let version = u16::from_le_bytes(le(bytes, 4).ok()?);
-    let (len_at, header_len) = match version {
-        FORMAT_VERSION | V4 => (LEN_AT, HEADER_LEN),
-        V3 => (10, V3_HEADER_LEN),
+    let (len_at, header_len) = match (magic, version) {
+        (MAGIC, FORMAT_VERSION | V4) | (unit::MAGIC, unit::VERSION) => (LEN_AT, HEADER_LEN),
+        (MAGIC, V3) => (10, V3_HEADER_LEN),
         _ => return None,
     };
     let len = usize::try_from(u32::from_le_bytes(le(bytes, len_at).ok()?)).ok()?;
     header_len.checked_add(len)
+}
+
+/// A blob whose envelope is intact: the magic says which kind it is (a model, [`MAGIC`], or a
+/// unit, [`unit::MAGIC`]), and its version, length and CRC check. Nothing past the envelope has
+/// been read.
+pub struct Sealed<'a> {
+    /// [`MAGIC`] or [`unit::MAGIC`].
+    pub magic: [u8; 4],
+    /// Format version of that kind.
+    pub version: u16,
+    /// Sequence number (0 for a [`V3`] model blob).
+    pub sequence: u32,
+    /// The header, magic included.
+    pub header: &'a [u8],
+    /// The CRC-checked payload.
+    pub payload: &'a [u8],
+}
+
+/// Checks the envelope every blob shares, whatever it holds: the magic (a model or a unit blob),
+/// a version this crate reads, the payload length and the CRC. What a calibration slot checks,
+/// and where [`read_header`] and [`unit::read_header`] start.
+pub fn read_sealed(bytes: &[u8]) -> Result<Sealed<'_>, BlobError> {
+    if bytes.len() < V3_HEADER_LEN {
+        return Err(BlobError::Truncated);
+    }
+    let magic = le::<4>(bytes, 0)?;
+    if magic != MAGIC && magic != unit::MAGIC {
+        return Err(BlobError::BadMagic);
+    }
+    let version = u16::from_le_bytes(le(bytes, 4)?);
+    // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
+    let (len_at, crc_at, header_len, sequence) = match (magic, version) {
+        (MAGIC, FORMAT_VERSION | V4) | (unit::MAGIC, unit::VERSION) => (
+            LEN_AT,
+            CRC_AT,
+            HEADER_LEN,
+            u32::from_le_bytes(le(bytes, SEQUENCE_AT)?),
+        ),
+        (MAGIC, V3) => (10, 14, V3_HEADER_LEN, 0),
+        (_, other) => return Err(BlobError::UnsupportedVersion(other)),
+    };
+    let len = usize::try_from(u32::from_le_bytes(le(bytes, len_at)?))
+        .map_err(|_| BlobError::Truncated)?;
+    let crc = u32::from_le_bytes(le(bytes, crc_at)?);
+    let (header, payload) = bytes
+        .split_at_checked(header_len)
+        .ok_or(BlobError::Truncated)?;
+    match payload.len().cmp(&len) {
+        core::cmp::Ordering::Less => return Err(BlobError::Truncated),
+        core::cmp::Ordering::Greater => return Err(BlobError::TrailingBytes),
+        core::cmp::Ordering::Equal => {}
+    }
+    let expected = if magic == MAGIC && version == V3 {
+        CRC32.checksum(payload)
+    } else {
+        checksum(bytes, payload)
+    };
+    if expected != crc {
+        return Err(BlobError::CrcMismatch);
+    }
+    Ok(Sealed {
+        magic,
+        version,
+        sequence,
+        header,
+        payload,
+    })
 }
 
 /// A checked header: dimensions, sequence and the payload bytes it covers.
@@ -585,57 +656,27 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
         .ok_or(BlobError::Truncated)
 }
 
-/// Checks magic, version, payload length and CRC; returns the dimensions, the sequence and the
-/// payload. Reads [`FORMAT_VERSION`], [`V4`] and [`V3`].
+/// Checks magic, version, payload length and CRC of a model blob; returns the dimensions, the
+/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V4`] and [`V3`]; a unit blob is not a
+/// model blob ([`BlobError::BadMagic`]: [`unit::read_header`] reads it).
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
-    if bytes.len() < V3_HEADER_LEN {
-        return Err(BlobError::Truncated);
-    }
-    if le::<4>(bytes, 0)? != MAGIC {
+    let sealed = read_sealed(bytes)?;
+    if sealed.magic != MAGIC {
         return Err(BlobError::BadMagic);
     }
-    let version = u16::from_le_bytes(le(bytes, 4)?);
-    // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
-    let (len_at, crc_at, header_len, sequence) = match version {
-        FORMAT_VERSION | V4 => (
-            LEN_AT,
-            CRC_AT,
-            HEADER_LEN,
-            u32::from_le_bytes(le(bytes, SEQUENCE_AT)?),
-        ),
-        V3 => (10, 14, V3_HEADER_LEN, 0),
-        other => return Err(BlobError::UnsupportedVersion(other)),
-    };
     let dims = Dims {
         m: usize::from(u16::from_le_bytes(le(bytes, 6)?)),
         d: usize::from(le::<1>(bytes, 8)?[0]),
         p: usize::from(le::<1>(bytes, 9)?[0]),
     };
-    let len = usize::try_from(u32::from_le_bytes(le(bytes, len_at)?))
-        .map_err(|_| BlobError::Truncated)?;
-    let crc = u32::from_le_bytes(le(bytes, crc_at)?);
-    let payload = bytes.get(header_len..).ok_or(BlobError::Truncated)?;
-    match payload.len().cmp(&len) {
-        core::cmp::Ordering::Less => return Err(BlobError::Truncated),
-        core::cmp::Ordering::Greater => return Err(BlobError::TrailingBytes),
-        core::cmp::Ordering::Equal => {}
-    }
-    let expected = if version == V3 {
-        CRC32.checksum(payload)
-    } else {
-        checksum(bytes, payload)
-    };
-    if expected != crc {
-        return Err(BlobError::CrcMismatch);
-    }
     if dims.d == 0 {
         return Err(BlobError::InconsistentDimensions);
     }
     Ok(Header {
-        version,
+        version: sealed.version,
         dims,
-        sequence,
-        payload,
+        sequence: sealed.sequence,
+        payload: sealed.payload,
     })
 }
 

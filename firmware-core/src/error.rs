@@ -7,7 +7,8 @@ use core::fmt;
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum BlobError {
-    /// The first four bytes are not the blob magic.
+    /// The first four bytes are not the blob magic (of a model blob, or of a unit blob where
+    /// either is read).
     BadMagic,
     /// A format version this firmware does not read.
     UnsupportedVersion(u16),
@@ -50,8 +51,13 @@ pub enum Storage {
     Inputs,
     /// Prior-mean exponents (`E`).
     Exponents,
-    /// The flat f32 array (`N`).
+    /// The flat f32 array (`N`; a unit's: every channel's together).
     Floats,
+    /// A unit's channels (`C`).
+    Channels,
+    /// The features a unit's channels share, computed once per sample
+    /// ([`crate::features::MAX_FEATURES`]).
+    Features,
 }
 
 impl fmt::Display for BlobError {
@@ -96,6 +102,16 @@ pub enum PredictError {
         /// Elements needed.
         needed: usize,
     },
+    /// A unit's sample carries fewer outputs than the unit has channels.
+    TooFewOutputs {
+        /// Outputs needed: one per channel.
+        needed: usize,
+    },
+    /// Fewer result slots than the unit has channels.
+    ResultsTooShort {
+        /// Slots needed: one per channel.
+        needed: usize,
+    },
 }
 
 impl fmt::Display for PredictError {
@@ -103,6 +119,15 @@ impl fmt::Display for PredictError {
         match self {
             Self::ScratchTooSmall { needed } => {
                 write!(f, "variance scratch buffer needs {needed} elements")
+            }
+            Self::TooFewOutputs { needed } => {
+                write!(
+                    f,
+                    "the sample needs an output for each of the {needed} channels"
+                )
+            }
+            Self::ResultsTooShort { needed } => {
+                write!(f, "the results need room for each of the {needed} channels")
             }
         }
     }

@@ -73,6 +73,10 @@ use crate::units::SECONDS_PER_HOUR;
 /// Most model inputs the pipeline computes and any evaluator accepts, whatever its capacity: the
 /// evaluator's kernel loop is compiled for each input count up to this.
 pub const MAX_INPUTS: usize = 8;
+/// Most features one pipeline computes: a unit's channels share theirs (their temperature inputs,
+/// each computed once per sample, [`crate::unit`]), so one state holds more filters than one
+/// model has inputs.
+pub const MAX_FEATURES: usize = 16;
 
 /// Temperatures a FOG's sensor can read, °C; beyond them the reading is a fault.
 const TEMP_RANGE_C: core::ops::RangeInclusive<f32> = -100.0..=200.0;
@@ -115,7 +119,7 @@ pub struct FeatureState {
     settle_until_s: f64,
     /// The gyro went through a power cycle with this state kept ([`FeatureState::power_on`]).
     powered_off: bool,
-    filters: [f32; MAX_INPUTS],
+    filters: [f32; MAX_FEATURES],
 }
 
 impl FeatureState {
@@ -156,7 +160,7 @@ fn settle_s(features: &[Feature]) -> f64 {
 
 /// Computes the inputs for `features` from `sample` into `out` (its first `features.len()`
 /// entries) and advances `state`; returns the health of the inputs (module doc). `Fault` leaves
-/// both untouched, as does an `out` too short or more features than [`MAX_INPUTS`].
+/// both untouched, as does an `out` too short or more features than [`MAX_FEATURES`].
 pub fn compute(
     features: &[Feature],
     sample: &Sample,
@@ -165,7 +169,7 @@ pub fn compute(
 ) -> Status {
     let t = sample.temp_c;
     if out.len() < features.len()
-        || features.len() > MAX_INPUTS
+        || features.len() > MAX_FEATURES
         || !sample.time_s.is_finite()
         || !sample.output.is_finite()
         || !TEMP_RANGE_C.contains(&t)

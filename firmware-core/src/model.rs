@@ -123,7 +123,8 @@ impl Accumulator {
     }
 }
 
-fn capacity(what: Storage, needed: usize, capacity: usize) -> Result<(), BlobError> {
+/// `needed` elements against a capacity: [`BlobError::CapacityExceeded`] beyond it.
+pub(crate) fn capacity(what: Storage, needed: usize, capacity: usize) -> Result<(), BlobError> {
     if needed > capacity {
         Err(BlobError::CapacityExceeded {
             what,
@@ -201,6 +202,50 @@ impl<const D: usize> Domains<D> {
     }
 }
 
+/// Reads a model payload of format `version` and `dims` (a blob's, or one channel's of a unit
+/// blob), checking it as it goes, and hands its numbers to `keep` in order: each number's domain
+/// by its section, the sizes against `dims`, the capacities `D` and `E`, the error model and the
+/// features, and the numbers against `room`, the storage left for them. Returns the features, the
+/// exponents and the error model (none in a blob of format 3 or 4).
+#[allow(clippy::type_complexity)]
+pub(crate) fn read_numbers<const D: usize, const E: usize>(
+    (dims, room): (Dims, usize),
+    version: u16,
+    payload: &[u8],
+    mut keep: impl FnMut(f32) -> Result<(), ()>,
+) -> Result<(Vec<Feature, D>, Vec<u8, E>, Option<ErrorModel>), BlobError> {
+    capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
+    capacity(Storage::Exponents, dims.exponents(), E)?;
+    capacity(Storage::Floats, dims.floats(), room)?;
+    if dims.d == 0 {
+        return Err(BlobError::InconsistentDimensions);
+    }
+    let mut domains = Domains::<D>::new(dims);
+    let (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, _) =
+        blob::read_payload(payload, version, |v| {
+            domains.see(v);
+            keep(v)
+        })?;
+    if features.len() != dims.d
+        || exponents.len() != dims.exponents()
+        || domains.seen != dims.floats()
+    {
+        return Err(BlobError::InconsistentDimensions);
+    }
+    domains.verdict()?;
+    if let Some(e) = &error {
+        e.check().map_err(|e| match e {
+            // Numbered after the flat array's.
+            BlobError::NonFinite(i) => BlobError::NonFinite(dims.floats() + i),
+            other => other,
+        })?;
+    }
+    if !features.iter().all(Feature::is_valid) {
+        return Err(BlobError::InvalidParameter);
+    }
+    Ok((features, exponents, error))
+}
+
 impl<const D: usize, const E: usize, const N: usize> Default for Model<D, E, N> {
     fn default() -> Self {
         Self::new()
@@ -273,41 +318,23 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     #[allow(clippy::type_complexity)]
     fn read(
         bytes: &[u8],
-        mut keep: impl FnMut(f32) -> Result<(), ()>,
+        keep: impl FnMut(f32) -> Result<(), ()>,
     ) -> Result<(Dims, Vec<Feature, D>, Vec<u8, E>, Option<ErrorModel>), BlobError> {
         let header = blob::read_header(bytes)?;
         let dims = header.dims;
-        capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
-        capacity(Storage::Exponents, dims.exponents(), E)?;
-        capacity(Storage::Floats, dims.floats(), N)?;
-        let mut domains = Domains::<D>::new(dims);
-        let (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, _) =
-            blob::read_payload(header.payload, header.version, |v| {
-                domains.see(v);
-                keep(v)
-            })?;
-        if features.len() != dims.d
-            || exponents.len() != dims.exponents()
-            || domains.seen != dims.floats()
-        {
-            return Err(BlobError::InconsistentDimensions);
-        }
-        domains.verdict()?;
-        if let Some(e) = &error {
-            e.check().map_err(|e| match e {
-                // Numbered after the flat array's.
-                BlobError::NonFinite(i) => BlobError::NonFinite(dims.floats() + i),
-                other => other,
-            })?;
-        }
-        if !features.iter().all(Feature::is_valid) {
-            return Err(BlobError::InvalidParameter);
-        }
+        let (features, exponents, error) =
+            read_numbers::<D, E>((dims, N), header.version, header.payload, keep)?;
         Ok((dims, features, exponents, error))
     }
 
-    fn section(&self, range: Range<usize>) -> &[f32] {
-        self.floats.get(range).unwrap_or(&[])
+    /// The evaluator over this storage.
+    fn evaluator(&self) -> Evaluator<'_> {
+        Evaluator {
+            dims: self.dims,
+            exponents: &self.exponents,
+            floats: &self.floats,
+            error: self.error,
+        }
     }
 
     /// Model sizes.
@@ -328,6 +355,86 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     /// (σ_f², σ_n²) in output units²: the GP's signal variance, and the noise level of the points
     /// it was fitted on (a sample's own noise is the [`ErrorModel`]'s).
     pub fn variances(&self) -> [f32; 2] {
+        self.evaluator().variances()
+    }
+
+    /// Predictive mean only: the cheap path (one exp and about 3·d operations per centre).
+    pub fn predict_mean(&self, x: &[f32]) -> Mean {
+        self.evaluator().mean_into(x, None).0
+    }
+
+    /// The feature pipeline on one raw sample, then [`Self::predict`] on its inputs.
+    pub fn compensate(
+        &self,
+        sample: &Sample,
+        state: &mut FeatureState,
+        scratch: &mut [f32],
+    ) -> Result<Prediction, PredictError> {
+        let mut x = [0.0f32; D];
+        // `decode` checked d ≤ D, so the inputs always fit.
+        let health = features::compute(&self.features, sample, state, &mut x);
+        let model = self.evaluator();
+        if health == Status::Fault {
+            return Ok(model.fault());
+        }
+        let hours = (state.time_on_s() / SECONDS_PER_HOUR) as f32;
+        let mut p = model.predict_at(x.get(..self.dims.d).unwrap_or(&[]), hours, scratch)?;
+        p.status = p.status.max(health);
+        Ok(p)
+    }
+
+    /// [`Self::compensate`]'s mean and status alone, the cheap path (no variance), with e(x)²:
+    /// how far the inputs lie beyond the trained range, squared, in length scales (what the
+    /// model error's extrapolation term scales; 0 inside the range). The mean and status are
+    /// those `compensate` returns for the same sample and state.
+    pub fn compensate_mean(&self, sample: &Sample, state: &mut FeatureState) -> (Mean, f32) {
+        let mut x = [0.0f32; D];
+        let health = features::compute(&self.features, sample, state, &mut x);
+        self.evaluator()
+            .mean_with(x.get(..self.dims.d).unwrap_or(&[]), health)
+    }
+
+    /// Predictive mean and variances at inputs `x`, at power-on (no time term of the model
+    /// error: [`Self::predict_at`]). `scratch` must hold at least `m` numbers.
+    pub fn predict(&self, x: &[f32], scratch: &mut [f32]) -> Result<Prediction, PredictError> {
+        self.predict_at(x, 0.0, scratch)
+    }
+
+    /// Predictive mean and variances at inputs `x`, `hours` after power-on. `scratch` must hold
+    /// at least `m` numbers.
+    pub fn predict_at(
+        &self,
+        x: &[f32],
+        hours: f32,
+        scratch: &mut [f32],
+    ) -> Result<Prediction, PredictError> {
+        self.evaluator().predict_at(x, hours, scratch)
+    }
+}
+
+/// A decoded model's numbers as the evaluator reads them: its sizes, prior exponents, flat array
+/// and error model, borrowed from where they are stored (a [`Model`]'s own storage, or a
+/// channel's part of a [`crate::unit::Unit`]'s). Every prediction's arithmetic is here, once, so a
+/// channel of a unit computes bit for bit what the same model decoded alone does.
+#[derive(Clone, Copy)]
+pub(crate) struct Evaluator<'a> {
+    /// Model sizes (`d` = 0: no model).
+    pub(crate) dims: Dims,
+    /// Prior-mean exponents, `p` rows of `d`.
+    pub(crate) exponents: &'a [u8],
+    /// The flat array ([`crate::blob`]'s layout).
+    pub(crate) floats: &'a [f32],
+    /// The variance besides the latent one.
+    pub(crate) error: ErrorModel,
+}
+
+impl Evaluator<'_> {
+    fn section(&self, range: Range<usize>) -> &[f32] {
+        self.floats.get(range).unwrap_or(&[])
+    }
+
+    /// (σ_f², σ_n²) in output units².
+    pub(crate) fn variances(&self) -> [f32; 2] {
         let s = self.dims.sections();
         let v = self.section(s.variances);
         [
@@ -338,11 +445,16 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs and e(x)²,
     /// how far they lie beyond the trained range in its widths, squared ([`ErrorModel`]).
-    fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> (Status, f32) {
+    fn normalize(
+        &self,
+        x: &[f32],
+        z: &mut [f32; MAX_INPUTS],
+        s: &mut [f32; MAX_INPUTS],
+    ) -> (Status, f32) {
         let sec = self.dims.sections();
         let d = self.dims.d;
         // d = 0: storage that holds no model.
-        if d == 0 || x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
+        if d == 0 || d > MAX_INPUTS || x.len() < d || x.iter().take(d).any(|v| !v.is_finite()) {
             return (Status::Fault, 0.0);
         }
         let mut status = Status::Valid;
@@ -432,8 +544,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Mean, status and e(x)²; the kernel values go to `k` when it is long enough.
     fn mean_into(&self, x: &[f32], k: Option<&mut [f32]>) -> (Mean, f32) {
-        let mut z = [0.0f32; D];
-        let mut s = [0.0f32; D];
+        let mut z = [0.0f32; MAX_INPUTS];
+        let mut s = [0.0f32; MAX_INPUTS];
         let (status, excess2) = self.normalize(x, &mut z, &mut s);
         if status == Status::Fault {
             return (Mean { mean: 0.0, status }, excess2);
@@ -453,7 +565,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             5 => Self::add_kernel_terms::<5>(sd, centres, weights, k, &mut acc),
             6 => Self::add_kernel_terms::<6>(sd, centres, weights, k, &mut acc),
             7 => Self::add_kernel_terms::<7>(sd, centres, weights, k, &mut acc),
-            // `decode` refuses more than MAX_INPUTS.
+            // `normalize` refuses more than MAX_INPUTS.
             _ => Self::add_kernel_terms::<MAX_INPUTS>(sd, centres, weights, k, &mut acc),
         }
         self.add_prior_mean(zd, &mut acc);
@@ -470,37 +582,9 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         (mean, excess2)
     }
 
-    /// Predictive mean only: the cheap path (one exp and about 3·d operations per centre).
-    pub fn predict_mean(&self, x: &[f32]) -> Mean {
-        self.mean_into(x, None).0
-    }
-
-    /// The feature pipeline on one raw sample, then [`Self::predict`] on its inputs.
-    pub fn compensate(
-        &self,
-        sample: &Sample,
-        state: &mut FeatureState,
-        scratch: &mut [f32],
-    ) -> Result<Prediction, PredictError> {
-        let mut x = [0.0f32; D];
-        // `decode` checked d ≤ D, so the inputs always fit.
-        let health = features::compute(&self.features, sample, state, &mut x);
-        if health == Status::Fault {
-            return Ok(self.fault());
-        }
-        let hours = (state.time_on_s() / SECONDS_PER_HOUR) as f32;
-        let mut p = self.predict_at(x.get(..self.dims.d).unwrap_or(&[]), hours, scratch)?;
-        p.status = p.status.max(health);
-        Ok(p)
-    }
-
-    /// [`Self::compensate`]'s mean and status alone, the cheap path (no variance), with e(x)²:
-    /// how far the inputs lie beyond the trained range, squared, in length scales (what the
-    /// model error's extrapolation term scales; 0 inside the range). The mean and status are
-    /// those `compensate` returns for the same sample and state.
-    pub fn compensate_mean(&self, sample: &Sample, state: &mut FeatureState) -> (Mean, f32) {
-        let mut x = [0.0f32; D];
-        let health = features::compute(&self.features, sample, state, &mut x);
+    /// The mean path at inputs `x` whose health the feature pipeline judged `health`: the mean,
+    /// the worse of the two statuses, and e(x)² (a `Fault` anywhere: mean 0).
+    pub(crate) fn mean_with(&self, x: &[f32], health: Status) -> (Mean, f32) {
         let fault = Mean {
             mean: 0.0,
             status: Status::Fault,
@@ -508,7 +592,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         if health == Status::Fault {
             return (fault, 0.0);
         }
-        let (m, excess2) = self.mean_into(x.get(..self.dims.d).unwrap_or(&[]), None);
+        let (m, excess2) = self.mean_into(x, None);
         if m.status == Status::Fault {
             return (fault, excess2);
         }
@@ -522,7 +606,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     }
 
     /// A `Fault`'s prediction: mean 0, the prior's variance.
-    fn fault(&self) -> Prediction {
+    pub(crate) fn fault(&self) -> Prediction {
         let [signal, _] = self.variances();
         Prediction {
             mean: 0.0,
@@ -532,15 +616,9 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
     }
 
-    /// Predictive mean and variances at inputs `x`, at power-on (no time term of the model
-    /// error: [`Self::predict_at`]). `scratch` must hold at least `m` numbers.
-    pub fn predict(&self, x: &[f32], scratch: &mut [f32]) -> Result<Prediction, PredictError> {
-        self.predict_at(x, 0.0, scratch)
-    }
-
     /// Predictive mean and variances at inputs `x`, `hours` after power-on. `scratch` must hold
     /// at least `m` numbers.
-    pub fn predict_at(
+    pub(crate) fn predict_at(
         &self,
         x: &[f32],
         hours: f32,

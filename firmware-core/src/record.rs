@@ -7,9 +7,14 @@
 //! result  (9 bytes)  mean f32 LE | bias variance f32 LE | status u8 (Valid 0, Extrapolating 1,
 //!                    Degraded 2, Fault 3)
 //! ```
+//!
+//! A unit of c channels ([`crate::unit`]) sends the sample record with its first channel's output,
+//! then the other c − 1 outputs (f32 LE each): 20 + 4(c − 1) bytes; and gets c result records
+//! back, in channel order. A unit of one channel's records are the single-channel ones.
 
 use crate::features::Sample;
 use crate::status::Status;
+use crate::unit::UnitSample;
 
 /// Bytes of one sample record.
 pub const SAMPLE_BYTES: usize = 20;
@@ -88,6 +93,52 @@ pub fn decode_result(record: &[u8; RESULT_BYTES]) -> (f32, f32, Status) {
     )
 }
 
+/// Bytes of one sample record of a unit of `channels` channels.
+pub const fn unit_sample_bytes(channels: usize) -> usize {
+    SAMPLE_BYTES + 4 * channels.saturating_sub(1)
+}
+
+/// Writes the record of a unit's sample (and whether the unit was powered on at it) into the
+/// start of `out`; returns its length, or `None` where `out` is too short or the sample has no
+/// output.
+pub fn encode_unit_sample(
+    sample: &UnitSample<'_>,
+    power_on: bool,
+    out: &mut [u8],
+) -> Option<usize> {
+    let (first, rest) = sample.outputs.split_first()?;
+    let len = unit_sample_bytes(sample.outputs.len());
+    let out = out.get_mut(..len)?;
+    let head = encode_sample(
+        &Sample {
+            time_s: sample.time_s,
+            temp_c: sample.temp_c,
+            output: *first,
+        },
+        power_on,
+    );
+    let (h, tail) = out.split_at_mut(SAMPLE_BYTES);
+    h.copy_from_slice(&head);
+    for (dst, v) in tail.chunks_exact_mut(4).zip(rest) {
+        dst.copy_from_slice(&v.to_le_bytes());
+    }
+    Some(len)
+}
+
+/// Reads a unit sample record of `outputs.len()` channels: its time, temperature and power-on
+/// flag, with the outputs written into `outputs`; `None` where the record is too short.
+pub fn decode_unit_sample(record: &[u8], outputs: &mut [f32]) -> Option<(f64, f32, bool)> {
+    let record = record.get(..unit_sample_bytes(outputs.len()))?;
+    let (head, tail) = record.split_first_chunk::<SAMPLE_BYTES>()?;
+    let (sample, power_on) = decode_sample(head);
+    let (first, rest) = outputs.split_first_mut()?;
+    *first = sample.output;
+    for (dst, b) in rest.iter_mut().zip(tail.chunks_exact(4)) {
+        *dst = f32::from_le_bytes(b.try_into().ok()?);
+    }
+    Some((sample.time_s, sample.temp_c, power_on))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -120,5 +171,33 @@ mod tests {
         ] {
             assert_eq!(decode_result(&encode_result(0.0, 0.0, status)).2, status);
         }
+    }
+
+    #[test]
+    fn a_units_sample_record_is_the_single_record_and_the_other_outputs() {
+        let outputs = [0.25f32, -1.0, 2.0];
+        let sample = UnitSample {
+            time_s: 1.5,
+            temp_c: -2.0,
+            outputs: &outputs,
+        };
+        let mut buf = [0u8; 40];
+        assert_eq!(encode_unit_sample(&sample, true, &mut buf), Some(28));
+        let single = encode_sample(
+            &Sample {
+                time_s: 1.5,
+                temp_c: -2.0,
+                output: 0.25,
+            },
+            true,
+        );
+        assert_eq!(&buf[..20], &single);
+        assert_eq!(&buf[20..28], &[0, 0, 0x80, 0xbf, 0, 0, 0, 0x40]);
+        let mut back = [0.0f32; 3];
+        assert_eq!(decode_unit_sample(&buf, &mut back), Some((1.5, -2.0, true)));
+        assert_eq!(back, outputs);
+        assert_eq!(encode_unit_sample(&sample, true, &mut buf[..27]), None);
+        assert_eq!(decode_unit_sample(&buf[..27], &mut back), None);
+        assert_eq!(unit_sample_bytes(1), SAMPLE_BYTES);
     }
 }

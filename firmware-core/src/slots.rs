@@ -6,6 +6,10 @@
 //! ([`boot`]); an update ([`update`]) writes the *other* slot with the next sequence, so the model
 //! in use is never touched, and commits by its last write:
 //!
+//! A slot holds either kind of blob: one model ([`crate::model::Model`]) or a whole unit's
+//! channels ([`crate::unit::Unit`]); what the firmware decodes into says which it takes
+//! ([`Calibration`]).
+//!
 //! 1. erase the other slot's sectors (NOR erases to 0xFF, a sector at a time);
 //! 2. program the blob from byte 4 on, page by page (programming only clears bits);
 //! 3. program the four magic bytes — the commit. Until they are all there the slot is not a blob.
@@ -29,6 +33,46 @@
 use crate::blob::{self, MAGIC};
 use crate::error::BlobError;
 use crate::model::Model;
+use crate::unit::{Numbers, Unit};
+
+/// What a calibration slot's blob is decoded into: a model or a unit, at the integrator's
+/// capacities.
+pub trait Calibration {
+    /// Forgets what it holds.
+    fn clear(&mut self);
+    /// Decodes `blob` in place; on an error it holds nothing.
+    fn decode_into(&mut self, blob: &[u8]) -> Result<(), BlobError>;
+    /// Checks `blob` as [`Self::decode_into`] would, storing nothing.
+    fn check(blob: &[u8]) -> Result<(), BlobError>;
+}
+
+impl<const D: usize, const E: usize, const N: usize> Calibration for Model<D, E, N> {
+    fn clear(&mut self) {
+        Model::clear(self);
+    }
+
+    fn decode_into(&mut self, blob: &[u8]) -> Result<(), BlobError> {
+        Model::decode_into(self, blob)
+    }
+
+    fn check(blob: &[u8]) -> Result<(), BlobError> {
+        Model::<D, E, N>::check(blob).map(|_| ())
+    }
+}
+
+impl<const C: usize, const D: usize, const E: usize, S: Numbers> Calibration for Unit<C, D, E, S> {
+    fn clear(&mut self) {
+        Unit::clear(self);
+    }
+
+    fn decode_into(&mut self, blob: &[u8]) -> Result<(), BlobError> {
+        Unit::decode_into(self, blob)
+    }
+
+    fn check(blob: &[u8]) -> Result<(), BlobError> {
+        Unit::<C, D, E, S>::check(blob).map(|_| ())
+    }
+}
 
 /// NOR flash as the slots use it. Addresses are byte offsets into the device.
 pub trait Flash {
@@ -218,7 +262,7 @@ fn valid<F: Flash>(
     };
     Ok(buf
         .get(..len)
-        .and_then(|b| blob::read_header(b).ok())
+        .and_then(|b| blob::read_sealed(b).ok())
         .map(|h| (len, h.sequence)))
 }
 
@@ -238,15 +282,15 @@ fn newest<F: Flash>(
 }
 
 /// Boots the valid slot with the newest sequence (the other where the newest does not decode),
-/// decoding it into `model` (typically a `static`: [`Model::decode_into`]). `buf` holds at least
-/// one slot. Where no slot holds a valid model, `model` holds none either; so it is where a read
-/// fails ([`SlotError::Flash`]): taking the other slot then could boot the older model, so the
-/// caller retries (module doc).
-pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
+/// decoding it into `model` (typically a `static`: [`Model::decode_into`], or a unit's
+/// [`Unit::decode_into`]). `buf` holds at least one slot. Where no slot holds a valid blob,
+/// `model` holds none either; so it is where a read fails ([`SlotError::Flash`]): taking the
+/// other slot then could boot the older blob, so the caller retries (module doc).
+pub fn boot<F: Flash, T: Calibration>(
     flash: &F,
     layout: &Layout,
     buf: &mut [u8],
-    model: &mut Model<D, E, N>,
+    model: &mut T,
 ) -> Result<Booted, SlotError> {
     model.clear();
     layout.check(flash).map_err(SlotError::Layout)?;
@@ -264,14 +308,15 @@ pub fn boot<F: Flash, const D: usize, const E: usize, const N: usize>(
     Err(SlotError::NoValidSlot)
 }
 
-/// Writes `blob` (a valid blob of format 4 or later, stamped here with the next sequence) into the
-/// slot not holding the newest valid model, committing by its magic last (module doc). Returns
+/// Writes `blob` (a valid blob of format 4 or later, or a unit blob, that `T` can decode; stamped
+/// here with the next sequence) into the slot not holding the newest valid one, committing by its
+/// magic last (module doc). Returns
 /// that slot and the sequence. `buf` holds at least one slot (it reads the slots, then verifies
 /// the write). A power cut or a failure before the commit leaves the model in use as it was; a
 /// read that fails before anything is erased stops the update with the error. A failure of the
 /// read that verifies the commit is reported too: the new model may then be in place, and the
 /// next boot says which.
-pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
+pub fn update<F: Flash, T: Calibration>(
     flash: &mut F,
     layout: &Layout,
     blob: &mut [u8],
@@ -288,7 +333,7 @@ pub fn update<F: Flash, const D: usize, const E: usize, const N: usize>(
         });
     }
     // Refuse what the firmware could not boot before anything is erased.
-    Model::<D, E, N>::check(blob)?;
+    T::check(blob)?;
     let [current, _] = newest(flash, layout, buf)?;
     let (target, sequence) = match current {
         Some((slot, s)) => (slot.other(), s.wrapping_add(1)),

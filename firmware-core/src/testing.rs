@@ -173,11 +173,26 @@ impl Reference {
         self.encoded(|_| {}, error)
     }
 
+    /// The blob with other inputs than (temperature, output): the same numbers, read as a model
+    /// of `features`.
+    pub fn blob_of(&self, features: [Feature; 2]) -> Vec<u8> {
+        self.encoded_as(features, |_| {}, self.error)
+    }
+
     fn encoded(&self, edit: impl FnOnce(&mut Vec<f32>), error: ErrorModel) -> Vec<u8> {
+        self.encoded_as([Feature::Temperature, Feature::Voltage], edit, error)
+    }
+
+    fn encoded_as(
+        &self,
+        features: [Feature; 2],
+        edit: impl FnOnce(&mut Vec<f32>),
+        error: ErrorModel,
+    ) -> Vec<u8> {
         let mut floats = self.floats();
         edit(&mut floats);
         let payload = Payload {
-            features: [Feature::Temperature, Feature::Voltage].as_slice(),
+            features: features.as_slice(),
             exponents: self.exponents.as_slice(),
             floats: floats.as_slice(),
             error,
@@ -192,4 +207,29 @@ impl Reference {
     pub fn blob(&self) -> Vec<u8> {
         self.blob_with(|_| {})
     }
+}
+
+/// The unit blob of `channels` (name, quantity, model blob), for sensor `id`, calibrated over
+/// −30…60 °C.
+pub fn unit_blob(id: &str, channels: &[(&str, crate::units::Quantity, Vec<u8>)]) -> Vec<u8> {
+    let entries: Vec<blob::unit::Channel<'_>> = channels
+        .iter()
+        .map(|(name, quantity, model)| blob::unit::Channel {
+            name,
+            quantity: *quantity,
+            model,
+        })
+        .collect();
+    let mut buf = vec![0u8; 1 << 16];
+    let n = blob::unit::encode(id, [-30.0, 60.0], &entries, &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
+/// The same model as a version-4 blob: the payload without its error model.
+pub fn as_v4(blob: &[u8]) -> Vec<u8> {
+    let mut v4 = blob[..blob.len() - 4 * ErrorModel::NUMBERS].to_vec();
+    v4[4..6].copy_from_slice(&blob::V4.to_le_bytes());
+    blob::reseal(&mut v4);
+    v4
 }

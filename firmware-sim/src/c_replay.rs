@@ -164,9 +164,10 @@ const M4_FLAGS: [&str; 4] = [
     "-mfpu=fpv4-sp-d16",
 ];
 
-/// Runs the C program `exe` (built by [`build`]) on `blob` and every sample of `stream`.
-pub fn run(exe: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CReplayError> {
-    let (compensated, _) = exchange(blob, stream, |[model, samples, out]| {
+/// Runs the C program `exe` (built by [`build`]) on `blob` (a unit or model blob) and every
+/// sample of `streams` (one per channel, in the blob's channel order): one replay per channel.
+pub fn run(exe: &Path, blob: &[u8], streams: &[&Stream]) -> Result<Vec<Compensated>, CReplayError> {
+    let (compensated, _) = exchange(blob, streams, |[model, samples, out]| {
         Command::new(exe).arg(model).arg(samples).arg(out).output()
     })?;
     Ok(compensated)
@@ -175,17 +176,17 @@ pub fn run(exe: &Path, blob: &[u8], stream: &Stream) -> Result<Compensated, CRep
 /// The Cortex-M4F replay's results and the deepest stack it used.
 #[derive(Debug, Clone)]
 pub struct M4Run {
-    /// One result per sample.
-    pub compensated: Compensated,
+    /// One replay per channel.
+    pub compensated: Vec<Compensated>,
     /// Bytes of stack the whole program used at most (newlib's start-up and stdio included), as
     /// its start-up file measures it (`firmware-core/ffi/m4/startup.c`).
     pub stack_bytes: u32,
 }
 
 /// Runs the Cortex-M4F image `elf` (built by [`build_m4`]) under QEMU on `blob` and every sample
-/// of `stream`; its command line and files go over semihosting.
-pub fn run_m4(elf: &Path, blob: &[u8], stream: &Stream) -> Result<M4Run, CReplayError> {
-    let (compensated, stderr) = exchange(blob, stream, |[model, samples, out]| {
+/// of `streams`; its command line and files go over semihosting.
+pub fn run_m4(elf: &Path, blob: &[u8], streams: &[&Stream]) -> Result<M4Run, CReplayError> {
+    let (compensated, stderr) = exchange(blob, streams, |[model, samples, out]| {
         let config = format!(
             "enable=on,target=native,arg=fog_replay,arg={},arg={},arg={}",
             model.display(),
@@ -245,13 +246,13 @@ pub fn run_program(exe: &Path, m4: bool, args: &[&str]) -> Result<String, CRepla
 /// results back, with what the program wrote on stderr.
 fn exchange(
     blob: &[u8],
-    stream: &Stream,
+    streams: &[&Stream],
     program: impl FnOnce([&Path; 3]) -> std::io::Result<std::process::Output>,
-) -> Result<(Compensated, String), CReplayError> {
+) -> Result<(Vec<Compensated>, String), CReplayError> {
     let dir = tempfile::tempdir()?;
     let [model, samples, out] = ["model.bin", "samples.bin", "out.bin"].map(|f| dir.path().join(f));
     std::fs::write(&model, blob)?;
-    std::fs::write(&samples, replay::sample_records(stream))?;
+    std::fs::write(&samples, replay::unit_sample_records(streams))?;
     let status = program([&model, &samples, &out])?;
     if !status.status.success() {
         return Err(CReplayError::Run(format!(
@@ -260,12 +261,12 @@ fn exchange(
             String::from_utf8_lossy(&status.stderr)
         )));
     }
-    let compensated = replay::from_result_records(&std::fs::read(&out)?, blob);
-    if compensated.rate_dps.len() != stream.len() {
+    let compensated = replay::from_unit_result_records(&std::fs::read(&out)?, blob);
+    let n = streams.first().map_or(0, |s| s.len());
+    if let Some(c) = compensated.iter().find(|c| c.rate_dps.len() != n) {
         return Err(CReplayError::Run(format!(
-            "{} results for {} samples",
-            compensated.rate_dps.len(),
-            stream.len()
+            "{} results for {n} samples",
+            c.rate_dps.len()
         )));
     }
     Ok((

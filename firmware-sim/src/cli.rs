@@ -68,37 +68,107 @@ enum Command {
     },
 }
 
-/// What a replay reads: a model and a stream.
+/// What a replay reads: a model (or a unit's blob) and a stream (or a unit's log, with
+/// `--channels`).
 #[derive(Args)]
 struct ReplayInput {
-    /// Model blob (from `trainer fit --out`).
+    /// Model blob (from `trainer fit --out`): one model, or a unit's channels.
     #[arg(long)]
     model: PathBuf,
     #[command(flatten)]
     log: LogArgs,
 }
 
+/// A replay's inputs, loaded: the blob, decoded as a unit (a model blob is a unit of one channel),
+/// and one stream per channel in the unit's order.
+struct Loaded {
+    blob: Vec<u8>,
+    unit: Box<replay::HostUnit>,
+    streams: Vec<crate::data::stream::Stream>,
+    /// Whether the log was read as a unit's (`--channels`): its results are reported per channel.
+    per_channel: bool,
+}
+
+impl Loaded {
+    /// The streams in the unit's channel order.
+    fn streams(&self) -> Vec<&crate::data::stream::Stream> {
+        self.streams.iter().collect()
+    }
+}
+
 impl ReplayInput {
-    /// Refuses outputs over the inputs, then loads both.
-    fn load(
-        &self,
-        outputs: &[&PathBuf],
-        console: &Console,
-    ) -> anyhow::Result<(
-        Vec<u8>,
-        Box<crate::replay::HostModel>,
-        crate::data::stream::Stream,
-    )> {
-        let inputs = [self.model.as_path(), self.log.stream.as_path()];
+    /// Refuses outputs over the inputs, then loads both, matching the log's channels to the
+    /// blob's.
+    fn load(&self, outputs: &[&PathBuf], console: &Console) -> anyhow::Result<Loaded> {
+        let mut inputs = vec![self.model.as_path(), self.log.stream.as_path()];
+        inputs.extend(self.log.unit.channels.as_deref());
         for o in outputs {
             ensure_not_input(o, &inputs)?;
         }
         let blob = std::fs::read(&self.model)
             .with_context(|| format!("reading {}", self.model.display()))?;
-        let firmware =
-            replay::decode(&blob).with_context(|| format!("decoding {}", self.model.display()))?;
-        Ok((blob, firmware, self.log.load(console)?))
+        let unit = replay::decode_unit(&blob)
+            .with_context(|| format!("decoding {}", self.model.display()))?;
+        let Some(channels) = self.log.unit.load()? else {
+            let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
+            anyhow::ensure!(
+                names.len() == 1,
+                "{} holds a unit of {} channels ({}): give --channels FILE naming them in the log",
+                self.model.display(),
+                names.len(),
+                names.join(", ")
+            );
+            return Ok(Loaded {
+                blob,
+                unit,
+                streams: vec![self.log.load(console)?],
+                per_channel: false,
+            });
+        };
+        let all = self.log.load_unit(&channels, console)?;
+        let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
+        let streams = replay::in_unit_order(&unit, &names, &all)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", self.model.display()))?
+            .into_iter()
+            .cloned()
+            .collect();
+        Ok(Loaded {
+            blob,
+            unit,
+            streams,
+            per_channel: true,
+        })
     }
+}
+
+/// A unit's channels' scores, one line each, in each channel's bias unit (°/h, mg).
+fn channel_lines(scores: &[replay::ChannelScore]) -> String {
+    scores
+        .iter()
+        .map(|c| {
+            let k = c.quantity.bias_per_unit();
+            let u = c.quantity.bias_unit();
+            format!(
+                "  {:<16} rmse_60s {:>10.3} {u:<4} ({} scored, {} extrapolating, {} degraded, {} \
+                 fault); σ: {}",
+                c.name,
+                c.score.rmse_60s_dps * k,
+                c.score.n,
+                c.score.n_extrapolating,
+                c.score.n_degraded,
+                c.score.n_fault,
+                sigma::describe(&c.score.sigma_samples, &c.score.sigma_60s)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// What `replay --channels --json` writes: the sensor and each channel's scores.
+#[derive(Serialize)]
+struct UnitReplay<'a> {
+    sensor_id: &'a str,
+    channels: &'a [replay::ChannelScore],
 }
 
 #[derive(Subcommand)]
@@ -267,6 +337,16 @@ struct QemuReport<'a> {
     cost: qemu::Cost,
 }
 
+/// What `qemu --channels --json` writes: each channel's scores, the agreement of them all with
+/// the host replay, the cost per sample of them all.
+#[derive(Serialize)]
+struct UnitQemuReport<'a> {
+    sensor_id: &'a str,
+    channels: &'a [replay::ChannelScore],
+    agreement_with_host: qemu::Agreement,
+    cost: qemu::Cost,
+}
+
 /// Values of one flag joined by `+` (`warm-up+thermal-rate`, `40+15`).
 #[derive(Debug, Clone)]
 struct Joined<T>(Vec<T>);
@@ -355,7 +435,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// `firmware-sim replay`: every sample through the firmware evaluator on the host, and the scores.
+/// `firmware-sim replay`: every sample through the firmware evaluator on the host, and the scores
+/// (each channel's, for a unit).
 fn replay_command(
     input: &ReplayInput,
     out: Option<PathBuf>,
@@ -363,11 +444,36 @@ fn replay_command(
     flags: ConsoleFlags,
 ) -> anyhow::Result<()> {
     let console = Console::new(flags, json.as_deref());
-    let (_, firmware, data) = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
-    let comp = replay::replay(&firmware, &data);
-    let score = replay::score(&data, &comp);
+    let loaded = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+    let streams = loaded.streams();
+    let comps = replay::replay_unit(&loaded.unit, &streams);
+    if loaded.per_channel {
+        let scores = replay::unit_scores(&loaded.unit, &streams, &comps);
+        if let Some(path) = out {
+            write_atomically(
+                &path,
+                replay::unit_csv(&loaded.unit, &streams, &comps).as_bytes(),
+            )?;
+        }
+        if let Some(path) = json {
+            let report = UnitReplay {
+                sensor_id: loaded.unit.sensor_id(),
+                channels: &scores,
+            };
+            write_json(&path, &[], &report)?;
+        }
+        console.result(&format!(
+            "replayed {} samples of {} channels through one unit blob:\n{}",
+            streams.first().map_or(0, |s| s.len()),
+            scores.len(),
+            channel_lines(&scores)
+        ));
+        return Ok(());
+    }
+    let (data, comp) = (&loaded.streams[0], &comps[0]);
+    let score = replay::score(data, comp);
     if let Some(path) = out {
-        write_atomically(&path, replay::to_csv(&data, &comp).as_bytes())?;
+        write_atomically(&path, replay::to_csv(data, comp).as_bytes())?;
     }
     if let Some(path) = json {
         write_json(&path, &[], &score)?;
@@ -389,14 +495,14 @@ fn replay_command(
         score.max_abs_err_dps,
         sigma::describe(&score.sigma_samples, &score.sigma_60s)
     ));
-    if let Some(why) = replay::degraded_reason(&data, &score) {
+    if let Some(why) = replay::degraded_reason(data, &score) {
         console.warn(&why);
     }
     Ok(())
 }
 
 /// `firmware-sim qemu`: the same on the Cortex-M4F image under QEMU, built from the source tree,
-/// compared with the host replay, with its cost.
+/// compared with the host replay, with its cost per sample.
 fn qemu_command(
     input: &ReplayInput,
     (out, json): (Option<PathBuf>, Option<PathBuf>),
@@ -404,8 +510,8 @@ fn qemu_command(
     flags: ConsoleFlags,
 ) -> anyhow::Result<()> {
     let console = Console::new(flags, json.as_deref());
-    let (blob, firmware, data) =
-        input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+    let loaded = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
+    let streams = loaded.streams();
     let root = crate::source_tree::locate(source.as_deref())?;
     console.detail(&format!(
         "cargo build --release (in {})",
@@ -420,48 +526,88 @@ fn qemu_command(
             image.display()
         ))
     });
-    spinner.set_message(format!(
-        "running {} samples on the Cortex-M4 under QEMU",
-        data.len()
-    ));
-    let m4 = qemu::run(&image, &blob, &data)?;
+    let n = streams.first().map_or(0, |s| s.len());
+    spinner.set_message(format!("running {n} samples on the Cortex-M4 under QEMU"));
+    let m4 = qemu::run(&image, &loaded.blob, &streams)?;
     spinner.set_message("host replay, for the comparison");
-    let host = replay::replay(&firmware, &data);
+    let host = replay::replay_unit(&loaded.unit, &streams);
     spinner.finish_and_clear();
-    let agreement = qemu::compare(&host, &m4.compensated);
-    let score = replay::score(&data, &m4.compensated);
+    let agreements: Vec<qemu::Agreement> = host
+        .iter()
+        .zip(&m4.compensated)
+        .map(|(h, m)| qemu::compare(h, m))
+        .collect();
+    let agreement = qemu::Agreement::all(&agreements);
+    let scores = replay::unit_scores(&loaded.unit, &streams, &m4.compensated);
     if let Some(path) = out {
-        write_atomically(&path, replay::to_csv(&data, &m4.compensated).as_bytes())?;
+        let csv = if loaded.per_channel {
+            replay::unit_csv(&loaded.unit, &streams, &m4.compensated)
+        } else {
+            replay::to_csv(streams[0], &m4.compensated[0])
+        };
+        write_atomically(&path, csv.as_bytes())?;
     }
     if let Some(path) = json {
-        let report = QemuReport {
-            score: &score,
-            agreement_with_host: agreement,
-            cost: m4.cost,
-        };
-        write_json(&path, &[], &report)?;
+        if loaded.per_channel {
+            write_json(
+                &path,
+                &[],
+                &UnitQemuReport {
+                    sensor_id: loaded.unit.sensor_id(),
+                    channels: &scores,
+                    agreement_with_host: agreement,
+                    cost: m4.cost,
+                },
+            )?;
+        } else {
+            let report = QemuReport {
+                score: &scores[0].score,
+                agreement_with_host: agreement,
+                cost: m4.cost,
+            };
+            write_json(&path, &[], &report)?;
+        }
     }
+    let c = loaded.unit.channels().len();
     console.result(&format!(
-        "Cortex-M4 (QEMU) vs host replay over {} samples: max |Δmean| {:.3e} °/s, {} of {} \
+        "Cortex-M4 (QEMU) vs host replay over {n} samples{}: max |Δmean| {:.3e}, {} of {} \
          bit-identical, statuses equal: {}",
-        data.len(),
+        if c > 1 {
+            format!(" of {c} channels")
+        } else {
+            String::new()
+        },
         agreement.max_abs_mean_diff,
         agreement.identical,
-        data.len(),
+        n * c,
         agreement.statuses_equal
     ));
-    let dims = firmware.dims();
-    let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
+    if loaded.per_channel {
+        console.result(&channel_lines(&scores));
+    } else {
+        console.result(&format!(
+            "M4 rmse_60s {:.3e} °/s",
+            scores[0].score.rmse_60s_dps
+        ));
+    }
     console.result(&format!(
-        "M4 rmse_60s {:.3e} °/s; instructions per prediction: mean {:.0}, mean + variance {:.0}",
-        score.rmse_60s_dps, m4.cost.mean_instructions, m4.cost.full_instructions
+        "instructions per sample{}: mean {:.0}, mean + variance {:.0}",
+        if c > 1 { ", every channel" } else { "" },
+        m4.cost.mean_instructions,
+        m4.cost.full_instructions
     ));
+    let centres: usize = loaded.unit.channels().iter().map(|c| c.dims().m).sum();
+    let minimum: f64 = loaded
+        .unit
+        .channels()
+        .iter()
+        .map(|ch| ch.dims().m as f64 * m4.cost.minimum_per_centre(ch.dims().d))
+        .sum();
     console.result(&format!(
-        "arithmetic minimum of the mean path: {} centres × (expf {:.0} + 3·{} multiply-adds) = \
-         {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions per SysTick tick)",
-        dims.m,
+        "arithmetic minimum of the mean path: {centres} centres × (expf {:.0} + 3·d \
+         multiply-adds) = {minimum:.0} instructions; measured {:.2}× that ({:.2} instructions \
+         per SysTick tick)",
         m4.cost.exp_instructions,
-        dims.d,
         m4.cost.mean_instructions / minimum,
         m4.cost.instructions_per_tick
     ));

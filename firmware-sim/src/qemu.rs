@@ -64,14 +64,15 @@ pub enum QemuError {
     Io(#[from] std::io::Error),
 }
 
-/// The image's cost measurement, converted to instructions.
+/// The image's cost measurement, converted to instructions: per sample, every channel of the
+/// blob and the features they share (one channel for a model blob).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Cost {
-    /// Predictions timed per path.
+    /// Samples timed per path.
     pub samples: u32,
-    /// Instructions per prediction, mean only (loop overhead removed).
+    /// Instructions per sample, means only (loop overhead removed).
     pub mean_instructions: f64,
-    /// Instructions per prediction, mean and variance.
+    /// Instructions per sample, means and variances.
     pub full_instructions: f64,
     /// Instructions per `libm::expf` call (the transcendental of each centre).
     pub exp_instructions: f64,
@@ -89,9 +90,9 @@ impl Cost {
 /// What the image computed.
 #[derive(Debug, Clone)]
 pub struct QemuRun {
-    /// Per-sample output, as the host replay's.
-    pub compensated: Compensated,
-    /// Cost per prediction.
+    /// Per-sample output of each channel, as the host replay's.
+    pub compensated: Vec<Compensated>,
+    /// Cost per sample.
     pub cost: Cost,
 }
 
@@ -117,13 +118,14 @@ pub fn build_image(root: &Path) -> Result<PathBuf, QemuError> {
     Ok(image_crate(root).join("target/thumbv7em-none-eabihf/release/fog-m4"))
 }
 
-/// Runs `image` on `blob` and every sample of `stream`.
-pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuError> {
+/// Runs `image` on `blob` (a unit or model blob) and every sample of `streams`: one per channel,
+/// in the blob's channel order, sharing their time ([`replay::replay_unit`]).
+pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, QemuError> {
     let dir = tempfile::tempdir()?;
     std::fs::write(dir.path().join("model.bin"), blob)?;
     std::fs::write(
         dir.path().join("samples.bin"),
-        replay::sample_records(stream),
+        replay::unit_sample_records(streams),
     )?;
     let mut child = Command::new("qemu-system-arm")
         .args(QEMU_ARGS)
@@ -153,12 +155,12 @@ pub fn run(image: &Path, blob: &[u8], stream: &Stream) -> Result<QemuRun, QemuEr
         )));
     }
     let bytes = std::fs::read(dir.path().join("out.bin"))?;
-    let compensated = replay::from_result_records(&bytes, blob);
-    if compensated.rate_dps.len() != stream.len() {
+    let compensated = replay::from_unit_result_records(&bytes, blob);
+    let samples = streams.first().map_or(0, |s| s.len());
+    if let Some(c) = compensated.iter().find(|c| c.rate_dps.len() != samples) {
         return Err(QemuError::Image(format!(
-            "{} results for {} samples",
-            compensated.rate_dps.len(),
-            stream.len()
+            "{} results for {samples} samples",
+            c.rate_dps.len()
         )));
     }
     let cost = std::fs::read(dir.path().join("cost.bin"))?;
@@ -200,6 +202,18 @@ pub struct Agreement {
     pub identical: usize,
     /// Every status equal.
     pub statuses_equal: bool,
+}
+
+impl Agreement {
+    /// The agreement of several channels' replays together: the largest difference, the
+    /// bit-identical samples of them all, and whether every status is equal.
+    pub fn all(each: &[Agreement]) -> Agreement {
+        Agreement {
+            max_abs_mean_diff: each.iter().map(|a| a.max_abs_mean_diff).fold(0.0, f64::max),
+            identical: each.iter().map(|a| a.identical).sum(),
+            statuses_equal: each.iter().all(|a| a.statuses_equal),
+        }
+    }
 }
 
 /// Compares two replays of the same stream.

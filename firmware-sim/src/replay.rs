@@ -13,8 +13,9 @@
 //! contract"). `coverage_2sigma` is the per-sample fraction within 2σ.
 
 use firmware_core::blob::Dims;
-use firmware_core::model::Model;
+use firmware_core::model::{Model, Prediction};
 use firmware_core::record;
+use firmware_core::unit::{Numbers, Unit, UnitSample};
 use firmware_core::{BlobError, ErrorModel, FeatureState, Sample, Status};
 use serde::Serialize;
 
@@ -43,6 +44,42 @@ pub type HostModel = Model<MAX_INPUTS, MAX_EXPONENTS, MAX_FLOATS>;
 /// Decodes a blob into host capacities (boxed: the capacities make the value large).
 pub fn decode(bytes: &[u8]) -> Result<Box<HostModel>, BlobError> {
     HostModel::decode(bytes).map(Box::new)
+}
+
+/// Most channels the host decodes a unit into (a unit blob holds up to 255; an IMU has six).
+pub const MAX_CHANNELS: usize = 32;
+
+/// The host's storage of a unit's numbers: a growable vector, where a microcontroller declares a
+/// fixed one (`heapless::Vec`), so that a unit of any size decodes on the host without a
+/// megabyte-sized value on the stack.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct HostNumbers(Vec<f32>);
+
+impl Numbers for HostNumbers {
+    const CAPACITY: usize = usize::MAX;
+
+    fn clear(&mut self) {
+        self.0.clear();
+    }
+
+    fn push(&mut self, v: f32) -> bool {
+        self.0.push(v);
+        true
+    }
+
+    fn as_slice(&self) -> &[f32] {
+        &self.0
+    }
+}
+
+/// The unit type the host decodes unit blobs (and model blobs, as one channel) into.
+pub type HostUnit = Unit<MAX_CHANNELS, MAX_INPUTS, MAX_EXPONENTS, HostNumbers>;
+
+/// Decodes a unit blob, or a model blob as a unit of one channel, into host capacities.
+pub fn decode_unit(bytes: &[u8]) -> Result<Box<HostUnit>, BlobError> {
+    let mut unit = Box::new(HostUnit::with_numbers(HostNumbers::default()));
+    unit.decode_into(bytes)?;
+    Ok(unit)
 }
 
 /// The firmware's output for every sample.
@@ -152,6 +189,173 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
     out
 }
 
+/// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
+/// their time and temperature: [`crate::data::channels::Channels::load_log`]) through the unit in
+/// one call each, its one feature state kept through the power cycles as [`replay`] keeps a
+/// model's; one replay per channel.
+pub fn replay_unit(unit: &HostUnit, streams: &[&Stream]) -> Vec<Compensated> {
+    let c = unit.channels().len();
+    let mut out: Vec<Compensated> = unit
+        .channels()
+        .iter()
+        .map(|ch| Compensated {
+            error: ch.error_model(),
+            ..Compensated::default()
+        })
+        .collect();
+    let Some(first) = streams.first() else {
+        return out;
+    };
+    let mut scratch = vec![0.0f32; unit.scratch_len()];
+    let mut state = FeatureState::default();
+    let fault = Prediction {
+        mean: 0.0,
+        bias_variance: f32::INFINITY,
+        noise_variance: 0.0,
+        status: Status::Fault,
+    };
+    let mut predictions = vec![fault; c];
+    let mut outputs = vec![0.0f32; streams.len()];
+    for (i, restart) in restarts(first).into_iter().enumerate() {
+        if restart {
+            state.power_on();
+        }
+        for (o, s) in outputs.iter_mut().zip(streams) {
+            *o = s.voltage_v[i] as f32;
+        }
+        let sample = UnitSample {
+            time_s: first.time_s[i],
+            temp_c: first.temp_c[i] as f32,
+            outputs: &outputs,
+        };
+        if unit
+            .compensate(&sample, &mut state, &mut scratch, &mut predictions)
+            .is_err()
+        {
+            predictions.fill(fault);
+        }
+        for (o, p) in out.iter_mut().zip(&predictions) {
+            o.push(p.mean, p.bias_variance, p.noise_variance, p.status);
+        }
+    }
+    out
+}
+
+/// The streams of a unit's log (`names`: the channels file's, in its order) in the order of the
+/// unit's channels, matched by name; a model blob's one channel takes a log of one channel.
+pub fn in_unit_order<'a>(
+    unit: &HostUnit,
+    names: &[&str],
+    streams: &'a [Stream],
+) -> Result<Vec<&'a Stream>, String> {
+    let ours = unit.channels();
+    if let ([only], [stream]) = (ours, streams)
+        && only.name() == firmware_core::unit::SINGLE_CHANNEL
+    {
+        return Ok(vec![stream]);
+    }
+    ours.iter()
+        .map(|ch| {
+            names
+                .iter()
+                .position(|n| *n == ch.name())
+                .and_then(|k| streams.get(k))
+                .ok_or_else(|| {
+                    format!(
+                        "the blob's channel {} is not among the log's ({})",
+                        ch.name(),
+                        names.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+/// One channel's scores, as the commands that replay a unit write them in their JSON: its values
+/// (`_dps` fields included) are in its quantity's unit, `units`.
+#[derive(Debug, Clone, Serialize)]
+pub struct ChannelScore {
+    /// The channel's name.
+    pub name: String,
+    /// What it measures.
+    pub quantity: firmware_core::Quantity,
+    /// The unit of its values: °/s or m/s².
+    pub units: &'static str,
+    /// Its scores.
+    #[serde(flatten)]
+    pub score: Score,
+}
+
+/// The scores of every channel of a unit's replay (`comps`, in the unit's order, of `streams`).
+pub fn unit_scores(
+    unit: &HostUnit,
+    streams: &[&Stream],
+    comps: &[Compensated],
+) -> Vec<ChannelScore> {
+    unit.channels()
+        .iter()
+        .zip(streams)
+        .zip(comps)
+        .map(|((ch, s), c)| ChannelScore {
+            name: ch.name().to_owned(),
+            quantity: ch.quantity(),
+            units: ch.quantity().unit(),
+            score: score(s, c),
+        })
+        .collect()
+}
+
+/// A unit's compensated CSV: time and temperature, then each channel's columns of [`to_csv`]
+/// prefixed by its name (`gyro.x.comp_rate_dps`; its values in its quantity's unit).
+pub fn unit_csv(unit: &HostUnit, streams: &[&Stream], comps: &[Compensated]) -> String {
+    let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
+    let mut s = String::from("time_s,temp_c");
+    for n in &names {
+        for col in [
+            "voltage_v",
+            "rate_dps",
+            "comp_rate_dps",
+            "comp_std_dps",
+            "status",
+            "comp_bias_std_dps",
+        ] {
+            s.push_str(&format!(",{n}.{col}"));
+        }
+    }
+    s.push('\n');
+    let Some(first) = streams.first() else {
+        return s;
+    };
+    for i in 0..first.len() {
+        s.push_str(&format!("{},{}", first.time_s[i], first.temp_c[i]));
+        for (st, comp) in streams.iter().zip(comps) {
+            s.push(',');
+            s.push_str(&csv_cells(st, comp, i));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Row `i`'s cells after time and temperature: output, reference (empty where unknown), and the
+/// compensated value, σ, status and bias σ.
+fn csv_cells(stream: &Stream, comp: &Compensated, i: usize) -> String {
+    let reference = if stream.rate_dps[i].is_finite() {
+        stream.rate_dps[i].to_string()
+    } else {
+        String::new()
+    };
+    format!(
+        "{},{},{:e},{:e},{},{:e}",
+        stream.voltage_v[i],
+        reference,
+        comp.rate_dps[i],
+        comp.std_dps(i) as f32,
+        status_word(comp.status[i]),
+        comp.bias_var[i].sqrt()
+    )
+}
+
 /// A replay's means alone ([`means`]): the cheap path where no variance is read.
 #[derive(Debug, Clone, Default)]
 pub struct Means {
@@ -180,28 +384,54 @@ pub fn means(model: &HostModel, stream: &Stream) -> Means {
     out
 }
 
-/// The stream as sample records (`firmware_core::record`), [`restarts`] as power-on flags: what a
-/// device replay (the Cortex-M4 image, the C program) reads.
-pub fn sample_records(stream: &Stream) -> Vec<u8> {
-    let mut out = Vec::with_capacity(record::SAMPLE_BYTES * stream.len());
-    for (i, power_on) in restarts(stream).into_iter().enumerate() {
-        out.extend(record::encode_sample(&sample(stream, i), power_on));
+/// A unit's `streams` as unit sample records (`firmware_core::record`: each sample's outputs in
+/// channel order), [`restarts`] of the first as power-on flags: what a device replays.
+pub fn unit_sample_records(streams: &[&Stream]) -> Vec<u8> {
+    let Some(first) = streams.first() else {
+        return Vec::new();
+    };
+    let len = record::unit_sample_bytes(streams.len());
+    let mut out = vec![0u8; len * first.len()];
+    let mut outputs = vec![0.0f32; streams.len()];
+    for ((i, power_on), rec) in restarts(first)
+        .into_iter()
+        .enumerate()
+        .zip(out.chunks_exact_mut(len))
+    {
+        for (o, s) in outputs.iter_mut().zip(streams) {
+            *o = s.voltage_v[i] as f32;
+        }
+        let sample = UnitSample {
+            time_s: first.time_s[i],
+            temp_c: first.temp_c[i] as f32,
+            outputs: &outputs,
+        };
+        record::encode_unit_sample(&sample, power_on, rec);
     }
     out
 }
 
-/// A device's result records as a replay of `blob`: the noise variance is the blob's, as the
-/// firmware reports it ([`replay`]).
-pub fn from_result_records(bytes: &[u8], blob: &[u8]) -> Compensated {
-    let error = decode(blob).map_or(ErrorModel::noise_only(0.0), |m| m.error_model());
-    let mut out = Compensated {
-        error,
-        ..Compensated::default()
-    };
-    for rec in bytes.chunks_exact(record::RESULT_BYTES) {
+/// A device's unit result records (one per channel per sample) as one replay per channel of
+/// `blob` (a unit or model blob), the noise variances the blob's.
+pub fn from_unit_result_records(bytes: &[u8], blob: &[u8]) -> Vec<Compensated> {
+    let errors: Vec<ErrorModel> = decode_unit(blob).map_or(Vec::new(), |u| {
+        u.channels().iter().map(|c| c.error_model()).collect()
+    });
+    let mut out: Vec<Compensated> = errors
+        .iter()
+        .map(|&error| Compensated {
+            error,
+            ..Compensated::default()
+        })
+        .collect();
+    let c = out.len().max(1);
+    for (k, rec) in bytes.chunks_exact(record::RESULT_BYTES).enumerate() {
         let Ok(rec) = rec.try_into() else { continue };
         let (mean, variance, status) = record::decode_result(rec);
-        out.push(mean, variance, error.sample_noise_var, status);
+        if let Some(o) = out.get_mut(k % c) {
+            let noise = o.error.sample_noise_var;
+            o.push(mean, variance, noise, status);
+        }
     }
     out
 }
@@ -329,21 +559,11 @@ pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
         "time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,comp_std_dps,status,comp_bias_std_dps\n",
     );
     for i in 0..stream.len() {
-        let reference = if stream.rate_dps[i].is_finite() {
-            stream.rate_dps[i].to_string()
-        } else {
-            String::new()
-        };
         s.push_str(&format!(
-            "{},{},{},{},{:e},{:e},{},{:e}\n",
+            "{},{},{}\n",
             stream.time_s[i],
             stream.temp_c[i],
-            stream.voltage_v[i],
-            reference,
-            comp.rate_dps[i],
-            comp.std_dps(i) as f32,
-            status_word(comp.status[i]),
-            comp.bias_var[i].sqrt()
+            csv_cells(stream, comp, i)
         ));
     }
     s

@@ -7,7 +7,7 @@
 
 use firmware_core::blob;
 use firmware_core::slots::{self, Booted, Flash, FlashError, Layout, LayoutError, Slot, SlotError};
-use firmware_core::{BlobError, Model};
+use firmware_core::{BlobError, Model, Quantity, StaticUnit};
 use firmware_sim::flash::NorFlash;
 
 /// 4 KiB sectors, 256-byte pages: a common serial NOR.
@@ -58,7 +58,7 @@ fn boot(flash: &Nor) -> Result<Took, SlotError> {
 }
 
 fn update(flash: &mut Nor, blob: &[u8]) -> Result<(Slot, u32), SlotError> {
-    slots::update::<_, 2, 14, 395>(flash, &LAYOUT, &mut blob.to_vec(), &mut [0u8; 4096])
+    slots::update::<_, Gyro>(flash, &LAYOUT, &mut blob.to_vec(), &mut [0u8; 4096])
 }
 
 /// The blob an update with this sequence number writes: the two calibrations alternate.
@@ -302,7 +302,7 @@ fn a_layout_that_does_not_fit_the_device_is_refused_before_anything_is_touched()
     for (layout, why) in bad {
         let mut f = flash.clone();
         f.fail_once(usize::MAX);
-        let e = slots::update::<_, 2, 14, 395>(&mut f, &layout, &mut blob_of(2), &mut [0u8; 8192]);
+        let e = slots::update::<_, Gyro>(&mut f, &layout, &mut blob_of(2), &mut [0u8; 8192]);
         assert_eq!(e, Err(SlotError::Layout(why)), "{layout:?}");
         assert_eq!(
             (f.ops(), f.worked()),
@@ -363,4 +363,102 @@ fn an_update_refuses_what_could_not_boot_before_erasing_anything() {
 /// CRC-32/ISO-HDLC, the version-3 blob's checksum.
 fn crc32(bytes: &[u8]) -> u32 {
     crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(bytes)
+}
+
+/// A six-channel unit: an IMU's axes, each channel one of the two calibrations.
+type Imu = StaticUnit<6, 2, 14, { 6 * 395 }>;
+
+/// Three sectors a slot: the six-channel blob is 10 KB.
+const UNIT_LAYOUT: Layout = Layout {
+    a: 0,
+    b: 3 * 4096,
+    len: 3 * 4096,
+};
+
+/// The unit blob an update with this sequence number writes: the calibrations alternate.
+fn unit_blob_of(sequence: u32) -> Vec<u8> {
+    let model = blob_of(sequence);
+    let names = ["gyro.x", "gyro.y", "gyro.z", "acc.x", "acc.y", "acc.z"];
+    let channels: Vec<blob::unit::Channel<'_>> = names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| blob::unit::Channel {
+            name,
+            quantity: if k < 3 {
+                Quantity::AngularRate
+            } else {
+                Quantity::SpecificForce
+            },
+            model: &model,
+        })
+        .collect();
+    let mut buf = vec![0u8; 4 * 4096];
+    let n = blob::unit::encode("IMU-7", [-30.0, 60.0], &channels, &mut buf).unwrap();
+    buf.truncate(n);
+    buf
+}
+
+fn boot_unit(flash: &Nor) -> Result<(u32, Imu), SlotError> {
+    let mut unit = Imu::new();
+    let b = slots::boot(flash, &UNIT_LAYOUT, &mut [0u8; 3 * 4096], &mut unit)?;
+    Ok((b.sequence, unit))
+}
+
+fn update_unit(flash: &mut Nor, blob: &[u8]) -> Result<(Slot, u32), SlotError> {
+    slots::update::<_, Imu>(
+        flash,
+        &UNIT_LAYOUT,
+        &mut blob.to_vec(),
+        &mut [0u8; 3 * 4096],
+    )
+}
+
+#[test]
+fn a_power_cut_at_every_byte_of_a_six_channel_units_update_boots_the_old_unit_or_the_new() {
+    let decoded = |sequence| {
+        let mut u = Imu::new();
+        u.decode_into(&unit_blob_of(sequence)).unwrap();
+        u
+    };
+    assert_ne!(decoded(1), decoded(2));
+    assert_eq!(Imu::check(&unit_blob_of(1)), Ok(6));
+    let mut flash = Nor::new(6);
+    for k in 1..=2 {
+        assert_eq!(update_unit(&mut flash, &unit_blob_of(k)).unwrap().1, k);
+    }
+    let next = unit_blob_of(3);
+    let mut whole = flash.clone();
+    update_unit(&mut whole, &next).unwrap();
+    let work = whole.worked() - flash.worked();
+    assert_eq!(
+        work,
+        3 * 4096 + next.len(),
+        "three sectors erased, the blob programmed"
+    );
+    for cut in 0..=work {
+        let mut f = flash.clone();
+        f.cut_after(cut);
+        let written = update_unit(&mut f, &next);
+        f.power_on();
+        let (sequence, unit) =
+            boot_unit(&f).unwrap_or_else(|e| panic!("cut at {cut}: no unit ({e})"));
+        let committed = cut == work;
+        assert_eq!(written.is_ok(), committed, "cut at {cut}");
+        let expected = if committed { 3 } else { 2 };
+        assert_eq!(sequence, expected, "cut at {cut}");
+        assert_eq!(unit, decoded(expected), "cut at {cut}");
+        assert_eq!(unit.channels().len(), 6);
+    }
+    // A model's storage refuses the unit blob before anything is erased.
+    let mut f = flash.clone();
+    assert_eq!(
+        slots::update::<_, Gyro>(
+            &mut f,
+            &UNIT_LAYOUT,
+            &mut next.clone(),
+            &mut [0u8; 3 * 4096]
+        ),
+        Err(SlotError::Blob(BlobError::BadMagic))
+    );
+    assert_eq!(f, flash);
 }

@@ -26,6 +26,21 @@
 // Numbers in the model's flat array at those capacities (firmware-core's `Dims::floats`).
 #define FOG_MODEL_FLOATS ((((((7 * FOG_MAX_INPUTS) + FOG_MAX_MONOMIALS) + 2) + (FOG_MAX_CENTRES * FOG_MAX_INPUTS)) + FOG_MAX_CENTRES) + ((FOG_MAX_CENTRES * (FOG_MAX_CENTRES + 1)) / 2))
 
+// Most channels a [`FogUnit`] holds: an IMU's three gyro and three accelerometer axes.
+#define FOG_UNIT_MAX_CHANNELS 6
+
+// Numbers a [`FogUnit`] holds, all its channels' models together (firmware-core's
+// `Dims::floats` summed): as shipped, six exact 140-point models of 4 inputs and 16 monomials
+// (255 KB). Set it to what the product's unit blob needs (`trainer inspect unit.bin` prints it)
+// and regenerate the header.
+#define FOG_UNIT_NUMBERS (FOG_UNIT_MAX_CHANNELS * ((((((7 * FOG_MAX_INPUTS) + FOG_MAX_MONOMIALS) + 2) + (140 * FOG_MAX_INPUTS)) + 140) + ((140 * 141) / 2)))
+
+// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 200 bytes per channel for
+// its name, sizes, features, exponents and error model, and 256 for the sensor's ID, the shared
+// features and the decoded marker (a compile-time check below holds it to the real size on
+// every target).
+#define FOG_UNIT_WORDS ((((FOG_UNIT_NUMBERS + 1) / 2) + (32 * FOG_UNIT_MAX_CHANNELS)) + 40)
+
 // 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
 // its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
 // the real size on every target).
@@ -34,6 +49,12 @@
 // 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
 // the feature pipeline's memory and the reset marker.
 #define FOG_STATE_WORDS (((FOG_MAX_CENTRES + 1) / 2) + 32)
+
+// Bytes of a channel's name in C, its NUL included: the unit blob's 16 and one.
+#define FOG_NAME_CHARS 17
+
+// Bytes of a sensor's ID in C, its NUL included: the unit blob's 32 and one.
+#define FOG_SENSOR_ID_CHARS 33
 
 // The outcome of every call: 0 is success, each error of the Rust interface has its own code.
 typedef enum FogResult {
@@ -90,6 +111,12 @@ typedef enum FogResult {
   // `fog_abi_check`: the caller was built against another header (other capacities, other
   // sizes) than the library.
   FOG_ERR_ABI = 24,
+  // `PredictError::TooFewOutputs`: fewer outputs than the unit has channels.
+  FOG_ERR_TOO_FEW_OUTPUTS = 25,
+  // `PredictError::ResultsTooShort`: room for fewer predictions than the unit has channels.
+  FOG_ERR_RESULTS_TOO_SHORT = 26,
+  // No channel of that index in the unit.
+  FOG_ERR_NO_CHANNEL = 27,
   // Not a result: holds the enum to 32 bits whatever the C compiler's enum size
   // (`-fshort-enums`, the Arm EABI's default, or not).
   FOG_RESULT_WIDTH = 2147483647,
@@ -109,12 +136,23 @@ typedef enum FogStatus {
   FOG_STATUS_WIDTH = 2147483647,
 } FogStatus;
 
+// What a unit's channel measures, as `firmware_core::Quantity`: the unit of its means.
+typedef enum FogQuantity {
+  // A gyro's angular rate, °/s.
+  FOG_ANGULAR_RATE = 0,
+  // An accelerometer's specific force, m/s².
+  FOG_SPECIFIC_FORCE = 1,
+  // Not a quantity: holds the enum to 32 bits whatever the C compiler's enum size.
+  FOG_QUANTITY_WIDTH = 2147483647,
+} FogQuantity;
+
 // Storage for one decoded model: opaque, aligned, at least as large as the model it holds.
 typedef struct FogModel {
   uint64_t words[FOG_MODEL_WORDS];
 } FogModel;
 
-// Storage for one sensor channel's running state: opaque.
+// Storage for the running state of one model's channel, or of a whole unit (its channels share
+// one): opaque.
 typedef struct FogState {
   uint64_t words[FOG_STATE_WORDS];
 } FogState;
@@ -184,6 +222,33 @@ typedef struct FogSlot {
   // The blob's sequence number.
   uint32_t sequence;
 } FogSlot;
+
+// Storage for one decoded unit: opaque, aligned, at least as large as the unit it holds.
+typedef struct FogUnit {
+  uint64_t words[FOG_UNIT_WORDS];
+} FogUnit;
+
+// A decoded unit: its channels, the sensor it was calibrated for and where.
+typedef struct FogUnitInfo {
+  // Channels.
+  uint32_t channels;
+  // The trained temperature range, °C: lowest.
+  float temp_min_c;
+  // Highest.
+  float temp_max_c;
+  // The sensor's ID, NUL-terminated (empty for a one-channel model blob).
+  uint8_t sensor_id[FOG_SENSOR_ID_CHARS];
+} FogUnitInfo;
+
+// One channel of a decoded unit.
+typedef struct FogChannelInfo {
+  // Its name, NUL-terminated.
+  uint8_t name[FOG_NAME_CHARS];
+  // What it measures.
+  enum FogQuantity quantity;
+  // Its model's sizes.
+  struct FogDims dims;
+} FogChannelInfo;
 
 #ifdef __cplusplus
 extern "C" {
@@ -261,11 +326,14 @@ enum FogResult fog_noise_of_mean(const struct FogModel *model, float window_s, f
 // `FogErrAbi` where any differs (a header edited to other capacities, a library not rebuilt):
 // then nothing else is safe to call.
 enum FogResult fog_abi_check(size_t model_bytes,
+                             size_t unit_bytes,
                              size_t state_bytes,
                              size_t prediction_bytes,
                              uint32_t max_centres,
                              uint32_t max_inputs,
-                             uint32_t max_monomials);
+                             uint32_t max_monomials,
+                             uint32_t unit_channels,
+                             uint32_t unit_numbers);
 
 // Boots the calibration slot with the newest valid model into `model` (firmware-core's
 // `slots::boot`): `FogErrNoValidSlot` when neither holds one (`model` then holds no model).
@@ -296,6 +364,87 @@ enum FogResult fog_slots_update(const struct FogFlash *flash,
                                 size_t buf_len,
                                 struct FogSlot *out);
 
+// Decodes a unit blob of `len` bytes at `blob` into `unit`, or a model blob as a unit of one
+// channel (named `rate`, angular rate). On any error (a null `blob` included) `unit` is left
+// holding nothing, whatever it held before.
+//
+// # Safety
+// `unit` points to a writable `FogUnit`; `blob` to `len` readable bytes. Either may be null
+// (`FogErrNull`).
+enum FogResult fog_unit_decode(struct FogUnit *unit, const uint8_t *blob, size_t len);
+
+// The decoded unit's channels, its sensor's ID and its trained temperature range.
+//
+// # Safety
+// `unit` points to an initialized `FogUnit` (decoded into, or zeroed), `out` to a writable
+// `FogUnitInfo`; either may be null.
+enum FogResult fog_unit_info(const struct FogUnit *unit, struct FogUnitInfo *out);
+
+// Channel `index` of the decoded unit: its name, quantity and sizes (`FogErrNoChannel` beyond
+// the last).
+//
+// # Safety
+// As `fog_unit_info`, with `out` pointing to a writable `FogChannelInfo`.
+enum FogResult fog_unit_channel(const struct FogUnit *unit,
+                                uint32_t index,
+                                struct FogChannelInfo *out);
+
+// Compensates one sample of every channel of the unit (time in s, temperature in °C, and
+// `n_outputs` outputs, one per channel in the unit's order) through the unit's one state, into
+// `n_out` predictions (one per channel). What the channels share (the temperature features, the
+// time since power-on) is computed once; the clock is as `fog_compensate`'s. An output that is
+// not a number makes its own channel's status `FOG_FAULT`; fewer outputs or predictions than
+// channels is `FogErrTooFewOutputs` or `FogErrResultsTooShort`, with nothing computed.
+//
+// # Safety
+// `unit` points to a `FogUnit` and `state` to a `FogState`, each initialized (decoded or reset,
+// or zeroed as a C `static` is); `outputs` to `n_outputs` readable floats; `out` to `n_out`
+// writable `FogPrediction`s. Any pointer may be null (`FogErrNull`).
+enum FogResult fog_unit_compensate(const struct FogUnit *unit,
+                                   struct FogState *state,
+                                   double time_s,
+                                   float temp_c,
+                                   const float *outputs,
+                                   size_t n_outputs,
+                                   struct FogPrediction *out,
+                                   size_t n_out);
+
+// The noise variance of a mean over `window_s` seconds of channel `index`'s compensated
+// samples (as `fog_noise_of_mean` for a model).
+//
+// # Safety
+// `unit` points to an initialized `FogUnit` (decoded into, or zeroed), `out` to a writable
+// `float`; either may be null.
+enum FogResult fog_unit_noise_of_mean(const struct FogUnit *unit,
+                                      uint32_t index,
+                                      float window_s,
+                                      float *out);
+
+// Boots the calibration slot with the newest valid blob (a unit blob, or a model blob as one
+// channel) into `unit`: as `fog_slots_boot`, for a unit.
+//
+// # Safety
+// As `fog_slots_boot`, with `unit` pointing to a writable `FogUnit`.
+enum FogResult fog_unit_slots_boot(const struct FogFlash *flash,
+                                   const struct FogLayout *slots_layout,
+                                   uint8_t *buf,
+                                   size_t buf_len,
+                                   struct FogUnit *unit,
+                                   struct FogSlot *out);
+
+// Writes a unit blob (or a model blob) that a `FogUnit` can hold into the slot not in use: as
+// `fog_slots_update`, checked against the unit's capacities.
+//
+// # Safety
+// As `fog_slots_update`.
+enum FogResult fog_unit_slots_update(const struct FogFlash *flash,
+                                     const struct FogLayout *slots_layout,
+                                     uint8_t *blob,
+                                     size_t len,
+                                     uint8_t *buf,
+                                     size_t buf_len,
+                                     struct FogSlot *out);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus
@@ -314,10 +463,12 @@ enum FogResult fog_slots_update(const struct FogFlash *flash,
 FOG_STATIC_ASSERT(sizeof(FogResult) == 4, "FogResult must be 32 bits (FOG_RESULT_WIDTH)");
 FOG_STATIC_ASSERT(sizeof(FogStatus) == 4, "FogStatus must be 32 bits (FOG_STATUS_WIDTH)");
 FOG_STATIC_ASSERT(sizeof(FogPrediction) == 16, "FogPrediction: three floats, a 32-bit status");
+FOG_STATIC_ASSERT(sizeof(FogQuantity) == 4, "FogQuantity must be 32 bits (FOG_QUANTITY_WIDTH)");
 
 /* Checks at start-up that the library was built against this header: FOG_OK, or FOG_ERR_ABI
  * (then nothing else is safe to call). */
 #define FOG_ABI_CHECK() \
-  fog_abi_check(sizeof(FogModel), sizeof(FogState), sizeof(FogPrediction), FOG_MAX_CENTRES, \
-                FOG_MAX_INPUTS, FOG_MAX_MONOMIALS)
+  fog_abi_check(sizeof(FogModel), sizeof(FogUnit), sizeof(FogState), sizeof(FogPrediction), \
+                FOG_MAX_CENTRES, FOG_MAX_INPUTS, FOG_MAX_MONOMIALS, FOG_UNIT_MAX_CHANNELS, \
+                FOG_UNIT_NUMBERS)
 #endif  /* FOG_H_CHECKS */

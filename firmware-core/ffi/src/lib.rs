@@ -2,11 +2,12 @@
 //! application) calls to use a compensation model. The header is `include/fog.h`, generated from
 //! this file by cbindgen (the `header_is_current` test fails when it is stale).
 //!
-//! The C side owns all memory: a [`FogModel`] and a [`FogState`] are opaque blocks of the sizes
-//! the header states, typically `static`; nothing is allocated. Every function returns a
-//! [`FogResult`], one code per variant of the Rust errors ([`firmware_core::BlobError`],
-//! [`firmware_core::PredictError`], [`firmware_core::SlotError`]), and checks its pointers for
-//! null first.
+//! The C side owns all memory: a [`FogModel`] (one channel's model), a [`FogUnit`] (a whole
+//! sensor unit's channels, from a unit blob or a one-channel model blob) and a [`FogState`] are
+//! opaque blocks of the sizes the header states, typically `static`; nothing is allocated. Every
+//! function returns a [`FogResult`], one code per variant of the Rust errors
+//! ([`firmware_core::BlobError`], [`firmware_core::PredictError`],
+//! [`firmware_core::SlotError`]), and checks its pointers for null first.
 //!
 //! This is the one crate of the project with `unsafe` code: turning C pointers into references.
 //! Each block says why it is sound; everything past that is the safe Rust of firmware-core.
@@ -17,8 +18,11 @@ use core::mem::{align_of, size_of};
 use core::ffi::c_void;
 use firmware_core::blob::Dims;
 
-use firmware_core::slots::{self, Flash, FlashError, Layout, Slot, SlotError};
-use firmware_core::{BlobError, FeatureState, Model, PredictError, Sample, Status};
+use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
+use firmware_core::slots::{self, Calibration, Flash, FlashError, Layout, Slot, SlotError};
+use firmware_core::{
+    BlobError, FeatureState, Model, PredictError, Quantity, Sample, StaticUnit, Status, UnitSample,
+};
 
 /// Most model inputs a [`FogModel`] holds.
 pub const FOG_MAX_INPUTS: usize = 4;
@@ -38,8 +42,30 @@ pub const FOG_MODEL_FLOATS: usize = 7 * FOG_MAX_INPUTS
     + FOG_MAX_CENTRES
     + FOG_MAX_CENTRES * (FOG_MAX_CENTRES + 1) / 2;
 
+/// Most channels a [`FogUnit`] holds: an IMU's three gyro and three accelerometer axes.
+pub const FOG_UNIT_MAX_CHANNELS: usize = 6;
+/// Numbers a [`FogUnit`] holds, all its channels' models together (firmware-core's
+/// `Dims::floats` summed): as shipped, six exact 140-point models of 4 inputs and 16 monomials
+/// (255 KB). Set it to what the product's unit blob needs (`trainer inspect unit.bin` prints it)
+/// and regenerate the header.
+pub const FOG_UNIT_NUMBERS: usize = FOG_UNIT_MAX_CHANNELS
+    * (7 * FOG_MAX_INPUTS + FOG_MAX_MONOMIALS + 2 + 140 * FOG_MAX_INPUTS + 140 + 140 * 141 / 2);
+/// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 200 bytes per channel for
+/// its name, sizes, features, exponents and error model, and 256 for the sensor's ID, the shared
+/// features and the decoded marker (a compile-time check below holds it to the real size on
+/// every target).
+#[allow(clippy::manual_div_ceil)]
+pub const FOG_UNIT_WORDS: usize = (FOG_UNIT_NUMBERS + 1) / 2 + 32 * FOG_UNIT_MAX_CHANNELS + 40;
+
 /// The decoded model at the header's capacities.
 type Inner = Model<FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FOG_MODEL_FLOATS>;
+/// The decoded unit at the header's capacities.
+type UnitInner = StaticUnit<
+    FOG_UNIT_MAX_CHANNELS,
+    FOG_MAX_INPUTS,
+    { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS },
+    FOG_UNIT_NUMBERS,
+>;
 
 /// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
 /// its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
@@ -58,7 +84,14 @@ pub struct FogModel {
     words: [u64; FOG_MODEL_WORDS],
 }
 
-/// Storage for one sensor channel's running state: opaque.
+/// Storage for one decoded unit: opaque, aligned, at least as large as the unit it holds.
+#[repr(C)]
+pub struct FogUnit {
+    words: [u64; FOG_UNIT_WORDS],
+}
+
+/// Storage for the running state of one model's channel, or of a whole unit (its channels share
+/// one): opaque.
 #[repr(C)]
 pub struct FogState {
     words: [u64; FOG_STATE_WORDS],
@@ -72,6 +105,8 @@ struct State {
 
 const _: () = assert!(size_of::<Inner>() <= size_of::<FogModel>());
 const _: () = assert!(align_of::<Inner>() <= align_of::<FogModel>());
+const _: () = assert!(size_of::<UnitInner>() < size_of::<FogUnit>());
+const _: () = assert!(align_of::<UnitInner>() <= align_of::<FogUnit>());
 const _: () = assert!(size_of::<State>() <= size_of::<FogState>());
 const _: () = assert!(align_of::<State>() <= align_of::<FogState>());
 
@@ -132,6 +167,12 @@ pub enum FogResult {
     /// `fog_abi_check`: the caller was built against another header (other capacities, other
     /// sizes) than the library.
     FogErrAbi = 24,
+    /// `PredictError::TooFewOutputs`: fewer outputs than the unit has channels.
+    FogErrTooFewOutputs = 25,
+    /// `PredictError::ResultsTooShort`: room for fewer predictions than the unit has channels.
+    FogErrResultsTooShort = 26,
+    /// No channel of that index in the unit.
+    FogErrNoChannel = 27,
     /// Not a result: holds the enum to 32 bits whatever the C compiler's enum size
     /// (`-fshort-enums`, the Arm EABI's default, or not).
     FogResultWidth = 0x7FFF_FFFF,
@@ -171,6 +212,51 @@ pub struct FogPrediction {
     pub status: FogStatus,
 }
 
+/// What a unit's channel measures, as `firmware_core::Quantity`: the unit of its means.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FogQuantity {
+    /// A gyro's angular rate, °/s.
+    FogAngularRate = 0,
+    /// An accelerometer's specific force, m/s².
+    FogSpecificForce = 1,
+    /// Not a quantity: holds the enum to 32 bits whatever the C compiler's enum size.
+    FogQuantityWidth = 0x7FFF_FFFF,
+}
+
+/// A decoded unit: its channels, the sensor it was calibrated for and where.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FogUnitInfo {
+    /// Channels.
+    pub channels: u32,
+    /// The trained temperature range, °C: lowest.
+    pub temp_min_c: f32,
+    /// Highest.
+    pub temp_max_c: f32,
+    /// The sensor's ID, NUL-terminated (empty for a one-channel model blob).
+    pub sensor_id: [u8; FOG_SENSOR_ID_CHARS],
+}
+
+/// One channel of a decoded unit.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FogChannelInfo {
+    /// Its name, NUL-terminated.
+    pub name: [u8; FOG_NAME_CHARS],
+    /// What it measures.
+    pub quantity: FogQuantity,
+    /// Its model's sizes.
+    pub dims: FogDims,
+}
+
+/// Bytes of a channel's name in C, its NUL included: the unit blob's 16 and one.
+pub const FOG_NAME_CHARS: usize = 17;
+/// Bytes of a sensor's ID in C, its NUL included: the unit blob's 32 and one.
+pub const FOG_SENSOR_ID_CHARS: usize = 33;
+const _: () =
+    assert!(FOG_NAME_CHARS == NAME_BYTES + 1 && FOG_SENSOR_ID_CHARS == SENSOR_ID_BYTES + 1);
+
 /// A model's sizes.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -209,6 +295,17 @@ impl From<PredictError> for FogResult {
     fn from(e: PredictError) -> Self {
         match e {
             PredictError::ScratchTooSmall { .. } => Self::FogErrScratchTooSmall,
+            PredictError::TooFewOutputs { .. } => Self::FogErrTooFewOutputs,
+            PredictError::ResultsTooShort { .. } => Self::FogErrResultsTooShort,
+        }
+    }
+}
+
+impl From<Quantity> for FogQuantity {
+    fn from(q: Quantity) -> Self {
+        match q {
+            Quantity::AngularRate => Self::FogAngularRate,
+            Quantity::SpecificForce => Self::FogSpecificForce,
         }
     }
 }
@@ -243,9 +340,88 @@ impl From<Status> for FogStatus {
 /// outside the model's own bytes. Storage the C side zeroed (or never decoded into) lacks it.
 const DECODED: u64 = 0x464F_475F_4D4F_444C;
 
-/// Words of a [`FogModel`] the model occupies; the marker follows.
-const MODEL_WORDS: usize = size_of::<Inner>().div_ceil(8);
-const _: () = assert!(MODEL_WORDS < FOG_MODEL_WORDS);
+/// Opaque storage that holds a decoded value (a model or a unit) at its start and, in the word
+/// after it, the marker [`DECODED`] while it does.
+trait Holds {
+    /// What it holds.
+    type Inner: Calibration;
+    /// The word after the value: the marker's.
+    const MARK_AT: usize;
+    /// The value holding nothing.
+    fn empty() -> Self::Inner;
+    /// Its words.
+    fn words(&self) -> &[u64];
+    /// Its words, to write.
+    fn words_mut(&mut self) -> &mut [u64];
+}
+
+impl Holds for FogModel {
+    type Inner = Inner;
+    const MARK_AT: usize = size_of::<Inner>().div_ceil(8);
+
+    fn empty() -> Inner {
+        Inner::new()
+    }
+
+    fn words(&self) -> &[u64] {
+        &self.words
+    }
+
+    fn words_mut(&mut self) -> &mut [u64] {
+        &mut self.words
+    }
+}
+
+impl Holds for FogUnit {
+    type Inner = UnitInner;
+    const MARK_AT: usize = size_of::<UnitInner>().div_ceil(8);
+
+    fn empty() -> UnitInner {
+        UnitInner::new()
+    }
+
+    fn words(&self) -> &[u64] {
+        &self.words
+    }
+
+    fn words_mut(&mut self) -> &mut [u64] {
+        &mut self.words
+    }
+}
+
+const _: () = assert!(<FogModel as Holds>::MARK_AT < FOG_MODEL_WORDS);
+const _: () = assert!(<FogUnit as Holds>::MARK_AT < FOG_UNIT_WORDS);
+
+/// Decodes the blob of `len` bytes at `blob` into `storage` (`fog_model_decode`,
+/// `fog_unit_decode`). On any error (a null `blob` included) `storage` is left holding nothing,
+/// whatever it held before.
+///
+/// # Safety
+/// As the functions that call it: `storage` points to writable storage of its type; `blob` to
+/// `len` readable bytes. Either may be null (`FogErrNull`).
+unsafe fn decode_in<S: Holds>(storage: *mut S, blob: *const u8, len: usize) -> FogResult {
+    if storage.is_null() {
+        return FogResult::FogErrNull;
+    }
+    if blob.is_null() {
+        // SAFETY: `storage` is non-null and points to storage the caller lets us write.
+        unsafe { forget(&mut *storage) };
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller guarantees `blob` points to `len` readable bytes (checked non-null).
+    let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
+    // SAFETY: `storage` is non-null and points to storage the caller lets us write; the
+    // reference lives for this call only.
+    let inner = unsafe { emptied(&mut *storage) };
+    match inner.decode_into(bytes) {
+        Ok(()) => {
+            // SAFETY: as in `emptied`: the storage is ours for this call.
+            unsafe { mark(&mut *storage) };
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
 
 /// Decodes the blob of `len` bytes at `blob` into `model`. On any error (a null `blob`
 /// included) `model` is left holding no model, whatever it held before.
@@ -259,79 +435,68 @@ pub unsafe extern "C" fn fog_model_decode(
     blob: *const u8,
     len: usize,
 ) -> FogResult {
-    if model.is_null() {
-        return FogResult::FogErrNull;
-    }
-    if blob.is_null() {
-        // SAFETY: `model` is non-null and points to a FogModel the caller lets us write.
-        unsafe { forget(&mut *model) };
-        return FogResult::FogErrNull;
-    }
-    // SAFETY: the caller guarantees `blob` points to `len` readable bytes (checked non-null).
-    let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
-    // SAFETY: `model` is non-null and points to a FogModel the caller lets us write; the
-    // reference lives for this call only.
-    let inner = unsafe { emptied(&mut *model) };
-    match inner.decode_into(bytes) {
-        Ok(()) => {
-            // SAFETY: as in `emptied`: the storage is ours for this call.
-            unsafe { (*model).words[MODEL_WORDS] = DECODED };
-            FogResult::FogOk
-        }
-        Err(e) => e.into(),
-    }
+    // SAFETY: forwarded from the caller.
+    unsafe { decode_in(model, blob, len) }
 }
 
-/// The storage as a model that holds nothing yet, unmarked: the model is decoded in place, so the
-/// stack never holds a copy of it (at these capacities a copy would be 137 KB, more stack than a
-/// Cortex-M4 has). Storage that already holds a model is emptied where it is; anything else (a
-/// zeroed `static`, a refused blob's leftovers) gets an empty model's few header bytes, written
-/// in place.
+/// The storage as a value that holds nothing yet, unmarked: the value is decoded in place, so the
+/// stack never holds a copy of it (at these capacities a model's copy would be 137 KB, more stack
+/// than a Cortex-M4 has, a unit's 255 KB). Storage that already holds one is emptied where it is;
+/// anything else (a zeroed `static`, a refused blob's leftovers) gets an empty value's few header
+/// bytes, written in place.
 ///
 /// # Safety
 /// `storage` is exclusively ours for the lifetime of the reference returned.
-unsafe fn emptied(storage: &mut FogModel) -> &mut Inner {
-    let marked = storage.words[MODEL_WORDS] == DECODED;
-    storage.words[MODEL_WORDS] = 0;
-    let inner = storage.words.as_mut_ptr().cast::<Inner>();
+unsafe fn emptied<S: Holds>(storage: &mut S) -> &mut S::Inner {
+    let words = storage.words_mut();
+    let marked = words[S::MARK_AT] == DECODED;
+    words[S::MARK_AT] = 0;
+    let inner = words.as_mut_ptr().cast::<S::Inner>();
     if marked {
-        // SAFETY: the marker is written only over a valid `Inner` at the start of the storage
+        // SAFETY: the marker is written only over a valid value at the start of the storage
         // (it fits and aligns: compile-time checks above).
         let inner = unsafe { &mut *inner };
         inner.clear();
         inner
     } else {
-        // SAFETY: the storage fits and aligns `Inner`; `write` neither reads nor drops the bytes
-        // that were there. `Inner::new()`'s arrays are uninitialized (heapless vectors of length
-        // 0), so only its sizes and lengths are stored.
+        // SAFETY: the storage fits and aligns the value; `write` neither reads nor drops the
+        // bytes that were there. An empty value's arrays are uninitialized (heapless vectors of
+        // length 0), so only its sizes and lengths are stored.
         unsafe {
-            inner.write(Inner::new());
+            inner.write(S::empty());
             &mut *inner
         }
     }
 }
 
-/// Leaves `storage` holding no model: its marker cleared, so every call sees `FogErrNoModel`.
-fn forget(storage: &mut FogModel) {
-    storage.words[MODEL_WORDS] = 0;
+/// Marks `storage` as holding a decoded value.
+fn mark<S: Holds>(storage: &mut S) {
+    storage.words_mut()[S::MARK_AT] = DECODED;
 }
 
-/// The model in `model`, if it holds one.
+/// Leaves `storage` holding nothing: its marker cleared, so every call sees `FogErrNoModel`.
+fn forget<S: Holds>(storage: &mut S) {
+    storage.words_mut()[S::MARK_AT] = 0;
+}
+
+/// The value in `storage`, if it holds one.
 ///
 /// # Safety
-/// `model` is null or points to a readable, initialized `FogModel` (decoded into, or zeroed).
-unsafe fn decoded<'a>(model: *const FogModel) -> Result<&'a Inner, FogResult> {
-    if model.is_null() {
+/// `storage` is null or points to readable, initialized storage of its type (decoded into, or
+/// zeroed).
+unsafe fn decoded<'a, S: Holds + 'a>(storage: *const S) -> Result<&'a S::Inner, FogResult> {
+    if storage.is_null() {
         return Err(FogResult::FogErrNull);
     }
     // SAFETY: non-null, readable per the caller; shared for the call.
-    let storage = unsafe { &*model };
-    if storage.words[MODEL_WORDS] != DECODED {
+    let storage = unsafe { &*storage };
+    let words = storage.words();
+    if words[S::MARK_AT] != DECODED {
         return Err(FogResult::FogErrNoModel);
     }
-    // SAFETY: the marker is written only after `fog_model_decode` wrote a valid `Inner` at the
-    // start of this storage, and cleared before anything else writes there.
-    Ok(unsafe { &*storage.words.as_ptr().cast::<Inner>() })
+    // SAFETY: the marker is written only after a decode wrote a valid value at the start of
+    // this storage, and cleared before anything else writes there.
+    Ok(unsafe { &*words.as_ptr().cast::<S::Inner>() })
 }
 
 /// Marks a [`FogState`] that `fog_state_reset` initialized: its last word, outside the `State`.
@@ -457,6 +622,15 @@ pub unsafe extern "C" fn fog_compensate(
     }
 }
 
+/// A model's sizes as C reads them.
+fn fog_dims(Dims { m, d, p }: Dims) -> FogDims {
+    FogDims {
+        centres: u32::try_from(m).unwrap_or(u32::MAX),
+        inputs: u32::try_from(d).unwrap_or(u32::MAX),
+        monomials: u32::try_from(p).unwrap_or(u32::MAX),
+    }
+}
+
 /// The decoded model's sizes.
 ///
 /// # Safety
@@ -472,12 +646,7 @@ pub unsafe extern "C" fn fog_model_dims(model: *const FogModel, out: *mut FogDim
         Ok(m) => m,
         Err(e) => return e,
     };
-    let Dims { m, d, p } = model.dims();
-    let dims = FogDims {
-        centres: u32::try_from(m).unwrap_or(u32::MAX),
-        inputs: u32::try_from(d).unwrap_or(u32::MAX),
-        monomials: u32::try_from(p).unwrap_or(u32::MAX),
-    };
+    let dims = fog_dims(model.dims());
     // SAFETY: `out` is non-null and writable per the caller.
     unsafe { out.write(dims) };
     FogResult::FogOk
@@ -514,30 +683,46 @@ pub unsafe extern "C" fn fog_noise_of_mean(
 /// start-up, as `FOG_ABI_CHECK()` does with the caller's `sizeof`s and capacities.
 /// `FogErrAbi` where any differs (a header edited to other capacities, a library not rebuilt):
 /// then nothing else is safe to call.
+// Each size and capacity a parameter of its own: the macro passes them as the caller's header
+// states them, in C and C++ alike (a struct literal would need C99's compound literals).
+#[allow(clippy::too_many_arguments)]
 #[unsafe(no_mangle)]
 pub extern "C" fn fog_abi_check(
     model_bytes: usize,
+    unit_bytes: usize,
     state_bytes: usize,
     prediction_bytes: usize,
     max_centres: u32,
     max_inputs: u32,
     max_monomials: u32,
+    unit_channels: u32,
+    unit_numbers: u32,
 ) -> FogResult {
     let ours = (
-        size_of::<FogModel>(),
-        size_of::<FogState>(),
-        size_of::<FogPrediction>(),
-        FOG_MAX_CENTRES,
-        FOG_MAX_INPUTS,
-        FOG_MAX_MONOMIALS,
+        [
+            size_of::<FogModel>(),
+            size_of::<FogUnit>(),
+            size_of::<FogState>(),
+            size_of::<FogPrediction>(),
+        ],
+        [
+            FOG_MAX_CENTRES,
+            FOG_MAX_INPUTS,
+            FOG_MAX_MONOMIALS,
+            FOG_UNIT_MAX_CHANNELS,
+            FOG_UNIT_NUMBERS,
+        ],
     );
     let theirs = (
-        model_bytes,
-        state_bytes,
-        prediction_bytes,
-        max_centres as usize,
-        max_inputs as usize,
-        max_monomials as usize,
+        [model_bytes, unit_bytes, state_bytes, prediction_bytes],
+        [
+            max_centres,
+            max_inputs,
+            max_monomials,
+            unit_channels,
+            unit_numbers,
+        ]
+        .map(|v| v as usize),
     );
     if ours == theirs {
         FogResult::FogOk
@@ -656,6 +841,91 @@ fn layout(l: &FogLayout) -> Layout {
     }
 }
 
+/// Boots the newest valid slot into `storage` (`fog_slots_boot`, `fog_unit_slots_boot`).
+///
+/// # Safety
+/// As the functions that call it.
+unsafe fn boot_in<S: Holds>(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    (buf, buf_len): (*mut u8, usize),
+    storage: *mut S,
+    out: *mut FogSlot,
+) -> FogResult {
+    if storage.is_null() {
+        return FogResult::FogErrNull;
+    }
+    if flash.is_null() || slots_layout.is_null() || buf.is_null() {
+        // SAFETY: `storage` is non-null and points to storage the caller lets us write.
+        unsafe { forget(&mut *storage) };
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: non-null and valid per the caller; shared or exclusive for this call as used.
+    let (flash, slots_layout, inner) = unsafe { (&*flash, &*slots_layout, emptied(&mut *storage)) };
+    // SAFETY: `buf` is non-null with `buf_len` writable bytes per the caller.
+    let buf = unsafe { core::slice::from_raw_parts_mut(buf, buf_len) };
+    match slots::boot(&CFlash(flash), &layout(slots_layout), buf, inner) {
+        Ok(booted) => {
+            // SAFETY: as in `emptied`: the storage is ours for this call.
+            unsafe { mark(&mut *storage) };
+            // SAFETY: `out` is null or writable per the caller.
+            unsafe { written(out, booted.slot, booted.sequence) };
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
+/// Writes `(slot, sequence)` to `out` unless it is null.
+///
+/// # Safety
+/// `out` is null or points to a writable `FogSlot`.
+unsafe fn written(out: *mut FogSlot, slot: Slot, sequence: u32) {
+    if !out.is_null() {
+        let value = FogSlot {
+            slot: slot_number(slot),
+            sequence,
+        };
+        // SAFETY: `out` is non-null and writable per the caller.
+        unsafe { out.write(value) };
+    }
+}
+
+/// Writes a blob that `T` can hold into the slot not in use (`fog_slots_update`,
+/// `fog_unit_slots_update`).
+///
+/// # Safety
+/// As the functions that call it.
+unsafe fn update_with<T: Calibration>(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    (blob, len): (*mut u8, usize),
+    (buf, buf_len): (*mut u8, usize),
+    out: *mut FogSlot,
+) -> FogResult {
+    if flash.is_null() || slots_layout.is_null() || blob.is_null() || buf.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: non-null and valid per the caller.
+    let (flash, slots_layout) = unsafe { (&*flash, &*slots_layout) };
+    // SAFETY: non-null, `len` and `buf_len` writable bytes per the caller; the two do not
+    // overlap (separate buffers by the contract).
+    let (blob, buf) = unsafe {
+        (
+            core::slice::from_raw_parts_mut(blob, len),
+            core::slice::from_raw_parts_mut(buf, buf_len),
+        )
+    };
+    match slots::update::<_, T>(&mut CFlash(flash), &layout(slots_layout), blob, buf) {
+        Ok((slot, sequence)) => {
+            // SAFETY: `out` is null or writable per the caller.
+            unsafe { written(out, slot, sequence) };
+            FogResult::FogOk
+        }
+        Err(e) => e.into(),
+    }
+}
+
 /// Boots the calibration slot with the newest valid model into `model` (firmware-core's
 /// `slots::boot`): `FogErrNoValidSlot` when neither holds one (`model` then holds no model).
 ///
@@ -673,34 +943,8 @@ pub unsafe extern "C" fn fog_slots_boot(
     model: *mut FogModel,
     out: *mut FogSlot,
 ) -> FogResult {
-    if model.is_null() {
-        return FogResult::FogErrNull;
-    }
-    if flash.is_null() || slots_layout.is_null() || buf.is_null() {
-        // SAFETY: `model` is non-null and points to a FogModel the caller lets us write.
-        unsafe { forget(&mut *model) };
-        return FogResult::FogErrNull;
-    }
-    // SAFETY: non-null and valid per the caller; shared or exclusive for this call as used.
-    let (flash, slots_layout, inner) = unsafe { (&*flash, &*slots_layout, emptied(&mut *model)) };
-    // SAFETY: `buf` is non-null with `buf_len` writable bytes per the caller.
-    let buf = unsafe { core::slice::from_raw_parts_mut(buf, buf_len) };
-    match slots::boot(&CFlash(flash), &layout(slots_layout), buf, inner) {
-        Ok(booted) => {
-            // SAFETY: as in `emptied`: the storage is ours for this call.
-            unsafe { (*model).words[MODEL_WORDS] = DECODED };
-            if !out.is_null() {
-                let slot = FogSlot {
-                    slot: slot_number(booted.slot),
-                    sequence: booted.sequence,
-                };
-                // SAFETY: `out` is non-null and writable per the caller.
-                unsafe { out.write(slot) };
-            }
-            FogResult::FogOk
-        }
-        Err(e) => e.into(),
-    }
+    // SAFETY: forwarded from the caller.
+    unsafe { boot_in(flash, slots_layout, (buf, buf_len), model, out) }
 }
 
 /// Writes the blob of `len` bytes at `blob` into the slot not in use, with the next sequence
@@ -719,38 +963,231 @@ pub unsafe extern "C" fn fog_slots_update(
     buf_len: usize,
     out: *mut FogSlot,
 ) -> FogResult {
-    if flash.is_null() || slots_layout.is_null() || blob.is_null() || buf.is_null() {
+    // SAFETY: forwarded from the caller.
+    unsafe { update_with::<Inner>(flash, slots_layout, (blob, len), (buf, buf_len), out) }
+}
+
+/// Decodes a unit blob of `len` bytes at `blob` into `unit`, or a model blob as a unit of one
+/// channel (named `rate`, angular rate). On any error (a null `blob` included) `unit` is left
+/// holding nothing, whatever it held before.
+///
+/// # Safety
+/// `unit` points to a writable `FogUnit`; `blob` to `len` readable bytes. Either may be null
+/// (`FogErrNull`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_decode(
+    unit: *mut FogUnit,
+    blob: *const u8,
+    len: usize,
+) -> FogResult {
+    // SAFETY: forwarded from the caller.
+    unsafe { decode_in(unit, blob, len) }
+}
+
+/// Copies `text` into a NUL-terminated C string of `N` bytes (it fits: the blob format's caps).
+fn c_string<const N: usize>(text: &str) -> [u8; N] {
+    let mut out = [0u8; N];
+    for (dst, b) in out.iter_mut().zip(text.bytes().take(N.saturating_sub(1))) {
+        *dst = b;
+    }
+    out
+}
+
+/// The decoded unit's channels, its sensor's ID and its trained temperature range.
+///
+/// # Safety
+/// `unit` points to an initialized `FogUnit` (decoded into, or zeroed), `out` to a writable
+/// `FogUnitInfo`; either may be null.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_info(unit: *const FogUnit, out: *mut FogUnitInfo) -> FogResult {
+    if out.is_null() {
         return FogResult::FogErrNull;
     }
-    // SAFETY: non-null and valid per the caller.
-    let (flash, slots_layout) = unsafe { (&*flash, &*slots_layout) };
-    // SAFETY: non-null, `len` and `buf_len` writable bytes per the caller; the two do not
-    // overlap (separate buffers by the contract).
-    let (blob, buf) = unsafe {
-        (
-            core::slice::from_raw_parts_mut(blob, len),
-            core::slice::from_raw_parts_mut(buf, buf_len),
-        )
+    // SAFETY: the caller's contract on `unit`, forwarded.
+    let unit = match unsafe { decoded(unit) } {
+        Ok(u) => u,
+        Err(e) => return e,
     };
-    match slots::update::<_, FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FOG_MODEL_FLOATS>(
-        &mut CFlash(flash),
-        &layout(slots_layout),
-        blob,
-        buf,
+    let [lo, hi] = unit.temperature_range();
+    let info = FogUnitInfo {
+        channels: u32::try_from(unit.channels().len()).unwrap_or(u32::MAX),
+        temp_min_c: lo,
+        temp_max_c: hi,
+        sensor_id: c_string(unit.sensor_id()),
+    };
+    // SAFETY: `out` is non-null and writable per the caller.
+    unsafe { out.write(info) };
+    FogResult::FogOk
+}
+
+/// Channel `index` of the decoded unit: its name, quantity and sizes (`FogErrNoChannel` beyond
+/// the last).
+///
+/// # Safety
+/// As `fog_unit_info`, with `out` pointing to a writable `FogChannelInfo`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_channel(
+    unit: *const FogUnit,
+    index: u32,
+    out: *mut FogChannelInfo,
+) -> FogResult {
+    if out.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `unit`, forwarded.
+    let unit = match unsafe { decoded(unit) } {
+        Ok(u) => u,
+        Err(e) => return e,
+    };
+    let Some(ch) = unit.channels().get(index as usize) else {
+        return FogResult::FogErrNoChannel;
+    };
+    let info = FogChannelInfo {
+        name: c_string(ch.name()),
+        quantity: ch.quantity().into(),
+        dims: fog_dims(ch.dims()),
+    };
+    // SAFETY: `out` is non-null and writable per the caller.
+    unsafe { out.write(info) };
+    FogResult::FogOk
+}
+
+/// Compensates one sample of every channel of the unit (time in s, temperature in °C, and
+/// `n_outputs` outputs, one per channel in the unit's order) through the unit's one state, into
+/// `n_out` predictions (one per channel). What the channels share (the temperature features, the
+/// time since power-on) is computed once; the clock is as `fog_compensate`'s. An output that is
+/// not a number makes its own channel's status `FOG_FAULT`; fewer outputs or predictions than
+/// channels is `FogErrTooFewOutputs` or `FogErrResultsTooShort`, with nothing computed.
+///
+/// # Safety
+/// `unit` points to a `FogUnit` and `state` to a `FogState`, each initialized (decoded or reset,
+/// or zeroed as a C `static` is); `outputs` to `n_outputs` readable floats; `out` to `n_out`
+/// writable `FogPrediction`s. Any pointer may be null (`FogErrNull`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_compensate(
+    unit: *const FogUnit,
+    state: *mut FogState,
+    time_s: f64,
+    temp_c: f32,
+    outputs: *const f32,
+    n_outputs: usize,
+    out: *mut FogPrediction,
+    n_out: usize,
+) -> FogResult {
+    if out.is_null() || outputs.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `unit` and `state`, forwarded.
+    let (unit, channel) = match unsafe { (decoded(unit), self::state(state)) } {
+        (Ok(u), Ok(s)) => (u, s),
+        (Err(e), _) | (_, Err(e)) => return e,
+    };
+    // SAFETY: `outputs` is non-null with `n_outputs` readable floats per the caller.
+    let outputs = unsafe { core::slice::from_raw_parts(outputs, n_outputs) };
+    let mut predictions = [firmware_core::model::Prediction {
+        mean: 0.0,
+        bias_variance: 0.0,
+        noise_variance: 0.0,
+        status: Status::Fault,
+    }; FOG_UNIT_MAX_CHANNELS];
+    let c = unit.channels().len();
+    if n_out < c {
+        return FogResult::FogErrResultsTooShort;
+    }
+    let sample = UnitSample {
+        time_s,
+        temp_c,
+        outputs,
+    };
+    match unit.compensate(
+        &sample,
+        &mut channel.features,
+        &mut channel.scratch,
+        &mut predictions,
     ) {
-        Ok((slot, sequence)) => {
-            if !out.is_null() {
-                let written = FogSlot {
-                    slot: slot_number(slot),
-                    sequence,
+        Ok(n) => {
+            for (k, p) in predictions.iter().take(n).enumerate() {
+                let prediction = FogPrediction {
+                    mean: p.mean,
+                    bias_variance: p.bias_variance,
+                    noise_variance: p.noise_variance,
+                    status: p.status.into(),
                 };
-                // SAFETY: `out` is non-null and writable per the caller.
-                unsafe { out.write(written) };
+                // SAFETY: `out` is non-null with `n_out` ≥ n writable predictions per the caller.
+                unsafe { out.add(k).write(prediction) };
             }
             FogResult::FogOk
         }
         Err(e) => e.into(),
     }
+}
+
+/// The noise variance of a mean over `window_s` seconds of channel `index`'s compensated
+/// samples (as `fog_noise_of_mean` for a model).
+///
+/// # Safety
+/// `unit` points to an initialized `FogUnit` (decoded into, or zeroed), `out` to a writable
+/// `float`; either may be null.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_noise_of_mean(
+    unit: *const FogUnit,
+    index: u32,
+    window_s: f32,
+    out: *mut f32,
+) -> FogResult {
+    if out.is_null() {
+        return FogResult::FogErrNull;
+    }
+    // SAFETY: the caller's contract on `unit`, forwarded.
+    let unit = match unsafe { decoded(unit) } {
+        Ok(u) => u,
+        Err(e) => return e,
+    };
+    match unit.noise_of_mean(index as usize, window_s) {
+        Some(v) => {
+            // SAFETY: `out` is non-null and writable per the caller.
+            unsafe { out.write(v) };
+            FogResult::FogOk
+        }
+        None => FogResult::FogErrNoChannel,
+    }
+}
+
+/// Boots the calibration slot with the newest valid blob (a unit blob, or a model blob as one
+/// channel) into `unit`: as `fog_slots_boot`, for a unit.
+///
+/// # Safety
+/// As `fog_slots_boot`, with `unit` pointing to a writable `FogUnit`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_slots_boot(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    buf: *mut u8,
+    buf_len: usize,
+    unit: *mut FogUnit,
+    out: *mut FogSlot,
+) -> FogResult {
+    // SAFETY: forwarded from the caller.
+    unsafe { boot_in(flash, slots_layout, (buf, buf_len), unit, out) }
+}
+
+/// Writes a unit blob (or a model blob) that a `FogUnit` can hold into the slot not in use: as
+/// `fog_slots_update`, checked against the unit's capacities.
+///
+/// # Safety
+/// As `fog_slots_update`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fog_unit_slots_update(
+    flash: *const FogFlash,
+    slots_layout: *const FogLayout,
+    blob: *mut u8,
+    len: usize,
+    buf: *mut u8,
+    buf_len: usize,
+    out: *mut FogSlot,
+) -> FogResult {
+    // SAFETY: forwarded from the caller.
+    unsafe { update_with::<UnitInner>(flash, slots_layout, (blob, len), (buf, buf_len), out) }
 }
 
 #[cfg(target_os = "none")]

@@ -165,3 +165,101 @@ fn slots_boot_and_update_through_c_function_pointers() {
     assert_eq!(update(&flash).0, FogResult::FogErrFlashDevice);
     assert_eq!(boot(&flash, &mut model), (FogResult::FogOk, second));
 }
+
+#[test]
+fn a_units_slots_boot_and_update_through_c_function_pointers() {
+    // Six channels, each the example's model: 10 KB, three sectors a slot.
+    let entries: Vec<firmware_core::blob::unit::Channel<'_>> =
+        ["gyro.x", "gyro.y", "gyro.z", "acc.x", "acc.y", "acc.z"]
+            .into_iter()
+            .map(|name| firmware_core::blob::unit::Channel {
+                name,
+                quantity: firmware_core::Quantity::AngularRate,
+                model: BLOB,
+            })
+            .collect();
+    let mut unit_blob = vec![0u8; 8 * SECTOR];
+    let n =
+        firmware_core::blob::unit::encode("IMU-7", [0.0, 50.0], &entries, &mut unit_blob).unwrap();
+    unit_blob.truncate(n);
+    let layout = FogLayout {
+        a: 0,
+        b: 3 * SECTOR as u32,
+        len: 3 * SECTOR as u32,
+    };
+    let mut device = Device {
+        cells: vec![0xFF; 6 * SECTOR],
+        fail_programs: false,
+    };
+    // SAFETY: FogUnit is an array of u64, for which zero bytes are valid.
+    let mut unit: Box<FogUnit> = unsafe { Box::new(std::mem::MaybeUninit::zeroed().assume_init()) };
+    let mut buf = vec![0u8; 3 * SECTOR];
+    let mut slot = FogSlot {
+        slot: 9,
+        sequence: 0,
+    };
+    let flash = driver(&mut device);
+    // SAFETY: every pointer is to live storage of the right type and size.
+    unsafe {
+        let mut blob = unit_blob.clone();
+        let update = |blob: &mut Vec<u8>, buf: &mut Vec<u8>, slot: &mut FogSlot| {
+            fog_unit_slots_update(
+                &flash,
+                &layout,
+                blob.as_mut_ptr(),
+                blob.len(),
+                buf.as_mut_ptr(),
+                buf.len(),
+                slot,
+            )
+        };
+        assert_eq!(update(&mut blob, &mut buf, &mut slot), FogResult::FogOk);
+        assert_eq!((slot.slot, slot.sequence), (0, 1));
+        // The unit's storage boots a model blob too, as one channel: the second update.
+        let mut model_blob = BLOB.to_vec();
+        assert_eq!(
+            update(&mut model_blob, &mut buf, &mut slot),
+            FogResult::FogOk
+        );
+        assert_eq!((slot.slot, slot.sequence), (1, 2));
+        let boot = |unit: &mut FogUnit, buf: &mut Vec<u8>, slot: &mut FogSlot| {
+            fog_unit_slots_boot(&flash, &layout, buf.as_mut_ptr(), buf.len(), unit, slot)
+        };
+        let mut info = FogUnitInfo {
+            channels: 0,
+            temp_min_c: 0.0,
+            temp_max_c: 0.0,
+            sensor_id: [0; FOG_SENSOR_ID_CHARS],
+        };
+        assert_eq!(boot(&mut unit, &mut buf, &mut slot), FogResult::FogOk);
+        assert_eq!(slot.sequence, 2);
+        assert_eq!(fog_unit_info(&*unit, &mut info), FogResult::FogOk);
+        assert_eq!(info.channels, 1);
+        let mut blob = unit_blob.clone();
+        assert_eq!(update(&mut blob, &mut buf, &mut slot), FogResult::FogOk);
+        assert_eq!(boot(&mut unit, &mut buf, &mut slot), FogResult::FogOk);
+        assert_eq!((slot.slot, slot.sequence), (0, 3));
+        assert_eq!(fog_unit_info(&*unit, &mut info), FogResult::FogOk);
+        assert_eq!((info.channels, &info.sensor_id[..6]), (6, &b"IMU-7\0"[..]));
+        // A model's storage does not take a unit blob: refused before anything is erased.
+        let before = device_cells(&flash);
+        let mut blob = unit_blob.clone();
+        let r = fog_slots_update(
+            &flash,
+            &layout,
+            blob.as_mut_ptr(),
+            blob.len(),
+            buf.as_mut_ptr(),
+            buf.len(),
+            &mut slot,
+        );
+        assert_eq!(r, FogResult::FogErrBadMagic);
+        assert_eq!(device_cells(&flash), before);
+    }
+}
+
+/// The cells behind a driver.
+fn device_cells(flash: &FogFlash) -> Vec<u8> {
+    // SAFETY: the tests' drivers carry a live Device as their context.
+    unsafe { device(flash.context) }.cells.clone()
+}

@@ -1,7 +1,7 @@
 use super::*;
 use crate::error::Storage;
 use crate::model::Model;
-use crate::testing::Reference;
+use crate::testing::{Reference, as_v4};
 
 type Small = Model<2, 6, 64>;
 
@@ -100,14 +100,6 @@ fn every_defect_has_its_error() {
         Small::decode(&bad_diag).unwrap_err(),
         BlobError::InvalidParameter
     );
-}
-
-/// The same model as a version-4 blob: the payload without its error model.
-fn as_v4(blob: &[u8]) -> Vec<u8> {
-    let mut v4 = blob[..blob.len() - 4 * ErrorModel::NUMBERS].to_vec();
-    v4[4..6].copy_from_slice(&V4.to_le_bytes());
-    reseal(&mut v4);
-    v4
 }
 
 #[test]

@@ -1,19 +1,22 @@
 //! firmware-core on a Cortex-M4F, run under QEMU (`mps2-an386`) by `firmware-sim qemu`.
 //!
-//! The host puts three files in QEMU's working directory and the image reaches them over
-//! semihosting: `model.bin` (the blob), `samples.bin` (one `firmware_core::record` sample record
-//! each: time, temperature, output and a power-on flag, where a gyro's firmware would boot with a
-//! fresh feature state). The image decodes the model into fixed capacities, runs every sample
-//! through the feature pipeline and the evaluator, and writes `out.bin` (one result record each:
-//! mean, variance, status). Then it measures its own cost: SysTick ticks over
-//! the first samples for an empty loop, the mean path and the mean + variance path; ticks for
-//! [`EXP_CALLS`] calls of `libm::expf` (the one transcendental per centre) less their empty loop;
-//! and ticks for a calibration loop of known length (`cortex_m::asm::delay(n)` executes exactly
-//! `2(n + 1)` instructions: `subs` and `bne` per pass). All go to `cost.bin` as eight u32: samples,
-//! empty, mean, mean + variance, expf calls, expf ticks, calibration instructions, calibration
-//! ticks. Under `-icount shift=0` QEMU advances its clock by 1 ns per instruction and SysTick counts
-//! the 25 MHz system clock, so one tick should be 40 instructions; the calibration loop measures it
-//! rather than trusting that, and the host converts with the measured ratio.
+//! The host puts two files in QEMU's working directory and the image reaches them over
+//! semihosting: `model.bin` (a unit blob, or a model blob as a unit of one channel) and
+//! `samples.bin` (one `firmware_core::record` unit sample record each: time, temperature, every
+//! channel's output and a power-on flag, where a gyro's firmware would boot with its feature
+//! state kept). The image decodes the blob into fixed capacities (up to 6 channels), runs every
+//! sample through the unit (the shared features once, then every channel's mean and variance),
+//! and writes `out.bin` (one result record per channel per sample: mean, variance, status). Then
+//! it measures its own cost per sample, all channels together and the features included: SysTick
+//! ticks over the first samples for an empty loop, the mean path and the mean + variance path;
+//! ticks for [`EXP_CALLS`] calls of `libm::expf` (the one transcendental per centre) less their
+//! empty loop; and ticks for a calibration loop of known length (`cortex_m::asm::delay(n)`
+//! executes exactly `2(n + 1)` instructions: `subs` and `bne` per pass). All go to `cost.bin` as
+//! eight u32: samples, empty, mean, mean + variance, expf calls, expf ticks, calibration
+//! instructions, calibration ticks. Under `-icount shift=0` QEMU advances its clock by 1 ns per
+//! instruction and SysTick counts the 25 MHz system clock, so one tick should be 40 instructions;
+//! the calibration loop measures it rather than trusting that, and the host converts with the
+//! measured ratio.
 //!
 //! With the `embedded-model` feature the blob is compiled in instead (`FOG_M4_MODEL=path/model.bin`
 //! at build time), which is how docs/firmware.md measures flash and RAM with a model.
@@ -26,19 +29,22 @@ use core::hint::black_box;
 
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use cortex_m_rt::entry;
-use firmware_core::record::{self, RESULT_BYTES, SAMPLE_BYTES};
-use firmware_core::{FeatureState, Model, Sample, Status, features};
+use firmware_core::record::{self, RESULT_BYTES};
+use firmware_core::{FeatureState, Prediction, StaticUnit, Status, UnitSample};
 use semihosting::io::{Read, Write};
 use semihosting::{c, eprintln, fs, process};
 
-/// Capacities: up to 4 inputs, 16 prior monomials and the trainer's export limit of centres.
+/// Capacities: up to 6 channels of up to 4 inputs, 16 prior monomials and the trainer's export
+/// limit of centres each.
+const C: usize = 6;
 const D: usize = 4;
 const E: usize = 16 * D;
 const M: usize = firmware_core::MAX_CENTRES;
-const N: usize = 7 * D + 16 + 2 + M * D + M + M * (M + 1) / 2;
-/// Largest blob the image reads: header, postcard lengths, and 5 bytes per number at most.
+const N: usize = C * (7 * D + 16 + 2 + M * D + M + M * (M + 1) / 2);
+/// Largest blob the image reads: headers, names and postcard lengths, and 5 bytes per number at
+/// most.
 #[cfg(not(feature = "embedded-model"))]
-const BLOB_MAX: usize = 64 + E + D + 5 * N;
+const BLOB_MAX: usize = 128 + C * (64 + E + D) + 5 * N;
 /// Samples whose cost is measured.
 const COST_SAMPLES: usize = 64;
 /// `expf` calls timed.
@@ -46,9 +52,19 @@ const EXP_CALLS: usize = 256;
 /// Passes of the calibration loop (2 instructions each).
 const CALIBRATION_PASSES: u32 = 100_000;
 /// Samples read and written per semihosting call.
-const CHUNK: usize = 256;
+const CHUNK: usize = 128;
+/// Bytes of the largest sample record.
+const SAMPLE_MAX: usize = record::unit_sample_bytes(C);
 
-type M4Model = Model<D, E, N>;
+type M4Unit = StaticUnit<C, D, E, N>;
+
+/// A sample kept for the cost measurement: time, temperature, outputs.
+#[derive(Clone, Copy)]
+struct Kept {
+    time_s: f64,
+    temp_c: f32,
+    outputs: [f32; C],
+}
 
 fn fail(what: &str) -> ! {
     eprintln!("fog-m4: {what}");
@@ -76,31 +92,31 @@ fn ticks(syst: &mut SYST, work: impl FnOnce()) -> u32 {
     start.wrapping_sub(end) & 0x00FF_FFFF
 }
 
-/// Decodes the model read from `model.bin` over semihosting into `model`, through `blob`.
+/// Decodes the blob read from `model.bin` over semihosting into `unit`, through `blob`.
 #[cfg(not(feature = "embedded-model"))]
-fn load_model(model: &mut M4Model, blob: &mut [u8; BLOB_MAX]) {
+fn load_model(unit: &mut M4Unit, blob: &mut [u8; BLOB_MAX]) {
     let mut model_file = fs::File::open(c!("model.bin")).unwrap_or_else(|_| fail("no model.bin"));
     let len = read_full(&mut model_file, blob);
-    if model.decode_into(&blob[..len]).is_err() {
+    if unit.decode_into(&blob[..len]).is_err() {
         fail("blob refused")
     }
 }
 
-/// Decodes the model flashed with the image, as an integrator would ship it: the blob named by
+/// Decodes the blob flashed with the image, as an integrator would ship it: the one named by
 /// `FOG_M4_MODEL` at build time.
 #[cfg(feature = "embedded-model")]
-fn load_model(model: &mut M4Model) {
+fn load_model(unit: &mut M4Unit) {
     static BLOB: &[u8] = include_bytes!(env!("FOG_M4_MODEL"));
-    if model.decode_into(BLOB).is_err() {
+    if unit.decode_into(BLOB).is_err() {
         fail("blob refused")
     }
 }
 
 #[entry]
 fn main() -> ! {
-    // Static storage, decoded into in place: the stack never holds the model (cortex-m-rt hands
+    // Static storage, decoded into in place: the stack never holds the unit (cortex-m-rt hands
     // `static mut` items of the entry function over as `&'static mut`).
-    static mut MODEL: M4Model = M4Model::new();
+    static mut UNIT: M4Unit = M4Unit::new();
     #[cfg(not(feature = "embedded-model"))]
     static mut BLOB: [u8; BLOB_MAX] = [0; BLOB_MAX];
     let Some(peripherals) = cortex_m::Peripherals::take() else {
@@ -112,76 +128,127 @@ fn main() -> ! {
     syst.enable_counter();
 
     #[cfg(not(feature = "embedded-model"))]
-    load_model(MODEL, BLOB);
+    load_model(UNIT, BLOB);
     #[cfg(feature = "embedded-model")]
-    load_model(MODEL);
-    let model: &M4Model = MODEL;
-    let m = model.dims().m;
-    let mut scratch = [0.0f32; 256];
+    load_model(UNIT);
+    let unit: &M4Unit = UNIT;
+    let c = unit.channels().len();
+    let sample_bytes = record::unit_sample_bytes(c);
+    let mut scratch = [0.0f32; M];
+    let Some(scratch) = scratch.get_mut(..unit.scratch_len()) else {
+        fail("a channel has more centres than the image's scratch")
+    };
 
     let mut input = fs::File::open(c!("samples.bin")).unwrap_or_else(|_| fail("no samples.bin"));
     let mut output = fs::File::create(c!("out.bin")).unwrap_or_else(|_| fail("cannot write"));
     let mut state = FeatureState::default();
-    let mut inbuf = [0u8; CHUNK * SAMPLE_BYTES];
-    let mut outbuf = [0u8; CHUNK * RESULT_BYTES];
-    let mut first = [Sample {
+    let mut inbuf = [0u8; CHUNK * SAMPLE_MAX];
+    let mut outbuf = [0u8; CHUNK * C * RESULT_BYTES];
+    let none = Prediction {
+        mean: 0.0,
+        bias_variance: f32::INFINITY,
+        noise_variance: 0.0,
+        status: Status::Fault,
+    };
+    let mut predictions = [none; C];
+    let mut first = [Kept {
         time_s: 0.0,
         temp_c: 0.0,
-        output: 0.0,
+        outputs: [0.0; C],
     }; COST_SAMPLES];
     let mut seen = 0usize;
     loop {
-        let got = read_full(&mut input, &mut inbuf) / SAMPLE_BYTES;
+        let got = read_full(&mut input, &mut inbuf[..CHUNK * sample_bytes]) / sample_bytes;
         if got == 0 {
             break;
         }
-        let records = inbuf[..got * SAMPLE_BYTES].chunks_exact(SAMPLE_BYTES);
-        let results = outbuf.chunks_exact_mut(RESULT_BYTES);
-        for (i, (record, result)) in records.zip(results).enumerate() {
-            let Ok(record) = record.try_into() else {
+        let records = inbuf[..got * sample_bytes].chunks_exact(sample_bytes);
+        let results = outbuf.chunks_exact_mut(c * RESULT_BYTES);
+        for (i, (rec, result)) in records.zip(results).enumerate() {
+            let mut outputs = [0.0f32; C];
+            let Some((time_s, temp_c, power_on)) =
+                record::decode_unit_sample(rec, &mut outputs[..c])
+            else {
                 fail("short sample record");
             };
-            let (sample, power_on) = record::decode_sample(record);
             if power_on {
                 state.power_on();
             }
             if let Some(slot) = first.get_mut(seen + i) {
-                *slot = sample;
+                *slot = Kept {
+                    time_s,
+                    temp_c,
+                    outputs,
+                };
             }
-            let (mean, var, status) = match model.compensate(&sample, &mut state, &mut scratch[..m])
-            {
-                Ok(p) => (p.mean, p.bias_variance, p.status),
-                Err(_) => (0.0, f32::INFINITY, Status::Fault),
+            let sample = UnitSample {
+                time_s,
+                temp_c,
+                outputs: &outputs[..c],
             };
-            result.copy_from_slice(&record::encode_result(mean, var, status));
+            if unit
+                .compensate(&sample, &mut state, scratch, &mut predictions)
+                .is_err()
+            {
+                predictions = [none; C];
+            }
+            for (p, r) in predictions
+                .iter()
+                .zip(result.chunks_exact_mut(RESULT_BYTES))
+            {
+                r.copy_from_slice(&record::encode_result(p.mean, p.bias_variance, p.status));
+            }
         }
-        if output.write_all(&outbuf[..got * RESULT_BYTES]).is_err() {
+        if output.write_all(&outbuf[..got * c * RESULT_BYTES]).is_err() {
             fail("write error");
         }
         seen += got;
     }
 
-    // Cost of the evaluator alone: the inputs are computed beforehand.
+    // Cost per sample, every channel and the shared features: the first samples again, through
+    // a fresh state.
     let k = seen.min(COST_SAMPLES);
-    let d = model.dims().d;
-    let mut xs = [[0.0f32; D]; COST_SAMPLES];
-    for (x, s) in xs.iter_mut().zip(&first[..k]) {
-        // Only the evaluator is timed: these samples' statuses were reported by the replay above.
-        let _ = features::compute(model.features(), s, &mut FeatureState::default(), x);
-    }
+    let samples = &first[..k];
     let empty = ticks(&mut syst, || {
-        for x in &xs[..k] {
-            black_box(black_box(x).get(..d));
+        for s in samples {
+            black_box(black_box(s).outputs.get(..c));
         }
     });
+    let mut means = [(
+        firmware_core::Mean {
+            mean: 0.0,
+            status: Status::Fault,
+        },
+        0.0f32,
+    ); C];
+    let mut cost_state = FeatureState::default();
     let mean = ticks(&mut syst, || {
-        for x in &xs[..k] {
-            black_box(model.predict_mean(&black_box(x)[..d]));
+        for s in samples {
+            let s = black_box(s);
+            let sample = UnitSample {
+                time_s: s.time_s,
+                temp_c: s.temp_c,
+                outputs: &s.outputs[..c],
+            };
+            black_box(
+                unit.compensate_mean(&sample, &mut cost_state, &mut means)
+                    .ok(),
+            );
         }
     });
+    let mut cost_state = FeatureState::default();
     let full = ticks(&mut syst, || {
-        for x in &xs[..k] {
-            black_box(model.predict(&black_box(x)[..d], &mut scratch[..m]).ok());
+        for s in samples {
+            let s = black_box(s);
+            let sample = UnitSample {
+                time_s: s.time_s,
+                temp_c: s.temp_c,
+                outputs: &s.outputs[..c],
+            };
+            black_box(
+                unit.compensate(&sample, &mut cost_state, scratch, &mut predictions)
+                    .ok(),
+            );
         }
     });
     // Arguments as the kernel sees them: −r²/2 over the range the centres produce.

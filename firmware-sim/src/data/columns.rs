@@ -162,39 +162,76 @@ pub struct ColumnMap {
     pub source: Source,
 }
 
+impl FromStr for Source {
+    type Err = BadMap;
+
+    /// A column, `COLUMN*FACTOR` or a number.
+    fn from_str(source: &str) -> Result<Self, BadMap> {
+        let bad = || BadMap(source.to_owned());
+        let source = source.trim();
+        if source.is_empty() {
+            return Err(bad());
+        }
+        if let Ok(v) = source.parse::<f64>() {
+            return if v.is_finite() {
+                Ok(Source::Constant(v))
+            } else {
+                Err(bad())
+            };
+        }
+        if let Some((col, factor)) = source.rsplit_once('*') {
+            let factor: f64 = factor.trim().parse().map_err(|_| bad())?;
+            if !factor.is_finite() || col.trim().is_empty() {
+                return Err(bad());
+            }
+            return Ok(Source::Column {
+                name: col.trim().to_owned(),
+                factor,
+            });
+        }
+        Ok(Source::Column {
+            name: source.to_owned(),
+            factor: 1.0,
+        })
+    }
+}
+
+impl Source {
+    /// The same source scaled by `k`: a column's factor times `k`, a constant times `k`.
+    pub fn scaled(&self, k: f64) -> Self {
+        match self {
+            Self::Column { name, factor } => Self::Column {
+                name: name.clone(),
+                factor: factor * k,
+            },
+            Self::Constant(v) => Self::Constant(v * k),
+        }
+    }
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Column { name, factor } if *factor == 1.0 => write!(f, "column {name}"),
+            Self::Column { name, factor } => write!(f, "column {name} × {factor}"),
+            Self::Constant(v) => write!(f, "the constant {v}"),
+        }
+    }
+}
+
 impl FromStr for ColumnMap {
     type Err = BadMap;
 
     fn from_str(s: &str) -> Result<Self, BadMap> {
         let bad = || BadMap(s.to_owned());
         let (name, source) = s.split_once('=').ok_or_else(bad)?;
-        let (name, source) = (name.trim(), source.trim());
-        if name.is_empty() || source.is_empty() {
+        let name = name.trim();
+        if name.is_empty() {
             return Err(bad());
         }
-        let source = if let Ok(v) = source.parse::<f64>() {
-            if !v.is_finite() {
-                return Err(bad());
-            }
-            Source::Constant(v)
-        } else if let Some((col, factor)) = source.rsplit_once('*') {
-            let factor: f64 = factor.trim().parse().map_err(|_| bad())?;
-            if !factor.is_finite() || col.trim().is_empty() {
-                return Err(bad());
-            }
-            Source::Column {
-                name: col.trim().to_owned(),
-                factor,
-            }
-        } else {
-            Source::Column {
-                name: source.to_owned(),
-                factor: 1.0,
-            }
-        };
         Ok(Self {
             name: name.to_owned(),
-            source,
+            source: source.parse().map_err(|_| bad())?,
         })
     }
 }

@@ -1,11 +1,13 @@
-//! A log as every command reads it, in both programs: the `--map` and `--exclude` flags, and the
-//! loader that applies them with a `--window` and says in one line what it left out.
+//! A log as every command reads it, in both programs: the `--map`, `--exclude` and `--channels`
+//! flags, and the loader that applies them with a `--window` and says in one line what it left
+//! out (once for a unit's channels).
 
 use std::path::PathBuf;
 
 use clap::Args;
 
 use crate::console::Console;
+use crate::data::channels::Channels;
 use crate::data::columns::ColumnMap;
 use crate::data::stream::Window;
 
@@ -41,6 +43,25 @@ pub struct LogArgs {
     /// Use only this part of the stream: START:END, s from its first sample (either end open).
     #[arg(long)]
     pub window: Option<Window>,
+    /// The unit's channels, where the log holds several.
+    #[command(flatten)]
+    pub unit: UnitArgs,
+}
+
+/// The `--channels` flag of every command that can read a whole sensor unit.
+#[derive(Args, Clone, Default)]
+pub struct UnitArgs {
+    /// A sensor unit's channels file (TOML: each channel's output column, unit and reference; the
+    /// shared time and temperature): every channel at once, each with its own model.
+    #[arg(long, value_name = "FILE")]
+    pub channels: Option<PathBuf>,
+}
+
+impl UnitArgs {
+    /// The channels file, read, where one was given.
+    pub fn load(&self) -> anyhow::Result<Option<Channels>> {
+        Ok(self.channels.as_deref().map(Channels::load).transpose()?)
+    }
 }
 
 impl LogArgs {
@@ -48,6 +69,21 @@ impl LogArgs {
     pub fn load(&self, console: &Console) -> anyhow::Result<crate::data::stream::Stream> {
         load_log(
             &self.stream,
+            &self.maps.list,
+            (self.window, &self.exclude.list),
+            console,
+        )
+    }
+
+    /// The log of the unit `channels` names, one stream per channel ([`load_unit_log`]).
+    pub fn load_unit(
+        &self,
+        channels: &Channels,
+        console: &Console,
+    ) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+        load_unit_log(
+            &self.stream,
+            channels,
             &self.maps.list,
             (self.window, &self.exclude.list),
             console,
@@ -64,21 +100,59 @@ pub fn load_log(
     (window, exclude): (Option<Window>, &[Window]),
     console: &Console,
 ) -> anyhow::Result<crate::data::stream::Stream> {
-    let mut s = crate::data::stream::Stream::load(path, maps)?;
-    s.exclude(exclude)?;
-    let s = match window {
-        Some(w) => {
-            let part = s.window(w);
-            anyhow::ensure!(
-                part.len() >= 2,
-                "{}: the window {w} s holds {} samples",
-                path.display(),
-                part.len()
-            );
-            part
-        }
-        None => s,
-    };
+    let s = crate::data::stream::Stream::load(path, maps)?;
+    let [s] = <[_; 1]>::try_from(cut(path, vec![s], (window, exclude))?)
+        .map_err(|_| anyhow::anyhow!("{}: one stream expected", path.display()))?;
+    say(path, &s, console);
+    Ok(s)
+}
+
+/// Loads a unit's log as the commands read it ([`Channels::load_log`]: one stream per channel,
+/// the time and handling checked once), cut as [`load_log`] cuts one, and said once.
+pub fn load_unit_log(
+    path: &std::path::Path,
+    channels: &Channels,
+    maps: &[ColumnMap],
+    (window, exclude): (Option<Window>, &[Window]),
+    console: &Console,
+) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+    let streams = cut(path, channels.load_log(path, maps)?, (window, exclude))?;
+    if let Some(first) = streams.first() {
+        say(path, first, console);
+    }
+    Ok(streams)
+}
+
+/// The streams (one log's channels, sharing its time) with `exclude` left out and the part inside
+/// `window` kept.
+fn cut(
+    path: &std::path::Path,
+    streams: Vec<crate::data::stream::Stream>,
+    (window, exclude): (Option<Window>, &[Window]),
+) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+    streams
+        .into_iter()
+        .map(|mut s| {
+            s.exclude(exclude)?;
+            Ok(match window {
+                Some(w) => {
+                    let part = s.window(w);
+                    anyhow::ensure!(
+                        part.len() >= 2,
+                        "{}: the window {w} s holds {} samples",
+                        path.display(),
+                        part.len()
+                    );
+                    part
+                }
+                None => s,
+            })
+        })
+        .collect()
+}
+
+/// Says what the loader found in a log: its time problems and the windows left out.
+fn say(path: &std::path::Path, s: &crate::data::stream::Stream, console: &Console) {
     if s.time_issues.len() <= 3 {
         for issue in &s.time_issues {
             console.warn(&format!("{} {issue}", path.display()));
@@ -100,5 +174,4 @@ pub fn load_log(
     for h in &s.handled {
         console.detail(&format!("{} {h}", path.display()));
     }
-    Ok(s)
 }

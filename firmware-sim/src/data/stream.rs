@@ -199,19 +199,14 @@ pub fn left_out_summary(handled: &[Handled]) -> Option<String> {
     ))
 }
 
-/// The handled windows of a static log (every reference the same: the unit at rest), and
-/// their references removed; other streams are left alone.
-fn screen_handling(
-    time_s: &[f64],
-    output: &[f64],
-    rate_dps: &mut [f64],
-    lines: &[u64],
-) -> Vec<Handled> {
+/// The 60 s blocks of a static log (every reference the same: the unit at rest) whose output
+/// scatters beyond [`HANDLED_SCATTER`] times the log's typical scatter, with that ratio; none for
+/// other streams.
+fn scattered_blocks(time_s: &[f64], output: &[f64], rate_dps: &[f64]) -> Vec<(Vec<usize>, f64)> {
     let refs: Vec<f64> = rate_dps.iter().copied().filter(|r| r.is_finite()).collect();
     if refs.is_empty() || refs.iter().any(|r| *r != refs[0]) {
         return Vec::new();
     }
-    let t0 = time_s.first().copied().unwrap_or(0.0);
     let scored: Vec<usize> = (0..time_s.len())
         .filter(|&i| rate_dps[i].is_finite())
         .collect();
@@ -236,23 +231,102 @@ fn screen_handling(
     if typical <= 0.0 {
         return Vec::new();
     }
-    let mut out = Vec::new();
-    for (b, s) in spread
+    spread
         .into_iter()
         .filter(|(_, s)| *s > HANDLED_SCATTER * typical)
-    {
-        for &i in &b {
-            rate_dps[i] = f64::NAN;
-        }
-        out.push(Handled {
-            line: lines[b[0]],
-            span_s: [time_s[b[0]] - t0, time_s[b[b.len() - 1]] - t0],
-            n: b.len(),
-            scatter_ratio: s / typical,
-            asked: false,
-        });
-    }
+        .map(|(b, s)| (b, s / typical))
+        .collect()
+}
+
+/// The handled windows of `blocks` (rows and scatter ratio), in time order, with their references
+/// removed from every one of `rates` (a unit's channels are handled together).
+fn mark_handled(
+    blocks: Vec<(Vec<usize>, f64)>,
+    time_s: &[f64],
+    lines: &[u64],
+    rates: &mut [&mut Vec<f64>],
+) -> Vec<Handled> {
+    let t0 = time_s.first().copied().unwrap_or(0.0);
+    let mut out: Vec<Handled> = blocks
+        .into_iter()
+        .map(|(b, ratio)| {
+            for rate in rates.iter_mut() {
+                for &i in &b {
+                    rate[i] = f64::NAN;
+                }
+            }
+            Handled {
+                line: lines[b[0]],
+                span_s: [time_s[b[0]] - t0, time_s[b[b.len() - 1]] - t0],
+                n: b.len(),
+                scatter_ratio: ratio,
+                asked: false,
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| a.span_s[0].total_cmp(&b.span_s[0]));
     out
+}
+
+/// The handled windows of a static log (every reference the same: the unit at rest), and
+/// their references removed; other streams are left alone.
+fn screen_handling(
+    time_s: &[f64],
+    output: &[f64],
+    rate_dps: &mut Vec<f64>,
+    lines: &[u64],
+) -> Vec<Handled> {
+    let blocks = scattered_blocks(time_s, output, rate_dps);
+    mark_handled(blocks, time_s, lines, &mut [rate_dps])
+}
+
+/// The handled windows of a unit's log, screened on every channel (a minute where any channel
+/// scatters is one where the unit was handled, with the largest ratio of them), removed from every
+/// channel's references.
+pub(crate) fn screen_unit_handling(
+    time_s: &[f64],
+    channels: &mut [(Vec<f64>, Vec<f64>)],
+    lines: &[u64],
+) -> Vec<Handled> {
+    let mut blocks: Vec<(Vec<usize>, f64)> = Vec::new();
+    for (output, rate) in channels.iter() {
+        for (b, ratio) in scattered_blocks(time_s, output, rate) {
+            match blocks.iter_mut().find(|(seen, _)| seen[0] == b[0]) {
+                Some((seen, r)) => {
+                    if b.len() > seen.len() {
+                        *seen = b;
+                    }
+                    *r = r.max(ratio);
+                }
+                None => blocks.push((b, ratio)),
+            }
+        }
+    }
+    let mut rates: Vec<&mut Vec<f64>> = channels.iter_mut().map(|(_, r)| r).collect();
+    mark_handled(blocks, time_s, lines, &mut rates)
+}
+
+/// The typical step of `time_s` and its problems (steps back, repeated stamps, gaps), one per row
+/// where they show.
+pub(crate) fn time_checks(time_s: &[f64], lines: &[u64]) -> (f64, Vec<TimeIssue>) {
+    let typical = typical_step(time_s);
+    let issues = time_s
+        .windows(2)
+        .zip(&lines[1..])
+        .filter_map(|(w, &line)| {
+            let step_s = w[1] - w[0];
+            if step_s < 0.0 {
+                Some(TimeIssue::Backwards { line, step_s })
+            } else if step_s == 0.0 {
+                Some(TimeIssue::Duplicate { line })
+            } else if step_s > GAP_FACTOR * typical {
+                Some(TimeIssue::Gap { line, step_s })
+            } else {
+                None
+            }
+        })
+        .collect();
+    (typical, issues)
 }
 
 /// The typical (median) forward step of `time_s`, s; 1 s where it has none.
@@ -277,23 +351,7 @@ impl Stream {
             maps,
         )?;
         let time_s = c.get("time_s").to_vec();
-        let typical = typical_step(&time_s);
-        let time_issues = time_s
-            .windows(2)
-            .zip(&c.lines[1..])
-            .filter_map(|(w, &line)| {
-                let step_s = w[1] - w[0];
-                if step_s < 0.0 {
-                    Some(TimeIssue::Backwards { line, step_s })
-                } else if step_s == 0.0 {
-                    Some(TimeIssue::Duplicate { line })
-                } else if step_s > GAP_FACTOR * typical {
-                    Some(TimeIssue::Gap { line, step_s })
-                } else {
-                    None
-                }
-            })
-            .collect();
+        let (typical, time_issues) = time_checks(&time_s, &c.lines);
         let voltage_v = c.get("voltage_v").to_vec();
         let mut rate_dps = c.get("rate_dps").to_vec();
         let handled = screen_handling(&time_s, &voltage_v, &mut rate_dps, &c.lines);

@@ -26,16 +26,16 @@ fn a_c_program_replays_a_stream_bit_for_bit_like_the_host_on_the_host_and_the_m4
     let blob = include_bytes!("../../../firmware-core/doc/gyro.bin");
     let host = replay::replay(&replay::decode(blob).unwrap(), &stream);
     let exe = c_replay::build().unwrap();
-    let c = c_replay::run(&exe, blob, &stream).unwrap();
-    let agreement = qemu::compare(&host, &c);
+    let c = c_replay::run(&exe, blob, &[&stream]).unwrap();
+    let agreement = qemu::compare(&host, &c[0]);
     assert_eq!(agreement.identical, stream.len(), "{agreement:?}");
     assert!(agreement.statuses_equal);
     assert!(replay::restarts(&stream).iter().filter(|&&r| r).count() >= 3);
 
     // The same C source on the Cortex-M4F, under QEMU.
     let elf = c_replay::build_m4().unwrap();
-    let m4 = c_replay::run_m4(&elf, blob, &stream).unwrap();
-    let agreement = qemu::compare(&host, &m4.compensated);
+    let m4 = c_replay::run_m4(&elf, blob, &[&stream]).unwrap();
+    let agreement = qemu::compare(&host, &m4.compensated[0]);
     assert_eq!(agreement.identical, stream.len(), "M4: {agreement:?}");
     assert!(agreement.statuses_equal);
     eprintln!("C replay on the M4: {} bytes of stack", m4.stack_bytes);
@@ -46,7 +46,9 @@ fn a_c_program_replays_a_stream_bit_for_bit_like_the_host_on_the_host_and_the_m4
     // A corrupted blob is refused by the C program with the code of the Rust error.
     let mut bad = blob.to_vec();
     bad[200] ^= 4;
-    let err = c_replay::run(&exe, &bad, &stream).unwrap_err().to_string();
+    let err = c_replay::run(&exe, &bad, &[&stream])
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("model refused (FogResult 6)"), "{err}");
 }
 

@@ -26,8 +26,8 @@ fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
 
     let host = replay::replay(&firmware, &data);
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
-    let m4 = qemu::run(&image, &blob, &data).unwrap();
-    let agreement = qemu::compare(&host, &m4.compensated);
+    let m4 = qemu::run(&image, &blob, &[&data]).unwrap();
+    let agreement = qemu::compare(&host, &m4.compensated[0]);
     assert!(agreement.max_abs_mean_diff <= 1e-6, "{agreement:?}");
     assert_eq!(agreement.identical, data.len(), "{agreement:?}");
     assert!(agreement.statuses_equal);
@@ -127,13 +127,13 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         firmware_sim::data::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
     let host = replay::replay(&firmware, &data);
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
-    let m4 = qemu::run(&image, &blob, &data).unwrap();
-    let agreement = qemu::compare(&host, &m4.compensated);
+    let m4 = qemu::run(&image, &blob, &[&data]).unwrap();
+    let agreement = qemu::compare(&host, &m4.compensated[0]);
     assert_eq!(agreement.identical, data.len(), "{agreement:?}");
     assert!(agreement.statuses_equal);
     // The C program too: its thermal state goes through the stream's power cycles as the host's.
-    let c = c_replay::run(&c_replay::build().unwrap(), &blob, &data).unwrap();
-    let agreement = qemu::compare(&host, &c);
+    let c = c_replay::run(&c_replay::build().unwrap(), &blob, &[&data]).unwrap();
+    let agreement = qemu::compare(&host, &c[0]);
     assert_eq!(agreement.identical, data.len(), "C: {agreement:?}");
     assert!(agreement.statuses_equal);
 }

@@ -92,8 +92,8 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
         let blob = std::fs::read(dir.path().join(name)).unwrap();
         let fw = firmware_sim::replay::decode(&blob).unwrap();
         let host = replay::replay(&fw, &held_out);
-        let m4 = qemu::run(&image, &blob, &held_out).unwrap();
-        let agreement = qemu::compare(&host, &m4.compensated);
+        let m4 = qemu::run(&image, &blob, &[&held_out]).unwrap();
+        let agreement = qemu::compare(&host, &m4.compensated[0]);
         assert_eq!(agreement.identical, held_out.len(), "{name}: {agreement:?}");
         assert!(agreement.statuses_equal, "{name}");
         costs.push(m4.cost.mean_instructions);

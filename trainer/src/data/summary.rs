@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use firmware_sim::data::columns::{ColumnMap, Source};
+use firmware_sim::data::columns::ColumnMap;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::stats::Line;
 
@@ -79,12 +79,8 @@ fn columns(names: &[&str], maps: &[ColumnMap]) -> Vec<(String, String)> {
     names
         .iter()
         .map(|&name| {
-            let from = match maps.iter().find(|m| m.name == name).map(|m| &m.source) {
-                Some(Source::Column { name: col, factor }) if *factor == 1.0 => {
-                    format!("column {col}")
-                }
-                Some(Source::Column { name: col, factor }) => format!("column {col} × {factor}"),
-                Some(Source::Constant(v)) => format!("the constant {v}"),
+            let from = match maps.iter().find(|m| m.name == name) {
+                Some(m) => m.source.to_string(),
                 None => format!("column {name}"),
             };
             (name.to_owned(), from)

@@ -156,8 +156,9 @@ static int has_model(void) {
 
 static void abi(void) {
     check(FOG_ABI_CHECK() == FOG_OK, "FOG_ABI_CHECK on this build", 0, 0);
-    FogResult other = fog_abi_check(sizeof(FogModel) - 8, sizeof(FogState), sizeof(FogPrediction),
-                                    140, FOG_MAX_INPUTS, FOG_MAX_MONOMIALS);
+    FogResult other = fog_abi_check(sizeof(FogModel) - 8, sizeof(FogUnit), sizeof(FogState),
+                                    sizeof(FogPrediction), 140, FOG_MAX_INPUTS, FOG_MAX_MONOMIALS,
+                                    FOG_UNIT_MAX_CHANNELS, FOG_UNIT_NUMBERS);
     check(other == FOG_ERR_ABI, "a header edited to 140 centres is told", (long)other, 0);
     check(sizeof(FogResult) == 4 && sizeof(FogStatus) == 4, "32-bit enums",
           (long)sizeof(FogResult), (long)sizeof(FogStatus));

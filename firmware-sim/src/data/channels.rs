@@ -1,0 +1,632 @@
+//! A sensor unit's channels, named once in a channels file (`--channels FILE`, TOML) and read by
+//! every command that takes a unit's data: each channel's output column and the unit it is in, its
+//! reference, and what the channels share (the time, the temperature, the sensor's ID).
+//!
+//! ```toml
+//! sensor_id = "IMU-0042"            # optional, at most 32 bytes: the blob carries it
+//! time = "timestamp*1e-6"           # optional: else --map time_s=…, else a column time_s
+//! temperature = "imu.temperature"   # optional: else --map temp_c=…, else a column temp_c
+//!
+//! [[channel]]
+//! name = "gyro.x"                   # at most 16 bytes, unique
+//! output = "imu.gyro.x"             # a column, or COLUMN*FACTOR
+//! unit = "rad/s"                    # rad/s, deg/s, deg/h, m/s2, g, mg, or the raw unit (V, counts)
+//! reference = "0"                   # a column, COLUMN*FACTOR or a constant, in °/s (m/s²)
+//! # kind = "gyro"                   # gyro or accelerometer: what a raw output measures
+//! # scale_factor = 26592.6          # raw output per °/s (m/s²), for a log without a rate table
+//! ```
+//!
+//! An output in a physical unit is converted to the channel's quantity's unit (°/s for a gyro,
+//! m/s² for an accelerometer) as it is read; on a log without a rate table it then needs no scale
+//! factor (1: the model learns the bias). A raw output (a FOG's volts or counts) is mapped to
+//! rate by the rate table, as one channel's `voltage_v` is, or given a `scale_factor`. Each
+//! channel is read as a stream of its own whose `voltage_v` is its output and whose `rate_dps` is
+//! its reference, so everything a command does with one channel it does with each; what the
+//! channels share, the time checks and the handled minutes, is computed once for the unit
+//! ([`Channels::load_log`]).
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use firmware_core::Quantity;
+use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
+use serde::Deserialize;
+
+use crate::data::columns::{self, ColumnMap, DataError, Source};
+use crate::data::stream::{self, Stream};
+
+/// The unit a channel's output column is in.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OutputUnit {
+    /// rad/s (a gyro).
+    RadPerSecond,
+    /// °/s (a gyro).
+    DegreePerSecond,
+    /// °/h (a gyro).
+    DegreePerHour,
+    /// m/s² (an accelerometer).
+    MetrePerSecond2,
+    /// Standard gravities (an accelerometer).
+    Gravity,
+    /// Thousandths of standard gravity (an accelerometer).
+    MilliGravity,
+    /// The sensor's own unit (volts, counts): mapped to a rate by a rate table or a scale factor.
+    Raw(String),
+}
+
+impl OutputUnit {
+    /// The unit named `text`.
+    fn parse(text: &str) -> Self {
+        match text.trim() {
+            "rad/s" => Self::RadPerSecond,
+            "deg/s" | "°/s" | "dps" => Self::DegreePerSecond,
+            "deg/h" | "°/h" | "dph" => Self::DegreePerHour,
+            "m/s2" | "m/s²" | "m/s^2" => Self::MetrePerSecond2,
+            "g" => Self::Gravity,
+            "mg" => Self::MilliGravity,
+            other => Self::Raw(other.to_owned()),
+        }
+    }
+
+    /// What it measures, where the unit says so.
+    fn quantity(&self) -> Option<Quantity> {
+        match self {
+            Self::RadPerSecond | Self::DegreePerSecond | Self::DegreePerHour => {
+                Some(Quantity::AngularRate)
+            }
+            Self::MetrePerSecond2 | Self::Gravity | Self::MilliGravity => {
+                Some(Quantity::SpecificForce)
+            }
+            Self::Raw(_) => None,
+        }
+    }
+
+    /// Its values times this are in the quantity's unit (°/s, m/s²); `None` for a raw unit.
+    pub fn factor(&self) -> Option<f64> {
+        let g = firmware_core::units::STANDARD_GRAVITY;
+        match self {
+            Self::RadPerSecond => Some(180.0 / std::f64::consts::PI),
+            Self::DegreePerSecond | Self::MetrePerSecond2 => Some(1.0),
+            Self::DegreePerHour => Some(1.0 / firmware_core::units::DPH_PER_DPS),
+            Self::Gravity => Some(g),
+            Self::MilliGravity => Some(g / 1000.0),
+            Self::Raw(_) => None,
+        }
+    }
+}
+
+impl std::fmt::Display for OutputUnit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::RadPerSecond => "rad/s",
+            Self::DegreePerSecond => "°/s",
+            Self::DegreePerHour => "°/h",
+            Self::MetrePerSecond2 => "m/s²",
+            Self::Gravity => "g",
+            Self::MilliGravity => "mg",
+            Self::Raw(u) => u,
+        })
+    }
+}
+
+/// One channel, as its commands read it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channel {
+    /// Its name (`gyro.x`).
+    pub name: String,
+    /// What it measures.
+    pub quantity: Quantity,
+    /// The unit its output column is in.
+    pub unit: OutputUnit,
+    /// Where its output comes from, converted to the quantity's unit where the unit is physical.
+    pub output: Source,
+    /// Where its reference comes from (°/s or m/s²).
+    pub reference: Source,
+    /// A raw output's scale factor, for a log without a rate table.
+    pub scale_factor: Option<f64>,
+}
+
+impl Channel {
+    /// The scale factor its bias model takes on a log without a rate table: the one given, else 1
+    /// for an output in a physical unit (already converted); `None` for a raw output without one.
+    pub fn bias_scale_factor(&self) -> Option<f64> {
+        self.scale_factor
+            .or_else(|| self.unit.factor().map(|_| 1.0))
+    }
+}
+
+/// A unit's channels (module doc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channels {
+    /// The file they came from.
+    pub path: PathBuf,
+    /// The sensor's ID (empty where the file gives none).
+    pub sensor_id: String,
+    /// The time column, where the file names it.
+    pub time: Option<Source>,
+    /// The temperature column, where the file names it.
+    pub temperature: Option<Source>,
+    /// The channels, in order.
+    pub list: Vec<Channel>,
+}
+
+/// A channels file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ChannelsError {
+    /// Unreadable.
+    #[error("{path}: cannot read ({source})")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Not a channels file: the TOML parser's message, with its line and column.
+    #[error("{path}: not a channels file: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// Why, where.
+        message: String,
+    },
+    /// Readable, but not usable.
+    #[error("{path}: {why}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
+}
+
+/// The file as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    sensor_id: Option<String>,
+    time: Option<String>,
+    temperature: Option<String>,
+    channel: Vec<Entry>,
+}
+
+/// One `[[channel]]` as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Entry {
+    name: String,
+    output: String,
+    unit: String,
+    reference: String,
+    kind: Option<Kind>,
+    scale_factor: Option<f64>,
+}
+
+/// What a raw output measures.
+#[derive(Deserialize, Clone, Copy, PartialEq)]
+#[serde(rename_all = "lowercase")]
+enum Kind {
+    Gyro,
+    Accelerometer,
+}
+
+impl Channels {
+    /// Reads and checks a channels file.
+    pub fn load(path: &Path) -> Result<Self, ChannelsError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ChannelsError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses the text of a channels file read from `path`.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, ChannelsError> {
+        let file: File = toml::from_str(text).map_err(|e| ChannelsError::Format {
+            path: path.to_owned(),
+            message: e.to_string().trim_end().to_owned(),
+        })?;
+        let invalid = |why: String| ChannelsError::Invalid {
+            path: path.to_owned(),
+            why,
+        };
+        let source = |what: &str, text: &str| {
+            text.parse::<Source>().map_err(|_| {
+                invalid(format!(
+                    "{what} '{text}': expected a column, COLUMN*FACTOR or a number"
+                ))
+            })
+        };
+        let sensor_id = file.sensor_id.unwrap_or_default();
+        if sensor_id.len() > SENSOR_ID_BYTES {
+            return Err(invalid(format!(
+                "sensor_id '{sensor_id}' is {} bytes; the blob holds {SENSOR_ID_BYTES}",
+                sensor_id.len()
+            )));
+        }
+        if file.channel.is_empty() {
+            return Err(invalid("no [[channel]]".to_owned()));
+        }
+        if file.channel.len() > usize::from(u8::MAX) {
+            return Err(invalid(format!(
+                "{} channels; a unit blob holds 255",
+                file.channel.len()
+            )));
+        }
+        let mut seen = HashSet::new();
+        let mut list = Vec::new();
+        for e in file.channel {
+            let name = e.name.trim().to_owned();
+            if name.is_empty() || name.len() > NAME_BYTES {
+                return Err(invalid(format!(
+                    "channel name '{name}': 1 to {NAME_BYTES} bytes"
+                )));
+            }
+            if !seen.insert(name.clone()) {
+                return Err(invalid(format!("channel '{name}' is named twice")));
+            }
+            let unit = OutputUnit::parse(&e.unit);
+            let kind = e.kind.map(|k| match k {
+                Kind::Gyro => Quantity::AngularRate,
+                Kind::Accelerometer => Quantity::SpecificForce,
+            });
+            let quantity = match (unit.quantity(), kind) {
+                (Some(q), Some(k)) if q != k => {
+                    return Err(invalid(format!(
+                        "channel '{name}': unit {unit} is not a {} unit",
+                        if k == Quantity::AngularRate {
+                            "gyro"
+                        } else {
+                            "accelerometer"
+                        }
+                    )));
+                }
+                (Some(q), _) => q,
+                (None, k) => k.unwrap_or(Quantity::AngularRate),
+            };
+            if let Some(k) = e.scale_factor
+                && !(k.is_finite() && k != 0.0)
+            {
+                return Err(invalid(format!(
+                    "channel '{name}': scale_factor {k} is not a finite non-zero number"
+                )));
+            }
+            let output = source(&format!("channel '{name}': output"), &e.output)?;
+            if matches!(output, Source::Constant(_)) {
+                return Err(invalid(format!(
+                    "channel '{name}': output '{}' is a number, not a column",
+                    e.output
+                )));
+            }
+            let output = output.scaled(unit.factor().unwrap_or(1.0));
+            let reference = source(&format!("channel '{name}': reference"), &e.reference)?;
+            list.push(Channel {
+                name,
+                quantity,
+                unit,
+                output,
+                reference,
+                scale_factor: e.scale_factor,
+            });
+        }
+        let time = file.time.map(|t| source("time", &t)).transpose()?;
+        let temperature = file
+            .temperature
+            .map(|t| source("temperature", &t))
+            .transpose()?;
+        Ok(Self {
+            path: path.to_owned(),
+            sensor_id,
+            time,
+            temperature,
+            list,
+        })
+    }
+
+    /// Number of channels.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// True when there are none (never, once loaded).
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// The maps that read channel `k` as a single channel's file: the shared ones (the file's
+    /// time and temperature, then the command's `--map`s), its output as `voltage_v` and its
+    /// reference as `rate_dps`. A `--map` of what the file gives is refused.
+    pub fn maps(&self, k: usize, maps: &[ColumnMap]) -> Result<Vec<ColumnMap>, ChannelsError> {
+        let mut out = self.shared_maps(maps)?;
+        if let Some(ch) = self.list.get(k) {
+            out.push(ColumnMap {
+                name: "voltage_v".to_owned(),
+                source: ch.output.clone(),
+            });
+            out.push(ColumnMap {
+                name: "rate_dps".to_owned(),
+                source: ch.reference.clone(),
+            });
+        }
+        Ok(out)
+    }
+
+    /// The maps the channels share: the file's time and temperature, and the command's `--map`s
+    /// (of neither a channel's output nor its reference, which the file gives).
+    fn shared_maps(&self, maps: &[ColumnMap]) -> Result<Vec<ColumnMap>, ChannelsError> {
+        let mut out = Vec::new();
+        for (name, given) in [("time_s", &self.time), ("temp_c", &self.temperature)] {
+            if let Some(source) = given {
+                out.push(ColumnMap {
+                    name: name.to_owned(),
+                    source: source.clone(),
+                });
+            }
+        }
+        for m in maps {
+            let by_file = out.iter().any(|o| o.name == m.name)
+                || m.name == "voltage_v"
+                || m.name == "rate_dps";
+            if by_file {
+                return Err(ChannelsError::Invalid {
+                    path: self.path.clone(),
+                    why: format!(
+                        "--map {}=… is given by the channels file: each channel's output and \
+                         reference{} are there",
+                        m.name,
+                        if m.name == "time_s" || m.name == "temp_c" {
+                            ", and the unit's time and temperature"
+                        } else {
+                            ""
+                        }
+                    ),
+                });
+            }
+            out.push(m.clone());
+        }
+        Ok(out)
+    }
+
+    /// Reads a unit's log in one pass: one stream per channel (its output as `voltage_v`, its
+    /// reference as `rate_dps`), the time checked once and the minutes where the unit was handled
+    /// found on any channel and left out of every channel.
+    pub fn load_log(&self, path: &Path, maps: &[ColumnMap]) -> anyhow::Result<Vec<Stream>> {
+        let mut all = self.shared_maps(maps)?;
+        let names: Vec<(String, String)> = (0..self.len())
+            .map(|k| (format!("output:{k}"), format!("reference:{k}")))
+            .collect();
+        for (ch, (out, reference)) in self.list.iter().zip(&names) {
+            all.push(ColumnMap {
+                name: out.clone(),
+                source: ch.output.clone(),
+            });
+            all.push(ColumnMap {
+                name: reference.clone(),
+                source: ch.reference.clone(),
+            });
+        }
+        let mut numeric: Vec<&str> = vec!["time_s", "temp_c"];
+        for (o, r) in &names {
+            numeric.push(o);
+            numeric.push(r);
+        }
+        let nullable: Vec<&str> = names.iter().map(|(_, r)| r.as_str()).collect();
+        let c = columns::read_columns(path, &numeric, &nullable, &[], &all)
+            .map_err(|e| self.named(e))?;
+        let time_s = c.get("time_s").to_vec();
+        let (step_s, time_issues) = stream::time_checks(&time_s, &c.lines);
+        let mut data: Vec<(Vec<f64>, Vec<f64>)> = names
+            .iter()
+            .map(|(o, r)| (c.get(o).to_vec(), c.get(r).to_vec()))
+            .collect();
+        let handled = stream::screen_unit_handling(&time_s, &mut data, &c.lines);
+        let temp_c = c.get("temp_c").to_vec();
+        Ok(data
+            .into_iter()
+            .map(|(voltage_v, rate_dps)| Stream {
+                time_s: time_s.clone(),
+                temp_c: temp_c.clone(),
+                voltage_v,
+                rate_dps,
+                lines: c.lines.clone(),
+                step_s,
+                time_issues: time_issues.clone(),
+                handled: handled.clone(),
+            })
+            .collect())
+    }
+
+    /// A loader's error, a missing column named by the channel whose file names it.
+    fn named(&self, e: DataError) -> anyhow::Error {
+        let DataError::MissingColumn {
+            path,
+            column,
+            available,
+        } = &e
+        else {
+            return e.into();
+        };
+        let uses = |s: &Source| matches!(s, Source::Column { name, .. } if name == column);
+        let by = self.list.iter().find_map(|ch| {
+            if uses(&ch.output) {
+                Some(format!("channel {}'s output", ch.name))
+            } else if uses(&ch.reference) {
+                Some(format!("channel {}'s reference", ch.name))
+            } else {
+                None
+            }
+        });
+        let by = by.or_else(|| {
+            [("time", &self.time), ("temperature", &self.temperature)]
+                .into_iter()
+                .find(|(_, s)| s.as_ref().is_some_and(uses))
+                .map(|(what, _)| format!("the unit's {what}"))
+        });
+        match by {
+            Some(by) => anyhow::anyhow!(
+                "{}: missing column '{column}' (header has: {available}), {by} in {}",
+                path.display(),
+                self.path.display()
+            ),
+            None => e.into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IMU: &str = r#"
+sensor_id = "IMU-0042"
+time = "timestamp*1e-6"
+temperature = "imu.temperature"
+
+[[channel]]
+name = "gyro.x"
+output = "imu.gyro.x"
+unit = "rad/s"
+reference = "0"
+
+[[channel]]
+name = "acc.z"
+output = "imu.acc.z"
+unit = "m/s2"
+reference = "-9.80665"
+
+[[channel]]
+name = "coil"
+output = "counts*2"
+unit = "counts"
+reference = "rig_rate"
+scale_factor = 26592.6
+"#;
+
+    #[test]
+    fn a_channels_file_names_each_channel_once() {
+        let c = Channels::parse(Path::new("imu.toml"), IMU).unwrap();
+        assert_eq!(c.sensor_id, "IMU-0042");
+        assert_eq!(c.len(), 3);
+        let [gx, az, coil] = &c.list[..] else {
+            panic!()
+        };
+        assert_eq!(gx.quantity, Quantity::AngularRate);
+        assert_eq!(
+            gx.output,
+            Source::Column {
+                name: "imu.gyro.x".into(),
+                factor: 180.0 / std::f64::consts::PI
+            }
+        );
+        assert_eq!(gx.bias_scale_factor(), Some(1.0));
+        assert_eq!(az.quantity, Quantity::SpecificForce);
+        assert_eq!(az.reference, Source::Constant(-9.80665));
+        assert_eq!(coil.quantity, Quantity::AngularRate);
+        assert_eq!(coil.unit, OutputUnit::Raw("counts".into()));
+        assert_eq!(coil.bias_scale_factor(), Some(26592.6));
+        let maps = c.maps(1, &[]).unwrap();
+        let names: Vec<&str> = maps.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["time_s", "temp_c", "voltage_v", "rate_dps"]);
+        // What the file gives, a --map may not give again.
+        for bad in ["voltage_v=x", "temp_c=T", "rate_dps=0"] {
+            let e = c.maps(0, &[bad.parse().unwrap()]).unwrap_err();
+            assert!(e.to_string().contains("given by the channels file"), "{e}");
+        }
+        assert!(c.maps(0, &["other=x".parse().unwrap()]).is_ok());
+    }
+
+    #[test]
+    fn a_bad_channels_file_says_what_is_wrong() {
+        let bad = |text: &str| {
+            Channels::parse(Path::new("c.toml"), text)
+                .unwrap_err()
+                .to_string()
+        };
+        let one = |fields: &str| format!("[[channel]]\n{fields}\n");
+        assert!(bad("").contains("missing field `channel`"), "{}", bad(""));
+        assert!(bad("channel = []").contains("no [[channel]]"));
+        let e = bad(&one("name = \"x\"\noutput = \"a\"\nunit = \"rad/s\""));
+        assert!(e.contains("missing field `reference`"), "{e}");
+        let e = bad(&one(
+            "name = \"x\"\noutput = \"a\"\nunit = \"rad/s\"\nreference = \"0\"\nspeed = 1",
+        ));
+        assert!(e.contains("unknown field `speed`"), "{e}");
+        let e = bad(
+            &(one("name = \"x\"\noutput = \"a\"\nunit = \"rad/s\"\nreference = \"0\"")
+                + &one("name = \"x\"\noutput = \"b\"\nunit = \"rad/s\"\nreference = \"0\"")),
+        );
+        assert!(e.contains("named twice"), "{e}");
+        let e = bad(&one(
+            "name = \"a name far too long\"\noutput = \"a\"\nunit = \"g\"\nreference = \"0\"",
+        ));
+        assert!(e.contains("1 to 16 bytes"), "{e}");
+        let e = bad(&one(
+            "name = \"x\"\noutput = \"a\"\nunit = \"g\"\nreference = \"0\"\nkind = \"gyro\"",
+        ));
+        assert!(e.contains("not a gyro unit"), "{e}");
+        let e = bad(&one(
+            "name = \"x\"\noutput = \"3\"\nunit = \"g\"\nreference = \"0\"",
+        ));
+        assert!(e.contains("is a number, not a column"), "{e}");
+        let e = bad(&one(
+            "name = \"x\"\noutput = \"a*b\"\nunit = \"g\"\nreference = \"0\"",
+        ));
+        assert!(e.contains("expected a column"), "{e}");
+        let e = bad(&one(
+            "name = \"x\"\noutput = \"a\"\nunit = \"V\"\nreference = \"0\"\nscale_factor = 0",
+        ));
+        assert!(e.contains("not a finite non-zero"), "{e}");
+    }
+
+    #[test]
+    fn a_units_log_is_read_once_and_a_minute_handled_on_one_channel_is_left_out_of_all() {
+        // 10 minutes at 1 Hz of two static channels; the accelerometer is knocked at 300–359 s.
+        let mut text = String::from("t,T,gx,az\n");
+        for i in 0..600 {
+            let ripple = 0.001 * (f64::from(i) * 1.7).sin();
+            let knock = if (300..360).contains(&i) {
+                (f64::from(i) * 0.9).sin()
+            } else {
+                0.0
+            };
+            text.push_str(&format!(
+                "{i},{},{},{}\n",
+                20.0 + f64::from(i) / 600.0,
+                ripple,
+                -9.8 + ripple + knock
+            ));
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("log.csv");
+        std::fs::write(&log, text).unwrap();
+        let channels = Channels::parse(
+            Path::new("c.toml"),
+            "time = \"t\"\ntemperature = \"T\"\n[[channel]]\nname = \"gx\"\noutput = \"gx\"\n\
+             unit = \"deg/h\"\nreference = \"0\"\n[[channel]]\nname = \"az\"\noutput = \"az\"\n\
+             unit = \"m/s2\"\nreference = \"-9.8\"\n",
+        )
+        .unwrap();
+        let streams = channels.load_log(&log, &[]).unwrap();
+        assert_eq!(streams.len(), 2);
+        assert_eq!(streams[0].time_s, streams[1].time_s);
+        assert!((streams[0].voltage_v[5] - 0.001 * 8.5f64.sin() / 3600.0).abs() < 1e-15);
+        assert_eq!(streams[1].voltage_v[0], -9.8);
+        for s in &streams {
+            assert_eq!(s.handled.len(), 1, "{:?}", s.handled);
+            assert_eq!(s.handled[0].span_s, [300.0, 359.0]);
+            assert_eq!(s.rate_dps.iter().filter(|r| r.is_nan()).count(), 60);
+        }
+        // A column that is not there is named by its channel.
+        let e = Channels::parse(
+            Path::new("c.toml"),
+            "time = \"t\"\ntemperature = \"T\"\n[[channel]]\nname = \"gy\"\noutput = \"gy\"\nunit = \"g\"\nreference = \"0\"\n",
+        )
+        .unwrap()
+        .load_log(&log, &[])
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("missing column 'gy'") && e.contains("channel gy's output in c.toml"),
+            "{e}"
+        );
+    }
+}
