@@ -358,6 +358,12 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.evaluator().variances()
     }
 
+    /// The trained range of input `k`, raw units: where its data were (beyond it the status is
+    /// `Extrapolating`); `None` beyond the inputs.
+    pub fn trained_range(&self, k: usize) -> Option<[f32; 2]> {
+        self.evaluator().trained_range(k)
+    }
+
     /// Predictive mean only: the cheap path (one exp and about 3·d operations per centre).
     pub fn predict_mean(&self, x: &[f32]) -> Mean {
         self.evaluator().mean_into(x, None).0
@@ -431,6 +437,18 @@ pub(crate) struct Evaluator<'a> {
 impl Evaluator<'_> {
     fn section(&self, range: Range<usize>) -> &[f32] {
         self.floats.get(range).unwrap_or(&[])
+    }
+
+    /// The trained range of input `k`.
+    pub(crate) fn trained_range(&self, k: usize) -> Option<[f32; 2]> {
+        if k >= self.dims.d {
+            return None;
+        }
+        let s = self.dims.sections();
+        Some([
+            *self.floats.get(s.min.start + k)?,
+            *self.floats.get(s.max.start + k)?,
+        ])
     }
 
     /// (σ_f², σ_n²) in output units².

@@ -322,7 +322,6 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
     fn link(&mut self, id: Identity) -> Result<(), BlobError> {
         self.sensor_id = id.sensor_id;
         self.temperature_c = id.temperature_c;
-        let numbers = self.numbers.as_slice();
         for ch in &mut self.channels {
             for (input, feature) in ch.inputs.iter_mut().zip(&ch.features) {
                 *input = if *feature == Feature::Voltage {
@@ -345,19 +344,13 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                 };
             }
         }
-        if let ([lo, hi], Some(ch)) = (self.temperature_c, self.channels.first())
-            && lo == f32::MIN
-            && hi == f32::MAX
-            && self.channels.len() == 1
+        if self.temperature_c == [f32::MIN, f32::MAX]
+            && let [ch] = self.channels.as_slice()
+            && let Some(k) = ch.features.iter().position(|f| *f == Feature::Temperature)
+            && let Some(range) = self.evaluator(ch).trained_range(k)
         {
             // A single-channel blob: its temperature input's trained range.
-            let s = ch.dims.sections();
-            if let Some(k) = ch.features.iter().position(|f| *f == Feature::Temperature) {
-                let at = |i: usize| numbers.get(ch.start + i).copied();
-                if let (Some(lo), Some(hi)) = (at(s.min.start + k), at(s.max.start + k)) {
-                    self.temperature_c = [lo, hi];
-                }
-            }
+            self.temperature_c = range;
         }
         Ok(())
     }

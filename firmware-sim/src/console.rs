@@ -29,13 +29,16 @@ pub struct ConsoleFlags {
 }
 
 /// The output policy of one command.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Console {
     flags: ConsoleFlags,
     /// A `--json` was given: no bars.
     json: bool,
     /// `--json -`: stdout carries the JSON alone.
     json_stdout: bool,
+    /// The channel of a unit the lines are about: results indented under its heading, warnings
+    /// named by it.
+    channel: Option<std::sync::Arc<str>>,
 }
 
 /// The end of both programs' `--help`: where the examples are, and what the exit status means.
@@ -53,6 +56,17 @@ impl Console {
             flags,
             json: json.is_some(),
             json_stdout: json.is_some_and(|p| p == Path::new(STDOUT)),
+            channel: None,
+        }
+    }
+
+    /// The same policy for the lines about one channel of a unit: its heading printed now, its
+    /// results indented under it, its warnings named by it.
+    pub fn channel(&self, name: &str, heading: &str) -> Self {
+        self.result(heading);
+        Self {
+            channel: Some(name.into()),
+            ..self.clone()
         }
     }
 
@@ -91,8 +105,16 @@ impl Console {
 
     /// Prints a result line on stdout, unless quiet or stdout carries the JSON.
     pub fn result(&self, text: &str) {
-        if !(self.flags.quiet || self.json_stdout) {
-            println!("{text}");
+        if self.flags.quiet || self.json_stdout {
+            return;
+        }
+        match &self.channel {
+            Some(_) => {
+                for line in text.lines() {
+                    println!("  {line}");
+                }
+            }
+            None => println!("{text}"),
         }
     }
 
@@ -110,7 +132,10 @@ impl Console {
 
     /// Prints a warning on stderr, whatever the flags.
     pub fn warn(&self, text: &str) {
-        eprintln!("warning: {text}");
+        match &self.channel {
+            Some(name) => eprintln!("warning: {name}: {text}"),
+            None => eprintln!("warning: {text}"),
+        }
     }
 }
 

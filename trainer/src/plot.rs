@@ -6,6 +6,7 @@
 
 use std::error::Error;
 
+use firmware_core::Quantity;
 use firmware_core::units::DPH_PER_DPS;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
@@ -42,6 +43,12 @@ pub const ORANGE: RGBColor = RGBColor(230, 120, 20);
 pub const GREEN: RGBColor = RGBColor(44, 160, 44);
 /// The fourth series; hot.
 pub const RED: RGBColor = RGBColor(214, 39, 40);
+/// The fifth series.
+pub const PURPLE: RGBColor = RGBColor(148, 103, 189);
+/// The sixth series.
+pub const BROWN: RGBColor = RGBColor(140, 86, 75);
+/// A series colour per channel of a unit, in channel order (repeating past six).
+pub const CHANNEL_COLOURS: [RGBColor; 6] = [BLUE, ORANGE, GREEN, RED, PURPLE, BROWN];
 /// References and guides.
 pub const GREY: RGBColor = RGBColor(120, 120, 120);
 
@@ -134,89 +141,114 @@ pub struct AllanSeries<'a> {
 /// through K at 3 s.
 pub fn allan(title: &str, series: &[AllanSeries<'_>]) -> Result<String, PlotError> {
     svg("the Allan deviation", (900, 600), |root| {
-        let taus = series.iter().flat_map(|s| s.curve.tau_s.iter().copied());
-        let (t0, t1) = taus.fold((f64::INFINITY, 0.0f64), |(a, b), t| (a.min(t), b.max(t)));
-        let values = series.iter().flat_map(|s| {
-            s.curve
-                .adev_lo
-                .iter()
-                .chain(&s.curve.adev_hi)
-                .map(|v| v * DPH_PER_DPS)
-                .filter(|v| *v > 0.0)
-        });
-        let (y0, y1) = values.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
-        if !(t0.is_finite() && y0.is_finite() && t1 > t0 && y1 > y0) {
-            return Err("no curve to draw".into());
+        draw_allan(root, title, series, Quantity::AngularRate)
+    })
+}
+
+/// A unit's Allan deviations on one figure: a panel per quantity (the gyros' in °/h, the
+/// accelerometers' in mg), every channel of it a curve.
+pub fn allan_unit(
+    title: &str,
+    panels: &[(Quantity, Vec<AllanSeries<'_>>)],
+) -> Result<String, PlotError> {
+    let width = 900 * u32::try_from(panels.len().max(1)).unwrap_or(1);
+    svg("the unit's Allan deviations", (width, 600), |root| {
+        let areas = root.split_evenly((1, panels.len().max(1)));
+        for (area, (q, series)) in areas.iter().zip(panels) {
+            let caption = match q {
+                Quantity::AngularRate => format!("{title}: gyros"),
+                Quantity::SpecificForce => format!("{title}: accelerometers"),
+            };
+            draw_allan(area, &caption, series, *q)?;
         }
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, TITLE))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d((t0..t1).log_scale(), (y0 / 1.5..y1 * 1.5).log_scale())?;
-        chart
-            .configure_mesh()
-            .x_desc("cluster time τ (s)")
-            .y_desc("Allan deviation (°/h)")
-            .label_style((FONT, TICK))
-            .axis_desc_style((FONT, LABEL))
-            .draw()?;
-        for s in series {
-            let c = s.curve;
-            let band: Vec<(f64, f64)> = c
-                .tau_s
-                .iter()
-                .zip(&c.adev_hi)
-                .map(|(t, v)| (*t, v * DPH_PER_DPS))
-                .chain(
-                    c.tau_s
-                        .iter()
-                        .zip(&c.adev_lo)
-                        .rev()
-                        .map(|(t, v)| (*t, (v * DPH_PER_DPS).max(y0 / 1.5))),
-                )
-                .collect();
-            chart.draw_series(std::iter::once(Polygon::new(band, s.colour.mix(0.15))))?;
-            chart
-                .draw_series(LineSeries::new(
-                    c.tau_s
-                        .iter()
-                        .zip(&c.adev)
-                        .map(|(t, v)| (*t, v * DPH_PER_DPS)),
-                    s.colour.stroke_width(2),
-                ))?
-                .label(s.label)
-                .legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 18, y)], s.colour.stroke_width(2))
-                });
-            let guide = s.colour.mix(0.6).stroke_width(1);
-            let ys = (y0 / 1.5, y1 * 1.5);
-            // N °/√h at τ = 1 s: σ = N/60 /√τ °/s, i.e. N·60/√τ °/h.
-            let lines = [
-                s.terms.arw_deg_per_sqrt_h.map(|n| (n * 60.0, -0.5)),
-                s.terms
-                    .bias_instability_deg_per_h
-                    .map(|b| (b * crate::analysis::allan::FLICKER_FLOOR, 0.0)),
-                // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
-                s.terms
-                    .rrw_deg_per_h_per_sqrt_h
-                    .map(|k| (k / 60.0 / 3f64.sqrt(), 0.5)),
-            ];
-            for (a, p) in lines.into_iter().flatten() {
-                if let Some(ends) = power_line(a, p, (t0, t1), ys) {
-                    chart.draw_series(LineSeries::new(ends, guide))?;
-                }
-            }
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, TICK))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
         Ok(())
     })
+}
+
+/// One Allan panel in the bias unit of `q` (°/h, mg).
+fn draw_allan(root: &Draw<'_>, title: &str, series: &[AllanSeries<'_>], q: Quantity) -> DrawResult {
+    let k = q.bias_per_unit();
+    let taus = series.iter().flat_map(|s| s.curve.tau_s.iter().copied());
+    let (t0, t1) = taus.fold((f64::INFINITY, 0.0f64), |(a, b), t| (a.min(t), b.max(t)));
+    let values = series.iter().flat_map(|s| {
+        s.curve
+            .adev_lo
+            .iter()
+            .chain(&s.curve.adev_hi)
+            .map(move |v| v * k)
+            .filter(|v| *v > 0.0)
+    });
+    let (y0, y1) = values.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    if !(t0.is_finite() && y0.is_finite() && t1 > t0 && y1 > y0) {
+        return Err("no curve to draw".into());
+    }
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, TITLE))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d((t0..t1).log_scale(), (y0 / 1.5..y1 * 1.5).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("cluster time τ (s)")
+        .y_desc(format!("Allan deviation ({})", q.bias_unit()))
+        .label_style((FONT, TICK))
+        .axis_desc_style((FONT, LABEL))
+        .draw()?;
+    // The terms are stated as a gyro's (°/h of °/s, IEEE 952): back to the rate's unit, then k.
+    let from_dph = k / DPH_PER_DPS;
+    for s in series {
+        let c = s.curve;
+        let band: Vec<(f64, f64)> = c
+            .tau_s
+            .iter()
+            .zip(&c.adev_hi)
+            .map(|(t, v)| (*t, v * k))
+            .chain(
+                c.tau_s
+                    .iter()
+                    .zip(&c.adev_lo)
+                    .rev()
+                    .map(|(t, v)| (*t, (v * k).max(y0 / 1.5))),
+            )
+            .collect();
+        chart.draw_series(std::iter::once(Polygon::new(band, s.colour.mix(0.15))))?;
+        chart
+            .draw_series(LineSeries::new(
+                c.tau_s.iter().zip(&c.adev).map(|(t, v)| (*t, v * k)),
+                s.colour.stroke_width(2),
+            ))?
+            .label(s.label)
+            .legend(move |(x, y)| {
+                PathElement::new([(x, y), (x + 18, y)], s.colour.stroke_width(2))
+            });
+        let guide = s.colour.mix(0.6).stroke_width(1);
+        let ys = (y0 / 1.5, y1 * 1.5);
+        // N (°/√h) at τ = 1 s: σ = N/60 /√τ in the rate's unit, i.e. N/60·k/√τ.
+        let lines = [
+            s.terms.arw_deg_per_sqrt_h.map(|n| (n / 60.0 * k, -0.5)),
+            s.terms
+                .bias_instability_deg_per_h
+                .map(|b| (b * crate::analysis::allan::FLICKER_FLOOR * from_dph, 0.0)),
+            // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
+            s.terms
+                .rrw_deg_per_h_per_sqrt_h
+                .map(|r| (r / 60.0 / 3f64.sqrt() * from_dph, 0.5)),
+        ];
+        for (a, p) in lines.into_iter().flatten() {
+            if let Some(ends) = power_line(a, p, (t0, t1), ys) {
+                chart.draw_series(LineSeries::new(ends, guide))?;
+            }
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, TICK))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
 }
 
 /// The ends of the line y = a·τ^p inside the box (τ in `t`, y in `y`), for a guide drawn at its

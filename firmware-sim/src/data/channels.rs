@@ -35,6 +35,15 @@ use serde::Deserialize;
 use crate::data::columns::{self, ColumnMap, DataError, Source};
 use crate::data::stream::{self, Stream};
 
+/// What kind of file the channels are read from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Read {
+    /// A log in time order: the file's time column applies.
+    Log,
+    /// A rate table: its time, where it has one, is its own `--map time_s=…`.
+    Table,
+}
+
 /// The unit a channel's output column is in.
 #[derive(Debug, Clone, PartialEq)]
 pub enum OutputUnit {
@@ -332,11 +341,17 @@ impl Channels {
         self.list.is_empty()
     }
 
-    /// The maps that read channel `k` as a single channel's file: the shared ones (the file's
-    /// time and temperature, then the command's `--map`s), its output as `voltage_v` and its
-    /// reference as `rate_dps`. A `--map` of what the file gives is refused.
-    pub fn maps(&self, k: usize, maps: &[ColumnMap]) -> Result<Vec<ColumnMap>, ChannelsError> {
-        let mut out = self.shared_maps(maps)?;
+    /// The maps that read channel `k` of a file as a single channel's file: the shared ones (the
+    /// file's temperature, and for a log its time; then the command's `--map`s), its output as
+    /// `voltage_v` and its reference as `rate_dps`. A `--map` of what the file gives is refused.
+    /// A rate table keeps its own time (`--map time_s=…`, for a table recorded in time order).
+    pub fn maps(
+        &self,
+        k: usize,
+        maps: &[ColumnMap],
+        read: Read,
+    ) -> Result<Vec<ColumnMap>, ChannelsError> {
+        let mut out = self.shared_maps(maps, read)?;
         if let Some(ch) = self.list.get(k) {
             out.push(ColumnMap {
                 name: "voltage_v".to_owned(),
@@ -350,11 +365,15 @@ impl Channels {
         Ok(out)
     }
 
-    /// The maps the channels share: the file's time and temperature, and the command's `--map`s
-    /// (of neither a channel's output nor its reference, which the file gives).
-    fn shared_maps(&self, maps: &[ColumnMap]) -> Result<Vec<ColumnMap>, ChannelsError> {
+    /// The maps the channels share: the file's time (for a log) and temperature, and the
+    /// command's `--map`s (of neither a channel's output nor its reference, which the file gives).
+    fn shared_maps(&self, maps: &[ColumnMap], read: Read) -> Result<Vec<ColumnMap>, ChannelsError> {
         let mut out = Vec::new();
-        for (name, given) in [("time_s", &self.time), ("temp_c", &self.temperature)] {
+        let time = match read {
+            Read::Log => &self.time,
+            Read::Table => &None,
+        };
+        for (name, given) in [("time_s", time), ("temp_c", &self.temperature)] {
             if let Some(source) = given {
                 out.push(ColumnMap {
                     name: name.to_owned(),
@@ -390,7 +409,7 @@ impl Channels {
     /// reference as `rate_dps`), the time checked once and the minutes where the unit was handled
     /// found on any channel and left out of every channel.
     pub fn load_log(&self, path: &Path, maps: &[ColumnMap]) -> anyhow::Result<Vec<Stream>> {
-        let mut all = self.shared_maps(maps)?;
+        let mut all = self.shared_maps(maps, Read::Log)?;
         let names: Vec<(String, String)> = (0..self.len())
             .map(|k| (format!("output:{k}"), format!("reference:{k}")))
             .collect();
@@ -523,15 +542,19 @@ scale_factor = 26592.6
         assert_eq!(coil.quantity, Quantity::AngularRate);
         assert_eq!(coil.unit, OutputUnit::Raw("counts".into()));
         assert_eq!(coil.bias_scale_factor(), Some(26592.6));
-        let maps = c.maps(1, &[]).unwrap();
+        let maps = c.maps(1, &[], Read::Log).unwrap();
         let names: Vec<&str> = maps.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(names, ["time_s", "temp_c", "voltage_v", "rate_dps"]);
+        // A rate table keeps its own time.
+        let segment = ["time_s=segment*21".parse().unwrap()];
+        let maps = c.maps(1, &segment, Read::Table).unwrap();
+        assert_eq!(maps[1].source.to_string(), "column segment × 21");
         // What the file gives, a --map may not give again.
-        for bad in ["voltage_v=x", "temp_c=T", "rate_dps=0"] {
-            let e = c.maps(0, &[bad.parse().unwrap()]).unwrap_err();
+        for bad in ["voltage_v=x", "temp_c=T", "rate_dps=0", "time_s=t"] {
+            let e = c.maps(0, &[bad.parse().unwrap()], Read::Log).unwrap_err();
             assert!(e.to_string().contains("given by the channels file"), "{e}");
         }
-        assert!(c.maps(0, &["other=x".parse().unwrap()]).is_ok());
+        assert!(c.maps(0, &["other=x".parse().unwrap()], Read::Log).is_ok());
     }
 
     #[test]

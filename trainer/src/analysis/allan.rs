@@ -21,6 +21,7 @@
 
 use serde::Serialize;
 
+use firmware_core::Quantity;
 use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_sim::data::stream::{GAP_FACTOR, typical_step};
 
@@ -263,10 +264,25 @@ impl Analysis {
 
     /// The terms as a line of text, each with its units, or why it is missing.
     pub fn text(&self) -> String {
+        self.text_in(Quantity::AngularRate)
+    }
+
+    /// [`Self::text`] for a channel measuring `quantity`: an accelerometer's velocity random walk
+    /// in (m/s)/√h, its bias instability in mg and its random walk in mg/√h.
+    pub fn text_in(&self, quantity: Quantity) -> String {
         let or = |v: Option<f64>, f: &dyn Fn(f64) -> String, why: &str| v.map_or(why.to_owned(), f);
+        // The terms are stated as a gyro's (°/h from °/s): back to the rate's unit, then to the
+        // quantity's bias unit.
+        let k = quantity.bias_per_unit() / SECONDS_PER_HOUR;
+        let u = quantity.bias_unit();
+        let (walk, walk_unit) = quantity.random_walk();
+        let (drift, drift_unit) = match quantity {
+            Quantity::AngularRate => ("rate random walk", format!("({u})/√h")),
+            Quantity::SpecificForce => ("acceleration random walk", format!("{u}/√h")),
+        };
         format!(
-            "Allan deviation of {} over {} samples{} (τ₀ {:.3} s): ARW {}; bias instability {}; \
-             rate random walk {}",
+            "Allan deviation of {} over {} samples{} (τ₀ {:.3} s): {walk} {}; bias instability \
+             {}; {drift} {}",
             self.of,
             self.samples,
             if self.runs > 1 {
@@ -277,19 +293,19 @@ impl Analysis {
             self.tau0_s,
             or(
                 self.terms.arw_deg_per_sqrt_h,
-                &|n| format!("{n:.4} °/√h"),
+                &|n| format!("{n:.4} {walk_unit}"),
                 "not shown (no slope −½)"
             ),
             match (
                 self.terms.bias_instability_deg_per_h,
                 self.terms.bias_instability_tau_s
             ) {
-                (Some(b), Some(t)) => format!("{b:.4} °/h (bottom at τ {t:.0} s)"),
+                (Some(b), Some(t)) => format!("{:.4} {u} (bottom at τ {t:.0} s)", b * k),
                 _ => "not shown (the curve does not bottom out: log too short)".to_owned(),
             },
             or(
                 self.terms.rrw_deg_per_h_per_sqrt_h,
-                &|k| format!("{k:.4} (°/h)/√h"),
+                &|r| format!("{:.4} {drift_unit}", r * k),
                 "not shown (no slope +½: log too short)"
             ),
         )

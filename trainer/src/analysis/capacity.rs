@@ -14,7 +14,7 @@
 //! it here ([`resolve`]), so an evaluation evaluates what `fit` would ship.
 
 use firmware_core::MAX_CENTRES;
-use firmware_core::units::DPH_PER_DPS;
+use firmware_core::Quantity;
 use serde::Serialize;
 
 use crate::data::points::Points;
@@ -170,7 +170,7 @@ pub fn choose(
         fit_seconds: secs,
     };
     let (pick, how) = rule(&candidates, &exact);
-    let verdict = verdict(n, stride, &pick, &how, &exact);
+    let verdict = verdict(n, stride, (&pick, &how), &exact, points.quantity);
     Ok(Choice {
         rule: format!(
             "exact up to {MAX_CENTRES} points; above, the fewest of {:?} inducing points within \
@@ -250,7 +250,18 @@ fn rule(candidates: &[Tried], exact: &Tried) -> (Tried, String) {
 
 /// The choice in words: what was asked and kept, how, and its held-out error and cost against
 /// the exact GP's.
-fn verdict(n: usize, stride: usize, pick: &Tried, how: &str, exact: &Tried) -> String {
+fn verdict(
+    n: usize,
+    stride: usize,
+    (pick, how): (&Tried, &str),
+    exact: &Tried,
+    quantity: Quantity,
+) -> String {
+    let (u, k, b) = (
+        quantity.unit(),
+        quantity.bias_per_unit(),
+        quantity.bias_unit(),
+    );
     let sampled = if stride > 1 {
         format!(" of every {stride}th of the {n} points")
     } else {
@@ -259,8 +270,8 @@ fn verdict(n: usize, stride: usize, pick: &Tried, how: &str, exact: &Tried) -> S
     format!(
         "{n} points are more than the {MAX_CENTRES} centres a firmware model holds: a sparse GP \
          asking {} inducing points ({} kept), {how}, of {} (every {HOLD_OUT_EVERY}th{sampled} held \
-         out). It scores {:.3e} °/s ({:.1} °/h) there against the exact GP's {:.3e} °/s ({:.1} \
-         °/h), {:+.1}%, at about {:.0} instructions per prediction on the Cortex-M4F against the \
+         out). It scores {:.3e} {u} ({:.1} {b}) there against the exact GP's {:.3e} {u} ({:.1} \
+         {b}), {:+.1}%, at about {:.0} instructions per prediction on the Cortex-M4F against the \
          exact GP's {:.0}",
         pick.asked,
         pick.centres,
@@ -270,9 +281,9 @@ fn verdict(n: usize, stride: usize, pick: &Tried, how: &str, exact: &Tried) -> S
             .collect::<Vec<_>>()
             .join("/"),
         pick.held_out_rmse_dps,
-        pick.held_out_rmse_dps * DPH_PER_DPS,
+        pick.held_out_rmse_dps * k,
         exact.held_out_rmse_dps,
-        exact.held_out_rmse_dps * DPH_PER_DPS,
+        exact.held_out_rmse_dps * k,
         (pick.held_out_rmse_dps / exact.held_out_rmse_dps - 1.0) * 100.0,
         pick.instructions,
         exact.instructions,

@@ -89,8 +89,8 @@
 //! thermal-rate bias is zero; a warm-up decays within minutes of each power-on where a drift keeps
 //! growing. The runner-up and its score are reported beside the named cause.
 
-use firmware_core::Feature;
 use firmware_core::units::SECONDS_PER_HOUR;
+use firmware_core::{Feature, Quantity};
 use firmware_sim::cause::Cause;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::replay::HostModel;
@@ -336,8 +336,11 @@ pub struct Diagnosis {
     pub candidates: Vec<CauseFit>,
     /// The best try of each selection step (added or the reason to stop).
     pub steps: Vec<Step>,
-    /// RMS of the residual's 60 s block means, °/s.
+    /// RMS of the residual's 60 s block means, °/s (m/s² for an accelerometer: [`Self::quantity`]).
     pub residual_rmse_60s_dps: f64,
+    /// What the channel measures: the unit of the `_dps` figures (`°/s` or `m/s²`, and the
+    /// amplitudes' `_dph` that times 3600) and of the explanation's.
+    pub quantity: Quantity,
     /// 60 s blocks used.
     pub n_blocks: usize,
     /// The runner-up (best candidate other than the named cause).
@@ -353,7 +356,7 @@ pub struct Diagnosis {
 /// Diagnoses `stream` against `model`.
 pub fn diagnose(model: &HostModel, stream: &Stream) -> Diagnosis {
     let res = Residual::new(model, stream);
-    diagnose_residual(&res)
+    diagnose_residual(&res, Quantity::AngularRate)
 }
 
 /// Diagnoses `stream` against `model`, the firmware form of the static GP `gp` fitted on
@@ -365,11 +368,12 @@ pub fn diagnose_fitted(
     stream: &Stream,
 ) -> Diagnosis {
     let res = Residual::new(model, stream).fitted_on(gp, points);
-    diagnose_residual(&res)
+    diagnose_residual(&res, points.quantity)
 }
 
-/// Diagnoses a residual already computed.
-pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
+/// Diagnoses a residual already computed, of a channel that measures `quantity` (the unit its
+/// explanation states the figures in).
+pub fn diagnose_residual(res: &Residual<'_>, quantity: Quantity) -> Diagnosis {
     let regressors: Vec<(Cause, Candidates)> = Cause::ALL
         .into_iter()
         .map(|c| (c, candidates(res, c)))
@@ -385,7 +389,7 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
     let runner_up = candidates.iter().map(|c| c.id).find(|id| *id != cause);
     let named = candidates.iter().find(|c| c.id == cause);
     let other = candidates.iter().find(|c| Some(c.id) == runner_up);
-    let explanation = explain(cause, named, other, &steps, res.rmse_60s());
+    let explanation = explain((cause, named, other), &steps, res.rmse_60s(), quantity);
     let add_features: Vec<Feature> = selected
         .iter()
         .filter_map(|(c, p)| feature_for(*c, *p))
@@ -398,6 +402,7 @@ pub fn diagnose_residual(res: &Residual<'_>) -> Diagnosis {
         candidates,
         steps,
         residual_rmse_60s_dps: res.rmse_60s(),
+        quantity,
         n_blocks: res.len(),
         runner_up,
         explanation,
@@ -568,12 +573,13 @@ fn parameters(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Vec<
 }
 
 fn explain(
-    cause: Cause,
-    named: Option<&CauseFit>,
-    other: Option<&CauseFit>,
+    (cause, named, other): (Cause, Option<&CauseFit>, Option<&CauseFit>),
     steps: &[Step],
     rmse: f64,
+    quantity: Quantity,
 ) -> String {
+    let (k, u) = (quantity.bias_per_unit(), quantity.bias_unit());
+    let gyro = quantity == Quantity::AngularRate;
     let rival = other.map_or(String::new(), |o| {
         format!(
             "; runner-up {} predicts {:.0}%",
@@ -611,10 +617,10 @@ fn explain(
             .first()
             .map_or(String::new(), |s| format!(" ({})", refusal(s)));
         return format!(
-            "residual {:.2} °/h RMS (60 s means) is noise: no candidate predicts {:.0}% of it out \
+            "residual {:.2} {u} RMS (60 s means) is noise: no candidate predicts {:.0}% of it out \
              of sample, on interleaved chunks and forward in time{why}{rival}; the static model \
              needs nothing more",
-            rmse * SECONDS_PER_HOUR,
+            rmse * k,
             100.0 * MIN_SCORE
         );
     };
@@ -622,32 +628,40 @@ fn explain(
     let minutes = c.parameter / 60.0;
     let what = match cause {
         Cause::ThermalRate => format!(
-            "residual follows dT/dt (r = {:.2}, {:.1} (°/h)/(°C/min), filter {minutes:.0} min) \
-             whatever the rate: Shupe/thermal-stress drift; add a temperature-rate input",
+            "residual follows dT/dt (r = {:.2}, {:.1} ({u})/(°C/min), filter {minutes:.0} min) \
+             whatever the {}: {}; add a temperature-rate input",
             c.correlation,
-            c.slope * SECONDS_PER_HOUR
+            c.slope * k,
+            if gyro { "rate" } else { "force" },
+            if gyro {
+                "Shupe/thermal-stress drift"
+            } else {
+                "thermal-stress drift of the proof mass's mounting"
+            }
         ),
         Cause::SensorLag => format!(
-            "residual follows the model's ∂ω/∂T·dT/dt (r = {:.2}) and grows with |ω|: the coil lags \
-             the temperature sensor by about {minutes:.0} min; add a lag-compensated coil temperature",
-            c.correlation
+            "residual follows the model's ∂ω/∂T·dT/dt (r = {:.2}) and grows with |ω|: the {} lags \
+             the temperature sensor by about {minutes:.0} min; add a lag-compensated {} temperature",
+            c.correlation,
+            if gyro { "coil" } else { "sensing element" },
+            if gyro { "coil" } else { "element" }
         ),
         Cause::WarmUp => format!(
-            "residual decays after each power-on (r = {:.2}, {:.1} °/h at power-on, τ ≈ {minutes:.0} \
+            "residual decays after each power-on (r = {:.2}, {:.1} {u} at power-on, τ ≈ {minutes:.0} \
              min): warm-up transient; add a time-since-power-on input",
             c.correlation,
-            c.slope * SECONDS_PER_HOUR
+            c.slope * k
         ),
         Cause::Hysteresis => format!(
-            "residual differs after heating vs cooling by {:.1} °/h and keeps it through soaks \
+            "residual differs after heating vs cooling by {:.1} {u} and keeps it through soaks \
              (r = {:.2}): thermal hysteresis; add a heating/cooling state input",
-            2.0 * c.slope.abs() * SECONDS_PER_HOUR,
+            2.0 * c.slope.abs() * k,
             c.correlation
         ),
         Cause::TimeDrift => format!(
-            "residual drifts steadily with time on, {:.2} (°/h)/h (r = {:.2}): in-run drift; add a \
+            "residual drifts steadily with time on, {:.2} ({u})/h (r = {:.2}): in-run drift; add a \
              time input",
-            c.slope * SECONDS_PER_HOUR,
+            c.slope * k,
             c.correlation
         ),
         Cause::None => String::new(),

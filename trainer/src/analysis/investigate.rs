@@ -415,7 +415,11 @@ pub fn choose(
             return Ok(static_choice(diagnosis, causes, None, verdict, splits));
         }
     };
-    let (shipped, verdict) = decide(check.as_ref(), &names, asked.is_some());
+    let (shipped, verdict) = decide(
+        check.as_ref(),
+        (&names, points.quantity.unit()),
+        asked.is_some(),
+    );
     Ok(Choice {
         diagnosis,
         causes,
@@ -430,7 +434,11 @@ pub fn choose(
 /// Which model ships after the forward `check` of the extension by `names`, and why in words:
 /// the extension where it helps on every check that can see it (or where it was `asked` for),
 /// the static model otherwise, and where the stream is too short to check.
-fn decide(check: Option<&ForwardCheck>, names: &str, asked: bool) -> (Shipped, String) {
+fn decide(
+    check: Option<&ForwardCheck>,
+    (names, unit): (&str, &str),
+    asked: bool,
+) -> (Shipped, String) {
     match (check, asked) {
         (None, true) => (
             Shipped::Extended,
@@ -461,9 +469,10 @@ fn decide(check: Option<&ForwardCheck>, names: &str, asked: bool) -> (Shipped, S
                 }
             };
             let mut figures = format!(
-                "{earlier}, {names} scores {:.3e} °/s on the {} later blocks against the static \
+                "{earlier}, {names} scores {:.3e} {} on the {} later blocks against the static \
                  model's {:.3e}{}",
                 c.extended_rmse_60s_dps,
+                unit,
                 c.later_blocks,
                 c.static_rmse_60s_dps,
                 blind(&c.sight)

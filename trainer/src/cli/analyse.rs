@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use firmware_core::units::DPH_PER_DPS;
 use firmware_sim::cause::Cause;
 use firmware_sim::console::{Console, ConsoleFlags};
 use firmware_sim::data::log::LogArgs;
@@ -24,7 +23,11 @@ use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
+use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::GpConfig;
+use firmware_core::Quantity;
+use firmware_sim::data::channels::Channels;
+use firmware_sim::data::log::load_unit_log;
 
 /// The arguments of `trainer diagnose`.
 #[derive(Args)]
@@ -132,7 +135,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
 }
 
 /// `trainer investigate`: static fit, diagnosis and extension on the training stream, both scored
-/// on the held-out one.
+/// on the held-out one (every channel's, with `--channels`).
 pub(super) fn investigate_command(
     args: InvestigateArgs,
     flags: ConsoleFlags,
@@ -153,53 +156,194 @@ pub(super) fn investigate_command(
     let console = Console::new(flags, json.as_deref());
     let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
     inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
+    inputs.extend(input.unit.channels.as_deref());
     for o in out.iter().chain(&out_static).chain(&json) {
         ensure_not_input(o, &inputs)?;
     }
-    let train = [(
-        train_stream.as_path(),
-        load_stream(
-            &train_stream,
-            &input.maps.list,
-            (train_window, &input.exclude.list),
-            &console,
-        )?,
-    )];
-    let valid = load_stream(
-        &valid_stream,
-        &input.maps.list,
-        (valid_window, &input.exclude.list),
-        &console,
-    )?;
-    let points = input.static_points(&train, false)?;
-    let [(_, train)] = train;
     let asked = match features.as_str() {
         "auto" => None,
         list => Some(extend::parse_features(list)?),
     };
-    let rebuild =
-        |part: &Stream| input.static_points(&[(train_stream.as_path(), part.clone())], false);
+    let Some(channels) = input.unit.load()? else {
+        let train = load_stream(
+            &train_stream,
+            &input.maps.list,
+            (train_window, &input.exclude.list),
+            &console,
+        )?;
+        let valid = load_stream(
+            &valid_stream,
+            &input.maps.list,
+            (valid_window, &input.exclude.list),
+            &console,
+        )?;
+        let (inv, blobs) = investigate_one(
+            &input,
+            (&train_stream, train, valid),
+            (&fit, asked.as_deref()),
+            &console,
+        )?;
+        if let Some(path) = out {
+            write_atomically(&path, &blobs.extended_blob)?;
+        }
+        if let Some(path) = out_static {
+            write_atomically(&path, &blobs.static_blob)?;
+        }
+        if let Some(path) = json {
+            write_json(&path, &inputs, &inv)?;
+        }
+        return Ok(());
+    };
+    let load = |path: &Path, window| {
+        load_unit_log(
+            path,
+            &channels,
+            &input.maps.list,
+            (window, &input.exclude.list),
+            &console,
+        )
+    };
+    let (train, valid) = (
+        load(&train_stream, train_window)?,
+        load(&valid_stream, valid_window)?,
+    );
+    let mut each = Vec::new();
+    for (k, ch) in channels.list.iter().enumerate() {
+        let console = console.channel(
+            &ch.name,
+            &format!(
+                "{} ({}, [{}/{}]):",
+                ch.name,
+                ch.quantity.unit(),
+                k + 1,
+                channels.len()
+            ),
+        );
+        let one = investigate_one(
+            &input.for_channel(&channels, k)?,
+            (&train_stream, train[k].clone(), valid[k].clone()),
+            (&fit, asked.as_deref()),
+            &console,
+        )
+        .with_context(|| format!("channel {}", ch.name))?;
+        each.push(one);
+    }
+    console.result(&unit_gains(&channels, &each));
+    let pack = |pick: fn(&investigate::Blobs) -> &Vec<u8>| {
+        let parts: Vec<ChannelBlob<'_>> = channels
+            .list
+            .iter()
+            .zip(&each)
+            .map(|(ch, (_, b))| ChannelBlob {
+                name: &ch.name,
+                quantity: ch.quantity,
+                blob: pick(b),
+            })
+            .collect();
+        unit::unit_blob(&channels.sensor_id, &parts)
+    };
+    if let Some(path) = out {
+        write_atomically(&path, &pack(|b| &b.extended_blob)?)?;
+    }
+    if let Some(path) = out_static {
+        write_atomically(&path, &pack(|b| &b.static_blob)?)?;
+    }
+    if let Some(path) = json {
+        let report = UnitInvestigation {
+            sensor_id: &channels.sensor_id,
+            channels: channels
+                .list
+                .iter()
+                .zip(&each)
+                .map(|(ch, (inv, _))| ChannelInvestigation {
+                    name: &ch.name,
+                    quantity: ch.quantity,
+                    units: ch.quantity.unit(),
+                    investigation: inv,
+                })
+                .collect(),
+        };
+        write_json(&path, &inputs, &report)?;
+    }
+    Ok(())
+}
+
+/// What `investigate --channels --json` writes: each channel's investigation, its figures in
+/// `units` (the `_dps` fields too).
+#[derive(Serialize)]
+struct UnitInvestigation<'a> {
+    sensor_id: &'a str,
+    channels: Vec<ChannelInvestigation<'a>>,
+}
+
+/// One channel of [`UnitInvestigation`].
+#[derive(Serialize)]
+struct ChannelInvestigation<'a> {
+    name: &'a str,
+    quantity: Quantity,
+    units: &'static str,
+    #[serde(flatten)]
+    investigation: &'a investigate::Investigation,
+}
+
+/// A unit's investigation in one table: each channel's held-out figures, static and shipped, in
+/// its bias unit, with its causes and gain.
+fn unit_gains(
+    channels: &Channels,
+    each: &[(investigate::Investigation, investigate::Blobs)],
+) -> String {
+    let mut s = String::from(
+        "held out, rmse_60s:  static          shipped         gain   causes named (shipped)\n",
+    );
+    for (ch, (inv, _)) in channels.list.iter().zip(each) {
+        let (k, u) = (ch.quantity.bias_per_unit(), ch.quantity.bias_unit());
+        s.push_str(&format!(
+            "  {:<16} {:>9.3} {u:<4}  {:>9.3} {u:<4}  {:>5.2}×  {} ({})\n",
+            ch.name,
+            inv.static_score.rmse_60s_dps * k,
+            inv.extended_score.rmse_60s_dps * k,
+            inv.gain,
+            causes_text(&inv.diagnosis.causes),
+            match inv.shipped {
+                investigate::Shipped::Extended => "extended",
+                investigate::Shipped::Static => "static",
+            }
+        ));
+    }
+    s
+}
+
+/// One channel's investigation, said as it goes: static fit, diagnosis and extension on `train`,
+/// both models scored on `valid`.
+fn investigate_one(
+    input: &ModelInput,
+    (train_path, train, valid): (&Path, Stream, Stream),
+    (fit, asked): (&FitOptions, Option<&[Cause]>),
+    console: &Console,
+) -> anyhow::Result<(investigate::Investigation, investigate::Blobs)> {
+    let train = [(train_path, train)];
+    let points = input.static_points(&train, false)?;
+    let [(_, train)] = train;
+    let rebuild = |part: &Stream| input.static_points(&[(train_path, part.clone())], false);
     let bar = console.bar(0);
-    let (inv, blobs) = investigate::investigate(
-        &points,
-        &train,
-        &valid,
-        &fit.gp(),
-        asked.as_deref(),
-        &rebuild,
-        &bar,
-    )?;
+    let (inv, blobs) =
+        investigate::investigate(&points, &train, &valid, &fit.gp(), asked, &rebuild, &bar)?;
     bar.finish_and_clear();
     for w in &inv.warnings {
         console.warn(w);
     }
+    let (k, u, unit) = (
+        points.quantity.bias_per_unit(),
+        points.quantity.bias_unit(),
+        points.quantity.unit(),
+    );
     console.result(render_diagnosis(&inv.diagnosis).trim_end());
     console.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
     console.result(&format!(
-        "static rmse_60s {:.3e} °/s ({:.2} °/h) | causes {} | added {} | shipped rmse_60s \
-         {:.3e} °/s ({:.2} °/h) | gain {:.2}×",
+        "static rmse_60s {:.3e} {unit} ({:.2} {u}) | causes {} | added {} | shipped rmse_60s \
+         {:.3e} {unit} ({:.2} {u}) | gain {:.2}×",
         inv.static_score.rmse_60s_dps,
-        inv.static_score.rmse_60s_dps * DPH_PER_DPS,
+        inv.static_score.rmse_60s_dps * k,
         causes_text(&inv.diagnosis.causes),
         if inv.added_inputs.is_empty() {
             "nothing".to_owned()
@@ -207,12 +351,12 @@ pub(super) fn investigate_command(
             inv.added_inputs.join(", ")
         },
         inv.extended_score.rmse_60s_dps,
-        inv.extended_score.rmse_60s_dps * DPH_PER_DPS,
+        inv.extended_score.rmse_60s_dps * k,
         inv.gain
     ));
     console.result(&format!(
         "shipped model's {}",
-        inv.calibration.describe("°/s")
+        inv.calibration.describe(unit)
     ));
     console.result(&format!(
         "on the held-out stream, the shipped model's σ: {}",
@@ -221,16 +365,7 @@ pub(super) fn investigate_command(
             &inv.extended_score.sigma_60s
         )
     ));
-    if let Some(path) = out {
-        write_atomically(&path, &blobs.extended_blob)?;
-    }
-    if let Some(path) = out_static {
-        write_atomically(&path, &blobs.static_blob)?;
-    }
-    if let Some(path) = json {
-        write_json(&path, &inputs, &inv)?;
-    }
-    Ok(())
+    Ok((inv, blobs))
 }
 
 /// `trainer loo`: leave-one-out and leave-one-group-out of one method.

@@ -23,11 +23,15 @@ use crate::analysis::table::{self, TableDiagnosis, TableModel, Transients};
 use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, Extension};
+use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::sparse::SparseFit;
 use crate::models::gp::{
     AUTO_EXACT_MAX, GpConfig, GpModel, Hyperparameters, Inducing, Optimization, StartReport,
 };
 use crate::models::prior::{MeanBasis, PolyPrior};
+use firmware_core::Quantity;
+use firmware_sim::data::channels::Channels;
+use firmware_sim::data::log::load_unit_log;
 
 /// The arguments of `trainer fit`.
 #[derive(Args)]
@@ -182,6 +186,7 @@ impl FitReport {
 }
 
 /// What the static model is extended by, as `trainer fit` was asked.
+#[derive(Clone)]
 enum Extend {
     /// Nothing: the static model ships.
     Nothing,
@@ -194,6 +199,7 @@ enum Extend {
 
 /// `trainer fit`'s arguments checked once: which combinations make sense is decided here, and
 /// the pipeline ([`FitPlan::run`]) only follows the plan.
+#[derive(Clone)]
 struct FitPlan {
     input: ModelInput,
     fit: FitOptions,
@@ -262,8 +268,17 @@ impl FitPlan {
             .collect()
     }
 
-    /// The static model, its extension and its σ, checked against the firmware and written.
+    /// The model (or, with `--channels`, every channel's), checked against the firmware and
+    /// written.
     fn run(self, flags: ConsoleFlags) -> anyhow::Result<()> {
+        match self.input.unit.load()? {
+            Some(channels) => self.run_unit(&channels, flags),
+            None => self.run_single(flags),
+        }
+    }
+
+    /// One channel: the static model, its extension and its σ, its blob and report.
+    fn run_single(self, flags: ConsoleFlags) -> anyhow::Result<()> {
         let console = Console::new(flags, self.json.as_deref());
         ensure_not_input(&self.out, &self.inputs())?;
         let streams = self
@@ -279,11 +294,112 @@ impl FitPlan {
                 Ok((p.as_path(), s))
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let points = self.input.static_points(&streams, self.pool)?;
-        let (gp, centres_choice) = self.size(&points, &console)?;
+        let fitted = self.fit(&streams, &console)?;
+        write_atomically(&self.out, &fitted.blob)?;
+        if let Some(path) = &self.json {
+            write_json(path, &self.inputs(), &fitted.summary)?;
+        }
+        print_fit(
+            &console,
+            &fitted,
+            (Some(&self.out), fitted.blob.len()),
+            self.input.quantity,
+        );
+        Ok(())
+    }
+
+    /// Every channel of a unit's files, each fitted as one channel is, into one blob: the logs read
+    /// once (their time and handling checked once for all channels).
+    fn run_unit(self, channels: &Channels, flags: ConsoleFlags) -> anyhow::Result<()> {
+        let console = Console::new(flags, self.json.as_deref());
+        let mut inputs = self.inputs();
+        inputs.push(&channels.path);
+        ensure_not_input(&self.out, &inputs)?;
+        let logs = self
+            .streams
+            .iter()
+            .map(|p| {
+                load_unit_log(
+                    p,
+                    channels,
+                    &self.input.maps.list,
+                    (self.window, &self.input.exclude.list),
+                    &console,
+                )
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let mut fitted = Vec::new();
+        for (k, ch) in channels.list.iter().enumerate() {
+            let heading = format!(
+                "{} ({} in {}, [{}/{}]):",
+                ch.name,
+                quantity_words(ch.quantity),
+                ch.quantity.unit(),
+                k + 1,
+                channels.len()
+            );
+            let console = console.channel(&ch.name, &heading);
+            let plan = Self {
+                input: self.input.for_channel(channels, k)?,
+                ..self.clone()
+            };
+            let streams: Vec<(&Path, Stream)> = self
+                .streams
+                .iter()
+                .zip(&logs)
+                .map(|(p, log)| (p.as_path(), log[k].clone()))
+                .collect();
+            let one = plan
+                .fit(&streams, &console)
+                .with_context(|| format!("channel {}", ch.name))?;
+            print_fit(&console, &one, (None, one.blob.len()), ch.quantity);
+            fitted.push(one);
+        }
+        let parts: Vec<ChannelBlob<'_>> = channels
+            .list
+            .iter()
+            .zip(&fitted)
+            .map(|(ch, f)| ChannelBlob {
+                name: &ch.name,
+                quantity: ch.quantity,
+                blob: &f.blob,
+            })
+            .collect();
+        let blob = unit::unit_blob(&channels.sensor_id, &parts)?;
+        let footprint = unit::unit_footprint(&blob)?;
+        write_atomically(&self.out, &blob)?;
+        let report = UnitFitReport {
+            sensor_id: &channels.sensor_id,
+            temperature_c: footprint.temperature_c,
+            channels: channels
+                .list
+                .iter()
+                .zip(&fitted)
+                .map(|(ch, f)| ChannelReport {
+                    name: &ch.name,
+                    quantity: ch.quantity,
+                    units: ch.quantity.unit(),
+                    fit: &f.summary,
+                })
+                .collect(),
+            blob_bytes: blob.len(),
+            footprint: &footprint,
+        };
+        if let Some(path) = &self.json {
+            write_json(path, &inputs, &report)?;
+        }
+        console.result(&unit_table(channels, &fitted, &footprint, &self.out));
+        Ok(())
+    }
+
+    /// The static model on the loaded `streams` (with `--points`, the table), its extension and
+    /// its σ: the blob, checked against the firmware, and what `fit` reports of it.
+    fn fit(&self, streams: &[(&Path, Stream)], console: &Console) -> anyhow::Result<Fitted> {
+        let points = self.input.static_points(streams, self.pool)?;
+        let (gp, centres_choice) = self.size(&points, console)?;
         let (points, model, table, pool_check) =
-            self.static_model(points, &gp, &streams, &console)?;
-        log_starts(&console, &model);
+            self.static_model(points, &gp, streams, console)?;
+        log_starts(console, &model);
         // Before the f32 check: a warning may explain why it refuses the blob.
         for w in model.warnings() {
             console.warn(&w);
@@ -306,13 +422,13 @@ impl FitPlan {
             summary.extension = Some(ExtensionReport::Table(extension.clone()));
             summary.features = Inputs::Firmware(firmware.features().to_vec());
         }
-        let shipped = match streams.as_slice() {
+        let shipped = match streams {
             [(path, data)] => self.on_stream(
                 (path, data),
                 (&points, &model, &firmware, &gp),
                 &static_blob,
                 &mut summary,
-                &console,
+                console,
             )?,
             _ => None,
         };
@@ -330,7 +446,10 @@ impl FitPlan {
             // The agreement of the blob as written, with its error model.
             agreement = export::verify(&model, &blob, &points, &extension)?.1;
         }
-        console.result(&format!("the blob's {}", calibration.describe("°/s")));
+        console.result(&format!(
+            "the blob's {}",
+            calibration.describe(points.quantity.unit())
+        ));
         summary.calibration = Some(calibration);
         summary.handled = streams
             .iter()
@@ -338,18 +457,12 @@ impl FitPlan {
             .collect();
         summary.firmware_agreement = agreement;
         summary.blob_bytes = blob.len();
-        write_atomically(&self.out, &blob)?;
-        if let Some(path) = &self.json {
-            write_json(path, &self.inputs(), &summary)?;
-        }
-        print_fit(
-            &console,
-            &model,
-            points.len(),
-            (&self.out, blob.len()),
-            &agreement,
-        );
-        Ok(())
+        Ok(Fitted {
+            n: points.len(),
+            blob,
+            summary,
+            model,
+        })
     }
 
     /// The GP's settings with its size resolved for `points` ([`capacity::resolve`]: the exact GP
@@ -533,11 +646,12 @@ impl FitPlan {
                 agreement = extended.agreement;
                 let ext = firmware_sim::replay::decode(&blob)?;
                 console.result(&format!(
-                    "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} °/s",
+                    "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} {}",
                     ext.features(),
                     path.display(),
                     fitted.train_rmse_60s_dps[0],
-                    fitted.train_rmse_60s_dps[1]
+                    fitted.train_rmse_60s_dps[1],
+                    points.quantity.unit()
                 ));
                 summary.features = Inputs::Firmware(ext.features().to_vec());
                 summary.extension = Some(ExtensionReport::Stream(fitted));
@@ -563,15 +677,114 @@ pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<
     FitPlan::check(args)?.run(flags)
 }
 
+/// A model fitted and checked: its blob, what `fit` reports of it, the GP and its points' count.
+struct Fitted {
+    blob: Vec<u8>,
+    summary: FitReport,
+    model: GpModel,
+    n: usize,
+}
+
+/// What `trainer fit --channels --json` writes: the sensor, its trained temperature range, each
+/// channel's fit as `fit --json` gives one channel's, and what the unit's blob costs.
+#[derive(Serialize)]
+struct UnitFitReport<'a> {
+    sensor_id: &'a str,
+    temperature_c: [f32; 2],
+    channels: Vec<ChannelReport<'a>>,
+    blob_bytes: usize,
+    footprint: &'a unit::UnitFootprint,
+}
+
+/// One channel of [`UnitFitReport`]: its figures in `units` (the `_dps` fields too).
+#[derive(Serialize)]
+struct ChannelReport<'a> {
+    name: &'a str,
+    quantity: Quantity,
+    units: &'static str,
+    #[serde(flatten)]
+    fit: &'a FitReport,
+}
+
+/// A quantity in words.
+fn quantity_words(q: Quantity) -> &'static str {
+    match q {
+        Quantity::AngularRate => "angular rate",
+        Quantity::SpecificForce => "specific force",
+    }
+}
+
+/// What `trainer fit --channels` prints last: each channel's model and what ships, and the
+/// unit's blob with what it costs the firmware.
+fn unit_table(
+    channels: &Channels,
+    fitted: &[Fitted],
+    f: &unit::UnitFootprint,
+    out: &Path,
+) -> String {
+    let mut rows = Vec::new();
+    for ((ch, fit), (_, fp)) in channels.list.iter().zip(fitted).zip(&f.channels) {
+        let ships = match &fit.summary.stream_choice {
+            Some(c) if c.shipped == investigate::Shipped::Extended => {
+                format!("extended: {}", causes_text(&c.diagnosis.causes))
+            }
+            Some(c) if !c.diagnosis.causes.is_empty() => {
+                format!("static ({} named)", causes_text(&c.diagnosis.causes))
+            }
+            _ => "static".to_owned(),
+        };
+        let sigma = fit.summary.calibration.as_ref().map_or(String::new(), |c| {
+            let q = ch.quantity;
+            format!("{:.3} {}", c.floor_std * q.bias_per_unit(), q.bias_unit())
+        });
+        rows.push((ch, fp, ships, sigma));
+    }
+    let wide = rows
+        .iter()
+        .map(|r| r.2.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(5);
+    let mut s = format!(
+        "channel           quantity          centres  inputs  {:<wide$}  model error σ (floor)\n",
+        "ships"
+    );
+    for (ch, fp, ships, sigma) in rows {
+        s.push_str(&format!(
+            "{:<17} {:<17} {:>7}  {:>6}  {ships:<wide$}  {sigma}\n",
+            ch.name,
+            quantity_words(ch.quantity),
+            fp.m,
+            fp.d,
+        ));
+    }
+    s.push_str(&format!(
+        "wrote {} ({} bytes: {} channels, sensor '{}', trained {:.1} … {:.1} °C); on the \
+         firmware {} numbers, {} bytes of RAM in a StaticUnit sized to it and {} of scratch, \
+         about {:.0} instructions per sample on the Cortex-M4F",
+        out.display(),
+        f.blob_bytes,
+        f.channels.len(),
+        f.sensor_id,
+        f.temperature_c[0],
+        f.temperature_c[1],
+        f.numbers,
+        f.unit_bytes,
+        f.scratch_bytes,
+        f.instructions
+    ));
+    s
+}
+
 /// What `trainer fit` prints of the model it wrote: the GP, the blob, and the firmware's f32
 /// evaluation against the host's.
 fn print_fit(
     console: &Console,
-    model: &GpModel,
-    n: usize,
-    (out, bytes): (&Path, usize),
-    agreement: &AgreementReport,
+    fitted: &Fitted,
+    (out, bytes): (Option<&Path>, usize),
+    q: Quantity,
 ) {
+    let (model, n, agreement) = (&fitted.model, fitted.n, &fitted.summary.firmware_agreement);
     if let Some(s) = &model.sparse {
         console.result(&format!(
             "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
@@ -594,10 +807,14 @@ fn print_fit(
             g * model.output_scale
         ));
     }
-    console.result(&format!("wrote {} ({bytes} bytes)", out.display()));
-    console.result(
-        "firmware (f32) vs host (f64):      n   max |Δmean| (°/s)   max rel Δvar   extrapolating",
-    );
+    console.result(&match out {
+        Some(out) => format!("wrote {} ({bytes} bytes)", out.display()),
+        None => format!("its model: {bytes} bytes of the unit's blob"),
+    });
+    console.result(&format!(
+        "firmware (f32) vs host (f64):      n   max |Δmean| ({:>4})   max rel Δvar   extrapolating",
+        q.unit()
+    ));
     for (name, a) in [
         ("training points", agreement.training),
         ("grid, trained range", agreement.grid_inside),
@@ -610,11 +827,55 @@ fn print_fit(
     }
 }
 
-/// `trainer inspect`: a blob's size and static memory on the firmware.
+/// `trainer inspect`: a blob's size and static memory on the firmware (every channel's, for a
+/// unit's blob).
 pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let InspectArgs { model, json } = args;
     let console = Console::new(flags, json.as_deref());
     let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+    if bytes.get(..4) == Some(&firmware_core::blob::unit::MAGIC[..]) {
+        let f = unit::unit_footprint(&bytes)
+            .with_context(|| format!("decoding {}", model.display()))?;
+        let mut text = format!(
+            "{}: a unit of {} channels for sensor '{}', trained {:.1} … {:.1} °C\n\
+             blob: {} bytes (22-byte header + postcard payload)\n\
+             channel           centres  inputs  monomials  numbers  unit\n",
+            model.display(),
+            f.channels.len(),
+            f.sensor_id,
+            f.temperature_c[0],
+            f.temperature_c[1],
+            f.blob_bytes
+        );
+        let unit = firmware_sim::replay::decode_unit(&bytes)?;
+        for ((name, c), ch) in f.channels.iter().zip(unit.channels()) {
+            text.push_str(&format!(
+                "{name:<17} {:>7}  {:>6}  {:>9}  {:>7}  ({})\n",
+                c.m,
+                c.d,
+                c.p,
+                c.floats,
+                ch.quantity().unit()
+            ));
+        }
+        text.push_str(&format!(
+            "on the firmware: StaticUnit<C ≥ {}, D ≥ {}, E ≥ {}, N ≥ {}> takes {} bytes of RAM \
+             (32-bit target), the variance scratch {} bytes, about {:.0} instructions per sample \
+             on the Cortex-M4F (every channel's mean and variance)",
+            f.channels.len(),
+            f.channels.iter().map(|(_, c)| c.d).max().unwrap_or(0),
+            f.channels.iter().map(|(_, c)| c.p * c.d).max().unwrap_or(0),
+            f.numbers,
+            f.unit_bytes,
+            f.scratch_bytes,
+            f.instructions
+        ));
+        console.result(&text);
+        if let Some(path) = json {
+            write_json(&path, &[model.as_path()], &f)?;
+        }
+        return Ok(());
+    }
     let f = export::footprint(&bytes)?;
     firmware_sim::replay::decode(&bytes)?;
     console.result(&format!(

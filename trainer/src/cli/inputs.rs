@@ -5,9 +5,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use firmware_core::Quantity;
 use firmware_sim::console::Console;
+use firmware_sim::data::channels::{Channels, Read};
 use firmware_sim::data::columns::ColumnMap;
-use firmware_sim::data::log::{Excludes, Maps};
+use firmware_sim::data::log::{Excludes, Maps, UnitArgs};
 use firmware_sim::data::stream::{Stream, Window};
 
 use crate::analysis::evaluate::Method;
@@ -55,9 +57,40 @@ pub(super) struct ModelInput {
     /// apart by a constant): fitted as a variance, left out of the firmware's predictions.
     #[arg(long, requires = "group")]
     pub(super) offsets: bool,
+    #[command(flatten)]
+    pub(super) unit: UnitArgs,
+    /// What the output measures: a gyro's rate unless a unit's channel says otherwise.
+    #[arg(skip = Quantity::AngularRate)]
+    pub(super) quantity: Quantity,
 }
 
 impl ModelInput {
+    /// The input of channel `k` of `channels`, as if it were a single channel's: its columns
+    /// mapped onto the canonical ones (a rate table read as a table), and its scale factor (the
+    /// one it gives; without a rate table, 1 for an output in a physical unit: a bias model).
+    pub(super) fn for_channel(&self, channels: &Channels, k: usize) -> anyhow::Result<Self> {
+        anyhow::ensure!(
+            self.scale_factor.is_none(),
+            "--scale-factor is for one channel: a unit's channels give theirs in {} \
+             (scale_factor, or an output in a physical unit)",
+            channels.path.display()
+        );
+        let ch = &channels.list[k];
+        let scale_factor = match &self.points {
+            Some(_) => ch.scale_factor,
+            None => ch.bias_scale_factor(),
+        };
+        Ok(Self {
+            maps: Maps {
+                list: channels.maps(k, &self.maps.list, Read::Table)?,
+            },
+            scale_factor,
+            unit: UnitArgs::default(),
+            quantity: ch.quantity,
+            ..self.clone()
+        })
+    }
+
     /// Refuses --offsets where `command` has no use for it.
     pub(super) fn without_offsets(&self, command: &str) -> anyhow::Result<()> {
         anyhow::ensure!(
@@ -85,7 +118,7 @@ impl ModelInput {
             None => None,
         };
         if !pool && let Some(points) = out {
-            return Ok(points);
+            return Ok(points.measuring(self.quantity));
         }
         for (path, s) in streams {
             let more = if pool {
@@ -98,7 +131,8 @@ impl ModelInput {
                 None => more,
             });
         }
-        out.context("give --points (a rate table) or --stream to fit on")
+        out.map(|p| p.measuring(self.quantity))
+            .context("give --points (a rate table) or --stream to fit on")
     }
 }
 

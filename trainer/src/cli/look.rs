@@ -4,12 +4,15 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::log::Maps;
+use firmware_sim::data::channels::{Channels, Read};
+use firmware_sim::data::log::{Maps, UnitArgs};
 use firmware_sim::data::stream::Stream;
 use firmware_sim::io::{ensure_not_input, write_json};
 
 use crate::data::points::{Points, Screen};
 use crate::data::summary::{self, Summary};
+use firmware_core::Quantity;
+use serde::Serialize;
 
 /// The arguments of `trainer summarize`.
 #[derive(Args)]
@@ -25,6 +28,8 @@ pub(super) struct SummarizeArgs {
     /// A static table's nominal scale factor (as `fit` would need it), output units per °/s.
     #[arg(long, value_name = "K")]
     scale_factor: Option<f64>,
+    #[command(flatten)]
+    unit: UnitArgs,
     /// The summaries as JSON (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -63,12 +68,36 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
         stream,
         maps,
         scale_factor,
+        unit,
         json,
     } = args;
     let console = Console::new(flags, json.as_deref());
-    let inputs: Vec<&Path> = points.iter().chain(&stream).map(PathBuf::as_path).collect();
+    let mut inputs: Vec<&Path> = points.iter().chain(&stream).map(PathBuf::as_path).collect();
+    inputs.extend(unit.channels.as_deref());
     if let Some(out) = &json {
         ensure_not_input(out, &inputs)?;
+    }
+    if let Some(channels) = unit.load()? {
+        anyhow::ensure!(
+            scale_factor.is_none(),
+            "--scale-factor is for one channel: a unit's channels give theirs in {}",
+            channels.path.display()
+        );
+        let mut all = Vec::new();
+        if let Some(p) = &points {
+            let each = unit_summaries(p, &channels, &maps, Read::Table)?;
+            console.result(unit_text(&channels, &each).trim_end());
+            all.push(each);
+        }
+        if let Some(s) = &stream {
+            let each = unit_summaries(s, &channels, &maps, Read::Log)?;
+            console.result(unit_text(&channels, &each).trim_end());
+            all.push(each);
+        }
+        if let Some(out) = &json {
+            write_json(out, &inputs, &all)?;
+        }
+        return Ok(());
     }
     let mut all = Vec::new();
     if let Some(p) = &points {
@@ -84,4 +113,76 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
         write_json(out, &inputs, &all)?;
     }
     Ok(())
+}
+
+/// One channel of a unit's file, summarized (`summarize --channels --json`: one per channel).
+#[derive(Serialize)]
+struct ChannelSummary {
+    channel: String,
+    quantity: Quantity,
+    units: &'static str,
+    #[serde(flatten)]
+    summary: Summary,
+}
+
+/// Each channel's summary of the file at `path`, read as `read` (a log once for all channels,
+/// with its time and handling checked once; a table with each channel's columns).
+fn unit_summaries(
+    path: &Path,
+    channels: &Channels,
+    maps: &Maps,
+    read: Read,
+) -> anyhow::Result<Vec<ChannelSummary>> {
+    let file = path.display().to_string();
+    let streams = match read {
+        Read::Log => Some(channels.load_log(path, &maps.list)?),
+        Read::Table => None,
+    };
+    channels
+        .list
+        .iter()
+        .enumerate()
+        .map(|(k, ch)| {
+            let own = channels.maps(k, &maps.list, read)?;
+            let summary = match &streams {
+                Some(s) => summary::of_stream(&file, &s[k], &own),
+                None => {
+                    let (points, left_out) =
+                        Points::load_screened(path, &own, None, ch.scale_factor, Screen::Exclude)?;
+                    summary::of_points(&file, &points, &own, &left_out)
+                }
+            };
+            Ok(ChannelSummary {
+                channel: ch.name.clone(),
+                quantity: ch.quantity,
+                units: ch.quantity.unit(),
+                summary,
+            })
+        })
+        .collect()
+}
+
+/// A unit's file as text: what the channels share once (the file's rows, time, temperature,
+/// sampling and what was left out), then a line per channel.
+fn unit_text(channels: &Channels, each: &[ChannelSummary]) -> String {
+    let Some(first) = each.first() else {
+        return String::new();
+    };
+    let shared = first.summary.shared_text(&format!(
+        "a unit of {} channels{}",
+        channels.len(),
+        if channels.sensor_id.is_empty() {
+            String::new()
+        } else {
+            format!(", sensor '{}'", channels.sensor_id)
+        }
+    ));
+    let mut s = shared;
+    for (ch, c) in channels.list.iter().zip(each) {
+        s.push_str(
+            &c.summary
+                .channel_text(&ch.name, &ch.unit.to_string(), ch.quantity),
+        );
+    }
+    s
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::log::{Excludes, Maps};
+use firmware_sim::data::log::{Excludes, Maps, UnitArgs};
 use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::gyro::effects::Hidden;
 use firmware_sim::gyro::plant::GyroParams;
@@ -79,6 +79,8 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
         exclude_implausible: false,
         group: None,
         offsets: false,
+        unit: UnitArgs::default(),
+        quantity: firmware_core::Quantity::AngularRate,
     };
     Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }

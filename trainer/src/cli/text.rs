@@ -43,13 +43,15 @@ pub(super) fn causes_text(causes: &[Cause]) -> String {
 
 /// The diagnosis as a terminal reads it: the verdict, every candidate alone, then the selection.
 pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
+    let (k, u) = (d.quantity.bias_per_unit(), d.quantity.bias_unit());
     let mut s = format!(
-        "causes: {} — {}\nresidual rmse_60s {:.3e} °/s ({:.2} °/h) over {} blocks of 60 s\n\
-         candidate       score   forward   parameter   correlation   amplitude (°/h)\n",
+        "causes: {} — {}\nresidual rmse_60s {:.3e} {} ({:.2} {u}) over {} blocks of 60 s\n\
+         candidate       score   forward   parameter   correlation   amplitude ({u})\n",
         causes_text(&d.causes),
         d.explanation,
         d.residual_rmse_60s_dps,
-        d.residual_rmse_60s_dps * DPH_PER_DPS,
+        d.quantity.unit(),
+        d.residual_rmse_60s_dps * k,
         d.n_blocks
     );
     // A forward score the test could not see (the input flat in the later half) is marked.
@@ -68,7 +70,7 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
             forward(c.forward_score, c.forward_sees),
             c.parameter,
             c.correlation,
-            c.amplitude_dph
+            c.amplitude_dph / DPH_PER_DPS * k
         ));
     }
     s.push_str("selection: causes                                of what is left: score   forward   taken\n");
@@ -130,6 +132,7 @@ mod tests {
                 ),
             ],
             residual_rmse_60s_dps: 1e-3,
+            quantity: firmware_core::Quantity::AngularRate,
             n_blocks: 100,
             runner_up: None,
             explanation: String::new(),

@@ -5,7 +5,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use firmware_core::features::{self, FeatureState, Sample};
-use firmware_core::{Feature, Status};
+use firmware_core::{Feature, Quantity, Status};
 use firmware_sim::data::blocks;
 use firmware_sim::data::columns::{self, ColumnMap, DataError};
 use firmware_sim::data::stream::Stream;
@@ -41,6 +41,9 @@ pub struct Points {
     /// (`--map time_s=…`), whose transients [`crate::analysis::table`] can diagnose. `None`
     /// otherwise.
     pub time_s: Option<Vec<f64>>,
+    /// What the reference measures, and so the unit every figure of these points is stated in:
+    /// a gyro's rate (°/s) unless a unit's channels file says its channel is an accelerometer.
+    pub quantity: Quantity,
     /// The model inputs, computed once on first use ([`Points::inputs`]) and carried by
     /// [`Points::select`]: every fit, export and check of these points reads the same matrix.
     inputs: OnceLock<DMatrix<f64>>,
@@ -269,6 +272,7 @@ impl Points {
             scale_factor,
             soaked,
             time_s,
+            quantity: Quantity::AngularRate,
             inputs: OnceLock::new(),
         }
     }
@@ -370,6 +374,7 @@ impl Points {
             scale_factor,
             soaked: true,
             time_s,
+            quantity: Quantity::AngularRate,
             inputs: OnceLock::new(),
         };
         Ok((points, bad))
@@ -401,6 +406,7 @@ impl Points {
             scale_factor,
             soaked: false,
             time_s: None,
+            quantity: Quantity::AngularRate,
             inputs: OnceLock::new(),
         })
     }
@@ -428,8 +434,15 @@ impl Points {
             scale_factor,
             soaked: false,
             time_s: None,
+            quantity: Quantity::AngularRate,
             inputs: OnceLock::new(),
         })
+    }
+
+    /// These points, of a channel that measures `quantity`.
+    pub fn measuring(mut self, quantity: Quantity) -> Self {
+        self.quantity = quantity;
+        self
     }
 
     /// These points and `other` together. Both must be the same kind of model (rate or bias with
@@ -524,6 +537,7 @@ impl Points {
             scale_factor: self.scale_factor,
             soaked: self.soaked,
             time_s: self.time_s.as_ref().map(|t| pick(t)),
+            quantity: self.quantity,
             inputs: self
                 .inputs
                 .get()

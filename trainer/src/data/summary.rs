@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use firmware_core::Quantity;
 use firmware_sim::data::columns::ColumnMap;
 use firmware_sim::data::stream::Stream;
 use firmware_sim::stats::Line;
@@ -88,7 +89,9 @@ fn columns(names: &[&str], maps: &[ColumnMap]) -> Vec<(String, String)> {
         .collect()
 }
 
-/// A straight line's slope through the rows with a non-zero rate: output per °/s.
+/// A straight line's slope through the rows with a non-zero rate: output per °/s. None where
+/// fewer than two rates differ (a constant reference, such as gravity on a resting
+/// accelerometer, shows no scale factor).
 fn slope(rate: &[f64], output: &[f64]) -> Option<f64> {
     let pts: Vec<(f64, f64)> = rate
         .iter()
@@ -96,7 +99,8 @@ fn slope(rate: &[f64], output: &[f64]) -> Option<f64> {
         .filter(|(w, v)| w.is_finite() && v.is_finite() && w.abs() > 0.5)
         .map(|(w, v)| (*w, *v))
         .collect();
-    if pts.len() < 3 {
+    let xs: Vec<f64> = pts.iter().map(|p| p.0).collect();
+    if pts.len() < 3 || distinct(&xs, 0.01) < 2 {
         return None;
     }
     Line::fit(pts).map(|l| l.slope)
@@ -223,6 +227,94 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
 }
 
 impl Summary {
+    /// What a unit's channels share in this file, as text: the file and its rows (`what`: the
+    /// unit), the columns other than a channel's output and reference, the temperature, the
+    /// sampling or plateaus, time problems and what was left out.
+    pub fn shared_text(&self, what: &str) -> String {
+        let mut s = format!(
+            "{} ({}, {} rows; {what})\n",
+            self.file, self.kind, self.rows
+        );
+        for (name, from) in &self.columns {
+            if name != "voltage_v" && name != "rate_dps" {
+                s.push_str(&format!("  {name:<10} ← {from}\n"));
+            }
+        }
+        s.push_str(&format!(
+            "  temperature {:.2} … {:.2} °C; {}\n",
+            self.temp_c[0],
+            self.temp_c[1],
+            match self.kind {
+                "points" => format!(
+                    "{} temperature plateaus (groups of readings more than 1 °C from the next)",
+                    self.plateaus
+                ),
+                _ => format!(
+                    "sampled every {:.3} s; {} soaks (10 min within 0.5 °C)",
+                    self.sample_interval_s.unwrap_or(0.0),
+                    self.plateaus
+                ),
+            }
+        ));
+        for issue in &self.time_issues {
+            s.push_str(&format!("  time: {issue}\n"));
+        }
+        match &self.excluded_line {
+            Some(line) => s.push_str(&format!("  left out: {line}\n")),
+            None => {
+                for row in &self.excluded {
+                    s.push_str(&format!("  left out: {row}\n"));
+                }
+            }
+        }
+        s
+    }
+
+    /// One channel of a unit in this file, as text: where its output (in `unit`) and reference
+    /// come from, their ranges in the unit of `quantity`, and what its data show of the scale
+    /// factor, and of the earth rate for a gyro.
+    pub fn channel_text(&self, name: &str, unit: &str, quantity: Quantity) -> String {
+        let from = |col: &str| {
+            self.columns
+                .iter()
+                .find(|(n, _)| n == col)
+                .map_or(String::new(), |(_, f)| f.clone())
+        };
+        let q = quantity.unit();
+        let mut s = format!(
+            "  {name}: output ← {} ({unit}), {:.6e} … {:.6e}{}; reference ← {}, {:.4} … {:.4} {q} \
+             ({} distinct)\n",
+            from("voltage_v"),
+            self.output[0],
+            self.output[1],
+            if unit == q {
+                String::new()
+            } else {
+                format!(" {q}")
+            },
+            from("rate_dps"),
+            self.rate_dps[0],
+            self.rate_dps[1],
+            self.rates
+        );
+        if let Some(step) = self.output_step {
+            s.push_str(&format!("    output quantized in steps of {step:e}\n"));
+        }
+        s.push_str(&match self.scale_factor_estimate {
+            Some(k) => format!("    scale factor the data show: {k:.6e} output units per {q}\n"),
+            None => "    scale factor: not shown (no non-zero references): a bias model against \
+                     temperature\n"
+                .to_owned(),
+        });
+        if quantity == Quantity::AngularRate {
+            s.push_str(&format!(
+                "    earth rate in the reference: {}\n",
+                self.earth_rate
+            ));
+        }
+        s
+    }
+
     /// As text, a line per fact.
     pub fn text(&self) -> String {
         let mut s = format!("{} ({}, {} rows)\n", self.file, self.kind, self.rows);
@@ -311,6 +403,8 @@ mod tests {
         let rate = [-80.0, -40.0, -10.0, 10.0, 40.0, 80.0];
         let mv: Vec<f64> = rate.iter().map(|w| 38.0 * w).collect();
         assert!((slope(&rate, &mv).unwrap() - 38.0).abs() < 1e-9);
+        // Gravity alone on a resting accelerometer shows none.
+        assert_eq!(slope(&[-9.8; 10], &[-9.6; 10]), None);
         assert_eq!(range(&[3.0, f64::NAN, -1.0]), [-1.0, 3.0]);
         assert_eq!(distinct(&rate, 0.01), 6);
     }

@@ -33,6 +33,9 @@ pub enum ExportError {
     /// The firmware encoder or decoder refused the blob.
     #[error("blob: {0}")]
     Blob(#[from] firmware_core::BlobError),
+    /// A unit blob could not be made of its channels' blobs, or does not compute what they do.
+    #[error("unit blob: {0}")]
+    Unit(String),
     /// The firmware's evaluation of the blob does not follow the host model.
     #[error(
         "the firmware (f32) evaluation of this blob does not follow the host on {part}: {mismatch}"
@@ -629,20 +632,27 @@ pub struct Footprint {
     pub scratch_bytes: usize,
 }
 
+impl Footprint {
+    /// The footprint of a model of `dims` in a blob of `blob_bytes`.
+    pub fn of(dims: Dims, blob_bytes: usize) -> Self {
+        let Dims { m, d, p } = dims;
+        let floats = dims.floats();
+        Self {
+            m,
+            d,
+            p,
+            blob_bytes,
+            floats,
+            model_bytes: (4 * floats + p * d + d + 3 * 4 + 12).div_ceil(4) * 4,
+            scratch_bytes: 4 * m,
+        }
+    }
+}
+
 /// The footprint of a blob, for `trainer inspect`.
 pub fn footprint(bytes: &[u8]) -> Result<Footprint, ExportError> {
     let header = blob::read_header(bytes).map_err(ExportError::Blob)?;
-    let Dims { m, d, p } = header.dims;
-    let floats = header.dims.floats();
-    Ok(Footprint {
-        m,
-        d,
-        p,
-        blob_bytes: bytes.len(),
-        floats,
-        model_bytes: (4 * floats + p * d + d + 3 * 4 + 12).div_ceil(4) * 4,
-        scratch_bytes: 4 * m,
-    })
+    Ok(Footprint::of(header.dims, bytes.len()))
 }
 
 #[cfg(test)]

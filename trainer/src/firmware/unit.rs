@@ -1,0 +1,250 @@
+//! A sensor unit's blob, made of its channels' blobs (each already checked against its host
+//! model, [`super::export::verify`]), checked as the firmware will run it, and what it costs the
+//! firmware: RAM, flash and instructions per sample.
+//!
+//! The unit adds nothing to a channel's arithmetic (firmware-core's `unit` module evaluates each
+//! channel by the code a model decoded alone uses), so the check here is that the packing lost
+//! nothing: every channel of the decoded unit computes, bit for bit, what its own blob computes
+//! on a ramp over the unit's trained temperatures.
+
+use firmware_core::blob::unit::{self as format, Channel};
+use firmware_core::features::MAX_FEATURES;
+use firmware_core::{Feature, FeatureState, Quantity, Sample, UnitSample};
+use firmware_sim::replay::{self, HostModel};
+use serde::Serialize;
+
+use super::export::{ExportError, Footprint, footprint};
+
+/// One channel to pack: its name, what it measures and its blob.
+#[derive(Debug, Clone, Copy)]
+pub struct ChannelBlob<'a> {
+    /// Its name.
+    pub name: &'a str,
+    /// What it measures.
+    pub quantity: Quantity,
+    /// Its model blob, as `fit` checked and wrote it.
+    pub blob: &'a [u8],
+}
+
+/// The trained range of each channel's temperature input, and the unit's: where every channel was
+/// calibrated (the largest low end, the smallest high end).
+fn temperature_range(models: &[Box<HostModel>]) -> Result<[f32; 2], ExportError> {
+    let mut range = [f32::NEG_INFINITY, f32::INFINITY];
+    for m in models {
+        let k = m
+            .features()
+            .iter()
+            .position(|f| *f == Feature::Temperature)
+            .ok_or_else(|| {
+                ExportError::Unit("a unit's channel has no temperature input".to_owned())
+            })?;
+        let [lo, hi] = m.trained_range(k).unwrap_or([f32::MIN, f32::MAX]);
+        range = [range[0].max(lo), range[1].min(hi)];
+    }
+    if range[0] > range[1] {
+        return Err(ExportError::Unit(format!(
+            "the channels' trained temperatures do not overlap ({:.1} … {:.1} °C)",
+            range[0], range[1]
+        )));
+    }
+    Ok(range)
+}
+
+/// The unit blob of `channels` for sensor `sensor_id`, checked: the unit decodes, its shared
+/// features fit the firmware's pipeline, and each channel computes what its own blob does
+/// (module doc).
+pub fn unit_blob(sensor_id: &str, channels: &[ChannelBlob<'_>]) -> Result<Vec<u8>, ExportError> {
+    let models = channels
+        .iter()
+        .map(|c| replay::decode(c.blob))
+        .collect::<Result<Vec<_>, _>>()?;
+    let temperature_c = temperature_range(&models)?;
+    let entries: Vec<Channel<'_>> = channels
+        .iter()
+        .map(|c| Channel {
+            name: c.name,
+            quantity: c.quantity,
+            model: c.blob,
+        })
+        .collect();
+    let room = 256 + channels.iter().map(|c| c.blob.len() + 64).sum::<usize>();
+    let mut buf = vec![0u8; room];
+    let n = format::encode(sensor_id, temperature_c, &entries, &mut buf)?;
+    buf.truncate(n);
+    let unit = replay::decode_unit(&buf)?;
+    if unit.shared_features().len() > MAX_FEATURES {
+        return Err(ExportError::Unit(format!(
+            "the channels need {} distinct temperature inputs; the firmware computes {MAX_FEATURES}",
+            unit.shared_features().len()
+        )));
+    }
+    follows(&unit, &models, temperature_c)?;
+    Ok(buf)
+}
+
+/// Every channel of `unit` computes what its own model does, bit for bit, on a 1 Hz ramp over
+/// `temperature_c` with each channel's output at the middle of its trained range.
+fn follows(
+    unit: &replay::HostUnit,
+    models: &[Box<HostModel>],
+    [lo, hi]: [f32; 2],
+) -> Result<(), ExportError> {
+    const SAMPLES: u32 = 600;
+    let outputs: Vec<f32> = models
+        .iter()
+        .map(|m| {
+            m.features()
+                .iter()
+                .position(|f| *f == Feature::Voltage)
+                .and_then(|k| m.trained_range(k))
+                .map_or(0.0, |[a, b]| 0.5 * (a + b))
+        })
+        .collect();
+    let mut shared = FeatureState::default();
+    let mut own: Vec<FeatureState> = vec![FeatureState::default(); models.len()];
+    let mut scratch = vec![0.0f32; unit.scratch_len()];
+    let none = firmware_core::Prediction {
+        mean: 0.0,
+        bias_variance: 0.0,
+        noise_variance: 0.0,
+        status: firmware_core::Status::Fault,
+    };
+    let mut out = vec![none; models.len()];
+    for k in 0..SAMPLES {
+        let time_s = f64::from(k);
+        let temp_c = lo + (hi - lo) * k as f32 / (SAMPLES - 1) as f32;
+        let sample = UnitSample {
+            time_s,
+            temp_c,
+            outputs: &outputs,
+        };
+        unit.compensate(&sample, &mut shared, &mut scratch, &mut out)
+            .map_err(|e| ExportError::Unit(format!("the unit refused a sample: {e}")))?;
+        for (c, m) in models.iter().enumerate() {
+            let alone = Sample {
+                time_s,
+                temp_c,
+                output: outputs[c],
+            };
+            let expected = m
+                .compensate(&alone, &mut own[c], &mut scratch)
+                .map_err(|e| ExportError::Unit(format!("a channel refused a sample: {e}")))?;
+            if out[c] != expected {
+                return Err(ExportError::Unit(format!(
+                    "channel {} of the unit blob computes {:?} where its own blob computes \
+                     {expected:?} at {temp_c} °C (report it)",
+                    unit.channels()[c].name(),
+                    out[c]
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Instructions per sample on the Cortex-M4F of one channel's mean and variance with `m` centres
+/// and `d` inputs: about 1,200 fixed, 67 + 3d per centre for the mean and 17 per multiply-add of
+/// the variance's forward substitution, m(m + 1)/2 of them (docs/firmware.md, "Cost on the M4").
+pub fn instructions(m: usize, d: usize) -> f64 {
+    let m = m as f64;
+    1200.0 + (67.0 + 3.0 * d as f64) * m + 17.0 * m * (m + 1.0) / 2.0
+}
+
+/// Bytes of RAM one channel's bookkeeping takes in a `StaticUnit` on a 32-bit target, besides its
+/// numbers: its name, quantity, sizes, features, exponents, error model and input map.
+pub fn channel_bytes(d: usize, p: usize) -> usize {
+    17 + 1 + 12 + (8 * d + 4) + (p * d + 4) + 24 + 4 + 2 * d + 8
+}
+
+/// What a unit blob costs the firmware (`trainer inspect`, `fit --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct UnitFootprint {
+    /// The sensor's ID.
+    pub sensor_id: String,
+    /// The trained temperature range, °C.
+    pub temperature_c: [f32; 2],
+    /// Each channel: its name and its model's footprint.
+    pub channels: Vec<(String, Footprint)>,
+    /// Blob size, bytes: what a calibration slot holds (two slots, twice this in flash).
+    pub blob_bytes: usize,
+    /// Numbers of all channels: the `N` of a `StaticUnit` sized to this blob.
+    pub numbers: usize,
+    /// RAM of that `StaticUnit` on a 32-bit target, bytes: 4·N, each channel's bookkeeping and
+    /// the unit's (its ID, range and shared features).
+    pub unit_bytes: usize,
+    /// Variance scratch: 4 bytes per centre of the largest channel.
+    pub scratch_bytes: usize,
+    /// Instructions per sample on the Cortex-M4F, every channel's mean and variance (the sum of
+    /// [`instructions`]: an estimate, measured by `firmware-sim qemu`).
+    pub instructions: f64,
+}
+
+/// The footprint of a unit blob (or of a model blob, as a unit of one channel).
+pub fn unit_footprint(bytes: &[u8]) -> Result<UnitFootprint, ExportError> {
+    let unit = replay::decode_unit(bytes)?;
+    let mut channels = Vec::new();
+    let (mut numbers, mut bookkeeping, mut instr, mut most_m) = (0, 0, 0.0, 0);
+    for ch in unit.channels() {
+        let dims = ch.dims();
+        let f = Footprint::of(dims, 0);
+        numbers += f.floats;
+        bookkeeping += channel_bytes(dims.d, dims.p);
+        instr += instructions(dims.m, dims.d);
+        most_m = most_m.max(dims.m);
+        channels.push((ch.name().to_owned(), f));
+    }
+    if unit.channels().len() == 1 && bytes.get(..4) == Some(&firmware_core::blob::MAGIC[..]) {
+        channels[0].1 = footprint(bytes)?;
+    }
+    Ok(UnitFootprint {
+        sensor_id: unit.sensor_id().to_owned(),
+        temperature_c: unit.temperature_range(),
+        channels,
+        blob_bytes: bytes.len(),
+        numbers,
+        unit_bytes: 4 * numbers + bookkeeping + 33 + 8 + (8 * MAX_FEATURES + 4) + 4,
+        scratch_bytes: 4 * most_m,
+        instructions: instr,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GYRO: &[u8] = include_bytes!("../../../firmware-core/doc/gyro.bin");
+
+    #[test]
+    fn a_unit_of_checked_channels_packs_and_says_what_it_costs() {
+        let channels = [
+            ChannelBlob {
+                name: "gyro.x",
+                quantity: Quantity::AngularRate,
+                blob: GYRO,
+            },
+            ChannelBlob {
+                name: "acc.z",
+                quantity: Quantity::SpecificForce,
+                blob: GYRO,
+            },
+        ];
+        let blob = unit_blob("IMU-1", &channels).unwrap();
+        let f = unit_footprint(&blob).unwrap();
+        let single = footprint(GYRO).unwrap();
+        assert_eq!(f.channels.len(), 2);
+        assert_eq!(f.numbers, 2 * single.floats);
+        assert_eq!(f.scratch_bytes, 4 * single.m);
+        assert_eq!(f.sensor_id, "IMU-1");
+        // The numbers are most of it; the packing adds less than a model blob's header per channel.
+        assert!(f.unit_bytes > 4 * f.numbers && f.unit_bytes < 4 * f.numbers + 600);
+        assert!(blob.len() < 2 * GYRO.len() + 64, "{} bytes", blob.len());
+        assert_eq!(
+            f.instructions,
+            2.0 * instructions(single.m, single.d),
+            "{f:?}"
+        );
+        // A model blob is a unit of one channel.
+        let one = unit_footprint(GYRO).unwrap();
+        assert_eq!(one.channels[0].1.model_bytes, single.model_bytes);
+    }
+}
