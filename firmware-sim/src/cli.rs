@@ -11,8 +11,9 @@ use serde::Serialize;
 use crate::cause::Cause;
 use crate::console::{AFTER_HELP, Console, ConsoleFlags};
 use crate::data::log::LogArgs;
+use crate::gyro::axes::Axes;
 use crate::gyro::effects::{Effect, Hidden};
-use crate::gyro::unit::Unit as UnitFile;
+use crate::gyro::unit::UnitFile;
 use crate::gyro::{output, paper, plant::GyroParams, stream};
 use crate::io::{ensure_not_input, write_atomically, write_json};
 use crate::sigma;
@@ -245,47 +246,105 @@ struct GenerateCommon {
     /// gyro the same unit seed.
     #[arg(long)]
     unit_seed: Option<u64>,
+    /// A unit of this many gyro axes (1 to 6; a unit file of several axes gives its own): each its
+    /// own gyro (with --unit random, each drawn by its own seed) and noise, in one housing with
+    /// one temperature sensor, on a table that turns every axis. The CSV gets each axis's columns
+    /// (NAME.voltage_v, NAME.rate_dps) and a channels file beside it (OUT with .channels.toml)
+    /// names them for the trainer's --channels.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=6))]
+    axes: Option<u8>,
     /// Hidden physical effect (docs/design.md §5): none, thermal-rate, sensor-lag, warm-up,
-    /// hysteresis, time-drift; several act together joined by + (warm-up+thermal-rate). It acts on
-    /// the paper
-    /// protocol and on streams alike.
-    #[arg(long, default_value = "none", value_name = "ID[+ID…]")]
-    effect: Joined<Cause>,
+    /// hysteresis, time-drift; several act together joined by + (warm-up+thermal-rate); one per
+    /// axis of a unit joined by , (thermal-rate,none,hysteresis), or one for every axis. It acts
+    /// on the paper protocol and on streams alike.
+    #[arg(long, default_value = "none", value_name = "ID[+ID…][,…]")]
+    effect: PerAxis<Joined<Cause>>,
     /// Strength of the effect, in its unit: thermal-rate (°/h)/(°C/min), sensor-lag min, warm-up
-    /// °/h, hysteresis °/h, time-drift (°/h)/h; one per effect, joined by + as they are. Default: the
-    /// middle of each documented range.
-    #[arg(long, value_name = "S[+S…]")]
-    strength: Option<Joined<f64>>,
+    /// °/h, hysteresis °/h, time-drift (°/h)/h; one per effect, joined by + and , as they are.
+    /// Default: the middle of each documented range.
+    #[arg(long, value_name = "S[+S…][,…]")]
+    strength: Option<PerAxis<Joined<f64>>>,
     /// Write a JSON summary (the unit's parameters, the effect and the row count) here.
     #[arg(long)]
     json: Option<PathBuf>,
 }
 
+/// What a generator simulates: one gyro, or a unit of several axes.
+enum Simulated {
+    /// One gyro and its effects.
+    One(GyroParams, Hidden),
+    /// Several axes.
+    Unit(Axes),
+}
+
 impl GenerateCommon {
-    /// The gyro and its effects.
-    fn gyro(&self) -> anyhow::Result<(GyroParams, Hidden)> {
-        let strengths = self.strength.as_ref().map_or(&[][..], |s| &s.0);
-        let flagged = Hidden::new(&self.effect.0, strengths)?;
-        let seed = self.unit_seed.unwrap_or(self.seed);
-        match &self.unit {
-            Unit::Nominal => Ok((GyroParams::nominal(), flagged)),
-            Unit::Random => Ok((GyroParams::random_unit(seed), flagged)),
-            Unit::File(path) => {
-                let unit = UnitFile::load(path)?;
-                let mut effects = unit.effects;
-                for e in flagged.0.into_iter().filter(|e| *e != Effect::None) {
-                    if effects.iter().any(|u| u.cause() == e.cause()) {
-                        anyhow::bail!(
-                            "{} already has a {} effect; edit the unit file to change it",
-                            path.display(),
-                            e.cause().id()
-                        );
-                    }
-                    effects.push(e);
+    /// The effects of axis `k` of `n`: its own entry of --effect (and --strength), or the one
+    /// entry every axis shares.
+    fn hidden(&self, k: usize, n: usize) -> anyhow::Result<Hidden> {
+        let pick = |len: usize, what: &str| -> anyhow::Result<usize> {
+            match len {
+                1 => Ok(0),
+                l if l == n => Ok(k),
+                l => {
+                    anyhow::bail!("{l} {what} for {n} axes: give one, or one per axis joined by ,")
                 }
-                Ok((unit.params, Hidden(effects)))
             }
+        };
+        let causes = &self.effect.0[pick(self.effect.0.len(), "--effect entries")?].0;
+        let strengths = match &self.strength {
+            Some(s) => s.0[pick(s.0.len(), "--strength entries")?].0.as_slice(),
+            None => &[],
+        };
+        Ok(Hidden::new(causes, strengths)?)
+    }
+
+    /// The gyro (or the unit's axes) and their effects.
+    fn gyro(&self) -> anyhow::Result<Simulated> {
+        let seed = self.unit_seed.unwrap_or(self.seed);
+        let n = usize::from(self.axes.unwrap_or(1));
+        let file = match &self.unit {
+            Unit::File(path) => Some((path, UnitFile::load(path)?)),
+            _ => None,
+        };
+        if let Some((path, UnitFile::Axes(axes))) = file {
+            anyhow::ensure!(
+                self.axes.is_none() || n == axes.axes.len(),
+                "{} holds {} axes; --axes {n} asks for another number",
+                path.display(),
+                axes.axes.len()
+            );
+            let parts = axes
+                .axes
+                .iter()
+                .enumerate()
+                .map(|(k, a)| {
+                    Ok((
+                        a.params.clone(),
+                        with_effects(path, &a.effects, self.hidden(k, axes.axes.len())?)?,
+                    ))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            return Ok(Simulated::Unit(Axes::new(parts)));
         }
+        let params = |k: usize| match (&self.unit, &file) {
+            (_, Some((_, UnitFile::One(u)))) => u.params.clone(),
+            (Unit::Random, _) => GyroParams::random_unit(seed.wrapping_add(k as u64)),
+            _ => GyroParams::nominal(),
+        };
+        let effects = |k: usize| -> anyhow::Result<Hidden> {
+            let flagged = self.hidden(k, n)?;
+            match &file {
+                Some((path, UnitFile::One(u))) => with_effects(path, &u.effects, flagged),
+                _ => Ok(flagged),
+            }
+        };
+        if n == 1 {
+            return Ok(Simulated::One(params(0), effects(0)?));
+        }
+        let parts = (0..n)
+            .map(|k| Ok((params(k), effects(k)?)))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        Ok(Simulated::Unit(Axes::new(parts)))
     }
 
     /// Writes the CSV and, when asked, the JSON summary of `n` rows.
@@ -315,6 +374,58 @@ impl GenerateCommon {
         }
         Ok(())
     }
+
+    /// Writes a unit's CSV, its channels file beside it and, when asked, the JSON summary (the
+    /// axes, each with its gyro and effects).
+    fn write_unit(
+        &self,
+        axes: &Axes,
+        csv: &str,
+        n: usize,
+        flags: ConsoleFlags,
+    ) -> anyhow::Result<()> {
+        let channels = self.out.with_extension("channels.toml");
+        write_atomically(&self.out, csv.as_bytes())?;
+        write_atomically(
+            &channels,
+            axes.channels_toml(&format!("simulated-{}", self.seed))
+                .as_bytes(),
+        )?;
+        Console::new(flags, self.json.as_deref()).result(&format!(
+            "wrote {} ({n} rows of {} axes) and {} (its channels)",
+            self.out.display(),
+            axes.axes.len(),
+            channels.display()
+        ));
+        if let Some(path) = &self.json {
+            write_json(
+                path,
+                &[],
+                &GeneratedUnit {
+                    n,
+                    seed: self.seed,
+                    unit: axes,
+                },
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// A unit file's effects with those the flags add: each cause at most once.
+fn with_effects(path: &std::path::Path, own: &[Effect], flagged: Hidden) -> anyhow::Result<Hidden> {
+    let mut effects = own.to_vec();
+    for e in flagged.0.into_iter().filter(|e| *e != Effect::None) {
+        if effects.iter().any(|u| u.cause() == e.cause()) {
+            anyhow::bail!(
+                "{} already has a {} effect; edit the unit file to change it",
+                path.display(),
+                e.cause().id()
+            );
+        }
+        effects.push(e);
+    }
+    Ok(Hidden(effects))
 }
 
 /// What `generate … --json` writes: the row count, the seed, the unit and its hidden effects.
@@ -345,6 +456,28 @@ struct UnitQemuReport<'a> {
     channels: &'a [replay::ChannelScore],
     agreement_with_host: qemu::Agreement,
     cost: qemu::Cost,
+}
+
+/// What `generate --axes … --json` writes: the row count, the seed and the unit's axes.
+#[derive(Serialize)]
+struct GeneratedUnit<'a> {
+    n: usize,
+    seed: u64,
+    unit: &'a Axes,
+}
+
+/// One flag's values per axis, joined by `,` (`thermal-rate,none`).
+#[derive(Debug, Clone)]
+struct PerAxis<T>(Vec<T>);
+
+impl<T: std::str::FromStr<Err = String>> std::str::FromStr for PerAxis<T> {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        s.split(',')
+            .map(str::parse)
+            .collect::<Result<Vec<T>, String>>()
+            .map(PerAxis)
+    }
 }
 
 /// Values of one flag joined by `+` (`warm-up+thermal-rate`, `40+15`).
@@ -394,20 +527,29 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Generate(Generate::Paper {
             common,
             position_tests,
-        }) => {
-            let (params, effects) = common.gyro()?;
-            let points = paper::run(&params, effects.clone(), common.seed, position_tests);
-            let csv = output::points_csv(&points);
-            common.write(&params, &effects, &csv, points.len(), flags)
-        }
-        Command::Generate(Generate::Scattered { common, points }) => {
-            let (params, effects) = common.gyro()?;
-            let points = paper::scattered(&params, effects.clone(), common.seed, points);
-            let csv = output::points_csv(&points);
-            common.write(&params, &effects, &csv, points.len(), flags)
-        }
+        }) => match common.gyro()? {
+            Simulated::One(params, effects) => {
+                let points = paper::run(&params, effects.clone(), common.seed, position_tests);
+                let csv = output::points_csv(&points);
+                common.write(&params, &effects, &csv, points.len(), flags)
+            }
+            Simulated::Unit(axes) => {
+                let points = axes.paper(common.seed, position_tests);
+                let n = points.first().map_or(0, Vec::len);
+                common.write_unit(&axes, &axes.points_csv(&points), n, flags)
+            }
+        },
+        Command::Generate(Generate::Scattered { common, points }) => match common.gyro()? {
+            Simulated::One(params, effects) => {
+                let points = paper::scattered(&params, effects.clone(), common.seed, points);
+                let csv = output::points_csv(&points);
+                common.write(&params, &effects, &csv, points.len(), flags)
+            }
+            Simulated::Unit(_) => {
+                anyhow::bail!("generate scattered simulates one gyro: leave --axes out")
+            }
+        },
         Command::Generate(Generate::Stream { common, design }) => {
-            let (params, effects) = common.gyro()?;
             let cfg = match design {
                 Design::Chamber => stream::StreamConfig::default(),
                 Design::Ramps => stream::StreamConfig::ramps(),
@@ -416,14 +558,23 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 Design::WarmUp => stream::StreamConfig::warm_up(),
                 Design::CoolDown => stream::StreamConfig::cool_down(),
             };
-            let rows = stream::run(&params, &cfg, effects.clone(), common.seed);
-            common.write(
-                &params,
-                &effects,
-                &output::stream_csv(&rows),
-                rows.len(),
-                flags,
-            )
+            match common.gyro()? {
+                Simulated::One(params, effects) => {
+                    let rows = stream::run(&params, &cfg, effects.clone(), common.seed);
+                    common.write(
+                        &params,
+                        &effects,
+                        &output::stream_csv(&rows),
+                        rows.len(),
+                        flags,
+                    )
+                }
+                Simulated::Unit(axes) => {
+                    let rows = axes.stream(&cfg, common.seed);
+                    let n = rows.first().map_or(0, Vec::len);
+                    common.write_unit(&axes, &axes.stream_csv(&rows), n, flags)
+                }
+            }
         }
         Command::Replay { input, out, json } => replay_command(&input, out, json, flags),
         Command::Qemu {

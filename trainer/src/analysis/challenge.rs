@@ -6,11 +6,14 @@
 //! power-on)
 //! (training and held-out: other noise, other rate order), writes them as CSV files and hands only
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
-//! both cores (rayon); each is deterministic by its seed.
+//! both cores (rayon); each is deterministic by its seed. A [`Kind::Unit`] case does the same for
+//! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
 
 use firmware_sim::cause::Cause;
 use firmware_sim::console::ProgressBar;
+use firmware_sim::data::channels::{Channels, Read};
 use firmware_sim::data::stream::Stream;
+use firmware_sim::gyro::axes::Axes;
 use firmware_sim::gyro::effects::{Effect, Hidden, Strength};
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::{output, paper, stream};
@@ -35,7 +38,15 @@ pub enum Kind {
     /// The shapes of log labs record, each from one power-on and never switched off ([`LAB`]):
     /// a warm-up of τ 10–40 min hidden, or none.
     Lab,
+    /// A unit of three gyro axes, each its own gyro drawn from the published ranges and its own
+    /// hidden cause ([`UNIT_AXES`]; every cause, `none` among them, in turn over the axes and
+    /// seeds), calibrated and investigated through a channels file as a user's unit is: each
+    /// axis a case.
+    Unit,
 }
+
+/// Axes of a [`Kind::Unit`] case.
+pub const UNIT_AXES: usize = 3;
 
 /// A named chamber program.
 pub type Design = (&'static str, fn() -> stream::StreamConfig);
@@ -66,8 +77,12 @@ pub fn lab_warm_up(seed: u64) -> Hidden {
 pub struct Case {
     /// The hidden effects.
     pub hidden: Hidden,
-    /// The streams' chamber program: `chamber`, or a [`LAB`] shape.
+    /// The streams' chamber program: `chamber`, or a [`LAB`] shape; `unit` for an axis of a
+    /// [`Kind::Unit`] case.
     pub design: &'static str,
+    /// The axis of a unit, for [`Kind::Unit`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub axis: Option<String>,
     /// Seed of the case.
     pub seed: u64,
     /// The causes named, strongest first.
@@ -178,6 +193,7 @@ pub fn run_hidden(
     Ok(Case {
         hidden,
         design,
+        axis: None,
         seed,
         named: inv.diagnosis.causes.clone(),
         shipped_extension: inv.shipped == investigate::Shipped::Extended,
@@ -187,6 +203,76 @@ pub fn run_hidden(
         oracle_gain,
         verdict: inv.verdict,
     })
+}
+
+/// One [`Kind::Unit`] case, the `index`-th, of seed `seed`: a unit of [`UNIT_AXES`] random gyros,
+/// axis k hiding cause `(UNIT_AXES·index + k)` of [`Cause::ALL`] at a strength drawn from its
+/// documented range; its rate table and two chamber streams written as a unit's files with their
+/// channels file, and each axis investigated from those files alone. A case per axis.
+pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
+    let parts: Vec<(GyroParams, Hidden)> = (0..UNIT_AXES)
+        .map(|k| {
+            let cause = Cause::ALL[(UNIT_AXES * index + k) % Cause::ALL.len()];
+            let hidden = Hidden::draw(
+                &[cause],
+                seed.wrapping_add(7 * k as u64),
+                Strength::Documented,
+            );
+            (GyroParams::random_unit(seed.wrapping_add(k as u64)), hidden)
+        })
+        .collect();
+    let unit = Axes::new(parts);
+    let dir = tempfile::tempdir()?;
+    let path = |name: &str| dir.path().join(name);
+    let cfg = stream::StreamConfig::default();
+    std::fs::write(
+        path("points.csv"),
+        unit.points_csv(&unit.paper(seed, false)),
+    )?;
+    std::fs::write(
+        path("train.csv"),
+        unit.stream_csv(&unit.stream(&cfg, seed + 1)),
+    )?;
+    std::fs::write(
+        path("valid.csv"),
+        unit.stream_csv(&unit.stream(&cfg, seed + 2)),
+    )?;
+    std::fs::write(path("unit.toml"), unit.channels_toml("challenge"))?;
+    let channels = Channels::load(&path("unit.toml"))?;
+    let train = channels.load_log(&path("train.csv"), &[])?;
+    let valid = channels.load_log(&path("valid.csv"), &[])?;
+    channels
+        .list
+        .iter()
+        .zip(unit.axes)
+        .enumerate()
+        .map(|(k, (ch, axis))| {
+            let maps = channels.maps(k, &[], Read::Table)?;
+            let points = Points::load(&path("points.csv"), &maps, None, None)?;
+            let (inv, _) = investigate::investigate(
+                &points,
+                &train[k],
+                &valid[k],
+                &GpConfig::default(),
+                None,
+                &|_: &Stream| Ok(points.clone()),
+                &ProgressBar::hidden(),
+            )?;
+            Ok(Case {
+                hidden: Hidden(axis.effects),
+                design: "unit",
+                axis: Some(ch.name.clone()),
+                seed,
+                named: inv.diagnosis.causes.clone(),
+                shipped_extension: inv.shipped == investigate::Shipped::Extended,
+                static_rmse_60s_dps: inv.static_score.rmse_60s_dps,
+                extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
+                gain: inv.gain,
+                oracle_gain: None,
+                verdict: inv.verdict,
+            })
+        })
+        .collect()
 }
 
 /// The causes of every case of `kind` (before seeds).
@@ -199,6 +285,8 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
         Kind::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
         Kind::Weak => real.into_iter().map(|c| vec![c]).collect(),
         Kind::Lab => vec![vec![Cause::WarmUp], vec![Cause::None]],
+        // One design: each case draws its axes' causes by its index.
+        Kind::Unit => vec![Vec::new()],
         Kind::Pairs => real
             .iter()
             .enumerate()
@@ -212,7 +300,7 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
 pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
     let strength = match kind {
         Kind::Weak => Strength::Weak,
-        Kind::Single | Kind::Pairs | Kind::Lab => Strength::Documented,
+        Kind::Single | Kind::Pairs | Kind::Lab | Kind::Unit => Strength::Documented,
     };
     let shapes: Vec<Option<usize>> = match kind {
         Kind::Lab => (0..LAB.len()).map(Some).collect(),
@@ -230,25 +318,28 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Res
     let pool = rayon::ThreadPoolBuilder::new()
         .stack_size(CASE_STACK_BYTES)
         .build()?;
-    pool.install(|| {
+    let cases: anyhow::Result<Vec<Vec<Case>>> = pool.install(|| {
         jobs.into_par_iter()
-            .map(|(c, shape, s)| {
-                let case = match shape {
-                    Some(k) => {
+            .enumerate()
+            .map(|(i, (c, shape, s))| {
+                let cases = match (kind, shape) {
+                    (Kind::Unit, _) => run_unit_case(i, s),
+                    (_, Some(k)) => {
                         let hidden = if c.contains(&Cause::WarmUp) {
                             lab_warm_up(s)
                         } else {
                             Hidden(Vec::new())
                         };
-                        run_hidden(hidden, (LAB[k].0, LAB[k].1()), s, true)
+                        run_hidden(hidden, (LAB[k].0, LAB[k].1()), s, true).map(|c| vec![c])
                     }
-                    None => run_case(&c, s, strength, kind == Kind::Pairs),
+                    (_, None) => run_case(&c, s, strength, kind == Kind::Pairs).map(|c| vec![c]),
                 };
                 bar.inc(1);
-                case
+                cases
             })
             .collect()
-    })
+    });
+    Ok(cases?.into_iter().flatten().collect())
 }
 
 /// What a challenge found, over its cases.

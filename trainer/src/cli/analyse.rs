@@ -677,7 +677,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
             .collect();
         console.result(&format!(
             "{:<10} {:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
-            c.design,
+            c.axis.as_deref().unwrap_or(c.design),
             ids(&c.hidden.causes()),
             strengths.join("+"),
             c.seed,
@@ -689,7 +689,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
         ));
     }
     let summary = challenge::summary(&cases);
-    if kind == challenge::Kind::Single {
+    if matches!(kind, challenge::Kind::Single | challenge::Kind::Unit) {
         console.result(challenge::confusion(&cases).1.trim_end());
     }
     console.result(&summary.text());

@@ -26,15 +26,21 @@ pub struct ChannelBlob<'a> {
     pub blob: &'a [u8],
 }
 
-/// The trained range of each channel's temperature input, and the unit's: where every channel was
-/// calibrated (the largest low end, the smallest high end).
+/// The trained range of each channel's temperature input (the sensor's reading, or where a
+/// channel's model reads the coil's estimate instead, that), and the unit's: where every channel
+/// was calibrated (the largest low end, the smallest high end).
 fn temperature_range(models: &[Box<HostModel>]) -> Result<[f32; 2], ExportError> {
     let mut range = [f32::NEG_INFINITY, f32::INFINITY];
     for m in models {
-        let k = m
-            .features()
+        let features = m.features();
+        let k = features
             .iter()
             .position(|f| *f == Feature::Temperature)
+            .or_else(|| {
+                features
+                    .iter()
+                    .position(|f| matches!(f, Feature::CoilTemperature { .. }))
+            })
             .ok_or_else(|| {
                 ExportError::Unit("a unit's channel has no temperature input".to_owned())
             })?;
