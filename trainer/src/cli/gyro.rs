@@ -7,10 +7,11 @@ use anyhow::Context;
 use clap::Args;
 use firmware_core::Quantity;
 use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::channels::Channels;
-use firmware_sim::data::log::{Excludes, LogArgs, Maps};
+use firmware_sim::data::channels::{Channels, Read};
+use firmware_sim::data::log::{Excludes, LogArgs, Maps, UnitArgs, load_unit_log};
 use firmware_sim::data::stream::Stream;
 use firmware_sim::data::stream::Window;
+use firmware_sim::gyro::axes::{Axes, Axis};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
 use firmware_sim::replay;
 
@@ -57,6 +58,8 @@ pub(super) struct IdentifyArgs {
     /// Nominal scale factor, output units per °/s, where the data show none (a static log).
     #[arg(long)]
     scale_factor: Option<f64>,
+    #[command(flatten)]
+    unit: UnitArgs,
     /// The unit file to write (`firmware-sim generate paper|stream --unit FILE` simulates it).
     #[arg(long)]
     out: PathBuf,
@@ -321,7 +324,8 @@ fn allan_unit(
 }
 
 /// `trainer identify`: the simulator's twin of a measured gyro, its unit file, and what it
-/// still gets wrong on the held-out part before and after the effects it names.
+/// still gets wrong on the held-out part before and after the effects it names (every gyro of a
+/// unit's channels with `--channels`, into one unit file of several axes).
 pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let IdentifyArgs {
         points,
@@ -330,14 +334,79 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
         window,
         exclude,
         scale_factor,
+        unit,
         out,
         json,
         plot: figure,
     } = args;
     let console = Console::new(flags, json.as_deref());
-    let inputs: Vec<&Path> = points.iter().chain(&stream).map(|p| p.as_path()).collect();
+    let mut inputs: Vec<&Path> = points.iter().chain(&stream).map(|p| p.as_path()).collect();
+    inputs.extend(unit.channels.as_deref());
     for o in std::iter::once(&out).chain(&json).chain(&figure) {
         ensure_not_input(o, &inputs)?;
+    }
+    if let Some(channels) = unit.load()? {
+        anyhow::ensure!(
+            scale_factor.is_none(),
+            "--scale-factor is for one channel: a unit's channels give theirs in {}",
+            channels.path.display()
+        );
+        let logs = stream
+            .as_deref()
+            .map(|s| load_unit_log(s, &channels, &maps.list, (window, &exclude.list), &console))
+            .transpose()?;
+        let mut axes = Vec::new();
+        let mut all = Vec::new();
+        let skipped: Vec<&str> = channels
+            .list
+            .iter()
+            .filter(|c| c.quantity != Quantity::AngularRate)
+            .map(|c| c.name.as_str())
+            .collect();
+        if !skipped.is_empty() {
+            console.result(&format!(
+                "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
+                 accelerometer has none",
+                skipped.join(", ")
+            ));
+        }
+        for (k, ch) in channels.list.iter().enumerate() {
+            if ch.quantity != Quantity::AngularRate {
+                continue;
+            }
+            let console = console.channel(&ch.name, &format!("{}:", ch.name));
+            let own = channels.maps(k, &maps.list, Read::Table)?;
+            let table = points
+                .as_deref()
+                .map(|p| twin::load_points(p, &own))
+                .transpose()?;
+            let log = logs.as_ref().map(|l| twin::Source::from(&l[k]));
+            let k_sf = if points.is_some() {
+                ch.scale_factor
+            } else {
+                ch.bias_scale_factor()
+            };
+            let id = identified(table.as_ref(), log.as_ref(), k_sf, &console)
+                .with_context(|| format!("channel {}", ch.name))?;
+            if let Some(path) = &figure {
+                let own = path.with_extension(format!("{}.svg", ch.name));
+                write_atomically(&own, twin_figure(&id)?.as_bytes())?;
+                console.result(&format!("wrote {}", own.display()));
+            }
+            axes.push(Axis {
+                name: ch.name.clone(),
+                params: id.unit.params.clone(),
+                effects: id.unit.effects.clone(),
+            });
+            all.push(serde_json::json!({ "name": ch.name, "identification": id }));
+        }
+        anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
+        write_json(&out, &inputs, &Axes { axes })?;
+        if let Some(path) = &json {
+            write_json(path, &inputs, &all)?;
+        }
+        console.result(&format!("wrote {}", out.display()));
+        return Ok(());
     }
     let points = points
         .as_deref()
@@ -350,40 +419,56 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
         }
         None => None,
     };
-    let spinner = console.spinner("identifying");
-    let id = twin::identify(points.as_ref(), stream.as_ref(), scale_factor, |step| {
-        spinner.set_message(format!("identifying: {step}"));
-    })?;
-    spinner.finish_and_clear();
+    let id = identified(points.as_ref(), stream.as_ref(), scale_factor, &console)?;
     write_json(&out, &inputs, &id.unit)?;
     if let Some(path) = &json {
         write_json(path, &inputs, &id)?;
     }
     if let Some(path) = &figure {
-        let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
-            twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
-            twin::Kind::Points => ("point (file order)", id.residual.clone()),
-        };
-        let after = format!(
-            "with {}",
-            id.causes
-                .iter()
-                .map(|c| c.id())
-                .collect::<Vec<_>>()
-                .join(" + ")
-        );
-        let svg = plot::twin(
-            &format!(
-                "Held out: measured − twin, {:.2} → {:.2} °/h",
-                id.fidelity_before_dph, id.fidelity_after_dph
-            ),
-            axis,
-            &pts,
-            &after,
-        )?;
-        write_atomically(path, svg.as_bytes())?;
+        write_atomically(path, twin_figure(&id)?.as_bytes())?;
     }
-    console.result(&twin::summary(&id));
     console.result(&format!("wrote {}", out.display()));
     Ok(())
+}
+
+/// One gyro identified from its table and/or log, with a spinner while it runs and its summary
+/// said.
+fn identified(
+    points: Option<&twin::Source>,
+    stream: Option<&twin::Source>,
+    scale_factor: Option<f64>,
+    console: &Console,
+) -> anyhow::Result<twin::Identification> {
+    let spinner = console.spinner("identifying");
+    let id = twin::identify(points, stream, scale_factor, |step| {
+        spinner.set_message(format!("identifying: {step}"));
+    })?;
+    spinner.finish_and_clear();
+    console.result(&twin::summary(&id));
+    Ok(id)
+}
+
+/// The held-out difference between measured and twin, before and after its effects, as SVG.
+fn twin_figure(id: &twin::Identification) -> anyhow::Result<String> {
+    let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
+        twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
+        twin::Kind::Points => ("point (file order)", id.residual.clone()),
+    };
+    let after = format!(
+        "with {}",
+        id.causes
+            .iter()
+            .map(|c| c.id())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    );
+    Ok(plot::twin(
+        &format!(
+            "Held out: measured − twin, {:.2} → {:.2} °/h",
+            id.fidelity_before_dph, id.fidelity_after_dph
+        ),
+        axis,
+        &pts,
+        &after,
+    )?)
 }

@@ -117,7 +117,7 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
 
 /// One channel of a unit's file, summarized (`summarize --channels --json`: one per channel).
 #[derive(Serialize)]
-struct ChannelSummary {
+pub(super) struct ChannelSummary {
     channel: String,
     quantity: Quantity,
     units: &'static str,
@@ -127,7 +127,7 @@ struct ChannelSummary {
 
 /// Each channel's summary of the file at `path`, read as `read` (a log once for all channels,
 /// with its time and handling checked once; a table with each channel's columns).
-fn unit_summaries(
+pub(super) fn unit_summaries(
     path: &Path,
     channels: &Channels,
     maps: &Maps,
@@ -164,7 +164,7 @@ fn unit_summaries(
 
 /// A unit's file as text: what the channels share once (the file's rows, time, temperature,
 /// sampling and what was left out), then a line per channel.
-fn unit_text(channels: &Channels, each: &[ChannelSummary]) -> String {
+pub(super) fn unit_text(channels: &Channels, each: &[ChannelSummary]) -> String {
     let Some(first) = each.first() else {
         return String::new();
     };

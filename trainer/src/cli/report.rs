@@ -16,8 +16,10 @@ use firmware_sim::io::write_atomically;
 
 use super::demo::{self, Data};
 use super::inputs::{FitOptions, ModelInput, load_stream};
-use super::look::{points_summary, stream_summary};
+use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
 use crate::report;
+use firmware_sim::data::channels::{Channels, Read};
+use firmware_sim::data::log::load_unit_log;
 
 /// The arguments of `trainer report`.
 #[derive(Args)]
@@ -99,6 +101,24 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     } = args;
     input.without_offsets("report")?;
     let console = Console::new(flags, None);
+    if let Some(channels) = input.unit.load()? {
+        let files = match (stream, train_stream, valid_stream) {
+            (Some(s), _, _) => Files::One(s),
+            (None, Some(a), Some(b)) => Files::Two(a, b),
+            _ if input.points.is_some() => Files::None,
+            _ => anyhow::bail!(
+                "--channels names a unit's files: give them (--points, --stream or \
+                 --train-stream and --valid-stream)"
+            ),
+        };
+        return report_unit(
+            (&input, &channels),
+            (&fit, files),
+            (window, hold_out_from),
+            &out_dir,
+            &console,
+        );
+    }
     let (input, files) = match (stream, train_stream, valid_stream) {
         (Some(s), _, _) => (input, Files::One(s)),
         (None, Some(a), Some(b)) => (input, Files::Two(a, b)),
@@ -207,4 +227,120 @@ enum Files {
     One(PathBuf),
     /// A training stream and a held-out one.
     Two(PathBuf, PathBuf),
+}
+
+/// `trainer report --channels`: every channel of a unit's files analysed as one channel's report
+/// analyses its data (the logs read once), on one page (`report::unit`).
+fn report_unit(
+    (input, channels): (&ModelInput, &Channels),
+    (fit, files): (&FitOptions, Files),
+    (window, hold_out_from): (Option<Window>, Option<f64>),
+    out_dir: &Path,
+    console: &Console,
+) -> anyhow::Result<()> {
+    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+    match &files {
+        Files::One(s) => inputs.push(s),
+        Files::Two(a, b) => inputs.extend([a.as_path(), b.as_path()]),
+        Files::None => {}
+    }
+    inputs.push(&channels.path);
+    let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
+    for name in report::unit::files(&names) {
+        ensure_not_input(&out_dir.join(name), &inputs)?;
+    }
+    let parts = (window, input.exclude.list.as_slice());
+    let load = |path: &Path| load_unit_log(path, channels, &input.maps.list, parts, console);
+    let mut summary = String::new();
+    let mut add = |path: &Path, read| -> anyhow::Result<()> {
+        let each = unit_summaries(path, channels, &input.maps, read)?;
+        summary.push_str(&unit_text(channels, &each));
+        Ok(())
+    };
+    if let Some(p) = &input.points {
+        add(p, Read::Table)?;
+    }
+    let logs: Vec<(PathBuf, Vec<Stream>)> = match &files {
+        Files::None => Vec::new(),
+        Files::One(s) => vec![(s.clone(), load(s)?)],
+        Files::Two(a, b) => vec![(a.clone(), load(a)?), (b.clone(), load(b)?)],
+    };
+    for (path, _) in &logs {
+        add(path, Read::Log)?;
+    }
+    let bar = console.bar(0);
+    let gp = fit.gp();
+    let mut pages = Vec::new();
+    for (k, ch) in channels.list.iter().enumerate() {
+        bar.set_message(format!("channel {}", ch.name));
+        let own = input.for_channel(channels, k)?;
+        let report = match (&files, logs.as_slice()) {
+            (Files::None, _) => {
+                let points = own.static_points(&[], false)?;
+                report::table(
+                    &own.points.clone().unwrap_or_default(),
+                    Vec::new(),
+                    points,
+                    &gp,
+                    &bar,
+                )?
+            }
+            (Files::One(path), [(_, streams)]) => {
+                let (train, valid, split_s) = report::split(&streams[k], hold_out_from)?;
+                let train = [(path.as_path(), train)];
+                let points = own.static_points(&train, false)?;
+                let rebuild =
+                    |part: &Stream| own.static_points(&[(path.as_path(), part.clone())], false);
+                let kind = if own.points.is_some() {
+                    report::Kind::TableAndStream
+                } else {
+                    report::Kind::Log
+                };
+                report::with_streams(
+                    path,
+                    kind,
+                    Vec::new(),
+                    points,
+                    &train[0].1,
+                    valid,
+                    format!("{} from {split_s:.0} s on", path.display()),
+                    (&gp, &rebuild),
+                    &bar,
+                )?
+            }
+            (Files::Two(a, b), [(_, train), (_, valid)]) => {
+                let train = [(a.as_path(), train[k].clone())];
+                let points = own.static_points(&train, false)?;
+                let rebuild =
+                    |part: &Stream| own.static_points(&[(a.as_path(), part.clone())], false);
+                report::with_streams(
+                    a,
+                    report::Kind::Full,
+                    Vec::new(),
+                    points,
+                    &train[0].1,
+                    valid[k].clone(),
+                    format!("all of {}, a run of its own", b.display()),
+                    (&gp, &rebuild),
+                    &bar,
+                )?
+            }
+            _ => anyhow::bail!("the unit's files did not load"),
+        };
+        pages.push(report::unit::Channel {
+            name: &ch.name,
+            quantity: ch.quantity,
+            report,
+        });
+    }
+    bar.finish_and_clear();
+    let source = inputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    for path in report::unit::write(out_dir, &source, &summary, &pages)? {
+        console.result(&format!("wrote {}", path.display()));
+    }
+    Ok(())
 }

@@ -30,6 +30,7 @@ use crate::data::summary::Summary;
 use crate::models::gp::GpConfig;
 
 mod html;
+pub mod unit;
 
 pub use html::html;
 
@@ -412,7 +413,10 @@ fn regressor_label(cause: Cause) -> &'static str {
 
 /// 60 s block means of the replay error and the σ of each mean (the firmware's bias variance
 /// and the noise of a mean that long), with block mid-times in hours.
-fn replay_blocks(valid: &Stream, comp: &Compensated) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+pub(crate) fn replay_blocks(
+    valid: &Stream,
+    comp: &Compensated,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
     let scored: Vec<usize> = (0..valid.len())
         .filter(|&i| valid.rate_dps[i].is_finite() && comp.rate_dps[i].is_finite())
         .collect();

@@ -6,6 +6,7 @@ use crate::plot::{
     BLUE, Draw, DrawResult, FONT, GREEN, GREY, LABEL, ORANGE, PlotError, RED, TITLE, axes,
     cold_to_hot, legend, span, svg,
 };
+use firmware_core::Quantity;
 use firmware_core::units::DPH_PER_DPS;
 use firmware_sim::sigma::Coverage;
 use firmware_sim::stats::{self, Line};
@@ -333,52 +334,82 @@ pub fn replay(
                 RED.stroke_width(2),
             ))?;
         }
-        let to_dph = DPH_PER_DPS;
-        let (e0, e1) = span(
-            models.iter().flat_map(|m| {
-                m.error_dps
-                    .iter()
-                    .zip(m.std_dps)
-                    .flat_map(|(e, s)| [e * to_dph, -2.0 * s * to_dph, 2.0 * s * to_dph])
-            }),
-            0.05,
-        );
-        let mut chart = ChartBuilder::on(&bottom)
-            .caption(
-                "Compensated rate error, 60 s means, and the firmware's ±2σ of a mean around zero",
-                (FONT, TITLE),
-            )
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(80)
-            .build_cartesian_2d(x0..x1, e0..e1)?;
-        axes(&mut chart, "time (h)", "error (°/h)")?;
-        for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
-            let band_at = |i: usize, sign: f64| (time_h[i], sign * 2.0 * m.std_dps[i] * to_dph);
-            let at = |i: usize| (time_h[i], m.error_dps[i] * to_dph);
-            let rms = stats::rms(m.error_dps);
-            for (k, run) in runs.iter().enumerate() {
-                let band = run
-                    .clone()
-                    .map(|i| band_at(i, 1.0))
-                    .chain(run.clone().rev().map(|i| band_at(i, -1.0)));
-                chart.draw_series(std::iter::once(Polygon::new(
-                    band.collect::<Vec<_>>(),
-                    colour.mix(0.15).filled(),
-                )))?;
-                let line = chart
-                    .draw_series(LineSeries::new(run.clone().map(at), colour.stroke_width(2)))?;
-                if k == 0 {
-                    line.label(format!("{}: rmse_60s {:.2} °/h", m.name, rms * to_dph))
-                        .legend(move |(x, y)| {
-                            PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
-                        });
-                }
+        draw_errors(
+            &bottom,
+            "Compensated rate error, 60 s means, and the firmware's ±2σ of a mean around zero",
+            time_h,
+            models,
+            Quantity::AngularRate,
+        )
+    })
+}
+
+/// One channel of a unit on its held-out log: each model's 60 s error and ±2σ band, in the bias
+/// unit of `q` (°/h, mg): a small multiple of the unit's page.
+pub fn channel_errors(
+    title: &str,
+    time_h: &[f64],
+    models: &[ReplaySeries<'_>],
+    q: Quantity,
+) -> Result<String, PlotError> {
+    svg("a channel's held-out error", (560, 360), |root| {
+        draw_errors(root, title, time_h, models, q)
+    })
+}
+
+/// Each model's 60 s error over time with the ±2σ band the firmware claims for it, drawn around
+/// zero, in the bias unit of `q`.
+fn draw_errors(
+    area: &crate::plot::Draw<'_>,
+    caption: &str,
+    time_h: &[f64],
+    models: &[ReplaySeries<'_>],
+    q: Quantity,
+) -> crate::plot::DrawResult {
+    let (x0, x1) = span(time_h.iter().copied(), 0.0);
+    let runs = runs(time_h);
+    let (k, u) = (q.bias_per_unit(), q.bias_unit());
+    let (e0, e1) = span(
+        models.iter().flat_map(|m| {
+            m.error_dps
+                .iter()
+                .zip(m.std_dps)
+                .flat_map(|(e, s)| [e * k, -2.0 * s * k, 2.0 * s * k])
+        }),
+        0.05,
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FONT, TITLE))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x0..x1, e0..e1)?;
+    axes(&mut chart, "time (h)", &format!("error ({u})"))?;
+    for (m, colour) in models.iter().zip([BLUE, ORANGE]) {
+        let band_at = |i: usize, sign: f64| (time_h[i], sign * 2.0 * m.std_dps[i] * k);
+        let at = |i: usize| (time_h[i], m.error_dps[i] * k);
+        let rms = stats::rms(m.error_dps);
+        for (j, run) in runs.iter().enumerate() {
+            let band = run
+                .clone()
+                .map(|i| band_at(i, 1.0))
+                .chain(run.clone().rev().map(|i| band_at(i, -1.0)));
+            chart.draw_series(std::iter::once(Polygon::new(
+                band.collect::<Vec<_>>(),
+                colour.mix(0.15).filled(),
+            )))?;
+            let line =
+                chart.draw_series(LineSeries::new(run.clone().map(at), colour.stroke_width(2)))?;
+            if j == 0 {
+                line.label(format!("{}: rmse_60s {:.2} {u}", m.name, rms * k))
+                    .legend(move |(x, y)| {
+                        PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(3))
+                    });
             }
         }
-        legend(&mut chart, SeriesLabelPosition::LowerMiddle)?;
-        Ok(())
-    })
+    }
+    legend(&mut chart, SeriesLabelPosition::LowerMiddle)?;
+    Ok(())
 }
 
 /// What the diagnosis plot shows: the static model's 60 s residuals against the named cause's
@@ -498,6 +529,27 @@ pub fn bias_vs_temperature(temp_c: &[f64], bias_dph: &[f64]) -> Result<String, P
             "bias, 60 s means (°/h)",
             temp_c,
             bias_dph,
+        )
+    })
+}
+
+/// One channel of a unit's static log: its bias against temperature, heating and cooling apart,
+/// in the bias unit of `q` (`bias_dph`: as [`bias_vs_temperature`] takes it, °/s times 3600).
+pub fn channel_bias(
+    name: &str,
+    temp_c: &[f64],
+    bias_dph: &[f64],
+    q: Quantity,
+) -> Result<String, PlotError> {
+    let k = q.bias_per_unit() / DPH_PER_DPS;
+    let bias: Vec<f64> = bias_dph.iter().map(|b| b * k).collect();
+    svg("a channel's bias against temperature", (560, 360), |root| {
+        by_direction(
+            root,
+            &format!("{name}: bias against temperature"),
+            &format!("bias, 60 s means ({})", q.bias_unit()),
+            temp_c,
+            &bias,
         )
     })
 }
