@@ -4,12 +4,13 @@
 //! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
 //! ([`pool`]), and the hidden-effect challenge that measures all of this on the
 //! simulator ([`challenge`]); the size of a model the firmware can hold, chosen on the data
-//! ([`capacity`]); the σ it states, measured on its own training data ([`uncertainty`]); the
+//! ([`capacity`]), and of a unit's models within a target's budget ([`budget`]); the σ it states, measured on its own training data ([`uncertainty`]); the
 //! measured gyro's own noise terms ([`allan`]) and simulator twin ([`twin`]); and the one 1-D
 //! search they share ([`minimize`]); the rule by which the diagnosis and the twin choose causes
 //! ([`selection`]).
 
 pub mod allan;
+pub mod budget;
 pub mod capacity;
 pub mod challenge;
 pub mod diagnose;

@@ -14,6 +14,7 @@ use serde::Serialize;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
 use super::text::{causes_text, log_starts};
+use crate::analysis::budget::{self, Budget, Bytes};
 use crate::analysis::capacity;
 use crate::analysis::diagnose::Diagnosis;
 use crate::analysis::extend;
@@ -30,6 +31,7 @@ use crate::models::gp::{
 };
 use crate::models::prior::{MeanBasis, PolyPrior};
 use firmware_core::Quantity;
+use firmware_core::blob::Dims;
 use firmware_sim::data::channels::Channels;
 use firmware_sim::data::log::load_unit_log;
 
@@ -60,12 +62,41 @@ pub(super) struct FitArgs {
     /// order (--map time_s=…) for transients on the bias and the scale factor.
     #[arg(long)]
     features: Option<String>,
-    /// Model blob to write (firmware-core format).
+    #[command(flatten)]
+    budget: BudgetArgs,
+    /// Model blob to write (firmware-core format; a unit blob with --channels).
     #[arg(long)]
     out: PathBuf,
     /// Write the fit summary as JSON here (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
+}
+
+/// The target's budget, where the models must fit (`analysis::budget`).
+#[derive(Args, Clone, Default)]
+struct BudgetArgs {
+    /// RAM the models may take on the target (their numbers, bookkeeping and variance scratch):
+    /// bytes, or with K/KiB, KB, M/MiB, MB. The channels' sizes are chosen within it, or the fit is
+    /// refused before it starts, with the figures.
+    #[arg(long, value_name = "BYTES")]
+    budget_ram: Option<Bytes>,
+    /// Flash the blob may take (one calibration slot; keep two).
+    #[arg(long, value_name = "BYTES")]
+    budget_flash: Option<Bytes>,
+    /// Instructions per sample on the Cortex-M4F, every channel's mean and variance (an estimate
+    /// from the sizes, as `trainer inspect` gives it; `firmware-sim qemu` measures it).
+    #[arg(long, value_name = "N")]
+    budget_instructions: Option<f64>,
+}
+
+impl BudgetArgs {
+    fn budget(&self) -> Budget {
+        Budget {
+            ram_bytes: self.budget_ram.map(|b| b.0),
+            flash_bytes: self.budget_flash.map(|b| b.0),
+            instructions: self.budget_instructions,
+        }
+    }
 }
 
 /// The arguments of `trainer inspect`.
@@ -117,6 +148,9 @@ struct FitReport {
     calibration: Option<Calibration>,
     firmware_agreement: AgreementReport,
     blob_bytes: usize,
+    /// How the budget was met, where one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    budget: Option<budget::Report>,
 }
 
 /// A model's inputs: the points' columns for a static model, the firmware's features for an
@@ -181,9 +215,13 @@ impl FitReport {
             calibration: None,
             firmware_agreement: agreement,
             blob_bytes,
+            budget: None,
         }
     }
 }
+
+/// A channel to size: its name, its plan and its loaded streams.
+type Named<'a> = (&'a str, &'a FitPlan, &'a [(&'a Path, Stream)]);
 
 /// What the static model is extended by, as `trainer fit` was asked.
 #[derive(Clone)]
@@ -207,6 +245,7 @@ struct FitPlan {
     window: Option<Window>,
     pool: bool,
     extend: Extend,
+    budget: Budget,
     out: PathBuf,
     json: Option<PathBuf>,
 }
@@ -221,6 +260,7 @@ impl FitPlan {
             window,
             pool_stream,
             features,
+            budget,
             out,
             json,
         } = args;
@@ -253,6 +293,7 @@ impl FitPlan {
             window,
             pool: pool_stream,
             extend,
+            budget: budget.budget(),
             out,
             json,
         })
@@ -294,7 +335,16 @@ impl FitPlan {
                 Ok((p.as_path(), s))
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let fitted = self.fit(&streams, &console)?;
+        let (plans, budgeted) = self.within_budget(&[("the model", &self, &streams)], &console)?;
+        let [plan] = plans
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("one plan per channel"))?;
+        let mut fitted = plan.fit(&streams, &console)?;
+        fitted.summary.budget = budgeted;
+        if self.budget.is_set() {
+            let f = unit::unit_footprint(&fitted.blob)?;
+            self.check_fitted(&f)?;
+        }
         write_atomically(&self.out, &fitted.blob)?;
         if let Some(path) = &self.json {
             write_json(path, &self.inputs(), &fitted.summary)?;
@@ -328,6 +378,28 @@ impl FitPlan {
                 )
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
+        let per_channel: Vec<(FitPlan, Vec<(&Path, Stream)>)> = (0..channels.len())
+            .map(|k| {
+                let plan = Self {
+                    input: self.input.for_channel(channels, k)?,
+                    ..self.clone()
+                };
+                let streams: Vec<(&Path, Stream)> = self
+                    .streams
+                    .iter()
+                    .zip(&logs)
+                    .map(|(p, log)| (p.as_path(), log[k].clone()))
+                    .collect();
+                Ok((plan, streams))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let named: Vec<Named<'_>> = channels
+            .list
+            .iter()
+            .zip(&per_channel)
+            .map(|(ch, (plan, s))| (ch.name.as_str(), plan, s.as_slice()))
+            .collect();
+        let (plans, budgeted) = self.within_budget(&named, &console)?;
         let mut fitted = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
             let heading = format!(
@@ -339,18 +411,8 @@ impl FitPlan {
                 channels.len()
             );
             let console = console.channel(&ch.name, &heading);
-            let plan = Self {
-                input: self.input.for_channel(channels, k)?,
-                ..self.clone()
-            };
-            let streams: Vec<(&Path, Stream)> = self
-                .streams
-                .iter()
-                .zip(&logs)
-                .map(|(p, log)| (p.as_path(), log[k].clone()))
-                .collect();
-            let one = plan
-                .fit(&streams, &console)
+            let one = plans[k]
+                .fit(&per_channel[k].1, &console)
                 .with_context(|| format!("channel {}", ch.name))?;
             print_fit(&console, &one, (None, one.blob.len()), ch.quantity);
             fitted.push(one);
@@ -367,6 +429,7 @@ impl FitPlan {
             .collect();
         let blob = unit::unit_blob(&channels.sensor_id, &parts)?;
         let footprint = unit::unit_footprint(&blob)?;
+        self.check_fitted(&footprint)?;
         write_atomically(&self.out, &blob)?;
         let report = UnitFitReport {
             sensor_id: &channels.sensor_id,
@@ -384,11 +447,154 @@ impl FitPlan {
                 .collect(),
             blob_bytes: blob.len(),
             footprint: &footprint,
+            budget: budgeted,
         };
         if let Some(path) = &self.json {
             write_json(path, &inputs, &report)?;
         }
         console.result(&unit_table(channels, &fitted, &footprint, &self.out));
+        Ok(())
+    }
+
+    /// The plans of the channels `named` (each with its loaded streams), their models' sizes chosen
+    /// within the budget where one is given (`analysis::budget`): this plan for each, with the
+    /// size chosen for its channel.
+    fn within_budget(
+        &self,
+        named: &[Named<'_>],
+        console: &Console,
+    ) -> anyhow::Result<(Vec<FitPlan>, Option<budget::Report>)> {
+        let plans: Vec<FitPlan> = named.iter().map(|(_, p, _)| (*p).clone()).collect();
+        if !self.budget.is_set() {
+            return Ok((plans, None));
+        }
+        anyhow::ensure!(
+            self.fit.inducing == Inducing::Auto,
+            "--budget-* chooses the models' sizes: leave --inducing out"
+        );
+        let points = named
+            .iter()
+            .map(|(_, plan, streams)| plan.input.static_points(streams, plan.pool))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let basis = self.fit.gp().mean;
+        let dims = |p: &Points, m: usize| budget::static_dims(p, basis, m);
+        let smallest: Vec<(&str, Dims)> = named
+            .iter()
+            .zip(&points)
+            .map(|((name, _, _), p)| (*name, dims(p, p.len())))
+            .collect();
+        budget::check_smallest(&self.budget, &smallest)?;
+        let default: Vec<Dims> = points
+            .iter()
+            .map(|p| dims(p, p.len().min(MAX_CENTRES)))
+            .collect();
+        let most_m = default.iter().map(|d| d.m).max().unwrap_or(0);
+        let default_cost = default.iter().fold(budget::Cost::unit(most_m), |acc, d| {
+            acc + budget::Cost::model(*d)
+        });
+        if self.budget.holds(&default_cost) {
+            console.result(&format!(
+                "the budget ({}) holds the models the default fit ships ({default_cost}): no size \
+                 is chosen",
+                self.budget
+            ));
+            let report = budget::Report {
+                budget: self.budget,
+                default_cost,
+                channels: named
+                    .iter()
+                    .map(|(name, _, _)| budget::ChannelSizes {
+                        name: (*name).to_owned(),
+                        sizes: Vec::new(),
+                        chosen: None,
+                    })
+                    .collect(),
+                chosen_cost: default_cost,
+            };
+            return Ok((plans, Some(report)));
+        }
+        let spinner = console.spinner("sizing the channels' models within the budget");
+        let sizes = named
+            .iter()
+            .zip(&points)
+            .map(|((name, _, _), p)| {
+                budget::sizes(p, &self.fit.gp(), |step| {
+                    spinner.set_message(format!("sizing {name}: {step}"));
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        spinner.finish_and_clear();
+        let (chosen, cost) = budget::choose(&sizes, &self.budget).ok_or_else(|| {
+            anyhow::anyhow!(
+                "no combination of the channels' sizes fits the budget ({}): the smallest \
+                 exceed it once the unit's scratch is added",
+                self.budget
+            )
+        })?;
+        let mut lines = format!(
+            "the budget ({}) does not hold the default models ({default_cost}); chosen within \
+             it, on each channel's points with every fifth held out ({cost}):",
+            self.budget
+        );
+        let mut out = Vec::new();
+        for (((name, _, _), s), (&i, mut plan)) in
+            named.iter().zip(&sizes).zip(chosen.iter().zip(plans))
+        {
+            let pick = &s[i];
+            let best = s
+                .iter()
+                .map(|x| x.held_out_rmse)
+                .fold(f64::INFINITY, f64::min);
+            lines.push_str(&format!(
+                "\n  {name}: {} GP of {} {} ({:+.1}% held-out error against its best size), \
+                 {} bytes of RAM",
+                pick.kind,
+                pick.asked,
+                if pick.kind == "exact" {
+                    "points"
+                } else {
+                    "inducing points"
+                },
+                100.0 * (pick.held_out_rmse / best - 1.0),
+                pick.cost.ram_bytes
+            ));
+            plan.fit.inducing = pick.inducing();
+            out.push(plan);
+        }
+        console.result(&lines);
+        let report = budget::Report {
+            budget: self.budget,
+            default_cost,
+            channels: named
+                .iter()
+                .zip(sizes)
+                .zip(&chosen)
+                .map(|(((name, _, _), sizes), &i)| budget::ChannelSizes {
+                    name: (*name).to_owned(),
+                    sizes,
+                    chosen: Some(i),
+                })
+                .collect(),
+            chosen_cost: cost,
+        };
+        Ok((out, Some(report)))
+    }
+
+    /// The budget checked on the blob as fitted (an extension may have made it larger than its
+    /// static model): refused with the figures where it does not fit.
+    fn check_fitted(&self, f: &unit::UnitFootprint) -> anyhow::Result<()> {
+        let cost = budget::Cost {
+            ram_bytes: f.unit_bytes + f.scratch_bytes,
+            flash_bytes: f.blob_bytes,
+            instructions: f.instructions,
+        };
+        anyhow::ensure!(
+            self.budget.holds(&cost),
+            "the fitted blob needs {cost}, beyond the budget ({}): the extensions the diagnosis \
+             added made it larger than its static models; fit without --features, or raise the \
+             budget (nothing written)",
+            self.budget
+        );
         Ok(())
     }
 
@@ -694,6 +900,9 @@ struct UnitFitReport<'a> {
     channels: Vec<ChannelReport<'a>>,
     blob_bytes: usize,
     footprint: &'a unit::UnitFootprint,
+    /// How the budget was met, where one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    budget: Option<budget::Report>,
 }
 
 /// One channel of [`UnitFitReport`]: its figures in `units` (the `_dps` fields too).
