@@ -19,7 +19,8 @@
 //! measured ratio.
 //!
 //! With the `embedded-model` feature the blob is compiled in instead (`FOG_M4_MODEL=path/model.bin`
-//! at build time), which is how docs/firmware.md measures flash and RAM with a model.
+//! at build time, and `FOG_M4_NUMBERS` the numbers it needs, `trainer inspect` says how many),
+//! which is how docs/firmware.md measures flash and RAM with a model or a unit.
 //!
 //! Exit code 0 on success; a failure prints its reason and exits with 1.
 #![no_std]
@@ -35,12 +36,13 @@ use semihosting::io::{Read, Write};
 use semihosting::{c, eprintln, fs, process};
 
 /// Capacities: up to 6 channels of up to 4 inputs, 16 prior monomials and the trainer's export
-/// limit of centres each.
+/// limit of centres each; `N` numbers of them all together (build.rs: six of the largest models,
+/// or `FOG_M4_NUMBERS`).
 const C: usize = 6;
 const D: usize = 4;
 const E: usize = 16 * D;
 const M: usize = firmware_core::MAX_CENTRES;
-const N: usize = C * (7 * D + 16 + 2 + M * D + M + M * (M + 1) / 2);
+include!(concat!(env!("OUT_DIR"), "/capacity.rs"));
 /// Largest blob the image reads: headers, names and postcard lengths, and 5 bytes per number at
 /// most.
 #[cfg(not(feature = "embedded-model"))]

@@ -11,6 +11,7 @@ mod report;
 mod sigma;
 mod sparse;
 mod twin;
+mod unit;
 
 use std::path::{Path, PathBuf};
 

@@ -149,11 +149,13 @@ fn follows(
 }
 
 /// Instructions per sample on the Cortex-M4F of one channel's mean and variance with `m` centres
-/// and `d` inputs: about 1,200 fixed, 67 + 3d per centre for the mean and 17 per multiply-add of
-/// the variance's forward substitution, m(m + 1)/2 of them (docs/firmware.md, "Cost on the M4").
+/// and `d` inputs, through a unit (its share of the feature pipeline included): about 5,100 fixed,
+/// 67 + 3d per centre for the mean and 17.1 per multiply-add of the variance's forward
+/// substitution, m(m + 1)/2 of them. Fitted to the units `firmware-sim qemu` measured
+/// (docs/firmware.md, "Cost on the M4": within 3% of them).
 pub fn instructions(m: usize, d: usize) -> f64 {
     let m = m as f64;
-    1200.0 + (67.0 + 3.0 * d as f64) * m + 17.0 * m * (m + 1.0) / 2.0
+    5100.0 + (67.0 + 3.0 * d as f64) * m + 17.1 * m * (m + 1.0) / 2.0
 }
 
 /// Bytes of RAM one channel's bookkeeping takes in a `StaticUnit` on a 32-bit target, besides its
