@@ -516,7 +516,7 @@ pub fn reseal(blob: &mut [u8]) {
     }
 }
 
-/// Stamps `sequence` into a valid blob of format 4 or later (or a unit blob, [`unit`]) and
+/// Stamps `sequence` into a valid blob of format 4 or later (or a unit blob, [`mod@unit`]) and
 /// reseals it. A version-3 blob has no room for one: [`BlobError::NoSequence`].
 pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
     let sealed = read_sealed(blob)?;

@@ -149,12 +149,14 @@ struct Identity {
     temperature_c: [f32; 2],
 }
 
-/// A channel as read, before its numbers' place and its inputs are known.
+/// A channel as read, its numbers from `start` in the unit's storage, before its inputs are
+/// known.
 fn channel<const D: usize, const E: usize>(
     name: &str,
     quantity: Quantity,
     dims: Dims,
     (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, ErrorModel),
+    start: usize,
 ) -> Result<Channel<D, E>, BlobError> {
     Ok(Channel {
         name: String::try_from(name).map_err(|_| BlobError::InvalidParameter)?,
@@ -163,7 +165,7 @@ fn channel<const D: usize, const E: usize>(
         features,
         exponents,
         error,
-        start: 0,
+        start,
         inputs: [Input::Output; D],
     })
 }
@@ -274,6 +276,7 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                 Quantity::AngularRate,
                 header.dims,
                 (features, exponents, error),
+                0,
             )?;
             keep(ch).map_err(|()| BlobError::CapacityExceeded {
                 what: Storage::Channels,
@@ -300,13 +303,13 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                 &mut number,
             )?;
             let error = error.ok_or(BlobError::Malformed)?;
-            let mut ch = channel(
+            let ch = channel(
                 entry.name,
                 entry.quantity,
                 dims,
                 (features, exponents, error),
+                used,
             )?;
-            ch.start = used;
             used += dims.floats();
             keep(ch).map_err(|()| BlobError::Malformed)?;
         }
@@ -381,7 +384,7 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
         self.channels.iter().map(|c| c.dims.m).max().unwrap_or(0)
     }
 
-    fn evaluator<'a>(&'a self, ch: &'a Channel<D, E>) -> Evaluator<'a> {
+    fn evaluator<'a>(&'a self, ch: &'a Channel<D, E>) -> Evaluator<'a, D> {
         Evaluator {
             dims: ch.dims,
             exponents: &ch.exponents,
@@ -490,6 +493,27 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                 .mean_with(x.get(..ch.dims.d).unwrap_or(&[]), health);
         }
         Ok(self.channels.len())
+    }
+
+    /// Channel `k`'s mean and variances at inputs `x` (in the order of its features), `hours`
+    /// after power-on: its model alone, without the feature pipeline, as
+    /// [`crate::Model::predict_at`] is for a model decoded alone; `None` for no such channel.
+    pub fn predict_at(
+        &self,
+        k: usize,
+        x: &[f32],
+        hours: f32,
+        scratch: &mut [f32],
+    ) -> Option<Result<Prediction, PredictError>> {
+        let ch = self.channels.get(k)?;
+        Some(self.evaluator(ch).predict_at(x, hours, scratch))
+    }
+
+    /// Channel `k`'s mean alone at inputs `x`, as [`crate::Model::predict_mean`]; `None` for no
+    /// such channel.
+    pub fn predict_mean(&self, k: usize, x: &[f32]) -> Option<Mean> {
+        let ch = self.channels.get(k)?;
+        Some(self.evaluator(ch).mean_into(x, None).0)
     }
 
     /// The noise variance of a mean over `window_s` seconds of channel `k`'s compensated samples

@@ -44,13 +44,7 @@ fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
     let mut b = good.to_vec();
     let floats_at = good.len() - 4 * 395;
     let kind = match rng.random_range(0..8) {
-        0 => {
-            for _ in 0..rng.random_range(1..=8) {
-                let i = rng.random_range(0..b.len());
-                b[i] ^= 1 << rng.random_range(0..8);
-            }
-            "bit flips"
-        }
+        0 => flip_bits(&mut b, rng),
         1 => {
             b.truncate(rng.random_range(0..good.len()));
             "truncation"
@@ -77,14 +71,7 @@ fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
             b[field] = rng.random();
             "header dimensions"
         }
-        5 => {
-            for _ in 0..rng.random_range(1..=4) {
-                let i = rng.random_range(18..b.len());
-                b[i] = rng.random();
-            }
-            reseal(&mut b);
-            "payload bytes, CRC fixed"
-        }
+        5 => scramble_payload(&mut b, 18, rng),
         6 => {
             for _ in 0..rng.random_range(1..=3) {
                 let i = rng.random_range(0..395);
@@ -108,6 +95,26 @@ fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
         }
     };
     (kind, b)
+}
+
+/// One to eight random bits flipped anywhere, the CRC left as it was.
+fn flip_bits(b: &mut [u8], rng: &mut impl Rng) -> &'static str {
+    for _ in 0..rng.random_range(1..=8) {
+        let i = rng.random_range(0..b.len());
+        b[i] ^= 1 << rng.random_range(0..8);
+    }
+    "bit flips"
+}
+
+/// One to four random bytes of the payload (from byte `from`) replaced, the CRC fixed: what
+/// only the decoder's own checks can catch.
+fn scramble_payload(b: &mut [u8], from: usize, rng: &mut impl Rng) -> &'static str {
+    for _ in 0..rng.random_range(1..=4) {
+        let i = rng.random_range(from..b.len());
+        b[i] = rng.random();
+    }
+    reseal(b);
+    "payload bytes, CRC fixed"
 }
 
 #[test]
@@ -139,35 +146,166 @@ fn mutated_blobs_are_refused_or_predict_finite_numbers() {
                 predictions += exercise(&model);
                 "decoded".to_owned()
             }
-            Err(e) => format!("{e:?}")
-                .split(['(', ' '])
-                .next()
-                .unwrap_or("")
-                .to_owned(),
+            Err(e) => error_name(&e),
         };
         *tally.entry((kind, outcome)).or_default() += 1;
     }
-    for ((kind, outcome), n) in &tally {
+    eprintln!("{CASES} mutated blobs, {predictions} predictions checked");
+    check_tally(
+        &tally,
+        CASES,
+        &[
+            "CrcMismatch",
+            "Truncated",
+            "TrailingBytes",
+            "Malformed",
+            "NonFinite",
+        ],
+    );
+}
+
+/// The error's name alone (`CrcMismatch`, not its fields), to tally outcomes by.
+fn error_name(e: &impl std::fmt::Debug) -> String {
+    format!("{e:?}")
+        .split(['(', ' '])
+        .next()
+        .unwrap_or("")
+        .to_owned()
+}
+
+/// Prints the outcomes of `cases` mutations by kind and checks they reached the evaluator (more
+/// than one in twenty decoded, not only refused by the integrity checks) and produced each of
+/// `errors`.
+fn check_tally(tally: &BTreeMap<(&str, String), usize>, cases: usize, errors: &[&str]) {
+    for ((kind, outcome), n) in tally {
         eprintln!("{kind:<36} {outcome:<24} {n:>7}");
     }
-    eprintln!("{CASES} mutated blobs, {predictions} predictions checked");
     let decoded: usize = tally
         .iter()
         .filter(|((_, o), _)| o == "decoded")
         .map(|(_, n)| n)
         .sum();
-    // The mutations must reach the evaluator, not only the integrity checks.
-    assert!(decoded > CASES / 20, "only {decoded} decoded");
-    for error in [
-        "CrcMismatch",
-        "Truncated",
-        "TrailingBytes",
-        "Malformed",
-        "NonFinite",
-    ] {
+    assert!(decoded > cases / 20, "only {decoded} decoded");
+    for error in errors {
         assert!(
             tally.keys().any(|(_, o)| o == error),
             "no mutation produced {error}"
         );
     }
+}
+
+/// The MEMS IMU's six-channel unit blob (docs/firmware.md, "A whole unit in one blob").
+const UNIT: &[u8] = include_bytes!("../doc/imu.bin");
+/// Mutated unit blobs per run: each is 15 times the model blob's size.
+const UNIT_CASES: usize = 20_000;
+
+/// Unit storage roomy enough that a mutated blob is refused for what it holds, not its size.
+type RoomyUnit = firmware_core::StaticUnit<8, 8, 1320, 16_384>;
+
+/// One mutation of a unit blob: the kinds of [`mutate`] that do not depend on a model's layout.
+fn mutate_unit(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
+    let mut b = good.to_vec();
+    let kind = match rng.random_range(0..6) {
+        0 => flip_bits(&mut b, rng),
+        1 => {
+            b.truncate(rng.random_range(0..good.len()));
+            reseal(&mut b);
+            "truncation, resealed"
+        }
+        2 => {
+            b[rng.random_range(6..10)] = rng.random();
+            reseal(&mut b);
+            "header sizes, resealed"
+        }
+        3 => scramble_payload(&mut b, 22, rng),
+        4 => {
+            // A float of some channel's model, somewhere in the second half of the payload.
+            let i = rng.random_range(b.len() / 2..b.len() - 4);
+            let v = NASTY[rng.random_range(0..NASTY.len())];
+            b[i..i + 4].copy_from_slice(&v.to_le_bytes());
+            reseal(&mut b);
+            "NaN/Inf/extreme floats, CRC fixed"
+        }
+        _ => {
+            let extra = rng.random_range(1..64);
+            b.extend((0..extra).map(|_| rng.random::<u8>()));
+            reseal(&mut b);
+            "extension, resealed"
+        }
+    };
+    (kind, b)
+}
+
+/// Every channel of a decoded unit, along a short sample stream of probe values: finite means,
+/// finite non-negative variances. Returns the predictions checked.
+fn exercise_unit(unit: &RoomyUnit) -> usize {
+    let c = unit.channels().len();
+    let mut scratch = vec![0.0f32; unit.scratch_len()];
+    let mut out = vec![
+        firmware_core::Prediction {
+            mean: 0.0,
+            bias_variance: 0.0,
+            noise_variance: 0.0,
+            status: firmware_core::Status::Fault,
+        };
+        c
+    ];
+    let mut state = firmware_core::FeatureState::default();
+    for (k, &t) in NASTY.iter().chain(&[-10.0, 20.0, 40.0]).enumerate() {
+        let outputs: Vec<f32> = (0..c).map(|j| NASTY[(k + j) % NASTY.len()]).collect();
+        let sample = firmware_core::UnitSample {
+            time_s: k as f64 * 1.5,
+            temp_c: t,
+            outputs: &outputs,
+        };
+        unit.compensate(&sample, &mut state, &mut scratch, &mut out)
+            .expect("buffers sized to the unit");
+        for p in &out {
+            assert!(p.mean.is_finite(), "{p:?} at {t}");
+            assert!(p.variance().is_finite() && p.variance() >= 0.0, "{p:?}");
+        }
+    }
+    (NASTY.len() + 3) * c
+}
+
+#[test]
+fn mutated_unit_blobs_are_refused_or_predict_finite_numbers_on_every_channel() {
+    let mut storage = Box::new(RoomyUnit::new());
+    storage.decode_into(UNIT).expect("the unit blob decodes");
+    assert_eq!(storage.channels().len(), 6);
+    exercise_unit(&storage);
+    let mut rng = ChaCha8Rng::seed_from_u64(10);
+    let mut tally: BTreeMap<(&str, String), usize> = BTreeMap::new();
+    let mut predictions = 0;
+    for _ in 0..UNIT_CASES {
+        let (kind, blob) = mutate_unit(UNIT, &mut rng);
+        storage.decode_into(UNIT).expect("the unit blob decodes");
+        let decoded = storage.decode_into(&blob);
+        assert_eq!(RoomyUnit::check(&blob).map(|_| ()), decoded, "{kind}");
+        let outcome = match decoded {
+            Ok(()) => {
+                predictions += exercise_unit(&storage);
+                "decoded".to_owned()
+            }
+            Err(e) => {
+                assert!(
+                    storage.channels().is_empty(),
+                    "{kind}: a refused blob left channels"
+                );
+                error_name(&e)
+            }
+        };
+        *tally.entry((kind, outcome)).or_default() += 1;
+    }
+    eprintln!("{UNIT_CASES} mutated unit blobs, {predictions} predictions checked");
+    check_tally(
+        &tally,
+        UNIT_CASES,
+        &[
+            "CrcMismatch",
+            "Malformed",
+            "InconsistentDimensions",
+            "NonFinite",
+        ],
+    );
 }

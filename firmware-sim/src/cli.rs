@@ -742,10 +742,17 @@ fn qemu_command(
         ));
     }
     console.result(&format!(
-        "instructions per sample{}: mean {:.0}, mean + variance {:.0}",
-        if c > 1 { ", every channel" } else { "" },
+        "instructions per prediction{}: mean {:.0}, mean + variance {:.0}; per sample, the \
+         feature pipeline included: {:.0}, {:.0}",
+        if c > 1 {
+            format!(" of the {c} channels together")
+        } else {
+            String::new()
+        },
         m4.cost.mean_instructions,
-        m4.cost.full_instructions
+        m4.cost.full_instructions,
+        m4.cost.sample_mean_instructions,
+        m4.cost.sample_full_instructions
     ));
     let centres: usize = loaded.unit.channels().iter().map(|c| c.dims().m).sum();
     let minimum: f64 = loaded

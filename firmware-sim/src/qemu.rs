@@ -64,16 +64,22 @@ pub enum QemuError {
     Io(#[from] std::io::Error),
 }
 
-/// The image's cost measurement, converted to instructions: per sample, every channel of the
-/// blob and the features they share (one channel for a model blob).
+/// The image's cost measurement, converted to instructions: of the evaluator alone, and of the
+/// whole call per sample, every channel of the blob (one for a model blob).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Cost {
     /// Samples timed per path.
     pub samples: u32,
-    /// Instructions per sample, means only (loop overhead removed).
+    /// Instructions per prediction of the evaluator alone, every channel's mean at inputs
+    /// computed beforehand (loop overhead removed).
     pub mean_instructions: f64,
-    /// Instructions per sample, means and variances.
+    /// The same, means and variances.
     pub full_instructions: f64,
+    /// Instructions per sample of the whole call: the features the channels share, then every
+    /// channel's mean (`compensate_mean`).
+    pub sample_mean_instructions: f64,
+    /// The same with every channel's variances (`compensate`): what a sample costs the firmware.
+    pub sample_full_instructions: f64,
     /// Instructions per `libm::expf` call (the transcendental of each centre).
     pub exp_instructions: f64,
     /// Instructions per SysTick tick, measured on the calibration loop.
@@ -164,7 +170,7 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
         )));
     }
     let cost = std::fs::read(dir.path().join("cost.bin"))?;
-    if cost.len() != 32 {
+    if cost.len() != 44 {
         return Err(QemuError::Image(format!(
             "cost.bin has {} bytes",
             cost.len()
@@ -180,13 +186,15 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
     };
     let samples = word(0).max(1.0);
     let instructions_per_tick = word(6) / word(7).max(1.0);
-    let per = |ticks: f64| (ticks - word(1)) * instructions_per_tick / samples;
+    let per = |ticks: f64, empty: f64| (ticks - empty) * instructions_per_tick / samples;
     Ok(QemuRun {
         compensated,
         cost: Cost {
             samples: word(0) as u32,
-            mean_instructions: per(word(2)),
-            full_instructions: per(word(3)),
+            mean_instructions: per(word(2), word(1)),
+            full_instructions: per(word(3), word(1)),
+            sample_mean_instructions: per(word(9), word(8)),
+            sample_full_instructions: per(word(10), word(8)),
             exp_instructions: word(5) * instructions_per_tick / word(4).max(1.0),
             instructions_per_tick,
         },

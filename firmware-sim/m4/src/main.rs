@@ -7,13 +7,15 @@
 //! state kept). The image decodes the blob into fixed capacities (up to 6 channels), runs every
 //! sample through the unit (the shared features once, then every channel's mean and variance),
 //! and writes `out.bin` (one result record per channel per sample: mean, variance, status). Then
-//! it measures its own cost per sample, all channels together and the features included: SysTick
-//! ticks over the first samples for an empty loop, the mean path and the mean + variance path;
-//! ticks for [`EXP_CALLS`] calls of `libm::expf` (the one transcendental per centre) less their
-//! empty loop; and ticks for a calibration loop of known length (`cortex_m::asm::delay(n)`
-//! executes exactly `2(n + 1)` instructions: `subs` and `bne` per pass). All go to `cost.bin` as
-//! eight u32: samples, empty, mean, mean + variance, expf calls, expf ticks, calibration
-//! instructions, calibration ticks. Under `-icount shift=0` QEMU advances its clock by 1 ns per
+//! it measures its own cost over the first samples: SysTick ticks of the evaluator alone (every
+//! channel's mean, then mean + variance, at inputs computed beforehand) against an empty loop;
+//! ticks of the whole per-sample call (`compensate_mean`, `compensate`: the features the channels
+//! share and every channel) against its own empty loop; ticks for [`EXP_CALLS`] calls of
+//! `libm::expf` (the one transcendental per centre) less their empty loop; and ticks for a
+//! calibration loop of known length (`cortex_m::asm::delay(n)` executes exactly `2(n + 1)`
+//! instructions: `subs` and `bne` per pass). All go to `cost.bin` as eleven u32: samples, empty,
+//! mean, mean + variance, expf calls, expf ticks, calibration instructions, calibration ticks,
+//! per-sample empty, per-sample mean, per-sample mean + variance. Under `-icount shift=0` QEMU advances its clock by 1 ns per
 //! instruction and SysTick counts the 25 MHz system clock, so one tick should be 40 instructions;
 //! the calibration loop measures it rather than trusting that, and the host converts with the
 //! measured ratio.
@@ -31,7 +33,7 @@ use core::hint::black_box;
 use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use cortex_m_rt::entry;
 use firmware_core::record::{self, RESULT_BYTES};
-use firmware_core::{FeatureState, Prediction, StaticUnit, Status, UnitSample};
+use firmware_core::{FeatureState, Prediction, Sample, StaticUnit, Status, UnitSample, features};
 use semihosting::io::{Read, Write};
 use semihosting::{c, eprintln, fs, process};
 
@@ -207,11 +209,48 @@ fn main() -> ! {
         seen += got;
     }
 
-    // Cost per sample, every channel and the shared features: the first samples again, through
-    // a fresh state.
+    // Cost of the evaluator alone, every channel's: its inputs computed beforehand, each
+    // channel's own features through a fresh state of its own.
     let k = seen.min(COST_SAMPLES);
     let samples = &first[..k];
+    let mut xs = [[[0.0f32; D]; C]; COST_SAMPLES];
+    for (x, s) in xs.iter_mut().zip(samples) {
+        for (j, ch) in unit.channels().iter().enumerate() {
+            let own = Sample {
+                time_s: s.time_s,
+                temp_c: s.temp_c,
+                output: s.outputs[j],
+            };
+            // Only the evaluator is timed: these samples' statuses were reported by the replay.
+            let _ = features::compute(ch.features(), &own, &mut FeatureState::default(), &mut x[j]);
+        }
+    }
+    let dims: [usize; C] =
+        core::array::from_fn(|j| unit.channels().get(j).map_or(0, |c| c.dims().d));
     let empty = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            for (j, d) in dims.iter().enumerate().take(c) {
+                black_box(black_box(x)[j].get(..*d));
+            }
+        }
+    });
+    let mean = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            for (j, d) in dims.iter().enumerate().take(c) {
+                black_box(unit.predict_mean(j, &black_box(x)[j][..*d]));
+            }
+        }
+    });
+    let full = ticks(&mut syst, || {
+        for x in &xs[..k] {
+            for (j, d) in dims.iter().enumerate().take(c) {
+                black_box(unit.predict_at(j, &black_box(x)[j][..*d], 0.0, scratch));
+            }
+        }
+    });
+    // Cost per sample, every channel and the features they share: the first samples again, through
+    // a fresh state.
+    let sample_empty = ticks(&mut syst, || {
         for s in samples {
             black_box(black_box(s).outputs.get(..c));
         }
@@ -224,7 +263,7 @@ fn main() -> ! {
         0.0f32,
     ); C];
     let mut cost_state = FeatureState::default();
-    let mean = ticks(&mut syst, || {
+    let sample_mean = ticks(&mut syst, || {
         for s in samples {
             let s = black_box(s);
             let sample = UnitSample {
@@ -239,7 +278,7 @@ fn main() -> ! {
         }
     });
     let mut cost_state = FeatureState::default();
-    let full = ticks(&mut syst, || {
+    let sample_full = ticks(&mut syst, || {
         for s in samples {
             let s = black_box(s);
             let sample = UnitSample {
@@ -271,7 +310,7 @@ fn main() -> ! {
     let calibration = ticks(&mut syst, || {
         cortex_m::asm::delay(black_box(CALIBRATION_PASSES - 1));
     });
-    let mut cost = [0u8; 32];
+    let mut cost = [0u8; 44];
     let words = [
         k as u32,
         empty,
@@ -281,6 +320,9 @@ fn main() -> ! {
         exp.saturating_sub(exp_empty),
         2 * CALIBRATION_PASSES,
         calibration,
+        sample_empty,
+        sample_mean,
+        sample_full,
     ];
     for (i, v) in words.iter().enumerate() {
         cost[4 * i..4 * i + 4].copy_from_slice(&v.to_le_bytes());

@@ -10,7 +10,7 @@
 //! column is the first axis's sensor reading. Every axis's effects act on its own coil.
 //!
 //! The files name each axis's columns `NAME.voltage_v` and `NAME.rate_dps` (and `NAME.coil_c` and
-//! `NAME.table_rate_dps`, the truth); [`channels_toml`] writes the channels file that names them
+//! `NAME.table_rate_dps`, the truth); [`Axes::channels_toml`] writes the channels file that names them
 //! for the trainer.
 
 use serde::{Deserialize, Serialize};

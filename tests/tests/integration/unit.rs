@@ -170,43 +170,19 @@ fn the_unit_blob_runs_bit_for_bit_on_the_m4_and_from_c_at_most_the_cost_of_its_c
     }
     // Each channel alone: its model as a blob of its own, through the same image.
     let mut alone = 0.0;
-    for (k, ch) in unit.channels().iter().enumerate() {
-        let entries = [firmware_core::blob::unit::Channel {
-            name: ch.name(),
-            quantity: ch.quantity(),
-            model: &one_channel(blob, k),
-        }];
-        let mut buf = vec![0u8; blob.len()];
-        let n =
-            firmware_core::blob::unit::encode("one", [-20.0, 50.0], &entries, &mut buf).unwrap();
-        alone += qemu::run(&image, &buf[..n], &streams[k..=k])
+    let blobs = trainer::firmware::unit::channel_blobs(blob).unwrap();
+    assert_eq!(blobs.len(), streams.len());
+    for (k, (_, _, one)) in blobs.iter().enumerate() {
+        alone += qemu::run(&image, one, &streams[k..=k])
             .unwrap()
             .cost
-            .full_instructions;
+            .sample_full_instructions;
     }
-    let together = m4.cost.full_instructions;
+    let together = m4.cost.sample_full_instructions;
     assert!(
         together <= alone && together > 0.8 * alone,
         "six channels in one call {together}, each alone {alone} in all"
     );
-}
-
-/// Channel `k` of a unit blob as a model blob of its own: its entry's payload under a model
-/// header (the trainer's own `fit` of one channel writes the same model).
-fn one_channel(unit: &[u8], k: usize) -> Vec<u8> {
-    use firmware_core::blob::{self, HEADER_LEN};
-    let header = blob::unit::read_header(unit).unwrap();
-    let payload = blob::unit::read_payload::<8>(&header).unwrap();
-    let entry = payload.channels[k];
-    let mut out = vec![0u8; HEADER_LEN];
-    out[..4].copy_from_slice(&blob::MAGIC);
-    out[4..6].copy_from_slice(&blob::FORMAT_VERSION.to_le_bytes());
-    out[6..8].copy_from_slice(&entry.m.to_le_bytes());
-    out[8] = entry.d;
-    out[9] = entry.p;
-    out.extend_from_slice(entry.model);
-    blob::reseal(&mut out);
-    out
 }
 
 /// The simulator's unit of three axes, each hiding its own cause, is calibrated and investigated

@@ -359,6 +359,26 @@ pub fn diagnose(model: &HostModel, stream: &Stream) -> Diagnosis {
     diagnose_residual(&res, Quantity::AngularRate)
 }
 
+impl Diagnosis {
+    /// The same diagnosis of a channel that measures `quantity`: its explanation restated in
+    /// that quantity's units.
+    pub fn in_quantity(mut self, quantity: Quantity) -> Self {
+        let named = self.candidates.iter().find(|c| c.id == self.cause);
+        let other = self
+            .candidates
+            .iter()
+            .find(|c| Some(c.id) == self.runner_up);
+        self.explanation = explain(
+            (self.cause, named, other),
+            &self.steps,
+            self.residual_rmse_60s_dps,
+            quantity,
+        );
+        self.quantity = quantity;
+        self
+    }
+}
+
 /// Diagnoses `stream` against `model`, the firmware form of the static GP `gp` fitted on
 /// `points` ([`Residual::fitted_on`]).
 pub fn diagnose_fitted(

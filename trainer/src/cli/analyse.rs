@@ -118,11 +118,42 @@ pub(super) struct ReproduceArgs {
     json: Option<PathBuf>,
 }
 
-/// `trainer diagnose`: replays a stream through a blob and names the cause of its residual.
+/// `trainer diagnose`: replays a stream through a blob and names the cause of its residual (each
+/// channel's, for a unit's blob and log with `--channels`).
 pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let DiagnoseArgs { model, log, json } = args;
     let console = Console::new(flags, json.as_deref());
     let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
+    if let Some(channels) = log.unit.load()? {
+        let streams = log.load_unit(&channels, &console)?;
+        let mut all = Vec::new();
+        for (name, quantity, blob) in
+            unit::channel_blobs(&bytes).with_context(|| format!("decoding {}", model.display()))?
+        {
+            let k = channels
+                .list
+                .iter()
+                .position(|c| c.name == name)
+                .with_context(|| {
+                    format!(
+                        "{}'s channel {name} is not in {}",
+                        model.display(),
+                        channels.path.display()
+                    )
+                })?;
+            let fw = firmware_sim::replay::decode(&blob)?;
+            let mut d = diagnose::diagnose(&fw, &streams[k]);
+            d = d.in_quantity(quantity);
+            let console = console.channel(&name, &format!("{name}:"));
+            console.result(render_diagnosis(&d).trim_end());
+            all.push(serde_json::json!({ "name": name, "units": quantity.unit(), "diagnosis": d }));
+        }
+        if let Some(path) = json {
+            let inputs = [model.as_path(), log.stream.as_path(), &channels.path];
+            write_json(&path, &inputs, &all)?;
+        }
+        return Ok(());
+    }
     let fw = firmware_sim::replay::decode(&bytes)
         .with_context(|| format!("decoding {}", model.display()))?;
     let data = log.load(&console)?;

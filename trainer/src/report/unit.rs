@@ -271,7 +271,7 @@ pub fn write(
     Ok(written)
 }
 
-/// The files [`write`] writes for channels named `names`, for the check that no output overwrites
+/// The files [`write()`] writes for channels named `names`, for the check that no output overwrites
 /// an input.
 pub fn files(names: &[&str]) -> Vec<String> {
     names
