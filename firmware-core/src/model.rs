@@ -118,6 +118,7 @@ impl Accumulator {
         self.sum = t;
     }
 
+    #[inline(always)]
     fn total(&self) -> f32 {
         self.sum + self.carry
     }

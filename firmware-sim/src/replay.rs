@@ -476,22 +476,48 @@ pub struct Score {
     pub handled: Vec<Handled>,
 }
 
+/// The samples a score counts: a known reference, and no fault.
+fn scored(stream: &Stream, status: &[Status]) -> Vec<usize> {
+    (0..stream.len())
+        .filter(|&i| stream.rate_dps[i].is_finite() && status[i] != Status::Fault)
+        .collect()
+}
+
+/// The mean error of each 60 s block of `idx` (`half_filled`).
+fn block_errors(stream: &Stream, rate_dps: &[f32], idx: &[usize]) -> Vec<f64> {
+    half_filled(stream, idx)
+        .iter()
+        .map(|b| {
+            b.iter()
+                .map(|&i| f64::from(rate_dps[i]) - stream.rate_dps[i])
+                .sum::<f64>()
+                / b.len() as f64
+        })
+        .collect()
+}
+
+impl Means {
+    /// The mean error of each 60 s block [`score`] counts ([`Score::n_blocks`] of them), from
+    /// the means alone: what the full replay gives, without the variance it does not read.
+    pub fn block_errors(&self, stream: &Stream) -> Vec<f64> {
+        block_errors(stream, &self.rate_dps, &scored(stream, &self.status))
+    }
+
+    /// [`Score::rmse_60s_dps`] of these means against `stream`'s reference.
+    pub fn rmse_60s_dps(&self, stream: &Stream) -> f64 {
+        rms(&self.block_errors(stream))
+    }
+}
+
 /// Scores `comp` against `stream`'s reference.
 pub fn score(stream: &Stream, comp: &Compensated) -> Score {
-    let scored: Vec<usize> = (0..stream.len())
-        .filter(|&i| stream.rate_dps[i].is_finite() && comp.status[i] != Status::Fault)
-        .collect();
+    let scored = scored(stream, &comp.status);
     let err = |i: usize| f64::from(comp.rate_dps[i]) - stream.rate_dps[i];
     let n = scored.len();
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
-    let block_means = |idx: &[usize]| -> Vec<f64> {
-        half_filled(stream, idx)
-            .iter()
-            .map(|b| b.iter().map(|&i| err(i)).sum::<f64>() / b.len() as f64)
-            .collect()
-    };
+    let block_means = |idx: &[usize]| block_errors(stream, &comp.rate_dps, idx);
     let scored_blocks = half_filled(stream, &scored);
     let means = block_means(&scored);
     let mean_sigmas: Vec<f64> = scored_blocks
@@ -647,7 +673,7 @@ mod tests {
     }
 
     #[test]
-    fn the_mean_path_gives_the_replays_rates_and_statuses_bit_for_bit() {
+    fn the_mean_path_gives_the_replays_rates_statuses_and_score_bit_for_bit() {
         // Temperatures from inside the trained range to far beyond it, across a power-on.
         let mut s = stream(&[0.0; 400], 1.0);
         for (i, t) in s.temp_c.iter_mut().enumerate() {
@@ -657,6 +683,7 @@ mod tests {
         let (full, means) = (replay(&model, &s), means(&model, &s));
         assert_eq!(full.rate_dps, means.rate_dps);
         assert_eq!(full.status, means.status);
+        assert_eq!(means.rmse_60s_dps(&s), score(&s, &full).rmse_60s_dps);
         assert!(means.excess2.iter().any(|&e| e > 0.0));
         assert!(means.excess2.contains(&0.0));
     }

@@ -246,13 +246,14 @@ impl Split {
     /// and whether the scored part exercised the extension: its contribution (extended − static,
     /// 60 s means over the whole stream) moves in the scored blocks ([`diagnose::sees`]).
     fn scores(&self) -> anyhow::Result<(f64, f64, Sight)> {
-        let run = |blob: &[u8]| -> anyhow::Result<replay::Compensated> {
-            Ok(replay::replay(
+        // The means alone: nothing here reads a variance, which costs O(m²) a sample.
+        let run = |blob: &[u8]| -> anyhow::Result<replay::Means> {
+            Ok(replay::means(
                 &*firmware_sim::replay::decode(blob)?,
                 &self.scored,
             ))
         };
-        let rmse = |c: &replay::Compensated| replay::score(&self.scored, c).rmse_60s_dps;
+        let rmse = |c: &replay::Means| c.rmse_60s_dps(&self.scored);
         let static_run = run(&self.static_blob)?;
         let ext_run = match &self.extended_blob {
             Some(b) => run(b)?,
@@ -283,7 +284,7 @@ impl Split {
             })
             .map(|(k, _)| k)
             .collect();
-        let centred = |c: &replay::Compensated| {
+        let centred = |c: &replay::Means| {
             let e: Vec<f64> = scored
                 .iter()
                 .map(|&k| {
@@ -322,7 +323,7 @@ pub fn calibrate(
     splits: &[Split],
 ) -> anyhow::Result<Calibration> {
     let fw = firmware_sim::replay::decode(shipped_blob)?;
-    let comp = replay::replay(&fw, train);
+    let comp = replay::means(&fw, train);
     let errors: Vec<f64> = (0..train.len())
         .map(|i| f64::from(comp.rate_dps[i]) - train.rate_dps[i])
         .collect();

@@ -13,6 +13,7 @@ use std::path::Path;
 
 use firmware_sim::data::stream::Stream;
 use firmware_sim::replay;
+use firmware_sim::stats::rms;
 use serde::Serialize;
 
 use crate::analysis::investigate::{Forward, forward};
@@ -99,9 +100,9 @@ pub fn check(
         // Blocks of every stream together: the squared block errors pool by their counts.
         let (mut sum, mut blocks) = (0.0, 0usize);
         for cut in &cuts {
-            let s = replay::score(&cut.later, &replay::replay(&fw, &cut.later));
-            sum += s.rmse_60s_dps.powi(2) * s.n_blocks as f64;
-            blocks += s.n_blocks;
+            let e = replay::means(&fw, &cut.later).block_errors(&cut.later);
+            sum += rms(&e).powi(2) * e.len() as f64;
+            blocks += e.len();
         }
         Ok((sum / blocks.max(1) as f64).sqrt())
     };

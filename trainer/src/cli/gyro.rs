@@ -108,7 +108,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
                 std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
             let fw = firmware_sim::replay::decode(&bytes)
                 .with_context(|| format!("decoding {}", path.display()))?;
-            let comp = firmware_sim::replay::replay(&fw, &data);
+            let comp = firmware_sim::replay::means(&fw, &data);
             (
                 comp.rate_dps.iter().map(|&w| f64::from(w)).collect(),
                 format!("the output compensated by {}", path.display()),
