@@ -477,15 +477,15 @@ pub struct Score {
 }
 
 /// The samples a score counts: a known reference, and no fault.
-fn scored(stream: &Stream, status: &[Status]) -> Vec<usize> {
+pub fn scored_samples(stream: &Stream, status: &[Status]) -> Vec<usize> {
     (0..stream.len())
         .filter(|&i| stream.rate_dps[i].is_finite() && status[i] != Status::Fault)
         .collect()
 }
 
-/// The mean error of each 60 s block of `idx` (`half_filled`).
-fn block_errors(stream: &Stream, rate_dps: &[f32], idx: &[usize]) -> Vec<f64> {
-    half_filled(stream, idx)
+/// The mean error of the compensated `rate_dps` in each of `blocks` (samples of `stream`).
+pub fn block_errors(stream: &Stream, rate_dps: &[f32], blocks: &[Vec<usize>]) -> Vec<f64> {
+    blocks
         .iter()
         .map(|b| {
             b.iter()
@@ -500,7 +500,8 @@ impl Means {
     /// The mean error of each 60 s block [`score`] counts ([`Score::n_blocks`] of them), from
     /// the means alone: what the full replay gives, without the variance it does not read.
     pub fn block_errors(&self, stream: &Stream) -> Vec<f64> {
-        block_errors(stream, &self.rate_dps, &scored(stream, &self.status))
+        let blocks = half_filled(stream, &scored_samples(stream, &self.status));
+        block_errors(stream, &self.rate_dps, &blocks)
     }
 
     /// [`Score::rmse_60s_dps`] of these means against `stream`'s reference.
@@ -511,15 +512,14 @@ impl Means {
 
 /// Scores `comp` against `stream`'s reference.
 pub fn score(stream: &Stream, comp: &Compensated) -> Score {
-    let scored = scored(stream, &comp.status);
+    let scored = scored_samples(stream, &comp.status);
     let err = |i: usize| f64::from(comp.rate_dps[i]) - stream.rate_dps[i];
     let n = scored.len();
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
-    let block_means = |idx: &[usize]| block_errors(stream, &comp.rate_dps, idx);
     let scored_blocks = half_filled(stream, &scored);
-    let means = block_means(&scored);
+    let means = block_errors(stream, &comp.rate_dps, &scored_blocks);
     let mean_sigmas: Vec<f64> = scored_blocks
         .iter()
         .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
@@ -529,7 +529,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .copied()
         .filter(|&i| comp.status[i] == Status::Valid)
         .collect();
-    let means_in_range = block_means(&valid);
+    let means_in_range = block_errors(stream, &comp.rate_dps, &half_filled(stream, &valid));
     Score {
         n,
         rmse_dps: rms(&errors),

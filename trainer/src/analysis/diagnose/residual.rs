@@ -43,19 +43,8 @@ impl<'a> Residual<'a> {
         stream: &'a Stream,
         (rate_dps, status): (&[f32], &[Status]),
     ) -> Self {
-        let scored: Vec<usize> = (0..stream.len())
-            .filter(|&i| stream.rate_dps[i].is_finite() && status[i] != Status::Fault)
-            .collect();
-        let blocks = blocks::half_filled(stream, &scored);
-        let r = blocks
-            .iter()
-            .map(|b| {
-                b.iter()
-                    .map(|&i| f64::from(rate_dps[i]) - stream.rate_dps[i])
-                    .sum::<f64>()
-                    / b.len() as f64
-            })
-            .collect();
+        let blocks = blocks::half_filled(stream, &replay::scored_samples(stream, status));
+        let r = replay::block_errors(stream, rate_dps, &blocks);
         Self {
             model,
             stream,
