@@ -444,18 +444,24 @@ where
     Ex: Serialize,
     Fl: Serialize,
 {
+    let body = buf.get_mut(HEADER_LEN..).ok_or(BlobError::BufferTooSmall)?;
+    let len = postcard::to_slice(payload, body)
+        .map_err(|_| BlobError::BufferTooSmall)?
+        .len();
+    seal(dims, len, buf)
+}
+
+/// Writes the header of a model blob of `dims` whose payload (`len` bytes, postcard) already
+/// follows it in `buf`, and seals it; returns the blob's length. What [`encode`] does after
+/// serializing, and what makes a unit's channel entry a model blob of its own again.
+pub fn seal(dims: Dims, len: usize, buf: &mut [u8]) -> Result<usize, BlobError> {
     let (m, d, p) = (
         u16::try_from(dims.m).map_err(|_| BlobError::InvalidParameter)?,
         u8::try_from(dims.d).map_err(|_| BlobError::InvalidParameter)?,
         u8::try_from(dims.p).map_err(|_| BlobError::InvalidParameter)?,
     );
-    let (header, body) = buf
-        .split_at_mut_checked(HEADER_LEN)
-        .ok_or(BlobError::BufferTooSmall)?;
-    let len = postcard::to_slice(payload, body)
-        .map_err(|_| BlobError::BufferTooSmall)?
-        .len();
     u32::try_from(len).map_err(|_| BlobError::BufferTooSmall)?;
+    let header = buf.get_mut(..HEADER_LEN).ok_or(BlobError::BufferTooSmall)?;
     let mut h = [0u8; LEN_AT];
     let fields: [&[u8]; 6] = [
         &MAGIC,

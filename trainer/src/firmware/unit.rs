@@ -153,7 +153,7 @@ fn follows(
 /// the trainer's fit of that one channel writes it. What an analysis of one channel (a diagnosis,
 /// a replay of one channel alone) reads.
 pub fn channel_blobs(bytes: &[u8]) -> Result<Vec<(String, Quantity, Vec<u8>)>, ExportError> {
-    use firmware_core::blob::{self, FORMAT_VERSION, HEADER_LEN};
+    use firmware_core::blob::{self, HEADER_LEN};
     if bytes.get(..4) == Some(&blob::MAGIC[..]) {
         replay::decode(bytes)?;
         return Ok(vec![(
@@ -169,13 +169,13 @@ pub fn channel_blobs(bytes: &[u8]) -> Result<Vec<(String, Quantity, Vec<u8>)>, E
         .iter()
         .map(|entry| {
             let mut out = vec![0u8; HEADER_LEN];
-            out[..4].copy_from_slice(&blob::MAGIC);
-            out[4..6].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
-            out[6..8].copy_from_slice(&entry.m.to_le_bytes());
-            out[8] = entry.d;
-            out[9] = entry.p;
             out.extend_from_slice(entry.model);
-            blob::reseal(&mut out);
+            let dims = blob::Dims {
+                m: entry.m.into(),
+                d: entry.d.into(),
+                p: entry.p.into(),
+            };
+            blob::seal(dims, entry.model.len(), &mut out).map_err(ExportError::Blob)?;
             replay::decode(&out)?;
             Ok((entry.name.to_owned(), entry.quantity, out))
         })
