@@ -1,11 +1,11 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 5)
+//! # Layout (format version 6)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (5)
+//!  4      2    format version, u16 little-endian (6)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
@@ -19,13 +19,16 @@
 //! refused by a typed error before anything is decoded. The CRC covers the header after the magic,
 //! so a flipped bit in the sequence number or the sizes is caught like one in the payload; the
 //! magic is outside it because a calibration slot writes it last, as its commit
-//! ([`crate::slots`]). Version 4 blobs (the same header, no error model) and version 3 blobs
-//! (18-byte header without the sequence, CRC over the payload alone, read as sequence 0) are still
-//! read; both get [`ErrorModel::noise_only`] with their noise variance. The payload is three
-//! postcard sequences (each a varint length, then the elements): the `d` input features (enum
-//! index, then the f32 parameter of the stateful ones), the `p·d` prior-mean exponents (u8, row
-//! per monomial), and one flat array of little-endian f32; then the [`ErrorModel`], six
-//! little-endian f32 in its field order. The flat array:
+//! ([`crate::slots`]). Version 5 blobs (the same header, an error model of six numbers), version 4
+//! blobs (no error model) and version 3 blobs (18-byte header without the sequence, CRC over the
+//! payload alone, read as sequence 0) are still read: the error model's terms they lack are 0 (4
+//! and 3 get [`ErrorModel::noise_only`] with their noise variance), their [`Limits`] the
+//! stated defaults, and [`Beyond::Follow`], how they were evaluated. The payload is three postcard sequences (each a varint length, then the
+//! elements): the `d` input features (enum index, then the f32 parameter of the stateful ones),
+//! the `p·d` prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32;
+//! then what the mean does beyond the trained range ([`Beyond`], one byte), the [`ErrorModel`],
+//! ten little-endian f32 in its field order, and the [`Limits`], three.
+//! The flat array:
 //!
 //! ```text
 //! input_offset[d] input_scale[d]  z = (x − offset) / scale
@@ -57,7 +60,9 @@
 //! f32, so the kernel is the static model's. Version 4 adds the sequence number, for the two
 //! power-safe calibration slots. Version 5 adds the [`ErrorModel`]: what the variance of a
 //! compensated sample holds besides the GP's latent variance (docs/design.md §4, "The σ
-//! contract"). A change of this layout bumps
+//! contract"). Version 6 adds what service meets and calibration may not have: the error model's
+//! turn-on and heating/cooling-leg terms, and the sensor's [`Limits`] (what a reading that cannot
+//! be true is: the only `Fault` a reading can be). A change of this layout bumps
 //! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
 
 use core::fmt;
@@ -73,9 +78,11 @@ pub mod unit;
 
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
-/// The format version this crate writes (it also reads [`V4`] and [`V3`]).
-pub const FORMAT_VERSION: u16 = 5;
-/// The previous format version, still read: no error model.
+/// The format version this crate writes (it also reads [`V5`], [`V4`] and [`V3`]).
+pub const FORMAT_VERSION: u16 = 6;
+/// The previous format version, still read: an error model of six numbers, no limits.
+pub const V5: u16 = 5;
+/// The format version before it, still read: no error model.
 pub const V4: u16 = 4;
 /// The format version before it, still read: no sequence number, CRC over the payload alone.
 pub const V3: u16 = 3;
@@ -135,17 +142,23 @@ impl Feature {
 }
 
 /// What the variance of a compensated sample holds besides the GP's latent variance (format
-/// version 5): the white noise of one sample, and the model error the trainer measured on its
-/// own training data, predicting it forward in time, beyond the temperatures fitted and across
-/// the groups left out (docs/design.md §4, "The σ contract"). All variances are in output units²
-/// (°/s²); the evaluator ([`crate::model`]) adds, at inputs x and t hours since power-on,
+/// version 5, the turn-on and leg terms version 6): the white noise of one sample, and the model
+/// error the trainer measured on its own training data, predicting it forward in time, beyond the
+/// temperatures fitted and across the groups left out, or, where those data could not show a
+/// term, the prior it stated instead (docs/design.md §4, "The σ contract"). All variances are in
+/// output units² (°/s²); the evaluator ([`crate::model`]) adds, at inputs x, t hours since
+/// power-on and heating/cooling state s,
 ///
 /// ```text
-/// bias variance  = latent(x) + floor + extrapolation·e(x)² + walk·t + trend·t²
+/// bias variance  = latent(x) + floor + turn_on + extrapolation·e(x)² + walk·t + trend·t²
+///                  + leg·l(s)²
 /// noise variance = sample_noise (one sample of sample_interval_s)
 /// ```
 ///
-/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)².
+/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)², and
+/// l(s) the distance of the state s ∈ [−1, 1] ([`crate::features::FeatureState::leg`]: +1 after
+/// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
+/// swing 2: 1 on a cooling leg after a heating-only calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ErrorModel {
@@ -163,11 +176,23 @@ pub struct ErrorModel {
     pub walk_var_per_h: f32,
     /// Model error growing as a drift of unknown rate, output units² per hour².
     pub trend_var_per_h2: f32,
+    /// The bias of another power-on than calibration's: run-to-run repeatability, output units².
+    /// Every power-on in service is another one, so it holds at every sample.
+    pub turn_on_var: f32,
+    /// Model error on a heating/cooling state the calibration did not hold, at a full swing
+    /// (l = 1), output units².
+    pub leg_var: f32,
+    /// The lowest heating/cooling state trained, in [−1, 1].
+    pub leg_min: f32,
+    /// The highest heating/cooling state trained, in [`Self::leg_min`], 1].
+    pub leg_max: f32,
 }
 
 impl ErrorModel {
     /// Numbers in its encoding.
-    pub const NUMBERS: usize = 6;
+    pub const NUMBERS: usize = 10;
+    /// Numbers in its encoding of format [`V5`]: the first six.
+    pub const V5_NUMBERS: usize = 6;
 
     /// The error model of a blob without one (format 3 or 4): its noise variance as the sample
     /// noise, at an unknown interval, and no model error. The evaluator's variances are then
@@ -180,6 +205,23 @@ impl ErrorModel {
             extrapolation_var: 0.0,
             walk_var_per_h: 0.0,
             trend_var_per_h2: 0.0,
+            turn_on_var: 0.0,
+            leg_var: 0.0,
+            leg_min: -1.0,
+            leg_max: 1.0,
+        }
+    }
+
+    /// A format-[`V5`] error model's six numbers, with no turn-on or leg term.
+    pub const fn from_v5(v: [f32; Self::V5_NUMBERS]) -> Self {
+        Self {
+            sample_noise_var: v[0],
+            sample_interval_s: v[1],
+            floor_var: v[2],
+            extrapolation_var: v[3],
+            walk_var_per_h: v[4],
+            trend_var_per_h2: v[5],
+            ..Self::noise_only(0.0)
         }
     }
 
@@ -192,17 +234,22 @@ impl ErrorModel {
             self.extrapolation_var,
             self.walk_var_per_h,
             self.trend_var_per_h2,
+            self.turn_on_var,
+            self.leg_var,
+            self.leg_min,
+            self.leg_max,
         ]
     }
 
-    /// The index of its first non-finite number, else whether every number is in its domain (not
-    /// negative).
+    /// The index of its first non-finite number, else whether every number is in its domain
+    /// (variances and the interval not negative, −1 ≤ leg_min ≤ leg_max ≤ 1).
     pub fn check(&self) -> Result<(), BlobError> {
         let numbers = self.numbers();
         if let Some(i) = numbers.iter().position(|v| !v.is_finite()) {
             return Err(BlobError::NonFinite(i));
         }
-        if numbers.iter().all(|v| *v >= 0.0) {
+        let legs = -1.0 <= self.leg_min && self.leg_min <= self.leg_max && self.leg_max <= 1.0;
+        if legs && numbers.iter().take(8).all(|v| *v >= 0.0) {
             Ok(())
         } else {
             Err(BlobError::InvalidParameter)
@@ -219,14 +266,106 @@ impl ErrorModel {
         }
     }
 
-    /// The model error at `excess2` (e(x)², trained widths²) and `hours` since power-on.
-    pub fn model_error(&self, excess2: f32, hours: f32) -> f32 {
+    /// l(s): how far the heating/cooling state `leg` lies outside the states trained, over the
+    /// full swing (0 inside them, 1 at the far end of a one-leg calibration).
+    pub fn leg_excess(&self, leg: f32) -> f32 {
+        ((self.leg_min - leg).max(leg - self.leg_max).max(0.0) * 0.5).min(1.0)
+    }
+
+    /// The model error at `excess2` (e(x)², trained widths²), `hours` since power-on and
+    /// heating/cooling state `leg` (`None`: one the calibration held, no leg term).
+    pub fn model_error(&self, excess2: f32, hours: f32, leg: Option<f32>) -> f32 {
         let h = hours.max(0.0);
+        let l = leg.map_or(0.0, |s| self.leg_excess(s));
         self.floor_var
+            + self.turn_on_var
             + self.extrapolation_var * excess2
             + self.walk_var_per_h * h
             + self.trend_var_per_h2 * h * h
+            + self.leg_var * l * l
     }
+}
+
+/// What a reading that cannot be true is, for one channel (format version 6): a temperature
+/// outside the sensor's rated range, an output beyond its full scale. The only readings a
+/// prediction calls a `Fault`, with non-finite ones; every other reading, however far from the
+/// calibration, is compensated (`Extrapolating` beyond the trained range). Blobs of format 5 and
+/// before read as [`Limits::DEFAULT`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Limits {
+    /// The lowest temperature the sensor can read, °C.
+    pub temp_min_c: f32,
+    /// The highest, °C.
+    pub temp_max_c: f32,
+    /// The largest magnitude of the output the sensor can give, output units (volts, counts or a
+    /// rate, as the model's `Voltage` input); 0: not stated, any finite output is a reading.
+    pub full_scale: f32,
+}
+
+impl Limits {
+    /// Numbers in its encoding.
+    pub const NUMBERS: usize = 3;
+    /// What a blob states unless told otherwise: −55 … 125 °C, the widest rated range of the
+    /// temperature sensors inside IMUs and gyro electronics (the military grade; industrial
+    /// parts stop at −40 … 85 °C), so a reading beyond it is a broken sensor or wire whatever
+    /// the part; no full scale.
+    pub const DEFAULT: Self = Self {
+        temp_min_c: -55.0,
+        temp_max_c: 125.0,
+        full_scale: 0.0,
+    };
+
+    /// Its numbers, in encoding order.
+    pub const fn numbers(&self) -> [f32; Self::NUMBERS] {
+        [self.temp_min_c, self.temp_max_c, self.full_scale]
+    }
+
+    /// The index of its first non-finite number, else whether it is a range (min < max) and a
+    /// full scale not negative.
+    pub fn check(&self) -> Result<(), BlobError> {
+        if let Some(i) = self.numbers().iter().position(|v| !v.is_finite()) {
+            return Err(BlobError::NonFinite(i));
+        }
+        if self.temp_min_c < self.temp_max_c && self.full_scale >= 0.0 {
+            Ok(())
+        } else {
+            Err(BlobError::InvalidParameter)
+        }
+    }
+
+    /// Whether a temperature reading (°C) can be true.
+    pub fn temperature_ok(&self, temp_c: f32) -> bool {
+        (self.temp_min_c..=self.temp_max_c).contains(&temp_c)
+    }
+
+    /// Whether an output can be true.
+    pub fn output_ok(&self, output: f32) -> bool {
+        output.is_finite() && (self.full_scale <= 0.0 || output.abs() <= self.full_scale)
+    }
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// What the mean does beyond the trained range (format version 6; [`crate::model`]'s module doc
+/// has the rule).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Beyond {
+    /// The inputs the kernel reads held at the edge, the prior mean's too (PX4's and
+    /// ArduPilot's clip of the temperature), but for the raw linear terms of the gyro output and
+    /// the time since power-on.
+    Hold,
+    /// The kernel's inputs held at the edge, the prior mean continued from there along its
+    /// tangent: the trend its coefficients, fitted on all the data, support, first order only.
+    Tangent,
+    /// The GP's own prediction at the inputs as they are: the kernel's part fades with the
+    /// distance and the prior mean follows whole (what blobs before format 6 did).
+    Follow,
 }
 
 /// The sizes of a model.
@@ -325,8 +464,22 @@ pub struct Payload<Fe, Ex, Fl> {
     pub exponents: Ex,
     /// All numbers, in the layout of the module doc.
     pub floats: Fl,
+    /// What the mean does beyond the trained range.
+    pub beyond: Beyond,
     /// The variance besides the latent one.
     pub error: ErrorModel,
+    /// What a reading that cannot be true is.
+    pub limits: Limits,
+}
+
+/// A payload as read: its features and exponents, its error model (none in a blob of format 3 or
+/// 4) and its limits (the defaults before format 6).
+pub(crate) struct Read<Fe, Ex> {
+    pub(crate) features: Fe,
+    pub(crate) exponents: Ex,
+    pub(crate) beyond: Beyond,
+    pub(crate) error: Option<ErrorModel>,
+    pub(crate) limits: Limits,
 }
 
 /// `len` entries from `start` (a `const` stand-in for a closure).
@@ -340,24 +493,28 @@ const fn at(start: usize, len: usize) -> Range<usize> {
 /// the stack and then moves them into the model, several times the model's size of stack on a
 /// microcontroller whose RAM holds the model once. `number` refusing a value (storage full) is
 /// [`BlobError::Malformed`], as postcard refuses a sequence longer than its container. A blob of
-/// format [`V4`] or [`V3`] has no error model (`None`).
+/// format [`V4`] or [`V3`] has no error model (`None`); one before format 6 has the default
+/// limits.
 pub(crate) fn read_payload<'de, Fe, Ex>(
     payload: &'de [u8],
     version: u16,
     mut number: impl FnMut(f32) -> Result<(), ()>,
-) -> Result<(Fe, Ex, Option<ErrorModel>), BlobError>
+) -> Result<Read<Fe, Ex>, BlobError>
 where
     Fe: Deserialize<'de>,
     Ex: Deserialize<'de>,
 {
     let mut decoder = postcard::Deserializer::from_bytes(payload);
-    let with_error = version == FORMAT_VERSION;
     let fields = serde::Deserializer::deserialize_tuple(
         &mut decoder,
-        if with_error { 4 } else { 3 },
+        match version {
+            FORMAT_VERSION => 6,
+            V5 => 4,
+            _ => 3,
+        },
         PayloadFields {
             number: &mut number,
-            with_error,
+            version,
             fields: PhantomData,
         },
     )
@@ -373,10 +530,10 @@ where
 }
 
 /// [`read_payload`]'s visitor: features and exponents by value, numbers one at a time, then the
-/// error model where the format has one.
+/// error model and the limits where the format has them.
 struct PayloadFields<'a, Fe, Ex, F> {
     number: &'a mut F,
-    with_error: bool,
+    version: u16,
     fields: PhantomData<(Fe, Ex)>,
 }
 
@@ -386,7 +543,7 @@ where
     Ex: Deserialize<'de>,
     F: FnMut(f32) -> Result<(), ()>,
 {
-    type Value = (Fe, Ex, Option<ErrorModel>);
+    type Value = Read<Fe, Ex>;
 
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a model payload")
@@ -398,12 +555,30 @@ where
         let exponents = seq.next_element()?.ok_or_else(|| missing(1))?;
         seq.next_element_seed(Numbers(self.number))?
             .ok_or_else(|| missing(2))?;
-        let error = if self.with_error {
-            Some(seq.next_element()?.ok_or_else(|| missing(3))?)
-        } else {
-            None
+        let (beyond, error, limits) = match self.version {
+            FORMAT_VERSION => (
+                seq.next_element()?.ok_or_else(|| missing(3))?,
+                Some(seq.next_element()?.ok_or_else(|| missing(4))?),
+                seq.next_element()?.ok_or_else(|| missing(5))?,
+            ),
+            V5 => {
+                let v: [f32; ErrorModel::V5_NUMBERS] =
+                    seq.next_element()?.ok_or_else(|| missing(3))?;
+                (
+                    Beyond::Follow,
+                    Some(ErrorModel::from_v5(v)),
+                    Limits::DEFAULT,
+                )
+            }
+            _ => (Beyond::Follow, None, Limits::DEFAULT),
         };
-        Ok((features, exponents, error))
+        Ok(Read {
+            features,
+            exponents,
+            beyond,
+            error,
+            limits,
+        })
     }
 }
 
@@ -538,21 +713,58 @@ pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
 }
 
 /// Writes `error` as the error model of a valid blob of this format and reseals it: what the
-/// trainer does once it has measured a model's errors. The error model is the payload's last
-/// field, six f32 that postcard writes as their little-endian bytes, so it is the blob's last 24
-/// bytes. A blob of format 3 or 4 has none: [`BlobError::UnsupportedVersion`].
+/// trainer does once it has measured a model's errors. The error model and the limits are the
+/// payload's last fields, thirteen f32 that postcard writes as their little-endian bytes, so the
+/// error model is the ten before the blob's last three. A blob of an earlier format:
+/// [`BlobError::UnsupportedVersion`].
 pub fn set_error_model(blob: &mut [u8], error: &ErrorModel) -> Result<(), BlobError> {
+    error.check()?;
+    set_tail(blob, Limits::NUMBERS, &error.numbers())
+}
+
+/// Writes `limits` as the limits of a valid blob of this format and reseals it: the blob's last
+/// three f32. A blob of an earlier format: [`BlobError::UnsupportedVersion`].
+pub fn set_limits(blob: &mut [u8], limits: &Limits) -> Result<(), BlobError> {
+    limits.check()?;
+    set_tail(blob, 0, &limits.numbers())
+}
+
+/// Writes what the mean of a valid blob of this format does beyond its trained range, and
+/// reseals it: one byte, before the error model and the limits. A blob of an earlier format:
+/// [`BlobError::UnsupportedVersion`].
+pub fn set_beyond(blob: &mut [u8], beyond: Beyond) -> Result<(), BlobError> {
     let header = read_header(blob)?;
     if header.version != FORMAT_VERSION {
         return Err(BlobError::UnsupportedVersion(header.version));
     }
-    error.check()?;
     let at = blob
         .len()
-        .checked_sub(4 * ErrorModel::NUMBERS)
+        .checked_sub(4 * (ErrorModel::NUMBERS + Limits::NUMBERS) + 1)
         .filter(|&at| at >= HEADER_LEN)
         .ok_or(BlobError::Truncated)?;
-    for (k, v) in error.numbers().iter().enumerate() {
+    let byte = blob.get_mut(at).ok_or(BlobError::Truncated)?;
+    *byte = match beyond {
+        Beyond::Hold => 0,
+        Beyond::Tangent => 1,
+        Beyond::Follow => 2,
+    };
+    reseal(blob);
+    Ok(())
+}
+
+/// Writes `numbers` as the f32 that end `after` numbers before the end of a valid blob of this
+/// format, and reseals it.
+fn set_tail(blob: &mut [u8], after: usize, numbers: &[f32]) -> Result<(), BlobError> {
+    let header = read_header(blob)?;
+    if header.version != FORMAT_VERSION {
+        return Err(BlobError::UnsupportedVersion(header.version));
+    }
+    let at = blob
+        .len()
+        .checked_sub(4 * (after + numbers.len()))
+        .filter(|&at| at >= HEADER_LEN)
+        .ok_or(BlobError::Truncated)?;
+    for (k, v) in numbers.iter().enumerate() {
         if let Some(dst) = blob.get_mut(at + 4 * k..at + 4 * k + 4) {
             dst.copy_from_slice(&v.to_le_bytes());
         }
@@ -568,7 +780,9 @@ pub fn declared_len(bytes: &[u8]) -> Option<usize> {
     let magic = le::<4>(bytes, 0).ok()?;
     let version = u16::from_le_bytes(le(bytes, 4).ok()?);
     let (len_at, header_len) = match (magic, version) {
-        (MAGIC, FORMAT_VERSION | V4) | (unit::MAGIC, unit::VERSION) => (LEN_AT, HEADER_LEN),
+        (MAGIC, FORMAT_VERSION | V5 | V4) | (unit::MAGIC, unit::VERSION | unit::V1) => {
+            (LEN_AT, HEADER_LEN)
+        }
         (MAGIC, V3) => (10, V3_HEADER_LEN),
         _ => return None,
     };
@@ -606,7 +820,7 @@ pub fn read_sealed(bytes: &[u8]) -> Result<Sealed<'_>, BlobError> {
     let version = u16::from_le_bytes(le(bytes, 4)?);
     // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
     let (len_at, crc_at, header_len, sequence) = match (magic, version) {
-        (MAGIC, FORMAT_VERSION | V4) | (unit::MAGIC, unit::VERSION) => (
+        (MAGIC, FORMAT_VERSION | V5 | V4) | (unit::MAGIC, unit::VERSION | unit::V1) => (
             LEN_AT,
             CRC_AT,
             HEADER_LEN,
@@ -645,7 +859,7 @@ pub fn read_sealed(bytes: &[u8]) -> Result<Sealed<'_>, BlobError> {
 
 /// A checked header: dimensions, sequence and the payload bytes it covers.
 pub struct Header<'a> {
-    /// Format version ([`FORMAT_VERSION`], [`V4`] or [`V3`]).
+    /// Format version ([`FORMAT_VERSION`], [`V5`], [`V4`] or [`V3`]).
     pub version: u16,
     /// Model sizes.
     pub dims: Dims,
@@ -663,7 +877,7 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
 }
 
 /// Checks magic, version, payload length and CRC of a model blob; returns the dimensions, the
-/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V4`] and [`V3`]; a unit blob is not a
+/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V5`], [`V4`] and [`V3`]; a unit blob is not a
 /// model blob ([`BlobError::BadMagic`]: [`unit::read_header`] reads it).
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
     let sealed = read_sealed(bytes)?;

@@ -120,6 +120,8 @@ pub struct FeatureState {
     /// The gyro went through a power cycle with this state kept ([`FeatureState::power_on`]).
     powered_off: bool,
     filters: [f32; MAX_FEATURES],
+    /// The heating/cooling play's position, °C ([`FeatureState::leg`]).
+    play: f32,
 }
 
 impl FeatureState {
@@ -141,7 +143,27 @@ impl FeatureState {
     pub fn time_on_s(&self) -> f64 {
         self.times.map_or(0.0, |(on, last)| (last - on).max(0.0))
     }
+
+    /// The heating/cooling state of the last sample computed, in [−1, 1]: a play of half-width
+    /// [`LEG_WIDTH_C`] on the temperature reading, as the `ThermalState` input (+1 after heating,
+    /// −1 after cooling, kept through a soak; 0 before the first sample). What the model error's
+    /// leg term reads ([`crate::blob::ErrorModel`]), whatever the model's inputs.
+    pub fn leg(&self) -> f32 {
+        match self.times {
+            Some(_) => self.leg_of(f32::from_bits(self.held.0)),
+            None => 0.0,
+        }
+    }
+
+    fn leg_of(&self, t: f32) -> f32 {
+        ((t - self.play) / LEG_WIDTH_C).clamp(-1.0, 1.0)
+    }
 }
+
+/// Half-width of the play that tells a heating leg from a cooling one, °C: wider than a
+/// temperature sensor's noise and quantization (0.0625 °C steps on the common digital ones), and
+/// narrow against a thermal cycle's swing, so a leg is known within a degree of its turn.
+pub const LEG_WIDTH_C: f32 = 1.0;
 
 /// First-order filter gain for a step of `dt_s` with time constant `tau_s`.
 fn gain(dt_s: f32, tau_s: f32) -> f32 {
@@ -223,6 +245,11 @@ pub fn compute(
         }
     };
     let t_on = (sample.time_s - on).max(0.0);
+    state.play = if first {
+        t
+    } else {
+        state.play.clamp(t - LEG_WIDTH_C, t + LEG_WIDTH_C)
+    };
     state.times = Some((on, sample.time_s));
     let settle = settle_s(features);
     if first || t.to_bits() != state.held.0 {
@@ -312,6 +339,36 @@ mod tests {
             assert_ne!(compute(features, &s, &mut state, &mut out), Status::Fault);
         }
         out
+    }
+
+    #[test]
+    fn the_leg_follows_heating_and_cooling_whatever_the_inputs() {
+        let mut state = FeatureState::default();
+        let mut out = [0.0f32; 1];
+        assert_eq!(state.leg(), 0.0);
+        let mut run = |state: &mut FeatureState, from: u32, temps: &[f32]| {
+            for (k, t) in temps.iter().enumerate() {
+                let s = at(f64::from(from) + k as f64, *t);
+                assert_eq!(
+                    compute(&[Feature::Voltage], &s, state, &mut out),
+                    Status::Valid
+                );
+            }
+        };
+        run(&mut state, 0, &[20.0, 20.5, 21.0, 22.0, 23.0]);
+        assert_eq!(state.leg(), 1.0);
+        // A turn: half the play's width back is half-way, its full width a cooling leg.
+        run(&mut state, 5, &[22.5]);
+        assert_eq!(state.leg(), 0.5);
+        run(&mut state, 6, &[21.5, 21.0]);
+        assert_eq!(state.leg(), -1.0);
+        // A soak keeps it.
+        run(&mut state, 8, &[21.0; 20]);
+        assert_eq!(state.leg(), -1.0);
+        // Kept through a power cycle, as the play of the ThermalState input.
+        state.power_on();
+        run(&mut state, 100, &[21.0]);
+        assert_eq!(state.leg(), -1.0);
     }
 
     #[test]

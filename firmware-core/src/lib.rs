@@ -19,7 +19,7 @@ mod testing;
 pub mod unit;
 pub mod units;
 
-pub use blob::{Dims, ErrorModel, Feature};
+pub use blob::{Beyond, Dims, ErrorModel, Feature, Limits};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
 pub use model::{MAX_CENTRES, Mean, Model, Prediction};

@@ -13,7 +13,7 @@
 //! k̃_i  = exp(−½ Σ_k (s_k − c_ik)²)
 //! mean = Σ_i w_i k̃_i + Σ_j prior_j Π_k z_k^e_jk + Σ_k (hi_k + lo_k) x_k
 //! var  = σ_f² · max(0, 1 − |v|²),  L v = k̃             (forward substitution, packed rows)
-//! bias variance  = var + model error(e(x)², t)          ([`ErrorModel`])
+//! bias variance  = var + model error(e(x)², t, s)       ([`ErrorModel`])
 //! noise variance = σ_w², one sample's white noise
 //! ```
 //!
@@ -30,18 +30,37 @@
 //! substitution's dot products and 1 − |v|² are compensated sums too: the variance that matters
 //! is a small difference of O(1) numbers.
 //!
-//! Never panics, never returns NaN: non-finite or missing inputs give a `Fault` status with mean 0
-//! and the prior variance σ_f²; inputs outside the trained range give `Extrapolating`. An input
-//! more than one trained span beyond its range is a sensor fault, not a reading (a temperature of
-//! 1e30 °C overflowed the prior mean to NaN), and is a `Fault` too; so is any mean that is not
-//! finite, which a blob with absurd but finite numbers could otherwise produce (the mutated-blob
-//! test, `tests/mutated_blobs.rs`).
+//! Never panics, never returns NaN. A `Fault` is a reading that cannot be true, and only that:
+//! a non-finite or missing input, a temperature outside the sensor's rated range or an output
+//! beyond its full scale (the blob's [`Limits`]), or a mean that is not finite, which a blob with
+//! absurd but finite numbers could otherwise produce (the mutated-blob test,
+//! `tests/mutated_blobs.rs`); it gives mean 0 and the prior variance σ_f². A reading the
+//! calibration did not reach is not a fault: beyond the trained range the status is
+//! `Extrapolating` and the mean is bounded by one rule, the same on the host, the M4 and in C:
+//!
+//! ```text
+//! the kernel reads every input held at its trained range's edge (its value there, as PX4 and
+//! ArduPilot clip the temperature); an input the kernel ignores (an extension's additive input,
+//! a fitted slope) follows its value; the prior mean, its raw linear terms included, is, as the
+//! blob states ([`Beyond`]):
+//!   Hold     at the held inputs (the gyro output's and the time since power-on's linear terms
+//!            still follow them: the scale factor, a drift rate)
+//!   Tangent  at the held inputs plus its tangent there times the distance: the trend its
+//!            coefficients, fitted on all the data, support, to first order
+//! or (Follow) nothing is held: the GP's own prediction, its kernel's part fading with the
+//! distance and its prior mean followed whole (blobs before format 6)
+//! ```
+//!
+//! so a temperature 10 °C below the coldest trained gives, held, the model's value at the
+//! coldest trained temperature, and a rate beyond the table's keeps its scale factor. The σ grows
+//! with the distance: the model error's extrapolation term e(x)², which the trainer fits where its
+//! training data show it and otherwise sets from a stated prior ([`ErrorModel`]).
 
 use core::ops::Range;
 
 use heapless::Vec;
 
-use crate::blob::{self, Dims, ErrorModel, Feature};
+use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits, Read};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
@@ -52,6 +71,10 @@ use crate::units::SECONDS_PER_HOUR;
 /// Cortex-M4's RAM. The trainer refuses larger models, the host decodes into this capacity, and
 /// the C interface's `FOG_MAX_CENTRES` must not exceed it.
 pub const MAX_CENTRES: usize = 256;
+
+/// The farthest beyond its trained range an input counts, in the range's widths: a σ grown that
+/// far says nothing more than "not this model's", and e(x)² stays finite for any finite input.
+const MAX_EXCESS: f32 = 1e3;
 
 /// Predictive mean (output units, e.g. °/s) and its status.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -95,6 +118,8 @@ pub struct Model<const D: usize, const E: usize, const N: usize> {
     exponents: Vec<u8, E>,
     floats: Vec<f32, N>,
     error: ErrorModel,
+    limits: Limits,
+    beyond: Beyond,
 }
 
 /// Neumaier-compensated sum: the running rounding error is carried and added once at the end.
@@ -143,6 +168,8 @@ pub(crate) fn capacity(what: Storage, needed: usize, capacity: usize) -> Result<
 struct Domains<const D: usize> {
     sections: blob::Sections,
     mins: [f32; D],
+    maxs: [f32; D],
+    linear: [bool; D],
     seen: usize,
     diagonal: usize,
     row: usize,
@@ -157,6 +184,8 @@ impl<const D: usize> Domains<D> {
             diagonal: sections.factor.start,
             sections,
             mins: [0.0; D],
+            maxs: [0.0; D],
+            linear: [false; D],
             seen: 0,
             row: 0,
             non_finite: None,
@@ -172,6 +201,14 @@ impl<const D: usize> Domains<D> {
             return;
         }
         let s = &self.sections;
+        if let Some(l) = s
+            .length
+            .contains(&i)
+            .then(|| self.linear.get_mut(i - s.length.start))
+            .flatten()
+        {
+            *l = v >= blob::IGNORED_LENGTH_SCALE;
+        }
         let ok = if s.scale.contains(&i) || s.length.contains(&i) {
             v > 0.0
         } else if s.min.contains(&i) {
@@ -180,6 +217,9 @@ impl<const D: usize> Domains<D> {
             }
             true
         } else if s.max.contains(&i) {
+            if let Some(hi) = self.maxs.get_mut(i - s.max.start) {
+                *hi = v;
+            }
             self.mins.get(i - s.max.start).is_some_and(|lo| *lo <= v)
         } else if s.variances.contains(&i) {
             v >= 0.0
@@ -205,16 +245,15 @@ impl<const D: usize> Domains<D> {
 
 /// Reads a model payload of format `version` and `dims` (a blob's, or one channel's of a unit
 /// blob), checking it as it goes, and hands its numbers to `keep` in order: each number's domain
-/// by its section, the sizes against `dims`, the capacities `D` and `E`, the error model and the
-/// features, and the numbers against `room`, the storage left for them. Returns the features, the
-/// exponents and the error model (none in a blob of format 3 or 4).
-#[allow(clippy::type_complexity)]
+/// by its section, the sizes against `dims`, the capacities `D` and `E`, the error model, the
+/// limits and the features, and the numbers against `room`, the storage left for them. Returns
+/// the features, the exponents, the error model (none in a blob of format 3 or 4) and the limits.
 pub(crate) fn read_numbers<const D: usize, const E: usize>(
     (dims, room): (Dims, usize),
     version: u16,
     payload: &[u8],
     mut keep: impl FnMut(f32) -> Result<(), ()>,
-) -> Result<(Vec<Feature, D>, Vec<u8, E>, Option<ErrorModel>), BlobError> {
+) -> Result<Read<Vec<Feature, D>, Vec<u8, E>>, BlobError> {
     capacity(Storage::Inputs, dims.d, D.min(MAX_INPUTS))?;
     capacity(Storage::Exponents, dims.exponents(), E)?;
     capacity(Storage::Floats, dims.floats(), room)?;
@@ -222,29 +261,53 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
         return Err(BlobError::InconsistentDimensions);
     }
     let mut domains = Domains::<D>::new(dims);
-    let (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, _) =
-        blob::read_payload(payload, version, |v| {
-            domains.see(v);
-            keep(v)
-        })?;
-    if features.len() != dims.d
-        || exponents.len() != dims.exponents()
+    let read: Read<Vec<Feature, D>, Vec<u8, E>> = blob::read_payload(payload, version, |v| {
+        domains.see(v);
+        keep(v)
+    })?;
+    if read.features.len() != dims.d
+        || read.exponents.len() != dims.exponents()
         || domains.seen != dims.floats()
     {
         return Err(BlobError::InconsistentDimensions);
     }
     domains.verdict()?;
-    if let Some(e) = &error {
-        e.check().map_err(|e| match e {
-            // Numbered after the flat array's.
-            BlobError::NonFinite(i) => BlobError::NonFinite(dims.floats() + i),
+    // Numbered after the flat array's.
+    let after = |at: usize| {
+        move |e| match e {
+            BlobError::NonFinite(i) => BlobError::NonFinite(at + i),
             other => other,
-        })?;
+        }
+    };
+    if let Some(e) = &read.error {
+        e.check().map_err(after(dims.floats()))?;
     }
-    if !features.iter().all(Feature::is_valid) {
+    read.limits
+        .check()
+        .map_err(after(dims.floats() + ErrorModel::NUMBERS))?;
+    // The trained range lies within the limits: the data were readings. The evaluator relies on
+    // it, checking the limits only beyond the trained range (and at every reading of an input
+    // only linear terms read, whose range, a bias model's output's, may be unbounded).
+    let within = read
+        .features
+        .iter()
+        .zip(domains.mins.iter().zip(&domains.maxs))
+        .zip(&domains.linear)
+        .filter(|(_, linear)| !**linear)
+        .all(|((f, (&lo, &hi)), _)| match f {
+            Feature::Temperature | Feature::CoilTemperature { .. } => {
+                read.limits.temperature_ok(lo) && read.limits.temperature_ok(hi)
+            }
+            Feature::Voltage => read.limits.output_ok(lo) && read.limits.output_ok(hi),
+            _ => true,
+        });
+    if !within {
         return Err(BlobError::InvalidParameter);
     }
-    Ok((features, exponents, error))
+    if !read.features.iter().all(Feature::is_valid) {
+        return Err(BlobError::InvalidParameter);
+    }
+    Ok(read)
 }
 
 impl<const D: usize, const E: usize, const N: usize> Default for Model<D, E, N> {
@@ -263,6 +326,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             exponents: Vec::new(),
             floats: Vec::new(),
             error: ErrorModel::noise_only(0.0),
+            limits: Limits::DEFAULT,
+            beyond: Beyond::Hold,
         }
     }
 
@@ -280,11 +345,15 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.floats.clear();
         let floats = &mut self.floats;
         match Self::read(bytes, |v| floats.push(v).map_err(|_| ())) {
-            Ok((dims, features, exponents, error)) => {
+            Ok((dims, read)) => {
                 self.dims = dims;
-                self.features = features;
-                self.exponents = exponents;
-                self.error = error.unwrap_or_else(|| ErrorModel::noise_only(self.variances()[1]));
+                self.features = read.features;
+                self.exponents = read.exponents;
+                self.limits = read.limits;
+                self.beyond = read.beyond;
+                self.error = read
+                    .error
+                    .unwrap_or_else(|| ErrorModel::noise_only(self.variances()[1]));
                 Ok(())
             }
             Err(e) => {
@@ -301,6 +370,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.exponents.clear();
         self.floats.clear();
         self.error = ErrorModel::noise_only(0.0);
+        self.limits = Limits::DEFAULT;
+        self.beyond = Beyond::Hold;
     }
 
     /// Checks a blob as [`Model::decode`] does, without storing it: what a calibration update
@@ -311,21 +382,20 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             held += 1;
             if held <= N { Ok(()) } else { Err(()) }
         })
-        .map(|(dims, ..)| dims)
+        .map(|(dims, _)| dims)
     }
 
-    /// Reads and checks a blob, handing its numbers to `keep` in order; returns its sizes,
-    /// features, exponents and error model (none in a blob of format 3 or 4).
+    /// Reads and checks a blob, handing its numbers to `keep` in order; returns its sizes and
+    /// what [`read_numbers`] read.
     #[allow(clippy::type_complexity)]
     fn read(
         bytes: &[u8],
         keep: impl FnMut(f32) -> Result<(), ()>,
-    ) -> Result<(Dims, Vec<Feature, D>, Vec<u8, E>, Option<ErrorModel>), BlobError> {
+    ) -> Result<(Dims, Read<Vec<Feature, D>, Vec<u8, E>>), BlobError> {
         let header = blob::read_header(bytes)?;
         let dims = header.dims;
-        let (features, exponents, error) =
-            read_numbers::<D, E>((dims, N), header.version, header.payload, keep)?;
-        Ok((dims, features, exponents, error))
+        let read = read_numbers::<D, E>((dims, N), header.version, header.payload, keep)?;
+        Ok((dims, read))
     }
 
     /// The evaluator over this storage.
@@ -334,7 +404,10 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             dims: self.dims,
             exponents: &self.exponents,
             floats: &self.floats,
-            error: self.error,
+            features: &self.features,
+            error: &self.error,
+            limits: &self.limits,
+            beyond: self.beyond,
         }
     }
 
@@ -351,6 +424,17 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     /// The variance besides the latent one (format 3 and 4 blobs: their noise alone).
     pub fn error_model(&self) -> ErrorModel {
         self.error
+    }
+
+    /// What a reading that cannot be true is ([`Limits::DEFAULT`] for blobs before format 6).
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// What the mean does beyond the trained range ([`Beyond::Tangent`] for blobs before format
+    /// 6).
+    pub fn beyond(&self) -> Beyond {
+        self.beyond
     }
 
     /// (σ_f², σ_n²) in output units²: the GP's signal variance, and the noise level of the points
@@ -384,8 +468,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         if health == Status::Fault {
             return Ok(model.fault());
         }
-        let hours = (state.time_on_s() / SECONDS_PER_HOUR) as f32;
-        let mut p = model.predict_at(x.get(..self.dims.d).unwrap_or(&[]), hours, scratch)?;
+        let at = Conditions::of(state);
+        let mut p = model.predict_in(x.get(..self.dims.d).unwrap_or(&[]), at, scratch)?;
         p.status = p.status.max(health);
         Ok(p)
     }
@@ -407,15 +491,55 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.predict_at(x, 0.0, scratch)
     }
 
-    /// Predictive mean and variances at inputs `x`, `hours` after power-on. `scratch` must hold
-    /// at least `m` numbers.
+    /// Predictive mean and variances at inputs `x`, `hours` after power-on, on a heating/cooling
+    /// state the calibration held (no leg term: [`Conditions`]). `scratch` must hold at least `m`
+    /// numbers.
     pub fn predict_at(
         &self,
         x: &[f32],
         hours: f32,
         scratch: &mut [f32],
     ) -> Result<Prediction, PredictError> {
-        self.evaluator().predict_at(x, hours, scratch)
+        self.evaluator()
+            .predict_in(x, Conditions::at_hours(hours), scratch)
+    }
+
+    /// Predictive mean and variances at inputs `x` in the service conditions `at` (time since
+    /// power-on, heating/cooling state). `scratch` must hold at least `m` numbers.
+    pub fn predict_in(
+        &self,
+        x: &[f32],
+        at: Conditions,
+        scratch: &mut [f32],
+    ) -> Result<Prediction, PredictError> {
+        self.evaluator().predict_in(x, at, scratch)
+    }
+}
+
+/// What the model error reads of a sample besides its inputs: the hours since power-on and the
+/// heating/cooling state ([`ErrorModel`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Conditions {
+    /// Hours since power-on.
+    pub hours: f32,
+    /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
+    /// held (no leg term).
+    pub leg: Option<f32>,
+}
+
+impl Conditions {
+    /// `hours` after power-on, on a heating/cooling state the calibration held.
+    pub const fn at_hours(hours: f32) -> Self {
+        Self { hours, leg: None }
+    }
+
+    /// Those of the sample a feature state has just computed.
+    pub fn of(state: &FeatureState) -> Self {
+        Self {
+            hours: (state.time_on_s() / SECONDS_PER_HOUR) as f32,
+            leg: Some(state.leg()),
+        }
     }
 }
 
@@ -432,8 +556,15 @@ pub(crate) struct Evaluator<'a, const D: usize> {
     pub(crate) exponents: &'a [u8],
     /// The flat array ([`crate::blob`]'s layout).
     pub(crate) floats: &'a [f32],
-    /// The variance besides the latent one.
-    pub(crate) error: ErrorModel,
+    /// What each input is: the rule beyond the trained range and the limits read it.
+    pub(crate) features: &'a [Feature],
+    /// The variance besides the latent one (borrowed: the evaluator is made for every
+    /// prediction, and copying these cost the mean path tens of instructions on the M4).
+    pub(crate) error: &'a ErrorModel,
+    /// What a reading that cannot be true is.
+    pub(crate) limits: &'a Limits,
+    /// What the mean does beyond the trained range.
+    pub(crate) beyond: Beyond,
 }
 
 impl<const D: usize> Evaluator<'_, D> {
@@ -463,8 +594,10 @@ impl<const D: usize> Evaluator<'_, D> {
         ]
     }
 
-    /// Normalizes the inputs into `z` and `s = z/ℓ`; returns the status of the inputs and e(x)²,
-    /// how far they lie beyond the trained range in its widths, squared ([`ErrorModel`]).
+    /// Normalizes the inputs into `z` and `s = z/ℓ`, each held at its trained range's edge as the
+    /// blob's rule says (module doc); returns the status of the inputs and e(x)², how far they lie
+    /// beyond the trained range in its widths, squared ([`ErrorModel`]). A reading that cannot be
+    /// true ([`Limits`]) is a `Fault`.
     fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> (Status, f32) {
         let sec = self.dims.sections();
         let d = self.dims.d;
@@ -474,24 +607,88 @@ impl<const D: usize> Evaluator<'_, D> {
         }
         let mut status = Status::Valid;
         let mut excess2 = 0.0f32;
-        let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
-        for (k, (zk, sk)) in z.iter_mut().zip(s.iter_mut()).take(d).enumerate() {
-            let xk = x.get(k).copied().unwrap_or(0.0);
-            let (lo, hi) = (at(sec.min.start, k), at(sec.max.start, k));
-            if xk < lo || xk > hi {
-                let span = hi - lo;
-                let margin = if span > 0.0 { span } else { lo.abs().max(1.0) };
-                if xk < lo - margin || xk > hi + margin {
-                    return (Status::Fault, 0.0);
+        // Each section sliced once and walked together: indexing them per input cost a bounds
+        // check a number on the Cortex-M4, a per-prediction cost the sparse model feels most.
+        let bounds = self
+            .section(sec.min)
+            .iter()
+            .zip(self.section(sec.max))
+            .zip(self.section(sec.length));
+        let norm = self.section(sec.offset).iter().zip(self.section(sec.scale));
+        for (k, (((zk, sk), &xk), (((&lo, &hi), &length), (&offset, &scale)))) in z
+            .iter_mut()
+            .zip(s.iter_mut())
+            .zip(x)
+            .zip(bounds.zip(norm))
+            .take(d)
+            .enumerate()
+        {
+            // Inside the trained range a reading is possible (the decoder checked the range
+            // against the limits, but for inputs only linear terms read); beyond it, it may not
+            // be, and what it is held at is the blob's rule: both off the common path.
+            let held = if (lo..=hi).contains(&xk) && length < blob::IGNORED_LENGTH_SCALE {
+                xk
+            } else {
+                match self.beyond_range(k, xk, (lo, hi), length) {
+                    Some((held, excess)) => {
+                        if excess > 0.0 {
+                            status = Status::Extrapolating;
+                            excess2 += excess * excess;
+                        }
+                        held
+                    }
+                    None => return (Status::Fault, 0.0),
                 }
-                status = Status::Extrapolating;
-                let excess = (lo - xk).max(xk - hi) / margin;
-                excess2 += excess * excess;
-            }
-            *zk = (xk - at(sec.offset.start, k)) / at(sec.scale.start, k);
-            *sk = *zk / at(sec.length.start, k);
+            };
+            *zk = (held - offset) / scale;
+            *sk = *zk / length;
         }
         (status, excess2)
+    }
+
+    /// Input `k` at `xk`, outside its trained range `lo..=hi` or read by linear terms alone
+    /// (`length`): `None` for a reading that cannot be true ([`Limits`]), else what the kernel and
+    /// prior read (held at the edge as the blob's rule says, module doc) and how far beyond the
+    /// range it lies in the range's widths (0 inside). Out of line: the common path is a reading
+    /// inside the range.
+    #[cold]
+    #[inline(never)]
+    fn beyond_range(
+        &self,
+        k: usize,
+        xk: f32,
+        (lo, hi): (f32, f32),
+        length: f32,
+    ) -> Option<(f32, f32)> {
+        let possible = match self.features.get(k) {
+            Some(Feature::Temperature | Feature::CoilTemperature { .. }) => {
+                self.limits.temperature_ok(xk)
+            }
+            Some(Feature::Voltage) => self.limits.output_ok(xk),
+            _ => true,
+        };
+        if !possible {
+            return None;
+        }
+        if (lo..=hi).contains(&xk) {
+            return Some((xk, 0.0));
+        }
+        let span = hi - lo;
+        let width = if span > 0.0 { span } else { lo.abs().max(1.0) };
+        // max/min rather than clamp, which asserts lo ≤ hi (the decoder checked it) with a panic
+        // path of its own.
+        let clamped = xk.max(lo).min(hi);
+        let excess = ((clamped - xk) / width).abs().min(MAX_EXCESS);
+        // An input the kernel ignores enters through linear terms alone, a slope fitted on the
+        // data: it follows its value, as every input does under `Follow`.
+        let linear = length >= blob::IGNORED_LENGTH_SCALE;
+        let held = if !linear && self.beyond != Beyond::Follow {
+            clamped
+        } else {
+            xk
+        };
+        // A positive excess marks the input extrapolating, however small.
+        Some((held, excess.max(f32::MIN_POSITIVE)))
     }
 
     /// Adds the prior monomials, highest degree (smallest term) first.
@@ -512,7 +709,78 @@ impl<const D: usize> Evaluator<'_, D> {
         }
     }
 
+    /// Adds the prior mean's first-order change from the held inputs `z` to the inputs `x` (raw):
+    /// Σ_k ∂prior/∂z_k(z) · (z_k(x) − z_k), [`Beyond::Tangent`]'s continuation past the edge.
+    fn add_prior_tangent(&self, x: &[f32], z: &[f32], acc: &mut Accumulator) {
+        let sec = self.dims.sections();
+        let d = self.dims.d;
+        let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
+        for (k, (&xk, &zk)) in x.iter().zip(z).enumerate().take(d) {
+            let dz = (xk - at(sec.offset.start, k)) / at(sec.scale.start, k) - zk;
+            if dz == 0.0 {
+                continue;
+            }
+            for (c, e) in self
+                .section(sec.prior.clone())
+                .iter()
+                .zip(self.exponents.chunks(d))
+            {
+                let Some(&ek) = e.get(k).filter(|&&ek| ek > 0) else {
+                    continue;
+                };
+                // c · e_k · z_k^(e_k − 1) · Π_{i≠k} z_i^e_i
+                let slope =
+                    e.iter()
+                        .zip(z)
+                        .enumerate()
+                        .fold(*c * f32::from(ek), |a, (i, (&ei, &zi))| {
+                            let n = if i == k { ei - 1 } else { ei };
+                            (0..n).fold(a, |a, _| a * zi)
+                        });
+                acc.add(slope * dz);
+            }
+        }
+    }
+
+    /// Beyond the trained range, what the prior mean adds past the held inputs `z` (the tangent's
+    /// part, under [`Beyond::Tangent`]) and the raw linear terms at what they read there. Out of
+    /// line: the common path is a reading inside the range.
+    #[cold]
+    #[inline(never)]
+    fn add_beyond(&self, x: &[f32], z: &[f32], acc: &mut Accumulator) {
+        if self.beyond == Beyond::Tangent {
+            self.add_prior_tangent(x, z, acc);
+        }
+        let mut r = [0.0f32; D];
+        for (k, (rk, &xk)) in r.iter_mut().zip(x).take(self.dims.d).enumerate() {
+            *rk = self.raw_input(k, xk);
+        }
+        self.add_raw_linear(r.get(..self.dims.d).unwrap_or(&[]), acc);
+    }
+
+    /// What the raw linear term of input `k` reads at `xk`, beyond the trained range: held at the
+    /// edge under [`Beyond::Hold`] but for the gyro output, the time since power-on and an input
+    /// only linear terms read; `xk` otherwise (module doc).
+    fn raw_input(&self, k: usize, xk: f32) -> f32 {
+        let sec = self.dims.sections();
+        let at = |base: usize| self.floats.get(base + k).copied().unwrap_or(1.0);
+        let follows = self.beyond != Beyond::Hold
+            || at(sec.length.start) >= blob::IGNORED_LENGTH_SCALE
+            || matches!(
+                self.features.get(k),
+                Some(Feature::Voltage | Feature::TimeOn)
+            );
+        if follows {
+            xk
+        } else {
+            xk.max(at(sec.min.start)).min(at(sec.max.start))
+        }
+    }
+
     /// Adds the raw linear terms: `hi·x = p + e` exactly (FMA), so only the final additions round.
+    // Inlined always: called out of line, the accumulator goes through memory (+120 instructions
+    // a mean on the Cortex-M4, the sparse-vs-exact test's figures).
+    #[inline(always)]
     fn add_raw_linear(&self, x: &[f32], acc: &mut Accumulator) {
         let sec = self.dims.sections();
         let terms = || {
@@ -584,7 +852,11 @@ impl<const D: usize> Evaluator<'_, D> {
             _ => Self::add_kernel_terms::<MAX_INPUTS>(sd, centres, weights, k, &mut acc),
         }
         self.add_prior_mean(zd, &mut acc);
-        self.add_raw_linear(x, &mut acc);
+        if status == Status::Extrapolating {
+            self.add_beyond(x, zd, &mut acc);
+        } else {
+            self.add_raw_linear(x, &mut acc);
+        }
         let mean = acc.total();
         let mean = if mean.is_finite() {
             Mean { mean, status }
@@ -631,12 +903,12 @@ impl<const D: usize> Evaluator<'_, D> {
         }
     }
 
-    /// Predictive mean and variances at inputs `x`, `hours` after power-on. `scratch` must hold
+    /// Predictive mean and variances at inputs `x` in the conditions `at`. `scratch` must hold
     /// at least `m` numbers.
-    pub(crate) fn predict_at(
+    pub(crate) fn predict_in(
         &self,
         x: &[f32],
-        hours: f32,
+        at: Conditions,
         scratch: &mut [f32],
     ) -> Result<Prediction, PredictError> {
         let m = self.dims.m;
@@ -681,9 +953,16 @@ impl<const D: usize> Evaluator<'_, D> {
             }
             rest.add(-(vi * vi));
         }
+        let bias_variance =
+            signal * rest.total().max(0.0) + self.error.model_error(excess2, at.hours, at.leg);
+        if !bias_variance.is_finite() {
+            // Absurd but finite numbers in a blob (the mutated-blob test), as a mean that is not
+            // finite.
+            return Ok(self.fault());
+        }
         Ok(Prediction {
             mean,
-            bias_variance: signal * rest.total().max(0.0) + self.error.model_error(excess2, hours),
+            bias_variance,
             noise_variance: self.error.sample_noise_var,
             status,
         })
@@ -745,11 +1024,16 @@ mod tests {
         let p = m
             .compensate(&sample, &mut FeatureState::default(), &mut scratch)
             .unwrap();
-        assert_eq!(p, m.predict(&[12.5, 0.4], &mut scratch).unwrap());
+        // The first sample: power-on, the heating/cooling play centred (state 0).
+        let at = Conditions {
+            hours: 0.0,
+            leg: Some(0.0),
+        };
+        assert_eq!(p, m.predict_in(&[12.5, 0.4], at, &mut scratch).unwrap());
     }
 
     #[test]
-    fn variance_vanishes_at_a_centre_and_returns_to_the_prior_far_away() {
+    fn variance_vanishes_at_a_centre_and_grows_with_the_distance_beyond_the_range() {
         let r = Reference::small();
         let m = Small::decode(&r.blob()).unwrap();
         let mut scratch = [0.0f32; 5];
@@ -758,18 +1042,160 @@ mod tests {
             (c[0] * r.scale[0] + r.offset[0]) as f32,
             (c[1] * r.scale[1] + r.offset[1]) as f32,
         ];
-        let floor = r.error.floor_var;
+        let floor = r.error.floor_var + r.error.turn_on_var;
         let at_centre = m.predict(&x, &mut scratch).unwrap().bias_variance - floor;
         assert!(at_centre < 1e-3 * r.signal_var as f32, "{at_centre}");
-        let far = m.predict(&[500.0, 40.0], &mut scratch).unwrap();
-        assert_eq!(far.status, Status::Fault);
+        // 40 °C beyond a 90 °C range: the mean and latent variance of the edge, e² = (40/90)².
+        let edge = m.predict(&[60.0, 0.0], &mut scratch).unwrap();
         let beyond = m.predict(&[100.0, 0.0], &mut scratch).unwrap();
         assert_eq!(beyond.status, Status::Extrapolating);
-        // 40 °C beyond a 90 °C range: e² = (40/90)².
-        let expected = r.model_error([100.0, 0.0], 0.0) as f32;
-        let latent = beyond.bias_variance - expected;
-        assert!(latent > 0.5 * r.signal_var as f32, "{latent}");
-        assert!((latent - r.signal_var as f32).abs() < 0.05 * r.signal_var as f32);
+        assert_eq!(beyond.mean, edge.mean);
+        let grown = beyond.bias_variance - edge.bias_variance;
+        let expected = r.error.extrapolation_var * (40.0f32 / 90.0).powi(2);
+        assert!(
+            (grown - expected).abs() < 1e-3 * expected,
+            "{grown} {expected}"
+        );
+        // Further out, σ keeps growing and the mean stays the edge's.
+        let far = m.predict(&[120.0, 0.0], &mut scratch).unwrap();
+        assert_eq!(far.status, Status::Extrapolating);
+        assert_eq!(far.mean, edge.mean);
+        assert!(far.bias_variance > beyond.bias_variance);
+    }
+
+    #[test]
+    fn beyond_the_range_the_output_keeps_its_scale_factor_and_the_temperature_is_held() {
+        let r = Reference::small();
+        let m = Small::decode(&r.blob()).unwrap();
+        // The output's raw linear term follows it past the trained ±3: its slope stays the
+        // scale factor's, while the kernel and prior read the edge.
+        let at = |t: f32, v: f32| m.predict_mean(&[t, v]);
+        let edge = at(20.0, 3.0);
+        let beyond = at(20.0, 4.0);
+        assert_eq!(beyond.status, Status::Extrapolating);
+        let slope = beyond.mean - edge.mean;
+        let scale = r.raw[1] as f32;
+        assert!((slope - scale).abs() < 1e-4 * scale, "{slope} {scale}");
+        // A temperature below the coldest trained is held there, linear term included.
+        assert_eq!(at(-45.0, 0.5).mean, at(-30.0, 0.5).mean);
+        assert_eq!(at(-45.0, 0.5).status, Status::Extrapolating);
+    }
+
+    #[test]
+    fn an_input_only_linear_terms_read_follows_its_value_beyond_the_range() {
+        // The second input as an extension's additive one: ignored by the kernel, its slope the
+        // raw linear coefficient.
+        let mut r = Reference::small();
+        r.length[1] = f64::from(blob::IGNORED_LENGTH_SCALE);
+        let features = [
+            Feature::Temperature,
+            Feature::TemperatureRate { tau_s: 60.0 },
+        ];
+        let m = Small::decode(&r.blob_of(features)).unwrap();
+        let at = |rate: f32| m.predict_mean(&[20.0, rate]);
+        let (edge, beyond) = (at(3.0), at(5.0));
+        assert_eq!(beyond.status, Status::Extrapolating);
+        let slope = (beyond.mean - edge.mean) / 2.0;
+        // Its raw linear term and its prior monomial 0.5·z, both followed.
+        let expected = (r.raw[1] + r.prior[2] / r.scale[1]) as f32;
+        assert!(
+            (slope - expected).abs() < 1e-3 * expected,
+            "{slope} {expected}"
+        );
+    }
+
+    #[test]
+    fn the_tangent_continues_the_prior_mean_from_the_edge_to_first_order() {
+        let r = Reference::small();
+        let mut b = r.blob();
+        blob::set_beyond(&mut b, Beyond::Tangent).unwrap();
+        let m = Small::decode(&b).unwrap();
+        let held = Small::decode(&r.blob()).unwrap();
+        // 10 °C above the trained 60 °C at V = 0.5: the held value plus the prior's slope in T
+        // (its z_T monomial's coefficient over T's scale, and the raw term) times 10 °C.
+        let (edge, beyond) = (m.predict_mean(&[60.0, 0.5]), m.predict_mean(&[70.0, 0.5]));
+        assert_eq!(beyond.status, Status::Extrapolating);
+        let slope = (r.prior[1] / r.scale[0] + r.raw[0]) as f32;
+        let expected = edge.mean + 10.0 * slope;
+        assert!(
+            (beyond.mean - expected).abs() < 1e-5,
+            "{} {expected}",
+            beyond.mean
+        );
+        // Held, the same sample is the edge's value.
+        assert_eq!(held.predict_mean(&[70.0, 0.5]).mean, edge.mean);
+    }
+
+    #[test]
+    fn only_a_reading_that_cannot_be_true_is_a_fault() {
+        let r = Reference::small();
+        let mut b = r.blob();
+        let limits = Limits {
+            temp_min_c: -40.0,
+            temp_max_c: 85.0,
+            full_scale: 5.0,
+        };
+        blob::set_limits(&mut b, &limits).unwrap();
+        let m = Small::decode(&b).unwrap();
+        let mut scratch = [0.0f32; 5];
+        // Far from the calibration (−30…60 °C, ±3), inside the sensor's limits: a reading.
+        for x in [[-40.0f32, 0.0], [85.0, 0.0], [20.0, 5.0], [20.0, -5.0]] {
+            let p = m.predict(&x, &mut scratch).unwrap();
+            assert_eq!(p.status, Status::Extrapolating, "{x:?}");
+            assert!(p.mean.is_finite() && p.mean != 0.0 && p.bias_variance.is_finite());
+        }
+        for x in [[-40.5f32, 0.0], [85.5, 0.0], [20.0, 5.5], [20.0, -5.5]] {
+            assert_eq!(
+                m.predict(&x, &mut scratch).unwrap().status,
+                Status::Fault,
+                "{x:?}"
+            );
+        }
+        // The default limits: −55…125 °C, no full scale.
+        let m = Small::decode(&r.blob()).unwrap();
+        assert_eq!(m.predict_mean(&[-55.0, 1e6]).status, Status::Extrapolating);
+        assert_eq!(m.predict_mean(&[-55.5, 0.0]).status, Status::Fault);
+        assert_eq!(m.predict_mean(&[125.5, 0.0]).status, Status::Fault);
+    }
+
+    #[test]
+    fn a_bias_models_unbounded_output_is_still_held_to_its_full_scale() {
+        // The output as a bias model carries it: read by its linear term alone, at any value.
+        let mut r = Reference::small();
+        r.length[1] = f64::from(blob::IGNORED_LENGTH_SCALE);
+        r.min[1] = -1e30;
+        r.max[1] = 1e30;
+        let mut b = r.blob();
+        let limits = Limits {
+            full_scale: 5.0,
+            ..Limits::DEFAULT
+        };
+        blob::set_limits(&mut b, &limits).unwrap();
+        let m = Small::decode(&b).unwrap();
+        assert_eq!(m.predict_mean(&[20.0, 4.0]).status, Status::Valid);
+        assert_eq!(m.predict_mean(&[20.0, -5.5]).status, Status::Fault);
+    }
+
+    #[test]
+    fn a_heating_cooling_state_the_calibration_did_not_hold_grows_the_variance() {
+        let r = Reference::small();
+        let m = Small::decode(&r.blob()).unwrap();
+        let mut scratch = [0.0f32; 5];
+        let mut at = |leg| {
+            m.predict_in(&[20.0, 0.5], Conditions { hours: 1.0, leg }, &mut scratch)
+                .unwrap()
+        };
+        // Trained on states 0.5…1 (heating): a full cooling state is 1.5 of the swing of 2 away.
+        let trained = at(None);
+        assert_eq!(at(Some(0.75)), trained);
+        let cooling = at(Some(-1.0));
+        let grown = cooling.bias_variance - trained.bias_variance;
+        let expected = r.error.leg_var * 0.75 * 0.75;
+        assert!(
+            (grown - expected).abs() < 1e-3 * expected,
+            "{grown} {expected}"
+        );
+        assert_eq!(cooling.mean, trained.mean);
     }
 
     #[test]
@@ -789,6 +1215,9 @@ mod tests {
         let out = m.predict(&[70.0, 0.0], &mut scratch).unwrap();
         assert_eq!(out.status, Status::Extrapolating);
         assert!(out.mean.is_finite());
+        // Past the trained span's width, still a reading (it was a fault up to format 5).
+        let out = m.predict(&[-125.0 + 70.0, 0.0], &mut scratch).unwrap();
+        assert_eq!(out.status, Status::Extrapolating);
         assert_eq!(
             m.predict(&[20.0, 0.0], &mut [0.0; 4]),
             Err(PredictError::ScratchTooSmall { needed: 5 })

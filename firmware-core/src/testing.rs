@@ -62,6 +62,10 @@ impl Reference {
                 extrapolation_var: 2e-3,
                 walk_var_per_h: 1e-5,
                 trend_var_per_h2: 1e-6,
+                turn_on_var: 3e-5,
+                leg_var: 4e-4,
+                leg_min: 0.5,
+                leg_max: 1.0,
             },
         }
     }
@@ -117,7 +121,8 @@ impl Reference {
         (mean, var)
     }
 
-    /// The model error in f64 at `x` and `hours` since power-on (blob module doc).
+    /// The model error in f64 at `x` and `hours` since power-on, on a heating/cooling state
+    /// trained (blob module doc).
     pub fn model_error(&self, x: [f64; 2], hours: f64) -> f64 {
         let e2: f64 = (0..2)
             .map(|k| {
@@ -127,6 +132,7 @@ impl Reference {
             .sum();
         let e = &self.error;
         f64::from(e.floor_var)
+            + f64::from(e.turn_on_var)
             + f64::from(e.extrapolation_var) * e2
             + f64::from(e.walk_var_per_h) * hours
             + f64::from(e.trend_var_per_h2) * hours * hours
@@ -195,7 +201,9 @@ impl Reference {
             features: features.as_slice(),
             exponents: self.exponents.as_slice(),
             floats: floats.as_slice(),
+            beyond: blob::Beyond::Hold,
             error,
+            limits: blob::Limits::DEFAULT,
         };
         let mut buf = vec![0u8; 4096];
         let n = blob::encode(self.dims, &payload, &mut buf).unwrap();
@@ -226,10 +234,26 @@ pub fn unit_blob(id: &str, channels: &[(&str, crate::units::Quantity, Vec<u8>)])
     buf
 }
 
-/// The same model as a version-4 blob: the payload without its error model.
+/// The same model as a version-4 blob: the payload without its rule beyond the range, error
+/// model and limits.
 pub fn as_v4(blob: &[u8]) -> Vec<u8> {
-    let mut v4 = blob[..blob.len() - 4 * ErrorModel::NUMBERS].to_vec();
+    let mut v4 =
+        blob[..blob.len() - 4 * (ErrorModel::NUMBERS + blob::Limits::NUMBERS) - 1].to_vec();
     v4[4..6].copy_from_slice(&blob::V4.to_le_bytes());
     blob::reseal(&mut v4);
     v4
+}
+
+/// The same model as a version-5 blob: no rule beyond the range, the error model's first six
+/// numbers, no limits.
+pub fn as_v5(blob: &[u8]) -> Vec<u8> {
+    let tail = 4 * (ErrorModel::NUMBERS + blob::Limits::NUMBERS);
+    let kept = 4 * ErrorModel::V5_NUMBERS;
+    let at = blob.len() - tail;
+    // The one byte of `Beyond` before the error model goes.
+    let mut v5 = blob[..at - 1].to_vec();
+    v5.extend_from_slice(&blob[at..at + kept]);
+    v5[4..6].copy_from_slice(&blob::V5.to_le_bytes());
+    blob::reseal(&mut v5);
+    v5
 }

@@ -25,12 +25,12 @@
 use heapless::{String, Vec};
 
 use crate::blob::unit::{self as format, NAME_BYTES, SENSOR_ID_BYTES};
-use crate::blob::{self, Dims, ErrorModel, FORMAT_VERSION, Feature};
+use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
-use crate::model::{Evaluator, Mean, Prediction, capacity, read_numbers};
+use crate::model::{Conditions, Evaluator, Mean, Prediction, capacity, read_numbers};
 use crate::status::Status;
-use crate::units::{Quantity, SECONDS_PER_HOUR};
+use crate::units::Quantity;
 
 /// The name a model blob of the single-channel format gets when decoded as a unit.
 pub const SINGLE_CHANNEL: &str = "rate";
@@ -83,6 +83,8 @@ pub struct Channel<const D: usize, const E: usize> {
     features: Vec<Feature, D>,
     exponents: Vec<u8, E>,
     error: ErrorModel,
+    limits: Limits,
+    beyond: Beyond,
     /// Its first number in the unit's storage.
     start: usize,
     inputs: [Input; D],
@@ -112,6 +114,11 @@ impl<const D: usize, const E: usize> Channel<D, E> {
     /// The variance its predictions hold besides the latent one.
     pub fn error_model(&self) -> ErrorModel {
         self.error
+    }
+
+    /// What a reading that cannot be true is, for it.
+    pub fn limits(&self) -> Limits {
+        self.limits
     }
 }
 
@@ -155,7 +162,13 @@ fn channel<const D: usize, const E: usize>(
     name: &str,
     quantity: Quantity,
     dims: Dims,
-    (features, exponents, error): (Vec<Feature, D>, Vec<u8, E>, ErrorModel),
+    (features, exponents, error, limits, beyond): (
+        Vec<Feature, D>,
+        Vec<u8, E>,
+        ErrorModel,
+        Limits,
+        Beyond,
+    ),
     start: usize,
 ) -> Result<Channel<D, E>, BlobError> {
     Ok(Channel {
@@ -165,6 +178,8 @@ fn channel<const D: usize, const E: usize>(
         features,
         exponents,
         error,
+        limits,
+        beyond,
         start,
         inputs: [Input::Output; D],
     })
@@ -258,7 +273,7 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
             // A format 3 or 4 blob states no error model: its noise variance is its sample noise.
             let noise_at = header.dims.sections().variances.start + 1;
             let (mut at, mut noise) = (0usize, 0.0f32);
-            let (features, exponents, error) = read_numbers::<D, E>(
+            let read = read_numbers::<D, E>(
                 (header.dims, S::CAPACITY),
                 header.version,
                 header.payload,
@@ -270,12 +285,18 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                     number(v)
                 },
             )?;
-            let error = error.unwrap_or(ErrorModel::noise_only(noise));
+            let error = read.error.unwrap_or(ErrorModel::noise_only(noise));
             let ch = channel(
                 SINGLE_CHANNEL,
                 Quantity::AngularRate,
                 header.dims,
-                (features, exponents, error),
+                (
+                    read.features,
+                    read.exponents,
+                    error,
+                    read.limits,
+                    read.beyond,
+                ),
                 0,
             )?;
             keep(ch).map_err(|()| BlobError::CapacityExceeded {
@@ -296,18 +317,24 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
         let mut used = 0usize;
         for entry in &payload.channels {
             let dims = entry.dims();
-            let (features, exponents, error) = read_numbers::<D, E>(
+            let read = read_numbers::<D, E>(
                 (dims, S::CAPACITY - used),
-                FORMAT_VERSION,
+                header.model_version,
                 entry.model,
                 &mut number,
             )?;
-            let error = error.ok_or(BlobError::Malformed)?;
+            let error = read.error.ok_or(BlobError::Malformed)?;
             let ch = channel(
                 entry.name,
                 entry.quantity,
                 dims,
-                (features, exponents, error),
+                (
+                    read.features,
+                    read.exponents,
+                    error,
+                    read.limits,
+                    read.beyond,
+                ),
                 used,
             )?;
             used += dims.floats();
@@ -393,18 +420,21 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
                 .as_slice()
                 .get(ch.start..ch.start + ch.dims.floats())
                 .unwrap_or(&[]),
-            error: ch.error,
+            features: &ch.features,
+            error: &ch.error,
+            limits: &ch.limits,
+            beyond: ch.beyond,
         }
     }
 
-    /// The shared features of one sample (advancing `state`), their health and the hours since
-    /// power-on; refuses fewer outputs than channels, or fewer result slots.
+    /// The shared features of one sample (advancing `state`), their health and the sample's
+    /// conditions; refuses fewer outputs than channels, or fewer result slots.
     fn shared(
         &self,
         sample: &UnitSample<'_>,
         state: &mut FeatureState,
         results: usize,
-    ) -> Result<(Status, [f32; MAX_FEATURES], f32), PredictError> {
+    ) -> Result<(Status, [f32; MAX_FEATURES], Conditions), PredictError> {
         let c = self.channels.len();
         if sample.outputs.len() < c {
             return Err(PredictError::TooFewOutputs { needed: c });
@@ -419,8 +449,7 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
             output: 0.0,
         };
         let health = features::compute(&self.shared, &raw, state, &mut values);
-        let hours = (state.time_on_s() / SECONDS_PER_HOUR) as f32;
-        Ok((health, values, hours))
+        Ok((health, values, Conditions::of(state)))
     }
 
     /// Channel `ch`'s inputs from the shared values and its output; `None` where either is not
@@ -459,14 +488,13 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
         if scratch.len() < needed {
             return Err(PredictError::ScratchTooSmall { needed });
         }
-        let (health, shared, hours) = self.shared(sample, state, out.len())?;
+        let (health, shared, at) = self.shared(sample, state, out.len())?;
         for ((ch, slot), &output) in self.channels.iter().zip(out.iter_mut()).zip(sample.outputs) {
             let model = self.evaluator(ch);
             *slot = match Self::inputs(ch, &shared, output, health) {
                 None => model.fault(),
                 Some(x) => {
-                    let mut p =
-                        model.predict_at(x.get(..ch.dims.d).unwrap_or(&[]), hours, scratch)?;
+                    let mut p = model.predict_in(x.get(..ch.dims.d).unwrap_or(&[]), at, scratch)?;
                     p.status = p.status.max(health);
                     p
                 }
@@ -506,7 +534,10 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
         scratch: &mut [f32],
     ) -> Option<Result<Prediction, PredictError>> {
         let ch = self.channels.get(k)?;
-        Some(self.evaluator(ch).predict_at(x, hours, scratch))
+        Some(
+            self.evaluator(ch)
+                .predict_in(x, Conditions::at_hours(hours), scratch),
+        )
     }
 
     /// Channel `k`'s mean alone at inputs `x`, as [`crate::Model::predict_mean`]; `None` for no

@@ -476,6 +476,19 @@ pub struct Score {
     pub handled: Vec<Handled>,
 }
 
+impl Score {
+    /// What the RMS counted and left out, in one parenthesis: every figure that scores a replay
+    /// says it beside its RMS.
+    pub fn counted(&self) -> String {
+        let scored = self.n.saturating_sub(self.n_fault);
+        format!(
+            "({scored} samples scored, {} extrapolating; left out: {} fault, {} handled, {} \
+             without a reference)",
+            self.n_extrapolating, self.n_fault, self.n_handled, self.n_unscored
+        )
+    }
+}
+
 /// The samples a score counts: a known reference, and no fault.
 pub fn scored_samples(stream: &Stream, status: &[Status]) -> Vec<usize> {
     (0..stream.len())

@@ -35,16 +35,16 @@
 // and regenerate the header.
 #define FOG_UNIT_NUMBERS (FOG_UNIT_MAX_CHANNELS * ((((((7 * FOG_MAX_INPUTS) + FOG_MAX_MONOMIALS) + 2) + (140 * FOG_MAX_INPUTS)) + 140) + ((140 * 141) / 2)))
 
-// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 200 bytes per channel for
-// its name, sizes, features, exponents and error model, and 256 for the sensor's ID, the shared
+// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 232 bytes per channel for
+// its name, sizes, features, exponents, error model and limits, and 256 for the sensor's ID, the shared
 // features and the decoded marker (a compile-time check below holds it to the real size on
 // every target).
-#define FOG_UNIT_WORDS ((((FOG_UNIT_NUMBERS + 1) / 2) + (32 * FOG_UNIT_MAX_CHANNELS)) + 40)
+#define FOG_UNIT_WORDS ((((FOG_UNIT_NUMBERS + 1) / 2) + (36 * FOG_UNIT_MAX_CHANNELS)) + 40)
 
-// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
-// its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
+// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 232 bytes for
+// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time check below holds it to
 // the real size on every target).
-#define FOG_MODEL_WORDS (((FOG_MODEL_FLOATS + 1) / 2) + 25)
+#define FOG_MODEL_WORDS (((FOG_MODEL_FLOATS + 1) / 2) + 29)
 
 // 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
 // the feature pipeline's memory and the reset marker.
@@ -126,11 +126,17 @@ typedef enum FogResult {
 typedef enum FogStatus {
   // Inputs inside the trained range.
   FOG_VALID = 0,
-  // An input outside the trained range: usable, flag it.
+  // An input outside the trained range: usable, flag it. The mean is the model's with every
+  // input the kernel reads held at its trained range's edge, except the gyro output (its scale
+  // factor) and the time since power-on, whose linear terms follow them, as does an input only
+  // linear terms read (as PX4 and ArduPilot clip the temperature); the bias variance grows
+  // with the distance beyond the range.
   FOG_EXTRAPOLATING = 1,
   // A stateful input's history is not to be trusted (time jump, stuck sensor): settling.
   FOG_DEGRADED = 2,
-  // NaN, infinite or impossible input: do not use the mean.
+  // A reading that cannot be true, and only that: NaN or infinite, a temperature outside the
+  // sensor's rated range (the blob's limits, by default −55…125 °C), an output beyond its
+  // full scale. The mean is 0: do not use it.
   FOG_FAULT = 3,
   // Not a status: holds the enum to 32 bits whatever the C compiler's enum size.
   FOG_STATUS_WIDTH = 2147483647,

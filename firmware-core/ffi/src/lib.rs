@@ -50,12 +50,12 @@ pub const FOG_UNIT_MAX_CHANNELS: usize = 6;
 /// and regenerate the header.
 pub const FOG_UNIT_NUMBERS: usize = FOG_UNIT_MAX_CHANNELS
     * (7 * FOG_MAX_INPUTS + FOG_MAX_MONOMIALS + 2 + 140 * FOG_MAX_INPUTS + 140 + 140 * 141 / 2);
-/// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 200 bytes per channel for
-/// its name, sizes, features, exponents and error model, and 256 for the sensor's ID, the shared
+/// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 232 bytes per channel for
+/// its name, sizes, features, exponents, error model and limits, and 256 for the sensor's ID, the shared
 /// features and the decoded marker (a compile-time check below holds it to the real size on
 /// every target).
 #[allow(clippy::manual_div_ceil)]
-pub const FOG_UNIT_WORDS: usize = (FOG_UNIT_NUMBERS + 1) / 2 + 32 * FOG_UNIT_MAX_CHANNELS + 40;
+pub const FOG_UNIT_WORDS: usize = (FOG_UNIT_NUMBERS + 1) / 2 + 36 * FOG_UNIT_MAX_CHANNELS + 40;
 
 /// The decoded model at the header's capacities.
 type Inner = Model<FOG_MAX_INPUTS, { FOG_MAX_MONOMIALS * FOG_MAX_INPUTS }, FOG_MODEL_FLOATS>;
@@ -67,12 +67,12 @@ type UnitInner = StaticUnit<
     FOG_UNIT_NUMBERS,
 >;
 
-/// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 200 bytes for
-/// its sizes, features, exponents and the decoded marker (a compile-time check below holds it to
+/// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 232 bytes for
+/// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time check below holds it to
 /// the real size on every target).
 // Rounding up by hand: cbindgen writes the expression into the header, where no method exists.
 #[allow(clippy::manual_div_ceil)]
-pub const FOG_MODEL_WORDS: usize = (FOG_MODEL_FLOATS + 1) / 2 + 25;
+pub const FOG_MODEL_WORDS: usize = (FOG_MODEL_FLOATS + 1) / 2 + 29;
 /// 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
 /// the feature pipeline's memory and the reset marker.
 #[allow(clippy::manual_div_ceil)]
@@ -184,11 +184,17 @@ pub enum FogResult {
 pub enum FogStatus {
     /// Inputs inside the trained range.
     FogValid = 0,
-    /// An input outside the trained range: usable, flag it.
+    /// An input outside the trained range: usable, flag it. The mean is the model's with every
+    /// input the kernel reads held at its trained range's edge, except the gyro output (its scale
+    /// factor) and the time since power-on, whose linear terms follow them, as does an input only
+    /// linear terms read (as PX4 and ArduPilot clip the temperature); the bias variance grows
+    /// with the distance beyond the range.
     FogExtrapolating = 1,
     /// A stateful input's history is not to be trusted (time jump, stuck sensor): settling.
     FogDegraded = 2,
-    /// NaN, infinite or impossible input: do not use the mean.
+    /// A reading that cannot be true, and only that: NaN or infinite, a temperature outside the
+    /// sensor's rated range (the blob's limits, by default −55…125 °C), an output beyond its
+    /// full scale. The mean is 0: do not use it.
     FogFault = 3,
     /// Not a status: holds the enum to 32 bits whatever the C compiler's enum size.
     FogStatusWidth = 0x7FFF_FFFF,

@@ -16,7 +16,7 @@ const GOLDEN: [f32; 13] = [
     0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
 ];
 
-/// sample noise, interval, floor, extrapolation, walk, trend.
+/// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range.
 const GOLDEN_ERROR: ErrorModel = ErrorModel {
     sample_noise_var: 1e-4,
     sample_interval_s: 0.5,
@@ -24,6 +24,17 @@ const GOLDEN_ERROR: ErrorModel = ErrorModel {
     extrapolation_var: 3e-5,
     walk_var_per_h: 4e-7,
     trend_var_per_h2: 0.0,
+    turn_on_var: 5e-6,
+    leg_var: 6e-6,
+    leg_min: 0.25,
+    leg_max: 1.0,
+};
+
+/// A rated range and a full scale.
+const GOLDEN_LIMITS: Limits = Limits {
+    temp_min_c: -40.0,
+    temp_max_c: 85.0,
+    full_scale: 10.0,
 };
 
 #[test]
@@ -32,14 +43,16 @@ fn golden_bytes_pin_the_encoding() {
         features: [Feature::TemperatureRate { tau_s: 60.0 }].as_slice(),
         exponents: [0u8].as_slice(),
         floats: GOLDEN.as_slice(),
+        beyond: Beyond::Tangent,
         error: GOLDEN_ERROR,
+        limits: GOLDEN_LIMITS,
     };
     let dims = Dims { m: 1, d: 1, p: 1 };
     assert_eq!(dims.floats(), 13);
-    let mut buf = [0u8; 128];
+    let mut buf = [0u8; 160];
     let n = encode(dims, &payload, &mut buf).unwrap();
-    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 5, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-    expected.extend([85, 0, 0, 0]);
+    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 6, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+    expected.extend([114, 0, 0, 0]);
     let mut digest = CRC32.digest();
     digest.update(&expected[4..]);
     digest.update(&buf[HEADER_LEN..n]);
@@ -49,7 +62,16 @@ fn golden_bytes_pin_the_encoding() {
     expected.extend([1, 2]);
     expected.extend(60.0f32.to_le_bytes());
     expected.extend([1, 0, 13]);
-    for v in GOLDEN.iter().chain(&GOLDEN_ERROR.numbers()) {
+    for v in &GOLDEN {
+        expected.extend(v.to_le_bytes());
+    }
+    // Beyond the range: variant 1, the tangent.
+    expected.push(1);
+    for v in GOLDEN_ERROR
+        .numbers()
+        .iter()
+        .chain(&GOLDEN_LIMITS.numbers())
+    {
         expected.extend(v.to_le_bytes());
     }
     assert_eq!(&buf[..n], expected.as_slice());
@@ -124,6 +146,88 @@ fn a_version_4_blob_still_decodes_with_its_noise_as_the_only_error() {
 }
 
 #[test]
+fn a_version_5_blob_still_decodes_without_turn_on_or_leg_terms_and_with_the_default_limits() {
+    let r = Reference::small();
+    let good = r.blob_with_error(GOLDEN_ERROR);
+    let old = crate::testing::as_v5(&good);
+    assert_eq!(read_header(&old).unwrap().version, V5);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(
+        model.error_model(),
+        ErrorModel {
+            turn_on_var: 0.0,
+            leg_var: 0.0,
+            leg_min: -1.0,
+            leg_max: 1.0,
+            ..GOLDEN_ERROR
+        }
+    );
+    assert_eq!(model.limits(), Limits::DEFAULT);
+    assert_eq!(
+        set_error_model(&mut old.clone(), &GOLDEN_ERROR),
+        Err(BlobError::UnsupportedVersion(V5))
+    );
+}
+
+#[test]
+fn the_rule_beyond_the_range_written_into_a_blob_is_the_one_decoded() {
+    let r = Reference::small();
+    let mut b = r.blob();
+    assert_eq!(Small::decode(&b).unwrap().beyond(), Beyond::Hold);
+    set_beyond(&mut b, Beyond::Tangent).unwrap();
+    let model = Small::decode(&b).unwrap();
+    assert_eq!(model.beyond(), Beyond::Tangent);
+    assert_eq!(model.error_model(), r.error);
+    assert_eq!(model.limits(), Limits::DEFAULT);
+    // Older blobs were evaluated as the GP predicts beyond the range.
+    let old = crate::testing::as_v5(&b);
+    assert_eq!(Small::decode(&old).unwrap().beyond(), Beyond::Follow);
+    // A byte that is no rule is a malformed blob.
+    let at = b.len() - 4 * (ErrorModel::NUMBERS + Limits::NUMBERS) - 1;
+    b[at] = 7;
+    reseal(&mut b);
+    assert_eq!(Small::decode(&b).unwrap_err(), BlobError::Malformed);
+}
+
+#[test]
+fn limits_written_into_a_blob_are_the_ones_decoded_and_checked() {
+    let r = Reference::small();
+    let mut b = r.blob();
+    assert_eq!(Small::decode(&b).unwrap().limits(), Limits::DEFAULT);
+    set_limits(&mut b, &GOLDEN_LIMITS).unwrap();
+    let model = Small::decode(&b).unwrap();
+    assert_eq!(model.limits(), GOLDEN_LIMITS);
+    // The error model is untouched by the limits written after it.
+    assert_eq!(model.error_model(), r.error);
+    let inverted = Limits {
+        temp_min_c: 30.0,
+        temp_max_c: 20.0,
+        full_scale: 0.0,
+    };
+    assert_eq!(
+        set_limits(&mut b, &inverted),
+        Err(BlobError::InvalidParameter)
+    );
+    let nan = Limits {
+        full_scale: f32::NAN,
+        ..GOLDEN_LIMITS
+    };
+    assert_eq!(set_limits(&mut b, &nan), Err(BlobError::NonFinite(2)));
+    // Edited behind the check: the decoder refuses them, numbered after the error model's.
+    let at = b.len() - 4;
+    b[at..].copy_from_slice(&(-1.0f32).to_le_bytes());
+    reseal(&mut b);
+    assert_eq!(Small::decode(&b).unwrap_err(), BlobError::InvalidParameter);
+    b[at..].copy_from_slice(&f32::INFINITY.to_le_bytes());
+    reseal(&mut b);
+    let n = Dims { m: 5, d: 2, p: 3 }.floats();
+    assert_eq!(
+        Small::decode(&b).unwrap_err(),
+        BlobError::NonFinite(n + ErrorModel::NUMBERS + 2)
+    );
+}
+
+#[test]
 fn an_error_model_written_into_a_blob_is_the_one_encoded() {
     let r = Reference::small();
     let mut b = r.blob_with_error(ErrorModel::noise_only(1e-6));
@@ -159,6 +263,17 @@ fn the_error_model_is_checked_like_the_other_numbers() {
         ..GOLDEN_ERROR
     };
     assert_eq!(bad(negative), BlobError::InvalidParameter);
+    let legs = ErrorModel {
+        leg_min: 0.5,
+        leg_max: 0.25,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(legs), BlobError::InvalidParameter);
+    let beyond = ErrorModel {
+        leg_max: 1.5,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(beyond), BlobError::InvalidParameter);
 }
 
 /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.

@@ -3,12 +3,12 @@
 //! calibration slot holds the whole unit and an update replaces all of it or none. The one
 //! definition of its format; the decoded form is [`crate::unit::Unit`].
 //!
-//! # Layout (unit format version 1)
+//! # Layout (unit format version 2)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGU"
-//!  4      2    unit format version, u16 LE (1)
+//!  4      2    unit format version, u16 LE (2)
 //!  6      1    c: channels (1 or more)
 //!  7      1    d: most inputs of any channel
 //!  8      2    m: most centres of any channel, u16 LE (the variance scratch a sample needs)
@@ -27,7 +27,8 @@
 //! name (at most [`NAME_BYTES`]), its [`Quantity`], its sizes m, d and p, and its model: the
 //! payload of a model blob of the current format ([`super::FORMAT_VERSION`], the layout of
 //! [`super`]) as a byte string. A channel's model is therefore exactly the model blob the trainer
-//! checked on its own, and decodes through the same code.
+//! checked on its own, and decodes through the same code. Version 1, whose channels hold model
+//! payloads of format [`super::V5`], is still read.
 
 use serde::{Deserialize, Serialize};
 
@@ -37,8 +38,11 @@ use crate::units::Quantity;
 
 /// First four bytes of a unit blob.
 pub const MAGIC: [u8; 4] = *b"FOGU";
-/// The unit format version this crate writes and reads.
-pub const VERSION: u16 = 1;
+/// The unit format version this crate writes (it also reads [`V1`]).
+pub const VERSION: u16 = 2;
+/// The previous unit format version, still read: its channels' models are of format
+/// [`super::V5`].
+pub const V1: u16 = 1;
 /// Longest channel name, bytes of UTF-8.
 pub const NAME_BYTES: usize = 16;
 /// Longest sensor ID, bytes of UTF-8.
@@ -196,6 +200,9 @@ pub struct UnitHeader<'a> {
     pub most_centres: usize,
     /// Sequence number.
     pub sequence: u32,
+    /// The format of its channels' model payloads: [`FORMAT_VERSION`], or [`super::V5`] in a
+    /// unit blob of version [`V1`].
+    pub model_version: u16,
     /// The CRC-checked payload.
     pub payload: &'a [u8],
 }
@@ -218,6 +225,11 @@ pub fn read_header(bytes: &[u8]) -> Result<UnitHeader<'_>, BlobError> {
         most_inputs: usize::from(byte(7)?),
         most_centres: usize::from(u16::from_le_bytes([byte(8)?, byte(9)?])),
         sequence: sealed.sequence,
+        model_version: if sealed.version == V1 {
+            super::V5
+        } else {
+            FORMAT_VERSION
+        },
         payload: sealed.payload,
     })
 }

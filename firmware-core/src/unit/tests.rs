@@ -319,8 +319,8 @@ fn every_defect_of_a_unit_blob_has_its_error() {
 #[test]
 fn golden_bytes_pin_the_unit_header() {
     let (blob, models) = three();
-    // magic, version 1, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
-    assert_eq!(&blob[..14], b"FOGU\x01\x00\x03\x02\x05\x00\x00\x00\x00\x00");
+    // magic, version 2, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
+    assert_eq!(&blob[..14], b"FOGU\x02\x00\x03\x02\x05\x00\x00\x00\x00\x00");
     let len = u32::from_le_bytes(blob[14..18].try_into().unwrap()) as usize;
     assert_eq!(blob.len(), HEADER_LEN + len);
     // Payload: 3·49 numbers (varint 147 = 0x93 0x01), the ID, the range, 3 channels.
@@ -342,4 +342,64 @@ fn golden_bytes_pin_the_unit_header() {
     crate::blob::set_sequence(&mut stamped, 7).unwrap();
     assert_eq!(format::read_header(&stamped).unwrap().sequence, 7);
     assert_eq!(crate::blob::declared_len(&stamped), Some(blob.len()));
+}
+
+/// The unit blob of version 1 the same channels made: each channel's model payload of format 5.
+fn as_v1(models: &[std::vec::Vec<u8>; 3]) -> std::vec::Vec<u8> {
+    let v5: std::vec::Vec<std::vec::Vec<u8>> =
+        models.iter().map(|m| crate::testing::as_v5(m)).collect();
+    let names = [
+        ("gyro.x", Quantity::AngularRate),
+        ("gyro.y", Quantity::AngularRate),
+        ("acc.z", Quantity::SpecificForce),
+    ];
+    let entries: std::vec::Vec<format::ChannelEntry<'_>> = names
+        .iter()
+        .zip(&v5)
+        .map(|((name, quantity), m)| {
+            let h = blob::read_header(m).unwrap();
+            format::ChannelEntry {
+                name,
+                quantity: *quantity,
+                m: h.dims.m as u16,
+                d: h.dims.d as u8,
+                p: h.dims.p as u8,
+                model: h.payload,
+            }
+        })
+        .collect();
+    let numbers: usize = entries.iter().map(|e| e.dims().floats()).sum();
+    let payload = format::UnitPayload {
+        numbers: numbers as u32,
+        sensor_id: "IMU-0042",
+        temperature_c: [-30.0f32, 60.0],
+        channels: entries.as_slice(),
+    };
+    let mut buf = [0u8; 4096];
+    let body = postcard::to_slice(&payload, &mut buf).unwrap();
+    let mut b = b"FOGU\x01\x00\x03\x02\x05\x00\x00\x00\x00\x00".to_vec();
+    b.extend([0u8; 8]);
+    b.extend_from_slice(body);
+    blob::reseal(&mut b);
+    b
+}
+
+#[test]
+fn a_version_1_unit_blob_still_decodes_its_channels_of_format_5() {
+    let (_, models) = three();
+    let old = as_v1(&models);
+    let mut unit = Three::new();
+    unit.decode_into(&old).unwrap();
+    for (ch, m) in unit.channels().iter().zip(&models) {
+        let alone = Small::decode(&crate::testing::as_v5(m)).unwrap();
+        assert_eq!(ch.error_model(), alone.error_model());
+        assert_eq!(ch.limits(), crate::blob::Limits::DEFAULT);
+    }
+    let mut scratch = [0.0f32; 5];
+    let x = [12.5f32, 0.3];
+    let alone = Small::decode(&crate::testing::as_v5(&models[0])).unwrap();
+    assert_eq!(
+        unit.predict_at(0, &x, 1.0, &mut scratch).unwrap().unwrap(),
+        alone.predict_at(&x, 1.0, &mut scratch).unwrap()
+    );
 }

@@ -86,7 +86,8 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
 
 /// A blob of format 4, written before blobs carried an error model, still loads and compensates
 /// as it did: its noise variance is its sample noise and it adds no model error (issue 44). The
-/// same model exported now (format 5) gives the same means.
+/// same model of format 5 (before blobs carried limits) and of format 6 gives the same means and
+/// variances.
 #[test]
 fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
     let old = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
@@ -100,13 +101,19 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
         a.error_model(),
         firmware_core::ErrorModel::noise_only(noise)
     );
-    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 5);
+    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 6);
+    let v5 = include_bytes!("../../../firmware-core/doc/gyro-v5.bin");
+    assert_eq!(firmware_core::blob::read_header(v5).unwrap().version, 5);
+    let c = firmware_sim::replay::decode(v5).unwrap();
+    assert_eq!(c.error_model(), b.error_model());
+    assert_eq!(c.beyond(), b.beyond());
     let mut scratch = [0.0f32; 24];
     for (t, v) in [(25.0f32, 0.38f32), (-20.0, -1.2), (55.0, 2.0)] {
         let (pa, pb) = (
             a.predict_at(&[t, v], 3.0, &mut scratch).unwrap(),
             b.predict(&[t, v], &mut scratch).unwrap(),
         );
+        assert_eq!(c.predict(&[t, v], &mut scratch).unwrap(), pb);
         assert_eq!(pa.noise_variance, noise);
         assert!((pa.mean - pb.mean).abs() < 1e-3, "{t} {v}: {pa:?} {pb:?}");
         // No model error: the bias variance is the latent one at any time since power-on.

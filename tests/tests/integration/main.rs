@@ -8,6 +8,7 @@ mod m4;
 mod paper;
 mod real;
 mod report;
+mod service;
 mod sigma;
 mod sparse;
 mod twin;

@@ -14,6 +14,7 @@ use firmware_sim::stats::rms;
 use indicatif::ProgressBar;
 use serde::Serialize;
 
+use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, joined};
 use crate::analysis::extend::{self, Extended, Fitted};
 use crate::analysis::uncertainty::{self, Calibration, SampleNoise, Source};
@@ -73,6 +74,8 @@ pub struct Investigation {
     pub calibration: Calibration,
     /// The static model's σ, the same way.
     pub static_calibration: Calibration,
+    /// What both models' means do beyond the trained range, chosen on the training points.
+    pub beyond: BeyondChoice,
 }
 
 impl Investigation {
@@ -361,7 +364,10 @@ pub fn calibrate(
             }
         }
     }
-    Ok(uncertainty::calibrate(&series, noise))
+    let mut calibration =
+        uncertainty::calibrate(&series, noise, uncertainty::Prior::of(static_model, points));
+    calibration.set_legs(&uncertainty::legs(train));
+    Ok(calibration)
 }
 
 /// Diagnoses `train` against the static `model` (fitted on `points`), fits the named causes' (or
@@ -421,6 +427,22 @@ pub fn choose(
         (&names, points.quantity.unit()),
         asked.is_some(),
     );
+    if shipped == Shipped::Static && asked.is_none() && causes.len() > 1 {
+        // Do no harm by nested fallback: a design refused whole may hold a part that helps.
+        if let Some((causes, check, extended, verdict, splits)) =
+            nested(points, model, train, cfg, &causes, rebuild, &verdict)?
+        {
+            return Ok(Choice {
+                diagnosis,
+                causes,
+                check,
+                shipped: Shipped::Extended,
+                extended: Some(extended),
+                verdict,
+                splits,
+            });
+        }
+    }
     Ok(Choice {
         diagnosis,
         causes,
@@ -430,6 +452,48 @@ pub fn choose(
         verdict,
         splits,
     })
+}
+
+/// A nested design that ships: its causes, check, extension, verdict and splits.
+type Nested = (
+    Vec<Cause>,
+    Option<ForwardCheck>,
+    Extended,
+    String,
+    Vec<Split>,
+);
+
+/// The first of the nested designs of `causes` (each cause alone, in the order named) whose
+/// extension passes the checks the whole design failed (`refused`, why it did); `None` when none
+/// does. A nested design that cannot be fitted is passed over.
+fn nested(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &Rebuild<'_>,
+    refused: &str,
+) -> anyhow::Result<Option<Nested>> {
+    for &cause in causes {
+        let one = [cause];
+        let Ok((check, splits)) = forward_check(points, model, train, cfg, &one, rebuild) else {
+            continue;
+        };
+        let Ok(extended) = extend::fit(model, points, train, &one) else {
+            continue;
+        };
+        let name = joined(&one);
+        let (shipped, verdict) = decide(check.as_ref(), (&name, points.quantity.unit()), false);
+        if shipped == Shipped::Extended {
+            let verdict = format!(
+                "{} named together: {refused}; nested, {name} alone: {verdict}",
+                joined(causes)
+            );
+            return Ok(Some((one.to_vec(), check, extended, verdict, splits)));
+        }
+    }
+    Ok(None)
 }
 
 /// Which model ships after the forward `check` of the extension by `names`, and why in words:
@@ -621,8 +685,9 @@ pub fn investigate(
     };
     let static_calibration = calibrated(&static_blob, Shipped::Static)?;
     let calibration = calibrated(&extended_blob, choice.shipped)?;
-    let static_blob = static_calibration.apply(&static_blob)?;
-    let extended_blob = calibration.apply(&extended_blob)?;
+    let beyond = beyond::choose(points, cfg);
+    let static_blob = export::with_beyond(&static_calibration.apply(&static_blob)?, beyond.rule)?;
+    let extended_blob = export::with_beyond(&calibration.apply(&extended_blob)?, beyond.rule)?;
     let fw = firmware_sim::replay::decode(&static_blob)?;
     let static_score = replay::score(valid, &replay::replay(&fw, valid));
     let shipped = firmware_sim::replay::decode(&extended_blob)?;
@@ -651,6 +716,7 @@ pub fn investigate(
             train_handled: train.handled.clone(),
             calibration,
             static_calibration,
+            beyond,
         },
         Blobs {
             static_blob,

@@ -10,6 +10,7 @@
 //! ([`selection`]).
 
 pub mod allan;
+pub mod beyond;
 pub mod budget;
 pub mod capacity;
 pub mod challenge;

@@ -336,6 +336,7 @@ impl TableModel {
         Ok(uncertainty::calibrate(
             &[series],
             uncertainty::table_noise(&train, &self.gp),
+            uncertainty::Prior::of(&self.gp, &train),
         ))
     }
 }

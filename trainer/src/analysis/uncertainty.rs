@@ -32,6 +32,18 @@
 //! (t₀.₉₇₅(ν)/1.96)², ν the effective number of independent residuals (each series' count reduced
 //! by its lag-1 autocorrelation) less the terms fitted, at least 2. With hundreds of residuals
 //! that factor is 1.
+//!
+//! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a
+//! measured zero: where the training data hold too few out-of-sample residuals for any term (a
+//! 30-minute warm-up has no forward split), the floor is the GP's own noise level on its points
+//! inflated by the small-sample factor at the fewest degrees of freedom; where no residual lies
+//! beyond the temperatures fitted, the extrapolation term is what the model itself changes over
+//! one trained width of its temperature (the firmware holds the temperature at the range's edge
+//! beyond it, so that change is what it misses per width): its temperature slope at the points it
+//! was fitted on, as an RMS, times the width. (Where its data are: along the temperature at inputs
+//! no point is near, a (T, V) model fitted on a warm-up's shuffled rates is unconstrained; and
+//! the kernel's own expected change is no measure either, its signal variance holding the whole
+//! rate response.) Each assumed term is named in the calibration (`assumed`) and in its one line.
 
 use firmware_core::ErrorModel;
 use firmware_core::units::SECONDS_PER_HOUR;
@@ -48,6 +60,7 @@ use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::{GpError, GpModel};
 use crate::models::normalize::Sorted;
+use firmware_core::Feature;
 
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
@@ -62,6 +75,8 @@ const MIN_SEEN: usize = 3;
 const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
 /// Largest lag-1 autocorrelation taken: a series that drifts slowly still counts as one residual.
 const MAX_RHO: f64 = 0.95;
+/// A heating/cooling state the training data must reach on each side of 0 to hold both legs.
+const BOTH_LEGS: f32 = 0.5;
 
 /// Where a series of residuals comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -216,6 +231,9 @@ pub struct Calibration {
     pub walk_std_per_sqrt_h: f64,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
+    /// The bias of another power-on (run-to-run repeatability), output units: as stated by
+    /// `--repeatability` (0: not assumed).
+    pub turn_on_std: f64,
     /// Residuals the terms were fitted on.
     pub residuals: usize,
     /// Independent residuals they are worth.
@@ -232,30 +250,122 @@ pub struct Calibration {
     /// The shipped σ on the residuals of runs where there are any, else on all (in sample for
     /// the error model; out of sample for the mean).
     pub coverage: Option<Coverage>,
-    /// Why there is no error model, when there is none.
+    /// Why there is no error model measured, when there is none.
     pub note: Option<String>,
+    /// The terms the data could not show, set from the [`Prior`] instead.
+    pub assumed: Vec<&'static str>,
+    /// The heating/cooling states the training stream held (0.5 % quantiles; `None`: not known,
+    /// as for a rate table's soaks, and no leg term).
+    pub legs_trained: Option<(f32, f32)>,
+    /// The model error on the leg the training stream did not hold, output units (0 where it
+    /// held both).
+    pub leg_std: f64,
+}
+
+/// What the σ assumes where the training data cannot show a term (module doc), output units².
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Prior {
+    /// Model error everywhere: the GP's noise level on its points, × the small-sample factor at
+    /// the fewest degrees of freedom.
+    pub floor_var: f64,
+    /// Model error per trained width beyond the range, squared: the model's change over one width
+    /// of a temperature input, at its temperature slope where its points are (RMS), squared.
+    pub extrapolation_var: f64,
+}
+
+impl Prior {
+    /// No prior: terms the data cannot show are 0 (what a rate table's points, which span the
+    /// range they are used in, need).
+    pub const NONE: Self = Self {
+        floor_var: 0.0,
+        extrapolation_var: 0.0,
+    };
+
+    /// The prior of `model` fitted on `points` (module doc): its temperature slope at each
+    /// point it was fitted on (over a tenth of the range either side), as an RMS over the points,
+    /// times the range's width, is what it changes over one width where its data are.
+    pub fn of(model: &GpModel, points: &Points) -> Self {
+        let h = &model.posterior.hyper;
+        let sy2 = model.output_scale.powi(2);
+        let x = points.inputs();
+        let extrapolation_var = points
+            .features()
+            .iter()
+            .enumerate()
+            .filter(|(k, f)| {
+                *k < model.input_range.len()
+                    && matches!(f, Feature::Temperature | Feature::CoilTemperature { .. })
+            })
+            .map(|(k, _)| {
+                let (lo, hi) = model.input_range[k];
+                let width = hi - lo;
+                if width <= 0.0 || x.nrows() == 0 {
+                    return 0.0;
+                }
+                let step = 0.1 * width;
+                let sum: f64 = x
+                    .row_iter()
+                    .map(|row| {
+                        let mut at: Vec<f64> = row.iter().copied().collect();
+                        at[k] += step;
+                        let up = model.predict(&at).mean;
+                        at[k] -= 2.0 * step;
+                        let down = model.predict(&at).mean;
+                        let change = (up - down) / 0.2;
+                        change * change
+                    })
+                    .sum();
+                sum / x.nrows() as f64
+            })
+            .fold(0.0, f64::max);
+        Self {
+            floor_var: h.observation_var() * sy2 * small_sample_factor(MIN_DOF),
+            extrapolation_var,
+        }
+    }
+}
+
+/// (t₀.₉₇₅(ν)/1.96)²: how much wider a variance estimated on ν degrees of freedom must be for
+/// its 95% interval (module doc).
+fn small_sample_factor(dof: f64) -> f64 {
+    match (StudentsT::new(0.0, 1.0, dof), Normal::new(0.0, 1.0)) {
+        (Ok(t), Ok(n)) => (t.inverse_cdf(0.975) / n.inverse_cdf(0.975)).powi(2),
+        _ => 1.0,
+    }
 }
 
 /// Names of the model-error terms, in covariate order.
 const TERM_NAMES: [&str; TERMS] = ["table floor", "floor", "extrapolation", "walk", "trend"];
 
 impl Calibration {
-    /// The σ of the blob alone: its noise, no model error.
-    pub fn uncalibrated(noise: SampleNoise, note: String) -> Self {
+    /// The σ of a blob whose training data hold no out-of-sample residual to measure its model
+    /// error on: its noise, and the model error the [`Prior`] assumes (module doc).
+    pub fn assumed(noise: SampleNoise, prior: Prior, note: String) -> Self {
         let error_model = ErrorModel {
             sample_noise_var: noise.var as f32,
             sample_interval_s: noise.interval_s as f32,
+            floor_var: prior.floor_var as f32,
+            extrapolation_var: prior.extrapolation_var as f32,
             ..ErrorModel::noise_only(0.0)
         };
+        let assumed = [
+            (prior.floor_var, "floor"),
+            (prior.extrapolation_var, "extrapolation"),
+        ]
+        .iter()
+        .filter(|(v, _)| *v > 0.0)
+        .map(|(_, name)| *name)
+        .collect();
         Self {
             error_model,
             sample_noise_std: noise.var.sqrt(),
             sample_interval_s: noise.interval_s,
-            floor_std: 0.0,
+            floor_std: prior.floor_var.sqrt(),
             table_floor_std: None,
-            extrapolation_std: 0.0,
+            extrapolation_std: prior.extrapolation_var.sqrt(),
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
+            turn_on_std: 0.0,
             residuals: 0,
             effective: 0.0,
             inflation: 1.0,
@@ -264,6 +374,48 @@ impl Calibration {
             before: None,
             coverage: None,
             note: Some(note),
+            assumed,
+            legs_trained: None,
+            leg_std: 0.0,
+        }
+    }
+
+    /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
+    /// repeatability), added to every sample's bias variance.
+    pub fn set_turn_on(&mut self, sigma: f64) {
+        self.turn_on_std = sigma;
+        self.error_model.turn_on_var = (sigma * sigma) as f32;
+    }
+
+    /// States the heating/cooling states the training stream held (`states`, each sample's, as
+    /// the firmware tracks them: [`legs`]). Where they are one leg's only, the other leg's model
+    /// error is assumed as large as the model's out-of-sample error on its own (the RMS of the
+    /// residuals of the training data, or the floor where there are none: an unseen leg misses
+    /// again what the model misses on the one it saw), said in `assumed`; the firmware adds it on
+    /// a state beyond those trained.
+    pub fn set_legs(&mut self, states: &[f32]) {
+        if states.is_empty() {
+            return;
+        }
+        let mut sorted = states.to_vec();
+        sorted.sort_by(f32::total_cmp);
+        let at = |q: f64| {
+            sorted[((q * (sorted.len() - 1) as f64).round() as usize).min(sorted.len() - 1)]
+        };
+        let (lo, hi) = (at(0.005), at(0.995));
+        self.legs_trained = Some((lo, hi));
+        self.error_model.leg_min = lo;
+        self.error_model.leg_max = hi;
+        if lo <= -BOTH_LEGS && hi >= BOTH_LEGS {
+            self.error_model.leg_var = 0.0;
+            self.leg_std = 0.0;
+            return;
+        }
+        let seen = self.sources.iter().map(|s| s.rmse).fold(0.0, f64::max);
+        self.leg_std = seen.max(self.floor_std);
+        self.error_model.leg_var = (self.leg_std * self.leg_std) as f32;
+        if !self.assumed.contains(&"leg") {
+            self.assumed.push("leg");
         }
     }
 
@@ -274,12 +426,37 @@ impl Calibration {
 
     /// One line for a person.
     pub fn describe(&self, units: &str) -> String {
+        let leg = if self.leg_std > 0.0 {
+            format!(
+                "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
+                 (assumed)",
+                self.leg_std
+            )
+        } else {
+            String::new()
+        };
+        self.describe_terms(units) + &leg
+    }
+
+    fn describe_terms(&self, units: &str) -> String {
         let Some(c) = &self.coverage else {
             return format!(
-                "σ: the GP's own, with one sample's noise {:.3e} {units} ({})",
+                "σ: the GP's own, with one sample's noise {:.3e} {units} and an assumed model \
+                 error {:.3e} {units}, {:.3e} per trained width beyond the range ({}; module \
+                 doc of trainer::analysis::uncertainty)",
                 self.sample_noise_std,
+                self.floor_std,
+                self.extrapolation_std,
                 self.note.as_deref().unwrap_or("no error model")
             );
+        };
+        let assumed = if self.assumed.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; assumed, the data could not show it: {}",
+                self.assumed.join(", ")
+            )
         };
         let before = self
             .before
@@ -289,7 +466,8 @@ impl Calibration {
             "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
              {}): model error {:.3e} {units}, {:.3e} per trained width beyond the range, {:.3e} \
              per √h, {:.3e} per h (× {:.2} for the few residuals), one sample's noise {:.3e}; \
-             ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their RMS",
+             ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
+             RMS{assumed}",
             self.residuals,
             self.effective,
             self.sources
@@ -330,15 +508,17 @@ fn effective(z: &[f64]) -> f64 {
 /// Fits the error model to `series` (module doc); `noise` is one sample's white noise. A table's
 /// residuals and a run's each get their floor; the blob carries the run's where there are runs
 /// (a gyro in service is in one, with every group of the table trained), the table's otherwise.
-pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
+/// A term the residuals cannot show is `prior`'s (module doc).
+pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibration {
     let all: Vec<(Residual, bool)> = series
         .iter()
         .flat_map(|s| s.residuals.iter().map(|r| (*r, s.source.is_run())))
         .filter(|(r, _)| r.error.is_finite() && r.base_var.is_finite() && r.base_var >= 0.0)
         .collect();
     if all.len() < 3 {
-        return Calibration::uncalibrated(
+        return Calibration::assumed(
             noise,
+            prior,
             format!(
                 "{} out-of-sample residuals in the training data: too few to measure the model \
                  error",
@@ -364,11 +544,13 @@ pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
         .collect();
     let eff: f64 = standardized.iter().map(|z| effective(z)).sum();
     let dof = (eff - fitted.len() as f64).max(MIN_DOF);
-    let inflation = match (StudentsT::new(0.0, 1.0, dof), Normal::new(0.0, 1.0)) {
-        (Ok(t), Ok(n)) => (t.inverse_cdf(0.975) / n.inverse_cdf(0.975)).powi(2),
-        _ => 1.0,
-    };
-    let c = c.map(|v| v * inflation);
+    let inflation = small_sample_factor(dof);
+    let mut c = c.map(|v| v * inflation);
+    let mut assumed = Vec::new();
+    if !seen[2] && prior.extrapolation_var > 0.0 {
+        c[2] = prior.extrapolation_var;
+        assumed.push(TERM_NAMES[2]);
+    }
     let runs = all.iter().any(|(_, run)| *run);
     // What the blob carries: the run's floor (the table's where there is no run), for every
     // residual alike.
@@ -407,6 +589,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
         extrapolation_var: c[2] as f32,
         walk_var_per_h: c[3] as f32,
         trend_var_per_h2: c[4] as f32,
+        ..ErrorModel::noise_only(0.0)
     };
     Calibration {
         error_model,
@@ -417,6 +600,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
         extrapolation_std: c[2].sqrt(),
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
+        turn_on_std: 0.0,
         residuals: all.len(),
         effective: eff,
         inflation,
@@ -425,6 +609,9 @@ pub fn calibrate(series: &[Series], noise: SampleNoise) -> Calibration {
         before: Some(coverage(&scored, &|r| r.base_var.sqrt())),
         coverage: Some(coverage(&scored, &shipped_sigma)),
         note: None,
+        assumed,
+        legs_trained: None,
+        leg_std: 0.0,
     }
 }
 
@@ -564,11 +751,13 @@ pub fn stream_series(
 }
 
 /// The σ of a model fitted on a rate table alone: its groups (or points) left out
-/// ([`table_series`]), and the points' own noise as a point's.
+/// ([`table_series`]), and the points' own noise as a point's; what they cannot show, the
+/// model's [`Prior`].
 pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration, GpError> {
     Ok(calibrate(
         &[table_series(model, points)?],
         table_noise(points, model),
+        Prior::of(model, points),
     ))
 }
 
@@ -637,8 +826,26 @@ pub fn series_of(
 pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
     let p = model.predict(x);
     let e2 = export::excess2(x, &model.input_range);
-    let error = f64::from(calibration.error_model.model_error(e2 as f32, 0.0));
+    let error = f64::from(calibration.error_model.model_error(e2 as f32, 0.0, None));
     (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
+}
+
+/// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
+/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream.
+pub fn legs(stream: &Stream) -> Vec<f32> {
+    let mut state = firmware_core::FeatureState::default();
+    (0..stream.len())
+        .filter_map(|i| {
+            let sample = firmware_core::Sample {
+                time_s: stream.time_s[i],
+                temp_c: stream.temp_c[i] as f32,
+                output: 0.0,
+            };
+            let health = firmware_core::features::compute(&[], &sample, &mut state, &mut []);
+            (health != firmware_core::Status::Fault && stream.rate_dps[i].is_finite())
+                .then(|| state.leg())
+        })
+        .collect()
 }
 
 /// Hours since power-on of every sample of `stream` (a power cycle where the replay has one),

@@ -326,6 +326,7 @@ fn unit_gains(
     let mut s = String::from(
         "held out, rmse_60s:  static          shipped         gain   causes named (shipped)\n",
     );
+    let mut counted = String::new();
     for (ch, (inv, _)) in channels.list.iter().zip(each) {
         let (k, u) = (ch.quantity.bias_per_unit(), ch.quantity.bias_unit());
         s.push_str(&format!(
@@ -340,8 +341,13 @@ fn unit_gains(
                 investigate::Shipped::Static => "static",
             }
         ));
+        counted.push_str(&format!(
+            "  {:<16} {}\n",
+            ch.name,
+            inv.extended_score.counted()
+        ));
     }
-    s
+    s + &counted
 }
 
 /// One channel's investigation, said as it goes: static fit, diagnosis and extension on `train`,
@@ -372,7 +378,7 @@ fn investigate_one(
     console.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
     console.result(&format!(
         "static rmse_60s {:.3e} {unit} ({:.2} {u}) | causes {} | added {} | shipped rmse_60s \
-         {:.3e} {unit} ({:.2} {u}) | gain {:.2}×",
+         {:.3e} {unit} ({:.2} {u}) | gain {:.2}× {}",
         inv.static_score.rmse_60s_dps,
         inv.static_score.rmse_60s_dps * k,
         causes_text(&inv.diagnosis.causes),
@@ -383,8 +389,10 @@ fn investigate_one(
         },
         inv.extended_score.rmse_60s_dps,
         inv.extended_score.rmse_60s_dps * k,
-        inv.gain
+        inv.gain,
+        inv.extended_score.counted()
     ));
+    console.result(&format!("beyond the trained range: {}", inv.beyond.verdict));
     console.result(&format!(
         "shipped model's {}",
         inv.calibration.describe(unit)

@@ -9,11 +9,12 @@ use firmware_sim::cause::Cause;
 use firmware_sim::console::{Console, ConsoleFlags};
 use firmware_sim::data::stream::{Handled, Stream, Window};
 use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
-use firmware_sim::replay::HostModel;
+use firmware_sim::replay::{self, HostModel};
 use serde::Serialize;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
 use super::text::{causes_text, log_starts};
+use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::budget::{self, Budget, Bytes};
 use crate::analysis::capacity;
 use crate::analysis::diagnose::Diagnosis;
@@ -31,7 +32,7 @@ use crate::models::gp::{
 };
 use crate::models::prior::{MeanBasis, PolyPrior};
 use firmware_core::Quantity;
-use firmware_core::blob::Dims;
+use firmware_core::blob::{Beyond, Dims, Limits};
 use firmware_sim::data::channels::Channels;
 use firmware_sim::data::log::load_unit_log;
 
@@ -64,6 +65,8 @@ pub(super) struct FitArgs {
     features: Option<String>,
     #[command(flatten)]
     budget: BudgetArgs,
+    #[command(flatten)]
+    service: ServiceArgs,
     /// Model blob to write (firmware-core format; a unit blob with --channels).
     #[arg(long)]
     out: PathBuf,
@@ -96,6 +99,129 @@ impl BudgetArgs {
             flash_bytes: self.budget_flash.map(|b| b.0),
             instructions: self.budget_instructions,
         }
+    }
+}
+
+/// What service meets that the calibration data may not show: what a reading that cannot be true
+/// is, and the bias of another power-on (docs/uncertainty.md).
+#[derive(Args, Clone, Default)]
+struct ServiceArgs {
+    /// The temperature sensor's rated range, °C (LO:HI; default −55:125): a reading beyond it is a
+    /// fault. Any reading inside it is compensated, beyond the trained range too (held at its
+    /// edge, σ grown with the distance).
+    #[arg(long, value_name = "LO:HI", value_parser = parse_rated)]
+    rated_temp: Option<(f32, f32)>,
+    /// The output's full scale, in the output's own units (volts, counts, °/s): an output beyond
+    /// ± it is a fault (default: none, any finite output is a reading). One channel only.
+    #[arg(long, value_name = "OUTPUT")]
+    full_scale: Option<f32>,
+    /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
+    /// gives it: every power-on in service is another than the calibration's, so its variance is
+    /// added to every sample's σ (default: not assumed, said in one line).
+    #[arg(long, value_name = "SIGMA")]
+    repeatability: Option<f64>,
+    /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
+    /// ArduPilot's clip; the scale factor still follows the output), tangent (the prior mean
+    /// continued along its tangent at the edge), follow (the GP's own prediction), or auto (the
+    /// rule that predicts the training points beyond their inner part best, hold where too few
+    /// tell: docs/uncertainty.md). The σ grows with the distance under each.
+    #[arg(long, value_enum, default_value_t = BeyondArg::Auto)]
+    beyond: BeyondArg,
+}
+
+/// `--beyond`: firmware-core's `Beyond`, or chosen on the training points.
+#[derive(Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+enum BeyondArg {
+    /// Chosen on the training points (`analysis::beyond`).
+    #[default]
+    Auto,
+    /// The prior mean continued along its tangent at the edge.
+    Tangent,
+    /// The prior mean held at the edge.
+    Hold,
+    /// The GP's own prediction.
+    Follow,
+}
+
+/// `LO:HI` in °C, LO below HI.
+fn parse_rated(text: &str) -> Result<(f32, f32), String> {
+    let (lo, hi) = text
+        .split_once(':')
+        .ok_or_else(|| format!("'{text}': expected LO:HI in °C"))?;
+    let num = |v: &str| {
+        v.trim()
+            .parse::<f32>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("'{v}' is not a temperature in °C"))
+    };
+    let (lo, hi) = (num(lo)?, num(hi)?);
+    if lo < hi {
+        Ok((lo, hi))
+    } else {
+        Err(format!("'{text}': LO must be below HI"))
+    }
+}
+
+impl ServiceArgs {
+    /// The blob's limits.
+    fn limits(&self) -> Limits {
+        let (temp_min_c, temp_max_c) = self
+            .rated_temp
+            .unwrap_or((Limits::DEFAULT.temp_min_c, Limits::DEFAULT.temp_max_c));
+        Limits {
+            temp_min_c,
+            temp_max_c,
+            full_scale: self.full_scale.unwrap_or(0.0),
+        }
+    }
+
+    /// The rule beyond the trained range: as asked, or chosen on `points` (fitted as `gp`).
+    fn beyond(&self, points: &Points, gp: &GpConfig) -> BeyondChoice {
+        let asked = |rule, name| BeyondChoice {
+            rule,
+            inside_c: None,
+            scored: 0,
+            rmse: None,
+            verdict: format!("{name} as asked (--beyond)"),
+        };
+        match self.beyond {
+            BeyondArg::Auto => beyond::choose(points, gp),
+            BeyondArg::Tangent => asked(Beyond::Tangent, "along the tangent"),
+            BeyondArg::Hold => asked(Beyond::Hold, "held at the edge"),
+            BeyondArg::Follow => asked(Beyond::Follow, "the GP's own prediction"),
+        }
+    }
+
+    /// `blob` (its σ `calibration`) with the limits, the repeatability and the rule beyond the
+    /// trained range written in.
+    fn apply(
+        &self,
+        blob: &[u8],
+        calibration: &mut Calibration,
+        beyond: Beyond,
+    ) -> anyhow::Result<Vec<u8>> {
+        if let Some(sigma) = self.repeatability {
+            calibration.set_turn_on(sigma);
+        }
+        let blob = calibration.apply(blob)?;
+        let limits = self.limits();
+        let blob = export::with_limits(&blob, &limits)?;
+        let fw = replay::decode(&blob).map_err(|_| {
+            anyhow::anyhow!(
+                "the training data hold readings beyond the sensor's limits (rated {}…{} °C{}): \
+                 a reading that was recorded is possible; widen --rated-temp or --full-scale",
+                limits.temp_min_c,
+                limits.temp_max_c,
+                if limits.full_scale > 0.0 {
+                    format!(", full scale ±{}", limits.full_scale)
+                } else {
+                    String::new()
+                }
+            )
+        })?;
+        debug_assert_eq!(fw.limits(), limits);
+        Ok(export::with_beyond(&blob, beyond)?)
     }
 }
 
@@ -146,6 +272,9 @@ struct FitReport {
     handled: Vec<Handled>,
     /// The shipped model's σ, measured on the training data alone.
     calibration: Option<Calibration>,
+    /// What the mean does beyond the trained range, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    beyond: Option<BeyondChoice>,
     firmware_agreement: AgreementReport,
     blob_bytes: usize,
     /// How the budget was met, where one was given.
@@ -174,6 +303,9 @@ enum ExtensionReport {
 #[derive(Serialize)]
 struct StreamChoice {
     diagnosis: Diagnosis,
+    /// The causes whose extension was fitted and checked last: the named ones, or the nested
+    /// design that shipped in their place.
+    causes: Vec<Cause>,
     forward_check: Option<investigate::ForwardCheck>,
     shipped: investigate::Shipped,
     verdict: String,
@@ -213,6 +345,7 @@ impl FitReport {
             centres_choice: None,
             handled: Vec::new(),
             calibration: None,
+            beyond: None,
             firmware_agreement: agreement,
             blob_bytes,
             budget: None,
@@ -246,6 +379,7 @@ struct FitPlan {
     pool: bool,
     extend: Extend,
     budget: Budget,
+    service: ServiceArgs,
     out: PathBuf,
     json: Option<PathBuf>,
 }
@@ -261,9 +395,26 @@ impl FitPlan {
             pool_stream,
             features,
             budget,
+            service,
             out,
             json,
         } = args;
+        anyhow::ensure!(
+            service.full_scale.is_none_or(|f| f.is_finite() && f > 0.0),
+            "--full-scale must be a positive number"
+        );
+        anyhow::ensure!(
+            service
+                .repeatability
+                .is_none_or(|r| r.is_finite() && r >= 0.0),
+            "--repeatability must be a σ: a number not below 0"
+        );
+        anyhow::ensure!(
+            (service.full_scale.is_none() && service.repeatability.is_none())
+                || input.unit.channels.is_none(),
+            "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
+             each have their own (fit them one at a time to state them)"
+        );
         let extend = match (features.as_deref(), stream.len(), &input.points) {
             (None, _, _) => Extend::Nothing,
             (Some("auto"), 0, Some(_)) => Extend::TableTransients,
@@ -294,6 +445,7 @@ impl FitPlan {
             pool: pool_stream,
             extend,
             budget: budget.budget(),
+            service,
             out,
             json,
         })
@@ -638,7 +790,7 @@ impl FitPlan {
             )?,
             _ => None,
         };
-        let (mut blob, mut agreement, calibration) = match shipped {
+        let (mut blob, mut agreement, mut calibration) = match shipped {
             Some(s) => s,
             None => (
                 static_blob.clone(),
@@ -647,7 +799,10 @@ impl FitPlan {
             ),
         };
         let blob_is_static = blob == static_blob;
-        blob = calibration.apply(&blob)?;
+        let beyond = self.service.beyond(&points, &gp);
+        console.result(&format!("beyond the trained range: {}", beyond.verdict));
+        blob = self.service.apply(&blob, &mut calibration, beyond.rule)?;
+        summary.beyond = Some(beyond);
         if blob_is_static {
             // The agreement of the blob as written, with its error model.
             agreement = export::verify(&model, &blob, &points, &extension)?.1;
@@ -656,6 +811,12 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
+        if self.service.repeatability.is_none() {
+            console.result(
+                "skipped: the bias of another power-on (one calibration's data cannot show it; \
+                 --repeatability states a datasheet's run-to-run σ)",
+            );
+        }
         summary.calibration = Some(calibration);
         summary.handled = streams
             .iter()
@@ -840,6 +1001,7 @@ impl FitPlan {
         if let Some(choice) = &choice {
             summary.stream_choice = Some(StreamChoice {
                 diagnosis: choice.diagnosis.clone(),
+                causes: choice.causes.clone(),
                 forward_check: choice.check.clone(),
                 shipped: choice.shipped,
                 verdict: choice.verdict.clone(),
@@ -935,7 +1097,7 @@ fn unit_table(
     for ((ch, fit), (_, fp)) in channels.list.iter().zip(fitted).zip(&f.channels) {
         let ships = match &fit.summary.stream_choice {
             Some(c) if c.shipped == investigate::Shipped::Extended => {
-                format!("extended: {}", causes_text(&c.diagnosis.causes))
+                format!("extended: {}", causes_text(&c.causes))
             }
             Some(c) if !c.diagnosis.causes.is_empty() => {
                 format!("static ({} named)", causes_text(&c.diagnosis.causes))

@@ -8,7 +8,7 @@
 //! coefficient split into an f32 `hi` and the f32 rounding of its remainder `lo` (why: blob module
 //! doc of firmware-core).
 
-use firmware_core::blob::{self, Dims, ErrorModel, Feature, HEADER_LEN, Payload};
+use firmware_core::blob::{self, Beyond, Dims, ErrorModel, Feature, HEADER_LEN, Limits, Payload};
 use firmware_core::{MAX_CENTRES, MAX_INPUTS};
 use firmware_sim::replay::{self, HostModel};
 use serde::Serialize;
@@ -230,10 +230,12 @@ pub fn to_blob_extended(
         features,
         exponents,
         floats,
+        beyond: Beyond::Follow,
         error: ErrorModel::noise_only((h.observation_var() * sy * sy) as f32),
+        limits: Limits::DEFAULT,
     };
-    let numbers = payload.floats.len() + ErrorModel::NUMBERS;
-    let mut buf = vec![0u8; HEADER_LEN + 16 + 5 * d + payload.exponents.len() + 5 * numbers];
+    let numbers = payload.floats.len() + ErrorModel::NUMBERS + Limits::NUMBERS;
+    let mut buf = vec![0u8; HEADER_LEN + 17 + 5 * d + payload.exponents.len() + 5 * numbers];
     let n = blob::encode(dims, &payload, &mut buf).map_err(ExportError::Blob)?;
     buf.truncate(n);
     Ok(buf)
@@ -387,6 +389,91 @@ pub fn with_error_model(blob: &[u8], error: &ErrorModel) -> Result<Vec<u8>, Expo
     Ok(out)
 }
 
+/// `blob` with `beyond`: what its mean does beyond the trained range (exported blobs start with
+/// [`Beyond::Follow`], the GP's own prediction, which every check of the trainer's sees; `fit`
+/// and `investigate` write the rule chosen for the blob they ship).
+pub fn with_beyond(blob: &[u8], beyond: Beyond) -> Result<Vec<u8>, ExportError> {
+    let mut out = blob.to_vec();
+    blob::set_beyond(&mut out, beyond)?;
+    Ok(out)
+}
+
+/// `blob` with `limits`: what a reading that cannot be true is for the sensor (exported blobs
+/// start with [`Limits::DEFAULT`]).
+pub fn with_limits(blob: &[u8], limits: &Limits) -> Result<Vec<u8>, ExportError> {
+    let mut out = blob.to_vec();
+    blob::set_limits(&mut out, limits)?;
+    Ok(out)
+}
+
+/// The firmware's rule beyond the trained range, on the host (firmware-core's `model` module
+/// doc), for the GP's own inputs (all read by its kernel): `x` held at the range's edge, and what
+/// the prior mean adds past the edge: under [`Beyond::Hold`] the raw linear terms of the gyro
+/// output and the time since power-on, under [`Beyond::Tangent`] its tangent at the edge; under
+/// [`Beyond::Follow`], `x` as it is.
+pub fn held_at_range(
+    model: &GpModel,
+    x: &[f64],
+    features: &[Feature],
+    beyond: Beyond,
+) -> (Vec<f64>, f64) {
+    if beyond == Beyond::Follow {
+        return (x.to_vec(), 0.0);
+    }
+    let held: Vec<f64> = x
+        .iter()
+        .zip(&model.input_range)
+        .map(|(&v, &(lo, hi))| v.clamp(lo, hi))
+        .collect();
+    let extra = match beyond {
+        Beyond::Follow => 0.0,
+        Beyond::Hold => {
+            let (_, _, raw) = split_raw_linear(model);
+            x.iter()
+                .zip(&held)
+                .zip(features)
+                .zip(raw)
+                .filter(|((_, f), _)| matches!(f, Feature::Voltage | Feature::TimeOn))
+                .map(|(((&v, &h), _), c)| c * (v - h))
+                .sum()
+        }
+        Beyond::Tangent => {
+            let norm = &model.input_norm;
+            let z = |v: &[f64]| -> Vec<f64> {
+                v.iter()
+                    .enumerate()
+                    .map(|(k, &v)| (v - norm.offset[k]) / norm.scale[k])
+                    .collect()
+            };
+            let (zx, zh) = (z(x), z(&held));
+            let prior = &model.prior;
+            (0..zh.len())
+                .filter(|&k| zx[k] != zh[k])
+                .map(|k| {
+                    let slope: f64 = prior
+                        .exponents
+                        .iter()
+                        .zip(&prior.coefficients)
+                        .filter(|(e, _)| e[k] > 0)
+                        .map(|(e, c)| {
+                            c * f64::from(e[k])
+                                * e.iter()
+                                    .enumerate()
+                                    .map(|(i, &ei)| {
+                                        let n = if i == k { ei - 1 } else { ei };
+                                        zh[i].powi(i32::from(n))
+                                    })
+                                    .product::<f64>()
+                        })
+                        .sum();
+                    slope * (zx[k] - zh[k])
+                })
+                .sum()
+        }
+    };
+    (held, extra)
+}
+
 /// How closely the firmware (f32) follows the host (f64) over one set of inputs.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Agreement {
@@ -454,12 +541,17 @@ pub fn agreement(
         all_finite: true,
         ..Agreement::default()
     };
+    let features = firmware.features();
+    let beyond = firmware.beyond();
     for row in x.row_iter() {
         let mut raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
         let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
         raw.extend(&held);
-        let mut host = model.predict(&exact);
-        let v = output.and_then(|k| exact.get(k)).copied().unwrap_or(0.0);
+        // Beyond the trained range the firmware holds the inputs at its edge.
+        let (at, past) = held_at_range(model, &exact, &features[..d0], beyond);
+        let mut host = model.predict(&at);
+        host.mean += past;
+        let v = output.and_then(|k| at.get(k)).copied().unwrap_or(0.0);
         host.mean += extension.offset
             + extension
                 .terms
@@ -484,7 +576,7 @@ pub fn agreement(
             .max((f64::from(fw.mean) - host.mean).abs());
         let e2 = excess2(&exact, &model.input_range);
         let host_bias =
-            host.latent_var + f64::from(firmware.error_model().model_error(e2 as f32, 0.0));
+            host.latent_var + f64::from(firmware.error_model().model_error(e2 as f32, 0.0, None));
         if host_bias > threshold {
             a.n_var += 1;
             let rel = (f64::from(fw.bias_variance) - host_bias).abs() / host_bias;
@@ -714,6 +806,7 @@ mod tests {
             extrapolation_var: 5e-3,
             walk_var_per_h: 0.0,
             trend_var_per_h2: 0.0,
+            ..ErrorModel::noise_only(0.0)
         };
         let blob = with_error_model(&blob, &error).unwrap();
         let fw = replay::decode(&blob).unwrap();

@@ -31,7 +31,7 @@ fn the_terms_the_residuals_show_are_found_and_the_others_stay_near_zero() {
         var: 4e-4,
         interval_s: 1.0,
     };
-    let c = calibrate(&series, noise);
+    let c = calibrate(&series, noise, Prior::NONE);
     assert!((c.floor_std - 0.1).abs() < 0.02, "{c:?}");
     assert!((c.extrapolation_std - 0.5).abs() < 0.05, "{c:?}");
     assert!(
@@ -60,6 +60,7 @@ fn a_term_whose_covariate_does_not_move_abstains() {
             var: 0.0,
             interval_s: 0.0,
         },
+        Prior::NONE,
     );
     assert_eq!(c.extrapolation_std, 0.0);
     assert_eq!(c.fitted_terms, vec!["table floor", "walk", "trend"]);
@@ -88,18 +89,44 @@ fn few_correlated_residuals_widen_the_sigma() {
             var: 0.0,
             interval_s: 0.0,
         },
+        Prior::NONE,
     );
     assert!(c.inflation > 2.0, "{c:?}");
+}
+
+#[test]
+fn what_the_residuals_cannot_show_is_assumed_never_zero() {
+    let prior = Prior {
+        floor_var: 4e-6,
+        extrapolation_var: 9e-4,
+    };
+    let noise = SampleNoise {
+        var: 1.0,
+        interval_s: 1.0,
+    };
+    // No residual at all: the prior's floor and extrapolation, said.
+    let c = calibrate(&[], noise, prior);
+    assert!(c.note.is_some());
+    assert_eq!(c.error_model.floor_var, 4e-6);
+    assert_eq!(c.error_model.extrapolation_var, 9e-4);
+    assert_eq!(c.assumed, vec!["floor", "extrapolation"]);
+    assert!(c.describe("°/s").contains("assumed model error"));
+    // Residuals that never leave the range: the floor is measured, the extrapolation assumed.
+    let mut r = residuals(500, 4, |_, _| 0.05);
+    for x in &mut r {
+        x.excess2 = 0.0;
+    }
+    let series = [Series {
+        source: Source::Forward,
+        residuals: r,
+    }];
+    let c = calibrate(&series, noise, prior);
+    assert!((c.floor_std - 0.049).abs() < 0.005, "{c:?}");
+    assert_eq!(c.error_model.extrapolation_var, 9e-4);
+    assert_eq!(c.assumed, vec!["extrapolation"]);
     assert!(
-        calibrate(
-            &[],
-            SampleNoise {
-                var: 1.0,
-                interval_s: 1.0
-            }
-        )
-        .note
-        .is_some()
+        c.describe("°/s")
+            .contains("assumed, the data could not show it: extrapolation")
     );
 }
 
@@ -130,4 +157,35 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
     assert!(h[50].is_nan());
     assert!((h[3699] - 1.0).abs() < 1e-12);
     assert_eq!(hours_on(&stream)[3600], 1.0);
+}
+
+#[test]
+fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
+    let r = residuals(400, 5, |_, _| 0.05);
+    let series = [Series {
+        source: Source::Forward,
+        residuals: r,
+    }];
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let mut heating = calibrate(&series, noise, Prior::NONE);
+    let states: Vec<f32> = (0..1000).map(|i| 0.2 + 0.8 * (i as f32 / 999.0)).collect();
+    heating.set_legs(&states);
+    let (lo, hi) = heating.legs_trained.unwrap();
+    assert!((lo - 0.204).abs() < 0.01 && hi > 0.99, "{lo} {hi}");
+    // The other leg misses as much again as the model's out-of-sample residuals.
+    let rmse = heating.sources[0].rmse;
+    assert!((heating.leg_std - rmse).abs() < 1e-12, "{heating:?}");
+    assert!(heating.assumed.contains(&"leg"));
+    assert!(heating.describe("°/s").contains("heating/cooling leg"));
+    let e = heating.error_model;
+    assert_eq!((e.leg_min, e.leg_max), (lo, hi));
+    assert!(e.model_error(0.0, 0.0, Some(-1.0)) > e.model_error(0.0, 0.0, Some(0.5)));
+    let mut both = calibrate(&series, noise, Prior::NONE);
+    let states: Vec<f32> = (0..1000).map(|i| -1.0 + 2.0 * (i as f32 / 999.0)).collect();
+    both.set_legs(&states);
+    assert_eq!(both.error_model.leg_var, 0.0);
+    assert!(both.assumed.is_empty(), "{both:?}");
 }

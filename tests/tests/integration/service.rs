@@ -1,0 +1,211 @@
+//! Beyond the calibration: what ships stays safe where its data did not reach. A reading colder
+//! (or hotter) than any trained is compensated, never a fault: its mean is the model's at the
+//! trained range's edge (as PX4's clamp gives it), and its σ grows with the distance.
+
+use crate::{at, imu, json, sim, trainer};
+
+/// A gyro calibrated on a 30-minute warm-up (24.9…28.3 °C) and replayed as it cools to 6.4 °C,
+/// 18 °C colder than its coldest training point: every sample is compensated, the shipped model
+/// is no worse than the static one held at the range's edge (the PX4-style clamp), and the σ,
+/// with no out-of-sample residual to fit it on, is assumed and covers the held-out means.
+#[test]
+fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, held) = (at(dir.path(), "cal.csv"), at(dir.path(), "held.csv"));
+    sim(&[
+        "generate", "stream", "--design", "warm-up", "--seed", "11", "--out", &cal,
+    ])
+    .unwrap();
+    sim(&[
+        "generate", "stream", "--design", "short", "--seed", "12", "--out", &held,
+    ])
+    .unwrap();
+    let (shipped, clamp) = (at(dir.path(), "ship.bin"), at(dir.path(), "static.bin"));
+    let fit = at(dir.path(), "fit.json");
+    trainer(&[
+        "fit",
+        "--stream",
+        &cal,
+        "--window",
+        ":1800",
+        "--features",
+        "auto",
+        "--out",
+        &shipped,
+        "--json",
+        &fit,
+        "-q",
+    ])
+    .unwrap();
+    trainer(&[
+        "fit", "--stream", &cal, "--window", ":1800", "--out", &clamp, "-q",
+    ])
+    .unwrap();
+    let calibration = &json(&fit)["calibration"];
+    assert_eq!(calibration["residuals"], 0, "{calibration}");
+    // No residual to fit on, and a warm-up heats only: the floor, the growth beyond the range
+    // and the cooling leg are all assumed, and said.
+    assert_eq!(
+        calibration["assumed"],
+        serde_json::json!(["floor", "extrapolation", "leg"]),
+        "{calibration}"
+    );
+    let replay = |model: &str, name: &str| {
+        let out = at(dir.path(), name);
+        sim(&[
+            "replay", "--model", model, "--stream", &held, "--json", &out, "-q",
+        ])
+        .unwrap();
+        json(&out)
+    };
+    let (s, c) = (replay(&shipped, "s.json"), replay(&clamp, "c.json"));
+    let n = s["n"].as_u64().unwrap();
+    assert_eq!(s["n_fault"], 0, "{s}");
+    // Most of the cool-down lies beyond the trained range, and all of it is scored.
+    assert!(s["n_extrapolating"].as_u64().unwrap() > n / 2, "{s}");
+    assert_eq!(s["n_unscored"], 0, "{s}");
+    let rmse = |r: &serde_json::Value| r["rmse_60s_dps"].as_f64().unwrap();
+    assert!(
+        rmse(&s).is_finite() && rmse(&s) <= rmse(&c) * 1.0001,
+        "{s} {c}"
+    );
+    let coverage = s["sigma_60s"]["within_2sigma"].as_f64().unwrap();
+    assert!(coverage >= 0.85, "{s}");
+}
+
+/// The MEMS log trained on ten minutes near its coldest (−17.3…−7.7 °C) and replayed over the
+/// rest of its cycle, up to 74 °C: no channel's sample is a fault.
+#[test]
+fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
+    let dir = tempfile::tempdir().unwrap();
+    let channels = imu().replace("imu_raw_data.tsv", "imu.toml");
+    let blob = at(dir.path(), "band.bin");
+    let log = imu();
+    trainer(&[
+        "fit",
+        "--stream",
+        &log,
+        "--channels",
+        &channels,
+        "--window",
+        "1000:1660",
+        "--features",
+        "auto",
+        "--out",
+        &blob,
+        "-q",
+    ])
+    .unwrap();
+    let out = at(dir.path(), "r.json");
+    sim(&[
+        "replay",
+        "--model",
+        &blob,
+        "--stream",
+        &log,
+        "--channels",
+        &channels,
+        "--exclude",
+        "1000:1660",
+        "--json",
+        &out,
+        "-q",
+    ])
+    .unwrap();
+    let r = json(&out);
+    let list = r["channels"].as_array().unwrap();
+    assert_eq!(list.len(), 6);
+    for ch in list {
+        assert_eq!(ch["n_fault"], 0, "{ch}");
+        assert!(ch["n_extrapolating"].as_u64().unwrap() > 6000, "{ch}");
+        assert!(ch["rmse_60s_dps"].as_f64().unwrap().is_finite(), "{ch}");
+        assert!(
+            ch["sigma_60s"]["median_sigma"].as_f64().unwrap() > 0.0,
+            "{ch}"
+        );
+    }
+}
+
+/// A calibration on a heating leg alone (−26 → 62 °C) and a cool-down held out of another run of
+/// the same gyro, which hides a hysteresis: the σ carries the leg the training did not hold,
+/// assumed as large as the training data's own out-of-sample error, and covers the cooling leg's
+/// 60 s means; without that term it covers under half of them.
+#[test]
+fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, held) = (at(dir.path(), "r1.csv"), at(dir.path(), "r2.csv"));
+    for (seed, out) in [("21", &cal), ("22", &held)] {
+        sim(&[
+            "generate",
+            "stream",
+            "--design",
+            "ramps",
+            "--seed",
+            seed,
+            "--effect",
+            "hysteresis",
+            "--out",
+            out,
+        ])
+        .unwrap();
+    }
+    let (blob, fit) = (at(dir.path(), "leg.bin"), at(dir.path(), "fit.json"));
+    trainer(&[
+        "fit",
+        "--stream",
+        &cal,
+        "--window",
+        "15900:26700",
+        "--features",
+        "auto",
+        "--out",
+        &blob,
+        "--json",
+        &fit,
+        "-q",
+    ])
+    .unwrap();
+    let calibration = &json(&fit)["calibration"];
+    assert!(
+        calibration["legs_trained"][0].as_f64().unwrap() > 0.0,
+        "{calibration}"
+    );
+    assert!(
+        calibration["assumed"]
+            .as_array()
+            .unwrap()
+            .contains(&serde_json::json!("leg")),
+        "{calibration}"
+    );
+    let cooling = |model: &str, name: &str| {
+        let out = at(dir.path(), name);
+        sim(&[
+            "replay",
+            "--model",
+            model,
+            "--stream",
+            &held,
+            "--exclude",
+            ":29400",
+            "--exclude",
+            "40200:",
+            "--json",
+            &out,
+            "-q",
+        ])
+        .unwrap();
+        json(&out)["sigma_60s"]["within_2sigma"].as_f64().unwrap()
+    };
+    let with_leg = cooling(&blob, "r.json");
+    assert!((0.85..=0.99).contains(&with_leg), "{with_leg}");
+    let mut bytes = std::fs::read(&blob).unwrap();
+    let fw = firmware_sim::replay::decode(&bytes).unwrap();
+    let without = firmware_core::ErrorModel {
+        leg_var: 0.0,
+        ..fw.error_model()
+    };
+    firmware_core::blob::set_error_model(&mut bytes, &without).unwrap();
+    let bare = at(dir.path(), "bare.bin");
+    std::fs::write(&bare, &bytes).unwrap();
+    assert!(cooling(&bare, "b.json") < 0.5);
+}
