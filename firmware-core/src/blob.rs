@@ -158,7 +158,7 @@ impl Feature {
 /// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)², and
 /// l(s) the distance of the state s ∈ [−1, 1] ([`crate::features::FeatureState::leg`]: +1 after
 /// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
-/// swing 2: 1 on a cooling leg after a heating-only calibration.
+/// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ErrorModel {

@@ -287,20 +287,22 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
         .map_err(after(dims.floats() + ErrorModel::NUMBERS))?;
     // The trained range lies within the limits: the data were readings. The evaluator relies on
     // it, checking the limits only beyond the trained range (and at every reading of an input
-    // only linear terms read, whose range, a bias model's output's, may be unbounded).
-    let within = read
-        .features
-        .iter()
-        .zip(domains.mins.iter().zip(&domains.maxs))
-        .zip(&domains.linear)
-        .filter(|(_, linear)| !**linear)
-        .all(|((f, (&lo, &hi)), _)| match f {
-            Feature::Temperature | Feature::CoilTemperature { .. } => {
-                read.limits.temperature_ok(lo) && read.limits.temperature_ok(hi)
-            }
-            Feature::Voltage => read.limits.output_ok(lo) && read.limits.output_ok(hi),
-            _ => true,
-        });
+    // only linear terms read, whose range, a bias model's output's, may be unbounded). A blob
+    // before format 6 states no limits: its trained range is what it held, and is kept.
+    let within = version < blob::FORMAT_VERSION
+        || read
+            .features
+            .iter()
+            .zip(domains.mins.iter().zip(&domains.maxs))
+            .zip(&domains.linear)
+            .filter(|(_, linear)| !**linear)
+            .all(|((f, (&lo, &hi)), _)| match f {
+                Feature::Temperature | Feature::CoilTemperature { .. } => {
+                    read.limits.temperature_ok(lo) && read.limits.temperature_ok(hi)
+                }
+                Feature::Voltage => read.limits.output_ok(lo) && read.limits.output_ok(hi),
+                _ => true,
+            });
     if !within {
         return Err(BlobError::InvalidParameter);
     }
@@ -431,7 +433,7 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.limits
     }
 
-    /// What the mean does beyond the trained range ([`Beyond::Tangent`] for blobs before format
+    /// What the mean does beyond the trained range ([`Beyond::Follow`] for blobs before format
     /// 6).
     pub fn beyond(&self) -> Beyond {
         self.beyond
@@ -477,7 +479,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     /// [`Self::compensate`]'s mean and status alone, the cheap path (no variance), with e(x)²:
     /// how far the inputs lie beyond the trained range, squared, in length scales (what the
     /// model error's extrapolation term scales; 0 inside the range). The mean and status are
-    /// those `compensate` returns for the same sample and state.
+    /// those `compensate` returns for the same sample and state (but for a blob of absurd numbers
+    /// whose variance overflows, which `compensate` calls a `Fault`).
     pub fn compensate_mean(&self, sample: &Sample, state: &mut FeatureState) -> (Mean, f32) {
         let mut x = [0.0f32; D];
         let health = features::compute(&self.features, sample, state, &mut x);

@@ -126,17 +126,18 @@ typedef enum FogResult {
 typedef enum FogStatus {
   // Inputs inside the trained range.
   FOG_VALID = 0,
-  // An input outside the trained range: usable, flag it. The mean is the model's with every
-  // input the kernel reads held at its trained range's edge, except the gyro output (its scale
-  // factor) and the time since power-on, whose linear terms follow them, as does an input only
-  // linear terms read (as PX4 and ArduPilot clip the temperature); the bias variance grows
-  // with the distance beyond the range.
+  // An input outside the trained range: usable, flag it. The mean follows the blob's rule
+  // beyond the range (hold: the model held at the range's edge, as PX4 and ArduPilot clip the
+  // temperature, its pure linear terms in the output and the time since power-on following
+  // them; tangent: held, the prior mean continued along its tangent; follow: the GP's own
+  // prediction, as every blob before format 6); the bias variance grows with the distance.
   FOG_EXTRAPOLATING = 1,
   // A stateful input's history is not to be trusted (time jump, stuck sensor): settling.
   FOG_DEGRADED = 2,
-  // A reading that cannot be true, and only that: NaN or infinite, a temperature outside the
-  // sensor's rated range (the blob's limits, by default −55…125 °C), an output beyond its
-  // full scale. The mean is 0: do not use it.
+  // A reading that cannot be true: NaN or infinite, a temperature outside the sensor's rated
+  // range (the blob's limits, by default −55…125 °C; −100…200 °C whatever they say), an output
+  // beyond its full scale; or a blob whose numbers make the mean or variance overflow. The
+  // mean is 0: do not use it.
   FOG_FAULT = 3,
   // Not a status: holds the enum to 32 bits whatever the C compiler's enum size.
   FOG_STATUS_WIDTH = 2147483647,

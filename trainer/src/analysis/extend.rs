@@ -117,6 +117,9 @@ pub struct Extended {
     pub blob: Vec<u8>,
     /// How its f32 evaluation follows the host ([`export::verify`]).
     pub agreement: AgreementReport,
+    /// The GP the blob holds (the static one, or refitted to the state's offsets), to check the
+    /// blob again once its rule beyond the trained range is written.
+    pub model: GpModel,
 }
 
 /// Fits the inputs for `causes` on `stream`'s residual under the static GP `model` fitted on
@@ -235,6 +238,7 @@ pub fn fit(
         },
         blob,
         agreement,
+        model,
     })
 }
 

@@ -38,8 +38,8 @@
 //! 30-minute warm-up has no forward split), the floor is the GP's own noise level on its points
 //! inflated by the small-sample factor at the fewest degrees of freedom; where no residual lies
 //! beyond the temperatures fitted, the extrapolation term is what the model itself changes over
-//! one trained width of its temperature (the firmware holds the temperature at the range's edge
-//! beyond it, so that change is what it misses per width): its temperature slope at the points it
+//! one trained width of its temperature (held at the range's edge beyond it, the firmware misses
+//! that change per width; continued, it misses what the curve does besides): its temperature slope at the points it
 //! was fitted on, as an RMS, times the width. (Where its data are: along the temperature at inputs
 //! no point is near, a (T, V) model fitted on a warm-up's shuffled rates is unconstrained; and
 //! the kernel's own expected change is no measure either, its signal variance holding the whole
@@ -257,8 +257,8 @@ pub struct Calibration {
     /// The heating/cooling states the training stream held (0.5 % quantiles; `None`: not known,
     /// as for a rate table's soaks, and no leg term).
     pub legs_trained: Option<(f32, f32)>,
-    /// The model error on the leg the training stream did not hold, output units (0 where it
-    /// held both).
+    /// The model error of a full swing of the heating/cooling state beyond those trained, output
+    /// units (0 where the training stream held both legs).
     pub leg_std: f64,
 }
 
@@ -388,11 +388,11 @@ impl Calibration {
     }
 
     /// States the heating/cooling states the training stream held (`states`, each sample's, as
-    /// the firmware tracks them: [`legs`]). Where they are one leg's only, the other leg's model
-    /// error is assumed as large as the model's out-of-sample error on its own (the RMS of the
-    /// residuals of the training data, or the floor where there are none: an unseen leg misses
-    /// again what the model misses on the one it saw), said in `assumed`; the firmware adds it on
-    /// a state beyond those trained.
+    /// the firmware tracks them: [`legs`]). Where they are one leg's only, the error of a full
+    /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
+    /// saw (the RMS of the residuals of the training data, or the floor where there are none),
+    /// said in `assumed`; the firmware adds it in proportion to how far a state lies beyond the
+    /// trained ones (half of it at a full cooling state after a heating that started at rest).
     pub fn set_legs(&mut self, states: &[f32]) {
         if states.is_empty() {
             return;
@@ -413,6 +413,9 @@ impl Calibration {
         }
         let seen = self.sources.iter().map(|s| s.rmse).fold(0.0, f64::max);
         self.leg_std = seen.max(self.floor_std);
+        // The firmware adds leg_var·l², l the distance beyond the trained states over the full
+        // swing of 2: the error of a whole swing, in proportion to the part of it not trained
+        // (from a training that turned half-way, a full turn misses half as much again).
         self.error_model.leg_var = (self.leg_std * self.leg_std) as f32;
         if !self.assumed.contains(&"leg") {
             self.assumed.push("leg");

@@ -121,7 +121,7 @@ struct ServiceArgs {
     #[arg(long, value_name = "SIGMA")]
     repeatability: Option<f64>,
     /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
-    /// ArduPilot's clip; the scale factor still follows the output), tangent (the prior mean
+    /// ArduPilot's clip; its linear terms in the output still follow it), tangent (the prior mean
     /// continued along its tangent at the edge), follow (the GP's own prediction), or auto (the
     /// rule that predicts the training points beyond their inner part best, hold where too few
     /// tell: docs/uncertainty.md). The σ grows with the distance under each.
@@ -156,11 +156,17 @@ fn parse_rated(text: &str) -> Result<(f32, f32), String> {
             .ok_or_else(|| format!("'{v}' is not a temperature in °C"))
     };
     let (lo, hi) = (num(lo)?, num(hi)?);
-    if lo < hi {
-        Ok((lo, hi))
-    } else {
-        Err(format!("'{text}': LO must be below HI"))
+    if lo >= hi {
+        return Err(format!("'{text}': LO must be below HI"));
     }
+    // The feature pipeline refuses a reading beyond these whatever a blob says.
+    if lo < -100.0 || hi > 200.0 {
+        return Err(format!(
+            "'{text}': a rated range lies within −100…200 °C, beyond which no temperature \
+             sensor's reading is taken as one"
+        ));
+    }
+    Ok((lo, hi))
 }
 
 impl ServiceArgs {
@@ -790,23 +796,23 @@ impl FitPlan {
             )?,
             _ => None,
         };
-        let (mut blob, mut agreement, mut calibration) = match shipped {
+        let (mut blob, mut calibration, exported_from) = match shipped {
             Some(s) => s,
             None => (
                 static_blob.clone(),
-                agreement,
                 uncertainty::table_calibration(&points, &model)?,
+                None,
             ),
         };
-        let blob_is_static = blob == static_blob;
         let beyond = self.service.beyond(&points, &gp);
         console.result(&format!("beyond the trained range: {}", beyond.verdict));
         blob = self.service.apply(&blob, &mut calibration, beyond.rule)?;
         summary.beyond = Some(beyond);
-        if blob_is_static {
-            // The agreement of the blob as written, with its error model.
-            agreement = export::verify(&model, &blob, &points, &extension)?.1;
-        }
+        // The agreement of the blob as written: its error model and its rule beyond the range.
+        let (checked_model, checked_extension) = exported_from
+            .as_ref()
+            .map_or((&model, &extension), |(m, e)| (m, e));
+        let agreement = export::verify(checked_model, &blob, &points, checked_extension)?.1;
         console.result(&format!(
             "the blob's {}",
             calibration.describe(points.quantity.unit())
@@ -963,7 +969,7 @@ impl FitPlan {
         static_blob: &[u8],
         summary: &mut FitReport,
         console: &Console,
-    ) -> anyhow::Result<Option<(Vec<u8>, AgreementReport, Calibration)>> {
+    ) -> anyhow::Result<Option<(Vec<u8>, Calibration, Option<(GpModel, Extension)>)>> {
         let rebuild = |part: &Stream| self.input.static_points(&[(path, part.clone())], self.pool);
         let choice = match &self.extend {
             Extend::Stream(asked) => {
@@ -997,7 +1003,7 @@ impl FitPlan {
             None => (investigate::Shipped::Static, None),
         };
         let mut blob = static_blob.to_vec();
-        let mut agreement = summary.firmware_agreement;
+        let mut exported_from = None;
         if let Some(choice) = &choice {
             summary.stream_choice = Some(StreamChoice {
                 diagnosis: choice.diagnosis.clone(),
@@ -1011,7 +1017,8 @@ impl FitPlan {
             {
                 let fitted = extended.fitted.clone();
                 blob = extended.blob.clone();
-                agreement = extended.agreement;
+                summary.firmware_agreement = extended.agreement;
+                exported_from = Some((extended.model.clone(), fitted.extension.clone()));
                 let ext = firmware_sim::replay::decode(&blob)?;
                 console.result(&format!(
                     "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} {}",
@@ -1035,7 +1042,7 @@ impl FitPlan {
         };
         let calibration =
             investigate::calibrate(points, model, static_blob, &blob, kind, data, splits)?;
-        Ok(Some((blob, agreement, calibration)))
+        Ok(Some((blob, calibration, exported_from)))
     }
 }
 

@@ -551,7 +551,10 @@ pub fn agreement(
         let (at, past) = held_at_range(model, &exact, &features[..d0], beyond);
         let mut host = model.predict(&at);
         host.mean += past;
-        let v = output.and_then(|k| at.get(k)).copied().unwrap_or(0.0);
+        // The extension's scale-factor terms read the output as the prior mean does: held at the
+        // edge under `Hold`, as it is under `Tangent` (their tangent is exact) and `Follow`.
+        let read = if beyond == Beyond::Hold { &at } else { &exact };
+        let v = output.and_then(|k| read.get(k)).copied().unwrap_or(0.0);
         host.mean += extension.offset
             + extension
                 .terms
