@@ -515,3 +515,81 @@ fn flags_that_would_be_ignored_are_refused_and_a_test_that_cannot_run_is_skipped
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("leave-one-out RMSE"));
 }
+
+/// What a reading that cannot be true is, as `fit` is told: a rated range the training data
+/// leave is refused before a blob is written, one outside −100…200 °C is no range, and a range
+/// that holds the data ships in the blob, which then faults only beyond it.
+#[test]
+fn the_sensors_limits_are_checked_against_the_data_and_written_into_the_blob() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let out = trainer(
+        &[
+            "fit",
+            "--points",
+            "p.csv",
+            "--rated-temp",
+            "-20:85",
+            "--out",
+            "m.bin",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("beyond the sensor's limits"), "{err}");
+    assert!(!dir.path().join("m.bin").exists());
+    for bad in ["-300:85", "85:-40", "cold:hot"] {
+        let out = trainer(
+            &[
+                "fit",
+                "--points",
+                "p.csv",
+                "--rated-temp",
+                bad,
+                "--out",
+                "m.bin",
+            ],
+            dir.path(),
+        );
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+    }
+    let out = trainer(
+        &[
+            "fit",
+            "--points",
+            "p.csv",
+            "--rated-temp",
+            "-40:85",
+            "--full-scale",
+            "5",
+            "--beyond",
+            "hold",
+            "--out",
+            "m.bin",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let blob = std::fs::read(dir.path().join("m.bin")).unwrap();
+    let model = firmware_sim::replay::decode(&blob).unwrap();
+    let limits = model.limits();
+    assert_eq!(
+        (limits.temp_min_c, limits.temp_max_c, limits.full_scale),
+        (-40.0, 85.0, 5.0)
+    );
+    assert_eq!(model.beyond(), firmware_core::Beyond::Hold);
+    let mut scratch = vec![0.0f32; model.dims().m];
+    let at = |t: f32, scratch: &mut [f32]| model.predict(&[t, 0.4], scratch).unwrap().status;
+    assert_eq!(
+        at(-38.0, &mut scratch),
+        firmware_core::Status::Extrapolating
+    );
+    assert_eq!(at(-41.0, &mut scratch), firmware_core::Status::Fault);
+}

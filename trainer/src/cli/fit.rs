@@ -109,7 +109,7 @@ struct ServiceArgs {
     /// The temperature sensor's rated range, °C (LO:HI; default −55:125): a reading beyond it is a
     /// fault. Any reading inside it is compensated, beyond the trained range too (held at its
     /// edge, σ grown with the distance).
-    #[arg(long, value_name = "LO:HI", value_parser = parse_rated)]
+    #[arg(long, value_name = "LO:HI", value_parser = parse_rated, allow_hyphen_values = true)]
     rated_temp: Option<(f32, f32)>,
     /// The output's full scale, in the output's own units (volts, counts, °/s): an output beyond
     /// ± it is a fault (default: none, any finite output is a reading). One channel only.
