@@ -272,13 +272,19 @@ impl ErrorModel {
         ((self.leg_min - leg).max(leg - self.leg_max).max(0.0) * 0.5).min(1.0)
     }
 
-    /// The model error at `excess2` (e(x)², trained widths²), `hours` since power-on and
-    /// heating/cooling state `leg` (`None`: one the calibration held, no leg term).
-    pub fn model_error(&self, excess2: f32, hours: f32, leg: Option<f32>) -> f32 {
-        let h = hours.max(0.0);
-        let l = leg.map_or(0.0, |s| self.leg_excess(s));
+    /// The model error at `excess2` (e(x)², trained widths²) in the conditions `at`: hours since
+    /// power-on, heating/cooling state (`None`: one the calibration held, no leg term), and
+    /// whether another power-on's bias applies.
+    pub fn model_error(&self, excess2: f32, at: crate::model::Conditions) -> f32 {
+        let h = at.hours.max(0.0);
+        let l = at.leg.map_or(0.0, |s| self.leg_excess(s));
+        let turn_on = if at.another_power_on {
+            self.turn_on_var
+        } else {
+            0.0
+        };
         self.floor_var
-            + self.turn_on_var
+            + turn_on
             + self.extrapolation_var * excess2
             + self.walk_var_per_h * h
             + self.trend_var_per_h2 * h * h

@@ -122,6 +122,8 @@ pub struct FeatureState {
     filters: [f32; MAX_FEATURES],
     /// The heating/cooling play's position, °C ([`FeatureState::leg`]).
     play: f32,
+    /// The samples are of the calibration's own power-on ([`FeatureState::calibration_run`]).
+    calibration_run: bool,
 }
 
 impl FeatureState {
@@ -136,6 +138,21 @@ impl FeatureState {
     /// On a state that has seen no sample, as [`Self::reset`].
     pub fn power_on(&mut self) {
         self.powered_off = self.times.is_some();
+        self.calibration_run = false;
+    }
+
+    /// The samples to come are of the power-on the model was calibrated on (its held-out part,
+    /// on the rig): its turn-on bias is in the model, so the model error leaves out the term for
+    /// another power-on's ([`crate::blob::ErrorModel::turn_on_var`]) until the next power-on or
+    /// reset. In service every power-on is another, and nothing calls this.
+    pub fn calibration_run(&mut self) {
+        self.calibration_run = true;
+    }
+
+    /// Whether the last sample was of the calibration's own power-on
+    /// ([`Self::calibration_run`]).
+    pub fn in_calibration_run(&self) -> bool {
+        self.calibration_run
     }
 
     /// Time since power-on of the last sample computed, s (0 before the first): what the model

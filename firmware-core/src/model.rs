@@ -529,12 +529,19 @@ pub struct Conditions {
     /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
     /// held (no leg term).
     pub leg: Option<f32>,
+    /// Whether another power-on's bias applies (the turn-on term): always in service; not on
+    /// the calibration's own power-on ([`FeatureState::calibration_run`]).
+    pub another_power_on: bool,
 }
 
 impl Conditions {
     /// `hours` after power-on, on a heating/cooling state the calibration held.
     pub const fn at_hours(hours: f32) -> Self {
-        Self { hours, leg: None }
+        Self {
+            hours,
+            leg: None,
+            another_power_on: true,
+        }
     }
 
     /// Those of the sample a feature state has just computed.
@@ -542,6 +549,7 @@ impl Conditions {
         Self {
             hours: (state.time_on_s() / SECONDS_PER_HOUR) as f32,
             leg: Some(state.leg()),
+            another_power_on: !state.in_calibration_run(),
         }
     }
 }
@@ -956,8 +964,7 @@ impl<const D: usize> Evaluator<'_, D> {
             }
             rest.add(-(vi * vi));
         }
-        let bias_variance =
-            signal * rest.total().max(0.0) + self.error.model_error(excess2, at.hours, at.leg);
+        let bias_variance = signal * rest.total().max(0.0) + self.error.model_error(excess2, at);
         if !bias_variance.is_finite() {
             // Absurd but finite numbers in a blob (the mutated-blob test), as a mean that is not
             // finite.
@@ -1031,8 +1038,41 @@ mod tests {
         let at = Conditions {
             hours: 0.0,
             leg: Some(0.0),
+            another_power_on: true,
         };
         assert_eq!(p, m.predict_in(&[12.5, 0.4], at, &mut scratch).unwrap());
+    }
+
+    #[test]
+    fn the_calibrations_own_power_on_leaves_out_another_ones_bias() {
+        let r = Reference::small();
+        let m = Small::decode(&r.blob()).unwrap();
+        let mut scratch = [0.0f32; 5];
+        let sample = Sample {
+            time_s: 10.0,
+            temp_c: 12.5,
+            output: 0.4,
+        };
+        let (mut service, mut own) = (FeatureState::default(), FeatureState::default());
+        own.calibration_run();
+        let a = m.compensate(&sample, &mut service, &mut scratch).unwrap();
+        let b = m.compensate(&sample, &mut own, &mut scratch).unwrap();
+        assert_eq!(a.mean, b.mean);
+        let gap = a.bias_variance - b.bias_variance;
+        let expected = r.error.turn_on_var;
+        assert!((gap - expected).abs() < 1e-3 * expected, "{gap} {expected}");
+        // After a power cycle every power-on is another.
+        own.power_on();
+        assert!(!own.in_calibration_run());
+        let later = Sample {
+            time_s: 500.0,
+            ..sample
+        };
+        let c = m.compensate(&later, &mut own, &mut scratch).unwrap();
+        assert!(
+            (c.bias_variance - a.bias_variance).abs() < 1e-3 * expected,
+            "{c:?} {a:?}"
+        );
     }
 
     #[test]
@@ -1185,8 +1225,16 @@ mod tests {
         let m = Small::decode(&r.blob()).unwrap();
         let mut scratch = [0.0f32; 5];
         let mut at = |leg| {
-            m.predict_in(&[20.0, 0.5], Conditions { hours: 1.0, leg }, &mut scratch)
-                .unwrap()
+            m.predict_in(
+                &[20.0, 0.5],
+                Conditions {
+                    hours: 1.0,
+                    leg,
+                    another_power_on: true,
+                },
+                &mut scratch,
+            )
+            .unwrap()
         };
         // Trained on states 0.5…1 (heating): a full cooling state is 1.5 of the swing of 2 away.
         let trained = at(None);

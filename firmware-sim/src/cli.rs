@@ -48,6 +48,11 @@ enum Command {
         /// Scores as JSON: n, rmse_dps, rmse_60s_dps, max_abs_err_dps, coverage_2sigma, ….
         #[arg(long)]
         json: Option<PathBuf>,
+        /// The stream is the power-on the model was calibrated on (its held-out part): the σ
+        /// leaves out another power-on's bias (the blob's turn-on term), up to the stream's first
+        /// power cycle. Without it, every sample is scored as in service, on another power-on.
+        #[arg(long)]
+        calibration_run: bool,
     },
     /// Replay a stream on the Cortex-M4F build of the firmware under qemu-system-arm, compare with
     /// the host replay, and measure instructions per prediction.
@@ -576,7 +581,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             }
         }
-        Command::Replay { input, out, json } => replay_command(&input, out, json, flags),
+        Command::Replay {
+            input,
+            out,
+            json,
+            calibration_run,
+        } => replay_command(&input, (out, json), calibration_run, flags),
         Command::Qemu {
             input,
             out,
@@ -590,14 +600,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// (each channel's, for a unit).
 fn replay_command(
     input: &ReplayInput,
-    out: Option<PathBuf>,
-    json: Option<PathBuf>,
+    (out, json): (Option<PathBuf>, Option<PathBuf>),
+    calibration_run: bool,
     flags: ConsoleFlags,
 ) -> anyhow::Result<()> {
     let console = Console::new(flags, json.as_deref());
     let loaded = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
     let streams = loaded.streams();
-    let comps = replay::replay_unit(&loaded.unit, &streams);
+    let comps = replay::replay_unit(&loaded.unit, &streams, calibration_run);
     if loaded.per_channel {
         let scores = replay::unit_scores(&loaded.unit, &streams, &comps);
         if let Some(path) = out {
@@ -681,7 +691,7 @@ fn qemu_command(
     spinner.set_message(format!("running {n} samples on the Cortex-M4 under QEMU"));
     let m4 = qemu::run(&image, &loaded.blob, &streams)?;
     spinner.set_message("host replay, for the comparison");
-    let host = replay::replay_unit(&loaded.unit, &streams);
+    let host = replay::replay_unit(&loaded.unit, &streams, false);
     spinner.finish_and_clear();
     let agreements: Vec<qemu::Agreement> = host
         .iter()

@@ -192,8 +192,13 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
 /// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
 /// their time and temperature: [`crate::data::channels::Channels::load_log`]) through the unit in
 /// one call each, its one feature state kept through the power cycles as [`replay`] keeps a
-/// model's; one replay per channel.
-pub fn replay_unit(unit: &HostUnit, streams: &[&Stream]) -> Vec<Compensated> {
+/// model's; one replay per channel. With `calibration_run`, the stream up to its first power
+/// cycle is of the power-on the model was calibrated on ([`FeatureState::calibration_run`]).
+pub fn replay_unit(
+    unit: &HostUnit,
+    streams: &[&Stream],
+    calibration_run: bool,
+) -> Vec<Compensated> {
     let c = unit.channels().len();
     let mut out: Vec<Compensated> = unit
         .channels()
@@ -208,6 +213,9 @@ pub fn replay_unit(unit: &HostUnit, streams: &[&Stream]) -> Vec<Compensated> {
     };
     let mut scratch = vec![0.0f32; unit.scratch_len()];
     let mut state = FeatureState::default();
+    if calibration_run {
+        state.calibration_run();
+    }
     let fault = Prediction {
         mean: 0.0,
         bias_variance: f32::INFINITY,

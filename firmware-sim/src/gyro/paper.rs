@@ -58,6 +58,7 @@ pub fn run(
     let mut noise = Noise::new(params, seed);
     let mut points = Vec::new();
     let mut plant = EffectPlant::new(effect, AMBIENT_C);
+    let turn_on = params.turn_on_bias_dps(seed, 0);
     let mut previous = AMBIENT_C;
     for &setpoint in &TEMPERATURES_C {
         noise.advance(params, SOAK_S);
@@ -65,11 +66,25 @@ pub fn run(
         previous = setpoint;
         let mut t_on = SOAK_S;
         for &table_rate in &RATES_DPS {
-            let position = average(params, &mut noise, &plant, setpoint, 0.0, &mut t_on);
+            let position = average(
+                params,
+                &mut noise,
+                &plant,
+                (setpoint, 0.0),
+                turn_on,
+                &mut t_on,
+            );
             if position_tests {
                 points.push(position);
             }
-            let point = average(params, &mut noise, &plant, setpoint, table_rate, &mut t_on);
+            let point = average(
+                params,
+                &mut noise,
+                &plant,
+                (setpoint, table_rate),
+                turn_on,
+                &mut t_on,
+            );
             points.push(point);
         }
     }
@@ -77,13 +92,14 @@ pub fn run(
 }
 
 /// One point at a soaked `setpoint`: the mean of 2 min of samples with the table turning at
-/// `table_rate`, the gyro on for `t_on` s (advanced by the samples taken).
+/// `table_rate`, the gyro on for `t_on` s (advanced by the samples taken) with the power-on's
+/// constant bias `turn_on`, °/s.
 fn average(
     params: &GyroParams,
     noise: &mut Noise,
     plant: &EffectPlant,
-    setpoint: f64,
-    table_rate: f64,
+    (setpoint, table_rate): (f64, f64),
+    turn_on: f64,
     t_on: &mut f64,
 ) -> Point {
     // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
@@ -91,7 +107,13 @@ fn average(
     let rate = table_rate + params.earth_rate_dps();
     let (mut t, mut v) = (0.0, 0.0);
     for _ in 0..SAMPLES_PER_POINT {
-        let s = noise.sample(params, t_gyro, t_gyro, rate, plant.bias_dps(*t_on));
+        let s = noise.sample(
+            params,
+            t_gyro,
+            t_gyro,
+            rate,
+            plant.bias_dps(*t_on) + turn_on,
+        );
         *t_on += 1.0;
         t += s.temp_c;
         v += s.voltage_v;
@@ -122,6 +144,7 @@ pub fn scattered(
     let mut noise = Noise::new(params, seed);
     let mut plant = EffectPlant::new(effect, AMBIENT_C);
     let mut previous = AMBIENT_C;
+    let turn_on = params.turn_on_bias_dps(seed, 0);
     let ([t_lo, t_hi], w_max) = SCATTER_RANGE;
     (0..n)
         .map(|_| {
@@ -130,9 +153,8 @@ pub fn scattered(
             noise.advance(params, SOAK_S);
             plant.soak(setpoint + params.self_heating_c, setpoint > previous);
             previous = setpoint;
-            average(params, &mut noise, &plant, setpoint, table_rate, &mut {
-                SOAK_S
-            })
+            let point = (setpoint, table_rate);
+            average(params, &mut noise, &plant, point, turn_on, &mut { SOAK_S })
         })
         .collect()
 }

@@ -65,6 +65,11 @@ pub struct GyroParams {
     pub self_heating_c: f64,
     /// Site latitude, degrees (input axis vertical).
     pub latitude_deg: f64,
+    /// Turn-on bias repeatability, °/h (1σ): each power-on adds a constant bias drawn anew, which
+    /// no calibration of one power-on can see. Zero in the nominal and random units, so that
+    /// their published figures hold; a unit file sets it (a tactical FOG: a few °/h).
+    #[serde(default)]
+    pub turn_on_bias_dph: f64,
 }
 
 impl GyroParams {
@@ -90,6 +95,7 @@ impl GyroParams {
             temp_noise_c: 0.05,
             self_heating_c: 4.0,
             latitude_deg: 45.0,
+            turn_on_bias_dph: 0.0,
         }
     }
 
@@ -118,7 +124,20 @@ impl GyroParams {
             temp_noise_c: draw(0.02, 0.1),
             self_heating_c: draw(1.0, 8.0),
             latitude_deg: draw(30.0, 60.0),
+            turn_on_bias_dph: 0.0,
         }
+    }
+
+    /// The constant bias of power-on number `power_on` (from 0) of a run with noise `seed`, °/s:
+    /// [`Self::turn_on_bias_dph`] times a standard normal draw of its own, so that the rest of
+    /// the run's noise is the same whatever the repeatability.
+    pub fn turn_on_bias_dps(&self, seed: u64, power_on: u64) -> f64 {
+        if self.turn_on_bias_dph == 0.0 {
+            return 0.0;
+        }
+        let key = seed ^ 0x7475_726e_5f6f_6e00 ^ power_on.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let z: f64 = StandardNormal.sample(&mut ChaCha8Rng::seed_from_u64(key));
+        z * self.turn_on_bias_dph / SECONDS_PER_HOUR
     }
 
     /// Vertical earth rate at the site, °/s.

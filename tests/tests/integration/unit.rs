@@ -157,7 +157,7 @@ fn the_unit_blob_runs_bit_for_bit_on_the_m4_and_from_c_at_most_the_cost_of_its_c
     let unit = replay::decode_unit(blob).unwrap();
     let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
     let streams = replay::in_unit_order(&unit, &names, &all).unwrap();
-    let host = replay::replay_unit(&unit, &streams);
+    let host = replay::replay_unit(&unit, &streams, false);
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let m4 = qemu::run(&image, blob, &streams).unwrap();
     let c = c_replay::run(&c_replay::build().unwrap(), blob, &streams).unwrap();

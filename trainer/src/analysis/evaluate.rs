@@ -175,10 +175,15 @@ impl Fitted {
     }
 
     /// The σ a GP's blob would state, measured on the points it was fitted on
-    /// ([`uncertainty::table_calibration`]); none for the methods that state no σ.
-    pub fn calibration(&self, points: &Points) -> Result<Option<Calibration>, EvalError> {
+    /// ([`uncertainty::pooled_calibration`]: several runs pooled each left out); none for the
+    /// methods that state no σ.
+    pub fn calibration(
+        &self,
+        points: &Points,
+        cfg: &EvalConfig,
+    ) -> Result<Option<Calibration>, EvalError> {
         match self {
-            Self::Gpr(m) => Ok(Some(uncertainty::table_calibration(points, m)?)),
+            Self::Gpr(m) => Ok(Some(uncertainty::pooled_calibration(points, m, &cfg.gp)?)),
             _ => Ok(None),
         }
     }
@@ -492,7 +497,7 @@ pub fn evaluate(
     let left_out = leave_groups_out(points, bar, |keep, members| {
         let train = points.select(keep);
         let m = Fitted::fit(&train, method, cfg)?;
-        let calibration = m.calibration(&train)?;
+        let calibration = m.calibration(&train, cfg)?;
         Ok(members
             .iter()
             .map(|&i| m.predict_with_sigma(points, i, calibration.as_ref()))
@@ -501,7 +506,7 @@ pub fn evaluate(
     Ok(Evaluation {
         parameters: Some(fitted.parameters()),
         warnings: fitted.warnings(),
-        calibration: fitted.calibration(points)?,
+        calibration: fitted.calibration(points, cfg)?,
         ..Evaluation::from_errors(method.name(), errors, left_out, [fit_seconds, loo_seconds])
     })
 }
@@ -643,7 +648,7 @@ pub fn cross_run(
         method.name()
     ));
     let m = Fitted::fit(train, method, cfg)?;
-    let calibration = m.calibration(train)?;
+    let calibration = m.calibration(train, cfg)?;
     bar.inc(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
         .iter()

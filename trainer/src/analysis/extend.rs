@@ -58,8 +58,8 @@ pub enum ExtendError {
     )]
     UnknownFeature(String),
     /// The training stream has too little scored data.
-    #[error("the training stream has {0} scored 60 s blocks; an extension needs at least 30")]
-    TooShort(usize),
+    #[error("the training stream has {0} scored 60 s blocks; an extension needs at least {1}")]
+    TooShort(usize, usize),
     /// A cause whose input does not apply to this model (a lag without a temperature input).
     #[error("{0} does not apply to this model (it has no temperature input)")]
     NotApplicable(Cause),
@@ -143,11 +143,26 @@ pub fn fit(
     stream: &Stream,
     causes: &[Cause],
 ) -> Result<Extended, ExtendError> {
+    fit_on_blocks(model, points, stream, causes, MIN_BLOCKS)
+}
+
+/// Fewest scored 60 s blocks an extension is fitted on.
+pub const MIN_BLOCKS: usize = 30;
+
+/// [`fit`] on a stream of at least `min_blocks` scored 60 s blocks: fewer than [`MIN_BLOCKS`]
+/// only for a check's split, whose fit is scored on the rest and never shipped.
+pub fn fit_on_blocks(
+    model: &GpModel,
+    points: &Points,
+    stream: &Stream,
+    causes: &[Cause],
+    min_blocks: usize,
+) -> Result<Extended, ExtendError> {
     let blob = export::points_blob(model, points, &Extension::default())?;
     let fw = firmware_sim::replay::decode(&blob).map_err(ExportError::Blob)?;
     let res = Residual::new(&fw, stream).fitted_on(model, points);
-    if res.len() < 30 {
-        return Err(ExtendError::TooShort(res.len()));
+    if res.len() < min_blocks {
+        return Err(ExtendError::TooShort(res.len(), min_blocks));
     }
     let mut y = res.r.clone();
     let mut extension = Extension::default();

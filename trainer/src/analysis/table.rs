@@ -560,6 +560,7 @@ mod tests {
                 p.voltage_v.push(v);
                 p.rate_dps.push(w);
                 p.group.push(sweep.to_string());
+                p.run.push(0);
                 if let Some(ts) = p.time_s.as_mut() {
                     ts.push(t);
                 }

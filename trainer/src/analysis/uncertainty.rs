@@ -46,6 +46,7 @@
 //! rate response.) Each assumed term is named in the calibration (`assumed`) and in its one line.
 
 use firmware_core::ErrorModel;
+use firmware_core::model::Conditions;
 use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_sim::data::blocks;
 use firmware_sim::data::stream::Stream;
@@ -58,7 +59,7 @@ use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
-use crate::models::gp::{GpError, GpModel};
+use crate::models::gp::{GpConfig, GpError, GpModel};
 use crate::models::normalize::Sorted;
 use firmware_core::Feature;
 
@@ -84,12 +85,18 @@ const BOTH_LEGS: f32 = 0.5;
 pub enum Source {
     /// A rate table's groups, each left out in turn (closed form, hyperparameters held).
     Groups,
+    /// Runs (power-ons) pooled, each left out in turn (closed form, hyperparameters held): a
+    /// run left out carries its own turn-on bias, which the others cannot know.
+    Runs,
     /// A rate table's points, each left out in turn (closed form).
     Points,
     /// A stream, forward in time: fitted on its earlier part, scored on the later one.
     Forward,
     /// A stream across temperature: fitted inside the middle of its span, scored outside.
     Temperature,
+    /// A stream across its heating/cooling legs: fitted on one, scored on the other (a check of
+    /// an extension; its residuals do not enter the σ).
+    Leg,
     /// A stream the model was not fitted on.
     Stream,
 }
@@ -98,16 +105,21 @@ impl Source {
     /// Whether its residuals are of a run (a stream), as a gyro meets in service, rather than of
     /// a rate table's groups or points.
     pub fn is_run(self) -> bool {
-        matches!(self, Self::Forward | Self::Temperature | Self::Stream)
+        matches!(
+            self,
+            Self::Forward | Self::Temperature | Self::Leg | Self::Stream
+        )
     }
 
     /// In words, for the terminal.
     pub fn describe(self) -> &'static str {
         match self {
             Self::Groups => "from the table's groups left out",
+            Self::Runs => "from the power-ons left out, one at a time",
             Self::Points => "from the table's points left out",
             Self::Forward => "from the training stream forward in time",
             Self::Temperature => "from the training stream beyond the temperatures fitted",
+            Self::Leg => "from the training stream's other heating/cooling leg",
             Self::Stream => "from the training stream (not fitted on)",
         }
     }
@@ -232,7 +244,8 @@ pub struct Calibration {
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
-    /// `--repeatability` (0: not assumed).
+    /// `--repeatability` (0: not stated; where runs left out measured it, it is in the model
+    /// error).
     pub turn_on_std: f64,
     /// Residuals the terms were fitted on.
     pub residuals: usize,
@@ -387,6 +400,12 @@ impl Calibration {
         self.error_model.turn_on_var = (sigma * sigma) as f32;
     }
 
+    /// Whether the residuals came from power-ons left out ([`Source::Runs`]): their model error
+    /// then holds another power-on's bias, measured.
+    pub fn runs_measured(&self) -> bool {
+        self.sources.iter().any(|s| s.source == Source::Runs)
+    }
+
     /// States the heating/cooling states the training stream held (`states`, each sample's, as
     /// the firmware tracks them: [`legs`]). Where they are one leg's only, the error of a full
     /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
@@ -438,7 +457,34 @@ impl Calibration {
         } else {
             String::new()
         };
-        self.describe_terms(units) + &leg
+        let turn_on = if self.turn_on_std > 0.0 {
+            format!(
+                "; another power-on's bias {:.3e} {units} (--repeatability)",
+                self.turn_on_std
+            )
+        } else if self.runs_measured() {
+            "; another power-on's bias is in the model error (measured on the runs left out)"
+                .to_owned()
+        } else {
+            String::new()
+        };
+        self.describe_terms(units) + &leg + &turn_on
+    }
+
+    /// The residuals' sources, counted once each (a leg split either way is one source).
+    fn sources_in_words(&self) -> String {
+        let mut counted: Vec<(Source, usize)> = Vec::new();
+        for s in &self.sources {
+            match counted.iter_mut().find(|(source, _)| *source == s.source) {
+                Some((_, n)) => *n += s.n,
+                None => counted.push((s.source, s.n)),
+            }
+        }
+        counted
+            .iter()
+            .map(|(source, n)| format!("{n} {}", source.describe()))
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     fn describe_terms(&self, units: &str) -> String {
@@ -473,11 +519,7 @@ impl Calibration {
              RMS{assumed}",
             self.residuals,
             self.effective,
-            self.sources
-                .iter()
-                .map(|s| format!("{} {}", s.n, s.source.describe()))
-                .collect::<Vec<_>>()
-                .join(", "),
+            self.sources_in_words(),
             self.floor_std,
             self.extrapolation_std,
             self.walk_std_per_sqrt_h,
@@ -764,6 +806,40 @@ pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration
     ))
 }
 
+/// The σ of a model fitted with `cfg` on `points` of several power-ons pooled: as
+/// [`table_calibration`], but where the GP is sparse (no closed form leaves a run out) each run is
+/// left out by fitting again on the others, so that the model error holds another power-on's
+/// bias ([`Source::Runs`]). One run, or an exact GP: [`table_calibration`].
+pub fn pooled_calibration(
+    points: &Points,
+    model: &GpModel,
+    cfg: &GpConfig,
+) -> Result<Calibration, GpError> {
+    let runs = points.run_members();
+    if runs.len() < 2 || model.sparse.is_none() {
+        return table_calibration(points, model);
+    }
+    let target = points.target();
+    let mut loo = vec![(0.0, 0.0); points.len()];
+    for run in &runs {
+        let rest: Vec<usize> = (0..points.len())
+            .filter(|i| points.run[*i] != points.run[run[0]])
+            .collect();
+        let part = points.select(&rest);
+        let refit = GpModel::fit(part.inputs(), &part.target(), cfg)?;
+        for &i in run {
+            let row: Vec<f64> = points.inputs().row(i).iter().copied().collect();
+            let p = refit.predict(&row);
+            loo[i] = (p.mean - target[i], p.latent_var + p.noise_var);
+        }
+    }
+    Ok(calibrate(
+        &[series_of(points, Source::Runs, &runs, &loo)],
+        table_noise(points, model),
+        Prior::of(model, points),
+    ))
+}
+
 /// A table point's noise: the GP's noise level on the points it was fitted on.
 pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
     SampleNoise {
@@ -772,11 +848,15 @@ pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
     }
 }
 
-/// How a rate table is left out for its residuals: each group in turn where there are two or
-/// more (and the GP is exact), each point otherwise.
+/// How a rate table is left out for its residuals: each run (power-on) in turn where the points
+/// hold two or more, so that the σ carries the bias of another power-on; else each group in turn
+/// where there are two or more; each point otherwise. Groups and runs need the exact GP.
 pub fn table_groups(model: &GpModel, points: &Points) -> (Source, Vec<Vec<usize>>) {
+    let runs = points.run_members();
     let groups: Vec<Vec<usize>> = points.groups().into_iter().map(|(_, g)| g).collect();
-    if groups.len() >= 2 && model.sparse.is_none() {
+    if runs.len() >= 2 && model.sparse.is_none() {
+        (Source::Runs, runs)
+    } else if groups.len() >= 2 && model.sparse.is_none() {
         (Source::Groups, groups)
     } else {
         (Source::Points, (0..points.len()).map(|i| vec![i]).collect())
@@ -829,24 +909,38 @@ pub fn series_of(
 pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
     let p = model.predict(x);
     let e2 = export::excess2(x, &model.input_range);
-    let error = f64::from(calibration.error_model.model_error(e2 as f32, 0.0, None));
+    let error = f64::from(
+        calibration
+            .error_model
+            .model_error(e2 as f32, Conditions::at_hours(0.0)),
+    );
     (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
 }
 
 /// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
 /// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream.
 pub fn legs(stream: &Stream) -> Vec<f32> {
+    leg_states(stream)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, state)| state.filter(|_| stream.rate_dps[i].is_finite()))
+        .collect()
+}
+
+/// The heating/cooling state of every sample of `stream` as the firmware tracks it
+/// (`firmware_core::FeatureState::leg`), the state carried through the whole stream; `None`
+/// where the firmware refuses the sample.
+pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
     let mut state = firmware_core::FeatureState::default();
     (0..stream.len())
-        .filter_map(|i| {
+        .map(|i| {
             let sample = firmware_core::Sample {
                 time_s: stream.time_s[i],
                 temp_c: stream.temp_c[i] as f32,
                 output: 0.0,
             };
             let health = firmware_core::features::compute(&[], &sample, &mut state, &mut []);
-            (health != firmware_core::Status::Fault && stream.rate_dps[i].is_finite())
-                .then(|| state.leg())
+            (health != firmware_core::Status::Fault).then(|| state.leg())
         })
         .collect()
 }

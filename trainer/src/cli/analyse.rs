@@ -101,6 +101,11 @@ pub(super) struct LooArgs {
     /// and rate range both cover.
     #[arg(long)]
     test_points: Option<PathBuf>,
+    /// Another power-on of the same sensor (repeatable), a table with --points' columns: pooled
+    /// with it as one calibration, each run left out in turn (the groups, unless --group), so
+    /// that the σ measures another power-on's bias.
+    #[arg(long = "run", value_name = "POINTS")]
+    runs: Vec<PathBuf>,
     /// Write the evaluation as JSON here (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -417,22 +422,42 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         offsets,
         features,
         test_points,
+        runs,
         json,
     } = args;
-    if features.is_some() && (method != MethodArg::Gpr || test_points.is_some()) {
+    if features.is_some() && (method != MethodArg::Gpr || test_points.is_some() || !runs.is_empty())
+    {
         anyhow::bail!(
-            "--features auto evaluates the GP (--method gpr) on one table; --test-points \
-             is not supported with it"
+            "--features auto evaluates the GP (--method gpr) on one table; --test-points and \
+             --run are not supported with it"
         );
     }
     let console = Console::new(flags, json.as_deref());
-    let points = load_points(
-        &input.points,
-        &input.maps.list,
-        group.as_deref(),
-        None,
-        input.exclude_implausible,
-    )?;
+    let mut points = None;
+    for path in std::iter::once(&input.points).chain(&runs) {
+        let mut run = load_points(
+            path,
+            &input.maps.list,
+            group.as_deref(),
+            None,
+            input.exclude_implausible,
+        )?;
+        if !runs.is_empty() {
+            // Each run its own groups: its file's name, or the --group labels within it.
+            let name = path.display().to_string();
+            for g in &mut run.group {
+                *g = match &group {
+                    Some(_) => format!("{name}: {g}"),
+                    None => name.clone(),
+                };
+            }
+        }
+        points = Some(match points {
+            Some(p) => Points::pooled(p, run)?,
+            None => run,
+        });
+    }
+    let points = points.context("--points is required")?;
     let bar = console.bar(0);
     let mut cfg = EvalConfig {
         gp: fit.gp(),
@@ -495,6 +520,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
     print_loo(&console, &e);
     if let Some(path) = json {
         let mut inputs = vec![input.points.as_path()];
+        inputs.extend(runs.iter().map(PathBuf::as_path));
         inputs.extend(test_points.as_deref());
         let report = LooReport {
             evaluation: &e,

@@ -800,7 +800,7 @@ impl FitPlan {
             Some(s) => s,
             None => (
                 static_blob.clone(),
-                uncertainty::table_calibration(&points, &model)?,
+                uncertainty::pooled_calibration(&points, &model, &gp)?,
                 None,
             ),
         };
@@ -817,10 +817,11 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
-        if self.service.repeatability.is_none() {
+        if self.service.repeatability.is_none() && !calibration.runs_measured() {
             console.result(
-                "skipped: the bias of another power-on (one calibration's data cannot show it; \
-                 --repeatability states a datasheet's run-to-run σ)",
+                "skipped: the bias of another power-on (one power-on's data cannot show it; \
+                 --repeatability states a datasheet's run-to-run σ, several --stream logs of \
+                 one sensor measure it)",
             );
         }
         summary.calibration = Some(calibration);

@@ -249,7 +249,7 @@ fn allan_unit(
             let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
             let ordered = replay::in_unit_order(&unit, &names, &streams)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            let comps = replay::replay_unit(&unit, &ordered);
+            let comps = replay::replay_unit(&unit, &ordered, false);
             // Back in the channels file's order.
             let mut by_name: Vec<Option<Vec<f64>>> = vec![None; channels.len()];
             for (ch, comp) in unit.channels().iter().zip(comps) {

@@ -30,6 +30,9 @@ pub struct Points {
     pub rate_dps: Vec<f64>,
     /// Group of each point (plateau index, or the `--group` column's label), as labels.
     pub group: Vec<String>,
+    /// Power-on (run) of each point, numbered from 0: one per file pooled ([`Points::pooled`]).
+    /// Points of several runs carry what one run cannot show, the bias of another power-on.
+    pub run: Vec<usize>,
     /// Nominal scale factor K (output units per °/s) of a bias model: the GP learns
     /// ω − output/K from temperature alone and the firmware adds output/K back (the form a static
     /// log allows); `None` for the paper's rate model ω = f(T, output).
@@ -265,6 +268,7 @@ impl Points {
         time_s: Option<Vec<f64>>,
     ) -> Self {
         Self {
+            run: vec![0; temp_c.len()],
             temp_c,
             voltage_v,
             rate_dps,
@@ -367,6 +371,7 @@ impl Points {
             });
         }
         let points = Self {
+            run: vec![0; temp_c.len()],
             voltage_v: c.get("voltage_v").to_vec(),
             rate_dps: c.get("rate_dps").to_vec(),
             temp_c,
@@ -403,6 +408,7 @@ impl Points {
             voltage_v: blocks.iter().map(|b| mean(&stream.voltage_v, b)).collect(),
             rate_dps,
             group: (0..blocks.len()).map(|b| (b / 10).to_string()).collect(),
+            run: vec![0; blocks.len()],
             scale_factor,
             soaked: false,
             time_s: None,
@@ -431,6 +437,7 @@ impl Points {
                 .iter()
                 .map(|&i| format!("stream {}", ((stream.time_s[i] - t0) / 600.0).floor()))
                 .collect(),
+            run: vec![0; scored.len()],
             scale_factor,
             soaked: false,
             time_s: None,
@@ -454,7 +461,9 @@ impl Points {
         self.temp_c.extend(other.temp_c);
         self.voltage_v.extend(other.voltage_v);
         self.rate_dps.extend(other.rate_dps);
+        let first = self.runs();
         self.group.extend(other.group);
+        self.run.extend(other.run.iter().map(|r| r + first));
         self.soaked &= other.soaked;
         // Two recordings joined are no longer one time series.
         self.time_s = None;
@@ -534,6 +543,7 @@ impl Points {
             voltage_v: pick(&self.voltage_v),
             rate_dps: pick(&self.rate_dps),
             group: idx.iter().map(|&i| self.group[i].clone()).collect(),
+            run: idx.iter().map(|&i| self.run[i]).collect(),
             scale_factor: self.scale_factor,
             soaked: self.soaked,
             time_s: self.time_s.as_ref().map(|t| pick(t)),
@@ -544,6 +554,21 @@ impl Points {
                 .map(|x| OnceLock::from(x.select_rows(idx)))
                 .unwrap_or_default(),
         }
+    }
+
+    /// How many runs (power-ons) the points come from ([`Points::run`]).
+    pub fn runs(&self) -> usize {
+        self.run.iter().max().map_or(0, |r| r + 1)
+    }
+
+    /// The points of each run that holds any, in run order.
+    pub fn run_members(&self) -> Vec<Vec<usize>> {
+        let mut out = vec![Vec::new(); self.runs()];
+        for (i, &r) in self.run.iter().enumerate() {
+            out[r].push(i);
+        }
+        out.retain(|m| !m.is_empty());
+        out
     }
 
     /// Index of each point's group, numbered in order of first appearance.
@@ -755,6 +780,12 @@ mod tests {
         };
         let p = points(None, true).pooled(points(None, false)).unwrap();
         assert_eq!((p.len(), p.group.len(), p.soaked), (4, 4, false));
+        // Each file pooled is a run of its own, numbered in order, and a selection keeps them.
+        let three = p.pooled(points(None, true)).unwrap();
+        assert_eq!(three.run, [0, 0, 1, 1, 2, 2]);
+        assert_eq!(three.runs(), 3);
+        assert_eq!(three.select(&[1, 4]).run, [0, 2]);
+        assert_eq!(three.run_members(), [vec![0, 1], vec![2, 3], vec![4, 5]]);
         assert!(matches!(
             points(None, true).pooled(points(Some(1.0), true)),
             Err(PointsError::MixedForms)

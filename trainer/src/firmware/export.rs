@@ -9,6 +9,7 @@
 //! doc of firmware-core).
 
 use firmware_core::blob::{self, Beyond, Dims, ErrorModel, Feature, HEADER_LEN, Limits, Payload};
+use firmware_core::model::Conditions;
 use firmware_core::{MAX_CENTRES, MAX_INPUTS};
 use firmware_sim::replay::{self, HostModel};
 use serde::Serialize;
@@ -578,8 +579,12 @@ pub fn agreement(
             .max_abs_mean_diff
             .max((f64::from(fw.mean) - host.mean).abs());
         let e2 = excess2(&exact, &model.input_range);
-        let host_bias =
-            host.latent_var + f64::from(firmware.error_model().model_error(e2 as f32, 0.0, None));
+        let host_bias = host.latent_var
+            + f64::from(
+                firmware
+                    .error_model()
+                    .model_error(e2 as f32, Conditions::at_hours(0.0)),
+            );
         if host_bias > threshold {
             a.n_var += 1;
             let rel = (f64::from(fw.bias_variance) - host_bias).abs() / host_bias;

@@ -54,6 +54,7 @@ fn fig2_finds_the_curvature_of_a_quadratic_temperature_response() {
             p.rate_dps.push(w);
             p.voltage_v.push(0.04 * w + 1e-6 * t * t);
             p.group.push(String::new());
+            p.run.push(0);
         }
     }
     let f = fig2(&p);

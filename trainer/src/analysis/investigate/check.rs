@@ -13,8 +13,8 @@ use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
 
 use super::{
-    EARLIER_MIN_BLOCKS, Forward, ForwardCheck, LATER_MIN_BLOCKS, OUTER_SHARE, Rebuild, Split,
-    TemperatureCheck, forward,
+    EARLIER_MIN_BLOCKS, Forward, ForwardCheck, LATER_MIN_BLOCKS, LEG_MIN_BLOCKS, LegCheck,
+    OUTER_SHARE, Rebuild, Split, TemperatureCheck, forward,
 };
 
 /// The forward check of [`super::choose`] (`None` where the stream is too short for one), and the splits
@@ -57,6 +57,21 @@ pub(super) fn forward_check(
         }
         _ => None,
     };
+    let mut legs = Vec::new();
+    if !causes.is_empty() {
+        for split in splits.iter().filter(|s| s.source == Source::Leg) {
+            let (static_rmse_60s_dps, extended_rmse_60s_dps, sight) = split.scores()?;
+            let (fitted_on, fitted_blocks, scored_blocks) = split.leg.unwrap_or_default();
+            legs.push(LegCheck {
+                fitted_on,
+                fitted_blocks,
+                scored_blocks,
+                static_rmse_60s_dps,
+                extended_rmse_60s_dps,
+                sight,
+            });
+        }
+    }
     let check = ForwardCheck {
         split_s,
         earlier_blocks,
@@ -66,6 +81,7 @@ pub(super) fn forward_check(
         extended_rmse_60s_dps: extended_rmse,
         sight,
         temperature,
+        legs,
     };
     Ok((Some(check), splits))
 }
@@ -90,12 +106,7 @@ pub fn splits(
         ..
     }) = forward(train)
     {
-        let (static_model, static_points) = if points.soaked {
-            (model.clone(), points.clone())
-        } else {
-            let p = rebuild(&early)?;
-            (GpModel::fit(p.inputs(), &p.target(), cfg)?, p)
-        };
+        let (static_model, static_points) = static_on(points, model, &early, cfg, rebuild)?;
         let (static_blob, extended_blob) =
             split_blobs(&static_model, &static_points, &early, causes)?;
         let t0 = train.time_s.first().copied().unwrap_or(0.0);
@@ -108,6 +119,7 @@ pub fn splits(
             scored: later,
             static_blob,
             extended_blob,
+            leg: None,
         });
     }
     if !points.soaked {
@@ -130,10 +142,83 @@ pub fn splits(
                 scored,
                 static_blob,
                 extended_blob,
+                leg: None,
             });
         }
     }
+    out.extend(leg_splits(points, model, train, cfg, causes, rebuild)?);
     Ok(out)
+}
+
+/// The leg splits of [`splits`]: the static model and its extension fitted on the samples of one
+/// heating/cooling leg and scored on the other's, each way the stream holds
+/// [`LEG_MIN_BLOCKS`] blocks of one leg and [`LATER_MIN_BLOCKS`] of the other. A sample
+/// before the temperature first moved is on neither leg. Where the static model is a rate
+/// table's, it is kept and the extension alone is fitted on the leg. None for hysteresis, whose
+/// input, the leg itself, holds one value on one leg: no fit on one leg can see it.
+fn leg_splits(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Vec<Split>> {
+    if causes.contains(&Cause::Hysteresis) {
+        return Ok(Vec::new());
+    }
+    let states = uncertainty::leg_states(train);
+    let mut out = Vec::new();
+    for (name, heating) in [("heating", true), ("cooling", false)] {
+        let (mut fit_on, mut scored) = (train.clone(), train.clone());
+        for (i, state) in states.iter().enumerate() {
+            let side = state.filter(|s| *s != 0.0).map(|s| s > 0.0);
+            if side != Some(heating) {
+                fit_on.rate_dps[i] = f64::NAN;
+            }
+            if side != Some(!heating) {
+                scored.rate_dps[i] = f64::NAN;
+            }
+        }
+        let count = |s: &Stream| blocks::half_filled(s, &s.referenced()).len();
+        let (fitted_blocks, scored_blocks) = (count(&fit_on), count(&scored));
+        if fitted_blocks < LEG_MIN_BLOCKS || scored_blocks < LATER_MIN_BLOCKS {
+            continue;
+        }
+        let (static_model, static_points) = static_on(points, model, &fit_on, cfg, rebuild)?;
+        let (static_blob, extended_blob) = split_blobs_on(
+            &static_model,
+            &static_points,
+            &fit_on,
+            causes,
+            LEG_MIN_BLOCKS,
+        )?;
+        out.push(Split {
+            source: Source::Leg,
+            hours: uncertainty::hours_from(&scored, &fit_on.referenced()),
+            scored,
+            static_blob,
+            extended_blob,
+            leg: Some((name, fitted_blocks, scored_blocks)),
+        });
+    }
+    Ok(out)
+}
+
+/// The static model of a split fitted on `fit_on`: a rate table's as it is, else refitted on the
+/// points `rebuild` makes of `fit_on`.
+fn static_on(
+    points: &Points,
+    model: &GpModel,
+    fit_on: &Stream,
+    cfg: &GpConfig,
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<(GpModel, Points)> {
+    if points.soaked {
+        return Ok((model.clone(), points.clone()));
+    }
+    let p = rebuild(fit_on)?;
+    Ok((GpModel::fit(p.inputs(), &p.target(), cfg)?, p))
 }
 
 /// The blobs of a static model fitted on `points` and of its extension by `causes` fitted on
@@ -144,11 +229,22 @@ pub(super) fn split_blobs(
     fit_on: &Stream,
     causes: &[Cause],
 ) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
+    split_blobs_on(model, points, fit_on, causes, extend::MIN_BLOCKS)
+}
+
+/// [`split_blobs`] with an extension fitted on at least `min_blocks` blocks.
+fn split_blobs_on(
+    model: &GpModel,
+    points: &Points,
+    fit_on: &Stream,
+    causes: &[Cause],
+    min_blocks: usize,
+) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
     let static_blob = export::points_blob(model, points, &Extension::default())?;
     if causes.is_empty() {
         return Ok((static_blob, None));
     }
-    let ext = extend::fit(model, points, fit_on, causes)?;
+    let ext = extend::fit_on_blocks(model, points, fit_on, causes, min_blocks)?;
     Ok((static_blob, Some(ext.blob)))
 }
 

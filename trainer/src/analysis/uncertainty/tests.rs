@@ -183,7 +183,12 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     let e = heating.error_model;
     assert_eq!((e.leg_min, e.leg_max), (lo, hi));
     // A full cooling state lies (0.204 + 1)/2 of a swing beyond the states trained.
-    let added = e.model_error(0.0, 0.0, Some(-1.0)) - e.model_error(0.0, 0.0, Some(0.5));
+    let at = |leg| Conditions {
+        hours: 0.0,
+        leg: Some(leg),
+        another_power_on: true,
+    };
+    let added = e.model_error(0.0, at(-1.0)) - e.model_error(0.0, at(0.5));
     let share = f64::from(lo + 1.0) / 2.0;
     assert!(
         (f64::from(added).sqrt() / (share * heating.leg_std) - 1.0).abs() < 1e-3,
@@ -195,4 +200,37 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     both.set_legs(&states);
     assert_eq!(both.error_model.leg_var, 0.0);
     assert!(both.assumed.is_empty(), "{both:?}");
+}
+
+#[test]
+fn runs_left_out_measure_another_power_ons_bias_and_a_datasheet_states_it() {
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let series = |source| {
+        [Series {
+            source,
+            residuals: residuals(400, 7, |_, _| 0.05),
+        }]
+    };
+    let mut one = calibrate(&series(Source::Forward), noise, Prior::NONE);
+    assert!(!one.runs_measured());
+    one.set_turn_on(0.02);
+    assert!(
+        one.describe("°/s")
+            .contains("another power-on's bias 2.000e-2")
+    );
+    // In every sample's variance, but for the calibration's own power-on.
+    let e = one.error_model;
+    let mut own = Conditions::at_hours(0.0);
+    own.another_power_on = false;
+    let added = e.model_error(0.0, Conditions::at_hours(0.0)) - e.model_error(0.0, own);
+    assert!((f64::from(added) / 0.02f64.powi(2) - 1.0).abs() < 1e-3);
+    let runs = calibrate(&series(Source::Runs), noise, Prior::NONE);
+    assert!(runs.runs_measured());
+    assert!(
+        runs.describe("°/s")
+            .contains("measured on the runs left out")
+    );
 }
