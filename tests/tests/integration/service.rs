@@ -218,34 +218,13 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
 #[test]
 fn a_calibration_on_several_power_ons_covers_another() {
     let dir = tempfile::tempdir().unwrap();
-    let unit = firmware_sim::gyro::unit::Unit {
-        params: firmware_sim::gyro::plant::GyroParams {
-            turn_on_bias_dph: 80.0,
-            ..firmware_sim::gyro::plant::GyroParams::nominal()
-        },
-        effects: Vec::new(),
-    };
-    let unit_file = at(dir.path(), "unit.json");
-    std::fs::write(&unit_file, serde_json::to_string(&unit).unwrap()).unwrap();
-    let runs: Vec<String> = (31..=34)
-        .map(|seed| {
-            let out = at(dir.path(), &format!("p{seed}.csv"));
-            sim(&[
-                "generate",
-                "stream",
-                "--design",
-                "power-on",
-                "--unit",
-                &unit_file,
-                "--seed",
-                &seed.to_string(),
-                "--out",
-                &out,
-            ])
-            .unwrap();
-            out
-        })
-        .collect();
+    let unit_file = turn_on_unit(dir.path());
+    let runs = generated(
+        dir.path(),
+        &unit_file,
+        &["stream", "--design", "power-on"],
+        31..=34,
+    );
     let fit = |streams: &[String], extra: &[&str], name: &str| {
         let (blob, report) = (at(dir.path(), &format!("{name}.bin")), at(dir.path(), name));
         let mut args = vec!["fit"];
@@ -291,4 +270,88 @@ fn a_calibration_on_several_power_ons_covers_another() {
             .unwrap()
     };
     assert!(median(&["--calibration-run"]) < 0.8 * median(&[]));
+}
+
+/// Rate tables of three power-ons of a gyro with a turn-on repeatability of 80 °/h, pooled by
+/// `fit --run`: the σ is measured on each run left out in turn (more points than the firmware
+/// holds: each refitted sparse), and `report`, which would not use them, refuses them.
+#[test]
+fn a_fit_on_several_tables_leaves_each_power_on_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let unit_file = turn_on_unit(dir.path());
+    let tables = generated(dir.path(), &unit_file, &["paper"], 31..=33);
+    let report = at(dir.path(), "fit.json");
+    trainer(&[
+        "fit",
+        "--points",
+        &tables[0],
+        "--run",
+        &tables[1],
+        "--run",
+        &tables[2],
+        "--out",
+        &at(dir.path(), "m.bin"),
+        "--json",
+        &report,
+        "-q",
+    ])
+    .unwrap();
+    let fit = json(&report);
+    assert_eq!(fit["n_train"], 420, "{fit}");
+    let calibration = &fit["calibration"];
+    assert_eq!(calibration["sources"][0]["source"], "runs", "{calibration}");
+    assert_eq!(calibration["sources"][0]["n"], 420, "{calibration}");
+    // The runs' offsets are in the model error: far above one soaked table's in-run error.
+    assert!(
+        calibration["floor_std"].as_f64().unwrap() > 20.0 / 3600.0,
+        "{calibration}"
+    );
+    let refused = trainer(&[
+        "report",
+        "--points",
+        &tables[0],
+        "--run",
+        &tables[1],
+        "--out",
+        &at(dir.path(), "r"),
+        "-q",
+    ]);
+    assert!(refused.is_err());
+}
+
+/// In `dir`, the nominal gyro with a turn-on repeatability of 80 °/h, as a unit file; its path.
+fn turn_on_unit(dir: &std::path::Path) -> String {
+    let unit = firmware_sim::gyro::unit::Unit {
+        params: firmware_sim::gyro::plant::GyroParams {
+            turn_on_bias_dph: 80.0,
+            ..firmware_sim::gyro::plant::GyroParams::nominal()
+        },
+        effects: Vec::new(),
+    };
+    let path = at(dir, "unit.json");
+    std::fs::write(&path, serde_json::to_string(&unit).unwrap()).unwrap();
+    path
+}
+
+/// `firmware-sim generate KIND…` of `unit_file`, one file in `dir` per seed: their paths.
+fn generated(
+    dir: &std::path::Path,
+    unit_file: &str,
+    kind: &[&str],
+    seeds: std::ops::RangeInclusive<u64>,
+) -> Vec<String> {
+    seeds
+        .map(|seed| {
+            let out = at(dir, &format!("run{seed}.csv"));
+            let seed = seed.to_string();
+            let args = [
+                &["generate"][..],
+                kind,
+                &["--unit", unit_file, "--seed", &seed, "--out", &out],
+            ]
+            .concat();
+            sim(&args).unwrap();
+            out
+        })
+        .collect()
 }

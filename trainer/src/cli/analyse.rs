@@ -13,7 +13,9 @@ use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
 use firmware_sim::sigma::{self, Coverage};
 use serde::Serialize;
 
-use super::inputs::{FitOptions, Input, MethodArg, ModelInput, load_points, load_stream};
+use super::inputs::{
+    FitOptions, Input, MethodArg, ModelInput, load_points, load_runs, load_stream,
+};
 use super::text::{causes_text, render_diagnosis};
 use crate::analysis::capacity;
 use crate::analysis::challenge;
@@ -190,7 +192,12 @@ pub(super) fn investigate_command(
     } = args;
     input.without_offsets("investigate")?;
     let console = Console::new(flags, json.as_deref());
-    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
+    let mut inputs: Vec<&Path> = input
+        .points
+        .iter()
+        .chain(&input.runs)
+        .map(PathBuf::as_path)
+        .collect();
     inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
     inputs.extend(input.unit.channels.as_deref());
     for o in out.iter().chain(&out_static).chain(&json) {
@@ -433,31 +440,13 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         );
     }
     let console = Console::new(flags, json.as_deref());
-    let mut points = None;
-    for path in std::iter::once(&input.points).chain(&runs) {
-        let mut run = load_points(
-            path,
-            &input.maps.list,
-            group.as_deref(),
-            None,
-            input.exclude_implausible,
-        )?;
-        if !runs.is_empty() {
-            // Each run its own groups: its file's name, or the --group labels within it.
-            let name = path.display().to_string();
-            for g in &mut run.group {
-                *g = match &group {
-                    Some(_) => format!("{name}: {g}"),
-                    None => name.clone(),
-                };
-            }
-        }
-        points = Some(match points {
-            Some(p) => Points::pooled(p, run)?,
-            None => run,
-        });
-    }
-    let points = points.context("--points is required")?;
+    let points = load_runs(
+        &input.points,
+        &runs,
+        &input.maps.list,
+        (group.as_deref(), None),
+        input.exclude_implausible,
+    )?;
     let bar = console.bar(0);
     let mut cfg = EvalConfig {
         gp: fit.gp(),

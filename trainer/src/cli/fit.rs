@@ -421,6 +421,11 @@ impl FitPlan {
             "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
              each have their own (fit them one at a time to state them)"
         );
+        anyhow::ensure!(
+            input.runs.is_empty() || features.is_none() || !stream.is_empty(),
+            "--features auto on a rate table diagnoses one recorded in time order; tables of \
+             several power-ons pooled (--run) are not one"
+        );
         let extend = match (features.as_deref(), stream.len(), &input.points) {
             (None, _, _) => Extend::Nothing,
             (Some("auto"), 0, Some(_)) => Extend::TableTransients,
@@ -462,6 +467,7 @@ impl FitPlan {
         self.input
             .points
             .iter()
+            .chain(&self.input.runs)
             .chain(&self.streams)
             .map(PathBuf::as_path)
             .collect()

@@ -37,6 +37,11 @@ pub(super) struct ModelInput {
     /// the (training) stream's 60 s block means.
     #[arg(long)]
     pub(super) points: Option<PathBuf>,
+    /// Another power-on's rate table of the same sensor (repeatable), with --points' columns:
+    /// pooled with it, each run left out in turn for the σ, which so measures another power-on's
+    /// bias.
+    #[arg(long = "run", value_name = "POINTS", requires = "points")]
+    pub(super) runs: Vec<PathBuf>,
     #[command(flatten)]
     pub(super) maps: Maps,
     #[command(flatten)]
@@ -100,6 +105,16 @@ impl ModelInput {
         Ok(())
     }
 
+    /// Refuses --run where `command` has no use for it.
+    pub(super) fn without_runs(&self, command: &str) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.runs.is_empty(),
+            "--run pools other power-ons' tables for `fit`, `investigate` and `loo`; `{command}` \
+             does not take it"
+        );
+        Ok(())
+    }
+
     /// The points of the static model: the rate table when given, else the streams' block means;
     /// with `pool`, every sample of the streams as well.
     pub(super) fn static_points(
@@ -108,11 +123,11 @@ impl ModelInput {
         pool: bool,
     ) -> anyhow::Result<Points> {
         let mut out = match &self.points {
-            Some(path) => Some(load_points(
+            Some(path) => Some(load_runs(
                 path,
+                &self.runs,
                 &self.maps.list,
-                self.group.as_deref(),
-                self.scale_factor,
+                (self.group.as_deref(), self.scale_factor),
                 self.exclude_implausible,
             )?),
             None => None,
@@ -158,6 +173,38 @@ pub(super) fn load_points(
         );
     }
     Ok(points)
+}
+
+/// Loads the rate table at `first` and those of other power-ons, `runs`, pooled: each file a run
+/// ([`Points::run`]). With runs, each keeps its groups apart: its file's name, or the `group`
+/// column's labels within it.
+pub(super) fn load_runs(
+    first: &Path,
+    runs: &[PathBuf],
+    maps: &[ColumnMap],
+    (group, scale_factor): (Option<&str>, Option<f64>),
+    exclude: bool,
+) -> anyhow::Result<Points> {
+    let mut out = load_points(first, maps, group, scale_factor, exclude)?;
+    if runs.is_empty() {
+        return Ok(out);
+    }
+    let named = |mut points: Points, path: &Path| {
+        let name = path.display().to_string();
+        for g in &mut points.group {
+            *g = match group {
+                Some(_) => format!("{name}: {g}"),
+                None => name.clone(),
+            };
+        }
+        points
+    };
+    out = named(out, first);
+    for path in runs {
+        let run = load_points(path, maps, group, scale_factor, exclude)?;
+        out = out.pooled(named(run, path))?;
+    }
+    Ok(out)
 }
 
 /// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in

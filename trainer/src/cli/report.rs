@@ -75,6 +75,7 @@ fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathB
     ));
     let input = ModelInput {
         points: Some(dir.join("points.csv")),
+        runs: Vec::new(),
         maps: Maps::default(),
         exclude: Excludes::default(),
         scale_factor: None,
@@ -100,6 +101,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         out: out_dir,
     } = args;
     input.without_offsets("report")?;
+    input.without_runs("report")?;
     let console = Console::new(flags, None);
     if let Some(channels) = input.unit.load()? {
         let files = match (stream, train_stream, valid_stream) {
