@@ -471,7 +471,7 @@ impl Calibration {
         self.describe_terms(units) + &leg + &turn_on
     }
 
-    /// The residuals' sources, counted once each (a leg split either way is one source).
+    /// The residuals' sources, each kind counted once (several series of one kind together).
     fn sources_in_words(&self) -> String {
         let mut counted: Vec<(Source, usize)> = Vec::new();
         for s in &self.sources {
