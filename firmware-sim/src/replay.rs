@@ -488,11 +488,11 @@ impl Score {
     /// What the RMS counted and left out, in one parenthesis: every figure that scores a replay
     /// says it beside its RMS.
     pub fn counted(&self) -> String {
-        let scored = self.n.saturating_sub(self.n_fault);
+        // `n` counts the scored samples alone: a fault is already out of it.
         format!(
-            "({scored} samples scored, {} extrapolating; left out: {} fault, {} handled, {} \
+            "({} samples scored, {} extrapolating; left out: {} fault, {} handled, {} \
              without a reference)",
-            self.n_extrapolating, self.n_fault, self.n_handled, self.n_unscored
+            self.n, self.n_extrapolating, self.n_fault, self.n_handled, self.n_unscored
         )
     }
 }
@@ -676,6 +676,16 @@ mod tests {
         assert!(sc.sigma_60s.median_sigma > 0.5 * first);
         let csv = to_csv(&s, &comp);
         assert!(csv.lines().nth(6).unwrap().starts_with("5,20,0,,"), "{csv}");
+        // What the figures leave out, in one line: a fault is not scored, nor a row without a
+        // reference.
+        let mut faulty = comp.clone();
+        faulty.status[7] = Status::Fault;
+        faulty.status[8] = Status::Extrapolating;
+        assert_eq!(
+            score(&s, &faulty).counted(),
+            "(118 samples scored, 1 extrapolating; left out: 1 fault, 0 handled, 1 without a \
+             reference)"
+        );
     }
 
     #[test]
