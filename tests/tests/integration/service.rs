@@ -274,7 +274,8 @@ fn a_calibration_on_several_power_ons_covers_another() {
 
 /// Rate tables of three power-ons of a gyro with a turn-on repeatability of 80 °/h, pooled by
 /// `fit --run`: the σ is measured on each run left out in turn (more points than the firmware
-/// holds: each refitted sparse), and `report`, which would not use them, refuses them.
+/// holds: each refitted sparse), `loo --run` leaves each out, and `report`, which would not use
+/// them, refuses them.
 #[test]
 fn a_fit_on_several_tables_leaves_each_power_on_out() {
     let dir = tempfile::tempdir().unwrap();
@@ -305,6 +306,30 @@ fn a_fit_on_several_tables_leaves_each_power_on_out() {
     assert!(
         calibration["floor_std"].as_f64().unwrap() > 20.0 / 3600.0,
         "{calibration}"
+    );
+    // `loo --run` leaves each power-on out in turn, with a σ that each fold measured on its own
+    // two runs: it covers the run left out.
+    let evaluation = at(dir.path(), "loo.json");
+    trainer(&[
+        "loo",
+        "--points",
+        &tables[0],
+        "--run",
+        &tables[1],
+        "--run",
+        &tables[2],
+        "--json",
+        &evaluation,
+        "-q",
+    ])
+    .unwrap();
+    let evaluation = json(&evaluation);
+    assert_eq!(evaluation["calibration"]["sources"][0]["source"], "runs");
+    let left_out = &evaluation["sigma_groups"];
+    assert_eq!(left_out["n"], 420, "{left_out}");
+    assert!(
+        left_out["within_2sigma"].as_f64().unwrap() >= 0.85,
+        "{left_out}"
     );
     let refused = trainer(&[
         "report",
