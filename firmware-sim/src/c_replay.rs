@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crate::data::stream::Stream;
-use crate::replay::{self, Compensated};
+use fog_data::replay::{self, Compensated};
+use fog_data::stream::Stream;
 
 /// Errors of building or running the C replay.
 #[derive(Debug, thiserror::Error)]

@@ -8,16 +8,17 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use firmware_core::units::DPH_PER_DPS;
 use serde::Serialize;
 
-use crate::cause::Cause;
-use crate::console::{AFTER_HELP, Console, ConsoleFlags};
-use crate::data::log::LogArgs;
 use crate::gyro::axes::Axes;
 use crate::gyro::effects::{Effect, Hidden};
 use crate::gyro::unit::UnitFile;
 use crate::gyro::{output, paper, plant::GyroParams, stream};
-use crate::io::{ensure_not_input, write_atomically, write_json};
-use crate::sigma;
-use crate::{qemu, replay};
+use crate::qemu;
+use fog_data::cause::Cause;
+use fog_data::replay;
+use fog_data::sigma;
+use fog_terminal::console::{AFTER_HELP, Console, ConsoleFlags};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::log::LogArgs;
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
@@ -90,14 +91,14 @@ struct ReplayInput {
 struct Loaded {
     blob: Vec<u8>,
     unit: Box<replay::HostUnit>,
-    streams: Vec<crate::data::stream::Stream>,
+    streams: Vec<fog_data::stream::Stream>,
     /// Whether the log was read as a unit's (`--channels`): its results are reported per channel.
     per_channel: bool,
 }
 
 impl Loaded {
     /// The streams in the unit's channel order.
-    fn streams(&self) -> Vec<&crate::data::stream::Stream> {
+    fn streams(&self) -> Vec<&fog_data::stream::Stream> {
         self.streams.iter().collect()
     }
 }

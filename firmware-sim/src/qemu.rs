@@ -13,8 +13,8 @@ use std::time::Duration;
 
 use serde::Serialize;
 
-use crate::data::stream::Stream;
-use crate::replay::{self, Compensated};
+use fog_data::replay::{self, Compensated};
+use fog_data::stream::Stream;
 
 /// QEMU is stopped after this long.
 pub const TIMEOUT: Duration = Duration::from_secs(900);

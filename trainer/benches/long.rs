@@ -78,8 +78,8 @@ fn firmware_prediction(c: &mut Criterion) {
             ..GpConfig::default()
         };
         let model = GpModel::fit(&x, &y, &cfg).unwrap();
-        let fw = firmware_sim::replay::decode(&export::to_blob(&model, &POINT_FEATURES).unwrap())
-            .unwrap();
+        let fw =
+            fog_data::replay::decode(&export::to_blob(&model, &POINT_FEATURES).unwrap()).unwrap();
         let mut scratch = vec![0.0f32; m];
         let input = [0.3f32, -0.4];
         group.bench_with_input(BenchmarkId::new("mean", m), &m, |b, _| {

@@ -9,7 +9,7 @@
 //! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
 //! [--map NAME=SOURCE …] [--mean constant|physics|polyN] (constant unless told: scikit-learn's)
 
-use firmware_sim::data::columns::ColumnMap;
+use fog_data::columns::ColumnMap;
 use trainer::data::points::Points;
 use trainer::models::dense::DenseFloor;
 use trainer::models::gp::{GpConfig, GpModel, Inducing};

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay;
+use fog_data::replay;
+use fog_data::stream::Stream;
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -98,7 +98,7 @@ fn row(
         match export::points_blob(&model, points, &Extension::default()) {
             Ok(blob) => {
                 std::fs::write(out.join(format!("{name}.bin")), &blob)?;
-                let fw = firmware_sim::replay::decode(&blob)?;
+                let fw = fog_data::replay::decode(&blob)?;
                 let dims = fw.dims();
                 let ram = 4 * (dims.floats() + dims.m);
                 (

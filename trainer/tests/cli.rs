@@ -578,7 +578,7 @@ fn the_sensors_limits_are_checked_against_the_data_and_written_into_the_blob() {
         String::from_utf8_lossy(&out.stderr)
     );
     let blob = std::fs::read(dir.path().join("m.bin")).unwrap();
-    let model = firmware_sim::replay::decode(&blob).unwrap();
+    let model = fog_data::replay::decode(&blob).unwrap();
     let limits = model.limits();
     assert_eq!(
         (limits.temp_min_c, limits.temp_max_c, limits.full_scale),

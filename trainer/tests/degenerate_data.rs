@@ -206,7 +206,7 @@ fn outcome(family: Family, dir: &Path, case: usize, rng: &mut impl Rng) -> Strin
             format!("refused: {why}")
         }
         Ok(()) => {
-            let fw = firmware_sim::replay::decode(&std::fs::read(&blob).unwrap()).unwrap();
+            let fw = fog_data::replay::decode(&std::fs::read(&blob).unwrap()).unwrap();
             let mut scratch = vec![0.0f32; fw.dims().m];
             for r in &rows {
                 let p = fw

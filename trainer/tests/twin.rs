@@ -1,11 +1,11 @@
 //! Identification (issue 23): a twin recovers the simulator's own parameters from data it
 //! generated, and an effect the twin lacks is named and closes the gap on held-out data.
 
-use firmware_sim::cause::Cause;
 use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::paper;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream as gyro_stream;
+use fog_data::cause::Cause;
 use trainer::analysis::twin::{self, Kind, Record, Source};
 
 fn points(p: &GyroParams, seed: u64) -> Source {

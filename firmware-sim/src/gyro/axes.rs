@@ -191,9 +191,9 @@ impl Axes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cause::Cause;
-    use crate::data::channels::Channels;
-    use crate::data::stream::Stream;
+    use fog_data::cause::Cause;
+    use fog_data::channels::Channels;
+    use fog_data::stream::Stream;
 
     fn triad() -> Axes {
         let hidden = |c: Cause| Hidden::new(&[c], &[]).unwrap();

@@ -26,7 +26,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::cause::Cause;
+use fog_data::cause::Cause;
 
 /// Relaxation time of the hysteresis state while the coil temperature moves, s.
 const HYSTERESIS_TAU_S: f64 = 600.0;

@@ -4,8 +4,9 @@
 //! same blob. Needs `cc`, `arm-none-eabi-gcc` with newlib and `qemu-system-arm` (`.ci/run`
 //! installs them).
 
-use firmware_sim::data::stream::Stream;
-use firmware_sim::{c_replay, qemu, replay};
+use firmware_sim::{c_replay, qemu};
+use fog_data::replay;
+use fog_data::stream::Stream;
 
 use crate::{at, sim};
 

@@ -6,8 +6,8 @@
 //! oracle told the true causes gains; for a weak one it may say `none`, but never a wrong name,
 //! and never ship a model that does worse.
 
-use firmware_sim::cause::Cause;
 use firmware_sim::gyro::effects::Strength;
+use fog_data::cause::Cause;
 use rand::{RngExt, SeedableRng};
 use trainer::analysis::challenge::run_case;
 

@@ -33,7 +33,7 @@ fn firmware_agrees_with_the_host_inside_the_trained_range_and_flags_beyond_it() 
         let train = points(&paper::run(&params, Effect::None, seed, false));
         let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
         let blob = export::to_blob(&m, &POINT_FEATURES).unwrap();
-        let fw = firmware_sim::replay::decode(&blob).unwrap();
+        let fw = fog_data::replay::decode(&blob).unwrap();
         assert_eq!(fw.dims().m, 140);
         assert_eq!(fw.features(), &POINT_FEATURES);
         let r = export::agreement_report(&m, &fw, train.inputs(), &export::Extension::default());
@@ -50,14 +50,14 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
     use trainer::firmware::export::{Extension, Term};
     let train = points(&paper::run(&GyroParams::nominal(), Effect::None, 5, false));
     let m = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
-    let fw = firmware_sim::replay::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
+    let fw = fog_data::replay::decode(&export::to_blob(&m, &POINT_FEATURES).unwrap()).unwrap();
     let extension = Extension {
         temperature: None,
         terms: vec![Term::bias(Feature::TimeOn, -2e-3, (0.0, 10.0))],
         offset: 1e-3,
     };
     let blob = export::to_blob_extended(&m, &POINT_FEATURES, &extension).unwrap();
-    let ext = firmware_sim::replay::decode(&blob).unwrap();
+    let ext = fog_data::replay::decode(&blob).unwrap();
     assert_eq!(
         ext.features(),
         &[Feature::Temperature, Feature::Voltage, Feature::TimeOn]
@@ -93,8 +93,8 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
     let old = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
     let new = include_bytes!("../../../firmware-core/doc/gyro.bin");
     let (a, b) = (
-        firmware_sim::replay::decode(old).unwrap(),
-        firmware_sim::replay::decode(new).unwrap(),
+        fog_data::replay::decode(old).unwrap(),
+        fog_data::replay::decode(new).unwrap(),
     );
     let [_, noise] = a.variances();
     assert_eq!(
@@ -104,7 +104,7 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
     assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 6);
     let v5 = include_bytes!("../../../firmware-core/doc/gyro-v5.bin");
     assert_eq!(firmware_core::blob::read_header(v5).unwrap().version, 5);
-    let c = firmware_sim::replay::decode(v5).unwrap();
+    let c = fog_data::replay::decode(v5).unwrap();
     assert_eq!(c.error_model(), b.error_model());
     assert_eq!(c.beyond(), b.beyond());
     let mut scratch = [0.0f32; 24];

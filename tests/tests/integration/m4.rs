@@ -2,8 +2,8 @@
 //! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`.ci/run` installs both).
 
 use firmware_sim::gyro::{effects::Effect, paper, plant::GyroParams, stream};
-use firmware_sim::replay;
 use firmware_sim::{c_replay, qemu};
+use fog_data::replay;
 use trainer::data::points::POINT_FEATURES;
 use trainer::models::gp::{GpConfig, GpModel};
 
@@ -15,13 +15,13 @@ fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
     let train = points(&paper::run(&params, Effect::None, 41, false));
     let model = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
     let blob = trainer::firmware::export::to_blob(&model, &POINT_FEATURES).unwrap();
-    let firmware = firmware_sim::replay::decode(&blob).unwrap();
+    let firmware = fog_data::replay::decode(&blob).unwrap();
 
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("s.csv");
     let rows = stream::run(&params, &stream::StreamConfig::default(), Effect::None, 42);
     std::fs::write(&csv, firmware_sim::gyro::output::stream_csv(&rows)).unwrap();
-    let data = firmware_sim::data::stream::Stream::load(&csv, &[]).unwrap();
+    let data = fog_data::stream::Stream::load(&csv, &[]).unwrap();
     assert!(data.len() > 25_000, "a full stream: {} samples", data.len());
 
     let host = replay::replay(&firmware, &data);
@@ -116,15 +116,14 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
     );
 
     let blob = std::fs::read(p("ext.bin")).unwrap();
-    let firmware = firmware_sim::replay::decode(&blob).unwrap();
+    let firmware = fog_data::replay::decode(&blob).unwrap();
     assert!(
         firmware
             .features()
             .iter()
             .any(|f| matches!(f, firmware_core::Feature::ThermalState { .. }))
     );
-    let data =
-        firmware_sim::data::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
+    let data = fog_data::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
     let host = replay::replay(&firmware, &data);
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let m4 = qemu::run(&image, &blob, &[&data]).unwrap();

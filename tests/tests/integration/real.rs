@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use firmware_sim::console::ProgressBar;
+use fog_terminal::console::ProgressBar;
 use trainer::analysis::evaluate::{self, EvalConfig, Method};
 use trainer::analysis::table::{self, Transients};
 use trainer::data::points::Points;
@@ -131,7 +131,7 @@ fn fog_runs(more: &[&str]) -> Option<(Points, Points)> {
         eprintln!("skipped: ../shared/data/real/uwrt-fog-turntable is absent");
         return None;
     }
-    let maps: Vec<firmware_sim::data::columns::ColumnMap> = [
+    let maps: Vec<fog_data::columns::ColumnMap> = [
         "temp_c=temp_C",
         "voltage_v=gyro_raw_counts",
         "rate_dps=rig_rate_deg_s",

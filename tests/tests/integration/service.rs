@@ -199,7 +199,7 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     let with_leg = cooling(&blob, "r.json");
     assert!((0.85..=0.99).contains(&with_leg), "{with_leg}");
     let mut bytes = std::fs::read(&blob).unwrap();
-    let fw = firmware_sim::replay::decode(&bytes).unwrap();
+    let fw = fog_data::replay::decode(&bytes).unwrap();
     let without = firmware_core::ErrorModel {
         leg_var: 0.0,
         ..fw.error_model()

@@ -3,9 +3,9 @@
 //! an exact model's does, for a fraction of the instructions. A pooled model ships only when it
 //! beats the table's alone on the stream's last third (issue 21).
 
-use firmware_sim::data::stream::{Stream, Window};
 use firmware_sim::qemu;
-use firmware_sim::replay;
+use fog_data::replay;
+use fog_data::stream::{Stream, Window};
 use trainer::models::gp::DEFAULT_INDUCING;
 
 use crate::{at, json, sim, trainer as run_trainer};
@@ -90,7 +90,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     let mut costs = Vec::new();
     for name in ["sparse.bin", "exact.bin"] {
         let blob = std::fs::read(dir.path().join(name)).unwrap();
-        let fw = firmware_sim::replay::decode(&blob).unwrap();
+        let fw = fog_data::replay::decode(&blob).unwrap();
         let host = replay::replay(&fw, &held_out);
         let m4 = qemu::run(&image, &blob, &[&held_out]).unwrap();
         let agreement = qemu::compare(&host, &m4.compensated[0]);

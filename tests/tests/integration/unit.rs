@@ -5,8 +5,9 @@
 
 use std::path::Path;
 
-use firmware_sim::data::channels::Channels;
-use firmware_sim::{c_replay, qemu, replay};
+use firmware_sim::{c_replay, qemu};
+use fog_data::channels::Channels;
+use fog_data::replay;
 
 use crate::{IMU_MAPS, at, imu, json, sim, trainer};
 

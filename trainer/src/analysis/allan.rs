@@ -23,7 +23,7 @@ use serde::Serialize;
 
 use firmware_core::Quantity;
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::data::stream::{GAP_FACTOR, typical_step};
+use fog_data::stream::{GAP_FACTOR, typical_step};
 
 /// Flicker (bias-instability) noise: σ(τ) on its flat bottom is 0.664·B.
 pub const FLICKER_FLOOR: f64 = 0.664;

@@ -14,8 +14,8 @@
 
 use firmware_core::blob::Beyond;
 use firmware_core::{Feature, FeatureState, Sample};
-use firmware_sim::replay;
-use firmware_sim::stats::rms;
+use fog_data::replay;
+use fog_data::stats::rms;
 use serde::Serialize;
 
 use crate::data::points::Points;

@@ -9,14 +9,14 @@
 //! both cores (rayon); each is deterministic by its seed. A [`Kind::Unit`] case does the same for
 //! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
 
-use firmware_sim::cause::Cause;
-use firmware_sim::console::ProgressBar;
-use firmware_sim::data::channels::{Channels, Read};
-use firmware_sim::data::stream::Stream;
 use firmware_sim::gyro::axes::Axes;
 use firmware_sim::gyro::effects::{Effect, Hidden, Strength};
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::{output, paper, stream};
+use fog_data::cause::Cause;
+use fog_data::channels::{Channels, Read};
+use fog_data::stream::Stream;
+use fog_terminal::console::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
 

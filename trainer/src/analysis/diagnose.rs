@@ -91,9 +91,9 @@
 
 use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_core::{Feature, Quantity};
-use firmware_sim::cause::Cause;
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay::HostModel;
+use fog_data::cause::Cause;
+use fog_data::replay::HostModel;
+use fog_data::stream::Stream;
 use serde::Serialize;
 
 use crate::data::points::Points;

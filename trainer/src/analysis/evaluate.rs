@@ -15,8 +15,8 @@ use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 
 use firmware_core::units::DPH_PER_DPS;
-use firmware_sim::sigma::Coverage;
-use firmware_sim::stats::rms;
+use fog_data::sigma::Coverage;
+use fog_data::stats::rms;
 
 use crate::analysis::table::{self, FittedTerm, TableDiagnosis, TableError, Transients};
 use crate::analysis::uncertainty::{self, Calibration};

@@ -20,8 +20,8 @@
 //! additive form).
 
 use firmware_core::Feature;
-use firmware_sim::cause::Cause;
-use firmware_sim::data::stream::Stream;
+use fog_data::cause::Cause;
+use fog_data::stream::Stream;
 use nalgebra::DVector;
 use serde::Serialize;
 
@@ -159,7 +159,7 @@ pub fn fit_on_blocks(
     min_blocks: usize,
 ) -> Result<Extended, ExtendError> {
     let blob = export::points_blob(model, points, &Extension::default())?;
-    let fw = firmware_sim::replay::decode(&blob).map_err(ExportError::Blob)?;
+    let fw = fog_data::replay::decode(&blob).map_err(ExportError::Blob)?;
     let res = Residual::new(&fw, stream).fitted_on(model, points);
     if res.len() < min_blocks {
         return Err(ExtendError::TooShort(res.len(), min_blocks));

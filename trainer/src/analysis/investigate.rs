@@ -6,11 +6,11 @@
 //! The held-out stream is touched once, to score: which causes to name and whether to ship their
 //! extension are part of the model, so they come from the training data alone ([`choose`]).
 
-use firmware_sim::cause::Cause;
-use firmware_sim::data::blocks;
-use firmware_sim::data::stream::{Handled, Stream, Window};
-use firmware_sim::replay::{self, HostModel, Score};
-use firmware_sim::stats::rms;
+use fog_data::blocks;
+use fog_data::cause::Cause;
+use fog_data::replay::{self, HostModel, Score};
+use fog_data::stats::rms;
+use fog_data::stream::{Handled, Stream, Window};
 use indicatif::ProgressBar;
 use serde::Serialize;
 
@@ -304,7 +304,7 @@ impl Split {
         // The means alone: nothing here reads a variance, which costs O(m²) a sample.
         let run = |blob: &[u8]| -> anyhow::Result<replay::Means> {
             Ok(replay::means(
-                &*firmware_sim::replay::decode(blob)?,
+                &*fog_data::replay::decode(blob)?,
                 &self.scored,
             ))
         };
@@ -377,7 +377,7 @@ pub fn calibrate(
     train: &Stream,
     splits: &[Split],
 ) -> anyhow::Result<Calibration> {
-    let fw = firmware_sim::replay::decode(shipped_blob)?;
+    let fw = fog_data::replay::decode(shipped_blob)?;
     let comp = replay::means(&fw, train);
     let errors: Vec<f64> = (0..train.len())
         .map(|i| f64::from(comp.rate_dps[i]) - train.rate_dps[i])
@@ -760,9 +760,9 @@ pub fn investigate(
     let beyond = beyond::choose(points, cfg);
     let static_blob = export::with_beyond(&static_calibration.apply(&static_blob)?, beyond.rule)?;
     let extended_blob = export::with_beyond(&calibration.apply(&extended_blob)?, beyond.rule)?;
-    let fw = firmware_sim::replay::decode(&static_blob)?;
+    let fw = fog_data::replay::decode(&static_blob)?;
     let static_score = replay::score(valid, &replay::replay(&fw, valid));
-    let shipped = firmware_sim::replay::decode(&extended_blob)?;
+    let shipped = fog_data::replay::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
     bar.inc(1);

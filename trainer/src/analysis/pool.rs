@@ -11,9 +11,9 @@
 
 use std::path::Path;
 
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay;
-use firmware_sim::stats::rms;
+use fog_data::replay;
+use fog_data::stats::rms;
+use fog_data::stream::Stream;
 use serde::Serialize;
 
 use crate::analysis::investigate::{Forward, forward};

@@ -29,8 +29,8 @@
 
 use firmware_core::Feature;
 use firmware_core::features::{self, FeatureState, Sample};
-use firmware_sim::cause::Cause;
-use firmware_sim::stats::rms;
+use fog_data::cause::Cause;
+use fog_data::stats::rms;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -611,7 +611,7 @@ mod tests {
         // and follows the host.
         let blob = crate::firmware::export::points_blob(&m.gp, &p, &m.extension()).unwrap();
         crate::firmware::export::verify(&m.gp, &blob, &p, &m.extension()).unwrap();
-        let fw = firmware_sim::replay::decode(&blob).unwrap();
+        let fw = fog_data::replay::decode(&blob).unwrap();
         let mut state = FeatureState::default();
         let mut scratch = vec![0.0f32; fw.dims().m];
         let time_s = p.time_s.clone().unwrap();

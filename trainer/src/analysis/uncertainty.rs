@@ -48,11 +48,11 @@
 use firmware_core::ErrorModel;
 use firmware_core::model::Conditions;
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::data::blocks;
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay;
-use firmware_sim::sigma::Coverage;
-use firmware_sim::stats::{median, rms};
+use fog_data::blocks;
+use fog_data::replay;
+use fog_data::sigma::Coverage;
+use fog_data::stats::{median, rms};
+use fog_data::stream::Stream;
 use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};

@@ -5,12 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use firmware_sim::cause::Cause;
-use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::log::LogArgs;
-use firmware_sim::data::stream::{Stream, Window};
-use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
-use firmware_sim::sigma::{self, Coverage};
+use fog_data::cause::Cause;
+use fog_data::sigma::{self, Coverage};
+use fog_data::stream::{Stream, Window};
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::log::LogArgs;
 use serde::Serialize;
 
 use super::inputs::{
@@ -28,8 +28,8 @@ use crate::data::points::Points;
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::GpConfig;
 use firmware_core::Quantity;
-use firmware_sim::data::channels::Channels;
-use firmware_sim::data::log::load_unit_log;
+use fog_data::channels::Channels;
+use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer diagnose`.
 #[derive(Args)]
@@ -148,7 +148,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
                         channels.path.display()
                     )
                 })?;
-            let fw = firmware_sim::replay::decode(&blob)?;
+            let fw = fog_data::replay::decode(&blob)?;
             let mut d = diagnose::diagnose(&fw, &streams[k]);
             d = d.in_quantity(quantity);
             let console = console.channel(&name, &format!("{name}:"));
@@ -161,7 +161,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
         }
         return Ok(());
     }
-    let fw = firmware_sim::replay::decode(&bytes)
+    let fw = fog_data::replay::decode(&bytes)
         .with_context(|| format!("decoding {}", model.display()))?;
     let data = log.load(&console)?;
     let d = diagnose::diagnose(&fw, &data);

@@ -9,9 +9,20 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::Args;
-use firmware_sim::cause::Cause;
-use firmware_sim::console::ConsoleFlags;
+use anyhow::Context;
+use clap::{Args, Parser};
+use firmware_sim::gyro::effects::Hidden;
+use firmware_sim::gyro::plant::GyroParams;
+use firmware_sim::gyro::stream::{self, StreamConfig};
+use firmware_sim::gyro::{output, paper};
+use fog_terminal::console::Console;
+use fog_terminal::io::write_atomically;
+use fog_terminal::log::{Excludes, Maps, UnitArgs};
+
+use super::Cli;
+use super::inputs::ModelInput;
+use fog_data::cause::Cause;
+use fog_terminal::console::ConsoleFlags;
 
 /// The arguments of `trainer demo`.
 #[derive(Args)]
@@ -160,4 +171,72 @@ pub(super) fn steps(dir: &Path) -> Vec<Step> {
         ),
     ]);
     steps
+}
+
+/// `trainer demo`: every step of the main job, each printed as the command that does it alone
+/// and run in this process (`trainer` runs a trainer command).
+pub(super) fn run(
+    args: DemoArgs,
+    flags: ConsoleFlags,
+    trainer: fn(Cli) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let console = Console::new(flags, None);
+    let dir = &args.out;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let steps = steps(dir);
+    let n = steps.len();
+    for (i, step) in steps.iter().enumerate() {
+        console.result(&format!("[{}/{n}] {}", i + 1, step.text()));
+        let argv = step.argv(flags);
+        match step.0 {
+            Program::Sim => firmware_sim::cli::run(firmware_sim::cli::Cli::try_parse_from(argv)?),
+            Program::Trainer => trainer(Cli::try_parse_from(argv)?),
+        }
+        .with_context(|| format!("step `{}`", step.text()))?;
+    }
+    console.result(&format!(
+        "done: open {}",
+        dir.join("report").join("report.html").display()
+    ));
+    Ok(())
+}
+
+/// The main job's data (README.md), simulated into `dir`: a nominal gyro with a hidden
+/// thermal-rate drift, its rate table and two ramp streams (the files `trainer demo` writes).
+pub(super) fn simulated(
+    dir: &Path,
+    console: &Console,
+) -> anyhow::Result<(ModelInput, PathBuf, PathBuf)> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let gyro = GyroParams::nominal();
+    let hidden = Hidden::new(&[EFFECT], &[])?;
+    for (data, seed, name) in DATA {
+        let csv = match data {
+            Data::Points => output::points_csv(&paper::run(&gyro, hidden.clone(), seed, false)),
+            Data::Stream => output::stream_csv(&stream::run(
+                &gyro,
+                &StreamConfig::default(),
+                hidden.clone(),
+                seed,
+            )),
+        };
+        write_atomically(&dir.join(name), csv.as_bytes())?;
+    }
+    console.result(&format!(
+        "no data given: simulated a gyro with a hidden thermal-rate drift into {}",
+        dir.display()
+    ));
+    let input = ModelInput {
+        points: Some(dir.join("points.csv")),
+        runs: Vec::new(),
+        maps: Maps::default(),
+        exclude: Excludes::default(),
+        scale_factor: None,
+        exclude_implausible: false,
+        group: None,
+        offsets: false,
+        unit: UnitArgs::default(),
+        quantity: firmware_core::Quantity::AngularRate,
+    };
+    Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }

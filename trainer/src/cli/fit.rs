@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use firmware_core::{Feature, MAX_CENTRES};
-use firmware_sim::cause::Cause;
-use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::stream::{Handled, Stream, Window};
-use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
-use firmware_sim::replay::{self, HostModel};
+use fog_data::cause::Cause;
+use fog_data::replay::{self, HostModel};
+use fog_data::stream::{Handled, Stream, Window};
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use serde::Serialize;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
@@ -33,8 +33,8 @@ use crate::models::gp::{
 use crate::models::prior::{MeanBasis, PolyPrior};
 use firmware_core::Quantity;
 use firmware_core::blob::{Beyond, Dims, Limits};
-use firmware_sim::data::channels::Channels;
-use firmware_sim::data::log::load_unit_log;
+use fog_data::channels::Channels;
+use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer fit`.
 #[derive(Args)]
@@ -1026,7 +1026,7 @@ impl FitPlan {
                 blob = extended.blob.clone();
                 summary.firmware_agreement = extended.agreement;
                 exported_from = Some((extended.model.clone(), fitted.extension.clone()));
-                let ext = firmware_sim::replay::decode(&blob)?;
+                let ext = fog_data::replay::decode(&blob)?;
                 console.result(&format!(
                     "extended by {:?} on {}: training residual rmse_60s {:.3e} → {:.3e} {}",
                     ext.features(),
@@ -1232,7 +1232,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
             f.temperature_c[1],
             f.blob_bytes
         );
-        let unit = firmware_sim::replay::decode_unit(&bytes)?;
+        let unit = fog_data::replay::decode_unit(&bytes)?;
         for ((name, c), ch) in f.channels.iter().zip(unit.channels()) {
             text.push_str(&format!(
                 "{name:<17} {:>7}  {:>6}  {:>9}  {:>7}  ({})\n",
@@ -1262,7 +1262,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
         return Ok(());
     }
     let f = export::footprint(&bytes)?;
-    firmware_sim::replay::decode(&bytes)?;
+    fog_data::replay::decode(&bytes)?;
     console.result(&format!(
         "{}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
          blob: {} bytes ({}-byte header + postcard payload)\n\

@@ -6,14 +6,14 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use firmware_core::Quantity;
-use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::channels::{Channels, Read};
-use firmware_sim::data::log::{Excludes, LogArgs, Maps, UnitArgs, load_unit_log};
-use firmware_sim::data::stream::Stream;
-use firmware_sim::data::stream::Window;
 use firmware_sim::gyro::axes::{Axes, Axis};
-use firmware_sim::io::{ensure_not_input, write_atomically, write_json};
-use firmware_sim::replay;
+use fog_data::channels::{Channels, Read};
+use fog_data::replay;
+use fog_data::stream::Stream;
+use fog_data::stream::Window;
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::log::{Excludes, LogArgs, Maps, UnitArgs, load_unit_log};
 
 use super::inputs::load_stream;
 use crate::analysis::{allan, twin};
@@ -106,9 +106,9 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
         (Some(path), _) => {
             let bytes =
                 std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-            let fw = firmware_sim::replay::decode(&bytes)
+            let fw = fog_data::replay::decode(&bytes)
                 .with_context(|| format!("decoding {}", path.display()))?;
-            let comp = firmware_sim::replay::means(&fw, &data);
+            let comp = fog_data::replay::means(&fw, &data);
             (
                 comp.rate_dps.iter().map(|&w| f64::from(w)).collect(),
                 format!("the output compensated by {}", path.display()),

@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use firmware_core::Quantity;
-use firmware_sim::console::Console;
-use firmware_sim::data::channels::{Channels, Read};
-use firmware_sim::data::columns::ColumnMap;
-use firmware_sim::data::log::{Excludes, Maps, UnitArgs};
-use firmware_sim::data::stream::{Stream, Window};
+use fog_data::channels::{Channels, Read};
+use fog_data::columns::ColumnMap;
+use fog_data::stream::{Stream, Window};
+use fog_terminal::console::Console;
+use fog_terminal::log::{Excludes, Maps, UnitArgs};
 
 use crate::analysis::evaluate::Method;
 use crate::data::points::{Points, Screen};
@@ -208,14 +208,14 @@ pub(super) fn load_runs(
 }
 
 /// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in
-/// one line ([`firmware_sim::data::log::load_log`]).
+/// one line ([`fog_terminal::log::load_log`]).
 pub(super) fn load_stream(
     path: &Path,
     maps: &[ColumnMap],
     (window, exclude): (Option<Window>, &[Window]),
     console: &Console,
 ) -> anyhow::Result<Stream> {
-    firmware_sim::data::log::load_log(path, maps, (window, exclude), console)
+    fog_terminal::log::load_log(path, maps, (window, exclude), console)
 }
 
 #[derive(Args, Clone)]

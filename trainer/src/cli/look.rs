@@ -3,11 +3,11 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::channels::{Channels, Read};
-use firmware_sim::data::log::{Maps, UnitArgs};
-use firmware_sim::data::stream::Stream;
-use firmware_sim::io::{ensure_not_input, write_json};
+use fog_data::channels::{Channels, Read};
+use fog_data::stream::Stream;
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::{ensure_not_input, write_json};
+use fog_terminal::log::{Maps, UnitArgs};
 
 use crate::data::points::{Points, Screen};
 use crate::data::summary::{self, Summary};

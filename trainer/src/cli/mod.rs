@@ -1,9 +1,8 @@
 //! The `trainer` command line: flags are parsed into checked settings, then dispatched to the
 //! library. `main.rs` only calls [`run`]; tests call it too, with arguments of their own.
 
-use anyhow::Context;
 use clap::{Parser, Subcommand};
-use firmware_sim::console::{AFTER_HELP, Console, ConsoleFlags};
+use fog_terminal::console::{AFTER_HELP, ConsoleFlags};
 
 mod analyse;
 mod demo;
@@ -119,7 +118,7 @@ enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let flags = cli.console;
     match cli.command {
-        Command::Demo(args) => demo_command(args, flags),
+        Command::Demo(args) => demo::run(args, flags, run),
         Command::Fit(args) => fit::fit_command(args, flags),
         Command::Diagnose(args) => analyse::diagnose_command(args, flags),
         Command::Investigate(args) => analyse::investigate_command(args, flags),
@@ -132,30 +131,4 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reproduce(args) => analyse::reproduce_command(args, flags),
         Command::Challenge(args) => analyse::challenge_command(args, flags),
     }
-}
-
-/// `trainer demo`: every step of the main job, each printed as the command that does it alone
-/// and run in this process.
-fn demo_command(args: demo::DemoArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
-    let console = Console::new(flags, None);
-    let dir = &args.out;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let steps = demo::steps(dir);
-    let n = steps.len();
-    for (i, step) in steps.iter().enumerate() {
-        console.result(&format!("[{}/{n}] {}", i + 1, step.text()));
-        let argv = step.argv(flags);
-        match step.0 {
-            demo::Program::Sim => {
-                firmware_sim::cli::run(firmware_sim::cli::Cli::try_parse_from(argv)?)
-            }
-            demo::Program::Trainer => run(Cli::try_parse_from(argv)?),
-        }
-        .with_context(|| format!("step `{}`", step.text()))?;
-    }
-    console.result(&format!(
-        "done: open {}",
-        dir.join("report").join("report.html").display()
-    ));
-    Ok(())
 }

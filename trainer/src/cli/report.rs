@@ -2,24 +2,17 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::Args;
-use firmware_sim::console::{Console, ConsoleFlags};
-use firmware_sim::data::log::{Excludes, Maps, UnitArgs};
-use firmware_sim::data::stream::{Stream, Window};
-use firmware_sim::gyro::effects::Hidden;
-use firmware_sim::gyro::plant::GyroParams;
-use firmware_sim::gyro::stream::{self, StreamConfig};
-use firmware_sim::gyro::{output, paper};
-use firmware_sim::io::ensure_not_input;
-use firmware_sim::io::write_atomically;
+use fog_data::stream::{Stream, Window};
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::ensure_not_input;
 
-use super::demo::{self, Data};
+use super::demo;
 use super::inputs::{FitOptions, ModelInput, load_stream};
 use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
 use crate::report;
-use firmware_sim::data::channels::{Channels, Read};
-use firmware_sim::data::log::load_unit_log;
+use fog_data::channels::{Channels, Read};
+use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer report`.
 #[derive(Args)]
@@ -49,43 +42,6 @@ pub(super) struct ReportArgs {
     /// Directory for report.html and the figures (created if missing).
     #[arg(long, visible_alias = "out-dir")]
     out: PathBuf,
-}
-
-/// The main job's data (README.md), simulated into `dir`: a nominal gyro with a hidden
-/// thermal-rate drift, its rate table and two ramp streams (the files `trainer demo` writes).
-fn simulated(dir: &Path, console: &Console) -> anyhow::Result<(ModelInput, PathBuf, PathBuf)> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let gyro = GyroParams::nominal();
-    let hidden = Hidden::new(&[demo::EFFECT], &[])?;
-    for (data, seed, name) in demo::DATA {
-        let csv = match data {
-            Data::Points => output::points_csv(&paper::run(&gyro, hidden.clone(), seed, false)),
-            Data::Stream => output::stream_csv(&stream::run(
-                &gyro,
-                &StreamConfig::default(),
-                hidden.clone(),
-                seed,
-            )),
-        };
-        write_atomically(&dir.join(name), csv.as_bytes())?;
-    }
-    console.result(&format!(
-        "no data given: simulated a gyro with a hidden thermal-rate drift into {}",
-        dir.display()
-    ));
-    let input = ModelInput {
-        points: Some(dir.join("points.csv")),
-        runs: Vec::new(),
-        maps: Maps::default(),
-        exclude: Excludes::default(),
-        scale_factor: None,
-        exclude_implausible: false,
-        group: None,
-        offsets: false,
-        unit: UnitArgs::default(),
-        quantity: firmware_core::Quantity::AngularRate,
-    };
-    Ok((input, dir.join("train.csv"), dir.join("valid.csv")))
 }
 
 /// `trainer report`: the HTML report and its figures, for whatever data the user brings.
@@ -126,7 +82,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         (None, Some(a), Some(b)) => (input, Files::Two(a, b)),
         _ if input.points.is_some() => (input, Files::None),
         _ => {
-            let (input, a, b) = simulated(&out_dir.join("data"), &console)?;
+            let (input, a, b) = demo::simulated(&out_dir.join("data"), &console)?;
             (input, Files::Two(a, b))
         }
     };

@@ -1,8 +1,8 @@
 //! How results read on a terminal: the optimizer's starts, named causes, a diagnosis.
 
 use firmware_core::units::DPH_PER_DPS;
-use firmware_sim::cause::Cause;
-use firmware_sim::console::Console;
+use fog_data::cause::Cause;
+use fog_terminal::console::Console;
 
 use crate::analysis::diagnose::{self, Diagnosis};
 use crate::models::gp::GpModel;

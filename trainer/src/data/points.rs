@@ -6,10 +6,10 @@ use std::sync::OnceLock;
 
 use firmware_core::features::{self, FeatureState, Sample};
 use firmware_core::{Feature, Quantity, Status};
-use firmware_sim::data::blocks;
-use firmware_sim::data::columns::{self, ColumnMap, DataError};
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay;
+use fog_data::blocks;
+use fog_data::columns::{self, ColumnMap, DataError};
+use fog_data::replay;
+use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
 
 /// The inputs of a rate-table model, in order: the paper's (T, V).

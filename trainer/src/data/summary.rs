@@ -6,9 +6,9 @@
 use serde::Serialize;
 
 use firmware_core::Quantity;
-use firmware_sim::data::columns::ColumnMap;
-use firmware_sim::data::stream::Stream;
-use firmware_sim::stats::Line;
+use fog_data::columns::ColumnMap;
+use fog_data::stats::Line;
+use fog_data::stream::Stream;
 
 use super::points::{Implausible, Points, plateaus};
 
@@ -212,7 +212,7 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
         rates: distinct(&stream.rate_dps, 0.01),
         sample_interval_s: Some(stream.step_s),
         time_issues: stream.time_issues.iter().map(ToString::to_string).collect(),
-        excluded_line: firmware_sim::data::stream::left_out_summary(&stream.handled).map(|l| {
+        excluded_line: fog_data::stream::left_out_summary(&stream.handled).map(|l| {
             if unreferenced > stream.handled.iter().map(|h| h.n).sum::<usize>() {
                 format!("{l}; and samples without a reference rate: replayed, not scored or fitted")
             } else {

@@ -11,7 +11,7 @@
 use firmware_core::blob::{self, Beyond, Dims, ErrorModel, Feature, HEADER_LEN, Limits, Payload};
 use firmware_core::model::Conditions;
 use firmware_core::{MAX_CENTRES, MAX_INPUTS};
-use firmware_sim::replay::{self, HostModel};
+use fog_data::replay::{self, HostModel};
 use serde::Serialize;
 
 use crate::data::points::Points;

@@ -10,7 +10,7 @@
 use firmware_core::blob::unit::{self as format, Channel};
 use firmware_core::features::MAX_FEATURES;
 use firmware_core::{Feature, FeatureState, Quantity, Sample, UnitSample};
-use firmware_sim::replay::{self, HostModel};
+use fog_data::replay::{self, HostModel};
 use serde::Serialize;
 
 use super::export::{ExportError, Footprint, footprint};

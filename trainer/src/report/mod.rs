@@ -7,12 +7,12 @@
 pub mod plots;
 
 use firmware_core::units::{DPH_PER_DPS, SECONDS_PER_HOUR};
-use firmware_sim::cause::Cause;
-use firmware_sim::data::blocks;
-use firmware_sim::data::stream::{Stream, Window};
-use firmware_sim::io::write_atomically;
-use firmware_sim::replay::{self, Compensated};
-use firmware_sim::stats::Line;
+use fog_data::blocks;
+use fog_data::cause::Cause;
+use fog_data::replay::{self, Compensated};
+use fog_data::stats::Line;
+use fog_data::stream::{Stream, Window};
+use fog_terminal::io::write_atomically;
 use std::path::{Path, PathBuf};
 
 use crate::analysis::allan::Analysis as Allan;
@@ -159,8 +159,8 @@ fn held_out(
 ) -> anyhow::Result<HeldOut> {
     let (investigation, blobs) =
         investigate::investigate(points, train, &valid, cfg, None, rebuild, bar)?;
-    let fw_static = firmware_sim::replay::decode(&blobs.static_blob)?;
-    let fw_ext = firmware_sim::replay::decode(&blobs.extended_blob)?;
+    let fw_static = fog_data::replay::decode(&blobs.static_blob)?;
+    let fw_ext = fog_data::replay::decode(&blobs.extended_blob)?;
     let replays = [
         replay::replay(&fw_static, &valid),
         replay::replay(&fw_ext, &valid),

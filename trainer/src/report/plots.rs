@@ -8,8 +8,8 @@ use crate::plot::{
 };
 use firmware_core::Quantity;
 use firmware_core::units::DPH_PER_DPS;
-use firmware_sim::sigma::Coverage;
-use firmware_sim::stats::{self, Line};
+use fog_data::sigma::Coverage;
+use fog_data::stats::{self, Line};
 use plotters::prelude::*;
 
 /// Distinct values of `xs`, sorted, merged when closer than `tol`.

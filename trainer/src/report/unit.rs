@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use firmware_core::Quantity;
-use firmware_sim::io::write_atomically;
+use fog_terminal::io::write_atomically;
 
 use super::html::escape;
 use super::plots::{self, ReplaySeries};

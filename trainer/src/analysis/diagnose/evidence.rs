@@ -6,7 +6,7 @@ use super::{
     ols, predict,
 };
 use crate::analysis::selection::share;
-use firmware_sim::stats::spread;
+use fog_data::stats::spread;
 
 /// A training/test split of the blocks.
 pub(super) type Split = (Vec<usize>, Vec<usize>);

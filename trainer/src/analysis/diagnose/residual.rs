@@ -2,12 +2,12 @@
 //! and each candidate cause's input along it as the firmware would compute it.
 
 use firmware_core::{Feature, FeatureState, Status};
-use firmware_sim::cause::Cause;
-use firmware_sim::data::blocks;
-use firmware_sim::data::stream::Stream;
-use firmware_sim::replay;
-use firmware_sim::replay::HostModel;
-use firmware_sim::stats::rms;
+use fog_data::blocks;
+use fog_data::cause::Cause;
+use fog_data::replay;
+use fog_data::replay::HostModel;
+use fog_data::stats::rms;
+use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
 
 use super::{Constant, Plateaus, feature_for, hat_weights, plateau_temperatures};

@@ -2,9 +2,9 @@
 //! scored on the later part (and, where the static curve was fitted on the stream, beyond the
 //! temperatures it was fitted on), with the blobs of each part.
 
-use firmware_sim::cause::Cause;
-use firmware_sim::data::blocks;
-use firmware_sim::data::stream::Stream;
+use fog_data::blocks;
+use fog_data::cause::Cause;
+use fog_data::stream::Stream;
 
 use crate::analysis::extend;
 use crate::analysis::uncertainty::{self, Source};

@@ -7,12 +7,12 @@ use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn};
 
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::cause::Cause;
-use firmware_sim::data::blocks::{self, BLOCK_S};
-use firmware_sim::data::stream::{GAP_FACTOR, typical_step};
 use firmware_sim::gyro::effects::{Effect, EffectPlant, Hidden};
 use firmware_sim::gyro::plant::GyroParams;
-use firmware_sim::stats::rms;
+use fog_data::blocks::{self, BLOCK_S};
+use fog_data::cause::Cause;
+use fog_data::stats::rms;
+use fog_data::stream::{GAP_FACTOR, typical_step};
 
 use super::IdentifyError;
 use super::params::Static;

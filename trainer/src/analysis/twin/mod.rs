@@ -30,11 +30,11 @@
 use serde::Serialize;
 
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::cause::Cause;
 use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::unit::Unit;
-use firmware_sim::stats::Line;
+use fog_data::cause::Cause;
+use fog_data::stats::Line;
 
 use crate::analysis::allan;
 use crate::analysis::minimize::golden_section;
@@ -45,8 +45,8 @@ mod noise;
 mod params;
 mod source;
 
-use firmware_sim::data::blocks;
 use fit::{Fitted, Free, LINEAR, OFFSET, Row, fidelity, fit, residual_dph, rows};
+use fog_data::blocks;
 use noise::{noise_parameters, noise_terms, other_parameters};
 use params::{Static, determinable};
 pub use source::{Kind, Record, Source, load_points};

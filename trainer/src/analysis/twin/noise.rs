@@ -4,7 +4,7 @@
 
 use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_sim::gyro::plant::GyroParams;
-use firmware_sim::stats::rms;
+use fog_data::stats::rms;
 
 use super::{Parameter, Source};
 use crate::analysis::allan;

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use firmware_sim::data::columns::{self, ColumnMap, DataError};
-use firmware_sim::data::stream::Stream;
+use fog_data::columns::{self, ColumnMap, DataError};
+use fog_data::stream::Stream;
 
 /// One measurement: a rate-table point or a stream sample.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -746,7 +746,7 @@ mod tests {
         // The noise is uniform on ±0.05: σ = 0.029.
         assert!((noise - 0.0289).abs() < 0.004, "σ_n {noise}");
         let loo = sparse.loo_errors();
-        let rmse = firmware_sim::stats::rms(&loo);
+        let rmse = fog_data::stats::rms(&loo);
         assert!(rmse < 0.035, "LOO rmse {rmse}");
         assert!(!fit.noise_inflated(sparse.posterior.hyper.noise_std));
     }

@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::console::Console;
-use crate::data::channels::Channels;
-use crate::data::columns::ColumnMap;
-use crate::data::stream::Window;
+use fog_data::channels::Channels;
+use fog_data::columns::ColumnMap;
+use fog_data::stream::Window;
 
 /// The `--map` flag of every data-reading command, in both programs.
 #[derive(Args, Clone, Default)]
@@ -66,7 +66,7 @@ impl UnitArgs {
 
 impl LogArgs {
     /// The log, loaded as [`load_log`] loads it.
-    pub fn load(&self, console: &Console) -> anyhow::Result<crate::data::stream::Stream> {
+    pub fn load(&self, console: &Console) -> anyhow::Result<fog_data::stream::Stream> {
         load_log(
             &self.stream,
             &self.maps.list,
@@ -80,7 +80,7 @@ impl LogArgs {
         &self,
         channels: &Channels,
         console: &Console,
-    ) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+    ) -> anyhow::Result<Vec<fog_data::stream::Stream>> {
         load_unit_log(
             &self.stream,
             channels,
@@ -99,8 +99,8 @@ pub fn load_log(
     maps: &[ColumnMap],
     (window, exclude): (Option<Window>, &[Window]),
     console: &Console,
-) -> anyhow::Result<crate::data::stream::Stream> {
-    let s = crate::data::stream::Stream::load(path, maps)?;
+) -> anyhow::Result<fog_data::stream::Stream> {
+    let s = fog_data::stream::Stream::load(path, maps)?;
     let [s] = <[_; 1]>::try_from(cut(path, vec![s], (window, exclude))?)
         .map_err(|_| anyhow::anyhow!("{}: one stream expected", path.display()))?;
     say(path, &s, console);
@@ -115,7 +115,7 @@ pub fn load_unit_log(
     maps: &[ColumnMap],
     (window, exclude): (Option<Window>, &[Window]),
     console: &Console,
-) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+) -> anyhow::Result<Vec<fog_data::stream::Stream>> {
     let streams = cut(path, channels.load_log(path, maps)?, (window, exclude))?;
     if let Some(first) = streams.first() {
         say(path, first, console);
@@ -127,9 +127,9 @@ pub fn load_unit_log(
 /// `window` kept.
 fn cut(
     path: &std::path::Path,
-    streams: Vec<crate::data::stream::Stream>,
+    streams: Vec<fog_data::stream::Stream>,
     (window, exclude): (Option<Window>, &[Window]),
-) -> anyhow::Result<Vec<crate::data::stream::Stream>> {
+) -> anyhow::Result<Vec<fog_data::stream::Stream>> {
     streams
         .into_iter()
         .map(|mut s| {
@@ -152,7 +152,7 @@ fn cut(
 }
 
 /// Says what the loader found in a log: its time problems and the windows left out.
-fn say(path: &std::path::Path, s: &crate::data::stream::Stream, console: &Console) {
+fn say(path: &std::path::Path, s: &fog_data::stream::Stream, console: &Console) {
     if s.time_issues.len() <= 3 {
         for issue in &s.time_issues {
             console.warn(&format!("{} {issue}", path.display()));
@@ -168,7 +168,7 @@ fn say(path: &std::path::Path, s: &crate::data::stream::Stream, console: &Consol
             console.detail(&format!("{} {issue}", path.display()));
         }
     }
-    if let Some(line) = crate::data::stream::left_out_summary(&s.handled) {
+    if let Some(line) = fog_data::stream::left_out_summary(&s.handled) {
         console.warn(&format!("{}: {line}", path.display()));
     }
     for h in &s.handled {

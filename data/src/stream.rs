@@ -9,8 +9,8 @@
 use std::fmt;
 use std::path::Path;
 
-use crate::data::blocks;
-use crate::data::columns::{self, ColumnMap, DataError};
+use crate::blocks;
+use crate::columns::{self, ColumnMap, DataError};
 
 /// A step longer than this many typical steps is a gap.
 pub const GAP_FACTOR: f64 = 3.0;

@@ -32,8 +32,8 @@ use firmware_core::Quantity;
 use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
 use serde::Deserialize;
 
-use crate::data::columns::{self, ColumnMap, DataError, Source};
-use crate::data::stream::{self, Stream};
+use crate::columns::{self, ColumnMap, DataError, Source};
+use crate::stream::{self, Stream};
 
 /// What kind of file the channels are read from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -21,9 +21,9 @@ use serde::Serialize;
 
 use crate::sigma::Coverage;
 
-use crate::data::blocks::half_filled;
-use crate::data::stream::{Handled, Stream, TimeIssue};
+use crate::blocks::half_filled;
 use crate::stats::rms;
+use crate::stream::{Handled, Stream, TimeIssue};
 
 /// The host decodes blobs into the firmware's largest capacities ([`MAX_CENTRES`] centres,
 /// [`MAX_INPUTS`] inputs; heapless storage is inline, so they also bound the host's stack use).
@@ -190,7 +190,7 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
 }
 
 /// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
-/// their time and temperature: [`crate::data::channels::Channels::load_log`]) through the unit in
+/// their time and temperature: [`crate::channels::Channels::load_log`]) through the unit in
 /// one call each, its one feature state kept through the power cycles as [`replay`] keeps a
 /// model's; one replay per channel. With `calibration_run`, the stream up to its first power
 /// cycle is of the power-on the model was calibrated on ([`FeatureState::calibration_run`]).

@@ -2,7 +2,7 @@
 //! stream's first sample, in time order. A block mean is where a gyro's white noise has fallen
 //! below its drift, so the drift can be scored and seen.
 
-use crate::data::stream::Stream;
+use crate::stream::Stream;
 
 /// Length of a block, s: of `rmse_60s_dps`, the diagnosis' residual, and the windows screened
 /// for handling.

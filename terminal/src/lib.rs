@@ -1,0 +1,16 @@
+//! The command line's edge, shared by `trainer` and `firmware-sim` so that both read a log by the
+//! same flags and speak to the person at the terminal the same way.
+//!
+//! - [`log`]: the flags every command that reads a log takes (`--stream`, `--map`, `--exclude`,
+//!   `--window`, `--channels`), and the loader that applies them through [`fog_data`] and says in
+//!   one line what it left out;
+//! - [`console`]: results on stdout, progress and details on stderr, by the same `--quiet`,
+//!   `--verbose` and `--json`;
+//! - [`io`]: files written whole or not at all, never over an input.
+//!
+//! The libraries below take no type from here: what they compute comes back as values, and only
+//! the command lines print it.
+
+pub mod console;
+pub mod io;
+pub mod log;
