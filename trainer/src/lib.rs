@@ -6,7 +6,8 @@
 //! Layers, each using only those listed before it (and firmware-sim, firmware-core below):
 //! [`data`] (rate-table points as model inputs), [`models`] (the regressions), [`firmware`] (the
 //! blob and its checks), [`analysis`] (evaluation, diagnosis, extension, investigation, noise
-//! terms, the simulator's twin), [`plot`] (the figures' common drawing), [`report`], [`cli`].
+//! terms, the simulator's twin), [`plot`] (the figures' common drawing), [`report`], [`cli`];
+//! [`progress`] is how long work in any of them reports how far it has come.
 
 pub mod analysis;
 pub mod cli;
@@ -14,4 +15,5 @@ pub mod data;
 pub mod firmware;
 pub mod models;
 pub mod plot;
+pub mod progress;
 pub mod report;

@@ -5,7 +5,6 @@
 
 use std::path::Path;
 
-use fog_terminal::console::ProgressBar;
 use trainer::analysis::evaluate::{self, EvalConfig, Method};
 use trainer::analysis::table::{self, Transients};
 use trainer::data::points::Points;
@@ -156,7 +155,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     };
     assert_eq!((oct.len(), aug.len()), (773, 695));
     let cfg = EvalConfig::default();
-    let cross = |m| evaluate::cross_run(&aug, &oct, m, &cfg, &ProgressBar::hidden()).unwrap();
+    let cross = |m| evaluate::cross_run(&aug, &oct, m, &cfg, &()).unwrap();
     let gp = cross(Method::Gpr);
     let poly = cross(Method::Poly);
     let two_step = cross(Method::TwoStep);
@@ -172,7 +171,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
         assert!(c.rmse_dph < 400.0, "{c:?}");
     }
     assert!(two_step.rmse_dph > 5.0 * poly.rmse_dph, "{two_step:?}");
-    let loo = evaluate::evaluate(&oct, Method::Poly, &cfg, &ProgressBar::hidden()).unwrap();
+    let loo = evaluate::evaluate(&oct, Method::Poly, &cfg, &()).unwrap();
     assert_eq!(loo.per_temperature.len(), 18);
     assert!(loo.group_rmse_dph < 100.0, "{}", loo.group_rmse_dph);
 }
@@ -193,7 +192,7 @@ fn the_fog_runs_transient_is_found_from_the_training_sweeps_and_harms_neither_ru
     let m = table::fit(&aug, &transients, &aug_rows, (&cfg.gp, false)).unwrap();
     assert!(m.terms.is_empty(), "{}", m.diagnosis.verdict);
 
-    let e = evaluate::evaluate_table(&oct, &cfg, &ProgressBar::hidden()).unwrap();
+    let e = evaluate::evaluate_table(&oct, &cfg, &()).unwrap();
     let d = e.diagnosis.as_ref().unwrap();
     assert!(d.all_rows.shipped, "{}", d.all_rows.verdict);
     assert_eq!(d.terms[0].candidate.acts_on, table::ActsOn::ScaleFactor);

@@ -9,6 +9,7 @@
 //! both cores (rayon); each is deterministic by its seed. A [`Kind::Unit`] case does the same for
 //! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
 
+use crate::progress::Progress;
 use firmware_sim::gyro::axes::Axes;
 use firmware_sim::gyro::effects::{Effect, Hidden, Strength};
 use firmware_sim::gyro::plant::GyroParams;
@@ -16,7 +17,6 @@ use firmware_sim::gyro::{output, paper, stream};
 use fog_data::cause::Cause;
 use fog_data::channels::{Channels, Read};
 use fog_data::stream::Stream;
-use fog_terminal::console::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -25,7 +25,7 @@ use crate::data::points::Points;
 use crate::models::gp::GpConfig;
 
 /// Which cases a challenge runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Kind {
     /// Every cause alone (and `none`), strengths from the documented ranges.
@@ -43,6 +43,22 @@ pub enum Kind {
     /// seeds), calibrated and investigated through a channels file as a user's unit is: each
     /// axis a case.
     Unit,
+}
+
+impl Kind {
+    /// Every kind, in the order above.
+    pub const ALL: [Kind; 5] = [Kind::Single, Kind::Pairs, Kind::Weak, Kind::Lab, Kind::Unit];
+
+    /// Its name, as its JSON and the command line spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Single => "single",
+            Kind::Pairs => "pairs",
+            Kind::Weak => "weak",
+            Kind::Lab => "lab",
+            Kind::Unit => "unit",
+        }
+    }
 }
 
 /// Axes of a [`Kind::Unit`] case.
@@ -180,7 +196,7 @@ pub fn run_hidden(
             &GpConfig::default(),
             asked,
             &|_: &Stream| Ok(points.clone()),
-            &ProgressBar::hidden(),
+            &(),
         )
     };
     let (inv, _) = investigate(None)?;
@@ -256,7 +272,7 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
                 &GpConfig::default(),
                 None,
                 &|_: &Stream| Ok(points.clone()),
-                &ProgressBar::hidden(),
+                &(),
             )?;
             Ok(Case {
                 hidden: Hidden(axis.effects),
@@ -297,7 +313,7 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
 
 /// The challenge of `kind` over `seeds` seeds per design (seeds `first`, `first + 10`, …, so the
 /// three seeds of a case never overlap another's); `bar` counts the cases.
-pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Result<Vec<Case>> {
+pub fn run(kind: Kind, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Result<Vec<Case>> {
     let strength = match kind {
         Kind::Weak => Strength::Weak,
         Kind::Single | Kind::Pairs | Kind::Lab | Kind::Unit => Strength::Documented,
@@ -311,7 +327,7 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Res
         .flat_map(|c| shapes.iter().map(move |&shape| (c.clone(), shape)))
         .flat_map(|(c, shape)| (0..seeds).map(move |k| (c.clone(), shape, first + 10 * k)))
         .collect();
-    bar.inc_length(jobs.len() as u64);
+    bar.expect(jobs.len() as u64);
     // Each case decodes firmware models, whose heapless storage is inline (about 140 KB at the
     // host's capacities); an unoptimized build keeps several copies per frame and overflowed
     // rayon's default 2 MB worker stack.
@@ -334,7 +350,7 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &ProgressBar) -> anyhow::Res
                     }
                     (_, None) => run_case(&c, s, strength, kind == Kind::Pairs).map(|c| vec![c]),
                 };
-                bar.inc(1);
+                bar.advance(1);
                 cases
             })
             .collect()

@@ -9,7 +9,7 @@
 
 use std::time::Instant;
 
-use indicatif::ProgressBar;
+use crate::progress::Progress;
 use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -418,7 +418,7 @@ struct LeftOut {
 /// ones, each with its σ (NaN for a method that states none). Every group that can be left out is
 /// (one whose leaving out leaves too little to fit is skipped, with the reason); the test is
 /// skipped, not failed, where there is one group.
-fn leave_groups_out<F>(points: &Points, bar: &ProgressBar, fold: F) -> Result<LeftOut, EvalError>
+fn leave_groups_out<F>(points: &Points, bar: &dyn Progress, fold: F) -> Result<LeftOut, EvalError>
 where
     F: Fn(&[usize], &[usize]) -> Result<Vec<(f64, f64)>, EvalError> + Sync,
 {
@@ -432,7 +432,7 @@ where
                 &keep.iter().map(|&i| points.temp_c[i]).collect::<Vec<_>>(),
             );
             if span <= PLATEAU_GAP_C || keep.len() < 4 {
-                bar.inc(1);
+                bar.advance(1);
                 return Ok(Err(EvalError::FoldTooSmall {
                     group,
                     remaining: keep.len(),
@@ -445,7 +445,7 @@ where
                 .map(|((p, sigma), &i)| (p - points.rate_dps[i], sigma))
                 .collect();
             let r = rms(&e.iter().map(|(e, _)| *e).collect::<Vec<_>>());
-            bar.inc(1);
+            bar.advance(1);
             Ok(Ok((
                 e,
                 GroupRmse {
@@ -478,10 +478,10 @@ pub fn evaluate(
     points: &Points,
     method: Method,
     cfg: &EvalConfig,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> Result<Evaluation, EvalError> {
-    bar.inc_length(1 + groups(points).0.len() as u64);
-    bar.set_message(format!(
+    bar.expect(1 + groups(points).0.len() as u64);
+    bar.stage(&format!(
         "{}: fit on all {} points",
         method.name(),
         points.len()
@@ -492,8 +492,8 @@ pub fn evaluate(
     let t1 = Instant::now();
     let errors = loo_errors(points, &fitted, method, cfg)?;
     let loo_seconds = t1.elapsed().as_secs_f64();
-    bar.inc(1);
-    bar.set_message(format!("{}: leave one group out", method.name()));
+    bar.advance(1);
+    bar.stage(&format!("{}: leave one group out", method.name()));
     let left_out = leave_groups_out(points, bar, |keep, members| {
         let train = points.select(keep);
         let m = Fitted::fit(&train, method, cfg)?;
@@ -538,12 +538,12 @@ pub struct FoldChoice {
 pub fn evaluate_table(
     points: &Points,
     cfg: &EvalConfig,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> Result<Evaluation, EvalError> {
     let transients = Transients::compute(points)?;
     let (groups, _) = groups(points);
-    bar.inc_length(1 + groups.len() as u64);
-    bar.set_message(format!("gpr + diagnosis: all {} points", points.len()));
+    bar.expect(1 + groups.len() as u64);
+    bar.stage(&format!("gpr + diagnosis: all {} points", points.len()));
     let all: Vec<usize> = (0..points.len()).collect();
     let t0 = Instant::now();
     let model = table::fit(points, &transients, &all, (&cfg.gp, cfg.offsets))?;
@@ -551,8 +551,8 @@ pub fn evaluate_table(
     let t1 = Instant::now();
     let errors = model.loo_errors(points, &transients, &all)?;
     let loo_seconds = t1.elapsed().as_secs_f64();
-    bar.inc(1);
-    bar.set_message("gpr + diagnosis: leave one group out");
+    bar.advance(1);
+    bar.stage("gpr + diagnosis: leave one group out");
     let choices = std::sync::Mutex::new(Vec::new());
     let left_out = leave_groups_out(points, bar, |keep, members| {
         let m = table::fit(points, &transients, keep, (&cfg.gp, cfg.offsets))?;
@@ -624,7 +624,7 @@ pub fn cross_run(
     test: &Points,
     method: Method,
     cfg: &EvalConfig,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> Result<CrossRun, EvalError> {
     let range = |p: &Points| {
         let lo = p.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
@@ -642,14 +642,14 @@ pub fn cross_run(
     if inside.is_empty() {
         return Err(EvalError::NoOverlap);
     }
-    bar.inc_length(1);
-    bar.set_message(format!(
+    bar.expect(1);
+    bar.stage(&format!(
         "{}: fit on one run, test on the other",
         method.name()
     ));
     let m = Fitted::fit(train, method, cfg)?;
     let calibration = m.calibration(train, cfg)?;
-    bar.inc(1);
+    bar.advance(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
         .iter()
         .map(|&i| {

@@ -6,12 +6,12 @@
 //! The held-out stream is touched once, to score: which causes to name and whether to ship their
 //! extension are part of the model, so they come from the training data alone ([`choose`]).
 
+use crate::progress::Progress;
 use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay::{self, HostModel, Score};
 use fog_data::stats::rms;
 use fog_data::stream::{Handled, Stream, Window};
-use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::analysis::beyond::{self, BeyondChoice};
@@ -715,10 +715,10 @@ pub fn investigate(
     cfg: &GpConfig,
     asked: Option<&[Cause]>,
     rebuild: &Rebuild<'_>,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> anyhow::Result<(Investigation, Blobs)> {
-    bar.inc_length(STEPS);
-    bar.set_message(format!("static fit on {} points", points.len()));
+    bar.expect(STEPS);
+    bar.stage(&format!("static fit on {} points", points.len()));
     let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
     let (fw, _) =
@@ -731,11 +731,11 @@ pub fn investigate(
                 e.context(format!("static fit (it warned: {})", warned.join("; ")))
             }
         })?;
-    bar.inc(1);
-    bar.set_message("diagnosis of the training stream, extension, forward check");
+    bar.advance(1);
+    bar.stage("diagnosis of the training stream, extension, forward check");
     let choice = choose(points, &model, &fw, train, cfg, asked, rebuild)?;
-    bar.inc(3);
-    bar.set_message("replay of the static and the shipped model on the held-out stream");
+    bar.advance(3);
+    bar.stage("replay of the static and the shipped model on the held-out stream");
     let mut warnings = model.warnings();
     let (extension, extended_blob) = match (&choice.extended, choice.shipped) {
         (Some(ext), Shipped::Extended) => (Some(ext.fitted.clone()), ext.blob.clone()),
@@ -765,7 +765,7 @@ pub fn investigate(
     let shipped = fog_data::replay::decode(&extended_blob)?;
     let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
-    bar.inc(1);
+    bar.advance(1);
     Ok((
         Investigation {
             static_score,

@@ -1,7 +1,7 @@
 //! Our figures beside the reference paper's (He, Liu, Zhao, Liu; docs/design.md §1), from one
 //! points file.
 
-use indicatif::ProgressBar;
+use crate::progress::Progress;
 use serde::Serialize;
 
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Fig2, Method};
@@ -48,7 +48,7 @@ pub struct Reproduction {
 pub fn reproduce(
     points: &Points,
     cfg: &EvalConfig,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> Result<Reproduction, EvalError> {
     let gpr = evaluate::evaluate(points, Method::Gpr, cfg, bar)?;
     let mut skipped = Vec::new();

@@ -684,7 +684,9 @@ pub(super) struct ChallengeArgs {
     /// single: every cause alone and none; pairs: every two distinct causes together, each
     /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
     /// lower end of its documented strength; lab: the shapes of log labs record, each from one
-    /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none.
+    /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none;
+    /// unit: a unit of three gyro axes, each its own gyro and hidden cause, calibrated through a
+    /// channels file.
     #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
     kind: challenge::Kind,
     /// Seeds per cause (per pair).
@@ -777,4 +779,16 @@ struct ChallengeReport<'a> {
     false_alarms_none: usize,
     cases: &'a [challenge::Case],
     summary: &'a challenge::Summary,
+}
+
+/// The challenge's kinds as `--kind` values, by the names their JSON carries (the library's type
+/// knows no command line).
+impl clap::ValueEnum for challenge::Kind {
+    fn value_variants<'a>() -> &'a [Self] {
+        &challenge::Kind::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
+    }
 }

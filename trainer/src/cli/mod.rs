@@ -13,6 +13,21 @@ mod look;
 mod report;
 mod text;
 
+/// The library's progress, drawn by the console's bar.
+impl crate::progress::Progress for fog_terminal::console::ProgressBar {
+    fn expect(&self, steps: u64) {
+        self.inc_length(steps);
+    }
+
+    fn advance(&self, steps: u64) {
+        self.inc(steps);
+    }
+
+    fn stage(&self, what: &str) {
+        self.set_message(what.to_owned());
+    }
+}
+
 /// Host trainer for FOG temperature-drift compensation (Gaussian-process regression).
 #[derive(Parser)]
 #[command(version, about, after_help = AFTER_HELP)]

@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 
 use crate::analysis::allan::Analysis as Allan;
 use crate::plot::{AllanSeries, BLUE, GREY, ORANGE};
+use crate::progress::Progress;
 use anyhow::Context;
-use indicatif::ProgressBar;
 use plots::{DiagnosisSeries, ReliabilitySeries, ReplaySeries};
 
 use crate::analysis::diagnose::Residual;
@@ -140,7 +140,7 @@ fn allan_of(what: &str, valid: &Stream, rate_dps: impl Iterator<Item = f64>) -> 
 }
 
 /// The paper's evaluations of a rate table; `bar` counts their fits.
-fn reproduce(points: &Points, cfg: &GpConfig, bar: &ProgressBar) -> anyhow::Result<Reproduction> {
+fn reproduce(points: &Points, cfg: &GpConfig, bar: &dyn Progress) -> anyhow::Result<Reproduction> {
     let eval = EvalConfig {
         gp: cfg.clone(),
         ..EvalConfig::default()
@@ -155,7 +155,7 @@ fn held_out(
     valid: Stream,
     split: String,
     (cfg, rebuild): (&GpConfig, &Rebuild<'_>),
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> anyhow::Result<HeldOut> {
     let (investigation, blobs) =
         investigate::investigate(points, train, &valid, cfg, None, rebuild, bar)?;
@@ -225,7 +225,7 @@ pub fn table(
     summaries: Vec<Summary>,
     points: Points,
     cfg: &GpConfig,
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> anyhow::Result<Report> {
     let reproduction = reproduce(&points, cfg, bar)?;
     let skipped: Vec<String> = reproduction
@@ -318,7 +318,7 @@ pub fn with_streams(
     valid: Stream,
     split: String,
     fitting: (&GpConfig, &Rebuild<'_>),
-    bar: &ProgressBar,
+    bar: &dyn Progress,
 ) -> anyhow::Result<Report> {
     let on_table = points.soaked;
     let reproduction = if on_table {

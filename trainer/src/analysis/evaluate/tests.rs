@@ -22,14 +22,14 @@ fn a_group_that_cannot_be_left_out_is_skipped_with_the_reason_not_fatal() {
     // Three groups, the last alone at 40 °C: leaving it out leaves 0.5 °C of the table.
     let temps = [10.0, 10.3, 10.5, 40.0];
     let p = table(&temps, |k| ["a", "a", "b", "c"][k].to_owned());
-    let e = evaluate(&p, Method::Gpr, &cfg, &ProgressBar::hidden()).unwrap();
+    let e = evaluate(&p, Method::Gpr, &cfg, &()).unwrap();
     assert_eq!(e.per_temperature.len(), 2, "{:?}", e.skipped);
     assert_eq!(e.skipped.len(), 1, "{:?}", e.skipped);
     assert!(e.skipped[0].contains("too few to fit"), "{:?}", e.skipped);
     assert!(e.rmse_dps.is_finite());
     // One group: leave-one-group-out is skipped, point LOO is not.
     let p = table(&[10.0, 20.0, 30.0, 40.0], |_| "all".to_owned());
-    let e = evaluate(&p, Method::Gpr, &cfg, &ProgressBar::hidden()).unwrap();
+    let e = evaluate(&p, Method::Gpr, &cfg, &()).unwrap();
     assert!(e.per_temperature.is_empty());
     assert!(e.skipped[0].contains("one group"), "{:?}", e.skipped);
     assert!(e.rmse_dps.is_finite());
