@@ -28,7 +28,8 @@ use crate::blob::unit::{self as format, NAME_BYTES, SENSOR_ID_BYTES};
 use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
-use crate::model::{Conditions, Evaluator, Mean, Prediction, capacity, read_numbers};
+use crate::model::evaluate::Evaluator;
+use crate::model::{Conditions, Mean, Prediction, capacity, read_numbers};
 use crate::status::Status;
 use crate::units::Quantity;
 

@@ -175,7 +175,7 @@ impl Fitted {
     }
 
     /// The σ a GP's blob would state, measured on the points it was fitted on
-    /// ([`uncertainty::pooled_calibration`]: several runs pooled each left out); none for the
+    /// ([`uncertainty::tables::pooled_calibration`]: several runs pooled each left out); none for the
     /// methods that state no σ.
     pub fn calibration(
         &self,
@@ -183,7 +183,9 @@ impl Fitted {
         cfg: &EvalConfig,
     ) -> Result<Option<Calibration>, EvalError> {
         match self {
-            Self::Gpr(m) => Ok(Some(uncertainty::pooled_calibration(points, m, &cfg.gp)?)),
+            Self::Gpr(m) => Ok(Some(uncertainty::tables::pooled_calibration(
+                points, m, &cfg.gp,
+            )?)),
             _ => Ok(None),
         }
     }
@@ -199,7 +201,7 @@ impl Fitted {
         let sigma = match (self, calibration) {
             (Self::Gpr(m), Some(c)) => {
                 let x: Vec<f64> = points.inputs().row(i).iter().copied().collect();
-                uncertainty::point_sigma(m, c, &x)
+                uncertainty::tables::point_sigma(m, c, &x)
             }
             _ => f64::NAN,
         };
@@ -569,7 +571,7 @@ pub fn evaluate_table(
                 let x: Vec<f64> = points.inputs().row(i).iter().copied().collect();
                 (
                     m.predict(points, &transients, i),
-                    uncertainty::point_sigma(&m.gp, &calibration, &x),
+                    uncertainty::tables::point_sigma(&m.gp, &calibration, &x),
                 )
             })
             .collect())

@@ -316,7 +316,7 @@ impl TableModel {
         rows: &[usize],
     ) -> Result<Calibration, GpError> {
         let train = points.select(rows);
-        let (source, groups) = uncertainty::table_groups(&self.gp, &train);
+        let (source, groups) = uncertainty::tables::table_groups(&self.gp, &train);
         let chosen: Vec<usize> = self.terms.iter().map(|t| t.column).collect();
         let errors = self.gp.group_loo_with(
             train.inputs(),
@@ -332,10 +332,10 @@ impl TableModel {
                 (e, p.latent_var + p.noise_var)
             })
             .collect();
-        let series = uncertainty::series_of(&train, source, &groups, &loo);
+        let series = uncertainty::tables::series_of(&train, source, &groups, &loo);
         Ok(uncertainty::calibrate(
             &[series],
-            uncertainty::table_noise(&train, &self.gp),
+            uncertainty::tables::table_noise(&train, &self.gp),
             uncertainty::Prior::of(&self.gp, &train),
         ))
     }

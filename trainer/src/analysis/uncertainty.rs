@@ -46,10 +46,6 @@
 //! rate response.) Each assumed term is named in the calibration (`assumed`) and in its one line.
 
 use firmware_core::ErrorModel;
-use firmware_core::model::Conditions;
-use firmware_core::units::SECONDS_PER_HOUR;
-use fog_data::blocks;
-use fog_data::replay;
 use fog_data::sigma::Coverage;
 use fog_data::stats::{median, rms};
 use fog_data::stream::Stream;
@@ -59,9 +55,11 @@ use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
-use crate::models::gp::{GpConfig, GpError, GpModel};
-use crate::models::normalize::Sorted;
+use crate::models::gp::GpModel;
 use firmware_core::Feature;
+
+pub mod streams;
+pub mod tables;
 
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
@@ -407,7 +405,7 @@ impl Calibration {
     }
 
     /// States the heating/cooling states the training stream held (`states`, each sample's, as
-    /// the firmware tracks them: [`legs`]). Where they are one leg's only, the error of a full
+    /// the firmware tracks them: [`streams::legs`]). Where they are one leg's only, the error of a full
     /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
     /// saw (the RMS of the residuals of the training data, or the floor where there are none),
     /// said in `assumed`; the firmware adds it in proportion to how far a state lies beyond the
@@ -744,247 +742,6 @@ fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; T
         *ck = best[k].max(0.0) * unit(k);
     }
     c
-}
-
-/// The residuals of a model fitted on part of `stream` and scored on another: the 60 s means of
-/// the samples with a reference in `stream` (the whole stream is replayed, so the stateful inputs
-/// keep their history), each with the blob's latent variance, e(x)² and `hours[i]` (time since
-/// the data it was fitted on) of its samples. `blob` is the model as exported, before any error
-/// model; the latent variance and e(x)² come from the firmware's own evaluation of it.
-pub fn stream_series(
-    source: Source,
-    blob: &[u8],
-    stream: &Stream,
-    hours: &[f64],
-    noise: SampleNoise,
-) -> Result<Series, ExportError> {
-    // The latent variance from the firmware's own evaluation, and e(x)² from its mean path: the
-    // variance it would state with an extrapolation term of 1 is the latent one plus e(x)², in
-    // the same f32 addition.
-    let model = replay::decode(&export::with_error_model(
-        blob,
-        &ErrorModel::noise_only(0.0),
-    )?)?;
-    let latent = replay::replay(&model, stream);
-    let excess2 = replay::means(&model, stream).excess2;
-    let scored: Vec<usize> = (0..stream.len())
-        .filter(|&i| {
-            stream.rate_dps[i].is_finite()
-                && latent.status[i] != firmware_core::Status::Fault
-                && hours[i].is_finite()
-        })
-        .collect();
-    let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
-        b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
-    };
-    let residuals = blocks::half_filled(stream, &scored)
-        .iter()
-        .map(|b| {
-            let latent_var = mean(b, &|i| f64::from(latent.bias_var[i]));
-            Residual {
-                error: mean(b, &|i| f64::from(latent.rate_dps[i]) - stream.rate_dps[i]),
-                base_var: latent_var + noise.of_mean(b.len() as f64 * stream.step_s),
-                excess2: mean(b, &|i| {
-                    f64::from(latent.bias_var[i] + excess2[i]) - f64::from(latent.bias_var[i])
-                })
-                .max(0.0),
-                hours: mean(b, &|i| hours[i]),
-            }
-        })
-        .collect();
-    Ok(Series { source, residuals })
-}
-
-/// The σ of a model fitted on a rate table alone: its groups (or points) left out
-/// ([`table_series`]), and the points' own noise as a point's; what they cannot show, the
-/// model's [`Prior`].
-pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration, GpError> {
-    Ok(calibrate(
-        &[table_series(model, points)?],
-        table_noise(points, model),
-        Prior::of(model, points),
-    ))
-}
-
-/// The σ of a model fitted with `cfg` on `points` of several power-ons pooled: as
-/// [`table_calibration`], but where the GP is sparse (no closed form leaves a run out) each run is
-/// left out by fitting again on the others, so that the model error holds another power-on's
-/// bias ([`Source::Runs`]). One run, or an exact GP: [`table_calibration`].
-pub fn pooled_calibration(
-    points: &Points,
-    model: &GpModel,
-    cfg: &GpConfig,
-) -> Result<Calibration, GpError> {
-    let runs = points.run_members();
-    if runs.len() < 2 || model.sparse.is_none() {
-        return table_calibration(points, model);
-    }
-    let target = points.target();
-    let mut loo = vec![(0.0, 0.0); points.len()];
-    for run in &runs {
-        let rest: Vec<usize> = (0..points.len())
-            .filter(|i| points.run[*i] != points.run[run[0]])
-            .collect();
-        let part = points.select(&rest);
-        let refit = GpModel::fit(part.inputs(), &part.target(), cfg)?;
-        for &i in run {
-            let row: Vec<f64> = points.inputs().row(i).iter().copied().collect();
-            let p = refit.predict(&row);
-            loo[i] = (p.mean - target[i], p.latent_var + p.noise_var);
-        }
-    }
-    Ok(calibrate(
-        &[series_of(points, Source::Runs, &runs, &loo)],
-        table_noise(points, model),
-        Prior::of(model, points),
-    ))
-}
-
-/// A table point's noise: the GP's noise level on the points it was fitted on.
-pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
-    SampleNoise {
-        var: model.predict(&vec![0.0; points.inputs().ncols()]).noise_var,
-        interval_s: 0.0,
-    }
-}
-
-/// How a rate table is left out for its residuals: each run (power-on) in turn where the points
-/// hold two or more, so that the σ carries the bias of another power-on; else each group in turn
-/// where there are two or more; each point otherwise. Groups and runs need the exact GP.
-pub fn table_groups(model: &GpModel, points: &Points) -> (Source, Vec<Vec<usize>>) {
-    let runs = points.run_members();
-    let groups: Vec<Vec<usize>> = points.groups().into_iter().map(|(_, g)| g).collect();
-    if runs.len() >= 2 && model.sparse.is_none() {
-        (Source::Runs, runs)
-    } else if groups.len() >= 2 && model.sparse.is_none() {
-        (Source::Groups, groups)
-    } else {
-        (Source::Points, (0..points.len()).map(|i| vec![i]).collect())
-    }
-}
-
-/// The residuals of a rate table ([`table_groups`]), closed form with `model`'s hyperparameters
-/// held; e(x) against the trained range of the rows left in.
-pub fn table_series(model: &GpModel, points: &Points) -> Result<Series, GpError> {
-    let (source, groups) = table_groups(model, points);
-    let loo = model.group_loo_predictive(points.inputs(), &groups)?;
-    Ok(series_of(points, source, &groups, &loo))
-}
-
-/// A table's residuals from its left-out predictions `loo` (error, predictive variance with
-/// noise, per point), e(x) against the trained range of the rows left in for each group.
-pub fn series_of(
-    points: &Points,
-    source: Source,
-    groups: &[Vec<usize>],
-    loo: &[(f64, f64)],
-) -> Series {
-    let x = points.inputs();
-    let columns: Vec<Sorted> = x
-        .column_iter()
-        .map(|c| Sorted::new(c.iter().copied()))
-        .collect();
-    let mut residuals = vec![None; points.len()];
-    for g in groups {
-        let range: Vec<(f64, f64)> = columns.iter().map(|c| c.range_without(g)).collect();
-        for &i in g {
-            let (error, base_var) = loo[i];
-            let row: Vec<f64> = x.row(i).iter().copied().collect();
-            residuals[i] = Some(Residual {
-                error,
-                base_var,
-                excess2: export::excess2(&row, &range),
-                hours: 0.0,
-            });
-        }
-    }
-    Series {
-        source,
-        residuals: residuals.into_iter().flatten().collect(),
-    }
-}
-
-/// The σ a blob with `calibration` states for a rate-table point `x` of `model` (f64; the
-/// firmware computes the same in f32): latent, noise and model error at power-on.
-pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
-    let p = model.predict(x);
-    let e2 = export::excess2(x, &model.input_range);
-    let error = f64::from(
-        calibration
-            .error_model
-            .model_error(e2 as f32, Conditions::at_hours(0.0)),
-    );
-    (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
-}
-
-/// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
-/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream.
-pub fn legs(stream: &Stream) -> Vec<f32> {
-    leg_states(stream)
-        .into_iter()
-        .enumerate()
-        .filter_map(|(i, state)| state.filter(|_| stream.rate_dps[i].is_finite()))
-        .collect()
-}
-
-/// The heating/cooling state of every sample of `stream` as the firmware tracks it
-/// (`firmware_core::FeatureState::leg`), the state carried through the whole stream; `None`
-/// where the firmware refuses the sample.
-pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
-    let mut state = firmware_core::FeatureState::default();
-    (0..stream.len())
-        .map(|i| {
-            let sample = firmware_core::Sample {
-                time_s: stream.time_s[i],
-                temp_c: stream.temp_c[i] as f32,
-                output: 0.0,
-            };
-            let health = firmware_core::features::compute(&[], &sample, &mut state, &mut []);
-            (health != firmware_core::Status::Fault).then(|| state.leg())
-        })
-        .collect()
-}
-
-/// Hours since power-on of every sample of `stream` (a power cycle where the replay has one),
-/// for a run the model never saw.
-pub fn hours_on(stream: &Stream) -> Vec<f64> {
-    let mut on = stream.time_s.first().copied().unwrap_or(0.0);
-    replay::restarts(stream)
-        .into_iter()
-        .zip(&stream.time_s)
-        .map(|(restart, &t)| {
-            if restart {
-                on = t;
-            }
-            (t - on).max(0.0) / SECONDS_PER_HOUR
-        })
-        .collect()
-}
-
-/// Hours from every sample of `stream` to the nearest of the `fitted` ones (sorted indices), NaN
-/// for the fitted ones themselves: the time since (or until) the data a model saw.
-pub fn hours_from(stream: &Stream, fitted: &[usize]) -> Vec<f64> {
-    let mut is_fitted = vec![false; stream.len()];
-    for &i in fitted {
-        is_fitted[i] = true;
-    }
-    let times: Vec<f64> = fitted.iter().map(|&i| stream.time_s[i]).collect();
-    (0..stream.len())
-        .map(|i| {
-            if is_fitted[i] || times.is_empty() {
-                return f64::NAN;
-            }
-            let t = stream.time_s[i];
-            let k = times.partition_point(|&x| x < t);
-            let before = k.checked_sub(1).map(|j| t - times[j]);
-            let after = times.get(k).map(|x| x - t);
-            before
-                .into_iter()
-                .chain(after)
-                .fold(f64::INFINITY, f64::min)
-                / SECONDS_PER_HOUR
-        })
-        .collect()
 }
 
 #[cfg(test)]

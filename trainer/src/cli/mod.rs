@@ -9,6 +9,7 @@ mod demo;
 mod fit;
 mod gyro;
 mod inputs;
+mod inspect;
 mod look;
 mod report;
 mod text;
@@ -80,7 +81,7 @@ enum Command {
     /// Size and static memory of a model blob on the firmware, with the formula.
     ///
     /// Example: trainer inspect model.bin
-    Inspect(fit::InspectArgs),
+    Inspect(inspect::InspectArgs),
     /// Allan deviation of a log (IEEE Std 952): the raw output divided by a scale factor, or the
     /// output compensated by a model, less the reference rate; the noise terms read from it
     /// (angle random walk, bias instability, rate random walk) and its figure. A static log in
@@ -137,7 +138,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(args) => fit::fit_command(args, flags),
         Command::Diagnose(args) => analyse::diagnose_command(args, flags),
         Command::Investigate(args) => analyse::investigate_command(args, flags),
-        Command::Inspect(args) => fit::inspect_command(args, flags),
+        Command::Inspect(args) => inspect::inspect_command(args, flags),
         Command::Loo(args) => analyse::loo_command(args, flags),
         Command::Allan(args) => gyro::allan_command(args, flags),
         Command::Identify(args) => gyro::identify_command(args, flags),

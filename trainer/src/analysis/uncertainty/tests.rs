@@ -1,4 +1,6 @@
+use super::streams::{hours_from, hours_on};
 use super::*;
+use firmware_core::model::Conditions;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 

@@ -1,0 +1,242 @@
+//! What a blob states for service where its calibration did not reach, besides the GP: the model
+//! error its σ carries ([`ErrorModel`]), the readings that cannot be true ([`Limits`]) and what the
+//! mean does beyond the trained range ([`Beyond`]). Each is a short run of numbers after the
+//! payload's, written in place by [`super::set_error_model`], [`super::set_limits`] and
+//! [`super::set_beyond`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BlobError;
+
+/// What the variance of a compensated sample holds besides the GP's latent variance (format
+/// version 5, the turn-on and leg terms version 6): the white noise of one sample, and the model
+/// error the trainer measured on its own training data, predicting it forward in time, beyond the
+/// temperatures fitted and across the groups left out, or, where those data could not show a
+/// term, the prior it stated instead (docs/design.md §4, "The σ contract"). All variances are in
+/// output units² (°/s²); the evaluator ([`crate::model`]) adds, at inputs x, t hours since
+/// power-on and heating/cooling state s,
+///
+/// ```text
+/// bias variance  = latent(x) + floor + turn_on + extrapolation·e(x)² + walk·t + trend·t²
+///                  + leg·l(s)²
+/// noise variance = sample_noise (one sample of sample_interval_s)
+/// ```
+///
+/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)², and
+/// l(s) the distance of the state s ∈ [−1, 1] ([`crate::features::FeatureState::leg`]: +1 after
+/// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
+/// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ErrorModel {
+    /// White noise of one sample, output units²: what averages away over a mean.
+    pub sample_noise_var: f32,
+    /// The sample interval `sample_noise_var` describes, s: a mean over τ seconds has
+    /// `sample_noise_var · sample_interval_s / τ` of noise. 0 where it is not known (a blob of
+    /// format 3 or 4): the noise is then not divided.
+    pub sample_interval_s: f32,
+    /// Model error everywhere, output units².
+    pub floor_var: f32,
+    /// Model error per trained range width beyond it, squared (output units² per width²).
+    pub extrapolation_var: f32,
+    /// Model error growing as a random walk with time since power-on, output units² per hour.
+    pub walk_var_per_h: f32,
+    /// Model error growing as a drift of unknown rate, output units² per hour².
+    pub trend_var_per_h2: f32,
+    /// The bias of another power-on than calibration's: run-to-run repeatability, output units².
+    /// Every power-on in service is another one, so it holds at every sample.
+    pub turn_on_var: f32,
+    /// Model error on a heating/cooling state the calibration did not hold, at a full swing
+    /// (l = 1), output units².
+    pub leg_var: f32,
+    /// The lowest heating/cooling state trained, in [−1, 1].
+    pub leg_min: f32,
+    /// The highest heating/cooling state trained, in [`Self::leg_min`], 1].
+    pub leg_max: f32,
+}
+
+impl ErrorModel {
+    /// Numbers in its encoding.
+    pub const NUMBERS: usize = 10;
+    /// Numbers in its encoding of format [`super::V5`]: the first six.
+    pub const V5_NUMBERS: usize = 6;
+
+    /// The error model of a blob without one (format 3 or 4): its noise variance as the sample
+    /// noise, at an unknown interval, and no model error. The evaluator's variances are then
+    /// what they were for those blobs.
+    pub const fn noise_only(noise_var: f32) -> Self {
+        Self {
+            sample_noise_var: noise_var,
+            sample_interval_s: 0.0,
+            floor_var: 0.0,
+            extrapolation_var: 0.0,
+            walk_var_per_h: 0.0,
+            trend_var_per_h2: 0.0,
+            turn_on_var: 0.0,
+            leg_var: 0.0,
+            leg_min: -1.0,
+            leg_max: 1.0,
+        }
+    }
+
+    /// A format-[`super::V5`] error model's six numbers, with no turn-on or leg term.
+    pub const fn from_v5(v: [f32; Self::V5_NUMBERS]) -> Self {
+        Self {
+            sample_noise_var: v[0],
+            sample_interval_s: v[1],
+            floor_var: v[2],
+            extrapolation_var: v[3],
+            walk_var_per_h: v[4],
+            trend_var_per_h2: v[5],
+            ..Self::noise_only(0.0)
+        }
+    }
+
+    /// Its numbers, in encoding order.
+    pub const fn numbers(&self) -> [f32; Self::NUMBERS] {
+        [
+            self.sample_noise_var,
+            self.sample_interval_s,
+            self.floor_var,
+            self.extrapolation_var,
+            self.walk_var_per_h,
+            self.trend_var_per_h2,
+            self.turn_on_var,
+            self.leg_var,
+            self.leg_min,
+            self.leg_max,
+        ]
+    }
+
+    /// The index of its first non-finite number, else whether every number is in its domain
+    /// (variances and the interval not negative, −1 ≤ leg_min ≤ leg_max ≤ 1).
+    pub fn check(&self) -> Result<(), BlobError> {
+        let numbers = self.numbers();
+        if let Some(i) = numbers.iter().position(|v| !v.is_finite()) {
+            return Err(BlobError::NonFinite(i));
+        }
+        let legs = -1.0 <= self.leg_min && self.leg_min <= self.leg_max && self.leg_max <= 1.0;
+        if legs && numbers.iter().take(8).all(|v| *v >= 0.0) {
+            Ok(())
+        } else {
+            Err(BlobError::InvalidParameter)
+        }
+    }
+
+    /// Noise variance of a mean over `window_s` seconds: the sample noise divided by the samples
+    /// in it (not divided where the interval is unknown, nor for a window shorter than a sample).
+    pub fn noise_of_mean(&self, window_s: f32) -> f32 {
+        if self.sample_interval_s > 0.0 && window_s > self.sample_interval_s {
+            self.sample_noise_var * self.sample_interval_s / window_s
+        } else {
+            self.sample_noise_var
+        }
+    }
+
+    /// l(s): how far the heating/cooling state `leg` lies outside the states trained, over the
+    /// full swing (0 inside them, 1 at the far end of a one-leg calibration).
+    pub fn leg_excess(&self, leg: f32) -> f32 {
+        ((self.leg_min - leg).max(leg - self.leg_max).max(0.0) * 0.5).min(1.0)
+    }
+
+    /// The model error at `excess2` (e(x)², trained widths²) in the conditions `at`: hours since
+    /// power-on, heating/cooling state (`None`: one the calibration held, no leg term), and
+    /// whether another power-on's bias applies.
+    pub fn model_error(&self, excess2: f32, at: crate::model::Conditions) -> f32 {
+        let h = at.hours.max(0.0);
+        let l = at.leg.map_or(0.0, |s| self.leg_excess(s));
+        let turn_on = if at.another_power_on {
+            self.turn_on_var
+        } else {
+            0.0
+        };
+        self.floor_var
+            + turn_on
+            + self.extrapolation_var * excess2
+            + self.walk_var_per_h * h
+            + self.trend_var_per_h2 * h * h
+            + self.leg_var * l * l
+    }
+}
+
+/// What a reading that cannot be true is, for one channel (format version 6): a temperature
+/// outside the sensor's rated range, an output beyond its full scale. The only readings a
+/// prediction calls a `Fault`, with non-finite ones; every other reading, however far from the
+/// calibration, is compensated (`Extrapolating` beyond the trained range). Blobs of format 5 and
+/// before read as [`Limits::DEFAULT`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Limits {
+    /// The lowest temperature the sensor can read, °C.
+    pub temp_min_c: f32,
+    /// The highest, °C.
+    pub temp_max_c: f32,
+    /// The largest magnitude of the output the sensor can give, output units (volts, counts or a
+    /// rate, as the model's `Voltage` input); 0: not stated, any finite output is a reading.
+    pub full_scale: f32,
+}
+
+impl Limits {
+    /// Numbers in its encoding.
+    pub const NUMBERS: usize = 3;
+    /// What a blob states unless told otherwise: −55 … 125 °C, the widest rated range of the
+    /// temperature sensors inside IMUs and gyro electronics (the military grade; industrial
+    /// parts stop at −40 … 85 °C), so a reading beyond it is a broken sensor or wire whatever
+    /// the part; no full scale.
+    pub const DEFAULT: Self = Self {
+        temp_min_c: -55.0,
+        temp_max_c: 125.0,
+        full_scale: 0.0,
+    };
+
+    /// Its numbers, in encoding order.
+    pub const fn numbers(&self) -> [f32; Self::NUMBERS] {
+        [self.temp_min_c, self.temp_max_c, self.full_scale]
+    }
+
+    /// The index of its first non-finite number, else whether it is a range (min < max) and a
+    /// full scale not negative.
+    pub fn check(&self) -> Result<(), BlobError> {
+        if let Some(i) = self.numbers().iter().position(|v| !v.is_finite()) {
+            return Err(BlobError::NonFinite(i));
+        }
+        if self.temp_min_c < self.temp_max_c && self.full_scale >= 0.0 {
+            Ok(())
+        } else {
+            Err(BlobError::InvalidParameter)
+        }
+    }
+
+    /// Whether a temperature reading (°C) can be true.
+    pub fn temperature_ok(&self, temp_c: f32) -> bool {
+        (self.temp_min_c..=self.temp_max_c).contains(&temp_c)
+    }
+
+    /// Whether an output can be true.
+    pub fn output_ok(&self, output: f32) -> bool {
+        output.is_finite() && (self.full_scale <= 0.0 || output.abs() <= self.full_scale)
+    }
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// What the mean does beyond the trained range (format version 6; [`crate::model`]'s module doc
+/// has the rule).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Beyond {
+    /// The inputs the kernel reads held at the edge, the prior mean's too (PX4's and
+    /// ArduPilot's clip of the temperature), but for the raw linear terms of the gyro output and
+    /// the time since power-on.
+    Hold,
+    /// The kernel's inputs held at the edge, the prior mean continued from there along its
+    /// tangent: the trend its coefficients, fitted on all the data, support, first order only.
+    Tangent,
+    /// The GP's own prediction at the inputs as they are: the kernel's part fades with the
+    /// distance and the prior mean follows whole (what blobs before format 6 did).
+    Follow,
+}

@@ -1,0 +1,293 @@
+use super::*;
+use crate::testing::Reference;
+
+type Small = Model<2, 6, 64>;
+
+#[test]
+fn f32_mean_and_variance_follow_the_f64_reference() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    let mut scratch = [0.0f32; 8];
+    for t in [-30.0f32, -5.0, 12.5, 40.0, 60.0] {
+        for v in [-3.0f32, -0.7, 0.0, 0.4, 2.9] {
+            let x = [f64::from(t), f64::from(v)];
+            let (mean, var) = r.predict(x);
+            let hours = 2.5f32;
+            let p = m.predict_at(&[t, v], hours, &mut scratch).unwrap();
+            let expected = if (-30.0..=60.0).contains(&t) {
+                Status::Valid
+            } else {
+                Status::Extrapolating
+            };
+            assert_eq!(p.status, expected);
+            assert!(
+                (f64::from(p.mean) - mean).abs() < 1e-5,
+                "{t} {v}: {} vs {mean}",
+                p.mean
+            );
+            assert!(p.bias_variance >= 0.0);
+            let bias = var + r.model_error(x, f64::from(hours));
+            assert!(
+                (f64::from(p.bias_variance) - bias).abs() < 1e-3 * r.signal_var,
+                "{t} {v}: {} vs {bias}",
+                p.bias_variance
+            );
+            assert_eq!(p.noise_variance, r.error.sample_noise_var);
+            assert_eq!(p.variance(), p.bias_variance + p.noise_variance);
+            assert_eq!(m.predict_mean(&[t, v]).mean, p.mean);
+        }
+    }
+}
+
+#[test]
+fn compensate_runs_the_feature_pipeline() {
+    let m = Small::decode(&Reference::small().blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let sample = Sample {
+        time_s: 10.0,
+        temp_c: 12.5,
+        output: 0.4,
+    };
+    let p = m
+        .compensate(&sample, &mut FeatureState::default(), &mut scratch)
+        .unwrap();
+    // The first sample: power-on, the heating/cooling play centred (state 0).
+    let at = Conditions {
+        hours: 0.0,
+        leg: Some(0.0),
+        another_power_on: true,
+    };
+    assert_eq!(p, m.predict_in(&[12.5, 0.4], at, &mut scratch).unwrap());
+}
+
+#[test]
+fn the_calibrations_own_power_on_leaves_out_another_ones_bias() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let sample = Sample {
+        time_s: 10.0,
+        temp_c: 12.5,
+        output: 0.4,
+    };
+    let (mut service, mut own) = (FeatureState::default(), FeatureState::default());
+    own.calibration_run();
+    let a = m.compensate(&sample, &mut service, &mut scratch).unwrap();
+    let b = m.compensate(&sample, &mut own, &mut scratch).unwrap();
+    assert_eq!(a.mean, b.mean);
+    let gap = a.bias_variance - b.bias_variance;
+    let expected = r.error.turn_on_var;
+    assert!((gap - expected).abs() < 1e-3 * expected, "{gap} {expected}");
+    // After a power cycle every power-on is another.
+    own.power_on();
+    assert!(!own.in_calibration_run());
+    let later = Sample {
+        time_s: 500.0,
+        ..sample
+    };
+    let c = m.compensate(&later, &mut own, &mut scratch).unwrap();
+    assert!(
+        (c.bias_variance - a.bias_variance).abs() < 1e-3 * expected,
+        "{c:?} {a:?}"
+    );
+}
+
+#[test]
+fn variance_vanishes_at_a_centre_and_grows_with_the_distance_beyond_the_range() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let c = r.centres[2];
+    let x = [
+        (c[0] * r.scale[0] + r.offset[0]) as f32,
+        (c[1] * r.scale[1] + r.offset[1]) as f32,
+    ];
+    let floor = r.error.floor_var + r.error.turn_on_var;
+    let at_centre = m.predict(&x, &mut scratch).unwrap().bias_variance - floor;
+    assert!(at_centre < 1e-3 * r.signal_var as f32, "{at_centre}");
+    // 40 °C beyond a 90 °C range: the mean and latent variance of the edge, e² = (40/90)².
+    let edge = m.predict(&[60.0, 0.0], &mut scratch).unwrap();
+    let beyond = m.predict(&[100.0, 0.0], &mut scratch).unwrap();
+    assert_eq!(beyond.status, Status::Extrapolating);
+    assert_eq!(beyond.mean, edge.mean);
+    let grown = beyond.bias_variance - edge.bias_variance;
+    let expected = r.error.extrapolation_var * (40.0f32 / 90.0).powi(2);
+    assert!(
+        (grown - expected).abs() < 1e-3 * expected,
+        "{grown} {expected}"
+    );
+    // Further out, σ keeps growing and the mean stays the edge's.
+    let far = m.predict(&[120.0, 0.0], &mut scratch).unwrap();
+    assert_eq!(far.status, Status::Extrapolating);
+    assert_eq!(far.mean, edge.mean);
+    assert!(far.bias_variance > beyond.bias_variance);
+}
+
+#[test]
+fn beyond_the_range_the_output_keeps_its_scale_factor_and_the_temperature_is_held() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    // The output's raw linear term follows it past the trained ±3: its slope stays the
+    // scale factor's, while the kernel and prior read the edge.
+    let at = |t: f32, v: f32| m.predict_mean(&[t, v]);
+    let edge = at(20.0, 3.0);
+    let beyond = at(20.0, 4.0);
+    assert_eq!(beyond.status, Status::Extrapolating);
+    let slope = beyond.mean - edge.mean;
+    let scale = r.raw[1] as f32;
+    assert!((slope - scale).abs() < 1e-4 * scale, "{slope} {scale}");
+    // A temperature below the coldest trained is held there, linear term included.
+    assert_eq!(at(-45.0, 0.5).mean, at(-30.0, 0.5).mean);
+    assert_eq!(at(-45.0, 0.5).status, Status::Extrapolating);
+}
+
+#[test]
+fn an_input_only_linear_terms_read_follows_its_value_beyond_the_range() {
+    // The second input as an extension's additive one: ignored by the kernel, its slope the
+    // raw linear coefficient.
+    let mut r = Reference::small();
+    r.length[1] = f64::from(blob::IGNORED_LENGTH_SCALE);
+    let features = [
+        Feature::Temperature,
+        Feature::TemperatureRate { tau_s: 60.0 },
+    ];
+    let m = Small::decode(&r.blob_of(features)).unwrap();
+    let at = |rate: f32| m.predict_mean(&[20.0, rate]);
+    let (edge, beyond) = (at(3.0), at(5.0));
+    assert_eq!(beyond.status, Status::Extrapolating);
+    let slope = (beyond.mean - edge.mean) / 2.0;
+    // Its raw linear term and its prior monomial 0.5·z, both followed.
+    let expected = (r.raw[1] + r.prior[2] / r.scale[1]) as f32;
+    assert!(
+        (slope - expected).abs() < 1e-3 * expected,
+        "{slope} {expected}"
+    );
+}
+
+#[test]
+fn the_tangent_continues_the_prior_mean_from_the_edge_to_first_order() {
+    let r = Reference::small();
+    let mut b = r.blob();
+    blob::set_beyond(&mut b, Beyond::Tangent).unwrap();
+    let m = Small::decode(&b).unwrap();
+    let held = Small::decode(&r.blob()).unwrap();
+    // 10 °C above the trained 60 °C at V = 0.5: the held value plus the prior's slope in T
+    // (its z_T monomial's coefficient over T's scale, and the raw term) times 10 °C.
+    let (edge, beyond) = (m.predict_mean(&[60.0, 0.5]), m.predict_mean(&[70.0, 0.5]));
+    assert_eq!(beyond.status, Status::Extrapolating);
+    let slope = (r.prior[1] / r.scale[0] + r.raw[0]) as f32;
+    let expected = edge.mean + 10.0 * slope;
+    assert!(
+        (beyond.mean - expected).abs() < 1e-5,
+        "{} {expected}",
+        beyond.mean
+    );
+    // Held, the same sample is the edge's value.
+    assert_eq!(held.predict_mean(&[70.0, 0.5]).mean, edge.mean);
+}
+
+#[test]
+fn only_a_reading_that_cannot_be_true_is_a_fault() {
+    let r = Reference::small();
+    let mut b = r.blob();
+    let limits = Limits {
+        temp_min_c: -40.0,
+        temp_max_c: 85.0,
+        full_scale: 5.0,
+    };
+    blob::set_limits(&mut b, &limits).unwrap();
+    let m = Small::decode(&b).unwrap();
+    let mut scratch = [0.0f32; 5];
+    // Far from the calibration (−30…60 °C, ±3), inside the sensor's limits: a reading.
+    for x in [[-40.0f32, 0.0], [85.0, 0.0], [20.0, 5.0], [20.0, -5.0]] {
+        let p = m.predict(&x, &mut scratch).unwrap();
+        assert_eq!(p.status, Status::Extrapolating, "{x:?}");
+        assert!(p.mean.is_finite() && p.mean != 0.0 && p.bias_variance.is_finite());
+    }
+    for x in [[-40.5f32, 0.0], [85.5, 0.0], [20.0, 5.5], [20.0, -5.5]] {
+        assert_eq!(
+            m.predict(&x, &mut scratch).unwrap().status,
+            Status::Fault,
+            "{x:?}"
+        );
+    }
+    // The default limits: −55…125 °C, no full scale.
+    let m = Small::decode(&r.blob()).unwrap();
+    assert_eq!(m.predict_mean(&[-55.0, 1e6]).status, Status::Extrapolating);
+    assert_eq!(m.predict_mean(&[-55.5, 0.0]).status, Status::Fault);
+    assert_eq!(m.predict_mean(&[125.5, 0.0]).status, Status::Fault);
+}
+
+#[test]
+fn a_bias_models_unbounded_output_is_still_held_to_its_full_scale() {
+    // The output as a bias model carries it: read by its linear term alone, at any value.
+    let mut r = Reference::small();
+    r.length[1] = f64::from(blob::IGNORED_LENGTH_SCALE);
+    r.min[1] = -1e30;
+    r.max[1] = 1e30;
+    let mut b = r.blob();
+    let limits = Limits {
+        full_scale: 5.0,
+        ..Limits::DEFAULT
+    };
+    blob::set_limits(&mut b, &limits).unwrap();
+    let m = Small::decode(&b).unwrap();
+    assert_eq!(m.predict_mean(&[20.0, 4.0]).status, Status::Valid);
+    assert_eq!(m.predict_mean(&[20.0, -5.5]).status, Status::Fault);
+}
+
+#[test]
+fn a_heating_cooling_state_the_calibration_did_not_hold_grows_the_variance() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let mut at = |leg| {
+        m.predict_in(
+            &[20.0, 0.5],
+            Conditions {
+                hours: 1.0,
+                leg,
+                another_power_on: true,
+            },
+            &mut scratch,
+        )
+        .unwrap()
+    };
+    // Trained on states 0.5…1 (heating): a full cooling state is 1.5 of the swing of 2 away.
+    let trained = at(None);
+    assert_eq!(at(Some(0.75)), trained);
+    let cooling = at(Some(-1.0));
+    let grown = cooling.bias_variance - trained.bias_variance;
+    let expected = r.error.leg_var * 0.75 * 0.75;
+    assert!(
+        (grown - expected).abs() < 1e-3 * expected,
+        "{grown} {expected}"
+    );
+    assert_eq!(cooling.mean, trained.mean);
+}
+
+#[test]
+fn bad_inputs_are_flagged_never_nan() {
+    let m = Small::decode(&Reference::small().blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    for x in [
+        [f32::NAN, 0.0],
+        [20.0, f32::INFINITY],
+        [f32::NEG_INFINITY, 0.0],
+    ] {
+        let p = m.predict(&x, &mut scratch).unwrap();
+        assert_eq!(p.status, Status::Fault);
+        assert!(p.mean.is_finite() && p.variance().is_finite());
+    }
+    assert_eq!(m.predict_mean(&[20.0]).status, Status::Fault);
+    let out = m.predict(&[70.0, 0.0], &mut scratch).unwrap();
+    assert_eq!(out.status, Status::Extrapolating);
+    assert!(out.mean.is_finite());
+    // Past the trained span's width, still a reading (it was a fault up to format 5).
+    let out = m.predict(&[-125.0 + 70.0, 0.0], &mut scratch).unwrap();
+    assert_eq!(out.status, Status::Extrapolating);
+    assert_eq!(
+        m.predict(&[20.0, 0.0], &mut [0.0; 4]),
+        Err(PredictError::ScratchTooSmall { needed: 5 })
+    );
+}

@@ -1,0 +1,131 @@
+//! The residuals of a stream: a model fitted on part of a log and replayed through the firmware's
+//! own evaluation on the rest, with the covariates the error model grows by (the hours since the
+//! data it saw, the heating/cooling state).
+
+use firmware_core::ErrorModel;
+use firmware_core::units::SECONDS_PER_HOUR;
+use fog_data::blocks;
+use fog_data::replay;
+use fog_data::stream::Stream;
+
+use super::{Residual, SampleNoise, Series, Source};
+use crate::firmware::export::{self, ExportError};
+
+/// The residuals of a model fitted on part of `stream` and scored on another: the 60 s means of
+/// the samples with a reference in `stream` (the whole stream is replayed, so the stateful inputs
+/// keep their history), each with the blob's latent variance, e(x)² and `hours[i]` (time since
+/// the data it was fitted on) of its samples. `blob` is the model as exported, before any error
+/// model; the latent variance and e(x)² come from the firmware's own evaluation of it.
+pub fn stream_series(
+    source: Source,
+    blob: &[u8],
+    stream: &Stream,
+    hours: &[f64],
+    noise: SampleNoise,
+) -> Result<Series, ExportError> {
+    // The latent variance from the firmware's own evaluation, and e(x)² from its mean path: the
+    // variance it would state with an extrapolation term of 1 is the latent one plus e(x)², in
+    // the same f32 addition.
+    let model = replay::decode(&export::with_error_model(
+        blob,
+        &ErrorModel::noise_only(0.0),
+    )?)?;
+    let latent = replay::replay(&model, stream);
+    let excess2 = replay::means(&model, stream).excess2;
+    let scored: Vec<usize> = (0..stream.len())
+        .filter(|&i| {
+            stream.rate_dps[i].is_finite()
+                && latent.status[i] != firmware_core::Status::Fault
+                && hours[i].is_finite()
+        })
+        .collect();
+    let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
+        b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
+    };
+    let residuals = blocks::half_filled(stream, &scored)
+        .iter()
+        .map(|b| {
+            let latent_var = mean(b, &|i| f64::from(latent.bias_var[i]));
+            Residual {
+                error: mean(b, &|i| f64::from(latent.rate_dps[i]) - stream.rate_dps[i]),
+                base_var: latent_var + noise.of_mean(b.len() as f64 * stream.step_s),
+                excess2: mean(b, &|i| {
+                    f64::from(latent.bias_var[i] + excess2[i]) - f64::from(latent.bias_var[i])
+                })
+                .max(0.0),
+                hours: mean(b, &|i| hours[i]),
+            }
+        })
+        .collect();
+    Ok(Series { source, residuals })
+}
+
+/// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
+/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream.
+pub fn legs(stream: &Stream) -> Vec<f32> {
+    leg_states(stream)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, state)| state.filter(|_| stream.rate_dps[i].is_finite()))
+        .collect()
+}
+
+/// The heating/cooling state of every sample of `stream` as the firmware tracks it
+/// (`firmware_core::FeatureState::leg`), the state carried through the whole stream; `None`
+/// where the firmware refuses the sample.
+pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
+    let mut state = firmware_core::FeatureState::default();
+    (0..stream.len())
+        .map(|i| {
+            let sample = firmware_core::Sample {
+                time_s: stream.time_s[i],
+                temp_c: stream.temp_c[i] as f32,
+                output: 0.0,
+            };
+            let health = firmware_core::features::compute(&[], &sample, &mut state, &mut []);
+            (health != firmware_core::Status::Fault).then(|| state.leg())
+        })
+        .collect()
+}
+
+/// Hours since power-on of every sample of `stream` (a power cycle where the replay has one),
+/// for a run the model never saw.
+pub fn hours_on(stream: &Stream) -> Vec<f64> {
+    let mut on = stream.time_s.first().copied().unwrap_or(0.0);
+    replay::restarts(stream)
+        .into_iter()
+        .zip(&stream.time_s)
+        .map(|(restart, &t)| {
+            if restart {
+                on = t;
+            }
+            (t - on).max(0.0) / SECONDS_PER_HOUR
+        })
+        .collect()
+}
+
+/// Hours from every sample of `stream` to the nearest of the `fitted` ones (sorted indices), NaN
+/// for the fitted ones themselves: the time since (or until) the data a model saw.
+pub fn hours_from(stream: &Stream, fitted: &[usize]) -> Vec<f64> {
+    let mut is_fitted = vec![false; stream.len()];
+    for &i in fitted {
+        is_fitted[i] = true;
+    }
+    let times: Vec<f64> = fitted.iter().map(|&i| stream.time_s[i]).collect();
+    (0..stream.len())
+        .map(|i| {
+            if is_fitted[i] || times.is_empty() {
+                return f64::NAN;
+            }
+            let t = stream.time_s[i];
+            let k = times.partition_point(|&x| x < t);
+            let before = k.checked_sub(1).map(|j| t - times[j]);
+            let after = times.get(k).map(|x| x - t);
+            before
+                .into_iter()
+                .chain(after)
+                .fold(f64::INFINITY, f64::min)
+                / SECONDS_PER_HOUR
+        })
+        .collect()
+}

@@ -1,0 +1,132 @@
+//! The residuals of a rate table: its runs, groups or points left out, closed form where the GP
+//! is exact and fitted again where it is sparse, and the σ a blob states at a table's point.
+
+use firmware_core::model::Conditions;
+
+use super::{Calibration, Prior, Residual, SampleNoise, Series, Source, calibrate};
+use crate::data::points::Points;
+use crate::firmware::export;
+use crate::models::gp::{GpConfig, GpError, GpModel};
+use crate::models::normalize::Sorted;
+
+/// The σ of a model fitted on a rate table alone: its groups (or points) left out
+/// ([`table_series`]), and the points' own noise as a point's; what they cannot show, the
+/// model's [`Prior`].
+pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration, GpError> {
+    Ok(calibrate(
+        &[table_series(model, points)?],
+        table_noise(points, model),
+        Prior::of(model, points),
+    ))
+}
+
+/// The σ of a model fitted with `cfg` on `points` of several power-ons pooled: as
+/// [`table_calibration`], but where the GP is sparse (no closed form leaves a run out) each run is
+/// left out by fitting again on the others, so that the model error holds another power-on's
+/// bias ([`Source::Runs`]). One run, or an exact GP: [`table_calibration`].
+pub fn pooled_calibration(
+    points: &Points,
+    model: &GpModel,
+    cfg: &GpConfig,
+) -> Result<Calibration, GpError> {
+    let runs = points.run_members();
+    if runs.len() < 2 || model.sparse.is_none() {
+        return table_calibration(points, model);
+    }
+    let target = points.target();
+    let mut loo = vec![(0.0, 0.0); points.len()];
+    for run in &runs {
+        let rest: Vec<usize> = (0..points.len())
+            .filter(|i| points.run[*i] != points.run[run[0]])
+            .collect();
+        let part = points.select(&rest);
+        let refit = GpModel::fit(part.inputs(), &part.target(), cfg)?;
+        for &i in run {
+            let row: Vec<f64> = points.inputs().row(i).iter().copied().collect();
+            let p = refit.predict(&row);
+            loo[i] = (p.mean - target[i], p.latent_var + p.noise_var);
+        }
+    }
+    Ok(calibrate(
+        &[series_of(points, Source::Runs, &runs, &loo)],
+        table_noise(points, model),
+        Prior::of(model, points),
+    ))
+}
+
+/// A table point's noise: the GP's noise level on the points it was fitted on.
+pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
+    SampleNoise {
+        var: model.predict(&vec![0.0; points.inputs().ncols()]).noise_var,
+        interval_s: 0.0,
+    }
+}
+
+/// How a rate table is left out for its residuals: each run (power-on) in turn where the points
+/// hold two or more, so that the σ carries the bias of another power-on; else each group in turn
+/// where there are two or more; each point otherwise. Groups and runs need the exact GP.
+pub fn table_groups(model: &GpModel, points: &Points) -> (Source, Vec<Vec<usize>>) {
+    let runs = points.run_members();
+    let groups: Vec<Vec<usize>> = points.groups().into_iter().map(|(_, g)| g).collect();
+    if runs.len() >= 2 && model.sparse.is_none() {
+        (Source::Runs, runs)
+    } else if groups.len() >= 2 && model.sparse.is_none() {
+        (Source::Groups, groups)
+    } else {
+        (Source::Points, (0..points.len()).map(|i| vec![i]).collect())
+    }
+}
+
+/// The residuals of a rate table ([`table_groups`]), closed form with `model`'s hyperparameters
+/// held; e(x) against the trained range of the rows left in.
+pub fn table_series(model: &GpModel, points: &Points) -> Result<Series, GpError> {
+    let (source, groups) = table_groups(model, points);
+    let loo = model.group_loo_predictive(points.inputs(), &groups)?;
+    Ok(series_of(points, source, &groups, &loo))
+}
+
+/// A table's residuals from its left-out predictions `loo` (error, predictive variance with
+/// noise, per point), e(x) against the trained range of the rows left in for each group.
+pub fn series_of(
+    points: &Points,
+    source: Source,
+    groups: &[Vec<usize>],
+    loo: &[(f64, f64)],
+) -> Series {
+    let x = points.inputs();
+    let columns: Vec<Sorted> = x
+        .column_iter()
+        .map(|c| Sorted::new(c.iter().copied()))
+        .collect();
+    let mut residuals = vec![None; points.len()];
+    for g in groups {
+        let range: Vec<(f64, f64)> = columns.iter().map(|c| c.range_without(g)).collect();
+        for &i in g {
+            let (error, base_var) = loo[i];
+            let row: Vec<f64> = x.row(i).iter().copied().collect();
+            residuals[i] = Some(Residual {
+                error,
+                base_var,
+                excess2: export::excess2(&row, &range),
+                hours: 0.0,
+            });
+        }
+    }
+    Series {
+        source,
+        residuals: residuals.into_iter().flatten().collect(),
+    }
+}
+
+/// The σ a blob with `calibration` states for a rate-table point `x` of `model` (f64; the
+/// firmware computes the same in f32): latent, noise and model error at power-on.
+pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
+    let p = model.predict(x);
+    let e2 = export::excess2(x, &model.input_range);
+    let error = f64::from(
+        calibration
+            .error_model
+            .model_error(e2 as f32, Conditions::at_hours(0.0)),
+    );
+    (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
+}
