@@ -1,8 +1,7 @@
 //! The 60 s blocks every score and diagnosis averages over, cut one way: counted from a
 //! stream's first sample, in time order. A block mean is where a gyro's white noise has fallen
-//! below its drift, so the drift can be scored and seen.
-
-use crate::stream::Stream;
+//! below its drift, so the drift can be scored and seen. A stream's own are
+//! `Stream::half_filled_blocks`.
 
 /// Length of a block, s: of `rmse_60s_dps`, the diagnosis' residual, and the windows screened
 /// for handling.
@@ -20,16 +19,6 @@ pub fn group(time_s: &[f64], idx: &[usize]) -> Vec<Vec<usize>> {
             .push(i);
     }
     blocks.into_values().collect()
-}
-
-/// The samples `scored` of a stream grouped into blocks, those at least half filled: what every
-/// 60 s score counts.
-pub fn half_filled(stream: &Stream, scored: &[usize]) -> Vec<Vec<usize>> {
-    let need = (0.5 * BLOCK_S / stream.step_s).ceil().max(1.0) as usize;
-    group(&stream.time_s, scored)
-        .into_iter()
-        .filter(|b| b.len() >= need)
-        .collect()
 }
 
 /// The mean of `x` over each block.

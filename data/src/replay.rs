@@ -21,7 +21,6 @@ use serde::Serialize;
 
 use crate::sigma::Coverage;
 
-use crate::blocks::half_filled;
 use crate::stats::rms;
 use crate::stream::{Handled, Stream, TimeIssue};
 
@@ -521,7 +520,7 @@ impl Means {
     /// The mean error of each 60 s block [`score`] counts ([`Score::n_blocks`] of them), from
     /// the means alone: what the full replay gives, without the variance it does not read.
     pub fn block_errors(&self, stream: &Stream) -> Vec<f64> {
-        let blocks = half_filled(stream, &scored_samples(stream, &self.status));
+        let blocks = stream.half_filled_blocks(&scored_samples(stream, &self.status));
         block_errors(stream, &self.rate_dps, &blocks)
     }
 
@@ -539,7 +538,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
-    let scored_blocks = half_filled(stream, &scored);
+    let scored_blocks = stream.half_filled_blocks(&scored);
     let means = block_errors(stream, &comp.rate_dps, &scored_blocks);
     let mean_sigmas: Vec<f64> = scored_blocks
         .iter()
@@ -550,7 +549,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .copied()
         .filter(|&i| comp.status[i] == Status::Valid)
         .collect();
-    let means_in_range = block_errors(stream, &comp.rate_dps, &half_filled(stream, &valid));
+    let means_in_range = block_errors(stream, &comp.rate_dps, &stream.half_filled_blocks(&valid));
     Score {
         n,
         rmse_dps: rms(&errors),

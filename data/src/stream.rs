@@ -439,6 +439,16 @@ impl Stream {
             .collect()
     }
 
+    /// The samples `scored` grouped into [`blocks::BLOCK_S`] blocks, those at least half filled:
+    /// what every 60 s score counts.
+    pub fn half_filled_blocks(&self, scored: &[usize]) -> Vec<Vec<usize>> {
+        let need = (0.5 * blocks::BLOCK_S / self.step_s).ceil().max(1.0) as usize;
+        blocks::group(&self.time_s, scored)
+            .into_iter()
+            .filter(|b| b.len() >= need)
+            .collect()
+    }
+
     /// True when empty (never, once loaded).
     pub fn is_empty(&self) -> bool {
         self.time_s.is_empty()

@@ -62,8 +62,8 @@ use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits, Read};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
-use crate::units::SECONDS_PER_HOUR;
 use evaluate::Evaluator;
+pub use evaluate::{Conditions, Mean, Prediction};
 
 pub(crate) mod evaluate;
 
@@ -72,44 +72,6 @@ pub(crate) mod evaluate;
 /// Cortex-M4's RAM. The trainer refuses larger models, the host decodes into this capacity, and
 /// the C interface's `FOG_MAX_CENTRES` must not exceed it.
 pub const MAX_CENTRES: usize = 256;
-
-/// The farthest beyond its trained range an input counts, in the range's widths: a σ grown that
-/// far says nothing more than "not this model's", and e(x)² stays finite for any finite input.
-const MAX_EXCESS: f32 = 1e3;
-
-/// Predictive mean (output units, e.g. °/s) and its status.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Mean {
-    /// Compensated rate.
-    pub mean: f32,
-    /// Validity.
-    pub status: Status,
-}
-
-/// Predictive mean, its two variances (output units², never negative) and status: the σ
-/// contract of the module doc.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Prediction {
-    /// Compensated rate.
-    pub mean: f32,
-    /// Variance of the compensated rate's slowly varying error: the GP's latent variance plus the
-    /// model error the trainer measured ([`ErrorModel`]). A mean over any window keeps it.
-    pub bias_variance: f32,
-    /// White noise of one sample (at the blob's sample interval): a mean of N samples has 1/N of
-    /// it.
-    pub noise_variance: f32,
-    /// Validity.
-    pub status: Status,
-}
-
-impl Prediction {
-    /// Variance of this one sample's error: bias plus noise.
-    pub fn variance(&self) -> f32 {
-        self.bias_variance + self.noise_variance
-    }
-}
 
 /// A model decoded from a blob into fixed-size storage.
 #[derive(Debug, Clone, PartialEq)]
@@ -490,41 +452,6 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         scratch: &mut [f32],
     ) -> Result<Prediction, PredictError> {
         self.evaluator().predict_in(x, at, scratch)
-    }
-}
-
-/// What the model error reads of a sample besides its inputs: the hours since power-on and the
-/// heating/cooling state ([`ErrorModel`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Conditions {
-    /// Hours since power-on.
-    pub hours: f32,
-    /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
-    /// held (no leg term).
-    pub leg: Option<f32>,
-    /// Whether another power-on's bias applies (the turn-on term): always in service; not on
-    /// the calibration's own power-on ([`FeatureState::calibration_run`]).
-    pub another_power_on: bool,
-}
-
-impl Conditions {
-    /// `hours` after power-on, on a heating/cooling state the calibration held.
-    pub const fn at_hours(hours: f32) -> Self {
-        Self {
-            hours,
-            leg: None,
-            another_power_on: true,
-        }
-    }
-
-    /// Those of the sample a feature state has just computed.
-    pub fn of(state: &FeatureState) -> Self {
-        Self {
-            hours: (state.time_on_s() / SECONDS_PER_HOUR) as f32,
-            leg: Some(state.leg()),
-            another_power_on: !state.in_calibration_run(),
-        }
     }
 }
 

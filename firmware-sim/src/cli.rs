@@ -19,6 +19,7 @@ use fog_data::sigma;
 use fog_terminal::console::{AFTER_HELP, Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
+use fog_terminal::schema;
 
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
@@ -369,6 +370,7 @@ impl GenerateCommon {
             write_json(
                 path,
                 &[],
+                schema::GENERATE,
                 &Generated {
                     n,
                     seed: self.seed,
@@ -407,6 +409,7 @@ impl GenerateCommon {
             write_json(
                 path,
                 &[],
+                schema::GENERATE_UNIT,
                 &GeneratedUnit {
                     n,
                     seed: self.seed,
@@ -622,7 +625,7 @@ fn replay_command(
                 sensor_id: loaded.unit.sensor_id(),
                 channels: &scores,
             };
-            write_json(&path, &[], &report)?;
+            write_json(&path, &[], schema::REPLAY_UNIT, &report)?;
         }
         console.result(&format!(
             "replayed {} samples of {} channels through one unit blob:\n{}",
@@ -638,7 +641,7 @@ fn replay_command(
         write_atomically(&path, replay::to_csv(data, comp).as_bytes())?;
     }
     if let Some(path) = json {
-        write_json(&path, &[], &score)?;
+        write_json(&path, &[], schema::REPLAY, &score)?;
     }
     console.result(&format!(
         "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
@@ -714,6 +717,7 @@ fn qemu_command(
             write_json(
                 &path,
                 &[],
+                schema::QEMU_UNIT,
                 &UnitQemuReport {
                     sensor_id: loaded.unit.sensor_id(),
                     channels: &scores,
@@ -727,7 +731,7 @@ fn qemu_command(
                 agreement_with_host: agreement,
                 cost: m4.cost,
             };
-            write_json(&path, &[], &report)?;
+            write_json(&path, &[], schema::QEMU, &report)?;
         }
     }
     let c = loaded.unit.channels().len();

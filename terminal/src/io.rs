@@ -5,6 +5,11 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use serde::Serialize;
+use serde::ser::SerializeMap;
+
+use crate::schema::Schema;
+
 /// Errors while writing outputs.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
@@ -53,13 +58,59 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), OutputError>
     written.map_err(err)
 }
 
-/// Writes `value` as pretty JSON to `path` (atomically), or to stdout when `path` is `-`; refuses
-/// to write over one of `inputs`.
+/// Writes `value` (a struct or map) as pretty JSON to `path` (atomically), or to stdout when
+/// `path` is `-`, with `schema` as its first field; refuses to write over one of `inputs`.
 pub fn write_json(
     path: &Path,
     inputs: &[&Path],
-    value: &impl serde::Serialize,
+    schema: Schema,
+    value: &impl Serialize,
 ) -> Result<(), OutputError> {
+    /// The value's fields after the schema.
+    #[derive(Serialize)]
+    struct Stamped<'a, T> {
+        schema: Schema,
+        #[serde(flatten)]
+        body: &'a T,
+    }
+    write_text(
+        path,
+        inputs,
+        &Stamped {
+            schema,
+            body: value,
+        },
+    )
+}
+
+/// Writes `items` as a JSON object of `schema` and the list under `key` (`channels`, `files`),
+/// as [`write_json`] does a struct.
+pub fn write_json_list<T: Serialize>(
+    path: &Path,
+    inputs: &[&Path],
+    schema: Schema,
+    key: &'static str,
+    items: &[T],
+) -> Result<(), OutputError> {
+    /// The list under its key, after the schema.
+    struct Listed<'a, T> {
+        schema: Schema,
+        key: &'static str,
+        items: &'a [T],
+    }
+    impl<T: Serialize> Serialize for Listed<'_, T> {
+        fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+            let mut map = s.serialize_map(Some(2))?;
+            map.serialize_entry("schema", &self.schema)?;
+            map.serialize_entry(self.key, self.items)?;
+            map.end()
+        }
+    }
+    write_text(path, inputs, &Listed { schema, key, items })
+}
+
+/// Pretty JSON of `value` to `path` or stdout.
+fn write_text(path: &Path, inputs: &[&Path], value: &impl Serialize) -> Result<(), OutputError> {
     let text = serde_json::to_string_pretty(value).map_err(|e| OutputError::Io {
         path: path.to_owned(),
         source: e.into(),
@@ -87,6 +138,32 @@ pub fn ensure_not_input(output: &Path, inputs: &[&Path]) -> Result<(), OutputErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn json_names_its_schema_first() {
+        #[derive(Serialize)]
+        struct Fit {
+            rmse: f64,
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let (one, list) = (dir.path().join("one.json"), dir.path().join("list.json"));
+        write_json(&one, &[], crate::schema::FIT, &Fit { rmse: 1.5 }).unwrap();
+        let text = std::fs::read_to_string(&one).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["schema"]["name"], "trainer.fit");
+        assert_eq!(v["schema"]["version"], 1);
+        assert_eq!(v["rmse"], 1.5);
+        assert!(text.find("schema") < text.find("rmse"), "{text}");
+        write_json_list(&list, &[], crate::schema::SUMMARIZE, "files", &[1, 2]).unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&list).unwrap()).unwrap();
+        assert_eq!(v["schema"]["name"], "trainer.summarize");
+        assert_eq!(v["files"], serde_json::json!([1, 2]));
+        assert!(
+            write_json(&dir.path().join("x.json"), &[], crate::schema::FIT, &[1, 2]).is_err(),
+            "a list has no fields to follow the schema: write_json_list"
+        );
+    }
 
     #[test]
     fn writes_and_refuses_to_overwrite_an_input() {

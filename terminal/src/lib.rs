@@ -6,7 +6,9 @@
 //!   one line what it left out;
 //! - [`console`]: results on stdout, progress and details on stderr, by the same `--quiet`,
 //!   `--verbose` and `--json`;
-//! - [`io`]: files written whole or not at all, never over an input.
+//! - [`io`]: files written whole or not at all, never over an input, and JSON stamped with its
+//!   [`schema`];
+//! - [`mod@reference`]: docs/commands.md's flag tables and contracts, rendered from the code.
 //!
 //! The libraries below take no type from here: what they compute comes back as values, and only
 //! the command lines print it.
@@ -14,3 +16,5 @@
 pub mod console;
 pub mod io;
 pub mod log;
+pub mod reference;
+pub mod schema;

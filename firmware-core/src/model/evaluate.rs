@@ -1,15 +1,88 @@
 //! The arithmetic of every prediction, once for a model decoded alone and a channel of a unit:
 //! the inputs normalized and held at the trained range, the compensated sums of the kernel terms,
 //! prior mean and raw linear terms, and the variance by forward substitution (the parent
-//! module's doc gives the formulas and the summation order).
+//! module's doc gives the formulas and the summation order), and what a prediction returns.
 
 use core::ops::Range;
 
-use super::{Conditions, MAX_EXCESS, Mean, Prediction};
 use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits};
 use crate::error::PredictError;
-use crate::features::MAX_INPUTS;
+use crate::features::{FeatureState, MAX_INPUTS};
 use crate::status::Status;
+use crate::units::SECONDS_PER_HOUR;
+
+/// The farthest beyond its trained range an input counts, in the range's widths: a σ grown that
+/// far says nothing more than "not this model's", and e(x)² stays finite for any finite input.
+const MAX_EXCESS: f32 = 1e3;
+
+/// Predictive mean (output units, e.g. °/s) and its status.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Mean {
+    /// Compensated rate.
+    pub mean: f32,
+    /// Validity.
+    pub status: Status,
+}
+
+/// Predictive mean, its two variances (output units², never negative) and status: the σ
+/// contract of the module doc.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Prediction {
+    /// Compensated rate.
+    pub mean: f32,
+    /// Variance of the compensated rate's slowly varying error: the GP's latent variance plus the
+    /// model error the trainer measured ([`ErrorModel`]). A mean over any window keeps it.
+    pub bias_variance: f32,
+    /// White noise of one sample (at the blob's sample interval): a mean of N samples has 1/N of
+    /// it.
+    pub noise_variance: f32,
+    /// Validity.
+    pub status: Status,
+}
+
+impl Prediction {
+    /// Variance of this one sample's error: bias plus noise.
+    pub fn variance(&self) -> f32 {
+        self.bias_variance + self.noise_variance
+    }
+}
+
+/// What the model error reads of a sample besides its inputs: the hours since power-on and the
+/// heating/cooling state ([`ErrorModel`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Conditions {
+    /// Hours since power-on.
+    pub hours: f32,
+    /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
+    /// held (no leg term).
+    pub leg: Option<f32>,
+    /// Whether another power-on's bias applies (the turn-on term): always in service; not on
+    /// the calibration's own power-on ([`FeatureState::calibration_run`]).
+    pub another_power_on: bool,
+}
+
+impl Conditions {
+    /// `hours` after power-on, on a heating/cooling state the calibration held.
+    pub const fn at_hours(hours: f32) -> Self {
+        Self {
+            hours,
+            leg: None,
+            another_power_on: true,
+        }
+    }
+
+    /// Those of the sample a feature state has just computed.
+    pub fn of(state: &FeatureState) -> Self {
+        Self {
+            hours: (state.time_on_s() / SECONDS_PER_HOUR) as f32,
+            leg: Some(state.leg()),
+            another_power_on: !state.in_calibration_run(),
+        }
+    }
+}
 
 /// Neumaier-compensated sum: the running rounding error is carried and added once at the end.
 #[derive(Default)]

@@ -26,6 +26,11 @@ fn generate_fit_loo_reproduce_end_to_end() {
     let (model, fit) = (at(dir.path(), "model.bin"), at(dir.path(), "fit.json"));
     trainer(&["fit", "--points", &points, "--out", &model, "--json", &fit]).unwrap();
     let f = json(&fit);
+    // Every JSON names its contract first (fog_terminal::schema).
+    assert_eq!(
+        f["schema"],
+        serde_json::json!({"name": "trainer.fit", "version": 1})
+    );
     assert_eq!(f["n_train"], 140);
     assert_eq!(f["features"], serde_json::json!(["temp_c", "voltage_v"]));
     assert!(f["log_marginal_likelihood"].as_f64().unwrap().is_finite());
@@ -45,6 +50,7 @@ fn generate_fit_loo_reproduce_end_to_end() {
     let inspect = at(dir.path(), "inspect.json");
     trainer(&["inspect", &model, "--json", &inspect]).unwrap();
     let i = json(&inspect);
+    assert_eq!(i["schema"]["name"], "trainer.inspect");
     assert_eq!(
         (i["m"].as_u64(), i["d"].as_u64(), i["p"].as_u64()),
         (Some(140), Some(2), Some(7))
@@ -59,6 +65,7 @@ fn generate_fit_loo_reproduce_end_to_end() {
         ])
         .unwrap();
         let l = json(&out);
+        assert_eq!(l["schema"]["name"], "trainer.loo");
         let per_t = l["per_temperature"].as_array().unwrap();
         assert_eq!(per_t.len(), 10);
         assert!(
@@ -75,6 +82,7 @@ fn generate_fit_loo_reproduce_end_to_end() {
     let rep = at(dir.path(), "reproduce.json");
     trainer(&["reproduce", "--points", &points, "--json", &rep]).unwrap();
     let r = json(&rep);
+    assert_eq!(r["schema"]["name"], "trainer.reproduce");
     assert!(r["fig2"]["worst"]["worst_mv"].as_f64().unwrap() > 1.0);
     assert!(r["gpr"]["qq_correlation"].as_f64().unwrap() > 0.9);
 }

@@ -3,6 +3,7 @@
 mod c;
 mod cli;
 mod diagnosis;
+mod docs;
 mod firmware;
 mod m4;
 mod paper;

@@ -124,12 +124,14 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
     ])
     .unwrap();
     let summary = json(dir.path().join("summary.json"));
-    assert_eq!(summary[0]["rows"], 140);
-    assert_eq!(summary[0]["plateaus"], 10);
-    assert_eq!(summary[1]["kind"], "stream");
-    assert_eq!(summary[1]["sample_interval_s"], 1.0);
-    assert_eq!(summary[1]["time_issues"].as_array().unwrap().len(), 3);
-    let k = summary[0]["scale_factor_estimate"].as_f64().unwrap();
+    assert_eq!(summary["schema"]["name"], "trainer.summarize");
+    let files = &summary["files"];
+    assert_eq!(files[0]["rows"], 140);
+    assert_eq!(files[0]["plateaus"], 10);
+    assert_eq!(files[1]["kind"], "stream");
+    assert_eq!(files[1]["sample_interval_s"], 1.0);
+    assert_eq!(files[1]["time_issues"].as_array().unwrap().len(), 3);
+    let k = files[0]["scale_factor_estimate"].as_f64().unwrap();
     assert!((k / 0.038 - 1.0).abs() < 0.02, "{k}");
     let page =
         |out: &str| std::fs::read_to_string(dir.path().join(out).join("report.html")).unwrap();

@@ -108,6 +108,7 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
         );
     }
     let unit = json(p("replay.json"));
+    assert_eq!(unit["schema"]["name"], "sim.replay-unit");
     for (k, (name, output, reference)) in CHANNELS.iter().enumerate() {
         let one = |file: &str| p(&format!("{name}.{file}"));
         let maps = [&IMU_MAPS[..4], &["--map", output, "--map", reference]].concat();

@@ -7,11 +7,9 @@
 //! extension are part of the model, so they come from the training data alone ([`choose`]).
 
 use crate::progress::Progress;
-use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay::{self, HostModel, Score};
-use fog_data::stats::rms;
-use fog_data::stream::{Handled, Stream, Window};
+use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
 
 use crate::analysis::beyond::{self, BeyondChoice};
@@ -23,29 +21,16 @@ use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
 
 mod check;
+mod split;
 
 use check::forward_check;
-pub use check::{ForwardCheck, LegCheck, Sight, TemperatureCheck, splits, vote};
-
-/// Makes the static points from part of a training stream as from all of it (a table's: as is).
-pub type Rebuild<'a> = dyn Fn(&Stream) -> anyhow::Result<Points> + 'a;
+pub use check::{ForwardCheck, LegCheck, TemperatureCheck, vote};
+use split::{EARLIER_MIN_BLOCKS, LATER_MIN_BLOCKS};
+pub(crate) use split::{Forward, forward};
+pub use split::{Rebuild, Sight, Split, splits};
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
 pub const STEPS: u64 = 5;
-
-/// Fewest 60 s blocks the earlier part of a forward check holds (an extension needs 30).
-const EARLIER_MIN_BLOCKS: usize = 30;
-/// Fewest 60 s blocks the later part of a forward check holds.
-const LATER_MIN_BLOCKS: usize = 8;
-/// Share of the training stream's blocks the earlier part holds, when it is long enough.
-const EARLIER_SHARE: f64 = 2.0 / 3.0;
-/// Share of the training stream's temperature span left out at each end by the temperature check
-/// ([`TemperatureCheck`]): a fifth of the span in all, as a wider cut leaves a 40-minute log fewer
-/// than the 30 blocks an extension needs inside.
-const OUTER_SHARE: f64 = 0.1;
-/// Fewest 60 s blocks of one heating/cooling leg a leg check fits on ([`LegCheck`]): a quarter
-/// hour of the leg.
-const LEG_MIN_BLOCKS: usize = 15;
 
 /// The result (docs/design.md §6 names where they exist).
 #[derive(Debug, Clone, Serialize)]
@@ -124,90 +109,6 @@ pub struct Choice {
     /// The models fitted on part of the training stream, scored on the rest: the evidence of the
     /// forward check and of the σ's calibration.
     pub splits: Vec<Split>,
-}
-
-/// A model fitted on part of the training stream and the rest it is scored on.
-pub struct Split {
-    /// The test: forward in time, or across temperature.
-    pub source: Source,
-    /// The training stream with its reference only where scored (replayed whole, so the stateful
-    /// inputs keep their history).
-    pub scored: Stream,
-    /// Hours from each sample to the data fitted (NaN where fitted).
-    pub hours: Vec<f64>,
-    /// The static model fitted without the scored part (a rate table's, where there is one).
-    pub static_blob: Vec<u8>,
-    /// The extension of the named causes fitted without it, where causes were named.
-    pub extended_blob: Option<Vec<u8>>,
-    /// For a leg split ([`Source::Leg`]): the leg fitted on, and the 60 s blocks fitted on and
-    /// scored.
-    pub leg: Option<(&'static str, usize, usize)>,
-}
-
-impl Split {
-    /// `rmse_60s_dps` of the static model and of the extension (the static one's where none),
-    /// and whether the scored part exercised the extension: its contribution (extended − static,
-    /// 60 s means over the whole stream) moves in the scored blocks ([`diagnose::sees`]).
-    fn scores(&self) -> anyhow::Result<(f64, f64, Sight)> {
-        // The means alone: nothing here reads a variance, which costs O(m²) a sample.
-        let run = |blob: &[u8]| -> anyhow::Result<replay::Means> {
-            Ok(replay::means(
-                &*fog_data::replay::decode(blob)?,
-                &self.scored,
-            ))
-        };
-        let rmse = |c: &replay::Means| c.rmse_60s_dps(&self.scored);
-        let static_run = run(&self.static_blob)?;
-        let ext_run = match &self.extended_blob {
-            Some(b) => run(b)?,
-            None => static_run.clone(),
-        };
-        let all: Vec<usize> = (0..self.scored.len()).collect();
-        let blocks = blocks::half_filled(&self.scored, &all);
-        let block_mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
-            b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
-        };
-        let delta: Vec<f64> = blocks
-            .iter()
-            .map(|b| {
-                block_mean(b, &|i| {
-                    f64::from(ext_run.rate_dps[i]) - f64::from(static_run.rate_dps[i])
-                })
-            })
-            .collect();
-        let scored: Vec<usize> = blocks
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| {
-                2 * b
-                    .iter()
-                    .filter(|&&i| self.scored.rate_dps[i].is_finite())
-                    .count()
-                    > b.len()
-            })
-            .map(|(k, _)| k)
-            .collect();
-        let centred = |c: &replay::Means| {
-            let e: Vec<f64> = scored
-                .iter()
-                .map(|&k| {
-                    let b: Vec<usize> = blocks[k]
-                        .iter()
-                        .copied()
-                        .filter(|&i| self.scored.rate_dps[i].is_finite())
-                        .collect();
-                    block_mean(&b, &|i| f64::from(c.rate_dps[i]) - self.scored.rate_dps[i])
-                })
-                .collect();
-            let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
-            rms(&e.iter().map(|v| v - m).collect::<Vec<_>>())
-        };
-        let sight = Sight {
-            sees: self.extended_blob.is_some() && diagnose::sees(&delta, &scored),
-            centred_rmse_60s_dps: [centred(&static_run), centred(&ext_run)],
-        };
-        Ok((rmse(&static_run), rmse(&ext_run), sight))
-    }
 }
 
 /// The σ of a model chosen on a training stream, measured on the training data alone
@@ -506,52 +407,6 @@ fn decide(
             }
         }
     }
-}
-
-/// A stream cut forward in time ([`forward`]).
-pub(crate) struct Forward {
-    /// Where it was cut, s from its first sample.
-    pub split_s: f64,
-    /// 60 s blocks before the cut.
-    pub earlier_blocks: usize,
-    /// 60 s blocks after it.
-    pub later_blocks: usize,
-    /// The part before the cut, to fit on.
-    pub early: Stream,
-    /// The whole stream with its reference kept only after the cut, to score on: replayed
-    /// whole, the stateful inputs carry their history across the cut.
-    pub later: Stream,
-}
-
-/// Cuts `stream` after [`EARLIER_SHARE`] of its 60 s blocks (at least [`EARLIER_MIN_BLOCKS`]);
-/// `None` when fewer than [`LATER_MIN_BLOCKS`] would be left after the cut. Blocks are counted
-/// as the diagnosis counts them (samples with a reference).
-pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
-    let blocks = blocks::half_filled(stream, &stream.referenced());
-    let n = blocks.len();
-    let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
-    if n < earlier + LATER_MIN_BLOCKS {
-        return None;
-    }
-    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
-    let split_s = stream.time_s[blocks[earlier][0]] - t0;
-    let early = stream.window(Window {
-        start_s: None,
-        end_s: Some(split_s),
-    });
-    let mut later = stream.clone();
-    for (r, t) in later.rate_dps.iter_mut().zip(&stream.time_s) {
-        if t - t0 < split_s {
-            *r = f64::NAN;
-        }
-    }
-    Some(Forward {
-        split_s,
-        earlier_blocks: earlier,
-        later_blocks: n - earlier,
-        early,
-        later,
-    })
 }
 
 /// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes

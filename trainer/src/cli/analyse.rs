@@ -9,8 +9,9 @@ use fog_data::cause::Cause;
 use fog_data::sigma::{self, Coverage};
 use fog_data::stream::{Stream, Window};
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
 use fog_terminal::log::LogArgs;
+use fog_terminal::schema;
 use serde::Serialize;
 
 use super::inputs::{
@@ -157,7 +158,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
         }
         if let Some(path) = json {
             let inputs = [model.as_path(), log.stream.as_path(), &channels.path];
-            write_json(&path, &inputs, &all)?;
+            write_json_list(&path, &inputs, schema::DIAGNOSE_UNIT, "channels", &all)?;
         }
         return Ok(());
     }
@@ -167,7 +168,12 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
     let d = diagnose::diagnose(&fw, &data);
     console.result(render_diagnosis(&d).trim_end());
     if let Some(path) = json {
-        write_json(&path, &[model.as_path(), log.stream.as_path()], &d)?;
+        write_json(
+            &path,
+            &[model.as_path(), log.stream.as_path()],
+            schema::DIAGNOSE,
+            &d,
+        )?;
     }
     Ok(())
 }
@@ -233,7 +239,7 @@ pub(super) fn investigate_command(
             write_atomically(&path, &blobs.static_blob)?;
         }
         if let Some(path) = json {
-            write_json(&path, &inputs, &inv)?;
+            write_json(&path, &inputs, schema::INVESTIGATE, &inv)?;
         }
         return Ok(());
     };
@@ -306,7 +312,7 @@ pub(super) fn investigate_command(
                 })
                 .collect(),
         };
-        write_json(&path, &inputs, &report)?;
+        write_json(&path, &inputs, schema::INVESTIGATE_UNIT, &report)?;
     }
     Ok(())
 }
@@ -516,7 +522,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
             cross_run: cross.as_ref(),
             centres_choice: centres_choice.as_ref(),
         };
-        write_json(&path, &inputs, &report)?;
+        write_json(&path, &inputs, schema::LOO, &report)?;
     }
     Ok(())
 }
@@ -673,7 +679,7 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
     bar.finish_and_clear();
     console.result(r.render(&input.points.display().to_string()).trim_end());
     if let Some(path) = json {
-        write_json(&path, &[input.points.as_path()], &r)?;
+        write_json(&path, &[input.points.as_path()], schema::REPRODUCE, &r)?;
     }
     Ok(())
 }
@@ -753,6 +759,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
         write_json(
             &path,
             &[],
+            schema::CHALLENGE,
             &ChallengeReport {
                 kind,
                 confusion: challenge::confusion(&cases).0,

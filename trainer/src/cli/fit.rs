@@ -10,6 +10,7 @@ use fog_data::replay::HostModel;
 use fog_data::stream::{Stream, Window};
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::schema;
 
 use super::inputs::{FitOptions, ModelInput, load_stream};
 use super::text::{causes_text, log_starts};
@@ -34,8 +35,8 @@ mod report;
 pub(super) use args::FitArgs;
 use args::ServiceArgs;
 use report::{
-    ChannelReport, ExtensionReport, FitReport, Inputs, StreamChoice, UnitFitReport, print_fit,
-    quantity_words, unit_table,
+    ChannelReport, ExtensionReport, FitReport, Fitted, Inputs, StreamChoice, UnitFitReport,
+    print_fit, quantity_words, unit_table,
 };
 
 /// A channel to size: its name, its plan and its loaded streams.
@@ -190,7 +191,7 @@ impl FitPlan {
         }
         write_atomically(&self.out, &fitted.blob)?;
         if let Some(path) = &self.json {
-            write_json(path, &self.inputs(), &fitted.summary)?;
+            write_json(path, &self.inputs(), schema::FIT, &fitted.summary)?;
         }
         print_fit(
             &console,
@@ -293,7 +294,7 @@ impl FitPlan {
             budget: budgeted,
         };
         if let Some(path) = &self.json {
-            write_json(path, &inputs, &report)?;
+            write_json(path, &inputs, schema::FIT_UNIT, &report)?;
         }
         console.result(&unit_table(channels, &fitted, &footprint, &self.out));
         Ok(())
@@ -736,12 +737,4 @@ impl FitPlan {
 /// and its blob.
 pub(super) fn fit_command(args: FitArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     FitPlan::check(args)?.run(flags)
-}
-
-/// A model fitted and checked: its blob, what `fit` reports of it, the GP and its points' count.
-struct Fitted {
-    blob: Vec<u8>,
-    summary: FitReport,
-    model: GpModel,
-    n: usize,
 }

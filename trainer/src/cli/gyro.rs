@@ -12,8 +12,9 @@ use fog_data::replay;
 use fog_data::stream::Stream;
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
 use fog_terminal::log::{Excludes, LogArgs, Maps, UnitArgs, load_unit_log};
+use fog_terminal::schema;
 
 use super::inputs::load_stream;
 use crate::analysis::{allan, twin};
@@ -134,7 +135,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
         &console,
     );
     if let Some(path) = &json {
-        write_json(path, &inputs, &analysis)?;
+        write_json(path, &inputs, schema::ALLAN, &analysis)?;
     }
     if let Some(path) = &plot {
         let curve = analysis.curve();
@@ -296,7 +297,7 @@ fn allan_unit(
         });
     }
     if let Some(path) = json {
-        write_json(path, inputs, &out)?;
+        write_json_list(path, inputs, schema::ALLAN_UNIT, "channels", &out)?;
     }
     if let Some(path) = figure {
         let curves: Vec<allan::Curve> = out.iter().map(|c| c.analysis.curve()).collect();
@@ -401,9 +402,9 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
             all.push(serde_json::json!({ "name": ch.name, "identification": id }));
         }
         anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
-        write_json(&out, &inputs, &Axes { axes })?;
+        write_json(&out, &inputs, schema::SIM_AXES, &Axes { axes })?;
         if let Some(path) = &json {
-            write_json(path, &inputs, &all)?;
+            write_json_list(path, &inputs, schema::IDENTIFY_UNIT, "channels", &all)?;
         }
         console.result(&format!("wrote {}", out.display()));
         return Ok(());
@@ -420,9 +421,9 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
         None => None,
     };
     let id = identified(points.as_ref(), stream.as_ref(), scale_factor, &console)?;
-    write_json(&out, &inputs, &id.unit)?;
+    write_json(&out, &inputs, schema::SIM_UNIT, &id.unit)?;
     if let Some(path) = &json {
-        write_json(path, &inputs, &id)?;
+        write_json(path, &inputs, schema::IDENTIFY, &id)?;
     }
     if let Some(path) = &figure {
         write_atomically(path, twin_figure(&id)?.as_bytes())?;

@@ -6,6 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::write_json;
+use fog_terminal::schema;
 
 use crate::firmware::export;
 use crate::firmware::unit;
@@ -65,7 +66,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
         ));
         console.result(&text);
         if let Some(path) = json {
-            write_json(&path, &[model.as_path()], &f)?;
+            write_json(&path, &[model.as_path()], schema::INSPECT_UNIT, &f)?;
         }
         return Ok(());
     }
@@ -92,7 +93,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
         f.scratch_bytes
     ));
     if let Some(path) = json {
-        write_json(&path, &[model.as_path()], &f)?;
+        write_json(&path, &[model.as_path()], schema::INSPECT, &f)?;
     }
     Ok(())
 }

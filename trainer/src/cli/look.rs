@@ -6,8 +6,9 @@ use clap::Args;
 use fog_data::channels::{Channels, Read};
 use fog_data::stream::Stream;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_json};
+use fog_terminal::io::{ensure_not_input, write_json_list};
 use fog_terminal::log::{Maps, UnitArgs};
+use fog_terminal::schema;
 
 use crate::data::points::{Points, Screen};
 use crate::data::summary::{self, Summary};
@@ -95,7 +96,7 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
             all.push(each);
         }
         if let Some(out) = &json {
-            write_json(out, &inputs, &all)?;
+            write_json_list(out, &inputs, schema::SUMMARIZE, "files", &all)?;
         }
         return Ok(());
     }
@@ -110,7 +111,7 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
         console.result(s.text().trim_end());
     }
     if let Some(out) = &json {
-        write_json(out, &inputs, &all)?;
+        write_json_list(out, &inputs, schema::SUMMARIZE, "files", &all)?;
     }
     Ok(())
 }

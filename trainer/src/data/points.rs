@@ -6,7 +6,6 @@ use std::sync::OnceLock;
 
 use firmware_core::features::{self, FeatureState, Sample};
 use firmware_core::{Feature, Quantity, Status};
-use fog_data::blocks;
 use fog_data::columns::{self, ColumnMap, DataError};
 use fog_data::replay;
 use fog_data::stream::Stream;
@@ -393,7 +392,7 @@ impl Points {
         scale_factor: Option<f64>,
     ) -> Result<Self, PointsError> {
         let scored = scored(stream);
-        let blocks = blocks::half_filled(stream, &scored);
+        let blocks = stream.half_filled_blocks(&scored);
         if blocks.len() < 10 {
             return Err(PointsError::TooFewBlocks {
                 path: path.display().to_string(),

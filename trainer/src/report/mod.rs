@@ -7,7 +7,6 @@
 pub mod plots;
 
 use firmware_core::units::{DPH_PER_DPS, SECONDS_PER_HOUR};
-use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay::{self, Compensated};
 use fog_data::stats::Line;
@@ -333,7 +332,7 @@ pub fn with_streams(
         let mut t = Vec::new();
         let mut b = Vec::new();
         for s in [train, &valid] {
-            for block in blocks::half_filled(s, &s.referenced()) {
+            for block in s.half_filled_blocks(&s.referenced()) {
                 let n = block.len() as f64;
                 t.push(block.iter().map(|&i| s.temp_c[i]).sum::<f64>() / n);
                 b.push(
@@ -420,7 +419,7 @@ pub(crate) fn replay_blocks(
     let scored: Vec<usize> = (0..valid.len())
         .filter(|&i| valid.rate_dps[i].is_finite() && comp.rate_dps[i].is_finite())
         .collect();
-    let blocks = blocks::half_filled(valid, &scored);
+    let blocks = valid.half_filled_blocks(&scored);
     let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
         b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
     };

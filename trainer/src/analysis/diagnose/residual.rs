@@ -43,7 +43,7 @@ impl<'a> Residual<'a> {
         stream: &'a Stream,
         (rate_dps, status): (&[f32], &[Status]),
     ) -> Self {
-        let blocks = blocks::half_filled(stream, &replay::scored_samples(stream, status));
+        let blocks = stream.half_filled_blocks(&replay::scored_samples(stream, status));
         let r = replay::block_errors(stream, rate_dps, &blocks);
         Self {
             model,

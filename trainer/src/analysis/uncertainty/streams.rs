@@ -4,7 +4,6 @@
 
 use firmware_core::ErrorModel;
 use firmware_core::units::SECONDS_PER_HOUR;
-use fog_data::blocks;
 use fog_data::replay;
 use fog_data::stream::Stream;
 
@@ -42,7 +41,8 @@ pub fn stream_series(
     let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
         b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
     };
-    let residuals = blocks::half_filled(stream, &scored)
+    let residuals = stream
+        .half_filled_blocks(&scored)
         .iter()
         .map(|b| {
             let latent_var = mean(b, &|i| f64::from(latent.bias_var[i]));

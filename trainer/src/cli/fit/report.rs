@@ -8,7 +8,6 @@ use fog_data::stream::Handled;
 use fog_terminal::console::Console;
 use serde::Serialize;
 
-use super::Fitted;
 use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget;
 use crate::analysis::capacity;
@@ -27,6 +26,14 @@ use crate::models::gp::{GpModel, Hyperparameters, Optimization, StartReport};
 use crate::models::prior::{MeanBasis, PolyPrior};
 use firmware_core::Quantity;
 use fog_data::channels::Channels;
+
+/// A model fitted and checked: its blob, what `fit` reports of it, the GP and its points' count.
+pub(super) struct Fitted {
+    pub(super) blob: Vec<u8>,
+    pub(super) summary: FitReport,
+    pub(super) model: GpModel,
+    pub(super) n: usize,
+}
 
 /// What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that
 /// shipped, and how the firmware's f32 evaluation follows the host.

@@ -1,0 +1,136 @@
+//! The contract of every JSON file the two programs write, in one place: each carries
+//! `"schema": {"name": …, "version": …}` first, so a script can tell what it reads and refuse what
+//! it does not know. A version grows when a field changes meaning or goes away; a new field does
+//! not change it. docs/commands.md lists them ([`ALL`]), generated from here.
+
+use serde::Serialize;
+
+/// A JSON output's name and version.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Schema {
+    /// `program.command` (`-unit` where a unit's output differs from one channel's).
+    pub name: &'static str,
+    /// Its version, from 1.
+    pub version: u32,
+    /// What writes it, in a few words (not written into the JSON).
+    #[serde(skip)]
+    pub written_by: &'static str,
+}
+
+const fn v1(name: &'static str, written_by: &'static str) -> Schema {
+    Schema {
+        name,
+        version: 1,
+        written_by,
+    }
+}
+
+/// `trainer summarize --json`: each file's summary under `files` (a unit's: a list per file of
+/// each channel's).
+pub const SUMMARIZE: Schema = v1("trainer.summarize", "trainer summarize --json");
+/// `trainer fit --json`, one channel.
+pub const FIT: Schema = v1("trainer.fit", "trainer fit --json");
+/// `trainer fit --channels --json`: the unit and each channel's fit.
+pub const FIT_UNIT: Schema = v1("trainer.fit-unit", "trainer fit --channels --json");
+/// `trainer inspect --json`, a model blob.
+pub const INSPECT: Schema = v1("trainer.inspect", "trainer inspect --json");
+/// `trainer inspect --json`, a unit blob.
+pub const INSPECT_UNIT: Schema = v1(
+    "trainer.inspect-unit",
+    "trainer inspect --json (a unit blob)",
+);
+/// `trainer diagnose --json`, one channel.
+pub const DIAGNOSE: Schema = v1("trainer.diagnose", "trainer diagnose --json");
+/// `trainer diagnose --channels --json`: each channel's diagnosis (`channels`).
+pub const DIAGNOSE_UNIT: Schema = v1(
+    "trainer.diagnose-unit",
+    "trainer diagnose --channels --json",
+);
+/// `trainer investigate --json`, one channel.
+pub const INVESTIGATE: Schema = v1("trainer.investigate", "trainer investigate --json");
+/// `trainer investigate --channels --json`.
+pub const INVESTIGATE_UNIT: Schema = v1(
+    "trainer.investigate-unit",
+    "trainer investigate --channels --json",
+);
+/// `trainer loo --json`.
+pub const LOO: Schema = v1("trainer.loo", "trainer loo --json");
+/// `trainer reproduce --json`.
+pub const REPRODUCE: Schema = v1("trainer.reproduce", "trainer reproduce --json");
+/// `trainer challenge --json`.
+pub const CHALLENGE: Schema = v1("trainer.challenge", "trainer challenge --json");
+/// `trainer allan --json`, one channel.
+pub const ALLAN: Schema = v1("trainer.allan", "trainer allan --json");
+/// `trainer allan --channels --json`: each channel's (`channels`).
+pub const ALLAN_UNIT: Schema = v1("trainer.allan-unit", "trainer allan --channels --json");
+/// `trainer identify --json`, one gyro.
+pub const IDENTIFY: Schema = v1("trainer.identify", "trainer identify --json");
+/// `trainer identify --channels --json`: each gyro channel's (`channels`).
+pub const IDENTIFY_UNIT: Schema = v1(
+    "trainer.identify-unit",
+    "trainer identify --channels --json",
+);
+/// The simulator's unit file of one gyro (`trainer identify --out`, `firmware-sim generate
+/// --unit`).
+pub const SIM_UNIT: Schema = v1("sim.unit", "trainer identify --out");
+/// The simulator's unit file of several axes (`trainer identify --channels --out`).
+pub const SIM_AXES: Schema = v1("sim.axes", "trainer identify --channels --out");
+/// `firmware-sim generate --json`, one gyro.
+pub const GENERATE: Schema = v1("sim.generate", "firmware-sim generate --json");
+/// `firmware-sim generate --unit AXES --json`.
+pub const GENERATE_UNIT: Schema = v1(
+    "sim.generate-unit",
+    "firmware-sim generate --json (a unit of axes)",
+);
+/// `firmware-sim replay --json`, one channel.
+pub const REPLAY: Schema = v1("sim.replay", "firmware-sim replay --json");
+/// `firmware-sim replay --json`, a unit blob.
+pub const REPLAY_UNIT: Schema = v1(
+    "sim.replay-unit",
+    "firmware-sim replay --json (a unit blob)",
+);
+/// `firmware-sim qemu --json`, one channel.
+pub const QEMU: Schema = v1("sim.qemu", "firmware-sim qemu --json");
+/// `firmware-sim qemu --json`, a unit blob.
+pub const QEMU_UNIT: Schema = v1("sim.qemu-unit", "firmware-sim qemu --json (a unit blob)");
+
+/// Every contract, in the order docs/commands.md lists them.
+pub const ALL: [Schema; 24] = [
+    SUMMARIZE,
+    FIT,
+    FIT_UNIT,
+    INSPECT,
+    INSPECT_UNIT,
+    DIAGNOSE,
+    DIAGNOSE_UNIT,
+    INVESTIGATE,
+    INVESTIGATE_UNIT,
+    LOO,
+    REPRODUCE,
+    CHALLENGE,
+    ALLAN,
+    ALLAN_UNIT,
+    IDENTIFY,
+    IDENTIFY_UNIT,
+    SIM_UNIT,
+    SIM_AXES,
+    GENERATE,
+    GENERATE_UNIT,
+    REPLAY,
+    REPLAY_UNIT,
+    QEMU,
+    QEMU_UNIT,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_contract_has_its_own_name() {
+        let mut names: Vec<&str> = ALL.iter().map(|s| s.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), ALL.len());
+    }
+}

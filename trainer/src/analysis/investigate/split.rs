@@ -1,0 +1,368 @@
+//! A training stream cut for the checks: forward in time ([`forward`]), across temperature and by
+//! heating/cooling leg ([`splits`]), with the static model and the extension fitted on one part
+//! and scored on the other ([`Split`]), and what a part could see of the extension ([`Sight`]).
+
+use fog_data::cause::Cause;
+use fog_data::replay;
+use fog_data::stats::rms;
+use fog_data::stream::{Stream, Window};
+use serde::Serialize;
+
+use crate::analysis::diagnose;
+use crate::analysis::extend;
+use crate::analysis::uncertainty::{self, Source};
+use crate::data::points::Points;
+use crate::firmware::export::{self, Extension};
+use crate::models::gp::{GpConfig, GpModel};
+
+/// Makes the static points from part of a training stream as from all of it (a table's: as is).
+pub type Rebuild<'a> = dyn Fn(&Stream) -> anyhow::Result<Points> + 'a;
+
+/// Fewest 60 s blocks the earlier part of a forward check holds (an extension needs 30).
+pub(super) const EARLIER_MIN_BLOCKS: usize = 30;
+
+/// Fewest 60 s blocks the later part of a forward check holds.
+pub(super) const LATER_MIN_BLOCKS: usize = 8;
+
+/// Share of the training stream's blocks the earlier part holds, when it is long enough.
+const EARLIER_SHARE: f64 = 2.0 / 3.0;
+
+/// Share of the training stream's temperature span left out at each end by the temperature check
+/// ([`super::TemperatureCheck`]): a fifth of the span in all, as a wider cut leaves a 40-minute log fewer
+/// than the 30 blocks an extension needs inside.
+const OUTER_SHARE: f64 = 0.1;
+
+/// Fewest 60 s blocks of one heating/cooling leg a leg check fits on ([`super::LegCheck`]): a quarter
+/// hour of the leg.
+const LEG_MIN_BLOCKS: usize = 15;
+
+/// A model fitted on part of the training stream and the rest it is scored on.
+pub struct Split {
+    /// The test: forward in time, or across temperature.
+    pub source: Source,
+    /// The training stream with its reference only where scored (replayed whole, so the stateful
+    /// inputs keep their history).
+    pub scored: Stream,
+    /// Hours from each sample to the data fitted (NaN where fitted).
+    pub hours: Vec<f64>,
+    /// The static model fitted without the scored part (a rate table's, where there is one).
+    pub static_blob: Vec<u8>,
+    /// The extension of the named causes fitted without it, where causes were named.
+    pub extended_blob: Option<Vec<u8>>,
+    /// For a leg split ([`Source::Leg`]): the leg fitted on, and the 60 s blocks fitted on and
+    /// scored.
+    pub leg: Option<(&'static str, usize, usize)>,
+}
+
+impl Split {
+    /// `rmse_60s_dps` of the static model and of the extension (the static one's where none),
+    /// and whether the scored part exercised the extension: its contribution (extended − static,
+    /// 60 s means over the whole stream) moves in the scored blocks ([`diagnose::sees`]).
+    pub(super) fn scores(&self) -> anyhow::Result<(f64, f64, Sight)> {
+        // The means alone: nothing here reads a variance, which costs O(m²) a sample.
+        let run = |blob: &[u8]| -> anyhow::Result<replay::Means> {
+            Ok(replay::means(
+                &*fog_data::replay::decode(blob)?,
+                &self.scored,
+            ))
+        };
+        let rmse = |c: &replay::Means| c.rmse_60s_dps(&self.scored);
+        let static_run = run(&self.static_blob)?;
+        let ext_run = match &self.extended_blob {
+            Some(b) => run(b)?,
+            None => static_run.clone(),
+        };
+        let all: Vec<usize> = (0..self.scored.len()).collect();
+        let blocks = self.scored.half_filled_blocks(&all);
+        let block_mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
+            b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64
+        };
+        let delta: Vec<f64> = blocks
+            .iter()
+            .map(|b| {
+                block_mean(b, &|i| {
+                    f64::from(ext_run.rate_dps[i]) - f64::from(static_run.rate_dps[i])
+                })
+            })
+            .collect();
+        let scored: Vec<usize> = blocks
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| {
+                2 * b
+                    .iter()
+                    .filter(|&&i| self.scored.rate_dps[i].is_finite())
+                    .count()
+                    > b.len()
+            })
+            .map(|(k, _)| k)
+            .collect();
+        let centred = |c: &replay::Means| {
+            let e: Vec<f64> = scored
+                .iter()
+                .map(|&k| {
+                    let b: Vec<usize> = blocks[k]
+                        .iter()
+                        .copied()
+                        .filter(|&i| self.scored.rate_dps[i].is_finite())
+                        .collect();
+                    block_mean(&b, &|i| f64::from(c.rate_dps[i]) - self.scored.rate_dps[i])
+                })
+                .collect();
+            let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
+            rms(&e.iter().map(|v| v - m).collect::<Vec<_>>())
+        };
+        let sight = Sight {
+            sees: self.extended_blob.is_some() && diagnose::sees(&delta, &scored),
+            centred_rmse_60s_dps: [centred(&static_run), centred(&ext_run)],
+        };
+        Ok((rmse(&static_run), rmse(&ext_run), sight))
+    }
+}
+
+/// A stream cut forward in time ([`forward`]).
+pub(crate) struct Forward {
+    /// Where it was cut, s from its first sample.
+    pub split_s: f64,
+    /// 60 s blocks before the cut.
+    pub earlier_blocks: usize,
+    /// 60 s blocks after it.
+    pub later_blocks: usize,
+    /// The part before the cut, to fit on.
+    pub early: Stream,
+    /// The whole stream with its reference kept only after the cut, to score on: replayed
+    /// whole, the stateful inputs carry their history across the cut.
+    pub later: Stream,
+}
+
+/// Cuts `stream` after [`EARLIER_SHARE`] of its 60 s blocks (at least [`EARLIER_MIN_BLOCKS`]);
+/// `None` when fewer than [`LATER_MIN_BLOCKS`] would be left after the cut. Blocks are counted
+/// as the diagnosis counts them (samples with a reference).
+pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
+    let blocks = stream.half_filled_blocks(&stream.referenced());
+    let n = blocks.len();
+    let earlier = ((EARLIER_SHARE * n as f64).round() as usize).max(EARLIER_MIN_BLOCKS);
+    if n < earlier + LATER_MIN_BLOCKS {
+        return None;
+    }
+    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+    let split_s = stream.time_s[blocks[earlier][0]] - t0;
+    let early = stream.window(Window {
+        start_s: None,
+        end_s: Some(split_s),
+    });
+    let mut later = stream.clone();
+    for (r, t) in later.rate_dps.iter_mut().zip(&stream.time_s) {
+        if t - t0 < split_s {
+            *r = f64::NAN;
+        }
+    }
+    Some(Forward {
+        split_s,
+        earlier_blocks: earlier,
+        later_blocks: n - earlier,
+        early,
+        later,
+    })
+}
+
+/// What a test could see of an extension.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Sight {
+    /// Whether the scored part exercised it: the extension's contribution (extended − static,
+    /// 60 s means) moves there by at least [`diagnose::VISIBLE`] of its spread over the training
+    /// stream. A warm-up after the one power-on at a log's start has died out in its later part.
+    pub sees: bool,
+    /// Both models' `rmse_60s_dps` there with each one's mean error over the scored part taken
+    /// out, static then extended: what a test that cannot see the extension judges harm on. Its
+    /// input is flat there, so the two differ by the constant each was fitted with, and the
+    /// extension's constant, fitted beside a transient on the earlier part alone, says nothing of
+    /// the one fitted on the whole stream that ships. Harm the extension carries moves with its
+    /// input, and a test that sees it counts it in full.
+    pub centred_rmse_60s_dps: [f64; 2],
+}
+
+/// The models of a training stream's splits: forward in time, and, where the static model is
+/// fitted on the stream itself, across temperature ([`super::TemperatureCheck`]); each the static model
+/// fitted without the scored part (a rate table's model as it is) and its extension by `causes`
+/// (none without causes). A split the stream is too short for is left out.
+pub fn splits(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Vec<Split>> {
+    let mut out = Vec::new();
+    if let Some(Forward {
+        split_s,
+        early,
+        later,
+        ..
+    }) = forward(train)
+    {
+        let (static_model, static_points) = static_on(points, model, &early, cfg, rebuild)?;
+        let (static_blob, extended_blob) =
+            split_blobs(&static_model, &static_points, &early, causes)?;
+        let t0 = train.time_s.first().copied().unwrap_or(0.0);
+        let fitted: Vec<usize> = (0..train.len())
+            .filter(|&i| train.time_s[i] - t0 < split_s)
+            .collect();
+        out.push(Split {
+            source: Source::Forward,
+            hours: uncertainty::streams::hours_from(&later, &fitted),
+            scored: later,
+            static_blob,
+            extended_blob,
+            leg: None,
+        });
+    }
+    if !points.soaked {
+        let ((lo, hi), inside_blocks, outside_blocks) = inside(train);
+        if inside_blocks >= EARLIER_MIN_BLOCKS && outside_blocks >= LATER_MIN_BLOCKS {
+            let (mut fit_on, mut scored) = (train.clone(), train.clone());
+            for (i, &t) in train.temp_c.iter().enumerate() {
+                if (lo..=hi).contains(&t) {
+                    scored.rate_dps[i] = f64::NAN;
+                } else {
+                    fit_on.rate_dps[i] = f64::NAN;
+                }
+            }
+            let p = rebuild(&fit_on)?;
+            let m = GpModel::fit(p.inputs(), &p.target(), cfg)?;
+            let (static_blob, extended_blob) = split_blobs(&m, &p, &fit_on, causes)?;
+            out.push(Split {
+                source: Source::Temperature,
+                hours: uncertainty::streams::hours_from(&scored, &fit_on.referenced()),
+                scored,
+                static_blob,
+                extended_blob,
+                leg: None,
+            });
+        }
+    }
+    out.extend(leg_splits(points, model, train, cfg, causes, rebuild)?);
+    Ok(out)
+}
+
+/// The leg splits of [`splits`]: the static model and its extension fitted on the samples of one
+/// heating/cooling leg and scored on the other's, each way the stream holds
+/// [`LEG_MIN_BLOCKS`] blocks of one leg and [`LATER_MIN_BLOCKS`] of the other. A sample
+/// before the temperature first moved is on neither leg. Where the static model is a rate
+/// table's, it is kept and the extension alone is fitted on the leg. None for hysteresis, whose
+/// input, the leg itself, holds one value on one leg: no fit on one leg can see it.
+fn leg_splits(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Vec<Split>> {
+    if causes.contains(&Cause::Hysteresis) {
+        return Ok(Vec::new());
+    }
+    let states = uncertainty::streams::leg_states(train);
+    let mut out = Vec::new();
+    for (name, heating) in [("heating", true), ("cooling", false)] {
+        let (mut fit_on, mut scored) = (train.clone(), train.clone());
+        for (i, state) in states.iter().enumerate() {
+            let side = state.filter(|s| *s != 0.0).map(|s| s > 0.0);
+            if side != Some(heating) {
+                fit_on.rate_dps[i] = f64::NAN;
+            }
+            if side != Some(!heating) {
+                scored.rate_dps[i] = f64::NAN;
+            }
+        }
+        let count = |s: &Stream| s.half_filled_blocks(&s.referenced()).len();
+        let (fitted_blocks, scored_blocks) = (count(&fit_on), count(&scored));
+        if fitted_blocks < LEG_MIN_BLOCKS || scored_blocks < LATER_MIN_BLOCKS {
+            continue;
+        }
+        let (static_model, static_points) = static_on(points, model, &fit_on, cfg, rebuild)?;
+        let (static_blob, extended_blob) = split_blobs_on(
+            &static_model,
+            &static_points,
+            &fit_on,
+            causes,
+            LEG_MIN_BLOCKS,
+        )?;
+        out.push(Split {
+            source: Source::Leg,
+            hours: uncertainty::streams::hours_from(&scored, &fit_on.referenced()),
+            scored,
+            static_blob,
+            extended_blob,
+            leg: Some((name, fitted_blocks, scored_blocks)),
+        });
+    }
+    Ok(out)
+}
+
+/// The static model of a split fitted on `fit_on`: a rate table's as it is, else refitted on the
+/// points `rebuild` makes of `fit_on`.
+fn static_on(
+    points: &Points,
+    model: &GpModel,
+    fit_on: &Stream,
+    cfg: &GpConfig,
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<(GpModel, Points)> {
+    if points.soaked {
+        return Ok((model.clone(), points.clone()));
+    }
+    let p = rebuild(fit_on)?;
+    Ok((GpModel::fit(p.inputs(), &p.target(), cfg)?, p))
+}
+
+/// The blobs of a static model fitted on `points` and of its extension by `causes` fitted on
+/// `fit_on` (none without causes).
+pub(super) fn split_blobs(
+    model: &GpModel,
+    points: &Points,
+    fit_on: &Stream,
+    causes: &[Cause],
+) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
+    split_blobs_on(model, points, fit_on, causes, extend::MIN_BLOCKS)
+}
+
+/// [`split_blobs`] with an extension fitted on at least `min_blocks` blocks.
+fn split_blobs_on(
+    model: &GpModel,
+    points: &Points,
+    fit_on: &Stream,
+    causes: &[Cause],
+    min_blocks: usize,
+) -> anyhow::Result<(Vec<u8>, Option<Vec<u8>>)> {
+    let static_blob = export::points_blob(model, points, &Extension::default())?;
+    if causes.is_empty() {
+        return Ok((static_blob, None));
+    }
+    let ext = extend::fit_on_blocks(model, points, fit_on, causes, min_blocks)?;
+    Ok((static_blob, Some(ext.blob)))
+}
+
+/// The temperatures of the temperature check (the training span less [`OUTER_SHARE`] of it at
+/// each end), and the 60 s blocks inside and outside them. A sample counts by its own
+/// temperature.
+pub(super) fn inside(train: &Stream) -> ((f64, f64), usize, usize) {
+    let temps = train.referenced().into_iter().map(|i| train.temp_c[i]);
+    let (lo, hi) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+        (lo.min(t), hi.max(t))
+    });
+    let margin = OUTER_SHARE * (hi - lo);
+    let inside_c = (lo + margin, hi - margin);
+    let (mut inside, mut outside) = (train.clone(), train.clone());
+    for (i, &t) in train.temp_c.iter().enumerate() {
+        if (inside_c.0..=inside_c.1).contains(&t) {
+            outside.rate_dps[i] = f64::NAN;
+        } else {
+            inside.rate_dps[i] = f64::NAN;
+        }
+    }
+    let inside_blocks = inside.half_filled_blocks(&inside.referenced()).len();
+    let outside_blocks = outside.half_filled_blocks(&outside.referenced()).len();
+    (inside_c, inside_blocks, outside_blocks)
+}
