@@ -1,5 +1,6 @@
-//! The summary statistics every layer uses, defined once. Each is NaN for no values: an RMS of
-//! nothing is not zero error, and a NaN shows in a report where a zero would pass for a result.
+//! The summary statistics every layer uses, defined once, and the step of a quantized record.
+//! Each is NaN for no values: an RMS of nothing is not zero error, and a NaN shows in a report
+//! where a zero would pass for a result.
 
 /// Arithmetic mean; NaN for no values.
 pub fn mean(v: &[f64]) -> f64 {
@@ -63,6 +64,32 @@ impl Line {
     pub fn at(&self, x: f64) -> f64 {
         self.intercept + self.slope * x
     }
+}
+
+/// The step of a quantized signal: where every value of `values` is a whole multiple of one step
+/// (a decimated logger keeps the ADC's raw steps; an averaging one does not) and the values repeat
+/// (fewer distinct values than half the samples), that step; `None` otherwise. Quantization adds
+/// white noise of step/√12 per sample, which the Allan deviation reads as angle random walk
+/// (the trainer's `allan::quantization_arw`).
+pub fn quantization_step(values: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 20 {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    let step = v
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    if !(step.is_finite() && step > 0.0) || 2 * v.len() > values.len() {
+        return None;
+    }
+    let whole = v.iter().all(|x| {
+        let k = x / step;
+        (k - k.round()).abs() < 1e-3
+    });
+    whole.then_some(step)
 }
 
 #[cfg(test)]

@@ -3,11 +3,12 @@
 //! bias/scale-factor model), evaluates them the way the paper does, exports firmware blobs, and
 //! finds, names and fixes what a model gets wrong (docs/design.md §1).
 //!
-//! Layers, each using only those listed before it (and firmware-sim, firmware-core below):
-//! [`data`] (rate-table points as model inputs), [`models`] (the regressions), [`firmware`] (the
-//! blob and its checks), [`analysis`] (evaluation, diagnosis, extension, investigation, noise
-//! terms, the simulator's twin), [`plot`] (the figures' common drawing), [`report`], [`cli`];
-//! [`progress`] is how long work in any of them reports how far it has come.
+//! Layers, each using only those listed before it (and fog-data, firmware-core below; the bench,
+//! firmware-sim, in `demo`, `challenge` and the twin): [`progress`] (how long work reports how far
+//! it has come), [`data`] (rate-table points as model inputs), [`models`] (the regressions),
+//! [`firmware`] (the blob and its checks), [`analysis`] (evaluation, diagnosis, extension,
+//! investigation, noise terms, the simulator's twin), [`plot`] (the figures' common drawing),
+//! [`report`], [`cli`]. The integration test `layers` holds them to it.
 
 pub mod analysis;
 pub mod cli;

@@ -5,6 +5,7 @@ mod cli;
 mod diagnosis;
 mod docs;
 mod firmware;
+mod layers;
 mod m4;
 mod paper;
 mod real;

@@ -312,33 +312,8 @@ impl Analysis {
     }
 }
 
-/// The step of a quantized signal: where every value of `values` is a whole multiple of one step
-/// (a decimated logger keeps the ADC's raw steps; an averaging one does not) and the values repeat
-/// (fewer distinct values than half the samples), that step; `None` otherwise. Quantization adds
-/// white noise of step/√12 per sample, which the Allan deviation reads as angle random walk
-/// ([`quantization_arw`]).
-pub fn quantization_step(values: &[f64]) -> Option<f64> {
-    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.len() < 20 {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    v.dedup();
-    let step = v
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min);
-    if !(step.is_finite() && step > 0.0) || 2 * v.len() > values.len() {
-        return None;
-    }
-    let whole = v.iter().all(|x| {
-        let k = x / step;
-        (k - k.round()).abs() < 1e-3
-    });
-    whole.then_some(step)
-}
-
-/// Angle random walk of quantization alone, °/√h, for a rate (°/s) quantized in `step` and sampled
+/// Angle random walk of quantization alone, °/√h, for a rate (°/s) quantized in `step`
+/// ([`fog_data::stats::quantization_step`]) and sampled
 /// every `tau0_s`: white noise of step/√12 per sample.
 pub fn quantization_arw(step: f64, tau0_s: f64) -> f64 {
     step / 12f64.sqrt() * tau0_s.sqrt() * 60.0
@@ -364,6 +339,7 @@ pub fn white_avar(arw_deg_per_sqrt_s: f64, tau_s: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fog_data::stats::quantization_step;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};

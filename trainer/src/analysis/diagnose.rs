@@ -105,30 +105,14 @@ mod residual;
 
 use crate::analysis::selection::{self, share};
 pub use crate::analysis::selection::{MAX_CAUSES, MIN_NEXT_SCORE, MIN_SCORE};
-pub use evidence::sees;
 use evidence::{
-    Split, blind_harm, choose, chosen_parameter, forward_sees, forward_splits, interleaved_splits,
-    split_sse,
+    FOLDS, Split, blind_harm, choose, chosen_parameter, forward_sees, forward_splits,
+    interleaved_splits, split_sse,
 };
-pub use regression::{Constant, Plateaus};
+pub use evidence::{HARM, VISIBLE, sees};
+pub use regression::{Candidates, Constant, Plateaus};
 pub(crate) use regression::{hat_weights, ols};
-use regression::{plateau_temperatures, predict};
-pub use residual::Residual;
-
-/// Blocks per chunk of the cross-validation (10 minutes of 60 s blocks).
-const CHUNK_BLOCKS: usize = 10;
-/// Folds of the cross-validation.
-const FOLDS: usize = 5;
-/// Origins of the forward test, as fractions of the blocks (module doc).
-const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
-/// Share of a regressor's spread over the whole stream that it must show in the blocks a test
-/// scores for the test to see it (module doc: below, the test abstains).
-pub const VISIBLE: f64 = 0.2;
-/// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
-/// as harm (module doc; [`crate::analysis::investigate`] keeps the same rule).
-pub const HARM: f64 = 0.02;
-/// Fewest training blocks a split needs to be scored.
-const MIN_TRAIN_BLOCKS: usize = 5;
+pub use residual::{Residual, feature_for};
 
 /// Filter time constants tried for the temperature rate, s.
 const RATE_TAUS_S: [f32; 5] = [30.0, 60.0, 120.0, 240.0, 480.0];
@@ -145,18 +129,6 @@ const WARM_UP_TAUS_S: [f32; 12] = [
 ];
 /// Play half-widths tried, °C.
 const PLAY_WIDTHS_C: [f32; 9] = [0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0];
-
-/// What the model lacks for each cause: the input that corrects it, at parameter `p`.
-pub fn feature_for(cause: Cause, p: f32) -> Option<Feature> {
-    match cause {
-        Cause::None => None,
-        Cause::ThermalRate => Some(Feature::TemperatureRate { tau_s: p }),
-        Cause::SensorLag => Some(Feature::CoilTemperature { tau_s: p }),
-        Cause::WarmUp => Some(Feature::PowerOnDecay { tau_s: p }),
-        Cause::Hysteresis => Some(Feature::ThermalState { width_c: p }),
-        Cause::TimeDrift => Some(Feature::TimeOn),
-    }
-}
 
 /// The parameter grid of a cause (one dummy value for those without a parameter).
 fn grid(cause: Cause) -> &'static [f32] {
@@ -195,9 +167,6 @@ pub struct CauseFit {
     /// RMS of the fitted term b·x around its mean, °/h.
     pub amplitude_dph: f64,
 }
-
-/// A cause's regressor at each parameter of its grid (one absent regressor for `none`).
-pub type Candidates = Vec<(f32, Option<Vec<f64>>)>;
 
 /// The regressors of `cause` over its parameter grid.
 pub fn candidates(res: &Residual<'_>, cause: Cause) -> Candidates {

@@ -197,7 +197,7 @@ fn analyse(
 /// steps: how much of the measured term is the quantizer's, with the scale factor that makes it a
 /// rate.
 fn quantization(data: &Stream, (k, analysis): (Option<f64>, &allan::Analysis), console: &Console) {
-    let Some(step) = allan::quantization_step(&data.voltage_v) else {
+    let Some(step) = fog_data::stats::quantization_step(&data.voltage_v) else {
         return;
     };
     match (k, analysis.terms.arw_deg_per_sqrt_h) {

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use fog_terminal::console::{AFTER_HELP, ConsoleFlags};
 
 mod analyse;
+mod challenge;
 mod demo;
 mod fit;
 mod gyro;
@@ -127,7 +128,7 @@ enum Command {
     /// the confusion matrix of hidden vs named cause and the gain per case.
     ///
     /// Example: trainer challenge --seeds 10 --json challenge.json
-    Challenge(analyse::ChallengeArgs),
+    Challenge(challenge::ChallengeArgs),
 }
 
 /// Runs one parsed command line.
@@ -145,6 +146,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Summarize(args) => look::summarize_command(args, flags),
         Command::Report(args) => report::report_command(args, flags),
         Command::Reproduce(args) => analyse::reproduce_command(args, flags),
-        Command::Challenge(args) => analyse::challenge_command(args, flags),
+        Command::Challenge(args) => challenge::challenge_command(args, flags),
     }
 }

@@ -47,7 +47,7 @@ pub struct Summary {
     #[serde(skip)]
     pub excluded_line: Option<String>,
     /// A stream's output step, where every value is a whole multiple of one (a decimated log:
-    /// [`crate::analysis::allan::quantization_step`]).
+    /// [`fog_data::stats::quantization_step`]).
     pub output_step: Option<f64>,
     /// Output per °/s of a straight line through the non-zero rates: the scale factor the data
     /// show (a wrong unit shows here).
@@ -220,7 +220,7 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
             }
         }),
         excluded,
-        output_step: crate::analysis::allan::quantization_step(&stream.voltage_v),
+        output_step: fog_data::stats::quantization_step(&stream.voltage_v),
         scale_factor_estimate: slope(&stream.rate_dps, &stream.voltage_v),
         earth_rate: earth_rate(&stream.rate_dps),
     }

@@ -9,7 +9,7 @@ use crate::analysis::allan::Analysis as Allan;
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO};
 
-use super::{FIGURES, Kind, Report};
+use super::contents::{FIGURES, Kind, Report};
 
 /// What the Allan table shows at the longest τ the raw and the shipped curves share, in words that
 /// follow its figures: compensation should lower the long-τ part (the temperature's slow drift),

@@ -1,12 +1,24 @@
 //! The out-of-sample evidence: interleaved and forward-in-time splits of the blocks, the score of
 //! a design on them, and whether a test can see a candidate at all.
 
-use super::{
-    CHUNK_BLOCKS, Candidates, Constant, FOLDS, FORWARD_ORIGINS, HARM, MIN_TRAIN_BLOCKS, VISIBLE,
-    ols, predict,
-};
+use super::regression::{Candidates, Constant, ols, predict};
 use crate::analysis::selection::share;
 use fog_data::stats::spread;
+
+/// Blocks per chunk of the cross-validation (10 minutes of 60 s blocks).
+pub(super) const CHUNK_BLOCKS: usize = 10;
+/// Folds of the cross-validation.
+pub(super) const FOLDS: usize = 5;
+/// Origins of the forward test, as fractions of the blocks (module doc).
+pub(super) const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
+/// Share of a regressor's spread over the whole stream that it must show in the blocks a test
+/// scores for the test to see it (module doc: below, the test abstains).
+pub const VISIBLE: f64 = 0.2;
+/// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
+/// as harm (module doc; [`crate::analysis::investigate`] keeps the same rule).
+pub const HARM: f64 = 0.02;
+/// Fewest training blocks a split needs to be scored.
+pub(super) const MIN_TRAIN_BLOCKS: usize = 5;
 
 /// A training/test split of the blocks.
 pub(super) type Split = (Vec<usize>, Vec<usize>);

@@ -5,6 +5,9 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::data::points::plateaus;
 
+/// A cause's regressor at each parameter of its grid (one absent regressor for `none`).
+pub type Candidates = Vec<(f32, Option<Vec<f64>>)>;
+
 /// A soaked table's plateaus as the blocks see them: the plateau temperatures and each block's
 /// piecewise-linear interpolation weights between them.
 pub struct Plateaus {

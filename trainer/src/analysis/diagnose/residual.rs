@@ -10,7 +10,7 @@ use fog_data::stats::rms;
 use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
 
-use super::{Constant, Plateaus, feature_for, hat_weights, plateau_temperatures};
+use super::regression::{Constant, Plateaus, hat_weights, plateau_temperatures};
 use crate::data::points::Points;
 use crate::models::gp::GpModel;
 
@@ -208,5 +208,17 @@ impl<'a> Residual<'a> {
             })
             .collect();
         Some(self.block_means(&diff))
+    }
+}
+
+/// What the model lacks for each cause: the input that corrects it, at parameter `p`.
+pub fn feature_for(cause: Cause, p: f32) -> Option<Feature> {
+    match cause {
+        Cause::None => None,
+        Cause::ThermalRate => Some(Feature::TemperatureRate { tau_s: p }),
+        Cause::SensorLag => Some(Feature::CoilTemperature { tau_s: p }),
+        Cause::WarmUp => Some(Feature::PowerOnDecay { tau_s: p }),
+        Cause::Hysteresis => Some(Feature::ThermalState { width_c: p }),
+        Cause::TimeDrift => Some(Feature::TimeOn),
     }
 }

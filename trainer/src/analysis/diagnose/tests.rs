@@ -1,3 +1,4 @@
+use super::regression::plateau_temperatures;
 use super::*;
 
 /// `n` values of a seeded uniform noise in [−1, 1).

@@ -14,7 +14,7 @@ use fog_data::cause::Cause;
 use fog_data::stats::rms;
 use fog_data::stream::{GAP_FACTOR, typical_step};
 
-use super::IdentifyError;
+use super::error::IdentifyError;
 use super::params::Static;
 use super::source::{Kind, Record, Source};
 

@@ -40,14 +40,17 @@ use crate::analysis::allan;
 use crate::analysis::minimize::golden_section;
 use crate::analysis::selection;
 
+mod error;
 mod fit;
 mod noise;
 mod params;
 mod source;
 
+pub use error::IdentifyError;
 use fit::{Fitted, Free, LINEAR, OFFSET, Row, fidelity, fit, residual_dph, rows};
 use fog_data::blocks;
 use noise::{noise_parameters, noise_terms, other_parameters};
+pub use params::Parameter;
 use params::{Static, determinable};
 pub use source::{Kind, Record, Source, load_points};
 
@@ -57,41 +60,6 @@ const FOLDS: usize = 5;
 const LAG_GRID_MIN: [f64; 12] = [
     0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0, 30.0,
 ];
-
-/// What identification could not do.
-#[derive(Debug, thiserror::Error)]
-pub enum IdentifyError {
-    /// Neither points nor a stream.
-    #[error("nothing to identify from: give --points, --stream or both")]
-    NoData,
-    /// Too few measurements for the fit and its held-out test.
-    #[error("{0} measurements: identification needs at least 12 (a third is held out)")]
-    TooFew(usize),
-    /// Every reference rate is zero and no scale factor was given.
-    #[error(
-        "every reference rate is (near) zero, so the data show no scale factor: give the gyro's \
-         nominal one (--scale-factor K, output units per °/s), as for a static log"
-    )]
-    NoScaleFactor,
-    /// The fit produced numbers that are not finite.
-    #[error("the fit diverged (non-finite parameters); check the --map units")]
-    Diverged,
-}
-
-/// One parameter as identified.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Parameter {
-    /// Name, as in the unit file.
-    pub name: String,
-    /// Value in the unit file.
-    pub value: f64,
-    /// One-sigma uncertainty from the fit's covariance, where fitted.
-    pub std_error: Option<f64>,
-    /// Whether the data determined it.
-    pub determined: bool,
-    /// Where it comes from, or why it is nominal.
-    pub why: String,
-}
 
 /// A design of candidate effects, tried on the forward test inside the training data.
 #[derive(Debug, Clone, PartialEq, Serialize)]

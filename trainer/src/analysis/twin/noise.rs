@@ -6,7 +6,8 @@ use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_sim::gyro::plant::GyroParams;
 use fog_data::stats::rms;
 
-use super::{Parameter, Source};
+use super::params::Parameter;
+use super::source::Source;
 use crate::analysis::allan;
 
 /// The noise parameters, from the residual's Allan deviation of a static log (`noise`), set in

@@ -1,9 +1,10 @@
-//! The static parameters identification may fit, by name: each knows its field of
-//! [`GyroParams`], its name in the unit file and the scale of its step in the fit (the
-//! Levenberg–Marquardt vector holds scaled offsets, so that a 1e-6 °C⁻² curvature and a 1 V/(°/s)
-//! scale factor move alike).
+//! The parameters identification reports ([`Parameter`]), and the static ones it may fit, by
+//! name: each knows its field of [`GyroParams`], its name in the unit file and the scale of its
+//! step in the fit (the Levenberg–Marquardt vector holds scaled offsets, so that a 1e-6 °C⁻²
+//! curvature and a 1 V/(°/s) scale factor move alike).
 
 use firmware_sim::gyro::plant::GyroParams;
+use serde::Serialize;
 
 use super::source::Record;
 
@@ -190,4 +191,19 @@ pub(super) fn determinable(records: &[&Record]) -> (Vec<Static>, Vec<(Static, St
         );
     }
     (free, fixed)
+}
+
+/// One parameter as identified.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Parameter {
+    /// Name, as in the unit file.
+    pub name: String,
+    /// Value in the unit file.
+    pub value: f64,
+    /// One-sigma uncertainty from the fit's covariance, where fitted.
+    pub std_error: Option<f64>,
+    /// Whether the data determined it.
+    pub determined: bool,
+    /// Where it comes from, or why it is nominal.
+    pub why: String,
 }

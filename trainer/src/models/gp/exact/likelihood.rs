@@ -4,7 +4,9 @@
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::{GpError, Hyperparameters, Posterior};
+use super::error::GpError;
+use super::hyper::Hyperparameters;
+use super::posterior::Posterior;
 use crate::models::kernel;
 
 /// Columns of the gradient's double sum given to one parallel task.

@@ -10,7 +10,11 @@ use rayon::prelude::*;
 use rcompat_lbfgsb::{Bounds as BoxBounds, OptimControl, optim_lbfgsb_with_gradient};
 use serde::Serialize;
 
-use super::{Bounds, GpConfig, GpError, Hyperparameters, Posterior, lml_and_gradient};
+use super::config::{Bounds, GpConfig};
+use super::error::GpError;
+use super::hyper::Hyperparameters;
+use super::likelihood::lml_and_gradient;
+use super::posterior::Posterior;
 use crate::models::normalize::Normalizer;
 use crate::models::prior::{MeanBasis, PolyPrior, design};
 

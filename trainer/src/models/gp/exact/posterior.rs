@@ -3,7 +3,8 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
-use super::{GpError, Hyperparameters, cholesky_built};
+use super::error::GpError;
+use super::hyper::Hyperparameters;
 use crate::models::dense;
 use crate::models::kernel;
 
@@ -316,4 +317,42 @@ pub fn group_loo(
         }
     }
     Ok(e)
+}
+
+/// Cholesky factorization with jitter escalation: none first, then 1e-10 … 1e-4 of the mean
+/// diagonal, ×10 each step. Returns the factor and the jitter that was needed.
+pub fn cholesky_with_jitter(k: DMatrix<f64>) -> Result<(Cholesky<f64, Dyn>, f64), GpError> {
+    cholesky_built(|| k.clone())
+}
+
+/// [`cholesky_with_jitter`] of the matrix `build` makes, made again for every retry: a caller
+/// that can rebuild K from what it keeps anyway saves the copy that each attempt overwrites.
+/// Only the lower triangle is read. The first attempt skips the scan for non-finite entries: a
+/// non-finite entry leaves a non-finite factor or none, and the scan then runs before any retry.
+fn cholesky_built(build: impl Fn() -> DMatrix<f64>) -> Result<(Cholesky<f64, Dyn>, f64), GpError> {
+    let k = build();
+    let mean_diag = k.diagonal().mean();
+    if !mean_diag.is_finite() || mean_diag <= 0.0 {
+        return Err(GpError::NotPositiveDefinite { jitter: 0.0 });
+    }
+    if let Some(c) = dense::cholesky(k) {
+        return Ok((c, 0.0));
+    }
+    let k = build();
+    if !dense::lower_finite(&k) {
+        return Err(GpError::NotPositiveDefinite { jitter: 0.0 });
+    }
+    let mut scanned = Some(k);
+    let mut tried = 0.0;
+    for jitter in (0..7).map(|e| mean_diag * 10f64.powi(e - 10)) {
+        tried = jitter;
+        let mut kj = scanned.take().unwrap_or_else(&build);
+        for i in 0..kj.nrows() {
+            kj[(i, i)] += jitter;
+        }
+        if let Some(c) = dense::cholesky(kj) {
+            return Ok((c, jitter));
+        }
+    }
+    Err(GpError::NotPositiveDefinite { jitter: tried })
 }

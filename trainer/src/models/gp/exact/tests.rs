@@ -1,7 +1,9 @@
 use super::optimize::{POLISH, raise_noise};
 use super::*;
+use crate::models::dense;
 use crate::models::gp::GpModel;
 use crate::models::prior::{MeanBasis, design};
+use nalgebra::DMatrix;
 use nalgebra::DVector;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -1,0 +1,129 @@
+//! `trainer challenge`: hidden-effect cases on the simulator, each investigated as a user's log
+//! would be, and how often the diagnosis names the cause it hid.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use fog_data::cause::Cause;
+use fog_terminal::console::{Console, ConsoleFlags};
+use fog_terminal::io::write_json;
+use fog_terminal::schema;
+use serde::Serialize;
+
+use crate::analysis::challenge;
+
+/// The arguments of `trainer challenge`.
+#[derive(Args)]
+pub(super) struct ChallengeArgs {
+    /// single: every cause alone and none; pairs: every two distinct causes together, each
+    /// also investigated by an oracle told the true causes; weak: every cause alone, 0.3–1× the
+    /// lower end of its documented strength; lab: the shapes of log labs record, each from one
+    /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none;
+    /// unit: a unit of three gyro axes, each its own gyro and hidden cause, calibrated through a
+    /// channels file.
+    #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
+    kind: challenge::Kind,
+    /// Seeds per cause (per pair).
+    #[arg(long, default_value_t = 10)]
+    seeds: u64,
+    /// First seed.
+    #[arg(long, default_value_t = 1000)]
+    first_seed: u64,
+    /// Write every case and the matrix as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// `trainer challenge`: hidden-effect cases on the simulator through the investigation.
+pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
+    let ChallengeArgs {
+        kind,
+        seeds,
+        first_seed,
+        json,
+    } = args;
+    let console = Console::new(flags, json.as_deref());
+    let bar = console.bar(0);
+    bar.set_message("hidden-effect cases");
+    let cases = challenge::run(kind, seeds, first_seed, &bar)?;
+    bar.finish_and_clear();
+    console.detail(&format!(
+        "{} cases ({kind:?}, {seeds} seeds each), each: points + two 8.75 h streams → investigate",
+        cases.len()
+    ));
+    for c in &cases {
+        let ids = |v: &[Cause]| {
+            if v.is_empty() {
+                "none".to_owned()
+            } else {
+                v.iter().map(|c| c.id()).collect::<Vec<_>>().join("+")
+            }
+        };
+        let strengths: Vec<String> = c
+            .hidden
+            .0
+            .iter()
+            .map(|e| format!("{:.2}", e.strength()))
+            .collect();
+        console.result(&format!(
+            "{:<10} {:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+            c.axis.as_deref().unwrap_or(c.design),
+            ids(&c.hidden.causes()),
+            strengths.join("+"),
+            c.seed,
+            ids(&c.named),
+            c.static_rmse_60s_dps,
+            c.extended_rmse_60s_dps,
+            c.gain,
+            c.oracle_gain.map_or(String::new(), |o| format!(" (oracle {o:.2}×)"))
+        ));
+    }
+    let summary = challenge::summary(&cases);
+    if matches!(kind, challenge::Kind::Single | challenge::Kind::Unit) {
+        console.result(challenge::confusion(&cases).1.trim_end());
+    }
+    console.result(&summary.text());
+    if let Some(path) = json {
+        write_json(
+            &path,
+            &[],
+            schema::CHALLENGE,
+            &ChallengeReport {
+                kind,
+                confusion: challenge::confusion(&cases).0,
+                order: Cause::ALL,
+                accuracy: summary.first_named_right as f64 / cases.len().max(1) as f64,
+                false_alarms_none: summary.false_alarms_none,
+                cases: &cases,
+                summary: &summary,
+            },
+        )?;
+    }
+    Ok(())
+}
+
+/// What `trainer challenge --json` writes.
+#[derive(Serialize)]
+struct ChallengeReport<'a> {
+    kind: challenge::Kind,
+    /// Hidden (rows) against first named (columns), in `order`.
+    confusion: [[usize; 6]; 6],
+    order: [Cause; 6],
+    /// Fraction of cases whose first named cause is the hidden one.
+    accuracy: f64,
+    false_alarms_none: usize,
+    cases: &'a [challenge::Case],
+    summary: &'a challenge::Summary,
+}
+
+/// The challenge's kinds as `--kind` values, by the names their JSON carries (the library's type
+/// knows no command line).
+impl clap::ValueEnum for challenge::Kind {
+    fn value_variants<'a>() -> &'a [Self] {
+        &challenge::Kind::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
+    }
+}
