@@ -102,6 +102,29 @@ fn a_malformed_command_line_exits_two() {
         &["fit", "--bogus"],
         &["loo", "--points", "p.csv", "--quiet", "--verbose"],
         &["nonsense"],
+        // A flag a command has no use for is refused before anything is read.
+        &[
+            "investigate",
+            "--points",
+            "p.csv",
+            "--group",
+            "g",
+            "--offsets",
+            "--train-stream",
+            "a.csv",
+            "--valid-stream",
+            "b.csv",
+        ],
+        &[
+            "report",
+            "--points",
+            "p.csv",
+            "--group",
+            "g",
+            "--offsets",
+            "--out",
+            "r",
+        ],
     ] {
         let out = trainer(args, dir.path());
         assert_eq!(out.status.code(), Some(2), "{args:?}");
@@ -410,8 +433,13 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
         ],
         dir.path(),
     );
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--offsets is for"));
+    // Refused as the command line is read, before anything is loaded.
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("unexpected argument '--offsets'"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]

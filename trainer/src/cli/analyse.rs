@@ -195,7 +195,6 @@ pub(super) fn investigate_command(
         out_static,
         json,
     } = args;
-    input.without_offsets("investigate")?;
     let console = Console::new(flags, json.as_deref());
     let mut inputs: Vec<&Path> = input
         .points

@@ -234,7 +234,6 @@ pub(super) fn simulated(
         scale_factor: None,
         exclude_implausible: false,
         group: None,
-        offsets: false,
         unit: UnitArgs::default(),
         quantity: firmware_core::Quantity::AngularRate,
     };

@@ -60,6 +60,8 @@ enum Extend {
 struct FitPlan {
     input: ModelInput,
     fit: FitOptions,
+    /// Each group of `--group` its own offset.
+    offsets: bool,
     streams: Vec<PathBuf>,
     window: Option<Window>,
     pool: bool,
@@ -76,6 +78,7 @@ impl FitPlan {
         let FitArgs {
             input,
             fit,
+            offsets,
             stream,
             window,
             pool_stream,
@@ -131,6 +134,7 @@ impl FitPlan {
         Ok(Self {
             input,
             fit,
+            offsets,
             streams: stream,
             window,
             pool: pool_stream,
@@ -535,13 +539,13 @@ impl FitPlan {
     ) -> anyhow::Result<(GpConfig, Option<capacity::Choice>)> {
         let asked = self.fit.gp();
         let n = points.len();
-        let exact_only = matches!(self.extend, Extend::TableTransients) || self.input.offsets;
+        let exact_only = matches!(self.extend, Extend::TableTransients) || self.offsets;
         anyhow::ensure!(
             !(exact_only && capacity::needed(asked.inducing, n)),
             "{n} points are more than the {MAX_CENTRES} centres a firmware model holds, and {} \
              needs an exact GP: fit without it (the default then chooses a sparse GP) or on at \
              most {MAX_CENTRES} points (checked before fitting)",
-            if self.input.offsets {
+            if self.offsets {
                 "--offsets"
             } else {
                 "a time-ordered table's transient terms (--features auto)"
@@ -593,7 +597,7 @@ impl FitPlan {
             ),
             None => format!("fitting an exact GP on {} points", points.len()),
         });
-        let offsets = self.input.offsets;
+        let offsets = self.offsets;
         let table = match self.extend {
             Extend::TableTransients => {
                 let transients = Transients::compute(&points)?;

@@ -58,10 +58,6 @@ pub(super) struct ModelInput {
     /// time order leaves out, one at a time (default: temperature plateaus).
     #[arg(long, requires = "points")]
     pub(super) group: Option<String>,
-    /// Give each group of --group its own offset in the GP (runs, sweeps or power-ons that sit
-    /// apart by a constant): fitted as a variance, left out of the firmware's predictions.
-    #[arg(long, requires = "group")]
-    pub(super) offsets: bool,
     #[command(flatten)]
     pub(super) unit: UnitArgs,
     /// What the output measures: a gyro's rate unless a unit's channel says otherwise.
@@ -94,15 +90,6 @@ impl ModelInput {
             quantity: ch.quantity,
             ..self.clone()
         })
-    }
-
-    /// Refuses --offsets where `command` has no use for it.
-    pub(super) fn without_offsets(&self, command: &str) -> anyhow::Result<()> {
-        anyhow::ensure!(
-            !self.offsets,
-            "--offsets is for `fit` and `loo` on a rate table; `{command}` does not take it"
-        );
-        Ok(())
     }
 
     /// Refuses --run where `command` has no use for it.

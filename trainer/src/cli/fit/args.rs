@@ -24,6 +24,10 @@ pub(in crate::cli) struct FitArgs {
     pub(super) input: ModelInput,
     #[command(flatten)]
     pub(super) fit: FitOptions,
+    /// Give each group of --group its own offset in the GP (runs, sweeps or power-ons that sit
+    /// apart by a constant): fitted as a variance, left out of the firmware's predictions.
+    #[arg(long, requires = "group")]
+    pub(super) offsets: bool,
     /// Stream: time_s,temp_c,voltage_v,rate_dps (repeatable: runs are pooled). The static model
     /// is fitted on it when there are no --points; --features are fitted on it (one stream; it
     /// must excite them: ramps, power-ons).
