@@ -3,6 +3,8 @@
 //! an exact model's does, for a fraction of the instructions. A pooled model ships only when it
 //! beats the table's alone on the stream's last third (issue 21).
 
+use std::sync::OnceLock;
+
 use firmware_sim::qemu;
 use fog_data::replay;
 use fog_data::stream::{Stream, Window};
@@ -10,40 +12,73 @@ use trainer::models::gp::DEFAULT_INDUCING;
 
 use crate::{at, json, sim, trainer as run_trainer};
 
-/// In `dir`: the paper's table (p.csv), a thin table of 50 scattered points (thin.csv), and a
-/// stream from power-on (s.csv), all of one nominal gyro.
-fn tables_and_stream(dir: &std::path::Path) {
-    let p = |name| at(dir, name);
-    sim(&["generate", "paper", "--seed", "7", "--out", &p("p.csv")]).unwrap();
-    let thin = ["--points", "50", "--seed", "7", "--out", &p("thin.csv")];
-    sim(&[&["generate", "scattered"][..], &thin].concat()).unwrap();
-    sim(&["generate", "stream", "--seed", "8", "--out", &p("s.csv")]).unwrap();
+/// The files both pooled tests start from, made and fitted once for the two: the paper's table
+/// (p.csv), a thin table of 50 scattered points (thin.csv) and a stream from power-on (s.csv), all
+/// of one nominal gyro; the thin table pooled with the stream (thin.bin, thin.json) and the paper's
+/// table alone (table.bin), each fitted by the command line.
+fn shared() -> &'static [(&'static str, Vec<u8>)] {
+    static FILES: OnceLock<Vec<(&'static str, Vec<u8>)>> = OnceLock::new();
+    FILES.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let p = |name| at(dir.path(), name);
+        sim(&["generate", "paper", "--seed", "7", "--out", &p("p.csv")]).unwrap();
+        let thin = ["--points", "50", "--seed", "7", "--out", &p("thin.csv")];
+        sim(&[&["generate", "scattered"][..], &thin].concat()).unwrap();
+        sim(&["generate", "stream", "--seed", "8", "--out", &p("s.csv")]).unwrap();
+        run_trainer(&[
+            "fit",
+            "--points",
+            &p("thin.csv"),
+            "--stream",
+            &p("s.csv"),
+            "--pool-stream",
+            "--out",
+            &p("thin.bin"),
+            "--json",
+            &p("thin.json"),
+            "-q",
+        ])
+        .unwrap();
+        run_trainer(&[
+            "fit",
+            "--points",
+            &p("p.csv"),
+            "--out",
+            &p("table.bin"),
+            "-q",
+        ])
+        .unwrap();
+        [
+            "p.csv",
+            "thin.csv",
+            "s.csv",
+            "thin.bin",
+            "thin.json",
+            "table.bin",
+        ]
+        .into_iter()
+        .map(|name| (name, std::fs::read(dir.path().join(name)).unwrap()))
+        .collect()
+    })
+}
+
+/// A directory holding the [`shared`] files.
+fn tables_and_stream() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in shared() {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    dir
 }
 
 #[test]
 fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tables_and_stream();
     let p = |name| at(dir.path(), name);
-    tables_and_stream(dir.path());
     sim(&["generate", "stream", "--seed", "9", "--out", &p("v.csv")]).unwrap();
     // A thin table, which the pooled model beats (the next test), so the sparse model ships.
-    run_trainer(&[
-        "fit",
-        "--points",
-        &p("thin.csv"),
-        "--stream",
-        &p("s.csv"),
-        "--pool-stream",
-        "--out",
-        &p("sparse.bin"),
-        "--json",
-        &p("sparse.json"),
-    ])
-    .unwrap();
-    run_trainer(&["fit", "--points", &p("p.csv"), "--out", &p("exact.bin")]).unwrap();
-
+    let fit = json(p("thin.json"));
     // Chosen by size: 50 points + 28,621 samples is far beyond an exact fit.
-    let fit = json(p("sparse.json"));
     assert_eq!(fit["sparse"]["method"], "vfe", "{fit}");
     // Up to the default m: selection stops short when every remaining sample is nearly
     // dependent on the chosen ones in the model's metric.
@@ -88,7 +123,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
         });
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let mut costs = Vec::new();
-    for name in ["sparse.bin", "exact.bin"] {
+    for name in ["thin.bin", "table.bin"] {
         let blob = std::fs::read(dir.path().join(name)).unwrap();
         let fw = fog_data::replay::decode(&blob).unwrap();
         let host = replay::replay(&fw, &held_out);
@@ -111,9 +146,8 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
 
 #[test]
 fn a_pooled_fit_ships_only_when_it_beats_the_table_alone_forward_in_time() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tables_and_stream();
     let p = |name: &str| at(dir.path(), name);
-    tables_and_stream(dir.path());
     let stream = p("s.csv");
     let pooled = |table: &str, extra: &[&str], name: &str| {
         let mut args = vec![
@@ -151,14 +185,13 @@ fn a_pooled_fit_ships_only_when_it_beats_the_table_alone_forward_in_time() {
         verdict.contains("the table's model is shipped"),
         "{verdict}"
     );
-    run_trainer(&["fit", "--points", &p("p.csv"), "--out", &p("table.bin")]).unwrap();
     assert_eq!(
         std::fs::read(p("full.bin")).unwrap(),
         std::fs::read(p("table.bin")).unwrap()
     );
 
     // Fifty scattered points leave most of (T, rate) to the stream: pooling wins and ships.
-    let fit = pooled(&p("thin.csv"), &[], "thin");
+    let fit = json(p("thin.json"));
     let check = &fit["pool_check"];
     assert_eq!(check["shipped"], "pooled", "{check}");
     assert!(

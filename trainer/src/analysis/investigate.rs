@@ -458,15 +458,26 @@ pub fn investigate(
             &choice.splits,
         )
     };
+    // Where the static model ships, the shipped model is the static one: calibrated and scored
+    // once.
+    let same = choice.shipped == Shipped::Static && extended_blob == static_blob;
     let static_calibration = calibrated(&static_blob, Shipped::Static)?;
-    let calibration = calibrated(&extended_blob, choice.shipped)?;
+    let calibration = if same {
+        static_calibration.clone()
+    } else {
+        calibrated(&extended_blob, choice.shipped)?
+    };
     let beyond = beyond::choose(points, cfg);
     let static_blob = export::with_beyond(&static_calibration.apply(&static_blob)?, beyond.rule)?;
     let extended_blob = export::with_beyond(&calibration.apply(&extended_blob)?, beyond.rule)?;
     let fw = fog_data::replay::decode(&static_blob)?;
     let static_score = replay::score(valid, &replay::replay(&fw, valid));
-    let shipped = fog_data::replay::decode(&extended_blob)?;
-    let extended_score = replay::score(valid, &replay::replay(&shipped, valid));
+    let extended_score = if same {
+        static_score.clone()
+    } else {
+        let shipped = fog_data::replay::decode(&extended_blob)?;
+        replay::score(valid, &replay::replay(&shipped, valid))
+    };
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
     bar.advance(1);
     Ok((

@@ -9,6 +9,7 @@ use fog_data::replay::HostModel;
 use fog_data::stats::rms;
 use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
+use std::sync::OnceLock;
 
 use super::regression::{Constant, Plateaus, hat_weights, plateau_temperatures};
 use crate::data::points::Points;
@@ -28,6 +29,10 @@ pub struct Residual<'a> {
     pub(super) absorbed_by: Option<(&'a GpModel, &'a DMatrix<f64>)>,
     /// The soaked table's plateaus, where the static GP was fitted on one (module doc).
     pub(super) plateaus: Option<Plateaus>,
+    /// The static model's mean at each sample a block holds (NaN elsewhere and at a fault),
+    /// computed once: a lag's regressor is the model at lagged inputs minus it, for every lag a
+    /// search tries.
+    base_mean: OnceLock<Vec<f32>>,
 }
 
 impl<'a> Residual<'a> {
@@ -53,6 +58,7 @@ impl<'a> Residual<'a> {
             restarts: replay::restarts(stream),
             absorbed_by: None,
             plateaus: None,
+            base_mean: OnceLock::new(),
         }
     }
 
@@ -140,6 +146,28 @@ impl<'a> Residual<'a> {
             .collect()
     }
 
+    /// The static model's mean with inputs `features` at each sample a block holds, as the
+    /// firmware computes it; NaN elsewhere and where the firmware refuses the inputs.
+    fn mean_along(&self, features: &[Feature]) -> Vec<f32> {
+        let mut wanted = vec![false; self.stream.len()];
+        self.blocks.iter().flatten().for_each(|&i| wanted[i] = true);
+        let mut state = FeatureState::default();
+        let mut x = vec![0.0f32; features.len()];
+        (0..self.stream.len())
+            .map(|i| {
+                if self.restarts[i] {
+                    state.power_on();
+                }
+                let s = replay::sample(self.stream, i);
+                let health = firmware_core::features::compute(features, &s, &mut state, &mut x);
+                if health == Status::Fault || !wanted[i] {
+                    return f32::NAN;
+                }
+                self.model.predict_mean(&x).mean
+            })
+            .collect()
+    }
+
     /// Range of a feature along the stream, widened by 10% of its span each side: the trained
     /// range of an additive input.
     pub fn range(&self, feature: Feature) -> (f64, f64) {
@@ -180,32 +208,18 @@ impl<'a> Residual<'a> {
         if cause != Cause::SensorLag {
             return Some(self.block_means(&self.series(feature)));
         }
-        // f(inputs with the coil estimate in place of the sensor) − f(inputs).
+        // f(inputs with the coil estimate in place of the sensor) − f(inputs), evaluated only
+        // where a block reads it (the features still run through every sample: they carry state).
         let features = self.model.features();
         let k = features.iter().position(|f| *f == Feature::Temperature)?;
         let mut lagged = features.to_vec();
         lagged[k] = feature;
-        let mut state = [FeatureState::default(), FeatureState::default()];
-        let d = features.len();
-        let mut x0 = vec![0.0f32; d];
-        let mut x1 = vec![0.0f32; d];
-        let diff: Vec<f64> = (0..self.stream.len())
-            .map(|i| {
-                if self.restarts[i] {
-                    state.iter_mut().for_each(FeatureState::power_on);
-                }
-                let s = replay::sample(self.stream, i);
-                let health = [
-                    firmware_core::features::compute(features, &s, &mut state[0], &mut x0),
-                    firmware_core::features::compute(&lagged, &s, &mut state[1], &mut x1),
-                ];
-                if health.contains(&Status::Fault) {
-                    return f64::NAN;
-                }
-                let a = self.model.predict_mean(&x0).mean;
-                let b = self.model.predict_mean(&x1).mean;
-                f64::from(b) - f64::from(a)
-            })
+        let base = self.base_mean.get_or_init(|| self.mean_along(features));
+        let diff: Vec<f64> = self
+            .mean_along(&lagged)
+            .iter()
+            .zip(base)
+            .map(|(b, a)| f64::from(*b) - f64::from(*a))
             .collect();
         Some(self.block_means(&diff))
     }
