@@ -206,14 +206,14 @@ struct Entry {
     output: String,
     unit: String,
     reference: String,
-    kind: Option<Kind>,
+    kind: Option<SensorKind>,
     scale_factor: Option<f64>,
 }
 
 /// What a raw output measures.
 #[derive(Deserialize, Clone, Copy, PartialEq)]
 #[serde(rename_all = "lowercase")]
-enum Kind {
+enum SensorKind {
     Gyro,
     Accelerometer,
 }
@@ -275,8 +275,8 @@ impl Channels {
             }
             let unit = OutputUnit::parse(&e.unit);
             let kind = e.kind.map(|k| match k {
-                Kind::Gyro => Quantity::AngularRate,
-                Kind::Accelerometer => Quantity::SpecificForce,
+                SensorKind::Gyro => Quantity::AngularRate,
+                SensorKind::Accelerometer => Quantity::SpecificForce,
             });
             let quantity = match (unit.quantity(), kind) {
                 (Some(q), Some(k)) if q != k => {

@@ -6,11 +6,11 @@ use firmware_sim::gyro::paper;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream as gyro_stream;
 use fog_data::cause::Cause;
-use trainer::analysis::twin::{self, Kind, Record, Source};
+use trainer::analysis::twin::{self, Record, Source, SourceKind};
 
 fn points(p: &GyroParams, seed: u64) -> Source {
     Source {
-        kind: Kind::Points,
+        kind: SourceKind::Points,
         records: paper::run(p, Effect::None, seed, false)
             .iter()
             .map(|pt| Record {
@@ -26,7 +26,7 @@ fn points(p: &GyroParams, seed: u64) -> Source {
 
 fn stream(p: &GyroParams, effect: Effect, seed: u64) -> Source {
     Source {
-        kind: Kind::Stream,
+        kind: SourceKind::Stream,
         records: gyro_stream::run(p, &gyro_stream::StreamConfig::default(), effect, seed)
             .iter()
             .map(|r| Record {

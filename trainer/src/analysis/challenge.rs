@@ -2,11 +2,11 @@
 //!
 //! Each case draws one effect, or two acting together, and their magnitudes from the documented
 //! ranges (or below them: weak effects) by seed ([`Hidden::draw`]), simulates the paper-protocol points and two streams of one gyro with it
-//! (the chamber design, or for [`Kind::Lab`] the shapes of log labs record, each from one
+//! (the chamber design, or for [`CaseSet::Lab`] the shapes of log labs record, each from one
 //! power-on)
 //! (training and held-out: other noise, other rate order), writes them as CSV files and hands only
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
-//! both cores (rayon); each is deterministic by its seed. A [`Kind::Unit`] case does the same for
+//! both cores (rayon); each is deterministic by its seed. A [`CaseSet::Unit`] case does the same for
 //! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
 
 use crate::progress::Progress;
@@ -27,7 +27,7 @@ use crate::models::gp::GpConfig;
 /// Which cases a challenge runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum Kind {
+pub enum CaseSet {
     /// Every cause alone (and `none`), strengths from the documented ranges.
     Single,
     /// Every pair of distinct causes acting together, each also investigated by an oracle told
@@ -45,29 +45,35 @@ pub enum Kind {
     Unit,
 }
 
-impl Kind {
+impl CaseSet {
     /// Every kind, in the order above.
-    pub const ALL: [Kind; 5] = [Kind::Single, Kind::Pairs, Kind::Weak, Kind::Lab, Kind::Unit];
+    pub const ALL: [CaseSet; 5] = [
+        CaseSet::Single,
+        CaseSet::Pairs,
+        CaseSet::Weak,
+        CaseSet::Lab,
+        CaseSet::Unit,
+    ];
 
     /// Its name, as its JSON and the command line spell it.
     pub fn name(self) -> &'static str {
         match self {
-            Kind::Single => "single",
-            Kind::Pairs => "pairs",
-            Kind::Weak => "weak",
-            Kind::Lab => "lab",
-            Kind::Unit => "unit",
+            CaseSet::Single => "single",
+            CaseSet::Pairs => "pairs",
+            CaseSet::Weak => "weak",
+            CaseSet::Lab => "lab",
+            CaseSet::Unit => "unit",
         }
     }
 }
 
-/// Axes of a [`Kind::Unit`] case.
+/// Axes of a [`CaseSet::Unit`] case.
 pub const UNIT_AXES: usize = 3;
 
 /// A named chamber program.
 pub type Design = (&'static str, fn() -> stream::StreamConfig);
 
-/// The shapes of [`Kind::Lab`]: (name, chamber program).
+/// The shapes of [`CaseSet::Lab`]: (name, chamber program).
 pub const LAB: [Design; 4] = [
     ("power-on", stream::StreamConfig::power_on),
     ("short", stream::StreamConfig::short),
@@ -94,9 +100,9 @@ pub struct Case {
     /// The hidden effects.
     pub hidden: Hidden,
     /// The streams' chamber program: `chamber`, or a [`LAB`] shape; `unit` for an axis of a
-    /// [`Kind::Unit`] case.
+    /// [`CaseSet::Unit`] case.
     pub design: &'static str,
-    /// The axis of a unit, for [`Kind::Unit`].
+    /// The axis of a unit, for [`CaseSet::Unit`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub axis: Option<String>,
     /// Seed of the case.
@@ -221,7 +227,7 @@ pub fn run_hidden(
     })
 }
 
-/// One [`Kind::Unit`] case, the `index`-th, of seed `seed`: a unit of [`UNIT_AXES`] random gyros,
+/// One [`CaseSet::Unit`] case, the `index`-th, of seed `seed`: a unit of [`UNIT_AXES`] random gyros,
 /// axis k hiding cause `(UNIT_AXES·index + k)` of [`Cause::ALL`] at a strength drawn from its
 /// documented range; its rate table and two chamber streams written as a unit's files with their
 /// channels file, and each axis investigated from those files alone. A case per axis.
@@ -292,18 +298,18 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
 }
 
 /// The causes of every case of `kind` (before seeds).
-fn designs(kind: Kind) -> Vec<Vec<Cause>> {
+fn designs(kind: CaseSet) -> Vec<Vec<Cause>> {
     let real: Vec<Cause> = Cause::ALL
         .into_iter()
         .filter(|c| *c != Cause::None)
         .collect();
     match kind {
-        Kind::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
-        Kind::Weak => real.into_iter().map(|c| vec![c]).collect(),
-        Kind::Lab => vec![vec![Cause::WarmUp], vec![Cause::None]],
+        CaseSet::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
+        CaseSet::Weak => real.into_iter().map(|c| vec![c]).collect(),
+        CaseSet::Lab => vec![vec![Cause::WarmUp], vec![Cause::None]],
         // One design: each case draws its axes' causes by its index.
-        Kind::Unit => vec![Vec::new()],
-        Kind::Pairs => real
+        CaseSet::Unit => vec![Vec::new()],
+        CaseSet::Pairs => real
             .iter()
             .enumerate()
             .flat_map(|(i, &a)| real[i + 1..].iter().map(move |&b| vec![a, b]))
@@ -313,13 +319,13 @@ fn designs(kind: Kind) -> Vec<Vec<Cause>> {
 
 /// The challenge of `kind` over `seeds` seeds per design (seeds `first`, `first + 10`, …, so the
 /// three seeds of a case never overlap another's); `bar` counts the cases.
-pub fn run(kind: Kind, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Result<Vec<Case>> {
+pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Result<Vec<Case>> {
     let strength = match kind {
-        Kind::Weak => Strength::Weak,
-        Kind::Single | Kind::Pairs | Kind::Lab | Kind::Unit => Strength::Documented,
+        CaseSet::Weak => Strength::Weak,
+        CaseSet::Single | CaseSet::Pairs | CaseSet::Lab | CaseSet::Unit => Strength::Documented,
     };
     let shapes: Vec<Option<usize>> = match kind {
-        Kind::Lab => (0..LAB.len()).map(Some).collect(),
+        CaseSet::Lab => (0..LAB.len()).map(Some).collect(),
         _ => vec![None],
     };
     let jobs: Vec<(Vec<Cause>, Option<usize>, u64)> = designs(kind)
@@ -339,7 +345,7 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Re
             .enumerate()
             .map(|(i, (c, shape, s))| {
                 let cases = match (kind, shape) {
-                    (Kind::Unit, _) => run_unit_case(i, s),
+                    (CaseSet::Unit, _) => run_unit_case(i, s),
                     (_, Some(k)) => {
                         let hidden = if c.contains(&Cause::WarmUp) {
                             lab_warm_up(s)
@@ -348,7 +354,7 @@ pub fn run(kind: Kind, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Re
                         };
                         run_hidden(hidden, (LAB[k].0, LAB[k].1()), s, true).map(|c| vec![c])
                     }
-                    (_, None) => run_case(&c, s, strength, kind == Kind::Pairs).map(|c| vec![c]),
+                    (_, None) => run_case(&c, s, strength, kind == CaseSet::Pairs).map(|c| vec![c]),
                 };
                 bar.advance(1);
                 cases

@@ -123,7 +123,7 @@ pub enum EvalError {
 
 /// A model of any method, fitted.
 #[derive(Debug, Clone)]
-pub enum Fitted {
+pub enum MethodFit {
     /// GP.
     Gpr(Box<GpModel>),
     /// LS-SVR.
@@ -134,7 +134,7 @@ pub enum Fitted {
     Poly(PolyModel),
 }
 
-impl Fitted {
+impl MethodFit {
     /// Fits `method` to points.
     pub fn fit(points: &Points, method: Method, cfg: &EvalConfig) -> Result<Self, EvalError> {
         Ok(match method {
@@ -245,17 +245,17 @@ pub enum Parameters {
 /// LOO errors (prediction − reference) for every point, °/s.
 fn loo_errors(
     points: &Points,
-    fitted: &Fitted,
+    fitted: &MethodFit,
     method: Method,
     cfg: &EvalConfig,
 ) -> Result<Vec<f64>, EvalError> {
     Ok(match fitted {
-        Fitted::Gpr(m) => m.loo_errors(),
-        Fitted::Lssvr(m) => m.loo_errors(),
-        Fitted::TwoStep(_) | Fitted::Poly(_) => (0..points.len())
+        MethodFit::Gpr(m) => m.loo_errors(),
+        MethodFit::Lssvr(m) => m.loo_errors(),
+        MethodFit::TwoStep(_) | MethodFit::Poly(_) => (0..points.len())
             .map(|i| {
                 let keep: Vec<usize> = (0..points.len()).filter(|&j| j != i).collect();
-                let m = Fitted::fit(&points.select(&keep), method, cfg)?;
+                let m = MethodFit::fit(&points.select(&keep), method, cfg)?;
                 Ok(m.predict(points.temp_c[i], points.voltage_v[i]) - points.rate_dps[i])
             })
             .collect::<Result<Vec<_>, EvalError>>()?,
@@ -489,7 +489,7 @@ pub fn evaluate(
         points.len()
     ));
     let t0 = Instant::now();
-    let fitted = Fitted::fit(points, method, cfg)?;
+    let fitted = MethodFit::fit(points, method, cfg)?;
     let fit_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let errors = loo_errors(points, &fitted, method, cfg)?;
@@ -498,7 +498,7 @@ pub fn evaluate(
     bar.stage(&format!("{}: leave one group out", method.name()));
     let left_out = leave_groups_out(points, bar, |keep, members| {
         let train = points.select(keep);
-        let m = Fitted::fit(&train, method, cfg)?;
+        let m = MethodFit::fit(&train, method, cfg)?;
         let calibration = m.calibration(&train, cfg)?;
         Ok(members
             .iter()
@@ -649,7 +649,7 @@ pub fn cross_run(
         "{}: fit on one run, test on the other",
         method.name()
     ));
-    let m = Fitted::fit(train, method, cfg)?;
+    let m = MethodFit::fit(train, method, cfg)?;
     let calibration = m.calibration(train, cfg)?;
     bar.advance(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside

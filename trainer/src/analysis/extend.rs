@@ -88,7 +88,7 @@ pub fn parse_features(list: &str) -> Result<Vec<Cause>, ExtendError> {
 
 /// An extension and the fits behind it.
 #[derive(Debug, Clone, Serialize)]
-pub struct Fitted {
+pub struct ExtensionFit {
     /// What the blob adds.
     pub extension: Extension,
     /// Each cause fitted alone on the training residual.
@@ -112,7 +112,7 @@ pub struct PointOffset {
 /// An extended model: the fit and its blob.
 pub struct Extended {
     /// The fit.
-    pub fitted: Fitted,
+    pub fitted: ExtensionFit,
     /// The extended model's blob.
     pub blob: Vec<u8>,
     /// How its f32 evaluation follows the host ([`export::verify`]).
@@ -245,7 +245,7 @@ pub fn fit_on_blocks(
     let blob = export::points_blob(&model, points, &extension)?;
     let (_, agreement) = export::verify(&model, &blob, points, &extension)?;
     Ok(Extended {
-        fitted: Fitted {
+        fitted: ExtensionFit {
             extension,
             fits,
             train_rmse_60s_dps: [res.rmse_60s(), (after / n as f64).sqrt()],

@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, joined};
-use crate::analysis::extend::{self, Extended, Fitted};
+use crate::analysis::extend::{self, Extended, ExtensionFit};
 use crate::analysis::uncertainty::{self, Calibration, SampleNoise, Source};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
@@ -48,7 +48,7 @@ pub struct Investigation {
     /// Inputs the shipped model adds (`--features` names).
     pub added_inputs: Vec<&'static str>,
     /// The extension fitted on the training stream (absent when the static model is shipped).
-    pub extension: Option<Fitted>,
+    pub extension: Option<ExtensionFit>,
     /// The shipped model on the held-out stream.
     pub extended_score: Score,
     /// Static over shipped `rmse_60s_dps` on the held-out stream.

@@ -21,8 +21,8 @@ pub(super) struct ChallengeArgs {
     /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none;
     /// unit: a unit of three gyro axes, each its own gyro and hidden cause, calibrated through a
     /// channels file.
-    #[arg(long, value_enum, default_value_t = challenge::Kind::Single)]
-    kind: challenge::Kind,
+    #[arg(long, value_enum, default_value_t = challenge::CaseSet::Single)]
+    kind: challenge::CaseSet,
     /// Seeds per cause (per pair).
     #[arg(long, default_value_t = 10)]
     seeds: u64,
@@ -79,7 +79,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
         ));
     }
     let summary = challenge::summary(&cases);
-    if matches!(kind, challenge::Kind::Single | challenge::Kind::Unit) {
+    if matches!(kind, challenge::CaseSet::Single | challenge::CaseSet::Unit) {
         console.result(challenge::confusion(&cases).1.trim_end());
     }
     console.result(&summary.text());
@@ -105,7 +105,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
 /// What `trainer challenge --json` writes.
 #[derive(Serialize)]
 struct ChallengeReport<'a> {
-    kind: challenge::Kind,
+    kind: challenge::CaseSet,
     /// Hidden (rows) against first named (columns), in `order`.
     confusion: [[usize; 6]; 6],
     order: [Cause; 6],
@@ -118,9 +118,9 @@ struct ChallengeReport<'a> {
 
 /// The challenge's kinds as `--kind` values, by the names their JSON carries (the library's type
 /// knows no command line).
-impl clap::ValueEnum for challenge::Kind {
+impl clap::ValueEnum for challenge::CaseSet {
     fn value_variants<'a>() -> &'a [Self] {
-        &challenge::Kind::ALL
+        &challenge::CaseSet::ALL
     }
 
     fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {

@@ -35,7 +35,7 @@ mod report;
 pub(super) use args::FitArgs;
 use args::ServiceArgs;
 use report::{
-    ChannelReport, ExtensionReport, FitReport, Fitted, Inputs, StreamChoice, UnitFitReport,
+    ChannelFit, ChannelReport, ExtensionReport, FitReport, Inputs, StreamChoice, UnitFitReport,
     print_fit, quantity_words, unit_table,
 };
 
@@ -448,7 +448,7 @@ impl FitPlan {
 
     /// The static model on the loaded `streams` (with `--points`, the table), its extension and
     /// its σ: the blob, checked against the firmware, and what `fit` reports of it.
-    fn fit(&self, streams: &[(&Path, Stream)], console: &Console) -> anyhow::Result<Fitted> {
+    fn fit(&self, streams: &[(&Path, Stream)], console: &Console) -> anyhow::Result<ChannelFit> {
         let points = self.input.static_points(streams, self.pool)?;
         let (gp, centres_choice) = self.size(&points, console)?;
         let (points, model, table, pool_check) =
@@ -521,7 +521,7 @@ impl FitPlan {
             .collect();
         summary.firmware_agreement = agreement;
         summary.blob_bytes = blob.len();
-        Ok(Fitted {
+        Ok(ChannelFit {
             n: points.len(),
             blob,
             summary,

@@ -452,8 +452,8 @@ fn identified(
 /// The held-out difference between measured and twin, before and after its effects, as SVG.
 fn twin_figure(id: &twin::Identification) -> anyhow::Result<String> {
     let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
-        twin::Kind::Stream => ("time (h)", twin::minute_means(&id.residual)),
-        twin::Kind::Points => ("point (file order)", id.residual.clone()),
+        twin::SourceKind::Stream => ("time (h)", twin::minute_means(&id.residual)),
+        twin::SourceKind::Points => ("point (file order)", id.residual.clone()),
     };
     let after = format!(
         "with {}",

@@ -122,8 +122,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             let rebuild =
                 |part: &Stream| input.static_points(&[(path.as_path(), part.clone())], false);
             let (kind, source) = match &input.points {
-                Some(p) => (report::Kind::TableAndStream, p.clone()),
-                None => (report::Kind::Log, path.clone()),
+                Some(p) => (report::ReportKind::TableAndStream, p.clone()),
+                None => (report::ReportKind::Log, path.clone()),
             };
             report::with_streams(
                 &source,
@@ -158,7 +158,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             let source = input.points.clone().unwrap_or_else(|| a.clone());
             report::with_streams(
                 &source,
-                report::Kind::Full,
+                report::ReportKind::Full,
                 summaries,
                 points,
                 &train[0].1,
@@ -249,9 +249,9 @@ fn report_unit(
                 let rebuild =
                     |part: &Stream| own.static_points(&[(path.as_path(), part.clone())], false);
                 let kind = if own.points.is_some() {
-                    report::Kind::TableAndStream
+                    report::ReportKind::TableAndStream
                 } else {
-                    report::Kind::Log
+                    report::ReportKind::Log
                 };
                 report::with_streams(
                     path,
@@ -272,7 +272,7 @@ fn report_unit(
                     |part: &Stream| own.static_points(&[(a.as_path(), part.clone())], false);
                 report::with_streams(
                     a,
-                    report::Kind::Full,
+                    report::ReportKind::Full,
                     Vec::new(),
                     points,
                     &train[0].1,
@@ -284,7 +284,7 @@ fn report_unit(
             }
             _ => anyhow::bail!("the unit's files did not load"),
         };
-        pages.push(report::unit::Channel {
+        pages.push(report::unit::ChannelSection {
             name: &ch.name,
             quantity: ch.quantity,
             report,

@@ -51,7 +51,7 @@ pub const FIGURES: [(&str, &str); 9] = [
 
 /// What a report is made from: the data a user brings decides what it can show.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
+pub enum ReportKind {
     /// A rate table alone (the paper's protocol).
     Table,
     /// A rate table and one stream: its first two thirds train the extension, the last third is
@@ -90,7 +90,7 @@ pub struct Report {
     /// Where the data came from.
     pub source: String,
     /// What the data are.
-    pub kind: Kind,
+    pub kind: ReportKind,
     /// Each file as the loader saw it: the page's first section.
     pub summaries: Vec<Summary>,
     /// The points the static model is fitted on (a rate table, or a log's 60 s means).

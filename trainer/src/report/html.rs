@@ -9,7 +9,7 @@ use crate::analysis::allan::Analysis as Allan;
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO};
 
-use super::contents::{FIGURES, Kind, Report};
+use super::contents::{FIGURES, Report, ReportKind};
 
 /// What the Allan table shows at the longest τ the raw and the shipped curves share, in words that
 /// follow its figures: compensation should lower the long-τ part (the temperature's slow drift),
@@ -115,10 +115,10 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
          page.</p>\n",
         escape(&r.source),
         match r.kind {
-            Kind::Table => "a rate table alone",
-            Kind::TableAndStream => "a rate table and one stream",
-            Kind::Log => "one log alone",
-            Kind::Full => "a rate table, a training stream and a held-out stream",
+            ReportKind::Table => "a rate table alone",
+            ReportKind::TableAndStream => "a rate table and one stream",
+            ReportKind::Log => "one log alone",
+            ReportKind::Full => "a rate table, a training stream and a held-out stream",
         }
     );
     s.push_str("<h2>The data, as loaded</h2>\n");

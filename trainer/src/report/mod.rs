@@ -32,7 +32,7 @@ mod contents;
 mod html;
 pub mod unit;
 
-pub use contents::{FIGURES, HeldOut, Kind, Report};
+pub use contents::{FIGURES, HeldOut, Report, ReportKind};
 pub use html::html;
 
 /// The Allan deviation of a held-out stream's error, less its reference rate.
@@ -165,7 +165,7 @@ pub fn table(
     .collect();
     Ok(Report {
         source: source.display().to_string(),
-        kind: Kind::Table,
+        kind: ReportKind::Table,
         summaries,
         points,
         reproduction: Some(reproduction),
@@ -213,7 +213,7 @@ pub fn split(stream: &Stream, from_s: Option<f64>) -> anyhow::Result<(Stream, St
 #[allow(clippy::too_many_arguments)]
 pub fn with_streams(
     source: &Path,
-    kind: Kind,
+    kind: ReportKind,
     summaries: Vec<Summary>,
     points: Points,
     train: &Stream,
@@ -281,7 +281,7 @@ pub fn with_streams(
         "the noise of the held-out error (Allan deviation): raw, static and extended".to_owned(),
     );
     match kind {
-        Kind::TableAndStream | Kind::Log => could_not.push(
+        ReportKind::TableAndStream | ReportKind::Log => could_not.push(
             "a second, independent run: the held-out part is the same run's later hours (same \
              power-on, same history); another run tells whether the model carries"
                 .to_owned(),

@@ -20,7 +20,7 @@ use crate::analysis::allan::Analysis as Allan;
 use crate::plot::{AllanSeries, CHANNEL_COLOURS};
 
 /// One channel of the page: its name, what it measures, and its analysis.
-pub struct Channel<'a> {
+pub struct ChannelSection<'a> {
     /// Its name.
     pub name: &'a str,
     /// What it measures.
@@ -34,9 +34,9 @@ fn figure_names(name: &str) -> [String; 2] {
     [format!("channel-{name}.svg"), format!("bias-{name}.svg")]
 }
 
-/// Channel `c`'s small multiple: its held-out error, static and shipped, with their bands; or,
+/// ChannelSection `c`'s small multiple: its held-out error, static and shipped, with their bands; or,
 /// from a rate table alone, its leave-one-out error over (T, rate).
-fn small_multiple(c: &Channel<'_>) -> anyhow::Result<String> {
+fn small_multiple(c: &ChannelSection<'_>) -> anyhow::Result<String> {
     if let Some(h) = &c.report.held_out {
         let (time_h, _, err_s, std_s) = replay_blocks(&h.valid, &h.replays[0]);
         let (_, _, err_e, std_e) = replay_blocks(&h.valid, &h.replays[1]);
@@ -80,8 +80,8 @@ fn small_multiple(c: &Channel<'_>) -> anyhow::Result<String> {
 
 /// The unit's Allan deviations of the held-out error of each channel's shipped model, a panel
 /// per quantity; `None` without a held-out log.
-fn allan(channels: &[Channel<'_>]) -> anyhow::Result<Option<String>> {
-    let held: Vec<(&Channel<'_>, &Allan)> = channels
+fn allan(channels: &[ChannelSection<'_>]) -> anyhow::Result<Option<String>> {
+    let held: Vec<(&ChannelSection<'_>, &Allan)> = channels
         .iter()
         .filter_map(|c| c.report.held_out.as_ref().map(|h| (c, &h.allan[2])))
         .collect();
@@ -110,7 +110,7 @@ fn allan(channels: &[Channel<'_>]) -> anyhow::Result<Option<String>> {
 
 /// The table of each channel's figures: held out (static, shipped, gain, causes, the σ of the
 /// shipped model's 60 s means), or from a rate table alone its leave-one-out errors.
-fn figures_table(channels: &[Channel<'_>]) -> String {
+fn figures_table(channels: &[ChannelSection<'_>]) -> String {
     let mut s = String::from(
         "<table><tr><th>channel</th><th>static, held out</th><th>shipped, held out</th>\
          <th>gain</th><th>causes named</th><th>ships</th><th>60 s means within ±2σ</th>\
@@ -164,7 +164,7 @@ fn figures_table(channels: &[Channel<'_>]) -> String {
 fn html(
     source: &str,
     summary: &str,
-    channels: &[Channel<'_>],
+    channels: &[ChannelSection<'_>],
     figures: &[(String, String)],
     allan: Option<&str>,
 ) -> String {
@@ -232,7 +232,7 @@ pub fn write(
     dir: &Path,
     source: &str,
     summary: &str,
-    channels: &[Channel<'_>],
+    channels: &[ChannelSection<'_>],
 ) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut written = Vec::new();

@@ -16,7 +16,7 @@ use fog_data::stream::{GAP_FACTOR, typical_step};
 
 use super::error::IdentifyError;
 use super::params::Static;
-use super::source::{Kind, Record, Source};
+use super::source::{Record, Source, SourceKind};
 
 /// The bias effects whose strength enters the output linearly, fitted with the map.
 pub(super) const LINEAR: [Cause; 4] = [
@@ -130,14 +130,14 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Fit<'_> {
 
 /// A fitted twin: parameters, linear effect strengths, and the one-sigma errors of the free ones.
 #[derive(Debug, Clone)]
-pub(super) struct Fitted {
+pub(super) struct TwinFit {
     pub(super) params: GyroParams,
     pub(super) strengths: [f64; TERMS],
     pub(super) std_errors: Vec<f64>,
 }
 
 /// Fits the free parameters from `start` on `rows`.
-pub(super) fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitted, IdentifyError> {
+pub(super) fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<TwinFit, IdentifyError> {
     let n_params = free.statics.len() + free.linear.len();
     let s_ref = start.scale_factor_v_per_dps.abs();
     let problem = Fit {
@@ -177,7 +177,7 @@ pub(super) fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<Fitte
                 .collect()
         })
         .unwrap_or_else(|| vec![f64::NAN; n_params]);
-    Ok(Fitted {
+    Ok(TwinFit {
         params,
         strengths,
         std_errors,
@@ -221,8 +221,8 @@ pub(super) fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> V
         })
         .collect();
     let temps: Vec<f64> = match source.kind {
-        Kind::Points => recs.iter().map(|r| r.temp_c).collect(),
-        Kind::Stream => {
+        SourceKind::Points => recs.iter().map(|r| r.temp_c).collect(),
+        SourceKind::Stream => {
             let half = ((BLOCK_S / 2.0) / typical).round().max(0.0) as usize;
             let mut sum = vec![0.0; recs.len() + 1];
             for (i, r) in recs.iter().enumerate() {
@@ -289,7 +289,7 @@ pub(super) fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> V
 }
 
 /// Rate-equivalent residuals, °/h, of `rows` under a fitted twin.
-pub(super) fn residual_dph(f: &Fitted, rows: &[Row]) -> Vec<f64> {
+pub(super) fn residual_dph(f: &TwinFit, rows: &[Row]) -> Vec<f64> {
     rows.iter()
         .map(|r| {
             (r.output - model(&f.params, &f.strengths, r)) / f.params.scale_factor(r.coil_c)
@@ -299,10 +299,10 @@ pub(super) fn residual_dph(f: &Fitted, rows: &[Row]) -> Vec<f64> {
 }
 
 /// Fidelity, °/h: RMS per point for a table, of 60 s block means for a stream.
-pub(super) fn fidelity(kind: Kind, records: &[Record], residual: &[f64]) -> f64 {
+pub(super) fn fidelity(kind: SourceKind, records: &[Record], residual: &[f64]) -> f64 {
     let values: Vec<f64> = match kind {
-        Kind::Points => residual.to_vec(),
-        Kind::Stream => {
+        SourceKind::Points => residual.to_vec(),
+        SourceKind::Stream => {
             let t0 = records.first().and_then(|r| r.time_s).unwrap_or(0.0);
             let time: Vec<f64> = records.iter().map(|r| r.time_s.unwrap_or(t0)).collect();
             blocks::means(

@@ -47,12 +47,12 @@ mod params;
 mod source;
 
 pub use error::IdentifyError;
-use fit::{Fitted, Free, LINEAR, OFFSET, Row, fidelity, fit, residual_dph, rows};
+use fit::{Free, LINEAR, OFFSET, Row, TwinFit, fidelity, fit, residual_dph, rows};
 use fog_data::blocks;
 use noise::{noise_parameters, noise_terms, other_parameters};
 pub use params::Parameter;
 use params::{Static, determinable};
-pub use source::{Kind, Record, Source, load_points};
+pub use source::{Record, Source, SourceKind, load_points};
 
 /// Parts of the training data for the rolling-origin forward test.
 const FOLDS: usize = 5;
@@ -86,7 +86,7 @@ pub struct Identification {
     /// The noise terms read from the stream's residual Allan deviation.
     pub noise: Option<allan::Terms>,
     /// The data whose last third is held out.
-    pub held_out: Kind,
+    pub held_out: SourceKind,
     /// Measurements fitted on / held out.
     pub n_train: usize,
     /// Held out.
@@ -235,7 +235,7 @@ struct Twin<'a> {
     free_statics: Vec<Static>,
     fixed: Vec<(Static, String)>,
     /// The map fitted on the rate table, held while the effects are fitted on the stream.
-    table_fit: Option<Fitted>,
+    table_fit: Option<TwinFit>,
 }
 
 impl<'a> Twin<'a> {
@@ -300,7 +300,7 @@ impl<'a> Twin<'a> {
     /// A fit of the twin on `train` (rows of the primary source) with the linear effects
     /// `linear`: with a table, the map fitted on it is held and only the effects' strengths (and
     /// the stream's own bias offset) are fitted on the stream; without, everything on `train`.
-    fn fit_on(&self, train: &[Row], linear: &[usize]) -> Result<Fitted, IdentifyError> {
+    fn fit_on(&self, train: &[Row], linear: &[usize]) -> Result<TwinFit, IdentifyError> {
         match &self.table_fit {
             Some(t) => {
                 let free = Free {
@@ -308,7 +308,7 @@ impl<'a> Twin<'a> {
                     linear: linear.iter().copied().chain([OFFSET]).collect(),
                 };
                 let f = fit(&t.params, &free, train)?;
-                Ok(Fitted {
+                Ok(TwinFit {
                     std_errors: t.std_errors.clone(),
                     ..f
                 })
@@ -325,7 +325,7 @@ impl<'a> Twin<'a> {
 
     /// The forward test inside the training data, rolling origin: fit on its first two, three,
     /// four fifths, score the fifth after each; the score is their RMS, with the last fit.
-    fn forward(&self, lag: Option<f64>, linear: &[usize]) -> Result<(f64, Fitted), IdentifyError> {
+    fn forward(&self, lag: Option<f64>, linear: &[usize]) -> Result<(f64, TwinFit), IdentifyError> {
         let primary = &*self.primary;
         let rows = rows(primary, lag, linear);
         let fifth = self.train_end / FOLDS;
@@ -468,7 +468,7 @@ impl<'a> Twin<'a> {
 
     /// Every static parameter of a fit `f`: its value, and its uncertainty where fitted or why
     /// it is nominal.
-    fn static_parameters(&self, f: &Fitted) -> Vec<Parameter> {
+    fn static_parameters(&self, f: &TwinFit) -> Vec<Parameter> {
         Static::ALL
             .into_iter()
             .map(|j| {
@@ -594,8 +594,10 @@ pub fn summary(id: &Identification) -> String {
         ));
     }
     let held = match id.held_out {
-        Kind::Stream => "the stream's last third in time, 60 s means",
-        Kind::Points => "the table's last third (in time where it has one, else every third point)",
+        SourceKind::Stream => "the stream's last third in time, 60 s means",
+        SourceKind::Points => {
+            "the table's last third (in time where it has one, else every third point)"
+        }
     };
     s.push_str(&format!(
         "effects: {}; held out ({held}, {} of {} measurements): {:.3} °/h static → {:.3} °/h with them",

@@ -25,7 +25,7 @@ pub struct Record {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Source {
     /// What it is, for the report: `points` or `stream`.
-    pub kind: Kind,
+    pub kind: SourceKind,
     /// The measurements.
     pub records: Vec<Record>,
     /// The chamber's setpoint of each measurement, °C, where the file has one (a simulated rate
@@ -36,7 +36,7 @@ pub struct Source {
 /// The kind of a [`Source`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum Kind {
+pub enum SourceKind {
     /// Averaged rate-table points.
     Points,
     /// A stream of samples.
@@ -69,7 +69,7 @@ pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Source, DataError>
     let c = columns::read_columns(path, &numeric, &[], &[], maps)?;
     let time = timed.then(|| c.get("time_s"));
     Ok(Source {
-        kind: Kind::Points,
+        kind: SourceKind::Points,
         records: (0..c.len())
             .map(|i| Record {
                 time_s: time.map(|t| t[i]),
@@ -87,7 +87,7 @@ impl From<&Stream> for Source {
     /// nothing of the map).
     fn from(s: &Stream) -> Self {
         Source {
-            kind: Kind::Stream,
+            kind: SourceKind::Stream,
             records: s
                 .referenced()
                 .into_iter()

@@ -28,7 +28,7 @@ use firmware_core::Quantity;
 use fog_data::channels::Channels;
 
 /// A model fitted and checked: its blob, what `fit` reports of it, the GP and its points' count.
-pub(super) struct Fitted {
+pub(super) struct ChannelFit {
     pub(super) blob: Vec<u8>,
     pub(super) summary: FitReport,
     pub(super) model: GpModel,
@@ -96,7 +96,7 @@ pub(super) enum Inputs {
 #[serde(untagged)]
 pub(super) enum ExtensionReport {
     Table(Extension),
-    Stream(extend::Fitted),
+    Stream(extend::ExtensionFit),
 }
 
 /// What the diagnosis of the training stream chose, and why.
@@ -194,7 +194,7 @@ pub(super) fn quantity_words(q: Quantity) -> &'static str {
 /// unit's blob with what it costs the firmware.
 pub(super) fn unit_table(
     channels: &Channels,
-    fitted: &[Fitted],
+    fitted: &[ChannelFit],
     f: &unit::UnitFootprint,
     out: &Path,
 ) -> String {
@@ -256,7 +256,7 @@ pub(super) fn unit_table(
 /// evaluation against the host's.
 pub(super) fn print_fit(
     console: &Console,
-    fitted: &Fitted,
+    fitted: &ChannelFit,
     (out, bytes): (Option<&Path>, usize),
     q: Quantity,
 ) {

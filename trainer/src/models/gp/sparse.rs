@@ -135,7 +135,7 @@ impl SparseFit {
 
 /// A sparse GP fitted to prepared data: the posterior on the inducing points, the approximation,
 /// and what each optimizer run did (the starts on the subset, then the refinements on the bound).
-pub(crate) struct Fitted {
+pub(crate) struct SparseOutcome {
     /// The conditioned GP, centred on the inducing points.
     pub posterior: Posterior,
     /// The approximation.
@@ -147,7 +147,7 @@ pub(crate) struct Fitted {
 }
 
 /// Fits a sparse GP with `m` inducing points to prepared data (module doc).
-pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, GpError> {
+pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<SparseOutcome, GpError> {
     let n = data.y.len();
     let subset = start_subset(&data.z, cfg.seed);
     let (zs, ys) = (data.z.select_rows(&subset), data.y.select_rows(&subset));
@@ -208,7 +208,7 @@ pub(crate) fn fit(data: &Prepared, m: usize, cfg: &GpConfig) -> Result<Fitted, G
         u,
         loo,
     };
-    Ok(Fitted {
+    Ok(SparseOutcome {
         posterior,
         fit,
         reports: found.reports,
