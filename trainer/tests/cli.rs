@@ -442,6 +442,26 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
     );
 }
 
+/// Other power-ons' tables are pooled by `fit`, `investigate` and `loo`; `report` refuses them as
+/// its command line is read (no file named here exists: nothing is opened).
+#[test]
+fn run_is_refused_by_a_command_that_does_not_pool_runs_before_anything_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = trainer(
+        &[
+            "report", "--points", "o.csv", "--run", "p2.csv", "--out", "r",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("unexpected argument '--run'"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!dir.path().join("r").exists());
+}
+
 #[test]
 fn an_implausible_row_is_refused_or_with_the_option_left_out_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();

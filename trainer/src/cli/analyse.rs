@@ -15,7 +15,7 @@ use fog_terminal::schema;
 use serde::Serialize;
 
 use super::inputs::{
-    FitOptions, Input, MethodArg, ModelInput, load_points, load_runs, load_stream,
+    FitOptions, Input, MethodArg, ModelInput, Runs, load_points, load_runs, load_stream,
 };
 use super::text::{causes_text, render_diagnosis};
 use crate::analysis::capacity;
@@ -49,6 +49,8 @@ pub(super) struct DiagnoseArgs {
 pub(super) struct InvestigateArgs {
     #[command(flatten)]
     input: ModelInput,
+    #[command(flatten)]
+    runs: Runs,
     #[command(flatten)]
     fit: FitOptions,
     /// Stream the extension is fitted on (and the static model, without --points).
@@ -103,11 +105,8 @@ pub(super) struct LooArgs {
     /// and rate range both cover.
     #[arg(long)]
     test_points: Option<PathBuf>,
-    /// Another power-on of the same sensor (repeatable), a table with --points' columns: pooled
-    /// with it as one calibration, each run left out in turn (the groups, unless --group), so
-    /// that the σ measures another power-on's bias.
-    #[arg(long = "run", value_name = "POINTS")]
-    runs: Vec<PathBuf>,
+    #[command(flatten)]
+    runs: Runs,
     /// Write the evaluation as JSON here (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
@@ -185,6 +184,7 @@ pub(super) fn investigate_command(
 ) -> anyhow::Result<()> {
     let InvestigateArgs {
         input,
+        runs,
         fit,
         train_stream,
         train_window,
@@ -195,6 +195,7 @@ pub(super) fn investigate_command(
         out_static,
         json,
     } = args;
+    let input = input.with_runs(runs);
     let console = Console::new(flags, json.as_deref());
     let mut inputs: Vec<&Path> = input
         .points
@@ -433,7 +434,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         offsets,
         features,
         test_points,
-        runs,
+        runs: Runs { list: runs },
         json,
     } = args;
     if features.is_some() && (method != MethodArg::Gpr || test_points.is_some() || !runs.is_empty())

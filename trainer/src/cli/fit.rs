@@ -77,6 +77,7 @@ impl FitPlan {
     fn check(args: FitArgs) -> anyhow::Result<Self> {
         let FitArgs {
             input,
+            runs,
             fit,
             offsets,
             stream,
@@ -88,6 +89,7 @@ impl FitPlan {
             out,
             json,
         } = args;
+        let input = input.with_runs(runs);
         anyhow::ensure!(
             service.full_scale.is_none_or(|f| f.is_finite() && f > 0.0),
             "--full-scale must be a positive number"

@@ -30,6 +30,17 @@ pub(super) struct Input {
     pub(super) exclude_implausible: bool,
 }
 
+/// Other power-ons of the same sensor, for the commands that pool them (`fit`, `investigate`,
+/// `loo`): a command line without this group refuses `--run` as it is read.
+#[derive(Args, Clone, Default)]
+pub(super) struct Runs {
+    /// Another power-on's rate table of the same sensor (repeatable), with --points' columns:
+    /// pooled with it as one calibration, each run left out in turn for the σ (the groups, unless
+    /// --group), which so measures another power-on's bias.
+    #[arg(long = "run", id = "run", value_name = "POINTS", requires = "points")]
+    pub(super) list: Vec<PathBuf>,
+}
+
 /// Where the static model comes from, for the commands that can fit it on a stream.
 #[derive(Args, Clone)]
 pub(super) struct ModelInput {
@@ -37,10 +48,9 @@ pub(super) struct ModelInput {
     /// the (training) stream's 60 s block means.
     #[arg(long)]
     pub(super) points: Option<PathBuf>,
-    /// Another power-on's rate table of the same sensor (repeatable), with --points' columns:
-    /// pooled with it, each run left out in turn for the σ, which so measures another power-on's
-    /// bias.
-    #[arg(long = "run", value_name = "POINTS", requires = "points")]
+    /// Other power-ons' rate tables, from the commands that pool them ([`Runs`]); empty for the
+    /// others, whose command lines do not take `--run`.
+    #[arg(skip)]
     pub(super) runs: Vec<PathBuf>,
     #[command(flatten)]
     pub(super) maps: Maps,
@@ -92,14 +102,12 @@ impl ModelInput {
         })
     }
 
-    /// Refuses --run where `command` has no use for it.
-    pub(super) fn without_runs(&self, command: &str) -> anyhow::Result<()> {
-        anyhow::ensure!(
-            self.runs.is_empty(),
-            "--run pools other power-ons' tables for `fit`, `investigate` and `loo`; `{command}` \
-             does not take it"
-        );
-        Ok(())
+    /// This input with the other power-ons' tables `runs` pooled with its rate table.
+    pub(super) fn with_runs(self, runs: Runs) -> Self {
+        Self {
+            runs: runs.list,
+            ..self
+        }
     }
 
     /// The points of the static model: the rate table when given, else the streams' block means;

@@ -56,7 +56,6 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         valid_stream,
         out: out_dir,
     } = args;
-    input.without_runs("report")?;
     let console = Console::new(flags, None);
     if let Some(channels) = input.unit.load()? {
         let files = match (stream, train_stream, valid_stream) {

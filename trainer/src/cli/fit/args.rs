@@ -11,7 +11,7 @@ use fog_data::stream::Window;
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::budget::{Budget, Bytes};
 use crate::analysis::uncertainty::Calibration;
-use crate::cli::inputs::{FitOptions, ModelInput};
+use crate::cli::inputs::{FitOptions, ModelInput, Runs};
 use crate::data::points::Points;
 use crate::firmware::export;
 use crate::models::gp::GpConfig;
@@ -22,6 +22,8 @@ use firmware_core::blob::{Beyond, Limits};
 pub(in crate::cli) struct FitArgs {
     #[command(flatten)]
     pub(super) input: ModelInput,
+    #[command(flatten)]
+    pub(super) runs: Runs,
     #[command(flatten)]
     pub(super) fit: FitOptions,
     /// Give each group of --group its own offset in the GP (runs, sweeps or power-ons that sit
