@@ -131,6 +131,14 @@ impl Compensated {
         self.noise_var.push(noise_var);
         self.status.push(status);
     }
+
+    /// A prediction, or a `Fault` with mean 0 and an infinite variance where there is none.
+    fn push_result<E>(&mut self, p: Result<Prediction, E>) {
+        match p {
+            Ok(p) => self.push(p.mean, p.bias_variance, p.noise_variance, p.status),
+            Err(_) => self.push(0.0, f32::INFINITY, 0.0, Status::Fault),
+        }
+    }
 }
 
 /// Word for a status in the compensated CSV (docs/design.md §3).
@@ -166,25 +174,30 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
     }
 }
 
-/// Runs every sample through the firmware, its feature state kept through the power cycles at
-/// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
-pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
-    let mut scratch = vec![0.0f32; model.dims().m];
+/// Walks `stream` sample by sample with one feature state, powered on again at each of its
+/// [`restarts`] as a gyro that stores the state at power-down would (`firmware_core::features`):
+/// the loop every replay of one model shares.
+fn walk(stream: &Stream, mut each: impl FnMut(usize, &Sample, &mut FeatureState)) {
     let mut state = FeatureState::default();
-    let mut out = Compensated {
-        error: model.error_model(),
-        ..Compensated::default()
-    };
     for (i, restart) in restarts(stream).into_iter().enumerate() {
         if restart {
             state.power_on();
         }
-        let sample = sample(stream, i);
-        match model.compensate(&sample, &mut state, &mut scratch) {
-            Ok(p) => out.push(p.mean, p.bias_variance, p.noise_variance, p.status),
-            Err(_) => out.push(0.0, f32::INFINITY, 0.0, Status::Fault),
-        }
+        each(i, &sample(stream, i), &mut state);
     }
+}
+
+/// Runs every sample through the firmware, its feature state kept through the power cycles at
+/// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
+pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
+    let mut scratch = vec![0.0f32; model.dims().m];
+    let mut out = Compensated {
+        error: model.error_model(),
+        ..Compensated::default()
+    };
+    walk(stream, |_, sample, state| {
+        out.push_result(model.compensate(sample, state, &mut scratch));
+    });
     out
 }
 
@@ -377,18 +390,34 @@ pub struct Means {
 /// Every sample of `stream` through `model`'s mean alone: the rates and statuses of [`replay`]
 /// at a fraction of its cost (the variance is O(m²) per sample, the mean O(m·d)).
 pub fn means(model: &HostModel, stream: &Stream) -> Means {
-    let mut state = FeatureState::default();
-    let mut out = Means::default();
-    for (i, restart) in restarts(stream).into_iter().enumerate() {
-        if restart {
-            state.power_on();
+    replay_where(model, stream, &[]).0
+}
+
+/// [`means`] at every sample and [`replay`] where `wanted` marks one, in one pass: the
+/// variance is O(m²) per sample, so a caller that reads it on part of a stream pays for that part
+/// alone. The feature state runs through every sample as in [`replay`], so each marked sample's
+/// prediction is the one [`replay`] gives; elsewhere the returned replay holds the mean path's
+/// rate and status with NaN variances.
+pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Means, Compensated) {
+    let mut scratch = vec![0.0f32; model.dims().m];
+    let mut means = Means::default();
+    let mut full = Compensated {
+        error: model.error_model(),
+        ..Compensated::default()
+    };
+    walk(stream, |i, sample, state| {
+        if wanted.get(i).copied().unwrap_or(false) {
+            full.push_result(model.compensate(sample, &mut state.clone(), &mut scratch));
         }
-        let (m, excess2) = model.compensate_mean(&sample(stream, i), &mut state);
-        out.rate_dps.push(m.mean);
-        out.status.push(m.status);
-        out.excess2.push(excess2);
-    }
-    out
+        let (m, excess2) = model.compensate_mean(sample, state);
+        if full.rate_dps.len() == i {
+            full.push(m.mean, f32::NAN, f32::NAN, m.status);
+        }
+        means.rate_dps.push(m.mean);
+        means.status.push(m.status);
+        means.excess2.push(excess2);
+    });
+    (means, full)
 }
 
 /// A unit's `streams` as unit sample records (`firmware_core::record`: each sample's outputs in

@@ -96,9 +96,6 @@ use fog_data::replay::HostModel;
 use fog_data::stream::Stream;
 use serde::Serialize;
 
-use crate::data::points::Points;
-use crate::models::gp::GpModel;
-
 mod evidence;
 mod regression;
 mod residual;
@@ -346,18 +343,6 @@ impl Diagnosis {
         self.quantity = quantity;
         self
     }
-}
-
-/// Diagnoses `stream` against `model`, the firmware form of the static GP `gp` fitted on
-/// `points` ([`Residual::fitted_on`]).
-pub fn diagnose_fitted(
-    model: &HostModel,
-    gp: &GpModel,
-    points: &Points,
-    stream: &Stream,
-) -> Diagnosis {
-    let res = Residual::new(model, stream).fitted_on(gp, points);
-    diagnose_residual(&res, points.quantity)
 }
 
 /// Diagnoses a residual already computed, of a channel that measures `quantity` (the unit its

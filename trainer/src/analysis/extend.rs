@@ -122,8 +122,9 @@ pub struct Extended {
     pub model: GpModel,
 }
 
-/// Fits the inputs for `causes` on `stream`'s residual under the static GP `model` fitted on
-/// `points`, and builds the extended blob.
+/// Fits the inputs for `causes` on the residual `res` of a stream under the static GP `model`
+/// fitted on `points` (its firmware form's residual, [`Residual::fitted_on`] `model` and
+/// `points`: the one a diagnosis of that stream studied), and builds the extended blob.
 ///
 /// A thermal state needs one more step. The points were soaked in one state per temperature —
 /// whichever way the chamber reached it — and the static GP absorbed that state's offset there; a
@@ -140,10 +141,10 @@ pub struct Extended {
 pub fn fit(
     model: &GpModel,
     points: &Points,
-    stream: &Stream,
+    res: &Residual<'_>,
     causes: &[Cause],
 ) -> Result<Extended, ExtendError> {
-    fit_on_blocks(model, points, stream, causes, MIN_BLOCKS)
+    fit_on_residual(model, points, res, causes, MIN_BLOCKS)
 }
 
 /// Fewest scored 60 s blocks an extension is fitted on.
@@ -160,7 +161,23 @@ pub fn fit_on_blocks(
 ) -> Result<Extended, ExtendError> {
     let blob = export::points_blob(model, points, &Extension::default())?;
     let fw = fog_data::replay::decode(&blob).map_err(ExportError::Blob)?;
-    let res = Residual::new(&fw, stream).fitted_on(model, points);
+    fit_on_residual(
+        model,
+        points,
+        &Residual::new(&fw, stream).fitted_on(model, points),
+        causes,
+        min_blocks,
+    )
+}
+
+/// [`fit`] on a residual of at least `min_blocks` blocks.
+fn fit_on_residual(
+    model: &GpModel,
+    points: &Points,
+    res: &Residual<'_>,
+    causes: &[Cause],
+    min_blocks: usize,
+) -> Result<Extended, ExtendError> {
     if res.len() < min_blocks {
         return Err(ExtendError::TooShort(res.len(), min_blocks));
     }
@@ -171,13 +188,13 @@ pub fn fit_on_blocks(
     // static GP was fitted on this stream: diagnose's module doc).
     let mut columns: Vec<(Feature, Cause, f32, Vec<f64>)> = Vec::new();
     for &cause in causes.iter().filter(|c| **c != Cause::None) {
-        let candidates = diagnose::candidates(&res, cause);
-        let fit = diagnose::fit_candidates(&res, cause, &candidates)
+        let candidates = diagnose::candidates(res, cause);
+        let fit = diagnose::fit_candidates(res, cause, &candidates)
             .ok_or(ExtendError::NotApplicable(cause))?;
         if cause == Cause::SensorLag {
             // r = f(T_s) − f(T_c) ≈ −x: the coil estimate removes x from the residual itself.
             let (lag, x) =
-                best_lag(&res, &res.r, &candidates).ok_or(ExtendError::NotApplicable(cause))?;
+                best_lag(res, &res.r, &candidates).ok_or(ExtendError::NotApplicable(cause))?;
             y.iter_mut().zip(&x).for_each(|(y, x)| *y += x);
             extension.temperature = diagnose::feature_for(cause, lag);
         } else {

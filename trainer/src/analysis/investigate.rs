@@ -13,7 +13,7 @@ use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
 
 use crate::analysis::beyond::{self, BeyondChoice};
-use crate::analysis::diagnose::{self, Diagnosis, joined};
+use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
 use crate::analysis::uncertainty::{self, Calibration, SampleNoise, Source};
 use crate::data::points::Points;
@@ -191,7 +191,9 @@ pub fn choose(
     asked: Option<&[Cause]>,
     rebuild: &Rebuild<'_>,
 ) -> anyhow::Result<Choice> {
-    let diagnosis = diagnose::diagnose_fitted(fw, model, points, train);
+    // One residual for the diagnosis and the extension's fit: both read the same lags of it.
+    let res = Residual::new(fw, train).fitted_on(model, points);
+    let diagnosis = diagnose::diagnose_residual(&res, points.quantity);
     let causes: Vec<Cause> = asked
         .unwrap_or(&diagnosis.causes)
         .iter()
@@ -214,7 +216,7 @@ pub fn choose(
     }
     let names = joined(&causes);
     let fitted = forward_check(points, model, train, cfg, &causes, rebuild)
-        .and_then(|check| Ok((check, extend::fit(model, points, train, &causes)?)));
+        .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
     let ((check, splits), extended) = match (fitted, asked) {
         (Ok(both), _) => both,
         (Err(e), Some(_)) => return Err(e),
@@ -234,9 +236,15 @@ pub fn choose(
     );
     if shipped == Shipped::Static && asked.is_none() && causes.len() > 1 {
         // Do no harm by nested fallback: a design refused whole may hold a part that helps.
-        if let Some((causes, check, extended, verdict, splits)) =
-            nested(points, model, train, cfg, &causes, rebuild, &verdict)?
-        {
+        if let Some((causes, check, extended, verdict, splits)) = nested(
+            points,
+            model,
+            (train, &res),
+            cfg,
+            &causes,
+            rebuild,
+            &verdict,
+        )? {
             return Ok(Choice {
                 diagnosis,
                 causes,
@@ -274,7 +282,7 @@ type Nested = (
 fn nested(
     points: &Points,
     model: &GpModel,
-    train: &Stream,
+    (train, res): (&Stream, &Residual<'_>),
     cfg: &GpConfig,
     causes: &[Cause],
     rebuild: &Rebuild<'_>,
@@ -285,7 +293,7 @@ fn nested(
         let Ok((check, splits)) = forward_check(points, model, train, cfg, &one, rebuild) else {
             continue;
         };
-        let Ok(extended) = extend::fit(model, points, train, &one) else {
+        let Ok(extended) = extend::fit(model, points, res, &one) else {
             continue;
         };
         let name = joined(&one);

@@ -9,7 +9,8 @@ use fog_data::replay::HostModel;
 use fog_data::stats::rms;
 use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
-use std::sync::OnceLock;
+use std::collections::HashMap;
+use std::sync::{Mutex, OnceLock};
 
 use super::regression::{Constant, Plateaus, hat_weights, plateau_temperatures};
 use crate::data::points::Points;
@@ -33,6 +34,10 @@ pub struct Residual<'a> {
     /// computed once: a lag's regressor is the model at lagged inputs minus it, for every lag a
     /// search tries.
     base_mean: OnceLock<Vec<f32>>,
+    /// Each lag's regressor (block means), by the lag's bits, once computed: a diagnosis, the fit
+    /// of its candidates and the lag search ask for the same lags about four times over, and each
+    /// costs the model's mean at every sample a block holds.
+    lag_regressors: Mutex<HashMap<u32, Vec<f64>>>,
 }
 
 impl<'a> Residual<'a> {
@@ -59,6 +64,7 @@ impl<'a> Residual<'a> {
             absorbed_by: None,
             plateaus: None,
             base_mean: OnceLock::new(),
+            lag_regressors: Mutex::default(),
         }
     }
 
@@ -208,6 +214,10 @@ impl<'a> Residual<'a> {
         if cause != Cause::SensorLag {
             return Some(self.block_means(&self.series(feature)));
         }
+        let known = self.lag_regressors.lock().ok();
+        if let Some(x) = known.and_then(|m| m.get(&p.to_bits()).cloned()) {
+            return Some(x);
+        }
         // f(inputs with the coil estimate in place of the sensor) − f(inputs), evaluated only
         // where a block reads it (the features still run through every sample: they carry state).
         let features = self.model.features();
@@ -221,7 +231,11 @@ impl<'a> Residual<'a> {
             .zip(base)
             .map(|(b, a)| f64::from(*b) - f64::from(*a))
             .collect();
-        Some(self.block_means(&diff))
+        let x = self.block_means(&diff);
+        if let Ok(mut m) = self.lag_regressors.lock() {
+            m.insert(p.to_bits(), x.clone());
+        }
+        Some(x)
     }
 }
 

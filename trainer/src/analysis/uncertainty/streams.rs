@@ -29,14 +29,13 @@ pub fn stream_series(
         blob,
         &ErrorModel::noise_only(0.0),
     )?)?;
-    let latent = replay::replay(&model, stream);
-    let excess2 = replay::means(&model, stream).excess2;
+    let wanted: Vec<bool> = (0..stream.len())
+        .map(|i| stream.rate_dps[i].is_finite() && hours[i].is_finite())
+        .collect();
+    let (means, latent) = replay::replay_where(&model, stream, &wanted);
+    let excess2 = means.excess2;
     let scored: Vec<usize> = (0..stream.len())
-        .filter(|&i| {
-            stream.rate_dps[i].is_finite()
-                && latent.status[i] != firmware_core::Status::Fault
-                && hours[i].is_finite()
-        })
+        .filter(|&i| wanted[i] && latent.status[i] != firmware_core::Status::Fault)
         .collect();
     let mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
         b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64

@@ -505,7 +505,7 @@ const NOISE_STEP: f64 = 0.5;
 /// the likelihood stays within [`FLAT`] of `lml`. On nearly noise-free data the likelihood is flat
 /// in σ_n below the data's own misfit, so where a search stops along that direction is arbitrary,
 /// and the smallest σ_n conditions K worst: the f32 firmware followed one such fit by 17 ulps,
-/// past what export allows (trainer/tests/cli.rs, the handled static log). Among fits the data
+/// past what export allows (trainer/tests/commands/cli.rs, the handled static log). Among fits the data
 /// cannot tell apart, the best-conditioned one is kept. Costs one likelihood where σ_n is pinned.
 pub(super) fn raise_noise(
     likelihood: Likelihood<'_>,
@@ -546,7 +546,7 @@ pub(crate) fn walk_noise(
 /// along it gains at most 0.005 nats per sample. Nearly noise-free data (σ_n at its bound) leave
 /// every run stalled short of the tolerance on a likelihood this peaked: 0.009 on the unit test's
 /// toy function, more on duplicated rate tables (at 0.02, 5 of the 24 in
-/// `tests/degenerate_data.rs` were reported as stopped early).
+/// `trainer/tests/commands/degenerate_data.rs` were reported as stopped early).
 const STATIONARY: f64 = 0.05;
 
 /// Within this (ln units) of a bound, a gradient pushing outward is the bound holding, not a

@@ -5,7 +5,7 @@ use std::ffi::c_void;
 
 use fog_ffi::*;
 
-const BLOB: &[u8] = include_bytes!("../../doc/gyro.bin");
+const BLOB: &[u8] = include_bytes!("../../../doc/gyro.bin");
 const SECTOR: usize = 4096;
 
 /// The device behind the context pointer.

@@ -7,7 +7,7 @@ use firmware_core::blob::unit;
 use firmware_core::{BlobError, PredictError, Quantity};
 use fog_ffi::*;
 
-const BLOB: &[u8] = include_bytes!("../../doc/gyro.bin");
+const BLOB: &[u8] = include_bytes!("../../../doc/gyro.bin");
 
 /// Zeroed storage, as a C `static` starts.
 fn zeroed<T>() -> Box<T> {

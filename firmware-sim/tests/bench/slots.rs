@@ -23,9 +23,9 @@ const LAYOUT: Layout = Layout {
 };
 
 /// The firmware-integration example's model, as exported.
-const OLD: &[u8] = include_bytes!("../../firmware-core/doc/gyro.bin");
+const OLD: &[u8] = include_bytes!("../../../firmware-core/doc/gyro.bin");
 /// The same model as a format-4 blob (before the error model).
-const V4: &[u8] = include_bytes!("../../firmware-core/doc/gyro-v4.bin");
+const V4: &[u8] = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
 
 /// Another calibration of the same gyro: the same blob with one kernel weight 0.1% larger.
 fn recalibrated() -> Vec<u8> {
