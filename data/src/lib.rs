@@ -9,16 +9,22 @@
 //!   the code the gyro runs) and its scores; [`sigma`]: how well a stated σ covers the errors;
 //!   [`stats`]: the few statistics both take.
 //! - [`cause`]: the physical causes' ids, one vocabulary for the diagnosis that names them and the
-//!   simulator that hides them.
+//!   simulator that hides them; [`selection`]: the one rule by which the diagnosis and the
+//!   simulator's twin of a measured gyro choose them.
+//! - [`allan`]: a log's Allan deviation and noise terms; [`minimize`]: the one 1-D search the
+//!   lag fits share.
 //!
 //! Nothing here draws, prompts or parses a command line: the programs above do, from what these
 //! functions return.
 
+pub mod allan;
 pub mod blocks;
 pub mod cause;
 pub mod channels;
 pub mod columns;
+pub mod minimize;
 pub mod replay;
+pub mod selection;
 pub mod sigma;
 pub mod stats;
 pub mod stream;

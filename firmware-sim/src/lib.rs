@@ -7,6 +7,8 @@
 //! - [`qemu`]: a stream through the Cortex-M4F image under QEMU; [`c_replay`]: the same through
 //!   firmware-core's C interface, from a C program; [`flash`]: NOR flash with power cuts, for the
 //!   firmware's calibration slots.
+//! - [`twin`]: the simulator's twin of a measured gyro, its parameters and missing effects fitted
+//!   to the gyro's table and logs, so that the bench simulates that gyro.
 //! - [`cli`]: the `firmware-sim` command line, on [`fog_terminal`]'s flags and console as the
 //!   trainer's.
 
@@ -16,3 +18,4 @@ pub mod flash;
 pub mod gyro;
 pub mod qemu;
 pub mod source_tree;
+pub mod twin;

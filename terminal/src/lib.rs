@@ -8,7 +8,8 @@
 //!   `--verbose` and `--json`;
 //! - [`io`]: files written whole or not at all, never over an input, and JSON stamped with its
 //!   [`schema`];
-//! - [`mod@reference`]: docs/commands.md's flag tables and contracts, rendered from the code.
+//! - [`mod@reference`]: docs/commands.md's flag tables and contracts, rendered from the code;
+//! - [`plot`]: the canvas, axes and colours of every figure, as SVG text.
 //!
 //! The libraries below take no type from here: what they compute comes back as values, and only
 //! the command lines print it.
@@ -16,5 +17,6 @@
 pub mod console;
 pub mod io;
 pub mod log;
+pub mod plot;
 pub mod reference;
 pub mod schema;

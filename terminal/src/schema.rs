@@ -63,18 +63,18 @@ pub const CHALLENGE: Schema = v1("trainer.challenge", "trainer challenge --json"
 pub const ALLAN: Schema = v1("trainer.allan", "trainer allan --json");
 /// `trainer allan --channels --json`: each channel's (`channels`).
 pub const ALLAN_UNIT: Schema = v1("trainer.allan-unit", "trainer allan --channels --json");
-/// `trainer identify --json`, one gyro.
-pub const IDENTIFY: Schema = v1("trainer.identify", "trainer identify --json");
-/// `trainer identify --channels --json`: each gyro channel's (`channels`).
+/// `firmware-sim identify --json`, one gyro.
+pub const IDENTIFY: Schema = v1("sim.identify", "firmware-sim identify --json");
+/// `firmware-sim identify --channels --json`: each gyro channel's (`channels`).
 pub const IDENTIFY_UNIT: Schema = v1(
-    "trainer.identify-unit",
-    "trainer identify --channels --json",
+    "sim.identify-unit",
+    "firmware-sim identify --channels --json",
 );
-/// The simulator's unit file of one gyro (`trainer identify --out`, `firmware-sim generate
+/// The simulator's unit file of one gyro (`firmware-sim identify --out`, `firmware-sim generate
 /// --unit`).
-pub const SIM_UNIT: Schema = v1("sim.unit", "trainer identify --out");
-/// The simulator's unit file of several axes (`trainer identify --channels --out`).
-pub const SIM_AXES: Schema = v1("sim.axes", "trainer identify --channels --out");
+pub const SIM_UNIT: Schema = v1("sim.unit", "firmware-sim identify --out");
+/// The simulator's unit file of several axes (`firmware-sim identify --channels --out`).
+pub const SIM_AXES: Schema = v1("sim.axes", "firmware-sim identify --channels --out");
 /// `firmware-sim generate --json`, one gyro.
 pub const GENERATE: Schema = v1("sim.generate", "firmware-sim generate --json");
 /// `firmware-sim generate --unit AXES --json`.

@@ -1,121 +1,16 @@
-//! Figures as SVG text (plotters' SVG backend: no fonts needed at build time, the browser renders
-//! the text): the canvas, axes and colours every figure shares, and the figures of the noise and
-//! twin analyses (an Allan deviation, a twin against measured data); the report's own figures are
-//! in `report::plots`. Each function draws one figure from plain series, so the figures can be
+//! The figures of the noise analysis (an Allan deviation, one gyro's or a unit's), on the canvas
+//! both programs share ([`fog_terminal::plot`]); the report's own figures are in
+//! `report::plots`. Each function draws one figure from plain series, so the figures can be
 //! checked without a fit.
-
-use std::error::Error;
 
 use firmware_core::Quantity;
 use firmware_core::units::DPH_PER_DPS;
-use plotters::coord::Shift;
-use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-/// A figure that could not be drawn (plotters' error, as text).
-#[derive(Debug, thiserror::Error)]
-#[error("drawing {figure}: {message}")]
-pub struct PlotError {
-    /// The figure.
-    pub figure: &'static str,
-    /// What plotters said.
-    pub message: String,
-}
-
-/// The canvas a figure draws on.
-pub type Draw<'a> = DrawingArea<SVGBackend<'a>, Shift>;
-/// What drawing returns (plotters' errors differ by backend: boxed).
-pub type DrawResult = Result<(), Box<dyn Error + Send + Sync>>;
-
-/// Font family of every text.
-pub const FONT: &str = "sans-serif";
-/// Title size, px.
-pub const TITLE: u32 = 20;
-/// Axis-title size, px.
-pub const LABEL: u32 = 16;
-/// Tick-label and legend size, px.
-pub const TICK: u32 = 14;
-/// Static model, extended model, GPR, LS-SVR: one colour each across the figures.
-pub const BLUE: RGBColor = RGBColor(31, 119, 180);
-/// The second series.
-pub const ORANGE: RGBColor = RGBColor(230, 120, 20);
-/// The third series.
-pub const GREEN: RGBColor = RGBColor(44, 160, 44);
-/// The fourth series; hot.
-pub const RED: RGBColor = RGBColor(214, 39, 40);
-/// The fifth series.
-pub const PURPLE: RGBColor = RGBColor(148, 103, 189);
-/// The sixth series.
-pub const BROWN: RGBColor = RGBColor(140, 86, 75);
-/// A series colour per channel of a unit, in channel order (repeating past six).
-pub const CHANNEL_COLOURS: [RGBColor; 6] = [BLUE, ORANGE, GREEN, RED, PURPLE, BROWN];
-/// References and guides.
-pub const GREY: RGBColor = RGBColor(120, 120, 120);
-
-/// Renders `draw` on a `size` canvas and returns the SVG text.
-pub fn svg(
-    figure: &'static str,
-    size: (u32, u32),
-    draw: impl FnOnce(&Draw<'_>) -> DrawResult,
-) -> Result<String, PlotError> {
-    let mut text = String::new();
-    {
-        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
-        let result = root
-            .fill(&WHITE)
-            .map_err(Into::into)
-            .and_then(|()| draw(&root))
-            .and_then(|()| root.present().map_err(Into::into));
-        result.map_err(|e| PlotError {
-            figure,
-            message: e.to_string(),
-        })?;
-    }
-    Ok(text)
-}
-
-/// The charts here: f64 on both axes, drawn to SVG.
-pub type Chart<'a, 'b> =
-    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-
-/// Grid, ticks and axis titles in the report's sizes.
-pub fn axes<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, x: &str, y: &str) -> DrawResult {
-    chart
-        .configure_mesh()
-        .x_desc(x)
-        .y_desc(y)
-        .label_style((FONT, TICK))
-        .axis_desc_style((FONT, LABEL))
-        .draw()?;
-    Ok(())
-}
-
-/// The legend box at `position`, over a translucent white background.
-pub fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) -> DrawResult {
-    chart
-        .configure_series_labels()
-        .position(position)
-        .label_font((FONT, TICK))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
-}
-
-/// Low and high of a series, padded by `pad` of the span (and kept apart when constant).
-pub fn span(values: impl IntoIterator<Item = f64>, pad: f64) -> (f64, f64) {
-    let (lo, hi) = values
-        .into_iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if !lo.is_finite() {
-        return (-1.0, 1.0);
-    }
-    let width = if hi > lo { hi - lo } else { lo.abs().max(1.0) };
-    (lo - pad * width, hi + pad * width)
-}
+pub use fog_terminal::plot::{
+    BLUE, BROWN, CHANNEL_COLOURS, Chart, Draw, DrawResult, FONT, GREEN, GREY, LABEL, ORANGE,
+    PURPLE, PlotError, RED, TICK, TITLE, axes, legend, span, svg,
+};
 
 /// Blue (cold) to red (hot) for `t` in [0, 1].
 pub fn cold_to_hot(t: f64) -> RGBColor {
@@ -131,9 +26,9 @@ pub struct AllanSeries<'a> {
     /// Its colour.
     pub colour: RGBColor,
     /// The curve (°/s).
-    pub curve: &'a crate::analysis::allan::Curve,
+    pub curve: &'a fog_data::allan::Curve,
     /// The terms read from it, drawn as the slope lines they come from.
-    pub terms: crate::analysis::allan::Terms,
+    pub terms: fog_data::allan::Terms,
 }
 
 /// Allan deviation on log-log axes (°/h against τ), each curve with its one-sigma band and the
@@ -229,7 +124,7 @@ fn draw_allan(root: &Draw<'_>, title: &str, series: &[AllanSeries<'_>], q: Quant
             s.terms.arw_deg_per_sqrt_h.map(|n| (n / 60.0 * k, -0.5)),
             s.terms
                 .bias_instability_deg_per_h
-                .map(|b| (b * crate::analysis::allan::FLICKER_FLOOR * from_dph, 0.0)),
+                .map(|b| (b * fog_data::allan::FLICKER_FLOOR * from_dph, 0.0)),
             // K (°/h)/√h at τ = 3 s: σ = K·√(τ/3) /60 in °/h.
             s.terms
                 .rrw_deg_per_h_per_sqrt_h
@@ -267,41 +162,6 @@ fn power_line(a: f64, p: f64, t: (f64, f64), y: (f64, f64)) -> Option<[(f64, f64
     }
     let inside = |v: f64| v >= y.0 && v <= y.1;
     (lo < hi && inside(at(lo)) && inside(at(hi))).then(|| [(lo, at(lo)), (hi, at(hi))])
-}
-
-/// What the simulation gets wrong: the held-out difference between the measured output and the
-/// twin's (°/h) on the held-out axis (hours of a stream, or index of a table's points), before
-/// and after the effects are added. Streams are drawn as one-minute means.
-pub fn twin(
-    title: &str,
-    axis: &str,
-    points: &[(f64, f64, f64)],
-    after_label: &str,
-) -> Result<String, PlotError> {
-    svg("the twin", (900, 500), |root| {
-        let (x0, x1) = span(points.iter().map(|p| p.0), 0.02);
-        let (y0, y1) = span(points.iter().flat_map(|p| [p.1, p.2]), 0.05);
-        let mut chart = ChartBuilder::on(root)
-            .caption(title, (FONT, TITLE))
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        axes(&mut chart, axis, "measured − twin, rate-equivalent (°/h)")?;
-        chart.draw_series(LineSeries::new([(x0, 0.0), (x1, 0.0)], BLACK.mix(0.4)))?;
-        for (label, colour, pick) in [("static twin", GREY, 1usize), (after_label, BLUE, 2usize)] {
-            let at = move |p: &(f64, f64, f64)| (p.0, if pick == 1 { p.1 } else { p.2 });
-            chart
-                .draw_series(
-                    points
-                        .iter()
-                        .map(|p| Circle::new(at(p), 2, colour.filled())),
-                )?
-                .label(label)
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
-        }
-        legend(&mut chart, SeriesLabelPosition::UpperRight)
-    })
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! The unit file: a simulated gyro's parameters and hidden effects (or several axes' of one unit,
-//! [`crate::gyro::axes`]), as `trainer identify` writes it from measured data and `generate
+//! [`crate::gyro::axes`]), as `firmware-sim identify` writes it from measured data and `generate
 //! paper|stream --unit FILE` simulates it. One definition of the format, here beside the plant it
 //! parameterizes, for both programs.
 

@@ -1,7 +1,8 @@
 //! The workspace's modules point one way (docs/design.md §2): no two source files import each
-//! other, and none of the trainer's layers imports one listed after it (`trainer/src/lib.rs`).
-//! Read from the sources, as a newcomer would follow them: `crate::…`, `super::…` and a child
-//! module's `use child::…`, comments and tests left out.
+//! other, none of the trainer's layers imports one listed after it (`trainer/src/lib.rs`), and the
+//! trainer uses the bench only in the commands about it. Read from the sources, as a newcomer
+//! would follow them: `crate::…`, `super::…` and a child module's `use child::…`, comments and
+//! tests left out.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -218,5 +219,34 @@ fn no_two_files_import_each_other_and_no_layer_looks_up() {
         upward.is_empty(),
         "a layer using one after it:\n{}",
         upward.join("\n")
+    );
+}
+
+/// The bench is not the floor under the trainer: only the commands about the bench (`demo`, which
+/// simulates the data it fits, and `challenge`, which hides effects in simulated gyros) use
+/// firmware-sim. Everything else reads data through fog-data.
+#[test]
+fn the_trainer_uses_the_bench_only_in_the_commands_about_it() {
+    const ABOUT_THE_BENCH: [&str; 2] = ["cli/demo.rs", "analysis/challenge.rs"];
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../trainer/src");
+    let mut files = Vec::new();
+    rust_files(&root, &mut files);
+    let users: Vec<String> = files
+        .iter()
+        .filter(|f| {
+            let rel = f
+                .strip_prefix(&root)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            !ABOUT_THE_BENCH.contains(&rel.as_str())
+        })
+        .filter(|f| code(&std::fs::read_to_string(f).unwrap()).contains("firmware_sim"))
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(
+        users.is_empty(),
+        "trainer files using firmware-sim outside demo and challenge:\n{}",
+        users.join("\n")
     );
 }

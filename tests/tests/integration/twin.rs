@@ -1,4 +1,4 @@
-//! The simulator meets measured data (issue 23): `trainer identify` writes a twin that
+//! The simulator meets measured data (issue 23): `firmware-sim identify` writes a twin that
 //! `generate --unit` simulates, and `trainer allan` reads a log's noise terms; on the real MEMS
 //! log, compensation lowers the Allan deviation's long-τ part. The FOG turntable runs are read
 //! from `../shared/data/real/` and skipped where that is absent.
@@ -42,7 +42,7 @@ fn a_twin_from_a_table_and_a_stream_names_the_missing_lag_and_simulates_the_unit
     ]
     .concat())
     .unwrap();
-    trainer(&[
+    sim(&[
         "identify",
         "--points",
         &p("points.csv"),
@@ -270,7 +270,7 @@ fn the_fog_turntable_twin_has_the_measured_scale_factor_and_compression() {
         .join("uwrt_fog_run_2024-10-17.csv")
         .display()
         .to_string();
-    trainer(&[
+    sim(&[
         "identify",
         "--points",
         &run,

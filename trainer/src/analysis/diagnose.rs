@@ -73,7 +73,7 @@
 //! **Several causes.** Real logs mix effects, and mixed effects can imitate a third: a warm-up
 //! after a power-on that heats the housing plus a heating/cooling offset follow dT/dt better than
 //! either alone. The causes are chosen by the project's one rule, best subset
-//! ([`crate::analysis::selection`]: at most [`MAX_CAUSES`], five causes make 25 designs): every
+//! ([`fog_data::selection`]: at most [`MAX_CAUSES`], five causes make 25 designs): every
 //! design is scored with all its parameters chosen again inside every training split, and taken
 //! when it predicts at least [`MIN_SCORE`] (one cause) or [`MIN_NEXT_SCORE`] (more) of what the
 //! design taken before it left, on both tests. Best means the most predicted on the two tests
@@ -100,13 +100,13 @@ mod evidence;
 mod regression;
 mod residual;
 
-use crate::analysis::selection::{self, share};
-pub use crate::analysis::selection::{MAX_CAUSES, MIN_NEXT_SCORE, MIN_SCORE};
 use evidence::{
     FOLDS, Split, blind_harm, choose, chosen_parameter, forward_sees, forward_splits,
     interleaved_splits, split_sse,
 };
 pub use evidence::{HARM, VISIBLE, sees};
+use fog_data::selection::{self, share};
+pub use fog_data::selection::{MAX_CAUSES, MIN_NEXT_SCORE, MIN_SCORE};
 pub use regression::{Candidates, Constant, Plateaus};
 pub(crate) use regression::{hat_weights, ols};
 pub use residual::{Residual, feature_for};

@@ -26,10 +26,10 @@ use nalgebra::DVector;
 use serde::Serialize;
 
 use crate::analysis::diagnose::{self, Candidates, CauseFit, Residual};
-use crate::analysis::minimize::golden_section;
 use crate::data::points::Points;
 use crate::firmware::export::{self, AgreementReport, ExportError, Extension, Term};
 use crate::models::gp::{GpError, GpModel};
+use fog_data::minimize::golden_section;
 
 /// Names of the inputs `--features` accepts, with the cause each corrects.
 pub const FEATURE_NAMES: [(&str, Cause); 5] = [

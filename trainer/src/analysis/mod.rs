@@ -4,12 +4,9 @@
 //! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
 //! ([`pool`]), and the hidden-effect challenge that measures all of this on the
 //! simulator ([`challenge`]); the size of a model the firmware can hold, chosen on the data
-//! ([`capacity`]), and of a unit's models within a target's budget ([`budget`]); the σ it states, measured on its own training data ([`uncertainty`]); the
-//! measured gyro's own noise terms ([`allan`]) and simulator twin ([`twin`]); and the one 1-D
-//! search they share ([`minimize`]); the rule by which the diagnosis and the twin choose causes
-//! ([`selection`]).
+//! ([`capacity`]), and of a unit's models within a target's budget ([`budget`]); the σ it
+//! states, measured on its own training data ([`uncertainty`]).
 
-pub mod allan;
 pub mod beyond;
 pub mod budget;
 pub mod capacity;
@@ -18,10 +15,7 @@ pub mod diagnose;
 pub mod evaluate;
 pub mod extend;
 pub mod investigate;
-pub mod minimize;
 pub mod pool;
 pub mod reproduce;
-pub mod selection;
 pub mod table;
-pub mod twin;
 pub mod uncertainty;

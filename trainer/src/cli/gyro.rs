@@ -1,23 +1,20 @@
-//! The measured gyro's own properties, read from its logs: `trainer allan` (its noise terms) and
-//! `trainer identify` (the simulator's twin of it, with the effects the twin lacks).
+//! The measured gyro's noise, read from its logs: `trainer allan` (its noise terms; the bench's
+//! `firmware-sim identify` makes the simulator's twin of it).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
 use firmware_core::Quantity;
-use firmware_sim::gyro::axes::{Axes, Axis};
-use fog_data::channels::{Channels, Read};
+use fog_data::allan;
+use fog_data::channels::Channels;
 use fog_data::replay;
 use fog_data::stream::Stream;
-use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
-use fog_terminal::log::{Excludes, LogArgs, Maps, UnitArgs, load_unit_log};
+use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
 
-use super::inputs::load_stream;
-use crate::analysis::{allan, twin};
 use crate::plot;
 
 /// The arguments of `trainer allan`.
@@ -35,40 +32,6 @@ pub(super) struct AllanArgs {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Draw the Allan deviation with the lines its terms come from, as SVG.
-    #[arg(long)]
-    plot: Option<PathBuf>,
-}
-
-/// The arguments of `trainer identify`.
-#[derive(Args)]
-pub(super) struct IdentifyArgs {
-    /// Rate-table points CSV: temp_c,voltage_v,rate_dps (and time_s, through --map, for a table
-    /// recorded in time order).
-    #[arg(long, required_unless_present = "stream")]
-    points: Option<PathBuf>,
-    /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps.
-    #[arg(long)]
-    stream: Option<PathBuf>,
-    #[command(flatten)]
-    maps: Maps,
-    /// Use only this part of the stream: START:END, s from its first sample.
-    #[arg(long, requires = "stream")]
-    window: Option<Window>,
-    #[command(flatten)]
-    exclude: Excludes,
-    /// Nominal scale factor, output units per °/s, where the data show none (a static log).
-    #[arg(long)]
-    scale_factor: Option<f64>,
-    #[command(flatten)]
-    unit: UnitArgs,
-    /// The unit file to write (`firmware-sim generate paper|stream --unit FILE` simulates it).
-    #[arg(long)]
-    out: PathBuf,
-    /// Every parameter (value, standard error, determined or why not), the candidates tried and
-    /// the fidelity before and after, as JSON.
-    #[arg(long)]
-    json: Option<PathBuf>,
-    /// The held-out difference between measured and twin, before and after, as SVG.
     #[arg(long)]
     plot: Option<PathBuf>,
 }
@@ -322,154 +285,4 @@ fn allan_unit(
         write_atomically(path, svg.as_bytes())?;
     }
     Ok(())
-}
-
-/// `trainer identify`: the simulator's twin of a measured gyro, its unit file, and what it
-/// still gets wrong on the held-out part before and after the effects it names (every gyro of a
-/// unit's channels with `--channels`, into one unit file of several axes).
-pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
-    let IdentifyArgs {
-        points,
-        stream,
-        maps,
-        window,
-        exclude,
-        scale_factor,
-        unit,
-        out,
-        json,
-        plot: figure,
-    } = args;
-    let console = Console::new(flags, json.as_deref());
-    let mut inputs: Vec<&Path> = points.iter().chain(&stream).map(|p| p.as_path()).collect();
-    inputs.extend(unit.channels.as_deref());
-    for o in std::iter::once(&out).chain(&json).chain(&figure) {
-        ensure_not_input(o, &inputs)?;
-    }
-    if let Some(channels) = unit.load()? {
-        anyhow::ensure!(
-            scale_factor.is_none(),
-            "--scale-factor is for one channel: a unit's channels give theirs in {}",
-            channels.path.display()
-        );
-        let logs = stream
-            .as_deref()
-            .map(|s| load_unit_log(s, &channels, &maps.list, (window, &exclude.list), &console))
-            .transpose()?;
-        let mut axes = Vec::new();
-        let mut all = Vec::new();
-        let skipped: Vec<&str> = channels
-            .list
-            .iter()
-            .filter(|c| c.quantity != Quantity::AngularRate)
-            .map(|c| c.name.as_str())
-            .collect();
-        if !skipped.is_empty() {
-            console.result(&format!(
-                "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
-                 accelerometer has none",
-                skipped.join(", ")
-            ));
-        }
-        for (k, ch) in channels.list.iter().enumerate() {
-            if ch.quantity != Quantity::AngularRate {
-                continue;
-            }
-            let console = console.channel(&ch.name, &format!("{}:", ch.name));
-            let own = channels.maps(k, &maps.list, Read::Table)?;
-            let table = points
-                .as_deref()
-                .map(|p| twin::load_points(p, &own))
-                .transpose()?;
-            let log = logs.as_ref().map(|l| twin::Source::from(&l[k]));
-            let k_sf = if points.is_some() {
-                ch.scale_factor
-            } else {
-                ch.bias_scale_factor()
-            };
-            let id = identified(table.as_ref(), log.as_ref(), k_sf, &console)
-                .with_context(|| format!("channel {}", ch.name))?;
-            if let Some(path) = &figure {
-                let own = path.with_extension(format!("{}.svg", ch.name));
-                write_atomically(&own, twin_figure(&id)?.as_bytes())?;
-                console.result(&format!("wrote {}", own.display()));
-            }
-            axes.push(Axis {
-                name: ch.name.clone(),
-                params: id.unit.params.clone(),
-                effects: id.unit.effects.clone(),
-            });
-            all.push(serde_json::json!({ "name": ch.name, "identification": id }));
-        }
-        anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
-        write_json(&out, &inputs, schema::SIM_AXES, &Axes { axes })?;
-        if let Some(path) = &json {
-            write_json_list(path, &inputs, schema::IDENTIFY_UNIT, "channels", &all)?;
-        }
-        console.result(&format!("wrote {}", out.display()));
-        return Ok(());
-    }
-    let points = points
-        .as_deref()
-        .map(|p| twin::load_points(p, &maps.list))
-        .transpose()?;
-    let stream = match &stream {
-        Some(path) => {
-            let s = load_stream(path, &maps.list, (window, &exclude.list), &console)?;
-            Some(twin::Source::from(&s))
-        }
-        None => None,
-    };
-    let id = identified(points.as_ref(), stream.as_ref(), scale_factor, &console)?;
-    write_json(&out, &inputs, schema::SIM_UNIT, &id.unit)?;
-    if let Some(path) = &json {
-        write_json(path, &inputs, schema::IDENTIFY, &id)?;
-    }
-    if let Some(path) = &figure {
-        write_atomically(path, twin_figure(&id)?.as_bytes())?;
-    }
-    console.result(&format!("wrote {}", out.display()));
-    Ok(())
-}
-
-/// One gyro identified from its table and/or log, with a spinner while it runs and its summary
-/// said.
-fn identified(
-    points: Option<&twin::Source>,
-    stream: Option<&twin::Source>,
-    scale_factor: Option<f64>,
-    console: &Console,
-) -> anyhow::Result<twin::Identification> {
-    let spinner = console.spinner("identifying");
-    let id = twin::identify(points, stream, scale_factor, |step| {
-        spinner.set_message(format!("identifying: {step}"));
-    })?;
-    spinner.finish_and_clear();
-    console.result(&twin::summary(&id));
-    Ok(id)
-}
-
-/// The held-out difference between measured and twin, before and after its effects, as SVG.
-fn twin_figure(id: &twin::Identification) -> anyhow::Result<String> {
-    let (axis, pts): (&str, Vec<(f64, f64, f64)>) = match id.held_out {
-        twin::SourceKind::Stream => ("time (h)", twin::minute_means(&id.residual)),
-        twin::SourceKind::Points => ("point (file order)", id.residual.clone()),
-    };
-    let after = format!(
-        "with {}",
-        id.causes
-            .iter()
-            .map(|c| c.id())
-            .collect::<Vec<_>>()
-            .join(" + ")
-    );
-    Ok(plot::twin(
-        &format!(
-            "Held out: measured − twin, {:.2} → {:.2} °/h",
-            id.fidelity_before_dph, id.fidelity_after_dph
-        ),
-        axis,
-        &pts,
-        &after,
-    )?)
 }

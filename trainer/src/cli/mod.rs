@@ -92,13 +92,6 @@ enum Command {
     /// time_s=timestamp*1e-6 --map temp_c=imu.temperature --map voltage_v=imu.gyro.x*57.29577951
     /// --map rate_dps=0 --scale-factor 1 --json allan.json --plot allan.svg
     Allan(gyro::AllanArgs),
-    /// Identify a twin of a measured gyro: the simulator's parameters fitted to its data (a rate
-    /// table and/or a stream or static log), the effects the twin lacks named and fitted on the
-    /// training data, and its fidelity on the held-out last third before and after. Writes a unit
-    /// file that `firmware-sim generate paper|stream --unit FILE` simulates.
-    ///
-    /// Example: trainer identify --points points.csv --stream s.csv --out unit.json --json id.json
-    Identify(gyro::IdentifyArgs),
     /// A look at a data file before anything is fitted: rows, the columns mapped, temperature and
     /// rate ranges, plateaus, sampling and gaps, rows left out and why, the scale factor the data
     /// show, and whether the earth rate seems to be in the reference. A wrong --map or unit shows
@@ -142,7 +135,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect(args) => inspect::inspect_command(args, flags),
         Command::Loo(args) => analyse::loo_command(args, flags),
         Command::Allan(args) => gyro::allan_command(args, flags),
-        Command::Identify(args) => gyro::identify_command(args, flags),
         Command::Summarize(args) => look::summarize_command(args, flags),
         Command::Report(args) => report::report_command(args, flags),
         Command::Reproduce(args) => analyse::reproduce_command(args, flags),

@@ -3,11 +3,11 @@
 use fog_data::replay::Compensated;
 use fog_data::stream::Stream;
 
-use crate::analysis::allan::Analysis as Allan;
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::Reproduction;
 use crate::data::points::Points;
 use crate::data::summary::Summary;
+use fog_data::allan::Analysis as Allan;
 
 /// The figure files, in page order: (file name, caption).
 pub const FIGURES: [(&str, &str); 9] = [

@@ -4,7 +4,7 @@
 use firmware_core::units::DPH_PER_DPS;
 use std::fmt::Write as _;
 
-use crate::analysis::allan::Analysis as Allan;
+use fog_data::allan::Analysis as Allan;
 
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO};
@@ -265,7 +265,7 @@ pub fn html(r: &Report, figures: &[(&'static str, String)]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::allan::Analysis as Allan;
+    use fog_data::allan::Analysis as Allan;
 
     #[test]
     fn the_allan_sentence_follows_the_curves_it_describes() {

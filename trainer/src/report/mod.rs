@@ -14,10 +14,10 @@ use fog_data::stream::{Stream, Window};
 use fog_terminal::io::write_atomically;
 use std::path::{Path, PathBuf};
 
-use crate::analysis::allan::Analysis as Allan;
 use crate::plot::{AllanSeries, BLUE, GREY, ORANGE};
 use crate::progress::Progress;
 use anyhow::Context;
+use fog_data::allan::Analysis as Allan;
 use plots::{DiagnosisSeries, ReliabilitySeries, ReplaySeries};
 
 use crate::analysis::diagnose::Residual;

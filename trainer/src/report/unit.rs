@@ -16,8 +16,8 @@ use fog_terminal::io::write_atomically;
 use super::html::escape;
 use super::plots::{self, ReplaySeries};
 use super::{Report, replay_blocks};
-use crate::analysis::allan::Analysis as Allan;
 use crate::plot::{AllanSeries, CHANNEL_COLOURS};
+use fog_data::allan::Analysis as Allan;
 
 /// One channel of the page: its name, what it measures, and its analysis.
 pub struct ChannelSection<'a> {

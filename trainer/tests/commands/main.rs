@@ -1,8 +1,7 @@
-//! The trainer as its users meet it: the binary as a script sees it, degenerate and malformed
-//! data, and the twin. One test binary, so that one link serves them all and their tests run side
-//! by side.
+//! The trainer as its users meet it: the binary as a script sees it, and degenerate and
+//! malformed data. One test binary, so that one link serves them all and their tests run side by
+//! side.
 
 mod cli;
 mod degenerate_data;
 mod malformed_csv;
-mod twin;

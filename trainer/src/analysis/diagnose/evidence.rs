@@ -2,7 +2,7 @@
 //! a design on them, and whether a test can see a candidate at all.
 
 use super::regression::{Candidates, Constant, ols, predict};
-use crate::analysis::selection::share;
+use fog_data::selection::share;
 use fog_data::stats::spread;
 
 /// Blocks per chunk of the cross-validation (10 minutes of 60 s blocks).

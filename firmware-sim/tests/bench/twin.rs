@@ -5,8 +5,8 @@ use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::paper;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream as gyro_stream;
+use firmware_sim::twin::{self, Record, Source, SourceKind};
 use fog_data::cause::Cause;
-use trainer::analysis::twin::{self, Record, Source, SourceKind};
 
 fn points(p: &GyroParams, seed: u64) -> Source {
     Source {

@@ -1,7 +1,7 @@
 //! A twin of a real gyro: the simulator's parameters identified from measured data, what the
 //! simulation still gets wrong, and the hidden effects that close the gap.
 //!
-//! The twin is the simulator's own output map ([`firmware_sim::gyro::plant`]) with the parameters that
+//! The twin is the simulator's own output map ([`crate::gyro::plant`]) with the parameters that
 //! reproduce the measurements, written as a unit file that `generate paper|stream --unit FILE`
 //! simulates. Identification is a weighted nonlinear least-squares fit (Levenberg–Marquardt) of
 //! the measured output against the map at the measured temperature and reference rate, over the
@@ -9,11 +9,11 @@
 //! (a static log shows no scale factor, a table without fast rates no sine compression, …).
 //!
 //! What the twin gets wrong is the measured output minus the twin's, replayed over the measured
-//! protocol. The simulator's hidden effects ([`firmware_sim::gyro::effects`]) are the candidate causes:
+//! protocol. The simulator's hidden effects ([`crate::gyro::effects`]) are the candidate causes:
 //! each is added to the twin with its strength fitted (a lag by a search over its time constant,
 //! the biases as linear terms of the same fit), scored by a forward test inside the training data
 //! (rolling origin: fitted on its first two, three and four fifths, scored on the fifth after
-//! each), and chosen by the rule the diagnosis uses ([`crate::analysis::selection`]: the best
+//! each), and chosen by the rule the diagnosis uses ([`fog_data::selection`]: the best
 //! design of one, two, then three effects, while it removes enough of what the design before it
 //! left). The data's last third in time is held out from all of this and scored once,
 //! before and after: the twin's fidelity. With a rate table and a stream, the map comes from the
@@ -29,16 +29,16 @@
 
 use serde::Serialize;
 
+use crate::gyro::effects::Effect;
+use crate::gyro::plant::GyroParams;
+use crate::gyro::unit::Unit;
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::gyro::effects::Effect;
-use firmware_sim::gyro::plant::GyroParams;
-use firmware_sim::gyro::unit::Unit;
 use fog_data::cause::Cause;
 use fog_data::stats::Line;
 
-use crate::analysis::allan;
-use crate::analysis::minimize::golden_section;
-use crate::analysis::selection;
+use fog_data::allan;
+use fog_data::minimize::golden_section;
+use fog_data::selection;
 
 mod error;
 mod fit;

@@ -3,7 +3,7 @@
 //! step in the fit (the Levenberg–Marquardt vector holds scaled offsets, so that a 1e-6 °C⁻²
 //! curvature and a 1 V/(°/s) scale factor move alike).
 
-use firmware_sim::gyro::plant::GyroParams;
+use crate::gyro::plant::GyroParams;
 use serde::Serialize;
 
 use super::source::Record;

@@ -6,9 +6,9 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn};
 
+use crate::gyro::effects::{Effect, EffectPlant, Hidden};
+use crate::gyro::plant::GyroParams;
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::gyro::effects::{Effect, EffectPlant, Hidden};
-use firmware_sim::gyro::plant::GyroParams;
 use fog_data::blocks::{self, BLOCK_S};
 use fog_data::cause::Cause;
 use fog_data::stats::rms;

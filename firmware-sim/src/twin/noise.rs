@@ -2,13 +2,13 @@
 //! Allan deviation, the temperature sensor's noise, the self-heating from soaked points; and
 //! those no data here can show, nominal with the reason.
 
+use crate::gyro::plant::GyroParams;
 use firmware_core::units::SECONDS_PER_HOUR;
-use firmware_sim::gyro::plant::GyroParams;
 use fog_data::stats::rms;
 
 use super::params::Parameter;
 use super::source::Source;
-use crate::analysis::allan;
+use fog_data::allan;
 
 /// The noise parameters, from the residual's Allan deviation of a static log (`noise`), set in
 /// `params`: where the reference steps, that deviation shows the map's small errors per rate (a

@@ -15,15 +15,15 @@
 //! random walk, or one whose minimum is its last point. The confidence interval is the standard
 //! approximation for `N/m` clusters, σ·(1 ± 1/√(2(N/m − 1))) (IEEE 952, C.2).
 //!
-//! The simulator's bias instability is a first-order Gauss–Markov process ([`firmware_sim::gyro::plant`]);
+//! The simulator's bias instability is a first-order Gauss–Markov process (firmware-sim's plant);
 //! [`gauss_markov_avar`] is its closed-form Allan variance, which identification inverts to turn a
 //! measured minimum into the process's standard deviation.
 
 use serde::Serialize;
 
+use crate::stream::{GAP_FACTOR, typical_step};
 use firmware_core::Quantity;
 use firmware_core::units::SECONDS_PER_HOUR;
-use fog_data::stream::{GAP_FACTOR, typical_step};
 
 /// Flicker (bias-instability) noise: σ(τ) on its flat bottom is 0.664·B.
 pub const FLICKER_FLOOR: f64 = 0.664;
@@ -313,7 +313,7 @@ impl Analysis {
 }
 
 /// Angle random walk of quantization alone, °/√h, for a rate (°/s) quantized in `step`
-/// ([`fog_data::stats::quantization_step`]) and sampled
+/// ([`crate::stats::quantization_step`]) and sampled
 /// every `tau0_s`: white noise of step/√12 per sample.
 pub fn quantization_arw(step: f64, tau0_s: f64) -> f64 {
     step / 12f64.sqrt() * tau0_s.sqrt() * 60.0
@@ -339,7 +339,7 @@ pub fn white_avar(arw_deg_per_sqrt_s: f64, tau_s: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fog_data::stats::quantization_step;
+    use crate::stats::quantization_step;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};

@@ -21,6 +21,8 @@ use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
 
+mod identify;
+
 /// Simulated open-loop FOG, thermal chamber and rate table.
 #[derive(Parser)]
 #[command(version, about, after_help = AFTER_HELP)]
@@ -37,6 +39,14 @@ enum Command {
     /// Generate simulated data.
     #[command(subcommand)]
     Generate(Generate),
+    /// Identify a twin of a measured gyro: the simulator's parameters fitted to its data (a rate
+    /// table and/or a stream or static log), the effects the twin lacks named and fitted on the
+    /// training data, and its fidelity on the held-out last third before and after. Writes a unit
+    /// file that `generate paper|stream --unit FILE` simulates.
+    ///
+    /// Example: firmware-sim identify --points points.csv --stream s.csv --out unit.json --json
+    /// id.json
+    Identify(identify::IdentifyArgs),
     /// Replay a stream through the firmware evaluator (host build): compensated rate, predicted
     /// standard deviation and status per sample, and the scores against the reference.
     ///
@@ -585,6 +595,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 }
             }
         }
+        Command::Identify(args) => identify::identify_command(args, flags),
         Command::Replay {
             input,
             out,

@@ -1,6 +1,5 @@
-//! The one rule by which causes are chosen, for the diagnosis of a residual
-//! ([`crate::analysis::diagnose`]) and for the simulator's twin of a measured gyro
-//! ([`crate::analysis::twin`]) alike: best subset.
+//! The one rule by which causes are chosen, for the trainer's diagnosis of a residual and for the
+//! bench's twin of a measured gyro alike: best subset.
 //!
 //! Real logs mix effects, and mixed effects can imitate a third; adding causes one at a time would
 //! lock in the imitation. So for one, two, then at most [`MAX_CAUSES`] causes, every design of that
