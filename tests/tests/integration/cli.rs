@@ -338,7 +338,7 @@ fn the_same_inputs_and_seed_give_the_same_bytes() {
             "investigate",
             "--points",
             &p("points.csv"),
-            "--train-stream",
+            "--stream",
             &p("a.csv"),
             "--valid-stream",
             &p("b.csv"),

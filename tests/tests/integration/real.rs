@@ -49,14 +49,10 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
         let args = [
             &[
                 "investigate",
-                "--train-stream",
+                "--stream",
                 &imu,
-                "--train-window",
-                ":2400",
-                "--valid-stream",
-                &imu,
-                "--valid-window",
-                "2400:",
+                "--hold-out-from",
+                "2400",
                 "--scale-factor",
                 "1",
                 "--map",

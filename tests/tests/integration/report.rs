@@ -43,7 +43,7 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
             "report",
             "--points",
             points,
-            "--train-stream",
+            "--stream",
             &p("train.csv"),
             "--valid-stream",
             &p("valid.csv"),

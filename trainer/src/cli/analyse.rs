@@ -15,7 +15,7 @@ use fog_terminal::schema;
 use serde::Serialize;
 
 use super::inputs::{
-    FitOptions, Input, MethodArg, ModelInput, Runs, load_points, load_runs, load_stream,
+    FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_points, load_runs, load_stream,
 };
 use super::text::{causes_text, render_diagnosis};
 use crate::analysis::capacity;
@@ -53,18 +53,15 @@ pub(super) struct InvestigateArgs {
     runs: Runs,
     #[command(flatten)]
     fit: FitOptions,
-    /// Stream the extension is fitted on (and the static model, without --points).
+    /// The stream or log the extension fits on (and the static model, without --points); its
+    /// last third in time is held out unless --hold-out-from or --valid-stream says otherwise.
     #[arg(long)]
-    train_stream: PathBuf,
-    /// Use only this part of the training stream: START:END, s from its first sample.
+    stream: PathBuf,
+    /// Use only this part of each log: START:END, s from its first sample (either end open).
     #[arg(long)]
-    train_window: Option<Window>,
-    /// Held-out stream: diagnosed and scored.
-    #[arg(long)]
-    valid_stream: PathBuf,
-    /// Use only this part of the held-out stream: START:END, s from its first sample.
-    #[arg(long)]
-    valid_window: Option<Window>,
+    window: Option<Window>,
+    #[command(flatten)]
+    held_out: HeldOut,
     /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
     #[arg(long, default_value = "auto")]
     features: String,
@@ -186,10 +183,9 @@ pub(super) fn investigate_command(
         input,
         runs,
         fit,
-        train_stream,
-        train_window,
-        valid_stream,
-        valid_window,
+        stream,
+        window,
+        held_out,
         features,
         out,
         out_static,
@@ -203,7 +199,8 @@ pub(super) fn investigate_command(
         .chain(&input.runs)
         .map(PathBuf::as_path)
         .collect();
-    inputs.extend([train_stream.as_path(), valid_stream.as_path()]);
+    inputs.push(&stream);
+    inputs.extend(held_out.valid_stream.as_deref());
     inputs.extend(input.unit.channels.as_deref());
     for o in out.iter().chain(&out_static).chain(&json) {
         ensure_not_input(o, &inputs)?;
@@ -213,21 +210,26 @@ pub(super) fn investigate_command(
         list => Some(extend::parse_features(list)?),
     };
     let Some(channels) = input.unit.load()? else {
-        let train = load_stream(
-            &train_stream,
-            &input.maps.list,
-            (train_window, &input.exclude.list),
-            &console,
-        )?;
-        let valid = load_stream(
-            &valid_stream,
-            &input.maps.list,
-            (valid_window, &input.exclude.list),
-            &console,
-        )?;
+        let load = |path: &Path| {
+            load_stream(
+                path,
+                &input.maps.list,
+                (window, &input.exclude.list),
+                &console,
+            )
+        };
+        let whole = load(&stream)?;
+        let (train, valid) = match &held_out.valid_stream {
+            Some(v) => (whole, load(v)?),
+            None => {
+                let (train, valid, split_s) = held_out.split(&whole)?;
+                console.result(&format!("held out: {}", held_out.said(&stream, split_s)));
+                (train, valid)
+            }
+        };
         let (inv, blobs) = investigate_one(
             &input,
-            (&train_stream, train, valid),
+            (&stream, train, valid),
             (&fit, asked.as_deref()),
             &console,
         )?;
@@ -242,7 +244,7 @@ pub(super) fn investigate_command(
         }
         return Ok(());
     };
-    let load = |path: &Path, window| {
+    let load = |path: &Path| {
         load_unit_log(
             path,
             &channels,
@@ -251,10 +253,22 @@ pub(super) fn investigate_command(
             &console,
         )
     };
-    let (train, valid) = (
-        load(&train_stream, train_window)?,
-        load(&valid_stream, valid_window)?,
-    );
+    let whole = load(&stream)?;
+    let (train, valid): (Vec<Stream>, Vec<Stream>) = match &held_out.valid_stream {
+        Some(v) => (whole, load(v)?),
+        None => {
+            let mut parts = (Vec::new(), Vec::new());
+            for s in &whole {
+                let (train, valid, split_s) = held_out.split(s)?;
+                if parts.0.is_empty() {
+                    console.result(&format!("held out: {}", held_out.said(&stream, split_s)));
+                }
+                parts.0.push(train);
+                parts.1.push(valid);
+            }
+            parts
+        }
+    };
     let mut each = Vec::new();
     for (k, ch) in channels.list.iter().enumerate() {
         let console = console.channel(
@@ -269,7 +283,7 @@ pub(super) fn investigate_command(
         );
         let one = investigate_one(
             &input.for_channel(&channels, k)?,
-            (&train_stream, train[k].clone(), valid[k].clone()),
+            (&stream, train[k].clone(), valid[k].clone()),
             (&fit, asked.as_deref()),
             &console,
         )

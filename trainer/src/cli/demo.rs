@@ -122,7 +122,7 @@ pub(super) fn steps(dir: &Path) -> Vec<Step> {
     let data = [
         "--points",
         &points,
-        "--train-stream",
+        "--stream",
         &train,
         "--valid-stream",
         &valid,

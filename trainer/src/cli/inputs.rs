@@ -213,6 +213,62 @@ pub(super) fn load_stream(
     fog_terminal::log::load_log(path, maps, (window, exclude), console)
 }
 
+/// Where a command's held-out data are, named one way for every command that scores on data it
+/// did not fit (`investigate`, `report`): the later part of the training log itself, or a log of
+/// its own.
+#[derive(Args, Clone)]
+pub(super) struct HeldOut {
+    /// Hold out --stream's log from this time on, s from its first sample used (default: its last
+    /// third in time): the part before fits, the part from it on is scored, forward in time.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        requires = "stream",
+        conflicts_with = "valid_stream"
+    )]
+    pub(super) hold_out_from: Option<f64>,
+    /// Hold out a log of its own (another power-on, another day): scored, never fitted; all of
+    /// --stream's log fits. --window and --exclude apply to both.
+    #[arg(long, requires = "stream")]
+    pub(super) valid_stream: Option<PathBuf>,
+}
+
+impl HeldOut {
+    /// The parts of `stream` (the training log, all of it read) before and from the hold-out
+    /// time, and that time (s from its first sample).
+    pub(super) fn split(&self, stream: &Stream) -> anyhow::Result<(Stream, Stream, f64)> {
+        let t0 = stream.time_s.first().copied().unwrap_or(0.0);
+        let t1 = stream.time_s.last().copied().unwrap_or(t0);
+        let split = self.hold_out_from.unwrap_or((t1 - t0) * 2.0 / 3.0);
+        anyhow::ensure!(
+            split > 0.0 && split < t1 - t0,
+            "--hold-out-from {split} s: the stream runs from 0 to {:.0} s, so nothing would be \
+             left to fit on or to hold out",
+            t1 - t0
+        );
+        let before = stream.window(Window {
+            start_s: None,
+            end_s: Some(split),
+        });
+        let after = stream.window(Window {
+            start_s: Some(split),
+            end_s: None,
+        });
+        Ok((before, after, split))
+    }
+
+    /// What is held out, in words, for a log `path` split at `split_s`.
+    pub(super) fn said(&self, path: &Path, split_s: f64) -> String {
+        match self.hold_out_from {
+            Some(_) => format!("{} from {split_s:.0} s on", path.display()),
+            None => format!(
+                "{}'s last third in time, from {split_s:.0} s on",
+                path.display()
+            ),
+        }
+    }
+}
+
 #[derive(Args, Clone)]
 pub(super) struct FitOptions {
     /// Random optimizer starts, besides the paper's (all log-hyperparameters 0) and a

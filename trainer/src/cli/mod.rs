@@ -73,11 +73,11 @@ enum Command {
     /// Static fit → replay on the held-out stream → diagnosis → extended fit on the points and the
     /// training stream → replay on the held-out stream → gain.
     ///
-    /// Example: trainer investigate --points p.csv --train-stream a.csv --valid-stream b.csv --json
+    /// Example: trainer investigate --points p.csv --stream a.csv --valid-stream b.csv --json
     /// i.json
     ///
-    /// Example (one static log, forward in time): trainer investigate --train-stream imu.tsv
-    /// --train-window :2400 --valid-stream imu.tsv --valid-window 2400: --scale-factor 1 --map …
+    /// Example (one static log, forward in time): trainer investigate --stream imu.tsv
+    /// --hold-out-from 2400 --scale-factor 1 --map …
     Investigate(analyse::InvestigateArgs),
     /// Size and static memory of a model blob on the firmware, with the formula.
     ///
@@ -110,8 +110,8 @@ enum Command {
     /// simulated gyro with a hidden thermal-rate drift (the main job's data, written to
     /// OUT/data).
     ///
-    /// Example: trainer report --points points.csv --train-stream train.csv --valid-stream
-    /// valid.csv --out report
+    /// Example: trainer report --points points.csv --stream train.csv --valid-stream valid.csv
+    /// --out report
     Report(report::ReportArgs),
     /// Our figures beside the reference paper's: LOO, leave-one-temperature-out, Fig. 2, Q-Q.
     ///

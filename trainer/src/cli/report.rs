@@ -8,7 +8,7 @@ use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::ensure_not_input;
 
 use super::demo;
-use super::inputs::{FitOptions, ModelInput, load_stream};
+use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
 use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
 use crate::report;
 use fog_data::channels::{Channels, Read};
@@ -21,24 +21,16 @@ pub(super) struct ReportArgs {
     input: ModelInput,
     #[command(flatten)]
     fit: FitOptions,
-    /// One stream or log: its first two thirds in time fit (the extension, and the static model
-    /// without --points), its last third is held out (or from --hold-out-from on). A static log
-    /// needs --scale-factor.
-    #[arg(long, conflicts_with_all = ["train_stream", "valid_stream"])]
+    /// The stream or log the extension fits on (and the static model, without --points); its
+    /// last third in time is held out unless --hold-out-from or --valid-stream says otherwise. A
+    /// static log needs --scale-factor.
+    #[arg(long)]
     stream: Option<PathBuf>,
-    /// With --stream: hold out the part from this time on, s from the first sample used (default:
-    /// its last third); the part before it fits.
-    #[arg(long, requires = "stream", value_name = "SECONDS")]
-    hold_out_from: Option<f64>,
-    /// Use only this part of each stream: START:END, s from its first sample (either end open).
+    /// Use only this part of each log: START:END, s from its first sample (either end open).
     #[arg(long)]
     window: Option<Window>,
-    /// Stream the extension is fitted on.
-    #[arg(long, requires = "valid_stream")]
-    train_stream: Option<PathBuf>,
-    /// Held-out stream: replayed, diagnosed and scored.
-    #[arg(long, requires = "train_stream")]
-    valid_stream: Option<PathBuf>,
+    #[command(flatten)]
+    held_out: HeldOut,
     /// Directory for report.html and the figures (created if missing).
     #[arg(long, visible_alias = "out-dir")]
     out: PathBuf,
@@ -50,34 +42,32 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         input,
         fit,
         stream,
-        hold_out_from,
         window,
-        train_stream,
-        valid_stream,
+        held_out,
         out: out_dir,
     } = args;
     let console = Console::new(flags, None);
     if let Some(channels) = input.unit.load()? {
-        let files = match (stream, train_stream, valid_stream) {
-            (Some(s), _, _) => Files::One(s),
-            (None, Some(a), Some(b)) => Files::Two(a, b),
+        let files = match (stream, held_out.valid_stream.clone()) {
+            (Some(a), Some(b)) => Files::Two(a, b),
+            (Some(s), None) => Files::One(s),
             _ if input.points.is_some() => Files::None,
             _ => anyhow::bail!(
-                "--channels names a unit's files: give them (--points, --stream or \
-                 --train-stream and --valid-stream)"
+                "--channels names a unit's files: give them (--points, --stream, and \
+                 --valid-stream for a held-out log of its own)"
             ),
         };
         return report_unit(
             (&input, &channels),
             (&fit, files),
-            (window, hold_out_from),
+            (window, &held_out),
             &out_dir,
             &console,
         );
     }
-    let (input, files) = match (stream, train_stream, valid_stream) {
-        (Some(s), _, _) => (input, Files::One(s)),
-        (None, Some(a), Some(b)) => (input, Files::Two(a, b)),
+    let (input, files) = match (stream, held_out.valid_stream.clone()) {
+        (Some(a), Some(b)) => (input, Files::Two(a, b)),
+        (Some(s), None) => (input, Files::One(s)),
         _ if input.points.is_some() => (input, Files::None),
         _ => {
             let (input, a, b) = demo::simulated(&out_dir.join("data"), &console)?;
@@ -115,7 +105,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             summaries.push(stream_summary(&path, &input.maps)?);
             let parts = (window, input.exclude.list.as_slice());
             let whole = load_stream(&path, &input.maps.list, parts, &console)?;
-            let (train, valid, split_s) = report::split(&whole, hold_out_from)?;
+            let (train, valid, split_s) = held_out.split(&whole)?;
             let train = [(path.as_path(), train)];
             let points = input.static_points(&train, false)?;
             let rebuild =
@@ -131,13 +121,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 points,
                 &train[0].1,
                 valid,
-                match hold_out_from {
-                    Some(_) => format!("{} from {split_s:.0} s on", path.display()),
-                    None => format!(
-                        "{}'s last third in time, from {split_s:.0} s on",
-                        path.display()
-                    ),
-                },
+                held_out.said(&path, split_s),
                 (&gp, &rebuild),
                 &bar,
             )?
@@ -190,7 +174,7 @@ enum Files {
 fn report_unit(
     (input, channels): (&ModelInput, &Channels),
     (fit, files): (&FitOptions, Files),
-    (window, hold_out_from): (Option<Window>, Option<f64>),
+    (window, held_out): (Option<Window>, &HeldOut),
     out_dir: &Path,
     console: &Console,
 ) -> anyhow::Result<()> {
@@ -242,7 +226,7 @@ fn report_unit(
                 )?
             }
             (Files::One(path), [(_, streams)]) => {
-                let (train, valid, split_s) = report::split(&streams[k], hold_out_from)?;
+                let (train, valid, split_s) = held_out.split(&streams[k])?;
                 let train = [(path.as_path(), train)];
                 let points = own.static_points(&train, false)?;
                 let rebuild =
@@ -259,7 +243,7 @@ fn report_unit(
                     points,
                     &train[0].1,
                     valid,
-                    format!("{} from {split_s:.0} s on", path.display()),
+                    held_out.said(path, split_s),
                     (&gp, &rebuild),
                     &bar,
                 )?

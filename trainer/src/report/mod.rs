@@ -10,7 +10,7 @@ use firmware_core::units::{DPH_PER_DPS, SECONDS_PER_HOUR};
 use fog_data::cause::Cause;
 use fog_data::replay::{self, Compensated};
 use fog_data::stats::Line;
-use fog_data::stream::{Stream, Window};
+use fog_data::stream::Stream;
 use fog_terminal::io::write_atomically;
 use std::path::{Path, PathBuf};
 
@@ -182,29 +182,6 @@ fn min(v: &[f64]) -> f64 {
 
 fn max(v: &[f64]) -> f64 {
     v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-}
-
-/// The parts of `stream` before and from `from_s` (s from its first sample; default two thirds of
-/// its time), and where it was cut.
-pub fn split(stream: &Stream, from_s: Option<f64>) -> anyhow::Result<(Stream, Stream, f64)> {
-    let t0 = stream.time_s.first().copied().unwrap_or(0.0);
-    let t1 = stream.time_s.last().copied().unwrap_or(t0);
-    let split = from_s.unwrap_or((t1 - t0) * 2.0 / 3.0);
-    anyhow::ensure!(
-        split > 0.0 && split < t1 - t0,
-        "--hold-out-from {split} s: the stream runs from 0 to {:.0} s, so nothing would be left \
-         to fit on or to hold out",
-        t1 - t0
-    );
-    let before = stream.window(Window {
-        start_s: None,
-        end_s: Some(split),
-    });
-    let after = stream.window(Window {
-        start_s: Some(split),
-        end_s: None,
-    });
-    Ok((before, after, split))
 }
 
 /// A report on a rate table and streams: `train` fits the extension, `valid` is held out;

@@ -110,7 +110,7 @@ fn a_malformed_command_line_exits_two() {
             "--group",
             "g",
             "--offsets",
-            "--train-stream",
+            "--stream",
             "a.csv",
             "--valid-stream",
             "b.csv",
@@ -426,7 +426,7 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
             "--group",
             "half_sweep",
             "--offsets",
-            "--train-stream",
+            "--stream",
             "a.csv",
             "--valid-stream",
             "b.csv",
@@ -458,6 +458,54 @@ fn run_is_refused_by_a_command_that_does_not_pool_runs_before_anything_is_read()
         String::from_utf8_lossy(&out.stderr).contains("unexpected argument '--run'"),
         "{}",
         String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!dir.path().join("r").exists());
+}
+
+/// Held-out data are named one way: part of `--stream`'s log, or a log of its own, never both,
+/// and never without the log they are held out of; refused as the command line is read.
+#[test]
+fn held_out_data_are_named_one_way_and_checked_before_anything_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let refused = |args: &[&str], says: &str| {
+        let out = trainer(args, dir.path());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains(says), "{stderr}");
+    };
+    refused(
+        &[
+            "investigate",
+            "--stream",
+            "a.csv",
+            "--hold-out-from",
+            "60",
+            "--valid-stream",
+            "b.csv",
+        ],
+        "cannot be used with",
+    );
+    refused(
+        &[
+            "report",
+            "--points",
+            "p.csv",
+            "--hold-out-from",
+            "60",
+            "--out",
+            "r",
+        ],
+        "--stream",
+    );
+    refused(
+        &[
+            "investigate",
+            "--train-stream",
+            "a.csv",
+            "--valid-stream",
+            "b.csv",
+        ],
+        "unexpected argument '--train-stream'",
     );
     assert!(!dir.path().join("r").exists());
 }
