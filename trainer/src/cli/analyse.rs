@@ -218,14 +218,14 @@ pub(super) fn investigate_command(
                 &console,
             )
         };
-        let whole = load(&stream)?;
-        let (train, valid) = match &held_out.valid_stream {
-            Some(v) => (whole, load(v)?),
-            None => {
-                let (train, valid, split_s) = held_out.split(&whole)?;
-                console.result(&format!("held out: {}", held_out.said(&stream, split_s)));
-                (train, valid)
-            }
+        let (train, valid) = held_out.parts(
+            (&stream, vec![load(&stream)?]),
+            |v| Ok(vec![load(v)?]),
+            &console,
+        )?;
+        let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next())
+        else {
+            anyhow::bail!("{}: no stream read", stream.display());
         };
         let (inv, blobs) = investigate_one(
             &input,
@@ -253,22 +253,7 @@ pub(super) fn investigate_command(
             &console,
         )
     };
-    let whole = load(&stream)?;
-    let (train, valid): (Vec<Stream>, Vec<Stream>) = match &held_out.valid_stream {
-        Some(v) => (whole, load(v)?),
-        None => {
-            let mut parts = (Vec::new(), Vec::new());
-            for s in &whole {
-                let (train, valid, split_s) = held_out.split(s)?;
-                if parts.0.is_empty() {
-                    console.result(&format!("held out: {}", held_out.said(&stream, split_s)));
-                }
-                parts.0.push(train);
-                parts.1.push(valid);
-            }
-            parts
-        }
-    };
+    let (train, valid) = held_out.parts((&stream, load(&stream)?), load, &console)?;
     let mut each = Vec::new();
     for (k, ch) in channels.list.iter().enumerate() {
         let console = console.channel(

@@ -257,6 +257,30 @@ impl HeldOut {
         Ok((before, after, split))
     }
 
+    /// The training and held-out parts of a log (one stream per channel): `whole`, the training
+    /// log `path` as read, split at the hold-out time, or all of it beside the held-out log that
+    /// `load` reads. Where the log is split, where is said in one line.
+    pub(super) fn parts(
+        &self,
+        (path, whole): (&Path, Vec<Stream>),
+        load: impl FnOnce(&Path) -> anyhow::Result<Vec<Stream>>,
+        console: &Console,
+    ) -> anyhow::Result<(Vec<Stream>, Vec<Stream>)> {
+        if let Some(v) = &self.valid_stream {
+            return Ok((whole, load(v)?));
+        }
+        let mut parts = (Vec::new(), Vec::new());
+        for s in &whole {
+            let (train, valid, split_s) = self.split(s)?;
+            if parts.0.is_empty() {
+                console.result(&format!("held out: {}", self.said(path, split_s)));
+            }
+            parts.0.push(train);
+            parts.1.push(valid);
+        }
+        Ok(parts)
+    }
+
     /// What is held out, in words, for a log `path` split at `split_s`.
     pub(super) fn said(&self, path: &Path, split_s: f64) -> String {
         match self.hold_out_from {
