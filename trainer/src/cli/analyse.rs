@@ -218,7 +218,7 @@ pub(super) fn investigate_command(
                 &console,
             )
         };
-        let (train, valid) = held_out.parts(
+        let (train, valid, _) = held_out.parts(
             (&stream, vec![load(&stream)?]),
             |v| Ok(vec![load(v)?]),
             &console,
@@ -253,7 +253,7 @@ pub(super) fn investigate_command(
             &console,
         )
     };
-    let (train, valid) = held_out.parts((&stream, load(&stream)?), load, &console)?;
+    let (train, valid, _) = held_out.parts((&stream, load(&stream)?), load, &console)?;
     let mut each = Vec::new();
     for (k, ch) in channels.list.iter().enumerate() {
         let console = console.channel(

@@ -257,28 +257,30 @@ impl HeldOut {
         Ok((before, after, split))
     }
 
-    /// The training and held-out parts of a log (one stream per channel): `whole`, the training
-    /// log `path` as read, split at the hold-out time, or all of it beside the held-out log that
-    /// `load` reads. Where the log is split, where is said in one line.
+    /// The training and held-out parts of a log (one stream per channel), and what is held out
+    /// in words: `whole`, the training log `path` as read, split at the hold-out time (said in
+    /// one line), or all of it beside the held-out log that `load` reads.
     pub(super) fn parts(
         &self,
         (path, whole): (&Path, Vec<Stream>),
         load: impl FnOnce(&Path) -> anyhow::Result<Vec<Stream>>,
         console: &Console,
-    ) -> anyhow::Result<(Vec<Stream>, Vec<Stream>)> {
+    ) -> anyhow::Result<(Vec<Stream>, Vec<Stream>, String)> {
         if let Some(v) = &self.valid_stream {
-            return Ok((whole, load(v)?));
+            let said = format!("all of {}, a run of its own", v.display());
+            return Ok((whole, load(v)?, said));
         }
-        let mut parts = (Vec::new(), Vec::new());
+        let (mut train, mut valid, mut said) = (Vec::new(), Vec::new(), String::new());
         for s in &whole {
-            let (train, valid, split_s) = self.split(s)?;
-            if parts.0.is_empty() {
-                console.result(&format!("held out: {}", self.said(path, split_s)));
+            let (before, after, split_s) = self.split(s)?;
+            if said.is_empty() {
+                said = self.said(path, split_s);
+                console.result(&format!("held out: {said}"));
             }
-            parts.0.push(train);
-            parts.1.push(valid);
+            train.push(before);
+            valid.push(after);
         }
-        Ok(parts)
+        Ok((train, valid, said))
     }
 
     /// What is held out, in words, for a log `path` split at `split_s`.

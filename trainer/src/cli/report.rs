@@ -48,9 +48,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     } = args;
     let console = Console::new(flags, None);
     if let Some(channels) = input.unit.load()? {
-        let files = match (stream, held_out.valid_stream.clone()) {
-            (Some(a), Some(b)) => Files::Two(a, b),
-            (Some(s), None) => Files::One(s),
+        let files = match stream {
+            Some(s) => Files::Logs(s, held_out),
             _ if input.points.is_some() => Files::None,
             _ => anyhow::bail!(
                 "--channels names a unit's files: give them (--points, --stream, and \
@@ -59,25 +58,29 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         };
         return report_unit(
             (&input, &channels),
-            (&fit, files),
-            (window, &held_out),
+            (&fit, files, window),
             &out_dir,
             &console,
         );
     }
-    let (input, files) = match (stream, held_out.valid_stream.clone()) {
-        (Some(a), Some(b)) => (input, Files::Two(a, b)),
-        (Some(s), None) => (input, Files::One(s)),
+    let (input, files) = match stream {
+        Some(s) => (input, Files::Logs(s, held_out)),
         _ if input.points.is_some() => (input, Files::None),
         _ => {
             let (input, a, b) = demo::simulated(&out_dir.join("data"), &console)?;
-            (input, Files::Two(a, b))
+            let held_out = HeldOut {
+                hold_out_from: None,
+                valid_stream: Some(b),
+            };
+            (input, Files::Logs(a, held_out))
         }
     };
     let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
     match &files {
-        Files::One(s) => inputs.push(s),
-        Files::Two(a, b) => inputs.extend([a.as_path(), b.as_path()]),
+        Files::Logs(s, held_out) => {
+            inputs.push(s);
+            inputs.extend(held_out.valid_stream.as_deref());
+        }
         Files::None => {}
     }
     let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);
@@ -101,19 +104,23 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 &bar,
             )?
         }
-        Files::One(path) => {
+        Files::Logs(path, held_out) => {
             summaries.push(stream_summary(&path, &input.maps)?);
+            if let Some(v) = &held_out.valid_stream {
+                summaries.push(stream_summary(v, &input.maps)?);
+            }
             let parts = (window, input.exclude.list.as_slice());
-            let whole = load_stream(&path, &input.maps.list, parts, &console)?;
-            let (train, valid, split_s) = held_out.split(&whole)?;
+            let load = |p: &Path| Ok(vec![load_stream(p, &input.maps.list, parts, &console)?]);
+            let (train, valid, said) = held_out.parts((&path, load(&path)?), load, &console)?;
+            let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next())
+            else {
+                anyhow::bail!("{}: no stream read", path.display());
+            };
             let train = [(path.as_path(), train)];
             let points = input.static_points(&train, false)?;
             let rebuild =
                 |part: &Stream| input.static_points(&[(path.as_path(), part.clone())], false);
-            let (kind, source) = match &input.points {
-                Some(p) => (report::ReportKind::TableAndStream, p.clone()),
-                None => (report::ReportKind::Log, path.clone()),
-            };
+            let (kind, source) = kind_and_source(input.points.as_deref(), &path, &held_out);
             report::with_streams(
                 &source,
                 kind,
@@ -121,32 +128,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 points,
                 &train[0].1,
                 valid,
-                held_out.said(&path, split_s),
-                (&gp, &rebuild),
-                &bar,
-            )?
-        }
-        Files::Two(a, b) => {
-            summaries.push(stream_summary(&a, &input.maps)?);
-            summaries.push(stream_summary(&b, &input.maps)?);
-            let parts = (window, input.exclude.list.as_slice());
-            let train = [(
-                a.as_path(),
-                load_stream(&a, &input.maps.list, parts, &console)?,
-            )];
-            let valid = load_stream(&b, &input.maps.list, parts, &console)?;
-            let points = input.static_points(&train, false)?;
-            let rebuild =
-                |part: &Stream| input.static_points(&[(a.as_path(), part.clone())], false);
-            let source = input.points.clone().unwrap_or_else(|| a.clone());
-            report::with_streams(
-                &source,
-                report::ReportKind::Full,
-                summaries,
-                points,
-                &train[0].1,
-                valid,
-                format!("all of {}, a run of its own", b.display()),
+                said,
                 (&gp, &rebuild),
                 &bar,
             )?
@@ -163,25 +145,41 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
 enum Files {
     /// None: a rate table alone.
     None,
-    /// One stream or log, split in time.
-    One(PathBuf),
-    /// A training stream and a held-out one.
-    Two(PathBuf, PathBuf),
+    /// A training log, and where its held-out data are.
+    Logs(PathBuf, HeldOut),
+}
+
+/// What a report on `path` held out as `held_out` says it is, and the file it names as its
+/// source: a table beside a log, a log alone, or a training log beside a held-out one.
+fn kind_and_source(
+    points: Option<&Path>,
+    path: &Path,
+    held_out: &HeldOut,
+) -> (report::ReportKind, PathBuf) {
+    match (points, &held_out.valid_stream) {
+        (_, Some(_)) => (
+            report::ReportKind::Full,
+            points.unwrap_or(path).to_path_buf(),
+        ),
+        (Some(p), None) => (report::ReportKind::TableAndStream, p.to_path_buf()),
+        (None, None) => (report::ReportKind::Log, path.to_path_buf()),
+    }
 }
 
 /// `trainer report --channels`: every channel of a unit's files analysed as one channel's report
 /// analyses its data (the logs read once), on one page (`report::unit`).
 fn report_unit(
     (input, channels): (&ModelInput, &Channels),
-    (fit, files): (&FitOptions, Files),
-    (window, held_out): (Option<Window>, &HeldOut),
+    (fit, files, window): (&FitOptions, Files, Option<Window>),
     out_dir: &Path,
     console: &Console,
 ) -> anyhow::Result<()> {
     let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
     match &files {
-        Files::One(s) => inputs.push(s),
-        Files::Two(a, b) => inputs.extend([a.as_path(), b.as_path()]),
+        Files::Logs(s, held_out) => {
+            inputs.push(s);
+            inputs.extend(held_out.valid_stream.as_deref());
+        }
         Files::None => {}
     }
     inputs.push(&channels.path);
@@ -200,22 +198,25 @@ fn report_unit(
     if let Some(p) = &input.points {
         add(p, Read::Table)?;
     }
-    let logs: Vec<(PathBuf, Vec<Stream>)> = match &files {
-        Files::None => Vec::new(),
-        Files::One(s) => vec![(s.clone(), load(s)?)],
-        Files::Two(a, b) => vec![(a.clone(), load(a)?), (b.clone(), load(b)?)],
+    let held = match &files {
+        Files::None => None,
+        Files::Logs(path, held_out) => {
+            add(path, Read::Log)?;
+            if let Some(v) = &held_out.valid_stream {
+                add(v, Read::Log)?;
+            }
+            let parts = held_out.parts((path, load(path)?), load, console)?;
+            Some((path, held_out, parts))
+        }
     };
-    for (path, _) in &logs {
-        add(path, Read::Log)?;
-    }
     let bar = console.bar(0);
     let gp = fit.gp();
     let mut pages = Vec::new();
     for (k, ch) in channels.list.iter().enumerate() {
         bar.set_message(format!("channel {}", ch.name));
         let own = input.for_channel(channels, k)?;
-        let report = match (&files, logs.as_slice()) {
-            (Files::None, _) => {
+        let report = match &held {
+            None => {
                 let points = own.static_points(&[], false)?;
                 report::table(
                     &own.points.clone().unwrap_or_default(),
@@ -225,47 +226,23 @@ fn report_unit(
                     &bar,
                 )?
             }
-            (Files::One(path), [(_, streams)]) => {
-                let (train, valid, split_s) = held_out.split(&streams[k])?;
-                let train = [(path.as_path(), train)];
+            Some((path, held_out, (train, valid, said))) => {
+                let train = [(path.as_path(), train[k].clone())];
                 let points = own.static_points(&train, false)?;
                 let rebuild =
                     |part: &Stream| own.static_points(&[(path.as_path(), part.clone())], false);
-                let kind = if own.points.is_some() {
-                    report::ReportKind::TableAndStream
-                } else {
-                    report::ReportKind::Log
-                };
                 report::with_streams(
                     path,
-                    kind,
-                    Vec::new(),
-                    points,
-                    &train[0].1,
-                    valid,
-                    held_out.said(path, split_s),
-                    (&gp, &rebuild),
-                    &bar,
-                )?
-            }
-            (Files::Two(a, b), [(_, train), (_, valid)]) => {
-                let train = [(a.as_path(), train[k].clone())];
-                let points = own.static_points(&train, false)?;
-                let rebuild =
-                    |part: &Stream| own.static_points(&[(a.as_path(), part.clone())], false);
-                report::with_streams(
-                    a,
-                    report::ReportKind::Full,
+                    kind_and_source(own.points.as_deref(), path, held_out).0,
                     Vec::new(),
                     points,
                     &train[0].1,
                     valid[k].clone(),
-                    format!("all of {}, a run of its own", b.display()),
+                    said.clone(),
                     (&gp, &rebuild),
                     &bar,
                 )?
             }
-            _ => anyhow::bail!("the unit's files did not load"),
         };
         pages.push(report::unit::ChannelSection {
             name: &ch.name,
