@@ -276,11 +276,22 @@ pub(super) fn investigate_command(
         each.push(one);
     }
     console.result(&unit_gains(&channels, &each));
+    write_unit_investigation(&channels, &each, (out, out_static, json), &inputs)
+}
+
+/// A unit's investigation written: its extended and static unit blobs and its JSON, each where
+/// asked.
+fn write_unit_investigation(
+    channels: &Channels,
+    each: &[(investigate::Investigation, investigate::Blobs)],
+    (out, out_static, json): (Option<PathBuf>, Option<PathBuf>, Option<PathBuf>),
+    inputs: &[&Path],
+) -> anyhow::Result<()> {
     let pack = |pick: fn(&investigate::Blobs) -> &Vec<u8>| {
         let parts: Vec<ChannelBlob<'_>> = channels
             .list
             .iter()
-            .zip(&each)
+            .zip(each)
             .map(|(ch, (_, b))| ChannelBlob {
                 name: &ch.name,
                 quantity: ch.quantity,
@@ -301,7 +312,7 @@ pub(super) fn investigate_command(
             channels: channels
                 .list
                 .iter()
-                .zip(&each)
+                .zip(each)
                 .map(|(ch, (inv, _))| ChannelInvestigation {
                     name: &ch.name,
                     quantity: ch.quantity,
@@ -310,7 +321,7 @@ pub(super) fn investigate_command(
                 })
                 .collect(),
         };
-        write_json(&path, &inputs, schema::INVESTIGATE_UNIT, &report)?;
+        write_json(&path, inputs, schema::INVESTIGATE_UNIT, &report)?;
     }
     Ok(())
 }
