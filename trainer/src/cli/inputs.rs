@@ -350,3 +350,55 @@ impl From<MethodArg> for Method {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A log of `n` samples 1 s apart.
+    fn log(n: usize) -> Stream {
+        let time_s: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        Stream {
+            temp_c: vec![20.0; n],
+            voltage_v: vec![0.0; n],
+            rate_dps: vec![0.0; n],
+            lines: (2..).take(n).collect(),
+            step_s: 1.0,
+            time_issues: Vec::new(),
+            handled: Vec::new(),
+            time_s,
+        }
+    }
+
+    #[test]
+    fn the_log_is_held_out_from_its_last_third_or_the_time_asked_and_never_past_its_end() {
+        let s = log(301);
+        let held = |from| HeldOut {
+            hold_out_from: from,
+            valid_stream: None,
+        };
+        // Default: the last third in time, every sample in exactly one part, in time order.
+        let (train, valid, at) = held(None).split(&s).unwrap();
+        assert_eq!(at, 200.0);
+        assert_eq!(train.len() + valid.len(), s.len());
+        assert!(train.time_s.last().unwrap() < valid.time_s.first().unwrap());
+        assert_eq!(valid.time_s[0], 200.0);
+        assert!(
+            held(None)
+                .said(Path::new("a.csv"), at)
+                .contains("last third")
+        );
+        // Asked: from 60 s on.
+        let (train, valid, at) = held(Some(60.0)).split(&s).unwrap();
+        assert_eq!((at, train.len(), valid.len()), (60.0, 60, 241));
+        assert_eq!(
+            held(Some(60.0)).said(Path::new("a.csv"), at),
+            "a.csv from 60 s on"
+        );
+        // Nothing left to fit on, or nothing to hold out: refused, with the log's span.
+        for from in [0.0, 300.0, 1e4] {
+            let e = held(Some(from)).split(&s).unwrap_err().to_string();
+            assert!(e.contains("runs from 0 to 300 s"), "{e}");
+        }
+    }
+}
