@@ -27,11 +27,13 @@
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use firmware_core::Quantity;
 use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
 use serde::Deserialize;
 
+use crate::autopilot::{Recorded, Sensor};
 use crate::columns::{self, ColumnMap, DataError, Source};
 use crate::stream::{self, Stream};
 
@@ -157,6 +159,9 @@ pub struct Channels {
     pub temperature: Option<Source>,
     /// The channels, in order.
     pub list: Vec<Channel>,
+    /// The sensor of an autopilot's log they are the axes of, read already: its samples are
+    /// taken from there rather than from a CSV's columns.
+    pub recorded: Option<Arc<Sensor>>,
 }
 
 /// A channels file that cannot be used.
@@ -328,6 +333,7 @@ impl Channels {
             time,
             temperature,
             list,
+            recorded: None,
         })
     }
 
@@ -409,6 +415,42 @@ impl Channels {
     /// reference as `rate_dps`), the time checked once and the minutes where the unit was handled
     /// found on any channel and left out of every channel.
     pub fn load_log(&self, path: &Path, maps: &[ColumnMap]) -> anyhow::Result<Vec<Stream>> {
+        if let Some(sensor) = &self.recorded {
+            anyhow::ensure!(
+                maps.is_empty(),
+                "{}: --map renames a CSV's columns; a flight controller's log names its own",
+                path.display()
+            );
+            if path == self.path {
+                return Ok(sensor.streams(&self.references()));
+            }
+            // Another log of the same board (a held-out power-on): its own instance of the same
+            // name, the same device where both say which.
+            let other = Recorded::read(path, &mut |_, _| {})?.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: a CSV, where {}'s sensor {} is held out from a flight controller's log",
+                    path.display(),
+                    self.path.display(),
+                    sensor.name
+                )
+            })?;
+            let [unit] =
+                <[Channels; 1]>::try_from(other.units(std::slice::from_ref(&sensor.name))?)
+                    .map_err(|_| anyhow::anyhow!("one sensor asked, one returned"))?;
+            let theirs = unit.recorded.as_ref().map(|s| s.device_id);
+            anyhow::ensure!(
+                theirs.flatten().is_none()
+                    || sensor.device_id.is_none()
+                    || theirs == Some(sensor.device_id),
+                "{}: its {} is device {}, {}'s is device {}: another sensor",
+                path.display(),
+                sensor.name,
+                theirs.flatten().unwrap_or_default(),
+                self.path.display(),
+                sensor.device_id.unwrap_or_default()
+            );
+            return unit.load_log(path, maps);
+        }
         let mut all = self.shared_maps(maps, Read::Log)?;
         let names: Vec<(String, String)> = (0..self.len())
             .map(|k| (format!("output:{k}"), format!("reference:{k}")))
@@ -452,6 +494,17 @@ impl Channels {
                 handled: handled.clone(),
             })
             .collect())
+    }
+
+    /// Each channel's reference where it is a constant (NaN where it is a column).
+    fn references(&self) -> Vec<f64> {
+        self.list
+            .iter()
+            .map(|ch| match ch.reference {
+                Source::Constant(r) => r,
+                Source::Column { .. } => f64::NAN,
+            })
+            .collect()
     }
 
     /// A loader's error, a missing column named by the channel whose file names it.

@@ -3,8 +3,9 @@
 //!
 //! - [`columns`]: CSV columns found by name or by a `--map`; [`stream`]: a log recorded in time
 //!   order, with its windows and handling; [`blocks`]: its 60 s means; [`channels`]: a sensor
-//!   unit's channels, named once in a channels file. A new kind of log is read here and nowhere
-//!   else.
+//!   unit's channels, named once in a channels file; [`autopilot`]: a flight controller's log (PX4
+//!   ULog, ArduPilot DataFlash), each sensor instance a unit. A new kind of log is read here and
+//!   nowhere else.
 //! - [`replay`]: every sample of a stream through firmware-core's evaluator (the host build of
 //!   the code the gyro runs) and its scores; [`sigma`]: how well a stated σ covers the errors;
 //!   [`stats`]: the few statistics both take.
@@ -18,6 +19,7 @@
 //! functions return.
 
 pub mod allan;
+pub mod autopilot;
 pub mod blocks;
 pub mod cause;
 pub mod channels;

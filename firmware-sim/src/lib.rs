@@ -12,6 +12,7 @@
 //! - [`cli`]: the `firmware-sim` command line, on [`fog_terminal`]'s flags and console as the
 //!   trainer's.
 
+pub mod board;
 pub mod c_replay;
 pub mod cli;
 pub mod flash;

@@ -2,11 +2,12 @@
 //! flags, and the loader that applies them with a `--window` and says in one line what it left
 //! out (once for a unit's channels).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::Args;
 
 use crate::console::Console;
+use fog_data::autopilot::{Format, Recorded, sniff};
 use fog_data::channels::Channels;
 use fog_data::columns::ColumnMap;
 use fog_data::stream::Window;
@@ -32,8 +33,9 @@ pub struct Excludes {
 /// One log and how to read it: the flags of every command that reads one log.
 #[derive(Args, Clone)]
 pub struct LogArgs {
-    /// Stream or static log CSV: time_s,temp_c,voltage_v,rate_dps (rate_dps may be empty where
-    /// unknown).
+    /// Stream or static log: a CSV (time_s,temp_c,voltage_v,rate_dps; rate_dps may be empty
+    /// where unknown), or a flight controller's log (PX4 ULog, ArduPilot DataFlash), told by its
+    /// content.
     #[arg(long)]
     pub stream: PathBuf,
     #[command(flatten)]
@@ -48,19 +50,101 @@ pub struct LogArgs {
     pub unit: UnitArgs,
 }
 
-/// The `--channels` flag of every command that can read a whole sensor unit.
+/// The `--channels` and `--sensor` flags of every command that can read a whole sensor unit.
 #[derive(Args, Clone, Default)]
 pub struct UnitArgs {
     /// A sensor unit's channels file (TOML: each channel's output column, unit and reference; the
     /// shared time and temperature): every channel at once, each with its own model.
     #[arg(long, value_name = "FILE")]
     pub channels: Option<PathBuf>,
+    /// The sensor of a flight controller's log (a PX4 ULog, an ArduPilot DataFlash log) to use:
+    /// gyro0, accel1 (ULog), imu0 (DataFlash); repeatable. Each is a unit whose channels are its
+    /// axes. Default: every sensor the log holds, where the command takes several, else the one.
+    #[arg(long = "sensor", value_name = "NAME", conflicts_with = "channels")]
+    pub sensors: Vec<String>,
 }
 
 impl UnitArgs {
-    /// The channels file, read, where one was given.
-    pub fn load(&self) -> anyhow::Result<Option<Channels>> {
-        Ok(self.channels.as_deref().map(Channels::load).transpose()?)
+    /// The units `stream` is read as: the channels file's, or the sensors of a flight
+    /// controller's log (those named with `--sensor`, else all, each with a temperature); none for
+    /// a CSV of one channel. A flight controller's log is read once here, with a progress bar,
+    /// and what a calibration must be told about it said a line each.
+    pub fn units(&self, stream: Option<&Path>, console: &Console) -> anyhow::Result<Vec<Channels>> {
+        if let Some(c) = &self.channels {
+            return Ok(vec![Channels::load(c)?]);
+        }
+        let Some(stream) = stream else {
+            anyhow::ensure!(
+                self.sensors.is_empty(),
+                "--sensor names a sensor of a flight controller's log (--stream)"
+            );
+            return Ok(Vec::new());
+        };
+        if sniff(stream)? == Format::Csv {
+            anyhow::ensure!(
+                self.sensors.is_empty(),
+                "{}: --sensor names a sensor of a flight controller's log (a PX4 ULog, an \
+                 ArduPilot DataFlash log); this is a CSV (--channels names a CSV's unit)",
+                stream.display()
+            );
+            return Ok(Vec::new());
+        }
+        let bar = console.bar(0);
+        let log = Recorded::read(stream, &mut |at, total| {
+            bar.set_length(total);
+            bar.set_position(at);
+        })?;
+        bar.finish_and_clear();
+        let Some(log) = log else {
+            return Ok(Vec::new());
+        };
+        for note in log.notes() {
+            console.warn(&note);
+        }
+        let units = log.units(&self.sensors)?;
+        let (with, without): (Vec<Channels>, Vec<Channels>) = units
+            .into_iter()
+            .partition(|u| u.recorded.as_ref().is_some_and(|s| !s.temp_c.is_empty()));
+        if !without.is_empty() {
+            let names: Vec<&str> = without
+                .iter()
+                .filter_map(|u| u.recorded.as_ref().map(|s| s.name.as_str()))
+                .collect();
+            anyhow::ensure!(
+                !with.is_empty(),
+                "{}: no sensor with a temperature ({}): nothing to calibrate",
+                stream.display(),
+                names.join(", ")
+            );
+            console.warn(&format!(
+                "{}: skipped {} (no temperature)",
+                stream.display(),
+                names.join(", ")
+            ));
+        }
+        Ok(with)
+    }
+
+    /// The one unit `stream` is read as ([`Self::units`]), where the command takes one: a log of
+    /// several sensors needs `--sensor`.
+    pub fn load(
+        &self,
+        stream: Option<&Path>,
+        console: &Console,
+    ) -> anyhow::Result<Option<Channels>> {
+        let mut units = self.units(stream, console)?;
+        anyhow::ensure!(
+            units.len() <= 1,
+            "{}: {} sensors ({}); this command takes one: name it with --sensor",
+            stream.map_or(String::new(), |s| s.display().to_string()),
+            units.len(),
+            units
+                .iter()
+                .map(|u| u.recorded.as_ref().map_or("?", |s| s.name.as_str()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        Ok(units.pop())
     }
 }
 

@@ -25,6 +25,9 @@ const fn v1(name: &'static str, written_by: &'static str) -> Schema {
     }
 }
 
+/// `firmware-sim generate board --json`: the simulated flight controller's truth.
+pub const BOARD: Schema = v1("sim.board", "firmware-sim generate board --json");
+
 /// `trainer summarize --json`: each file's summary under `files` (a unit's: a list per file of
 /// each channel's).
 pub const SUMMARIZE: Schema = v1("trainer.summarize", "trainer summarize --json");

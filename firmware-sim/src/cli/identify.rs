@@ -75,7 +75,7 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     for o in std::iter::once(&out).chain(&json).chain(&figure) {
         ensure_not_input(o, &inputs)?;
     }
-    if let Some(channels) = unit.load()? {
+    if let Some(channels) = unit.load(stream.as_deref(), &console)? {
         anyhow::ensure!(
             scale_factor.is_none(),
             "--scale-factor is for one channel: a unit's channels give theirs in {}",

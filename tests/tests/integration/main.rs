@@ -1,5 +1,6 @@
 //! Cross-crate integration tests: one binary, one module per capability.
 
+mod autopilot;
 mod c;
 mod cli;
 mod diagnosis;

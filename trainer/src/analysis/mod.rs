@@ -5,8 +5,10 @@
 //! ([`pool`]), and the hidden-effect challenge that measures all of this on the
 //! simulator ([`challenge`]); the size of a model the firmware can hold, chosen on the data
 //! ([`capacity`]), and of a unit's models within a target's budget ([`budget`]); the σ it
-//! states, measured on its own training data ([`uncertainty`]).
+//! states, measured on its own training data ([`uncertainty`]); what the autopilots' cubic costs
+//! against them, held out ([`autopilot`]).
 
+pub mod autopilot;
 pub mod beyond;
 pub mod budget;
 pub mod capacity;

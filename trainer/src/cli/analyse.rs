@@ -127,7 +127,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
     let DiagnoseArgs { model, log, json } = args;
     let console = Console::new(flags, json.as_deref());
     let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
-    if let Some(channels) = log.unit.load()? {
+    if let Some(channels) = log.unit.load(Some(&log.stream), &console)? {
         let streams = log.load_unit(&channels, &console)?;
         let mut all = Vec::new();
         for (name, quantity, blob) in
@@ -209,7 +209,7 @@ pub(super) fn investigate_command(
         "auto" => None,
         list => Some(extend::parse_features(list)?),
     };
-    let Some(channels) = input.unit.load()? else {
+    let Some(channels) = input.unit.load(Some(&stream), &console)? else {
         let load = |path: &Path| {
             load_stream(
                 path,

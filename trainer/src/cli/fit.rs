@@ -22,6 +22,7 @@ use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
+use crate::firmware::autopilot::SensorCubics;
 use crate::firmware::export::{self, Extension};
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
@@ -30,10 +31,12 @@ use fog_data::channels::Channels;
 use fog_terminal::log::load_unit_log;
 
 mod args;
+mod params;
 mod report;
 
 pub(super) use args::FitArgs;
 use args::ServiceArgs;
+use params::{ParamsArgs, beside};
 use report::{
     ChannelFit, ChannelReport, ExtensionReport, FitReport, Inputs, StreamChoice, UnitFitReport,
     print_fit, quantity_words, unit_table,
@@ -68,6 +71,7 @@ struct FitPlan {
     extend: Extend,
     budget: Budget,
     service: ServiceArgs,
+    params: ParamsArgs,
     out: PathBuf,
     json: Option<PathBuf>,
 }
@@ -86,6 +90,7 @@ impl FitPlan {
             features,
             budget,
             service,
+            params,
             out,
             json,
         } = args;
@@ -143,6 +148,7 @@ impl FitPlan {
             extend,
             budget: budget.budget(),
             service,
+            params,
             out,
             json,
         })
@@ -159,18 +165,56 @@ impl FitPlan {
             .collect()
     }
 
-    /// The model (or, with `--channels`, every channel's), checked against the firmware and
-    /// written.
+    /// The model (or, with `--channels` or a flight controller's log, every channel's of each
+    /// unit), checked against the firmware and written; the autopilots' parameters beside.
     fn run(self, flags: ConsoleFlags) -> anyhow::Result<()> {
-        match self.input.unit.load()? {
-            Some(channels) => self.run_unit(&channels, flags),
-            None => self.run_single(flags),
+        let console = Console::new(flags, self.json.as_deref());
+        let first = self.streams.first().map(PathBuf::as_path);
+        let units = self.input.unit.units(first, &console)?;
+        let params: Vec<&PathBuf> = self.params.files().collect();
+        anyhow::ensure!(
+            params.is_empty() || !units.is_empty(),
+            "--px4-params and --ardupilot-params take a sensor's three axes: a unit (a flight \
+             controller's log, or --channels), not one channel"
+        );
+        if units.is_empty() {
+            return self.run_single(&console);
         }
+        let several = units.len() > 1;
+        anyhow::ensure!(
+            !several || self.json.as_deref() != Some(Path::new("-")),
+            "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
+             written beside it), or choose one with --sensor",
+            first.map_or(String::new(), |p| p.display().to_string()),
+            units.len()
+        );
+        let mut inputs = self.inputs();
+        inputs.extend(units.iter().map(|u| u.path.as_path()));
+        for p in &params {
+            ensure_not_input(p, &inputs)?;
+        }
+        let mut cubics = Vec::new();
+        for channels in &units {
+            let name = channels.recorded.as_ref().map(|s| s.name.as_str());
+            let each = |path: &Path| match name.filter(|_| several) {
+                Some(n) => beside(path, n),
+                None => path.to_owned(),
+            };
+            let (out, json) = (each(&self.out), self.json.as_deref().map(each));
+            if several {
+                console.result(&format!(
+                    "{} ({}):",
+                    name.unwrap_or_default(),
+                    channels.sensor_id
+                ));
+            }
+            cubics.extend(self.run_unit(channels, (&out, json.as_deref()), &console)?);
+        }
+        self.params.write(&cubics, &console)
     }
 
     /// One channel: the static model, its extension and its σ, its blob and report.
-    fn run_single(self, flags: ConsoleFlags) -> anyhow::Result<()> {
-        let console = Console::new(flags, self.json.as_deref());
+    fn run_single(self, console: &Console) -> anyhow::Result<()> {
         ensure_not_input(&self.out, &self.inputs())?;
         let streams = self
             .streams
@@ -180,16 +224,16 @@ impl FitPlan {
                     p,
                     &self.input.maps.list,
                     (self.window, &self.input.exclude.list),
-                    &console,
+                    console,
                 )?;
                 Ok((p.as_path(), s))
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let (plans, budgeted) = self.within_budget(&[("the model", &self, &streams)], &console)?;
+        let (plans, budgeted) = self.within_budget(&[("the model", &self, &streams)], console)?;
         let [plan] = plans
             .try_into()
             .map_err(|_| anyhow::anyhow!("one plan per channel"))?;
-        let mut fitted = plan.fit(&streams, &console)?;
+        let mut fitted = plan.fit(&streams, console)?;
         fitted.summary.budget = budgeted;
         if self.budget.is_set() {
             let f = unit::unit_footprint(&fitted.blob)?;
@@ -200,7 +244,7 @@ impl FitPlan {
             write_json(path, &self.inputs(), schema::FIT, &fitted.summary)?;
         }
         print_fit(
-            &console,
+            console,
             &fitted,
             (Some(&self.out), fitted.blob.len()),
             self.input.quantity,
@@ -210,11 +254,15 @@ impl FitPlan {
 
     /// Every channel of a unit's files, each fitted as one channel is, into one blob: the logs read
     /// once (their time and handling checked once for all channels).
-    fn run_unit(self, channels: &Channels, flags: ConsoleFlags) -> anyhow::Result<()> {
-        let console = Console::new(flags, self.json.as_deref());
+    fn run_unit(
+        &self,
+        channels: &Channels,
+        (out, json): (&Path, Option<&Path>),
+        console: &Console,
+    ) -> anyhow::Result<Option<SensorCubics>> {
         let mut inputs = self.inputs();
         inputs.push(&channels.path);
-        ensure_not_input(&self.out, &inputs)?;
+        ensure_not_input(out, &inputs)?;
         let logs = self
             .streams
             .iter()
@@ -224,7 +272,7 @@ impl FitPlan {
                     channels,
                     &self.input.maps.list,
                     (self.window, &self.input.exclude.list),
-                    &console,
+                    console,
                 )
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
@@ -249,7 +297,7 @@ impl FitPlan {
             .zip(&per_channel)
             .map(|(ch, (plan, s))| (ch.name.as_str(), plan, s.as_slice()))
             .collect();
-        let (plans, budgeted) = self.within_budget(&named, &console)?;
+        let (plans, budgeted) = self.within_budget(&named, console)?;
         let mut fitted = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
             let heading = format!(
@@ -280,7 +328,12 @@ impl FitPlan {
         let blob = unit::unit_blob(&channels.sensor_id, &parts)?;
         let footprint = unit::unit_footprint(&blob)?;
         self.check_fitted(&footprint)?;
-        write_atomically(&self.out, &blob)?;
+        let cubics = self
+            .params
+            .asked()
+            .then(|| params::cubics(channels, &per_channel))
+            .transpose()?;
+        write_atomically(out, &blob)?;
         let report = UnitFitReport {
             sensor_id: &channels.sensor_id,
             temperature_c: footprint.temperature_c,
@@ -298,12 +351,13 @@ impl FitPlan {
             blob_bytes: blob.len(),
             footprint: &footprint,
             budget: budgeted,
+            autopilot: cubics.as_ref(),
         };
-        if let Some(path) = &self.json {
+        if let Some(path) = json {
             write_json(path, &inputs, schema::FIT_UNIT, &report)?;
         }
-        console.result(&unit_table(channels, &fitted, &footprint, &self.out));
-        Ok(())
+        console.result(&unit_table(channels, &fitted, &footprint, out));
+        Ok(cubics)
     }
 
     /// The plans of the channels `named` (each with its loaded streams), their models' sizes chosen

@@ -56,7 +56,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
     for out in json.iter().chain(&plot) {
         ensure_not_input(out, &inputs)?;
     }
-    if let Some(channels) = log.unit.load()? {
+    if let Some(channels) = log.unit.load(Some(stream), &console)? {
         return allan_unit(
             (&log, &channels),
             model.as_deref(),

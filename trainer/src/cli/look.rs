@@ -21,7 +21,8 @@ pub(super) struct SummarizeArgs {
     /// Rate-table points CSV.
     #[arg(long, required_unless_present = "stream")]
     points: Option<PathBuf>,
-    /// Stream or static log CSV.
+    /// Stream or static log: a CSV, or a flight controller's log (PX4 ULog, ArduPilot
+    /// DataFlash), each of its sensors summarized as a unit.
     #[arg(long)]
     stream: Option<PathBuf>,
     #[command(flatten)]
@@ -78,22 +79,25 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
     if let Some(out) = &json {
         ensure_not_input(out, &inputs)?;
     }
-    if let Some(channels) = unit.load()? {
+    let units = unit.units(stream.as_deref(), &console)?;
+    if let Some(first) = units.first() {
         anyhow::ensure!(
             scale_factor.is_none(),
             "--scale-factor is for one channel: a unit's channels give theirs in {}",
-            channels.path.display()
+            first.path.display()
         );
         let mut all = Vec::new();
-        if let Some(p) = &points {
-            let each = unit_summaries(p, &channels, &maps, Read::Table)?;
-            console.result(unit_text(&channels, &each).trim_end());
-            all.push(each);
-        }
-        if let Some(s) = &stream {
-            let each = unit_summaries(s, &channels, &maps, Read::Log)?;
-            console.result(unit_text(&channels, &each).trim_end());
-            all.push(each);
+        for channels in &units {
+            if let Some(p) = points.as_ref().filter(|_| channels.recorded.is_none()) {
+                let each = unit_summaries(p, channels, &maps, Read::Table)?;
+                console.result(unit_text(channels, &each).trim_end());
+                all.push(each);
+            }
+            if let Some(s) = &stream {
+                let each = unit_summaries(s, channels, &maps, Read::Log)?;
+                console.result(unit_text(channels, &each).trim_end());
+                all.push(each);
+            }
         }
         if let Some(out) = &json {
             write_json_list(out, &inputs, schema::SUMMARIZE, "files", &all)?;

@@ -10,6 +10,7 @@ use fog_terminal::io::ensure_not_input;
 use super::demo;
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
 use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
+use crate::analysis::autopilot;
 use crate::report;
 use fog_data::channels::{Channels, Read};
 use fog_terminal::log::load_unit_log;
@@ -47,21 +48,27 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         out: out_dir,
     } = args;
     let console = Console::new(flags, None);
-    if let Some(channels) = input.unit.load()? {
-        let files = match stream {
-            Some(s) => Files::Logs(s, held_out),
-            _ if input.points.is_some() => Files::None,
-            _ => anyhow::bail!(
-                "--channels names a unit's files: give them (--points, --stream, and \
-                 --valid-stream for a held-out log of its own)"
-            ),
-        };
-        return report_unit(
-            (&input, &channels),
-            (&fit, files, window),
-            &out_dir,
-            &console,
+    let units = input.unit.units(stream.as_deref(), &console)?;
+    if !units.is_empty() {
+        anyhow::ensure!(
+            stream.is_some() || input.points.is_some(),
+            "--channels names a unit's files: give them (--points, --stream, and --valid-stream \
+             for a held-out log of its own)"
         );
+        // A log of several sensors: a page each, in a folder named for it.
+        let several = units.len() > 1;
+        for channels in &units {
+            let files = match &stream {
+                Some(s) => Files::Logs(s.clone(), held_out.clone()),
+                None => Files::None,
+            };
+            let dir = match channels.recorded.as_ref().filter(|_| several) {
+                Some(sensor) => out_dir.join(&sensor.name),
+                None => out_dir.clone(),
+            };
+            report_unit((&input, channels), (&fit, files, window), &dir, &console)?;
+        }
+        return Ok(());
     }
     let (input, files) = match stream {
         Some(s) => (input, Files::Logs(s, held_out)),
@@ -244,10 +251,23 @@ fn report_unit(
                 )?
             }
         };
+        let cubic = match &held {
+            Some((_, _, (train, valid, _))) if ch.unit.factor().is_some() => {
+                match autopilot::held_out(&train[k], &valid[k]) {
+                    Ok(c) => Some(c),
+                    Err(e) => {
+                        console.warn(&format!("{}: no cubic to compare: {e}", ch.name));
+                        None
+                    }
+                }
+            }
+            _ => None,
+        };
         pages.push(report::unit::ChannelSection {
             name: &ch.name,
             quantity: ch.quantity,
             report,
+            cubic,
         });
     }
     bar.finish_and_clear();

@@ -16,6 +16,7 @@ use fog_terminal::io::write_atomically;
 use super::html::escape;
 use super::plots::{self, ReplaySeries};
 use super::{Report, replay_blocks};
+use crate::analysis::autopilot::CubicFigures;
 use crate::plot::{AllanSeries, CHANNEL_COLOURS};
 use fog_data::allan::Analysis as Allan;
 
@@ -27,6 +28,9 @@ pub struct ChannelSection<'a> {
     pub quantity: Quantity,
     /// Its analysis, as a single channel's report makes it.
     pub report: Report,
+    /// The autopilots' cubic against it, held out (a channel in a physical unit, with a
+    /// held-out part).
+    pub cubic: Option<CubicFigures>,
 }
 
 /// The file of channel `name`'s small multiple, and of its bias against temperature.
@@ -160,6 +164,57 @@ fn figures_table(channels: &[ChannelSection<'_>]) -> String {
     s
 }
 
+/// The table of what the autopilots' cubic costs on each channel, held out: the cubic as PX4's
+/// and ArduPilot's firmware apply it (the project's fit, and the autopilots' scripts' on the same
+/// samples), the GP, the noise of a 60 s mean, the σ the cubic would carry and the verdict;
+/// `None` where no channel has one.
+fn cubic_table(channels: &[ChannelSection<'_>]) -> Option<String> {
+    let mut s = String::from(
+        "<table><tr><th>channel</th><th>cubic (this project)</th><th>cubic (PX4's script)</th>\
+         <th>cubic (ArduPilot's script)</th><th>GP, static</th><th>GP, shipped</th>\
+         <th>noise of a 60 s mean</th><th>the cubic's σ: within ±2σ, σ / RMS</th>\
+         <th>verdict</th></tr>\n",
+    );
+    let mut any = false;
+    for c in channels {
+        let (Some(f), Some(h)) = (&c.cubic, &c.report.held_out) else {
+            continue;
+        };
+        any = true;
+        let (k, u) = (c.quantity.bias_per_unit(), c.quantity.bias_unit());
+        let v = |x: f64| format!("{:.3} {u}", x * k);
+        let both = |all: f64, inside: f64| format!("{:.3} ({:.3}) {u}", all * k, inside * k);
+        let opt = |x: Option<crate::analysis::autopilot::CubicScore>| {
+            x.map_or("—".to_owned(), |s| both(s.rmse_60s, s.rmse_60s_in_range))
+        };
+        let inv = &h.investigation;
+        let causes = crate::analysis::diagnose::joined(&inv.diagnosis.causes);
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
+             <td>{:.0}%, {:.2}</td><td style=\"text-align:left\">{}</td></tr>",
+            escape(c.name),
+            both(f.project.rmse_60s, f.project.rmse_60s_in_range),
+            opt(f.px4_script),
+            opt(f.ardupilot_script),
+            both(
+                inv.static_score.rmse_60s_dps,
+                inv.static_score.rmse_60s_in_range_dps
+            ),
+            both(
+                inv.extended_score.rmse_60s_dps,
+                inv.extended_score.rmse_60s_in_range_dps
+            ),
+            v(f.noise_60s),
+            100.0 * f.project.within_2sigma,
+            f.project.sharpness,
+            escape(&f.verdict(inv.extended_score.rmse_60s_dps, &causes)),
+        );
+    }
+    s.push_str("</table>\n");
+    any.then_some(s)
+}
+
 /// The page: the data as loaded, the table, the small multiples and the Allan figure.
 fn html(
     source: &str,
@@ -194,6 +249,17 @@ fn html(
          means of the error on the held-out part). The ±2σ is the firmware's σ of a 60 s mean; a \
          Gaussian has 95% within it and a median σ about the RMS error.</p>\n",
     );
+    if let Some(table) = cubic_table(channels) {
+        s.push_str(
+            "<h2>The autopilots' cubic, held out</h2>\n<p>What PX4 and ArduPilot apply: a cubic in \
+             the sensor's temperature, clipped to the calibrated range, fitted on the same \
+             training samples. RMS of the held-out 60 s means' error, all of them (and those inside \
+             the calibrated range, where neither the cubic is clipped nor the GP extrapolates); \
+             the cubic's σ is the RMS of its training 60 s residuals, the only σ such a fit can \
+             state.</p>\n",
+        );
+        s.push_str(&table);
+    }
     s.push_str("<div class=\"grid\">\n");
     for (name, svg) in figures {
         let _ = writeln!(

@@ -54,7 +54,10 @@ pub(in crate::cli) struct FitArgs {
     pub(super) budget: BudgetArgs,
     #[command(flatten)]
     pub(super) service: ServiceArgs,
-    /// Model blob to write (firmware-core format; a unit blob with --channels).
+    #[command(flatten)]
+    pub(super) params: super::ParamsArgs,
+    /// Model blob to write (firmware-core format; a unit blob with --channels or a flight
+    /// controller's log, one per sensor beside this name where the log holds several).
     #[arg(long)]
     pub(super) out: PathBuf,
     /// Write the fit summary as JSON here (`-`: stdout, alone).

@@ -170,6 +170,10 @@ pub(super) struct UnitFitReport<'a> {
     /// How the budget was met, where one was given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) budget: Option<budget::Report>,
+    /// The cubic per channel the autopilots' parameters were written from (`--px4-params`,
+    /// `--ardupilot-params`), in the channel's units.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) autopilot: Option<&'a crate::firmware::autopilot::SensorCubics>,
 }
 
 /// One channel of [`UnitFitReport`]: its figures in `units` (the `_dps` fields too).

@@ -1,0 +1,189 @@
+//! An ArduPilot DataFlash log's sensors: every instance `I` of the `IMU` message (`GyrX/Y/Z` in
+//! rad/s, `AccX/Y/Z` in m/s², `T` in °C; older logs' `IMU2`, `IMU3` for instances 1 and 2), read
+//! by `ardupilot-binlog` from the whole messages [`super::framing`] passes on. `TCLR` (the
+//! firmware's own temperature-learning rows) and the raw `GYR`, `ACC` and `BARO` messages are
+//! counted.
+
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+use std::rc::Rc;
+
+use firmware_core::Quantity;
+
+use super::framing::{Filtered, Frame, Framing, read_full};
+use super::{Axis, Collected, Damage, Progress, RecordedError, Sensor, open};
+
+/// A format message's type byte, and its whole length (header included).
+const FMT: u8 = 0x80;
+const FMT_LEN: usize = 89;
+/// The messages read as sensors, and their instance where the name gives it.
+const IMUS: [(&str, u8); 3] = [("IMU", 0), ("IMU2", 1), ("IMU3", 2)];
+/// The messages counted and listed.
+const COUNTED: [&str; 4] = ["TCLR", "GYR", "ACC", "BARO"];
+
+/// What the frames showed: each type's name and length, and how many messages of each.
+#[derive(Default)]
+struct Types {
+    formats: HashMap<u8, (String, usize)>,
+    counts: BTreeMap<String, usize>,
+}
+
+/// DataFlash framing: `A3 95 type`, then the type's declared length less those 3 bytes.
+struct Frames {
+    types: Rc<RefCell<Types>>,
+}
+
+impl Framing for Frames {
+    fn next(&mut self, r: &mut impl std::io::Read) -> Result<Frame, String> {
+        let mut msg = vec![0u8; 3];
+        match read_full(r, &mut msg)? {
+            0 => return Ok(Frame::End),
+            3 => {}
+            n => return Err(format!("a message header cut after {n} of its 3 bytes")),
+        }
+        if msg[..2] != [0xA3, 0x95] {
+            return Err(format!(
+                "no message header (A3 95) but {:02X} {:02X}: the bytes are corrupt from here",
+                msg[0], msg[1]
+            ));
+        }
+        let kind = msg[2];
+        let mut types = self.types.borrow_mut();
+        let (name, len) = match (kind, types.formats.get(&kind)) {
+            (FMT, _) => ("FMT".to_owned(), FMT_LEN),
+            (_, Some((name, len))) => (name.clone(), *len),
+            (_, None) => {
+                return Err(format!(
+                    "a message of type {kind} that no format (FMT) defined before it"
+                ));
+            }
+        };
+        msg.resize(len.max(3), 0);
+        let n = read_full(r, &mut msg[3..])?;
+        if n < len.saturating_sub(3) {
+            return Err(format!(
+                "a {name} message of {len} bytes cut after {}",
+                n + 3
+            ));
+        }
+        if kind == FMT {
+            let ty = msg[3];
+            let length = usize::from(msg[4]);
+            let text = String::from_utf8_lossy(&msg[5..9]);
+            let fmt_name = text.trim_end_matches('\0').to_owned();
+            if length < 3 {
+                return Err(format!(
+                    "a format for {fmt_name} of {length} bytes, shorter than a header"
+                ));
+            }
+            types.formats.insert(ty, (fmt_name, length));
+            return Ok(Frame::Message(msg, true));
+        }
+        let keep = IMUS.iter().any(|(n, _)| *n == name);
+        if keep || COUNTED.contains(&name.as_str()) {
+            *types.counts.entry(name).or_default() += 1;
+        }
+        Ok(Frame::Message(msg, keep))
+    }
+}
+
+/// One instance's samples as they are read.
+#[derive(Default)]
+struct Samples {
+    time_s: Vec<f64>,
+    temp_c: Vec<f64>,
+    axes: [Vec<f64>; 6],
+}
+
+/// The axes of an `IMU` message: field, channel name, quantity, factor to the project's units.
+const AXES: [(&str, &str, Quantity, f64); 6] = [
+    (
+        "GyrX",
+        "gyr.x",
+        Quantity::AngularRate,
+        180.0 / std::f64::consts::PI,
+    ),
+    (
+        "GyrY",
+        "gyr.y",
+        Quantity::AngularRate,
+        180.0 / std::f64::consts::PI,
+    ),
+    (
+        "GyrZ",
+        "gyr.z",
+        Quantity::AngularRate,
+        180.0 / std::f64::consts::PI,
+    ),
+    ("AccX", "acc.x", Quantity::SpecificForce, 1.0),
+    ("AccY", "acc.y", Quantity::SpecificForce, 1.0),
+    ("AccZ", "acc.z", Quantity::SpecificForce, 1.0),
+];
+
+/// Reads `path`'s sensors ([`super::Recorded::read`]).
+pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, RecordedError> {
+    let (file, total) = open(path)?;
+    let damage = Rc::new(RefCell::new(None::<Damage>));
+    let types = Rc::new(RefCell::new(Types::default()));
+    let frames = Frames {
+        types: Rc::clone(&types),
+    };
+    let filtered = Filtered::new(file, total, frames, Rc::clone(&damage), progress);
+    let mut by_instance: BTreeMap<u8, Samples> = BTreeMap::new();
+    for entry in ardupilot_binlog::Reader::new(filtered) {
+        // The frames passed on are whole and typed: an entry the parser refuses is skipped.
+        let Ok(e) = entry else { continue };
+        let Some(&(_, default)) = IMUS.iter().find(|(n, _)| *n == e.name) else {
+            continue;
+        };
+        let instance = e
+            .get_u64("I")
+            .or_else(|| e.get_i64("I").map(|i| i as u64))
+            .map_or(default, |i| i as u8);
+        let Some(t) = e.timestamp_usec.or_else(|| e.get_u64("TimeUS")) else {
+            continue;
+        };
+        let s = by_instance.entry(instance).or_default();
+        s.time_s.push(t as f64 * 1e-6);
+        s.temp_c.push(e.get_f64("T").unwrap_or(f64::NAN));
+        for (a, (field, _, _, k)) in s.axes.iter_mut().zip(AXES) {
+            a.push(e.get_f64(field).map_or(f64::NAN, |v| v * k));
+        }
+    }
+    let damage = damage.borrow_mut().take();
+    let types = types.borrow();
+    let sensors = by_instance
+        .into_iter()
+        .map(|(i, s)| Sensor {
+            name: format!("imu{i}"),
+            topic: "IMU".to_owned(),
+            instance: i,
+            device_id: None,
+            id_changes: Vec::new(),
+            temp_c: if s.temp_c.iter().any(|t| t.is_finite()) {
+                s.temp_c
+            } else {
+                Vec::new()
+            },
+            time_s: s.time_s,
+            unreadable: 0,
+            axes: AXES
+                .iter()
+                .zip(s.axes)
+                .map(|(&(_, name, quantity, _), values)| Axis {
+                    name: name.to_owned(),
+                    quantity,
+                    values,
+                })
+                .collect(),
+        })
+        .collect();
+    let others = types
+        .counts
+        .iter()
+        .filter(|(name, _)| COUNTED.contains(&name.as_str()))
+        .map(|(name, n)| (name.clone(), *n))
+        .collect();
+    Ok((sensors, others, damage))
+}

@@ -1,0 +1,284 @@
+use std::path::PathBuf;
+
+use super::write::{DataFlashWriter, PX4_SENSOR_FIELDS, ULogWriter, Value};
+use super::*;
+
+/// The real PX4 logs the tests keep (`tests/data/px4-yule-log`).
+fn px4(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data/px4-yule-log")
+        .join(name)
+}
+
+fn read(path: &Path) -> Result<Option<Recorded>, RecordedError> {
+    Recorded::read(path, &mut |_, _| {})
+}
+
+/// A ULog of two gyros and an accelerometer, 1 Hz for 20 min, warming 20 → 45 °C; gyro 1's
+/// temperature in whole degrees and its device ID changing at 600 s.
+fn ulog() -> Vec<u8> {
+    let mut w = ULogWriter::new(Vec::new(), 1_000).unwrap();
+    w.format("sensor_gyro", &PX4_SENSOR_FIELDS).unwrap();
+    w.format("sensor_accel", &PX4_SENSOR_FIELDS).unwrap();
+    w.format(
+        "sensor_baro",
+        &[("uint64_t", "timestamp"), ("float", "pressure")],
+    )
+    .unwrap();
+    let g0 = w.subscribe("sensor_gyro", 0).unwrap();
+    let g1 = w.subscribe("sensor_gyro", 1).unwrap();
+    let a0 = w.subscribe("sensor_accel", 0).unwrap();
+    let b0 = w.subscribe("sensor_baro", 0).unwrap();
+    for i in 0..1200u64 {
+        let t_us = 5_000_000 + i * 1_000_000;
+        let temp = 20.0 + 25.0 * (i as f32 / 1200.0);
+        let sample = |id: u32, temp: f32, xyz: [f32; 3]| {
+            [
+                Value::U64(t_us + 300),
+                Value::U64(t_us),
+                Value::U32(id),
+                Value::F32(xyz[0]),
+                Value::F32(xyz[1]),
+                Value::F32(xyz[2]),
+                Value::F32(temp),
+                Value::U32(0),
+            ]
+        };
+        let drift = 1e-4 * (temp - 20.0);
+        w.data(g0, &sample(2_424_842, temp, [drift, -drift, 0.0]))
+            .unwrap();
+        let id1 = if i < 600 { 3_670_050 } else { 3_670_051 };
+        w.data(g1, &sample(id1, temp.round(), [0.0, drift, 0.0]))
+            .unwrap();
+        w.data(a0, &sample(2_424_842, temp, [0.1, 0.0, -9.79 + drift]))
+            .unwrap();
+        w.data(b0, &[Value::U64(t_us), Value::F32(101_325.0)])
+            .unwrap();
+    }
+    w.into_inner()
+}
+
+/// A DataFlash log of two IMUs, 1 Hz for 20 min, warming 20 → 45 °C.
+fn dataflash() -> Vec<u8> {
+    let mut w = DataFlashWriter::new(Vec::new()).unwrap();
+    w.define(
+        129,
+        "IMU",
+        "QBffffffIIfBBHH",
+        "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T,GH,AH,GHz,AHz",
+    )
+    .unwrap();
+    w.define(130, "BARO", "Qf", "TimeUS,Press").unwrap();
+    for i in 0..1200u64 {
+        let temp = 20.0 + 25.0 * (i as f32 / 1200.0);
+        for imu in 0..2u8 {
+            let g = 2e-4 * (temp - 20.0) * f32::from(imu + 1);
+            let mut v = vec![Value::U64(i * 1_000_000), Value::U8(imu)];
+            v.extend([g, 0.0, -g, 0.05, -0.02, -9.8 + g].map(Value::F32));
+            v.extend([Value::U32(0), Value::U32(0), Value::F32(temp)]);
+            v.extend([
+                Value::U8(1),
+                Value::U8(1),
+                Value::U16(1000),
+                Value::U16(1000),
+            ]);
+            w.write(129, &v).unwrap();
+        }
+        w.write(130, &[Value::U64(i * 1_000_000), Value::F32(101_325.0)])
+            .unwrap();
+    }
+    w.into_inner()
+}
+
+fn file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn a_log_is_told_by_its_content_and_a_file_of_neither_kind_is_refused_with_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = file(dir.path(), "a.bin", b"time_s,temp_c\n0,20\n");
+    assert_eq!(sniff(&csv).unwrap(), Format::Csv);
+    assert_eq!(
+        sniff(&file(dir.path(), "x.csv", &ulog())).unwrap(),
+        Format::ULog
+    );
+    assert_eq!(
+        sniff(&file(dir.path(), "x.log", &dataflash())).unwrap(),
+        Format::DataFlash
+    );
+    let zip = file(dir.path(), "z.ulg", b"PK\x03\x04\x14\x00\x00\x00\x08\x00");
+    let e = sniff(&zip).unwrap_err().to_string();
+    assert!(
+        e.contains("neither a CSV, a PX4 ULog nor an ArduPilot DataFlash log")
+            && e.contains("50 4B 03 04 14 00 00 00 (a zip archive)"),
+        "{e}"
+    );
+    assert!(read(&csv).unwrap().is_none());
+}
+
+#[test]
+fn the_real_px4_logs_are_read_with_their_sensor_topics_and_what_they_lack_said() {
+    let log = read(&px4("sample_log_small.ulg")).unwrap().unwrap();
+    assert_eq!(log.format, Format::ULog);
+    assert_eq!(log.damage, None);
+    let names: Vec<&str> = log.sensors.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["gyro0", "gyro1", "gyro2", "accel0", "accel1", "accel2"]
+    );
+    assert_eq!(
+        log.listing(),
+        "gyro0 (ID 2424842), gyro1 (ID 3670050), gyro2 (ID 2621474), accel0 (ID 2424842), \
+         accel1 (ID 3670050), accel2 (ID 2621474)"
+    );
+    for s in &log.sensors {
+        assert_eq!(s.len(), 6, "{}", s.name);
+        assert_eq!(s.temp_c.len(), 6);
+        assert_eq!(s.axes.len(), 3);
+    }
+    let g0 = &log.sensors[0];
+    assert!(
+        g0.temp_c.iter().all(|t| (40.0..40.4).contains(t)),
+        "{:?}",
+        g0.temp_c
+    );
+    let baro: Vec<&str> = log.others.iter().map(|(t, _)| t.as_str()).collect();
+    assert!(
+        baro.contains(&"sensor_baro[0]") && baro.contains(&"sensor_baro[1]"),
+        "{baro:?}"
+    );
+    let notes = log.notes();
+    assert_eq!(notes.len(), 2, "{notes:#?}");
+    assert!(
+        notes[0].contains(
+            "spans under the 10 °C a thermal calibration needs: gyro0 0.3 °C (40.0 to 40.4), \
+             gyro1 0.1 °C"
+        ),
+        "{}",
+        notes[0]
+    );
+    assert!(
+        notes[1].contains("also holds sensor_baro[0] (6), sensor_baro[1] (6)"),
+        "{}",
+        notes[1]
+    );
+    // The crate's other log holds no sensor: said, with what it holds.
+    let e = read(&px4("trig_stats.ulg")).unwrap_err().to_string();
+    assert!(
+        e.contains("a PX4 ULog with no gyro or accelerometer samples"),
+        "{e}"
+    );
+}
+
+#[test]
+fn each_instance_of_a_ulog_is_a_unit_of_its_axes_in_the_projects_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = file(dir.path(), "cal.ulg", &ulog());
+    let log = read(&path).unwrap().unwrap();
+    let names: Vec<&str> = log.sensors.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["gyro0", "gyro1", "accel0"]);
+    assert_eq!(log.others, [("sensor_baro[0]".to_owned(), 1200)]);
+    let g0 = &log.sensors[0];
+    assert_eq!(g0.device_id, Some(2_424_842));
+    assert_eq!(g0.time_s[0], 5.0, "timestamp_sample, not timestamp");
+    let last = g0.len() - 1;
+    let rad = f64::from(1e-4f32 * (20.0 + 25.0 * (1199.0f32 / 1200.0) - 20.0));
+    assert!((g0.axes[0].values[last] - rad.to_degrees()).abs() < 1e-6);
+    let notes = log.notes();
+    assert_eq!(notes.len(), 3, "{notes:#?}");
+    assert!(notes[0].contains("the temperature of gyro1 is quantized to whole degrees"));
+    assert!(
+        notes[1].contains("the device ID changes: gyro1 at 600.0 s (3670050 to 3670051)"),
+        "{}",
+        notes[1]
+    );
+    // The accelerometer's references: gravity along z, as the board sits.
+    let units = log.units(&["accel0".to_owned()]).unwrap();
+    let refs: Vec<String> = units[0]
+        .list
+        .iter()
+        .map(|c| c.reference.to_string())
+        .collect();
+    assert_eq!(
+        refs,
+        ["the constant 0", "the constant 0", "the constant -9.80665"]
+    );
+    let streams = units[0].load_log(&path, &[]).unwrap();
+    assert_eq!(streams.len(), 3);
+    assert_eq!(streams[2].rate_dps[0], -STANDARD_GRAVITY);
+    assert_eq!(units[0].sensor_id, "accel0 2424842");
+    let e = log.units(&["gyro7".to_owned()]).unwrap_err().to_string();
+    assert!(
+        e.contains("no sensor 'gyro7' (it holds: gyro0 (ID 2424842)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_log_cut_by_a_power_loss_is_read_up_to_the_damage_named_with_its_byte_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    // Each second of the logs is a group of messages of this many bytes: 3 sensor samples of 45
+    // and a barometer's of 17; 2 IMU messages of 54 and a barometer's of 15.
+    for (name, bytes, message, second) in [
+        ("cut.ulg", ulog(), 45u64, 152usize),
+        ("cut.bin", dataflash(), 54, 123),
+    ] {
+        let whole = read(&file(dir.path(), name, &bytes)).unwrap().unwrap();
+        let n = whole.sensors[0].len();
+        // Torn inside the last message.
+        let cut = &bytes[..bytes.len() - 7];
+        let log = read(&file(dir.path(), name, cut)).unwrap().unwrap();
+        let d = log.damage.clone().unwrap();
+        assert!(d.offset > 0 && d.offset < cut.len() as u64);
+        assert!(cut.len() as u64 - d.offset < message, "{d:?}");
+        assert!(d.what.contains("cut after"), "{d:?}");
+        assert!(log.sensors[0].len() >= n - 1);
+        let note = &log.notes()[0];
+        assert!(
+            note.contains(&format!("unreadable from byte {}", d.offset)),
+            "{note}"
+        );
+        // Corrupt at the start of second 600: read up to there, nothing after it taken for a
+        // message.
+        let mut bad = bytes.clone();
+        let at = bytes.len() - 600 * second;
+        bad[at..at + 4].copy_from_slice(&[0xFF; 4]);
+        let log = read(&file(dir.path(), name, &bad)).unwrap().unwrap();
+        let d = log.damage.clone().unwrap();
+        assert_eq!(d.offset, at as u64, "{d:?}");
+        assert!(d.what.contains("corrupt from here"), "{d:?}");
+        assert!(log.sensors.iter().all(|s| s.len() == 600), "{name}");
+    }
+    // Cut inside the header: refused, named.
+    let e = read(&file(dir.path(), "h.ulg", &ulog()[..12]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("damaged before any sensor sample: at byte 0"),
+        "{e}"
+    );
+}
+
+#[test]
+fn each_imu_of_a_dataflash_log_is_a_unit_of_its_gyro_and_accelerometer_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = file(dir.path(), "cal.bin", &dataflash());
+    let log = read(&path).unwrap().unwrap();
+    assert_eq!(log.format, Format::DataFlash);
+    assert_eq!(log.listing(), "imu0, imu1");
+    assert_eq!(log.others, [("BARO".to_owned(), 1200)]);
+    let imu1 = &log.sensors[1];
+    let axes: Vec<&str> = imu1.axes.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(axes, ["gyr.x", "gyr.y", "gyr.z", "acc.x", "acc.y", "acc.z"]);
+    assert_eq!(imu1.len(), 1200);
+    let g = f64::from(2e-4f32 * (20.0 + 25.0 * (600.0f32 / 1200.0) - 20.0) * 2.0);
+    assert!((imu1.axes[0].values[600] - g.to_degrees()).abs() < 1e-6);
+    assert_eq!(log.notes().len(), 1, "{:?}", log.notes());
+    let units = log.units(&[]).unwrap();
+    assert_eq!(units.len(), 2);
+    assert_eq!(units[1].list[5].quantity, Quantity::SpecificForce);
+    assert_eq!(units[1].sensor_id, "imu1");
+}

@@ -1,0 +1,344 @@
+//! A flight controller's log in, the autopilots' parameters out: a simulated board's thermal
+//! calibration (two IMUs) recorded as PX4 and as ArduPilot record it, fitted in one command each,
+//! and the parameter files evaluated by the formulas the autopilots' firmware applies, written
+//! here from their documentation (not from this project's code).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::{at, json, sim, trainer};
+
+/// PX4's `.params` file: parameter name → value.
+fn px4_params(path: &Path) -> HashMap<String, f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let f: Vec<&str> = l.split('\t').collect();
+            assert_eq!(f.len(), 5, "vehicle, component, name, value, type: {l}");
+            assert_eq!((f[0], f[1]), ("1", "1"));
+            let int = f[2].ends_with("_ID") || f[2].ends_with("_ENABLE");
+            assert_eq!(f[4], if int { "6" } else { "9" }, "{l}");
+            (f[2].to_owned(), f[3].parse().unwrap())
+        })
+        .collect()
+}
+
+/// ArduPilot's `.parm` file: parameter name → value.
+fn ardupilot_params(path: &Path) -> HashMap<String, f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let (name, value) = l.split_once(' ').unwrap();
+            (name.to_owned(), value.parse().unwrap())
+        })
+        .collect()
+}
+
+/// PX4's `TemperatureCompensation::calc_thermal_offsets_3D` for one axis: the offset the firmware
+/// subtracts at temperature `t`, in rad/s or m/s².
+fn px4_offset(p: &HashMap<String, f64>, prefix: &str, axis: usize, t: f64) -> f64 {
+    let get = |k: &str| p[&format!("{prefix}_{k}")];
+    let d = t.clamp(get("TMIN"), get("TMAX")) - get("TREF");
+    let x = |i: usize| get(&format!("X{i}_{axis}"));
+    x(0) + x(1) * d + x(2) * d * d + x(3) * d * d * d
+}
+
+/// ArduPilot's `AP_InertialSensor_TCal::correct_sensor` for one axis of IMU `n` (1-based): what
+/// the firmware subtracts at temperature `t` for a sensor whose constant offset was calibrated at
+/// `cal_t`; `kind` is `ACC` or `GYR`, `axis` `X`, `Y` or `Z`.
+fn ardupilot_offset(
+    p: &HashMap<String, f64>,
+    (n, kind, axis): (u32, &str, &str),
+    t: f64,
+    cal_t: f64,
+) -> f64 {
+    let (lo, hi) = (
+        p[&format!("INS_TCAL{n}_TMIN")],
+        p[&format!("INS_TCAL{n}_TMAX")],
+    );
+    let c = |power: u32| p[&format!("INS_TCAL{n}_{kind}{power}_{axis}")];
+    let poly = |t: f64| {
+        let d = t.clamp(lo, hi) - 35.0;
+        (c(1) * d + c(2) * d * d + c(3) * d * d * d) * 1e-6
+    };
+    poly(t) - poly(cal_t)
+}
+
+/// The project's cubic of one channel from `fit --json`'s `autopilot`, at `t` (clipped), in the
+/// channel's units.
+fn cubic(fit: &serde_json::Value, axis: usize, t: f64) -> f64 {
+    let c = &fit["autopilot"]["axes"][axis];
+    let f = |k: &str| c[k].as_f64().unwrap();
+    let d = t.clamp(f("tmin_c"), f("tmax_c")) - f("tref_c");
+    let k: Vec<f64> = (0..4).map(|i| c["coef"][i].as_f64().unwrap()).collect();
+    k[0] + d * (k[1] + d * (k[2] + d * k[3]))
+}
+
+#[test]
+fn a_px4_and_an_ardupilot_log_give_the_parameters_their_firmware_evaluates_as_the_cubic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (log, flag, file) in [
+        ("cal.ulg", "--px4-params", "cal.params"),
+        ("cal.bin", "--ardupilot-params", "tcal.parm"),
+    ] {
+        sim(&[
+            "generate",
+            "board",
+            "--seed",
+            "3",
+            "--minutes",
+            "60",
+            "--out",
+            &at(d, log),
+        ])
+        .unwrap();
+        trainer(&[
+            "-q",
+            "fit",
+            "--stream",
+            &at(d, log),
+            flag,
+            &at(d, file),
+            "--out",
+            &at(d, "imu.bin"),
+            "--json",
+            &at(d, "fit.json"),
+        ])
+        .unwrap();
+        let names: &[&str] = if log.ends_with(".ulg") {
+            &["gyro0", "gyro1", "accel0", "accel1"]
+        } else {
+            &["imu0", "imu1"]
+        };
+        for name in names {
+            // One blob and one JSON per sensor, beside the names given.
+            let blob = d.join(format!("imu.{name}.bin"));
+            assert!(std::fs::metadata(&blob).unwrap().len() > 1000);
+            let fit = json(d.join(format!("fit.{name}.json")));
+            let axes = fit["autopilot"]["axes"].as_array().unwrap();
+            assert_eq!(axes.len(), if name.starts_with("imu") { 6 } else { 3 });
+            for (k, a) in axes.iter().enumerate() {
+                let gyro = a["quantity"] == "angular-rate";
+                // The firmwares take rad/s; the project's cubic is in °/s.
+                let to_fw = if gyro {
+                    std::f64::consts::PI / 180.0
+                } else {
+                    1.0
+                };
+                let ours = |t: f64| cubic(&fit, k, t) * to_fw;
+                let (theirs, temps): (Box<dyn Fn(f64) -> f64>, Vec<f64>) = if log.ends_with("ulg") {
+                    let p = px4_params(&d.join(file));
+                    let letter = if gyro { "G" } else { "A" };
+                    let prefix = format!("TC_{letter}{}", &name[name.len() - 1..]);
+                    assert_eq!(
+                        p[&format!("{prefix}_ID")],
+                        fit["autopilot"]["device_id"].as_f64().unwrap()
+                    );
+                    assert_eq!(p[&format!("TC_{letter}_ENABLE")], 1.0);
+                    // Clipped beyond the range as the firmware clips.
+                    let temps = vec![-30.0, -5.0, 12.5, 25.0, 40.0, 55.0, 80.0];
+                    (Box::new(move |t| px4_offset(&p, &prefix, k, t)), temps)
+                } else {
+                    let p = ardupilot_params(&d.join(file));
+                    let n = name[3..].parse::<u32>().unwrap() + 1;
+                    assert_eq!(p[&format!("INS_TCAL{n}_ENABLE")], 1.0);
+                    let kind = if gyro { "GYR" } else { "ACC" };
+                    let axis = ["X", "Y", "Z"][k % 3];
+                    // ArduPilot's constant is the boot calibration's, at its own temperature:
+                    // the cubic counts from there. TMIN and TMAX are written to 0.1 °C, so the
+                    // comparison stays inside them.
+                    let (lo, hi) = (
+                        p[&format!("INS_TCAL{n}_TMIN")],
+                        p[&format!("INS_TCAL{n}_TMAX")],
+                    );
+                    let cal_t = 20.0;
+                    let shift = ours(cal_t);
+                    let temps = vec![lo, -5.0, 12.5, 25.0, 40.0, hi];
+                    (
+                        Box::new(move |t| ardupilot_offset(&p, (n, kind, axis), t, cal_t) + shift),
+                        temps,
+                    )
+                };
+                for t in temps {
+                    let (a, b) = (theirs(t), ours(t));
+                    assert!(
+                        (a - b).abs() < 1e-6,
+                        "{name} axis {k} at {t} °C: {a} against {b}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The cubic and the GP of each axis of `sensor`, held out on another power-on of the board
+/// (a warmer soak, a faster warm-up, a cooler bench: inside the calibrated range): 60 s RMS, in
+/// the channel's units.
+fn cubic_and_gp(d: &Path, sensor: &str) -> Vec<(f64, f64)> {
+    trainer(&[
+        "-q",
+        "investigate",
+        "--stream",
+        &at(d, "cal.ulg"),
+        "--valid-stream",
+        &at(d, "held.ulg"),
+        "--sensor",
+        sensor,
+        "--json",
+        &at(d, "inv.json"),
+    ])
+    .unwrap();
+    let inv = json(d.join("inv.json"));
+    let read = |name: &str| {
+        let log = fog_data::autopilot::Recorded::read(&d.join(name), &mut |_, _| {})
+            .unwrap()
+            .unwrap();
+        let [unit] = <[_; 1]>::try_from(log.units(&[sensor.to_owned()]).unwrap()).unwrap();
+        unit.load_log(&d.join(name), &[]).unwrap()
+    };
+    let (train, valid) = (read("cal.ulg"), read("held.ulg"));
+    (0..3)
+        .map(|k| {
+            let cubic = trainer::analysis::autopilot::held_out(&train[k], &valid[k]).unwrap();
+            let gp = inv["channels"][k]["extended_score"]["rmse_60s_in_range_dps"]
+                .as_f64()
+                .unwrap();
+            let all = inv["channels"][k]["extended_score"]["rmse_60s_dps"]
+                .as_f64()
+                .unwrap();
+            assert_eq!(gp, all, "every held-out block inside the calibrated range");
+            assert_eq!(cubic.project.rmse_60s_in_range, cubic.project.rmse_60s);
+            (cubic.project.rmse_60s, gp)
+        })
+        .collect()
+}
+
+#[test]
+fn held_out_the_gp_beats_the_cubic_where_the_board_hides_an_effect_and_matches_it_elsewhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    sim(&[
+        "generate",
+        "board",
+        "--seed",
+        "4",
+        "--minutes",
+        "60",
+        "--out",
+        &at(d, "cal.ulg"),
+    ])
+    .unwrap();
+    let held = [
+        "generate",
+        "board",
+        "--seed",
+        "5",
+        "--soak",
+        "5",
+        "--settle",
+        "40",
+        "--warm-up-min",
+        "12",
+        "--minutes",
+        "90",
+        "--out",
+    ];
+    sim(&[&held[..], &[at(d, "held.ulg").as_str()]].concat()).unwrap();
+    // IMU 0's bias is a cubic: the GP can only match it.
+    for (k, (cubic, gp)) in cubic_and_gp(d, "gyro0").into_iter().enumerate() {
+        assert!(
+            (gp / cubic - 1.0).abs() < 0.05,
+            "gyro0 axis {k}: GP {gp:.2e}, cubic {cubic:.2e}"
+        );
+    }
+    // IMU 1 hides a knee and a lagging sensor: the GP follows what the cubic cannot.
+    for (k, (cubic, gp)) in cubic_and_gp(d, "gyro1").into_iter().enumerate() {
+        assert!(
+            gp < 0.9 * cubic,
+            "gyro1 axis {k}: GP {gp:.2e}, cubic {cubic:.2e}"
+        );
+    }
+}
+
+#[test]
+fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let px4 = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("data/px4-yule-log")
+            .join(name)
+            .display()
+            .to_string()
+    };
+    let out = at(dir.path(), "s.json");
+    trainer(&[
+        "-q",
+        "summarize",
+        "--stream",
+        &px4("sample_log_small.ulg"),
+        "--json",
+        &out,
+    ])
+    .unwrap();
+    let s = json(&out);
+    assert_eq!(s["schema"]["name"], "trainer.summarize");
+    let files = s["files"].as_array().unwrap();
+    assert_eq!(files.len(), 6, "three gyros and three accelerometers");
+    for unit in files {
+        let axes: Vec<&str> = unit
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["channel"].as_str().unwrap())
+            .collect();
+        assert_eq!(axes, ["x", "y", "z"]);
+    }
+    // Choosing one; naming one it lacks; a log of no sensor.
+    trainer(&[
+        "-q",
+        "summarize",
+        "--stream",
+        &px4("sample_log_small.ulg"),
+        "--sensor",
+        "accel2",
+        "--json",
+        &out,
+    ])
+    .unwrap();
+    assert_eq!(json(&out)["files"].as_array().unwrap().len(), 1);
+    let e = trainer(&[
+        "-q",
+        "summarize",
+        "--stream",
+        &px4("sample_log_small.ulg"),
+        "--sensor",
+        "gyro5",
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("no sensor 'gyro5' (it holds: gyro0 (ID 2424842)"),
+        "{e}"
+    );
+    let e = trainer(&["-q", "summarize", "--stream", &px4("trig_stats.ulg")])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("a PX4 ULog with no gyro or accelerometer samples"),
+        "{e}"
+    );
+    // A command that takes one unit says which there are.
+    let e = trainer(&[
+        "-q",
+        "investigate",
+        "--stream",
+        &px4("sample_log_small.ulg"),
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
+}

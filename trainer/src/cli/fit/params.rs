@@ -1,0 +1,115 @@
+//! `trainer fit --px4-params / --ardupilot-params`: each unit's cubics, fitted on the same
+//! training samples as its models, written as the autopilots take them
+//! ([`crate::firmware::autopilot`]).
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use fog_data::channels::Channels;
+use fog_data::stream::Stream;
+use fog_terminal::console::Console;
+use fog_terminal::io::write_atomically;
+
+use super::FitPlan;
+use crate::firmware::autopilot::{self, AxisCubic, Cubic, SensorCubics};
+
+/// The autopilots' parameter files `fit` writes beside the blob.
+#[derive(Args, Clone, Default)]
+pub(in crate::cli) struct ParamsArgs {
+    /// Write PX4's thermal calibration here, as `process_sensor_caldata.py` writes it (TC_G{i}_*,
+    /// TC_A{i}_*: a cubic per axis in T − TREF, T clipped to TMIN:TMAX, with the device IDs), and
+    /// TC_G_ENABLE, TC_A_ENABLE.
+    #[arg(long, value_name = "FILE")]
+    pub(super) px4_params: Option<PathBuf>,
+    /// Write ArduPilot's thermal calibration here, as `tempcal_IMU.py` writes it (INS_TCALn_*:
+    /// ENABLE, TMIN, TMAX and a cubic per axis in T − 35 °C without constant term, ×1e6).
+    #[arg(long, value_name = "FILE")]
+    pub(super) ardupilot_params: Option<PathBuf>,
+}
+
+impl ParamsArgs {
+    /// The files asked for.
+    pub(super) fn files(&self) -> impl Iterator<Item = &PathBuf> {
+        self.px4_params.iter().chain(&self.ardupilot_params)
+    }
+
+    /// True when a file is asked for.
+    pub(super) fn asked(&self) -> bool {
+        self.files().next().is_some()
+    }
+
+    /// Writes the files asked for from every unit's cubics, and says what each holds.
+    pub(super) fn write(&self, units: &[SensorCubics], console: &Console) -> anyhow::Result<()> {
+        let files = [
+            (&self.px4_params, autopilot::px4_params(units), "PX4"),
+            (
+                &self.ardupilot_params,
+                autopilot::ardupilot_parm(units),
+                "ArduPilot",
+            ),
+        ];
+        for (path, text, who) in files {
+            let Some(path) = path else { continue };
+            write_atomically(path, text.as_bytes())?;
+            let lines = text.lines().filter(|l| !l.starts_with('#')).count();
+            console.result(&format!(
+                "wrote {} ({who}: {lines} parameters, the cubics of {})",
+                path.display(),
+                units
+                    .iter()
+                    .map(|u| u.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Each channel's cubic in temperature, fitted on the samples its model was fitted on (the
+/// training window, handled minutes left out): the output less its reference, in °/s or m/s².
+/// A channel in a raw unit (volts, counts) has no rate offset to fit and is left out.
+pub(super) fn cubics(
+    channels: &Channels,
+    per_channel: &[(FitPlan, Vec<(&Path, Stream)>)],
+) -> anyhow::Result<SensorCubics> {
+    let mut axes = Vec::new();
+    for (ch, (_, streams)) in channels.list.iter().zip(per_channel) {
+        if ch.unit.factor().is_none() {
+            continue;
+        }
+        let (mut temp, mut offset) = (Vec::new(), Vec::new());
+        for (_, s) in streams {
+            for i in s.referenced() {
+                temp.push(s.temp_c[i]);
+                offset.push(s.voltage_v[i] - s.rate_dps[i]);
+            }
+        }
+        let cubic = Cubic::fit(&temp, &offset)
+            .map_err(|e| anyhow::anyhow!("{} channel {}: {e}", channels.sensor_id, ch.name))?;
+        axes.push(AxisCubic {
+            name: ch.name.clone(),
+            quantity: ch.quantity,
+            cubic,
+        });
+    }
+    let sensor = channels.recorded.as_deref();
+    Ok(SensorCubics {
+        name: sensor.map_or_else(|| channels.sensor_id.clone(), |s| s.name.clone()),
+        instance: sensor.map_or(0, |s| s.instance),
+        device_id: sensor.and_then(|s| s.device_id),
+        axes,
+    })
+}
+
+/// `path` with `name` before its extension: a unit's file among several (`imu.bin` → `imu.gyro0.bin`).
+pub(super) fn beside(path: &Path, name: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let file = match path.extension() {
+        Some(ext) => format!("{stem}.{name}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.{name}"),
+    };
+    path.with_file_name(file)
+}
