@@ -33,7 +33,7 @@ use firmware_core::Quantity;
 use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
 use serde::Deserialize;
 
-use crate::autopilot::{Recorded, Sensor};
+use crate::autopilot::{Recorded, RecordedError, Sensor, gravity_reference};
 use crate::columns::{self, ColumnMap, DataError, Source};
 use crate::stream::{self, Stream};
 
@@ -337,6 +337,68 @@ impl Channels {
         })
     }
 
+    /// A flight controller log's sensor as a unit's channels, as a channels file would name them:
+    /// each axis's output in its quantity's unit, its reference that of a board at rest (no
+    /// rotation; on an accelerometer axis the component of gravity nearest its first minute's
+    /// median: [`gravity_reference`]).
+    pub fn of_sensor(sensor: &Arc<Sensor>, path: &Path) -> Self {
+        let list = sensor
+            .axes
+            .iter()
+            .map(|a| Channel {
+                name: a.name.clone(),
+                quantity: a.quantity,
+                unit: match a.quantity {
+                    Quantity::AngularRate => OutputUnit::DegreePerSecond,
+                    Quantity::SpecificForce => OutputUnit::MetrePerSecond2,
+                },
+                output: Source::Column {
+                    name: a.name.clone(),
+                    factor: 1.0,
+                },
+                reference: Source::Constant(match a.quantity {
+                    Quantity::AngularRate => 0.0,
+                    Quantity::SpecificForce => gravity_reference(&sensor.time_s, &a.values),
+                }),
+                scale_factor: None,
+            })
+            .collect();
+        Self {
+            path: path.to_owned(),
+            sensor_id: sensor.sensor_id(),
+            time: None,
+            temperature: None,
+            list,
+            recorded: Some(Arc::clone(sensor)),
+        }
+    }
+
+    /// The sensors of `log` named `names` (all where none is named), each as a unit's channels
+    /// ([`Self::of_sensor`]).
+    pub fn of_log(log: &Recorded, names: &[String]) -> Result<Vec<Self>, RecordedError> {
+        if names.is_empty() {
+            return Ok(log
+                .sensors
+                .iter()
+                .map(|s| Self::of_sensor(s, &log.path))
+                .collect());
+        }
+        names
+            .iter()
+            .map(|n| {
+                log.sensors
+                    .iter()
+                    .find(|s| &s.name == n)
+                    .map(|s| Self::of_sensor(s, &log.path))
+                    .ok_or_else(|| RecordedError::NoSuchSensor {
+                        path: log.path.clone(),
+                        asked: n.clone(),
+                        found: log.listing(),
+                    })
+            })
+            .collect()
+    }
+
     /// Number of channels.
     pub fn len(&self) -> usize {
         self.list.len()
@@ -434,9 +496,11 @@ impl Channels {
                     sensor.name
                 )
             })?;
-            let [unit] =
-                <[Channels; 1]>::try_from(other.units(std::slice::from_ref(&sensor.name))?)
-                    .map_err(|_| anyhow::anyhow!("one sensor asked, one returned"))?;
+            let [unit] = <[Channels; 1]>::try_from(Self::of_log(
+                &other,
+                std::slice::from_ref(&sensor.name),
+            )?)
+            .map_err(|_| anyhow::anyhow!("one sensor asked, one returned"))?;
             let theirs = unit.recorded.as_ref().map(|s| s.device_id);
             anyhow::ensure!(
                 theirs.flatten().is_none()

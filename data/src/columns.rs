@@ -24,6 +24,15 @@ pub enum DataError {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// Not a CSV: a flight controller's log where a CSV is read, or a binary file of no known
+    /// kind.
+    #[error("{path}: {what}")]
+    NotCsv {
+        /// The file.
+        path: PathBuf,
+        /// What it is instead.
+        what: String,
+    },
     /// The file has no header line.
     #[error("{path}: empty file (expected a header line)")]
     Empty {
@@ -296,6 +305,25 @@ pub fn read_columns(
         path: path.to_owned(),
         source,
     })?;
+    let not_csv = |what: String| DataError::NotCsv {
+        path: path.to_owned(),
+        what,
+    };
+    match crate::autopilot::sniff(path) {
+        Ok(crate::autopilot::Format::Csv) => {}
+        Ok(format) => {
+            return Err(not_csv(format!(
+                "{format}, not a CSV: give it to --stream, without --channels or --map (each \
+                 of its sensors is a unit of its own)"
+            )));
+        }
+        Err(crate::autopilot::RecordedError::Unknown { found, .. }) => {
+            return Err(not_csv(format!(
+                "neither a CSV, a PX4 ULog nor an ArduPilot DataFlash log: it begins with {found}"
+            )));
+        }
+        Err(_) => {}
+    }
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
     // The csv reader's line numbers drift on CRLF files; plain LF keeps them exact.
     let text: Vec<u8> = if text.contains(&b'\r') {

@@ -101,7 +101,7 @@ impl UnitArgs {
         for note in log.notes() {
             console.warn(&note);
         }
-        let units = log.units(&self.sensors)?;
+        let units = Channels::of_log(&log, &self.sensors)?;
         let (with, without): (Vec<Channels>, Vec<Channels>) = units
             .into_iter()
             .partition(|u| u.recorded.as_ref().is_some_and(|s| !s.temp_c.is_empty()));

@@ -11,8 +11,9 @@ use std::rc::Rc;
 
 use firmware_core::Quantity;
 
+use super::error::{Damage, Progress, RecordedError, open};
 use super::framing::{Filtered, Frame, Framing, read_full};
-use super::{Axis, Collected, Damage, Progress, RecordedError, Sensor, open};
+use super::sensor::{Axis, Collected, Sensor};
 
 /// A format message's type byte, and its whole length (header included).
 const FMT: u8 = 0x80;
@@ -121,7 +122,7 @@ const AXES: [(&str, &str, Quantity, f64); 6] = [
     ("AccZ", "acc.z", Quantity::SpecificForce, 1.0),
 ];
 
-/// Reads `path`'s sensors ([`super::Recorded::read`]).
+/// Reads `path`'s sensors ([`Recorded::read`](super::Recorded::read)).
 pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, RecordedError> {
     let (file, total) = open(path)?;
     let damage = Rc::new(RefCell::new(None::<Damage>));

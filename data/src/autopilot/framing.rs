@@ -14,7 +14,7 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::rc::Rc;
 
-use super::{Damage, Progress};
+use super::error::{Damage, Progress};
 
 /// What one frame is.
 pub(super) enum Frame {

@@ -2,6 +2,9 @@ use std::path::PathBuf;
 
 use super::write::{DataFlashWriter, PX4_SENSOR_FIELDS, ULogWriter, Value};
 use super::*;
+use crate::channels::Channels;
+use firmware_core::Quantity;
+use firmware_core::units::STANDARD_GRAVITY;
 
 /// The real PX4 logs the tests keep (`tests/data/px4-yule-log`).
 fn px4(name: &str) -> PathBuf {
@@ -117,6 +120,18 @@ fn a_log_is_told_by_its_content_and_a_file_of_neither_kind_is_refused_with_what_
         "{e}"
     );
     assert!(read(&csv).unwrap().is_none());
+    // Where a CSV is read, a log is refused as what it is.
+    let e = crate::stream::Stream::load(&file(dir.path(), "l.csv", &ulog()), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("a PX4 ULog, not a CSV: give it to --stream"),
+        "{e}"
+    );
+    let e = crate::stream::Stream::load(&zip, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("(a zip archive)"), "{e}");
 }
 
 #[test]
@@ -196,7 +211,7 @@ fn each_instance_of_a_ulog_is_a_unit_of_its_axes_in_the_projects_units() {
         notes[1]
     );
     // The accelerometer's references: gravity along z, as the board sits.
-    let units = log.units(&["accel0".to_owned()]).unwrap();
+    let units = Channels::of_log(&log, &["accel0".to_owned()]).unwrap();
     let refs: Vec<String> = units[0]
         .list
         .iter()
@@ -210,7 +225,9 @@ fn each_instance_of_a_ulog_is_a_unit_of_its_axes_in_the_projects_units() {
     assert_eq!(streams.len(), 3);
     assert_eq!(streams[2].rate_dps[0], -STANDARD_GRAVITY);
     assert_eq!(units[0].sensor_id, "accel0 2424842");
-    let e = log.units(&["gyro7".to_owned()]).unwrap_err().to_string();
+    let e = Channels::of_log(&log, &["gyro7".to_owned()])
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("no sensor 'gyro7' (it holds: gyro0 (ID 2424842)"),
         "{e}"
@@ -277,7 +294,7 @@ fn each_imu_of_a_dataflash_log_is_a_unit_of_its_gyro_and_accelerometer_axes() {
     let g = f64::from(2e-4f32 * (20.0 + 25.0 * (600.0f32 / 1200.0) - 20.0) * 2.0);
     assert!((imu1.axes[0].values[600] - g.to_degrees()).abs() < 1e-6);
     assert_eq!(log.notes().len(), 1, "{:?}", log.notes());
-    let units = log.units(&[]).unwrap();
+    let units = Channels::of_log(&log, &[]).unwrap();
     assert_eq!(units.len(), 2);
     assert_eq!(units[1].list[5].quantity, Quantity::SpecificForce);
     assert_eq!(units[1].sensor_id, "imu1");

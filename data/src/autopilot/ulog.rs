@@ -12,8 +12,9 @@ use yule_log::builder::ULogParserBuilder;
 use yule_log::model::inst;
 use yule_log::model::msg::UlogMessage;
 
+use super::error::{Damage, Progress, RecordedError, open};
 use super::framing::{Filtered, Frame, Framing, read_full};
-use super::{Axis, Collected, Damage, Progress, RecordedError, Sensor, open};
+use super::sensor::{Axis, Collected, Sensor};
 
 /// The topics read as sensors, what they measure and the factor to the project's units.
 const SENSORS: [(&str, &str, Quantity, f64); 2] = [
@@ -135,7 +136,7 @@ fn number(v: &inst::FieldValue) -> Option<f64> {
     })
 }
 
-/// Reads `path`'s sensors ([`super::Recorded::read`]).
+/// Reads `path`'s sensors ([`Recorded::read`](super::Recorded::read)).
 pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, RecordedError> {
     let (file, total) = open(path)?;
     let damage = Rc::new(RefCell::new(None::<Damage>));

@@ -197,7 +197,10 @@ fn cubic_and_gp(d: &Path, sensor: &str) -> Vec<(f64, f64)> {
         let log = fog_data::autopilot::Recorded::read(&d.join(name), &mut |_, _| {})
             .unwrap()
             .unwrap();
-        let [unit] = <[_; 1]>::try_from(log.units(&[sensor.to_owned()]).unwrap()).unwrap();
+        let [unit] = <[_; 1]>::try_from(
+            fog_data::channels::Channels::of_log(&log, &[sensor.to_owned()]).unwrap(),
+        )
+        .unwrap();
         unit.load_log(&d.join(name), &[]).unwrap()
     };
     let (train, valid) = (read("cal.ulg"), read("held.ulg"));
@@ -341,4 +344,63 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
     .unwrap_err()
     .to_string();
     assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
+}
+
+#[test]
+fn the_report_on_a_boards_log_sets_the_cubic_beside_the_gp_and_writes_the_parameters_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = at(d, "cal.bin");
+    sim(&[
+        "generate",
+        "board",
+        "--seed",
+        "6",
+        "--minutes",
+        "60",
+        "--out",
+        &log,
+    ])
+    .unwrap();
+    let out = at(d, "report");
+    let parm = at(d, "tcal.parm");
+    trainer(&[
+        "-q",
+        "report",
+        "--stream",
+        &log,
+        "--ardupilot-params",
+        &parm,
+        "--out",
+        &out,
+    ])
+    .unwrap();
+    // A page per IMU, each with the cubic's table and a verdict per axis.
+    for imu in ["imu0", "imu1"] {
+        let page = std::fs::read_to_string(d.join("report").join(imu).join("report.html")).unwrap();
+        assert!(page.contains("The autopilots' cubic, held out"), "{imu}");
+        assert_eq!(
+            page.matches("the cubic is enough").count() + page.matches("the cubic misses").count(),
+            6,
+            "{imu}"
+        );
+    }
+    let p = ardupilot_params(Path::new(&parm));
+    assert_eq!(p.len(), 2 * 21, "21 lines per IMU");
+    // A parameter file needs a unit's log.
+    let e = trainer(&[
+        "report",
+        "--points",
+        "p.csv",
+        "--px4-params",
+        &at(d, "x.params"),
+        "--out",
+        &out,
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("take a sensor's three axes, fitted on a log"),
+        "{e}"
+    );
 }

@@ -31,7 +31,7 @@ use fog_data::channels::Channels;
 use fog_terminal::log::load_unit_log;
 
 mod args;
-mod params;
+pub(super) mod params;
 mod report;
 
 pub(super) use args::FitArgs;
@@ -328,11 +328,8 @@ impl FitPlan {
         let blob = unit::unit_blob(&channels.sensor_id, &parts)?;
         let footprint = unit::unit_footprint(&blob)?;
         self.check_fitted(&footprint)?;
-        let cubics = self
-            .params
-            .asked()
-            .then(|| params::cubics(channels, &per_channel))
-            .transpose()?;
+        let streams = per_channel.iter().map(|c| c.1.iter().map(|s| &s.1));
+        let cubics = self.params.cubics(channels, streams)?;
         write_atomically(out, &blob)?;
         let report = UnitFitReport {
             sensor_id: &channels.sensor_id,

@@ -8,9 +8,11 @@ use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::ensure_not_input;
 
 use super::demo;
+use super::fit::params::{ParamsArgs, unit_cubics};
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
 use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
 use crate::analysis::autopilot;
+use crate::firmware::autopilot::SensorCubics;
 use crate::report;
 use fog_data::channels::{Channels, Read};
 use fog_terminal::log::load_unit_log;
@@ -32,6 +34,8 @@ pub(super) struct ReportArgs {
     window: Option<Window>,
     #[command(flatten)]
     held_out: HeldOut,
+    #[command(flatten)]
+    params: ParamsArgs,
     /// Directory for report.html and the figures (created if missing).
     #[arg(long, visible_alias = "out-dir")]
     out: PathBuf,
@@ -45,10 +49,25 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         stream,
         window,
         held_out,
+        params,
         out: out_dir,
     } = args;
     let console = Console::new(flags, None);
     let units = input.unit.units(stream.as_deref(), &console)?;
+    anyhow::ensure!(
+        !params.asked() || (!units.is_empty() && stream.is_some()),
+        "--px4-params and --ardupilot-params take a sensor's three axes, fitted on a log: a \
+         unit's log (a flight controller's, or --channels with --stream)"
+    );
+    let inputs: Vec<&Path> = input
+        .points
+        .iter()
+        .chain(&stream)
+        .map(PathBuf::as_path)
+        .collect();
+    for p in params.files() {
+        ensure_not_input(p, &inputs)?;
+    }
     if !units.is_empty() {
         anyhow::ensure!(
             stream.is_some() || input.points.is_some(),
@@ -57,6 +76,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         );
         // A log of several sensors: a page each, in a folder named for it.
         let several = units.len() > 1;
+        let mut cubics = Vec::new();
         for channels in &units {
             let files = match &stream {
                 Some(s) => Files::Logs(s.clone(), held_out.clone()),
@@ -66,9 +86,10 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 Some(sensor) => out_dir.join(&sensor.name),
                 None => out_dir.clone(),
             };
-            report_unit((&input, channels), (&fit, files, window), &dir, &console)?;
+            let unit = (&input, channels, params.asked());
+            cubics.extend(report_unit(unit, (&fit, files, window), &dir, &console)?);
         }
-        return Ok(());
+        return params.write(&cubics, &console);
     }
     let (input, files) = match stream {
         Some(s) => (input, Files::Logs(s, held_out)),
@@ -176,11 +197,11 @@ fn kind_and_source(
 /// `trainer report --channels`: every channel of a unit's files analysed as one channel's report
 /// analyses its data (the logs read once), on one page (`report::unit`).
 fn report_unit(
-    (input, channels): (&ModelInput, &Channels),
+    (input, channels, params): (&ModelInput, &Channels, bool),
     (fit, files, window): (&FitOptions, Files, Option<Window>),
     out_dir: &Path,
     console: &Console,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Option<SensorCubics>> {
     let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
     match &files {
         Files::Logs(s, held_out) => {
@@ -279,5 +300,12 @@ fn report_unit(
     for path in report::unit::write(out_dir, &source, &summary, &pages)? {
         console.result(&format!("wrote {}", path.display()));
     }
-    Ok(())
+    // The autopilots' cubics, fitted on the training part as the page's are.
+    match &held {
+        Some((_, _, (train, _, _))) if params => Ok(Some(unit_cubics(
+            channels,
+            train.iter().map(std::iter::once),
+        )?)),
+        _ => Ok(None),
+    }
 }

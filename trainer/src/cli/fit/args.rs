@@ -55,7 +55,7 @@ pub(in crate::cli) struct FitArgs {
     #[command(flatten)]
     pub(super) service: ServiceArgs,
     #[command(flatten)]
-    pub(super) params: super::ParamsArgs,
+    pub(super) params: super::params::ParamsArgs,
     /// Model blob to write (firmware-core format; a unit blob with --channels or a flight
     /// controller's log, one per sensor beside this name where the log holds several).
     #[arg(long)]

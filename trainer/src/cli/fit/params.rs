@@ -10,10 +10,9 @@ use fog_data::stream::Stream;
 use fog_terminal::console::Console;
 use fog_terminal::io::write_atomically;
 
-use super::FitPlan;
 use crate::firmware::autopilot::{self, AxisCubic, Cubic, SensorCubics};
 
-/// The autopilots' parameter files `fit` writes beside the blob.
+/// The autopilots' parameter files `fit` writes beside the blob (and `report` beside its pages).
 #[derive(Args, Clone, Default)]
 pub(in crate::cli) struct ParamsArgs {
     /// Write PX4's thermal calibration here, as `process_sensor_caldata.py` writes it (TC_G{i}_*,
@@ -29,17 +28,32 @@ pub(in crate::cli) struct ParamsArgs {
 
 impl ParamsArgs {
     /// The files asked for.
-    pub(super) fn files(&self) -> impl Iterator<Item = &PathBuf> {
+    pub(in crate::cli) fn files(&self) -> impl Iterator<Item = &PathBuf> {
         self.px4_params.iter().chain(&self.ardupilot_params)
     }
 
     /// True when a file is asked for.
-    pub(super) fn asked(&self) -> bool {
+    pub(in crate::cli) fn asked(&self) -> bool {
         self.files().next().is_some()
     }
 
+    /// The unit's cubics ([`unit_cubics`]) where a file is asked for.
+    pub(in crate::cli) fn cubics<'s, S: IntoIterator<Item = &'s Stream>>(
+        &self,
+        channels: &Channels,
+        streams: impl IntoIterator<Item = S>,
+    ) -> anyhow::Result<Option<SensorCubics>> {
+        self.asked()
+            .then(|| unit_cubics(channels, streams))
+            .transpose()
+    }
+
     /// Writes the files asked for from every unit's cubics, and says what each holds.
-    pub(super) fn write(&self, units: &[SensorCubics], console: &Console) -> anyhow::Result<()> {
+    pub(in crate::cli) fn write(
+        &self,
+        units: &[SensorCubics],
+        console: &Console,
+    ) -> anyhow::Result<()> {
         let files = [
             (&self.px4_params, autopilot::px4_params(units), "PX4"),
             (
@@ -66,20 +80,20 @@ impl ParamsArgs {
     }
 }
 
-/// Each channel's cubic in temperature, fitted on the samples its model was fitted on (the
-/// training window, handled minutes left out): the output less its reference, in °/s or m/s².
-/// A channel in a raw unit (volts, counts) has no rate offset to fit and is left out.
-pub(super) fn cubics(
+/// Each channel's cubic in temperature, fitted on its training `streams` (the training window,
+/// handled minutes left out): the output less its reference, in °/s or m/s². A channel in a raw
+/// unit (volts, counts) has no rate offset to fit and is left out.
+pub(in crate::cli) fn unit_cubics<'s, S: IntoIterator<Item = &'s Stream>>(
     channels: &Channels,
-    per_channel: &[(FitPlan, Vec<(&Path, Stream)>)],
+    streams: impl IntoIterator<Item = S>,
 ) -> anyhow::Result<SensorCubics> {
     let mut axes = Vec::new();
-    for (ch, (_, streams)) in channels.list.iter().zip(per_channel) {
+    for (ch, streams) in channels.list.iter().zip(streams) {
         if ch.unit.factor().is_none() {
             continue;
         }
         let (mut temp, mut offset) = (Vec::new(), Vec::new());
-        for (_, s) in streams {
+        for s in streams {
             for i in s.referenced() {
                 temp.push(s.temp_c[i]);
                 offset.push(s.voltage_v[i] - s.rate_dps[i]);
