@@ -162,6 +162,8 @@ pub struct Channels {
     /// The sensor of an autopilot's log they are the axes of, read already: its samples are
     /// taken from there rather than from a CSV's columns.
     pub recorded: Option<Arc<Sensor>>,
+    /// The name the user gave that sensor (`--sensor gyro0=front`), where one was given.
+    pub renamed: Option<String>,
 }
 
 /// A channels file that cannot be used.
@@ -334,6 +336,7 @@ impl Channels {
             temperature,
             list,
             recorded: None,
+            renamed: None,
         })
     }
 
@@ -370,6 +373,7 @@ impl Channels {
             temperature: None,
             list,
             recorded: Some(Arc::clone(sensor)),
+            renamed: None,
         }
     }
 
@@ -397,6 +401,31 @@ impl Channels {
                     })
             })
             .collect()
+    }
+
+    /// The unit's name among a log's sensors: the one the user gave, else the sensor's
+    /// (`gyro0`); `None` for a channels file's unit.
+    pub fn unit_name(&self) -> Option<&str> {
+        self.renamed
+            .as_deref()
+            .or(self.recorded.as_ref().map(|s| s.name.as_str()))
+    }
+
+    /// Gives a log's sensor a name of the user's (`--sensor gyro0=front`): its unit's name and
+    /// sensor ID. Refused unless 1 to 32 bytes (what a blob holds) without a slash (it names
+    /// files).
+    pub fn rename(&mut self, new: &str) -> Result<(), ChannelsError> {
+        if new.is_empty() || new.len() > SENSOR_ID_BYTES || new.contains(['/', '\\']) {
+            return Err(ChannelsError::Invalid {
+                path: self.path.clone(),
+                why: format!(
+                    "--sensor …={new}: a name of 1 to {SENSOR_ID_BYTES} bytes, without a slash"
+                ),
+            });
+        }
+        self.sensor_id = new.to_owned();
+        self.renamed = Some(new.to_owned());
+        Ok(())
     }
 
     /// Number of channels.

@@ -58,9 +58,14 @@ pub struct UnitArgs {
     #[arg(long, value_name = "FILE")]
     pub channels: Option<PathBuf>,
     /// The sensor of a flight controller's log (a PX4 ULog, an ArduPilot DataFlash log) to use:
-    /// gyro0, accel1 (ULog), imu0 (DataFlash); repeatable. Each is a unit whose channels are its
-    /// axes. Default: every sensor the log holds, where the command takes several, else the one.
-    #[arg(long = "sensor", value_name = "NAME", conflicts_with = "channels")]
+    /// gyro0, accel1 (ULog), imu0 (DataFlash), or NAME=NEW to give it a name of your own (its
+    /// files', pages' and blob's); repeatable. Each is a unit whose channels are its axes.
+    /// Default: every sensor the log holds, where the command takes several, else the one.
+    #[arg(
+        long = "sensor",
+        value_name = "NAME[=NEW]",
+        conflicts_with = "channels"
+    )]
     pub sensors: Vec<String>,
 }
 
@@ -101,15 +106,25 @@ impl UnitArgs {
         for note in log.notes() {
             console.warn(&note);
         }
-        let units = Channels::of_log(&log, &self.sensors)?;
+        let (names, new): (Vec<String>, Vec<Option<&str>>) = self
+            .sensors
+            .iter()
+            .map(|s| match s.split_once('=') {
+                Some((name, new)) => (name.to_owned(), Some(new)),
+                None => (s.clone(), None),
+            })
+            .unzip();
+        let mut units = Channels::of_log(&log, &names)?;
+        for (unit, new) in units.iter_mut().zip(new) {
+            if let Some(new) = new {
+                unit.rename(new)?;
+            }
+        }
         let (with, without): (Vec<Channels>, Vec<Channels>) = units
             .into_iter()
             .partition(|u| u.recorded.as_ref().is_some_and(|s| !s.temp_c.is_empty()));
         if !without.is_empty() {
-            let names: Vec<&str> = without
-                .iter()
-                .filter_map(|u| u.recorded.as_ref().map(|s| s.name.as_str()))
-                .collect();
+            let names: Vec<&str> = without.iter().filter_map(Channels::unit_name).collect();
             anyhow::ensure!(
                 !with.is_empty(),
                 "{}: no sensor with a temperature ({}): nothing to calibrate",
@@ -140,7 +155,7 @@ impl UnitArgs {
             units.len(),
             units
                 .iter()
-                .map(|u| u.recorded.as_ref().map_or("?", |s| s.name.as_str()))
+                .map(|u| u.unit_name().unwrap_or("?"))
                 .collect::<Vec<_>>()
                 .join(", ")
         );

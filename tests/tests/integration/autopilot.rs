@@ -404,3 +404,73 @@ fn the_report_on_a_boards_log_sets_the_cubic_beside_the_gp_and_writes_the_parame
         "{e}"
     );
 }
+
+#[test]
+fn a_ulog_whose_gyros_record_no_temperature_is_said_so_and_refused() {
+    use fog_data::autopilot::write::{ULogWriter, Value};
+    let dir = tempfile::tempdir().unwrap();
+    // An older PX4's sensor_gyro: no temperature field.
+    let mut w = ULogWriter::new(Vec::new(), 0).unwrap();
+    let fields = [
+        ("uint64_t", "timestamp"),
+        ("uint32_t", "device_id"),
+        ("float", "x"),
+        ("float", "y"),
+        ("float", "z"),
+    ];
+    w.format("sensor_gyro", &fields).unwrap();
+    let id = w.subscribe("sensor_gyro", 0).unwrap();
+    for i in 0..600u64 {
+        let v = [
+            Value::U64(i * 1_000_000),
+            Value::U32(7),
+            Value::F32(0.0),
+            Value::F32(0.0),
+            Value::F32(0.0),
+        ];
+        w.data(id, &v).unwrap();
+    }
+    let log = dir.path().join("old.ulg");
+    std::fs::write(&log, w.into_inner()).unwrap();
+    let e = trainer(&["-q", "summarize", "--stream", &log.display().to_string()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no sensor with a temperature (gyro0): nothing to calibrate"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = at(d, "cal.ulg");
+    sim(&[
+        "generate",
+        "board",
+        "--seed",
+        "7",
+        "--minutes",
+        "30",
+        "--out",
+        &log,
+    ])
+    .unwrap();
+    let fit = |extra: &[&str]| {
+        let base = ["-q", "fit", "--stream", &log, "--out", &at(d, "imu.bin")];
+        let json = at(d, "fit.json");
+        trainer(&[&base[..], extra, &["--json", json.as_str()]].concat())
+    };
+    fit(&["--sensor", "gyro0=front", "--sensor", "gyro1=back"]).unwrap();
+    for name in ["front", "back"] {
+        assert!(d.join(format!("imu.{name}.bin")).exists(), "{name}");
+        assert_eq!(json(d.join(format!("fit.{name}.json")))["sensor_id"], name);
+    }
+    assert!(!d.join("imu.gyro0.bin").exists(), "only the sensors asked");
+    let e = fit(&["--sensor", "gyro0=a/b"]).unwrap_err().to_string();
+    assert!(
+        e.contains("a name of 1 to 32 bytes, without a slash"),
+        "{e}"
+    );
+}

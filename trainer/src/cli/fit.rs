@@ -195,7 +195,7 @@ impl FitPlan {
         }
         let mut cubics = Vec::new();
         for channels in &units {
-            let name = channels.recorded.as_ref().map(|s| s.name.as_str());
+            let name = channels.unit_name();
             let each = |path: &Path| match name.filter(|_| several) {
                 Some(n) => beside(path, n),
                 None => path.to_owned(),

@@ -82,8 +82,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 Some(s) => Files::Logs(s.clone(), held_out.clone()),
                 None => Files::None,
             };
-            let dir = match channels.recorded.as_ref().filter(|_| several) {
-                Some(sensor) => out_dir.join(&sensor.name),
+            let dir = match channels.unit_name().filter(|_| several) {
+                Some(name) => out_dir.join(name),
                 None => out_dir.clone(),
             };
             let unit = (&input, channels, params.asked());

@@ -109,7 +109,9 @@ pub(in crate::cli) fn unit_cubics<'s, S: IntoIterator<Item = &'s Stream>>(
     }
     let sensor = channels.recorded.as_deref();
     Ok(SensorCubics {
-        name: sensor.map_or_else(|| channels.sensor_id.clone(), |s| s.name.clone()),
+        name: channels
+            .unit_name()
+            .map_or_else(|| channels.sensor_id.clone(), str::to_owned),
         instance: sensor.map_or(0, |s| s.instance),
         device_id: sensor.and_then(|s| s.device_id),
         axes,
