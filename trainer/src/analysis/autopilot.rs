@@ -23,6 +23,9 @@ pub struct CubicScore {
     pub rmse_60s: f64,
     /// The same over the 60 s means inside the calibrated range (no sample clipped).
     pub rmse_60s_in_range: f64,
+    /// RMS over the held-out part's 1 °C temperature bins of each bin's mean error: every degree
+    /// counts once, however long the board stayed there (the weighting the cubic is fitted with).
+    pub rmse_per_degree: f64,
     /// The σ it would carry: the RMS of its 60 s residuals on the training part.
     pub sigma: f64,
     /// Share of the held-out 60 s means within ±2σ.
@@ -75,6 +78,18 @@ fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
+/// RMS over `s`'s 1 °C temperature bins of the mean error under `cubic` in each.
+fn per_degree(s: &Stream, cubic: &Cubic) -> f64 {
+    let mut bins = std::collections::BTreeMap::<i64, (f64, usize)>::new();
+    for i in s.referenced() {
+        let bin = bins.entry(s.temp_c[i].floor() as i64).or_default();
+        bin.0 += s.voltage_v[i] - s.rate_dps[i] - cubic.at(s.temp_c[i]);
+        bin.1 += 1;
+    }
+    let means: Vec<f64> = bins.values().map(|&(e, n)| e / n as f64).collect();
+    rms(&means)
+}
+
 /// `cubic` scored: its σ from `train`'s 60 s residuals, its error on `valid`'s.
 fn score(cubic: &Cubic, train: &Stream, valid: &Stream) -> CubicScore {
     let errors = |s: &Stream| -> Vec<f64> { block_errors(s, cubic).iter().map(|b| b.0).collect() };
@@ -86,6 +101,7 @@ fn score(cubic: &Cubic, train: &Stream, valid: &Stream) -> CubicScore {
     CubicScore {
         rmse_60s,
         rmse_60s_in_range: rms(&inside),
+        rmse_per_degree: per_degree(valid, cubic),
         sigma,
         within_2sigma: held.iter().filter(|e| e.abs() <= 2.0 * sigma).count() as f64
             / held.len().max(1) as f64,

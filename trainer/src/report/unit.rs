@@ -184,8 +184,15 @@ fn cubic_table(channels: &[ChannelSection<'_>]) -> Option<String> {
         let (k, u) = (c.quantity.bias_per_unit(), c.quantity.bias_unit());
         let v = |x: f64| format!("{:.3} {u}", x * k);
         let both = |all: f64, inside: f64| format!("{:.3} ({:.3}) {u}", all * k, inside * k);
+        let cubic = |s: &crate::analysis::autopilot::CubicScore| {
+            format!(
+                "{}; {:.3} every °C",
+                both(s.rmse_60s, s.rmse_60s_in_range),
+                s.rmse_per_degree * k
+            )
+        };
         let opt = |x: Option<crate::analysis::autopilot::CubicScore>| {
-            x.map_or("—".to_owned(), |s| both(s.rmse_60s, s.rmse_60s_in_range))
+            x.map_or("—".to_owned(), |s| cubic(&s))
         };
         let inv = &h.investigation;
         let causes = crate::analysis::diagnose::joined(&inv.diagnosis.causes);
@@ -194,7 +201,7 @@ fn cubic_table(channels: &[ChannelSection<'_>]) -> Option<String> {
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
              <td>{:.0}%, {:.2}</td><td style=\"text-align:left\">{}</td></tr>",
             escape(c.name),
-            both(f.project.rmse_60s, f.project.rmse_60s_in_range),
+            cubic(&f.project),
             opt(f.px4_script),
             opt(f.ardupilot_script),
             both(
@@ -255,6 +262,9 @@ fn html(
              the sensor's temperature, clipped to the calibrated range, fitted on the same \
              training samples. RMS of the held-out 60 s means' error, all of them (and those inside \
              the calibrated range, where neither the cubic is clipped nor the GP extrapolates); \
+             then the RMS over 1 °C temperature bins of each bin's mean error, every degree \
+             counted once however long the board stayed there (the weighting the project's cubic \
+             is fitted with; the 60 s figures favour the temperatures the board lingered at); \
              the cubic's σ is the RMS of its training 60 s residuals, the only σ such a fit can \
              state.</p>\n",
         );
