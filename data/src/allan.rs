@@ -252,6 +252,26 @@ impl Analysis {
         }
     }
 
+    /// The Allan analysis of `rate_dps` less `reference_dps` where the log has a reference (any
+    /// finite value): the samples without one (handled windows, windows left out) are gaps, not
+    /// fed in raw, and `what` says " − reference".
+    pub fn less_reference(
+        what: &str,
+        time_s: &[f64],
+        rate_dps: &[f64],
+        reference_dps: &[f64],
+    ) -> Self {
+        if !reference_dps.iter().any(|r| r.is_finite()) {
+            return Self::of(what, time_s, rate_dps);
+        }
+        let rate: Vec<f64> = rate_dps
+            .iter()
+            .zip(reference_dps)
+            .map(|(w, r)| w - r)
+            .collect();
+        Self::of(&format!("{what} − reference"), time_s, &rate)
+    }
+
     /// The curve, for a figure.
     pub fn curve(&self) -> Curve {
         Curve {

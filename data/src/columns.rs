@@ -129,6 +129,18 @@ pub enum DataError {
     /// A window to leave out holds no sample of the log.
     #[error("--exclude {0}: no sample of the log lies there (seconds from its first sample)")]
     EmptyWindow(String),
+    /// Columns given in memory are not of one length.
+    #[error(
+        "{column} holds {len} samples and time_s {expected}: the columns must be of one length"
+    )]
+    ColumnLength {
+        /// The column.
+        column: &'static str,
+        /// Its length.
+        len: usize,
+        /// time_s's length.
+        expected: usize,
+    },
     /// The file is not valid CSV (e.g. broken quoting or invalid UTF-8).
     #[error("{path} line {line}: {message}")]
     Malformed {

@@ -350,21 +350,63 @@ impl Stream {
             &[],
             maps,
         )?;
-        let time_s = c.get("time_s").to_vec();
-        let (typical, time_issues) = time_checks(&time_s, &c.lines);
-        let voltage_v = c.get("voltage_v").to_vec();
-        let mut rate_dps = c.get("rate_dps").to_vec();
-        let handled = screen_handling(&time_s, &voltage_v, &mut rate_dps, &c.lines);
-        Ok(Self {
+        Ok(Self::checked(
+            c.get("time_s").to_vec(),
+            c.get("temp_c").to_vec(),
+            c.get("voltage_v").to_vec(),
+            c.get("rate_dps").to_vec(),
+            c.lines,
+        ))
+    }
+
+    /// A stream of columns held in memory (a notebook's arrays), checked as a loaded one is: its
+    /// time problems found and its handled minutes screened. Row `i` is numbered as line `i + 2`
+    /// of a CSV with a header. `rate_dps` is NaN where the reference is unknown; the columns are
+    /// of one length.
+    pub fn from_columns(
+        time_s: Vec<f64>,
+        temp_c: Vec<f64>,
+        voltage_v: Vec<f64>,
+        rate_dps: Vec<f64>,
+    ) -> Result<Self, DataError> {
+        let n = time_s.len();
+        for (name, len) in [
+            ("temp_c", temp_c.len()),
+            ("voltage_v", voltage_v.len()),
+            ("rate_dps", rate_dps.len()),
+        ] {
+            if len != n {
+                return Err(DataError::ColumnLength {
+                    column: name,
+                    len,
+                    expected: n,
+                });
+            }
+        }
+        let lines = (2..n as u64 + 2).collect();
+        Ok(Self::checked(time_s, temp_c, voltage_v, rate_dps, lines))
+    }
+
+    /// The stream of these columns, its time checked and its handled minutes screened.
+    fn checked(
+        time_s: Vec<f64>,
+        temp_c: Vec<f64>,
+        voltage_v: Vec<f64>,
+        mut rate_dps: Vec<f64>,
+        lines: Vec<u64>,
+    ) -> Self {
+        let (typical, time_issues) = time_checks(&time_s, &lines);
+        let handled = screen_handling(&time_s, &voltage_v, &mut rate_dps, &lines);
+        Self {
             time_s,
-            temp_c: c.get("temp_c").to_vec(),
+            temp_c,
             voltage_v,
             rate_dps,
-            lines: c.lines,
+            lines,
             step_s: typical,
             time_issues,
             handled,
-        })
+        }
     }
 
     /// The samples inside `window` (seconds from the first sample), with the time problems among

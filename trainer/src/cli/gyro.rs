@@ -126,19 +126,6 @@ fn analyse(
     console: &Console,
 ) -> anyhow::Result<allan::Analysis> {
     let referenced = data.rate_dps.iter().any(|r| r.is_finite());
-    let rate: Vec<f64> = if referenced {
-        rate.iter()
-            .zip(&data.rate_dps)
-            .map(|(w, r)| w - r)
-            .collect()
-    } else {
-        rate
-    };
-    let what = if referenced {
-        format!("{what} − reference")
-    } else {
-        what
-    };
     let left_out = data.rate_dps.iter().filter(|r| !r.is_finite()).count();
     if referenced && left_out > 0 {
         console.result(&format!(
@@ -146,7 +133,7 @@ fn analyse(
              windows above); it is computed over the stretches between them"
         ));
     }
-    let analysis = allan::Analysis::of(&what, &data.time_s, &rate);
+    let analysis = allan::Analysis::less_reference(&what, &data.time_s, &rate, &data.rate_dps);
     anyhow::ensure!(
         analysis.tau_s.len() >= 3,
         "{}: {} samples without a gap: too few for an Allan deviation",

@@ -4,7 +4,6 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use fog_data::channels::{Channels, Read};
-use fog_data::stream::Stream;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_json_list};
 use fog_terminal::log::{Maps, UnitArgs};
@@ -35,32 +34,6 @@ pub(super) struct SummarizeArgs {
     /// The summaries as JSON (`-`: stdout, alone).
     #[arg(long)]
     json: Option<PathBuf>,
-}
-
-/// A table's summary, with the rows the implausible-row screen would refuse listed as left out.
-pub(super) fn points_summary(
-    path: &Path,
-    maps: &Maps,
-    scale_factor: Option<f64>,
-) -> anyhow::Result<Summary> {
-    let (points, left_out) =
-        Points::load_screened(path, &maps.list, None, scale_factor, Screen::Exclude)?;
-    Ok(summary::of_points(
-        &path.display().to_string(),
-        &points,
-        &maps.list,
-        &left_out,
-    ))
-}
-
-/// A stream's summary.
-pub(super) fn stream_summary(path: &Path, maps: &Maps) -> anyhow::Result<Summary> {
-    let stream = Stream::load(path, &maps.list)?;
-    Ok(summary::of_stream(
-        &path.display().to_string(),
-        &stream,
-        &maps.list,
-    ))
 }
 
 /// `trainer summarize`: each file's summary, as text and JSON.
@@ -106,10 +79,10 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
     }
     let mut all = Vec::new();
     if let Some(p) = &points {
-        all.push(points_summary(p, &maps, scale_factor)?);
+        all.push(summary::of_points_file(p, &maps.list, scale_factor)?);
     }
     if let Some(s) = &stream {
-        all.push(stream_summary(s, &maps)?);
+        all.push(summary::of_stream_file(s, &maps.list)?);
     }
     for s in &all {
         console.result(s.text().trim_end());

@@ -10,7 +10,7 @@ use fog_terminal::io::ensure_not_input;
 use super::demo;
 use super::fit::params::{ParamsArgs, unit_cubics};
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
-use super::look::{points_summary, stream_summary, unit_summaries, unit_text};
+use super::look::{unit_summaries, unit_text};
 use crate::analysis::autopilot;
 use crate::firmware::autopilot::SensorCubics;
 use crate::report;
@@ -117,7 +117,11 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     }
     let mut summaries = Vec::new();
     if let Some(p) = &input.points {
-        summaries.push(points_summary(p, &input.maps, input.scale_factor)?);
+        summaries.push(crate::data::summary::of_points_file(
+            p,
+            &input.maps.list,
+            input.scale_factor,
+        )?);
     }
     let bar = console.bar(0);
     let gp = fit.gp();
@@ -133,9 +137,12 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             )?
         }
         Files::Logs(path, held_out) => {
-            summaries.push(stream_summary(&path, &input.maps)?);
+            summaries.push(crate::data::summary::of_stream_file(
+                &path,
+                &input.maps.list,
+            )?);
             if let Some(v) = &held_out.valid_stream {
-                summaries.push(stream_summary(v, &input.maps)?);
+                summaries.push(crate::data::summary::of_stream_file(v, &input.maps.list)?);
             }
             let parts = (window, input.exclude.list.as_slice());
             let load = |p: &Path| Ok(vec![load_stream(p, &input.maps.list, parts, &console)?]);

@@ -10,10 +10,36 @@ use fog_data::columns::ColumnMap;
 use fog_data::stats::Line;
 use fog_data::stream::Stream;
 
-use super::points::{Implausible, Points, plateaus};
+use super::points::{Implausible, Points, PointsError, Screen, plateaus};
 
 /// The vertical earth rate at the poles, °/s (15.041 °/h): the most a reference can be off by it.
 const EARTH_DPS: f64 = 15.041 / firmware_core::units::DPH_PER_DPS;
+
+/// The summary of a points table read from `path`, with the rows the implausible-row screen
+/// would refuse listed as left out (`trainer summarize --points`).
+pub fn of_points_file(
+    path: &std::path::Path,
+    maps: &[ColumnMap],
+    scale_factor: Option<f64>,
+) -> Result<Summary, PointsError> {
+    let (points, left_out) =
+        Points::load_screened(path, maps, None, scale_factor, Screen::Exclude)?;
+    Ok(of_points(
+        &path.display().to_string(),
+        &points,
+        maps,
+        &left_out,
+    ))
+}
+
+/// The summary of a stream read from `path` (`trainer summarize --stream`).
+pub fn of_stream_file(
+    path: &std::path::Path,
+    maps: &[ColumnMap],
+) -> Result<Summary, fog_data::columns::DataError> {
+    let stream = Stream::load(path, maps)?;
+    Ok(of_stream(&path.display().to_string(), &stream, maps))
+}
 
 /// What a file holds, as loaded.
 #[derive(Debug, Clone, PartialEq, Serialize)]

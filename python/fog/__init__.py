@@ -1,0 +1,273 @@
+"""Temperature-drift compensation for fiber-optic and MEMS gyros, from a notebook.
+
+The trainer's models as scikit-learn estimators (`GaussianProcess`, `LSSVR`, `Polynomial`), the
+firmware's own f32 evaluator on a blob (`load_model`, `Model.compensate`), and the trainer's looks
+at data (`allan`, `summarize`). Everything is computed by the Rust crates the command line runs;
+this package only moves numpy arrays across.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from . import _fog
+from ._fog import (
+    LSSVR,
+    Compensated,
+    FogError,
+    GaussianProcess,
+    Model,
+    NotFittedError,
+    Polynomial,
+    __version__,
+    load_model,
+)
+
+__all__ = [
+    "LSSVR",
+    "Compensated",
+    "FogError",
+    "GaussianProcess",
+    "Model",
+    "NotFittedError",
+    "Polynomial",
+    "Record",
+    "Status",
+    "__version__",
+    "Calibration",
+    "allan",
+    "calibrate",
+    "investigate",
+    "load_model",
+    "summarize",
+]
+
+
+class Status(enum.IntEnum):
+    """A compensated sample's validity: the codes of `Compensated.status`, as the C interface's
+    `FogStatus`."""
+
+    VALID = 0
+    """Inputs inside the trained range."""
+    EXTRAPOLATING = 1
+    """An input outside the trained range: usable, flag it."""
+    DEGRADED = 2
+    """A stateful input's history is not to be trusted (a time jump, a stuck sensor): settling."""
+    FAULT = 3
+    """A reading that cannot be true: the mean is 0, do not use it."""
+
+
+class Record:
+    """A command's result with its JSON fields as attributes (nested ones too); `to_dict()` gives
+    the plain JSON back."""
+
+    def __init__(self, fields: dict[str, Any]):
+        self._fields = fields
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            value = self._fields[name]
+        except KeyError:
+            raise AttributeError(
+                f"{name!r}: no such field (fields: {', '.join(self._fields)})"
+            ) from None
+        return _wrap(value)
+
+    def __dir__(self) -> list[str]:
+        return list(self._fields)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields as the command's `--json` writes them."""
+        return self._fields
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{k}={_short(v)}" for k, v in self._fields.items())
+        return f"Record({shown})"
+
+
+def _wrap(value: Any) -> Any:
+    if isinstance(value, dict):
+        return Record(value)
+    if isinstance(value, list):
+        return [_wrap(v) for v in value]
+    return value
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, list) and len(value) > 4:
+        return f"[{len(value)} values]"
+    if isinstance(value, dict):
+        return "{…}"
+    return repr(value)
+
+
+def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> Record:
+    """The overlapping Allan deviation of `rate_dps` (less `reference_dps` where given; NaN where
+    unknown), with its noise terms, as `trainer allan --json` gives it: `tau_s`, `adev_dps`,
+    `adev_lo_dps`, `adev_hi_dps`, `arw_deg_per_sqrt_h`, `bias_instability_deg_per_h` (at
+    `bias_instability_tau_s`) and `rrw_deg_per_h_per_sqrt_h` (None where the curve does not show
+    the term)."""
+    return Record(_fog.allan(time_s, rate_dps, reference_dps, what))
+
+
+def summarize(path, map=None, points: bool = False, scale_factor=None) -> Record:
+    """A data file as the loader sees it, before anything is fitted, as `trainer summarize --json`
+    gives it: a stream (or, with `points=True`, a points table), its columns named as the
+    trainer's (`time_s`, `temp_c`, `voltage_v`, `rate_dps`) or mapped by `map`
+    (`{"temp_c": "T"}`, as `--map temp_c=T`)."""
+    pairs = None if map is None else [(str(k), str(v)) for k, v in dict(map).items()]
+    return Record(_fog.summarize(str(path), pairs, points, scale_factor))
+
+
+def _window(w: Any) -> str:
+    """A window as the commands take it: "START:END" in seconds from the first sample, either
+    side open; a (start, end) pair with None for an open side."""
+    if isinstance(w, str):
+        return w
+    start, end = w
+    return f"{'' if start is None else start}:{'' if end is None else end}"
+
+
+def _arguments(**options: Any) -> list[str]:
+    """Keywords as the command's flags: `hold_out_from=2400` is `--hold-out-from 2400`, True a
+    bare flag, None and False none, a list a repeated flag, `map` a dict of `--map NAME=SOURCE`."""
+    args: list[str] = []
+    for key, value in options.items():
+        if value is None or value is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            args.append(flag)
+        elif key == "map":
+            for name, source in dict(value).items():
+                args += [flag, f"{name}={source}"]
+        elif key in ("window", "exclude"):
+            windows = value if isinstance(value, list) else [value]
+            for w in windows:
+                args += [flag, _window(w)]
+        elif isinstance(value, (list, tuple)):
+            for v in value:
+                args += [flag, str(v)]
+        else:
+            args += [flag, str(value)]
+    return args
+
+
+class Calibration:
+    """What `trainer fit` made: the firmware blob (`model`, a `Model`) and the fit's report
+    (`report`, its `--json`: the unit, each channel's model, diagnosis and figures). A flight
+    controller's log of several sensors gives one of each per sensor: `models` and `reports`, by
+    sensor name."""
+
+    def __init__(self, models: dict[str, Model], reports: dict[str, Record]):
+        self.models = models
+        self.reports = reports
+
+    @property
+    def model(self) -> Model:
+        """The blob, where the log held one sensor (or one unit)."""
+        return self._one(self.models)
+
+    @property
+    def report(self) -> Record:
+        """The fit's report, where the log held one sensor (or one unit)."""
+        return self._one(self.reports)
+
+    @staticmethod
+    def _one(by_name: dict[str, Any]) -> Any:
+        if len(by_name) != 1:
+            raise ValueError(
+                f"the log held {len(by_name)} sensors ({', '.join(by_name)}): take one from "
+                "`models` or `reports` by name"
+            )
+        return next(iter(by_name.values()))
+
+    def __repr__(self) -> str:
+        return f"Calibration({', '.join(f'{k}: {v!r}' for k, v in self.models.items())})"
+
+
+def calibrate(
+    log=None,
+    *,
+    points=None,
+    channels=None,
+    map=None,
+    window=None,
+    features: str | None = "auto",
+    sensor=None,
+    out_dir=None,
+    **options: Any,
+) -> Calibration:
+    """Calibrates as `trainer fit` does, in this process and by its own code: the log (a stream
+    CSV, a PX4 ULog or an ArduPilot DataFlash log) and/or a rate table (`points`), a unit's
+    channels file (`channels`), column maps (`map={"temp_c": "T"}`), the training window
+    (`window="0:1860"` or `(0, 1860)`), the inputs the diagnosis extends the model by
+    (`features`, "auto" by default; None for the static model alone) and a flight controller's
+    sensors (`sensor="gyro0"` or a list). Every other flag of `trainer fit` is a keyword:
+    `px4_params="cal.params"`, `repeatability=0.01`, `beyond="hold"`. The blob and the report
+    are written to `out_dir` when given (as `model.bin` and `fit.json`, or one per sensor), and
+    are returned either way. Raises `FogError` with the command's message."""
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(out_dir) if out_dir is not None else Path(scratch)
+        folder.mkdir(parents=True, exist_ok=True)
+        args = ["-q", "fit"] + _arguments(
+            stream=None if log is None else str(log),
+            points=None if points is None else str(points),
+            channels=None if channels is None else str(channels),
+            map=map,
+            window=window,
+            features=features,
+            sensor=sensor,
+            out=str(folder / "model.bin"),
+            json=str(folder / "fit.json"),
+            **options,
+        )
+        _fog.trainer(args)
+        models, reports = {}, {}
+        for blob in sorted(folder.glob("model*.bin")):
+            name = blob.stem.partition(".")[2] or "model"
+            models[name] = load_model(blob)
+            report = blob.with_name(blob.name.replace("model", "fit", 1)).with_suffix(".json")
+            reports[name] = Record(json.loads(report.read_text()))
+        return Calibration(models, reports)
+
+
+def investigate(
+    log,
+    *,
+    valid_stream=None,
+    hold_out_from=None,
+    window=None,
+    points=None,
+    channels=None,
+    map=None,
+    features=None,
+    sensor=None,
+    **options: Any,
+) -> Record:
+    """What the static model gets wrong on a stream, forward in time, as `trainer investigate`
+    finds it in this process and by its own code: the diagnosis on the training part, the
+    extended model's inputs and the gain on the part held out (`valid_stream`, or the log from
+    `hold_out_from` seconds on, or its last third). Returns the command's `--json`; every other
+    flag of `trainer investigate` is a keyword. Raises `FogError` with the command's message."""
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(scratch) / "investigation.json"
+        args = ["-q", "investigate"] + _arguments(
+            stream=str(log),
+            valid_stream=None if valid_stream is None else str(valid_stream),
+            hold_out_from=hold_out_from,
+            window=window,
+            points=None if points is None else str(points),
+            channels=None if channels is None else str(channels),
+            map=map,
+            features=features,
+            sensor=sensor,
+            json=str(out),
+            **options,
+        )
+        _fog.trainer(args)
+        return Record(json.loads(out.read_text()))

@@ -1,0 +1,61 @@
+"""The Allan deviation and the summary from Python equal `trainer allan` and `trainer summarize`
+on the same log."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import fog
+from conftest import DATA, run
+
+LOG = DATA / "tofupilot-imu-thermal" / "imu_raw_data.tsv"
+
+
+def columns(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f, delimiter="\t"))
+    return {k: np.array([float(r[k]) for r in rows]) for k in ("timestamp", "imu.gyro.z", "imu.temperature")}
+
+
+def test_allan_is_the_commands(tmp_path):
+    out = tmp_path / "allan.json"
+    run(
+        "trainer", "allan", "--stream", LOG, "--map", "time_s=timestamp*1e-6",
+        "--map", "temp_c=imu.temperature", "--map", "voltage_v=imu.gyro.z",
+        "--map", "rate_dps=0", "--scale-factor", "1", "--json", out, "-q",
+    )
+    cli = json.loads(out.read_text())
+    c = columns(LOG)
+    t = c["timestamp"] * 1e-6
+    ours = fog.allan(t, c["imu.gyro.z"] / 1.0, reference_dps=np.zeros_like(t), what="output / 1")
+    for field in ("tau_s", "adev_dps", "adev_lo_dps", "adev_hi_dps"):
+        assert getattr(ours, field) == cli[field], field
+    assert ours.to_dict() == {k: v for k, v in cli.items() if k != "schema"}
+    assert ours.of == "output / 1 − reference"
+
+
+def test_allan_leaves_out_what_has_no_reference():
+    t = np.arange(4000.0)
+    rate = np.random.default_rng(2).normal(size=t.size)
+    reference = np.zeros_like(t)
+    reference[1000:1100] = np.nan
+    a = fog.allan(t, rate, reference_dps=reference)
+    assert a.runs == 2 and a.samples == 3900 and a.of == "rate − reference"
+    with pytest.raises(fog.FogError, match="too few"):
+        fog.allan([0.0, 1.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match="one length"):
+        fog.allan([0.0, 1.0], [0.0])
+
+
+def test_summarize_is_the_commands(tmp_path):
+    maps = {"time_s": "timestamp*1e-6", "temp_c": "imu.temperature", "voltage_v": "imu.gyro.z", "rate_dps": "0"}
+    out = tmp_path / "summary.json"
+    run("trainer", "summarize", "--stream", LOG, *sum((["--map", f"{k}={v}"] for k, v in maps.items()), []), "--json", out, "-q")
+    cli = json.loads(out.read_text())["files"][0]
+    ours = fog.summarize(LOG, map=maps)
+    assert ours.to_dict() == cli
+    assert ours.rows == cli["rows"]
+    with pytest.raises(fog.FogError, match="missing column"):
+        fog.summarize(LOG)

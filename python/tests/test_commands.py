@@ -1,0 +1,71 @@
+"""`fog.calibrate` and `fog.investigate` are `trainer fit` and `trainer investigate`: the same blob,
+byte for byte, and the same report, on the MEMS log and a flight controller's log."""
+
+import json
+
+import numpy as np
+import pytest
+
+import fog
+from conftest import DATA, run
+
+LOG = DATA / "tofupilot-imu-thermal" / "imu_raw_data.tsv"
+CHANNELS = LOG.with_name("imu.toml")
+
+
+def without_timings(value):
+    """A report without its wall times, which no two runs share."""
+    if isinstance(value, dict):
+        return {k: without_timings(v) for k, v in value.items() if "seconds" not in k}
+    if isinstance(value, list):
+        return [without_timings(v) for v in value]
+    return value
+
+
+def test_calibrate_is_trainer_fit(tmp_path):
+    run(
+        "trainer", "fit", "--stream", LOG, "--channels", CHANNELS, "--window", ":2400",
+        "--features", "auto", "--out", tmp_path / "imu.bin", "--json", tmp_path / "fit.json", "-q",
+    )
+    c = fog.calibrate(LOG, channels=CHANNELS, window=(None, 2400), out_dir=tmp_path / "py")
+    assert c.model.to_bytes() == (tmp_path / "imu.bin").read_bytes()
+    assert (tmp_path / "py" / "model.bin").read_bytes() == (tmp_path / "imu.bin").read_bytes()
+    cli = json.loads((tmp_path / "fit.json").read_text())
+    assert without_timings(c.report.to_dict()) == without_timings(cli)
+    assert [ch.name for ch in c.report.channels] == c.model.channels
+
+
+def test_calibrate_takes_a_flight_controllers_log_sensor_by_sensor(tmp_path):
+    board = tmp_path / "cal.ulg"
+    run("firmware-sim", "generate", "board", "--seed", "1", "--minutes", "40", "--out", board, "-q")
+    c = fog.calibrate(board, sensor=["gyro0", "accel1"], features=None, px4_params=tmp_path / "cal.params")
+    assert sorted(c.models) == ["accel1", "gyro0"]
+    assert c.models["gyro0"].channels == ["x", "y", "z"]
+    assert "TC_G0_X0_0" in (tmp_path / "cal.params").read_text()
+    with pytest.raises(ValueError, match="2 sensors"):
+        c.model
+    # The blob compensates the log's samples as the firmware would.
+    t = np.arange(10.0)
+    comp = c.models["gyro0"].compensate(t, np.full(10, 30.0), [np.zeros(10)] * 3)
+    assert set(comp) == {"x", "y", "z"} and all(len(v.mean) == 10 for v in comp.values())
+
+
+def test_investigate_is_trainer_investigate(tmp_path):
+    maps = {"time_s": "timestamp*1e-6", "temp_c": "imu.temperature", "rate_dps": "0",
+            "voltage_v": "imu.gyro.z*57.29577951"}
+    flags = sum((["--map", f"{k}={v}"] for k, v in maps.items()), [])
+    out = tmp_path / "inv.json"
+    run("trainer", "investigate", "--stream", LOG, "--hold-out-from", "2400", "--scale-factor", "1",
+        *flags, "--json", out, "-q")
+    ours = fog.investigate(LOG, hold_out_from=2400, scale_factor=1, map=maps)
+    assert without_timings(ours.to_dict()) == without_timings(json.loads(out.read_text()))
+    assert ours.static_score.rmse_60s_dps > 0
+
+
+def test_a_commands_refusal_is_a_python_exception(tmp_path):
+    with pytest.raises(fog.FogError, match="cannot read"):
+        fog.calibrate(tmp_path / "absent.csv")
+    with pytest.raises(fog.FogError, match="--bogus"):
+        fog.calibrate(LOG, bogus=1)
+    with pytest.raises(fog.FogError, match="missing column"):
+        fog.investigate(LOG)
