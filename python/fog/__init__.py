@@ -84,6 +84,28 @@ class Record:
         """The fields as the command's `--json` writes them."""
         return self._fields
 
+    def to_frame(self) -> Any:
+        """The record's table as a pandas DataFrame (pandas must be installed): its list fields
+        of numbers that share the longest length as columns (`tau_s`, `adev_dps`, … of an Allan
+        analysis), or, where its fields are records in a list (`channels` of a fit's report), one
+        row per record of their numbers and words."""
+        import pandas as pd
+
+        lists = {k: v for k, v in self._fields.items() if isinstance(v, list) and v}
+        rows = [v for v in lists.values() if all(isinstance(x, dict) for x in v)]
+        if rows:
+            return pd.DataFrame(
+                [{k: x for k, x in r.items() if not isinstance(x, (dict, list))} for r in rows[0]]
+            )
+        numeric = {
+            k: v for k, v in lists.items()
+            if all(isinstance(x, (int, float)) or x is None for x in v)
+        }
+        if not numeric:
+            raise ValueError("this record holds no table")
+        longest = max(len(v) for v in numeric.values())
+        return pd.DataFrame({k: v for k, v in numeric.items() if len(v) == longest})
+
     def __repr__(self) -> str:
         shown = ", ".join(f"{k}={_short(v)}" for k, v in self._fields.items())
         return f"Record({shown})"
@@ -200,6 +222,7 @@ def calibrate(
     features: str | None = "auto",
     sensor=None,
     out_dir=None,
+    quiet: bool = True,
     **options: Any,
 ) -> Calibration:
     """Calibrates as `trainer fit` does, in this process and by its own code: the log (a stream
@@ -210,11 +233,13 @@ def calibrate(
     sensors (`sensor="gyro0"` or a list). Every other flag of `trainer fit` is a keyword:
     `px4_params="cal.params"`, `repeatability=0.01`, `beyond="hold"`. The blob and the report
     are written to `out_dir` when given (as `model.bin` and `fit.json`, or one per sensor), and
-    are returned either way. Raises `FogError` with the command's message."""
+    are returned either way. With `quiet=False` the command also prints its summary to the
+    process's stdout and, in a terminal, its progress bars; its warnings go to stderr either way.
+    Raises `FogError` with the command's message."""
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(out_dir) if out_dir is not None else Path(scratch)
         folder.mkdir(parents=True, exist_ok=True)
-        args = ["-q", "fit"] + _arguments(
+        args = (["-q"] if quiet else []) + ["fit"] + _arguments(
             stream=None if log is None else str(log),
             points=None if points is None else str(points),
             channels=None if channels is None else str(channels),
@@ -247,16 +272,18 @@ def investigate(
     map=None,
     features=None,
     sensor=None,
+    quiet: bool = True,
     **options: Any,
 ) -> Record:
     """What the static model gets wrong on a stream, forward in time, as `trainer investigate`
     finds it in this process and by its own code: the diagnosis on the training part, the
     extended model's inputs and the gain on the part held out (`valid_stream`, or the log from
     `hold_out_from` seconds on, or its last third). Returns the command's `--json`; every other
-    flag of `trainer investigate` is a keyword. Raises `FogError` with the command's message."""
+    flag of `trainer investigate` is a keyword, and `quiet=False` shows the command's own output
+    as `calibrate`'s does. Raises `FogError` with the command's message."""
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "investigation.json"
-        args = ["-q", "investigate"] + _arguments(
+        args = (["-q"] if quiet else []) + ["investigate"] + _arguments(
             stream=str(log),
             valid_stream=None if valid_stream is None else str(valid_stream),
             hold_out_from=hold_out_from,

@@ -102,6 +102,8 @@ class Compensated:
     """The noise variance of one sample."""
     status: npt.NDArray[np.uint8]
     """`fog.Status` codes: 0 valid, 1 extrapolating, 2 degraded, 3 fault."""
+    def to_frame(self) -> Any:
+        """The four arrays as a pandas DataFrame, one row per sample (pandas must be installed)."""
 
 class Model:
     """A firmware blob: one model, or a unit of several channels."""

@@ -49,6 +49,16 @@ impl Compensated {
 
 #[pymethods]
 impl Compensated {
+    /// The four arrays as a pandas DataFrame, one row per sample (pandas must be installed).
+    fn to_frame<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let columns = PyDict::new(py);
+        columns.set_item("mean", &self.mean)?;
+        columns.set_item("bias_variance", &self.bias_variance)?;
+        columns.set_item("noise_variance", &self.noise_variance)?;
+        columns.set_item("status", &self.status)?;
+        py.import("pandas")?.call_method1("DataFrame", (columns,))
+    }
+
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         Ok(format!(
             "Compensated({} samples)",

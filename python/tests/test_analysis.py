@@ -59,3 +59,13 @@ def test_summarize_is_the_commands(tmp_path):
     assert ours.rows == cli["rows"]
     with pytest.raises(fog.FogError, match="missing column"):
         fog.summarize(LOG)
+
+
+def test_tables_come_as_pandas_frames():
+    pd = pytest.importorskip("pandas")
+    t = np.arange(3000.0)
+    a = fog.allan(t, np.random.default_rng(4).normal(size=t.size))
+    frame = a.to_frame()
+    assert isinstance(frame, pd.DataFrame)
+    assert list(frame.columns) == ["tau_s", "adev_dps", "adev_lo_dps", "adev_hi_dps"]
+    assert frame["tau_s"].tolist() == a.tau_s

@@ -33,6 +33,10 @@ def test_calibrate_is_trainer_fit(tmp_path):
     cli = json.loads((tmp_path / "fit.json").read_text())
     assert without_timings(c.report.to_dict()) == without_timings(cli)
     assert [ch.name for ch in c.report.channels] == c.model.channels
+    pd = pytest.importorskip("pandas")
+    frame = c.report.to_frame()
+    assert isinstance(frame, pd.DataFrame)
+    assert frame["name"].tolist() == c.model.channels and "shipped" in frame
 
 
 def test_calibrate_takes_a_flight_controllers_log_sensor_by_sensor(tmp_path):

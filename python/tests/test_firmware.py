@@ -52,6 +52,10 @@ def test_compensate_is_the_replay_bit_for_bit(stream, tmp_path):
     std = np.sqrt(c.bias_variance.astype(np.float64) + c.noise_variance).astype(np.float32)
     np.testing.assert_array_equal(std.view(np.uint32), f32(replayed["comp_std_dps"]))
     np.testing.assert_array_equal(c.status, [STATUS[s] for s in replayed["status"]])
+    pd = pytest.importorskip("pandas")
+    frame = c.to_frame()
+    assert isinstance(frame, pd.DataFrame) and len(frame) == len(c.mean)
+    assert frame["mean"].dtype == np.float32
 
 
 def test_a_unit_blob_takes_one_output_per_channel_and_is_the_replay_bit_for_bit(tmp_path):
