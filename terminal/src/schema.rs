@@ -62,6 +62,13 @@ pub const LOO: Schema = v1("trainer.loo", "trainer loo --json");
 pub const REPRODUCE: Schema = v1("trainer.reproduce", "trainer reproduce --json");
 /// `trainer challenge --json`.
 pub const CHALLENGE: Schema = v1("trainer.challenge", "trainer challenge --json");
+/// `trainer report`'s `report.json` beside its page, one channel: the figures behind it.
+pub const REPORT: Schema = v1("trainer.report", "trainer report (report.json)");
+/// `trainer report`'s `report.json` on a unit's page: each channel's figures and cubics.
+pub const REPORT_UNIT: Schema = v1(
+    "trainer.report-unit",
+    "trainer report (report.json, a unit's page)",
+);
 /// `trainer allan --json`, one channel.
 pub const ALLAN: Schema = v1("trainer.allan", "trainer allan --json");
 /// `trainer allan --channels --json`: each channel's (`channels`).
@@ -98,7 +105,7 @@ pub const QEMU: Schema = v1("sim.qemu", "firmware-sim qemu --json");
 pub const QEMU_UNIT: Schema = v1("sim.qemu-unit", "firmware-sim qemu --json (a unit blob)");
 
 /// Every contract, in the order docs/commands.md lists them.
-pub const ALL: [Schema; 24] = [
+pub const ALL: [Schema; 26] = [
     SUMMARIZE,
     FIT,
     FIT_UNIT,
@@ -111,6 +118,8 @@ pub const ALL: [Schema; 24] = [
     LOO,
     REPRODUCE,
     CHALLENGE,
+    REPORT,
+    REPORT_UNIT,
     ALLAN,
     ALLAN_UNIT,
     IDENTIFY,

@@ -20,6 +20,11 @@ fn read(path: &Path) -> Result<Option<Recorded>, RecordedError> {
 /// A ULog of two gyros and an accelerometer, 1 Hz for 20 min, warming 20 → 45 °C; gyro 1's
 /// temperature in whole degrees and its device ID changing at 600 s.
 fn ulog() -> Vec<u8> {
+    ulog_of(2_424_842)
+}
+
+/// [`ulog`] with gyro 0's device ID `gyro0_id` (another board's sensor of the same name).
+fn ulog_of(gyro0_id: u32) -> Vec<u8> {
     let mut w = ULogWriter::new(Vec::new(), 1_000).unwrap();
     w.format("sensor_gyro", &PX4_SENSOR_FIELDS).unwrap();
     w.format("sensor_accel", &PX4_SENSOR_FIELDS).unwrap();
@@ -48,7 +53,7 @@ fn ulog() -> Vec<u8> {
             ]
         };
         let drift = 1e-4 * (temp - 20.0);
-        w.data(g0, &sample(2_424_842, temp, [drift, -drift, 0.0]))
+        w.data(g0, &sample(gyro0_id, temp, [drift, -drift, 0.0]))
             .unwrap();
         let id1 = if i < 600 { 3_670_050 } else { 3_670_051 };
         w.data(g1, &sample(id1, temp.round(), [0.0, drift, 0.0]))
@@ -225,6 +230,16 @@ fn each_instance_of_a_ulog_is_a_unit_of_its_axes_in_the_projects_units() {
     assert_eq!(streams.len(), 3);
     assert_eq!(streams[2].rate_dps[0], -STANDARD_GRAVITY);
     assert_eq!(units[0].sensor_id, "accel0 2424842");
+    // A held-out log read for a sensor of this one: the same device, or refused as another.
+    let gyro0 = &Channels::of_log(&log, &["gyro0".to_owned()]).unwrap()[0];
+    let again = file(dir.path(), "held.ulg", &ulog());
+    assert_eq!(gyro0.load_log(&again, &[]).unwrap().len(), 3);
+    let other = file(dir.path(), "other.ulg", &ulog_of(2_424_843));
+    let e = gyro0.load_log(&other, &[]).unwrap_err().to_string();
+    assert!(
+        e.contains("its gyro0 is device 2424843") && e.contains("another sensor"),
+        "{e}"
+    );
     let e = Channels::of_log(&log, &["gyro7".to_owned()])
         .unwrap_err()
         .to_string();

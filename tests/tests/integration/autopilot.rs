@@ -406,6 +406,26 @@ fn the_report_on_a_boards_log_sets_the_cubic_beside_the_gp_and_writes_the_parame
             6,
             "{imu}"
         );
+        // The same figures as data, beside the page: every axis's cubics and verdict.
+        let figures = json(d.join("report").join(imu).join("report.json"));
+        assert_eq!(figures["schema"]["name"], "trainer.report-unit", "{imu}");
+        let channels = figures["channels"].as_array().unwrap();
+        assert_eq!(channels.len(), 6, "{imu}");
+        for ch in channels {
+            let cubic = &ch["cubic"]["project"];
+            assert!(cubic["rmse_60s"].as_f64().unwrap() > 0.0, "{imu}: {ch}");
+            assert!(
+                cubic["rmse_per_degree"].as_f64().unwrap() > 0.0,
+                "{imu}: {ch}"
+            );
+            let verdict = ch["cubic_verdict"].as_str().unwrap();
+            assert!(
+                verdict.starts_with("the cubic is enough")
+                    || verdict.starts_with("the cubic misses"),
+                "{imu}: {verdict}"
+            );
+            assert!(ch["held_out"]["investigation"]["extended_score"].is_object());
+        }
     }
     let p = ardupilot_params(Path::new(&parm));
     assert_eq!(p.len(), 2 * 21, "21 lines per IMU");
@@ -495,4 +515,20 @@ fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
         e.contains("a name of 1 to 32 bytes, without a slash"),
         "{e}"
     );
+}
+
+#[test]
+fn a_simulated_board_is_written_only_as_a_log_the_autopilots_record() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["cal.csv", "cal"] {
+        let e = format!(
+            "{:#}",
+            sim(&["generate", "board", "--out", &at(dir.path(), name)]).unwrap_err()
+        );
+        assert!(
+            e.contains("name the log .ulg (a PX4 ULog) or .bin (an ArduPilot DataFlash log)"),
+            "{e}"
+        );
+        assert!(!dir.path().join(name).exists(), "{name} written");
+    }
 }

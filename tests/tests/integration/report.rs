@@ -83,6 +83,17 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
     for external in ["<script", "<link", "src=", "url("] {
         assert!(!page.contains(external), "{external}");
     }
+    // The figures behind the page as data: the cause it names and both models held out.
+    let figures = json(out.join("report.json"));
+    assert_eq!(figures["schema"]["name"], "trainer.report");
+    assert_eq!(figures["kind"], "full");
+    let inv = &figures["held_out"]["investigation"];
+    assert!(
+        inv["diagnosis"].to_string().contains("thermal-rate"),
+        "{inv}"
+    );
+    assert!(inv["extended_score"]["rmse_60s_dps"].as_f64().unwrap() > 0.0);
+    assert!(figures["reproduction"].is_object());
     // An output never replaces an input: a rate table that happens to sit where a figure goes.
     let table = out.join("qq.svg");
     std::fs::copy(dir.path().join("points.csv"), &table).unwrap();

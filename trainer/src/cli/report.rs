@@ -111,7 +111,10 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         }
         Files::None => {}
     }
-    let names = report::FIGURES.iter().map(|f| f.0).chain(["report.html"]);
+    let names = report::FIGURES
+        .iter()
+        .map(|f| f.0)
+        .chain(["report.html", "report.json"]);
     for name in names {
         ensure_not_input(&out_dir.join(name), &inputs)?;
     }

@@ -2,6 +2,7 @@
 
 use fog_data::replay::Compensated;
 use fog_data::stream::Stream;
+use serde::Serialize;
 
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::Reproduction;
@@ -50,7 +51,8 @@ pub const FIGURES: [(&str, &str); 9] = [
 ];
 
 /// What a report is made from: the data a user brings decides what it can show.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ReportKind {
     /// A rate table alone (the paper's protocol).
     Table,
@@ -106,4 +108,59 @@ pub struct Report {
     pub could: Vec<String>,
     /// What they could not.
     pub could_not: Vec<String>,
+}
+
+/// The figures behind a report's page, as data (`report.json` beside `report.html`): what was
+/// loaded, the paper's reproduction, the held-out investigation and what the data could and
+/// could not show. The streams and replays the figures are drawn from are left out.
+#[derive(Debug, Serialize)]
+pub struct Figures<'a> {
+    /// Where the data came from.
+    pub source: &'a str,
+    /// What the data are.
+    pub kind: ReportKind,
+    /// Each file as the loader saw it.
+    pub summaries: &'a [Summary],
+    /// LOO evaluations and the Fig. 2 check (a rate table only).
+    pub reproduction: Option<&'a Reproduction>,
+    /// The held-out part: how it was held out, and the investigation on it.
+    pub held_out: Option<HeldOutFigures<'a>>,
+    /// What these data could show.
+    pub could: &'a [String],
+    /// What they could not.
+    pub could_not: &'a [String],
+}
+
+/// The held-out part of a report, as data.
+#[derive(Debug, Serialize)]
+pub struct HeldOutFigures<'a> {
+    /// How it was held out, in words.
+    pub split: &'a str,
+    /// The diagnosis on the training part, both models scored on the held-out part.
+    pub investigation: &'a Investigation,
+}
+
+impl HeldOut {
+    /// Its figures, as data.
+    pub fn figures(&self) -> HeldOutFigures<'_> {
+        HeldOutFigures {
+            split: &self.split,
+            investigation: &self.investigation,
+        }
+    }
+}
+
+impl Report {
+    /// The figures behind the page, as data.
+    pub fn figures(&self) -> Figures<'_> {
+        Figures {
+            source: &self.source,
+            kind: self.kind,
+            summaries: &self.summaries,
+            reproduction: self.reproduction.as_ref(),
+            held_out: self.held_out.as_ref().map(HeldOut::figures),
+            could: &self.could,
+            could_not: &self.could_not,
+        }
+    }
 }

@@ -32,7 +32,7 @@ mod contents;
 mod html;
 pub mod unit;
 
-pub use contents::{FIGURES, HeldOut, Report, ReportKind};
+pub use contents::{FIGURES, Figures, HeldOut, HeldOutFigures, Report, ReportKind};
 pub use html::html;
 
 /// The Allan deviation of a held-out stream's error, less its reference rate.
@@ -482,7 +482,7 @@ fn held_out_figures(h: &HeldOut) -> anyhow::Result<Vec<(&'static str, String)>> 
     Ok(out)
 }
 
-/// Writes `report.html` and the figure files into `dir` (created if missing); returns the paths.
+/// Writes `report.html`, its figures as data (`report.json`) and the figure files into `dir` (created if missing); returns the paths.
 pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let figures = figures(r)?;
@@ -495,5 +495,8 @@ pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
     let page = dir.join("report.html");
     write_atomically(&page, html(r, &figures).as_bytes())?;
     written.push(page);
+    let json = dir.join("report.json");
+    fog_terminal::io::write_json(&json, &[], fog_terminal::schema::REPORT, &r.figures())?;
+    written.push(json);
     Ok(written)
 }

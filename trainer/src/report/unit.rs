@@ -11,11 +11,13 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use firmware_core::Quantity;
-use fog_terminal::io::write_atomically;
+use fog_terminal::io::{write_atomically, write_json};
+use fog_terminal::schema;
+use serde::Serialize;
 
 use super::html::escape;
 use super::plots::{self, ReplaySeries};
-use super::{Report, replay_blocks};
+use super::{HeldOutFigures, Report, replay_blocks};
 use crate::analysis::autopilot::CubicFigures;
 use crate::plot::{AllanSeries, CHANNEL_COLOURS};
 use fog_data::allan::Analysis as Allan;
@@ -31,6 +33,55 @@ pub struct ChannelSection<'a> {
     /// The autopilots' cubic against it, held out (a channel in a physical unit, with a
     /// held-out part).
     pub cubic: Option<CubicFigures>,
+}
+
+/// A unit's page as data (`report.json` beside `report.html`): each channel's held-out
+/// investigation, and the autopilots' cubics against it with the verdict.
+#[derive(Debug, Serialize)]
+pub struct UnitFigures<'a> {
+    /// Where the data came from.
+    pub source: &'a str,
+    /// Each channel, in the unit's order.
+    pub channels: Vec<ChannelFigures<'a>>,
+}
+
+/// One channel of a unit's page, as data.
+#[derive(Debug, Serialize)]
+pub struct ChannelFigures<'a> {
+    /// Its name.
+    pub name: &'a str,
+    /// What it measures.
+    pub quantity: Quantity,
+    /// The held-out part and the investigation on it.
+    pub held_out: Option<HeldOutFigures<'a>>,
+    /// The autopilots' cubics held out.
+    pub cubic: Option<&'a CubicFigures>,
+    /// The verdict on the cubic, as the page words it.
+    pub cubic_verdict: Option<String>,
+}
+
+/// The page's figures, as data.
+pub fn figures<'a>(source: &'a str, channels: &'a [ChannelSection<'a>]) -> UnitFigures<'a> {
+    UnitFigures {
+        source,
+        channels: channels
+            .iter()
+            .map(|c| {
+                let held = c.report.held_out.as_ref();
+                ChannelFigures {
+                    name: c.name,
+                    quantity: c.quantity,
+                    held_out: held.map(|h| h.figures()),
+                    cubic: c.cubic.as_ref(),
+                    cubic_verdict: c.cubic.as_ref().zip(held).map(|(f, h)| {
+                        let inv = &h.investigation;
+                        let causes = crate::analysis::diagnose::joined(&inv.diagnosis.causes);
+                        f.verdict(inv.extended_score.rmse_60s_dps, &causes)
+                    }),
+                }
+            })
+            .collect(),
+    }
 }
 
 /// The file of channel `name`'s small multiple, and of its bias against temperature.
@@ -344,6 +395,14 @@ pub fn write(
         html(source, summary, channels, &figures, allan.as_deref()).as_bytes(),
     )?;
     written.push(page);
+    let json = dir.join("report.json");
+    write_json(
+        &json,
+        &[],
+        schema::REPORT_UNIT,
+        &self::figures(source, channels),
+    )?;
+    written.push(json);
     Ok(written)
 }
 
@@ -353,6 +412,6 @@ pub fn files(names: &[&str]) -> Vec<String> {
     names
         .iter()
         .flat_map(|n| figure_names(n))
-        .chain(["allan.svg".to_owned(), "report.html".to_owned()])
+        .chain(["allan.svg", "report.html", "report.json"].map(str::to_owned))
         .collect()
 }
