@@ -42,6 +42,7 @@ __all__ = [
     "allan",
     "calibrate",
     "investigate",
+    "report",
     "load_model",
     "summarize",
 ]
@@ -298,3 +299,42 @@ def investigate(
         )
         _fog.trainer(args)
         return Record(json.loads(out.read_text()))
+
+
+def report(
+    log=None,
+    *,
+    out_dir,
+    points=None,
+    valid_stream=None,
+    hold_out_from=None,
+    channels=None,
+    map=None,
+    sensor=None,
+    quiet: bool = True,
+    **options: Any,
+) -> Record | dict[str, Record]:
+    """Writes `trainer report`'s page and figures into `out_dir`, in this process and by the
+    command's own code, and returns the figures behind the page (its `report.json`): for a flight
+    controller's log of several sensors, a dict of them by sensor name (a page each, in a folder
+    named for it). Every other flag of `trainer report` is a keyword (`px4_params=…`,
+    `ardupilot_params=…`, `window=…`). Raises `FogError` with the command's message."""
+    folder = Path(out_dir)
+    args = (["-q"] if quiet else []) + ["report"] + _arguments(
+        stream=None if log is None else str(log),
+        points=None if points is None else str(points),
+        valid_stream=None if valid_stream is None else str(valid_stream),
+        hold_out_from=hold_out_from,
+        channels=None if channels is None else str(channels),
+        map=map,
+        sensor=sensor,
+        out=str(folder),
+        **options,
+    )
+    _fog.trainer(args)
+    if (folder / "report.json").exists():
+        return Record(json.loads((folder / "report.json").read_text()))
+    return {
+        page.parent.name: Record(json.loads(page.read_text()))
+        for page in sorted(folder.glob("*/report.json"))
+    }

@@ -73,3 +73,16 @@ def test_a_commands_refusal_is_a_python_exception(tmp_path):
         fog.calibrate(LOG, bogus=1)
     with pytest.raises(fog.FogError, match="missing column"):
         fog.investigate(LOG)
+
+
+def test_report_writes_the_page_and_returns_its_figures(tmp_path):
+    board = tmp_path / "cal.ulg"
+    run("firmware-sim", "generate", "board", "--seed", "2", "--minutes", "40", "--out", board, "-q")
+    pages = fog.report(board, sensor=["gyro0", "gyro1"], out_dir=tmp_path / "report")
+    assert sorted(pages) == ["gyro0", "gyro1"]
+    assert (tmp_path / "report" / "gyro1" / "report.html").is_file()
+    for name, page in pages.items():
+        assert [ch.name for ch in page.channels] == ["x", "y", "z"], name
+        for ch in page.channels:
+            assert ch.cubic.project.rmse_per_degree > 0
+            assert ch.cubic_verdict.startswith("the cubic")
