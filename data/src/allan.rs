@@ -231,6 +231,14 @@ pub struct Analysis {
     pub terms: Terms,
 }
 
+/// Too few samples without a gap for an Allan deviation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{samples} samples without a gap: too few for an Allan deviation")]
+pub struct TooFew {
+    /// The samples the stretches hold.
+    pub samples: usize,
+}
+
 impl Analysis {
     /// The Allan analysis of `rate_dps` sampled at `time_s`, over its stretches without a gap or
     /// a non-finite value (a window left out: [`overlapping_runs`]).
@@ -270,6 +278,17 @@ impl Analysis {
             .map(|(w, r)| w - r)
             .collect();
         Self::of(&format!("{what} − reference"), time_s, &rate)
+    }
+
+    /// Whether the curve has the few cluster times an Allan deviation needs (three), or why not.
+    pub fn enough(&self) -> Result<(), TooFew> {
+        if self.tau_s.len() >= 3 {
+            Ok(())
+        } else {
+            Err(TooFew {
+                samples: self.samples,
+            })
+        }
     }
 
     /// The curve, for a figure.
@@ -363,6 +382,17 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, StandardNormal};
+
+    #[test]
+    fn a_curve_of_too_few_cluster_times_is_refused_with_its_samples() {
+        let few = Analysis::of("rate", &[0.0, 1.0, 2.0], &[0.1, 0.2, 0.3]);
+        assert_eq!(
+            few.enough().unwrap_err().to_string(),
+            "3 samples without a gap: too few for an Allan deviation"
+        );
+        let t: Vec<f64> = (0..100).map(f64::from).collect();
+        assert!(Analysis::of("rate", &t, &vec![0.5; 100]).enough().is_ok());
+    }
 
     /// White noise of ARW N °/√h at 1 Hz plus a Gauss–Markov bias of σ °/h and correlation time T.
     fn simulate(n: usize, arw_dpsqrth: f64, gm_dph: f64, corr_s: f64, seed: u64) -> Vec<f64> {

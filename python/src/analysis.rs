@@ -56,12 +56,9 @@ pub fn allan<'py>(
         )));
     }
     let analysis = py.detach(|| Analysis::less_reference(what, &time, &rate, &reference));
-    if analysis.tau_s.len() < 3 {
-        return Err(FogError::new_err(format!(
-            "{} samples without a gap: too few for an Allan deviation",
-            analysis.samples
-        )));
-    }
+    analysis
+        .enough()
+        .map_err(|e| FogError::new_err(e.to_string()))?;
     to_python(py, &analysis)
 }
 

@@ -134,12 +134,9 @@ fn analyse(
         ));
     }
     let analysis = allan::Analysis::less_reference(&what, &data.time_s, &rate, &data.rate_dps);
-    anyhow::ensure!(
-        analysis.tau_s.len() >= 3,
-        "{}: {} samples without a gap: too few for an Allan deviation",
-        path.display(),
-        analysis.samples
-    );
+    analysis
+        .enough()
+        .with_context(|| path.display().to_string())?;
     Ok(analysis)
 }
 
