@@ -52,6 +52,14 @@ def test_compensate_is_the_replay_bit_for_bit(stream, tmp_path):
     std = np.sqrt(c.bias_variance.astype(np.float64) + c.noise_variance).astype(np.float32)
     np.testing.assert_array_equal(std.view(np.uint32), f32(replayed["comp_std_dps"]))
     np.testing.assert_array_equal(c.status, [STATUS[s] for s in replayed["status"]])
+    # The power-on the model was calibrated on, as `--calibration-run` replays it.
+    cal = tmp_path / "calibration-run.csv"
+    run("firmware-sim", "replay", "--model", BLOBS / "gyro.bin", "--stream", stream, "--out", cal,
+        "--calibration-run", "-q")
+    first = fog.load_model(BLOBS / "gyro.bin").compensate(
+        col("time_s"), col("temp_c"), col("voltage_v"), calibration_run=True
+    )
+    np.testing.assert_array_equal(first.mean.view(np.uint32), f32(read_csv(cal)["comp_rate_dps"]))
     pd = pytest.importorskip("pandas")
     frame = c.to_frame()
     assert isinstance(frame, pd.DataFrame) and len(frame) == len(c.mean)
