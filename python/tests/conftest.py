@@ -1,8 +1,9 @@
 """Shared fixtures: the workspace's data and its command-line programs, whose results the package
 must equal.
 
-The programs are those `cargo test --workspace` (target/debug) or `cargo build --release`
-(target/release) built, the newer of the two; `FOG_BIN_DIR` names another folder.
+The programs are those the README's commands built (`cargo test --workspace --release` or
+`cargo build --release`: target/release) or a plain `cargo test --workspace` (target/debug), the
+newer of the two; `FOG_BIN_DIR` names another folder.
 """
 
 import os
@@ -27,8 +28,8 @@ def _bin_dir() -> Path:
     ]
     if not built:
         pytest.fail(
-            "no trainer and firmware-sim built: run `cargo test --workspace` or "
-            "`cargo build --release` first, or set FOG_BIN_DIR"
+            "no trainer and firmware-sim built: run `cargo build --release` "
+            "first, or set FOG_BIN_DIR"
         )
     return max(built, key=lambda d: (d / "trainer").stat().st_mtime)
 
