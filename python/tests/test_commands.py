@@ -86,3 +86,20 @@ def test_report_writes_the_page_and_returns_its_figures(tmp_path):
         for ch in page.channels:
             assert ch.cubic.project.rmse_per_degree > 0
             assert ch.cubic_verdict.startswith("the cubic")
+
+
+def test_quiet_false_prints_what_the_command_prints(tmp_path, capfd):
+    fog.calibrate(LOG, channels=CHANNELS, window=(None, 2400), features=None)
+    assert capfd.readouterr().out == ""
+    fog.calibrate(LOG, channels=CHANNELS, window=(None, 2400), features=None, quiet=False)
+    printed = capfd.readouterr().out
+    cli = run(
+        "trainer", "fit", "--stream", LOG, "--channels", CHANNELS, "--window", ":2400",
+        "--out", tmp_path / "imu.bin",
+    )
+    # The same lines, each channel's, but for the fit's wall time and where the blob went.
+    def lines(text):
+        return [line for line in text.splitlines() if " ms" not in line and "wrote" not in line]
+
+    assert "gyro.x (angular rate in °/s, [1/6])" in printed
+    assert lines(printed) == lines(cli)

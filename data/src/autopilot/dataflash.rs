@@ -162,6 +162,8 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
             instance: i,
             device_id: None,
             id_changes: Vec::new(),
+            time_field: "TimeUS",
+            temp_field: "T",
             temp_c: if s.temp_c.iter().any(|t| t.is_finite()) {
                 s.temp_c
             } else {
@@ -172,8 +174,9 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
             axes: AXES
                 .iter()
                 .zip(s.axes)
-                .map(|(&(_, name, quantity, _), values)| Axis {
+                .map(|(&(field, name, quantity, _), values)| Axis {
                     name: name.to_owned(),
+                    field,
                     quantity,
                     values,
                 })

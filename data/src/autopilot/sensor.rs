@@ -12,6 +12,8 @@ use crate::stream::{self, Stream};
 pub struct Axis {
     /// Its channel name (`x`, `gyr.x`, `acc.z`).
     pub name: String,
+    /// The log's field it was read from (`x`, `GyrX`).
+    pub field: &'static str,
     /// What it measures (its values in °/s or m/s²).
     pub quantity: Quantity,
     /// Its samples, converted to the quantity's unit.
@@ -31,8 +33,13 @@ pub struct Sensor {
     pub device_id: Option<u32>,
     /// Where the device ID changes mid-log: (time s from the first sample, the new ID).
     pub id_changes: Vec<(f64, u32)>,
+    /// The log's field its sample times were read from (`timestamp_sample`, `timestamp`,
+    /// `TimeUS`), in µs.
+    pub time_field: &'static str,
     /// Sample times, s from the log's start.
     pub time_s: Vec<f64>,
+    /// The log's field its temperature was read from (`temperature`, `T`).
+    pub temp_field: &'static str,
     /// Its temperature, °C; empty where the log has no temperature for it.
     pub temp_c: Vec<f64>,
     /// Its axes.
@@ -49,6 +56,11 @@ impl Sensor {
             Some(id) => format!("{} {id}", self.name),
             None => self.name.clone(),
         }
+    }
+
+    /// Where its `field` comes from in the log, as a person reads it: `sensor_gyro[0].x`.
+    pub fn field_source(&self, field: &str) -> String {
+        format!("{}[{}].{field}", self.topic, self.instance)
     }
 
     /// Number of samples.

@@ -204,6 +204,11 @@ fn each_instance_of_a_ulog_is_a_unit_of_its_axes_in_the_projects_units() {
     let g0 = &log.sensors[0];
     assert_eq!(g0.device_id, Some(2_424_842));
     assert_eq!(g0.time_s[0], 5.0, "timestamp_sample, not timestamp");
+    assert_eq!(
+        g0.field_source(g0.time_field),
+        "sensor_gyro[0].timestamp_sample"
+    );
+    assert_eq!(g0.field_source(g0.axes[2].field), "sensor_gyro[0].z");
     let last = g0.len() - 1;
     let rad = f64::from(1e-4f32 * (20.0 + 25.0 * (1199.0f32 / 1200.0) - 20.0));
     assert!((g0.axes[0].values[last] - rad.to_degrees()).abs() < 1e-6);
@@ -305,6 +310,10 @@ fn each_imu_of_a_dataflash_log_is_a_unit_of_its_gyro_and_accelerometer_axes() {
     let imu1 = &log.sensors[1];
     let axes: Vec<&str> = imu1.axes.iter().map(|a| a.name.as_str()).collect();
     assert_eq!(axes, ["gyr.x", "gyr.y", "gyr.z", "acc.x", "acc.y", "acc.z"]);
+    let fields: Vec<&str> = imu1.axes.iter().map(|a| a.field).collect();
+    assert_eq!(fields, ["GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"]);
+    assert_eq!(imu1.field_source(imu1.time_field), "IMU[1].TimeUS");
+    assert_eq!(imu1.field_source(imu1.temp_field), "IMU[1].T");
     assert_eq!(imu1.len(), 1200);
     let g = f64::from(2e-4f32 * (20.0 + 25.0 * (600.0f32 / 1200.0) - 20.0) * 2.0);
     assert!((imu1.axes[0].values[600] - g.to_degrees()).abs() < 1e-6);
@@ -313,4 +322,55 @@ fn each_imu_of_a_dataflash_log_is_a_unit_of_its_gyro_and_accelerometer_axes() {
     assert_eq!(units.len(), 2);
     assert_eq!(units[1].list[5].quantity, Quantity::SpecificForce);
     assert_eq!(units[1].sensor_id, "imu1");
+}
+
+/// A ULog of one gyro at 100 Hz for `minutes`, warming 20 → 45 °C: a long log.
+fn long_ulog(minutes: u64) -> Vec<u8> {
+    let mut w = ULogWriter::new(Vec::new(), 1_000).unwrap();
+    w.format("sensor_gyro", &PX4_SENSOR_FIELDS).unwrap();
+    let g0 = w.subscribe("sensor_gyro", 0).unwrap();
+    let n = minutes * 60 * 100;
+    for i in 0..n {
+        let t_us = i * 10_000;
+        let temp = 20.0 + 25.0 * (i as f32 / n as f32);
+        let v = [
+            Value::U64(t_us + 300),
+            Value::U64(t_us),
+            Value::U32(2_424_842),
+            Value::F32(1e-4 * (temp - 20.0)),
+            Value::F32(0.0),
+            Value::F32(0.0),
+            Value::F32(temp),
+            Value::U32(0),
+        ];
+        w.data(g0, &v).unwrap();
+    }
+    w.into_inner()
+}
+
+#[test]
+fn a_long_reads_progress_is_heard_in_order_up_to_the_whole_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // 45 min at 100 Hz: about 12 MB, so the bar moves twice (every 4 MiB) before it ends.
+    let bytes = long_ulog(45);
+    let path = file(dir.path(), "long.ulg", &bytes);
+    let mut heard: Vec<(u64, u64)> = Vec::new();
+    let log = Recorded::read(&path, &mut |done, total| heard.push((done, total)))
+        .unwrap()
+        .unwrap();
+    assert_eq!(log.sensors[0].len(), 270_000);
+    let total = bytes.len() as u64;
+    assert!(heard.len() >= 3, "{heard:?}");
+    assert!(heard.iter().all(|&(_, t)| t == total));
+    assert!(
+        heard.windows(2).all(|w| w[0].0 <= w[1].0),
+        "not in order: {heard:?}"
+    );
+    assert_eq!(heard.last(), Some(&(total, total)));
+    // A short one hears only its end.
+    let short = file(dir.path(), "cal.bin", &dataflash());
+    let mut heard = Vec::new();
+    Recorded::read(&short, &mut |done, total| heard.push((done, total))).unwrap();
+    let size = std::fs::metadata(&short).unwrap().len();
+    assert_eq!(heard, [(size, size)]);
 }

@@ -113,6 +113,7 @@ impl Framing for Frames {
 struct Samples {
     device_id: Option<u32>,
     id_changes: Vec<(f64, u32)>,
+    time_field: &'static str,
     time_s: Vec<f64>,
     temp_c: Vec<f64>,
     has_temperature: bool,
@@ -195,7 +196,9 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
                 instance: multi,
                 device_id: s.device_id,
                 id_changes: s.id_changes,
+                time_field: s.time_field,
                 time_s: s.time_s,
+                temp_field: "temperature",
                 temp_c: if s.has_temperature {
                     s.temp_c
                 } else {
@@ -207,6 +210,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
                     .zip(s.axes)
                     .map(|(n, values)| Axis {
                         name: n.to_owned(),
+                        field: n,
                         quantity,
                         values,
                     })
@@ -250,6 +254,13 @@ fn push(s: &mut Samples, data: &inst::Format, timestamp: u64, factor: f64) {
             "z" => axes[2] = v * factor,
             _ => {}
         }
+    }
+    if s.time_s.is_empty() {
+        s.time_field = match (sample_time, time) {
+            (Some(_), _) => "timestamp_sample",
+            (None, Some(_)) => "timestamp",
+            (None, None) => "the message's timestamp",
+        };
     }
     let t = sample_time.or(time).unwrap_or(timestamp as f64) * 1e-6;
     if let Some(id) = id {

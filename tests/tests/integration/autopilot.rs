@@ -334,7 +334,24 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
         &out,
     ])
     .unwrap();
-    assert_eq!(json(&out)["files"].as_array().unwrap().len(), 1);
+    let accel2 = json(&out)["files"].as_array().unwrap().clone();
+    assert_eq!(accel2.len(), 1);
+    // Each column named by the log's field it was read from, not by the project's own columns.
+    let columns: Vec<(String, String)> =
+        serde_json::from_value(accel2[0][2]["columns"].clone()).unwrap();
+    let from = |name: &str| {
+        columns
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, f)| f.clone())
+            .unwrap_or_default()
+    };
+    assert!(
+        from("time_s").starts_with("sensor_accel[2].timestamp"),
+        "{columns:?}"
+    );
+    assert_eq!(from("temp_c"), "sensor_accel[2].temperature (°C)");
+    assert_eq!(from("voltage_v"), "sensor_accel[2].z");
     let e = trainer(&[
         "-q",
         "summarize",

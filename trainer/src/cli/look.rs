@@ -123,7 +123,10 @@ pub(super) fn unit_summaries(
         .map(|(k, ch)| {
             let own = channels.maps(k, &maps.list, read)?;
             let summary = match &streams {
-                Some(s) => summary::of_stream(&file, &s[k], &own),
+                Some(s) => match &channels.recorded {
+                    Some(sensor) => summary::of_stream(&file, &s[k], &own).recorded_from(sensor, k),
+                    None => summary::of_stream(&file, &s[k], &own),
+                },
                 None => {
                     let (points, left_out) =
                         Points::load_screened(path, &own, None, ch.scale_factor, Screen::Exclude)?;

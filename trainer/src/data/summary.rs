@@ -6,6 +6,7 @@
 use serde::Serialize;
 
 use firmware_core::Quantity;
+use fog_data::autopilot::Sensor;
 use fog_data::columns::ColumnMap;
 use fog_data::stats::Line;
 use fog_data::stream::Stream;
@@ -253,6 +254,30 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
 }
 
 impl Summary {
+    /// Axis `axis` of a flight controller's `sensor` read as this file's stream: where its time,
+    /// temperature and output come from named as the log's fields (`sensor_gyro[0].x`), not as
+    /// the columns the project reads them into.
+    pub fn recorded_from(mut self, sensor: &Sensor, axis: usize) -> Self {
+        for (name, from) in &mut self.columns {
+            let field = match name.as_str() {
+                "time_s" => Some(format!("{} (µs)", sensor.field_source(sensor.time_field))),
+                "temp_c" if !sensor.temp_c.is_empty() => {
+                    Some(format!("{} (°C)", sensor.field_source(sensor.temp_field)))
+                }
+                // Both formats log rad/s and m/s²; the project reads rates in °/s.
+                "voltage_v" => sensor.axes.get(axis).map(|a| match a.quantity {
+                    Quantity::AngularRate => format!("{} × 180/π", sensor.field_source(a.field)),
+                    Quantity::SpecificForce => sensor.field_source(a.field),
+                }),
+                _ => None,
+            };
+            if let Some(field) = field {
+                *from = field;
+            }
+        }
+        self
+    }
+
     /// What a unit's channels share in this file, as text: the file and its rows (`what`: the
     /// unit), the columns other than a channel's output and reference, the temperature, the
     /// sampling or plateaus, time problems and what was left out.
