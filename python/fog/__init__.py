@@ -25,6 +25,7 @@ from ._fog import (
     Polynomial,
     __version__,
     load_model,
+    log_format,
 )
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "investigate",
     "report",
     "load_model",
+    "log_format",
     "summarize",
 ]
 
@@ -137,13 +139,32 @@ def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> Record:
     return Record(_fog.allan(time_s, rate_dps, reference_dps, what))
 
 
-def summarize(path, map=None, points: bool = False, scale_factor=None) -> Record:
+def summarize(
+    path, map=None, points: bool = False, scale_factor=None, channels=None, sensor=None
+) -> Record:
     """A data file as the loader sees it, before anything is fitted, as `trainer summarize --json`
     gives it: a stream (or, with `points=True`, a points table), its columns named as the
     trainer's (`time_s`, `temp_c`, `voltage_v`, `rate_dps`) or mapped by `map`
-    (`{"temp_c": "T"}`, as `--map temp_c=T`)."""
-    pairs = None if map is None else [(str(k), str(v)) for k, v in dict(map).items()]
-    return Record(_fog.summarize(str(path), pairs, points, scale_factor))
+    (`{"temp_c": "T"}`, as `--map temp_c=T`). A unit, that is a channels file (`channels`) or a
+    PX4 ULog or ArduPilot DataFlash log (each of its sensors, or those named by `sensor`), gives
+    the command's whole JSON instead: under `files`, one list per unit of each channel's
+    summary. Raises `FogError` with the command's message."""
+    if channels is None and sensor is None and _fog.log_format(str(path)) == "csv":
+        pairs = None if map is None else [(str(k), str(v)) for k, v in dict(map).items()]
+        return Record(_fog.summarize(str(path), pairs, points, scale_factor))
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(scratch) / "summary.json"
+        source = {"points" if points else "stream": str(path)}
+        args = ["-q", "summarize"] + _arguments(
+            **source,
+            channels=None if channels is None else str(channels),
+            sensor=sensor,
+            map=map,
+            scale_factor=scale_factor,
+            json=str(out),
+        )
+        _fog.trainer(args)
+        return Record(json.loads(out.read_text()))
 
 
 def _window(w: Any) -> str:

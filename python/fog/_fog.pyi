@@ -141,5 +141,9 @@ def summarize(
     points: bool = False,
     scale_factor: float | None = None,
 ) -> dict[str, Any]: ...
+def log_format(path: Union[str, PathLike[str]]) -> str:
+    """What kind of log `path` is, told by its first bytes as every command tells it: "csv",
+    "ulog" (PX4) or "dataflash" (ArduPilot). Raises `FogError` for a binary file of neither."""
+
 def trainer(args: list[str]) -> None:
     """Runs `trainer ARGS…` in this process (what `calibrate` and `investigate` call)."""

@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use fog_data::allan::Analysis;
+use fog_data::autopilot::Format;
 use fog_data::columns::ColumnMap;
 use numpy::{AllowTypeChange, PyArrayLike1};
 use pyo3::exceptions::PyValueError;
@@ -60,6 +61,21 @@ pub fn allan<'py>(
         .enough()
         .map_err(|e| FogError::new_err(e.to_string()))?;
     to_python(py, &analysis)
+}
+
+/// What kind of log `path` is, told by its first bytes as every command tells it: `"csv"`,
+/// `"ulog"` (PX4) or `"dataflash"` (ArduPilot). A binary file of neither kind is refused, with
+/// what it begins with.
+#[pyfunction]
+pub fn log_format(py: Python<'_>, path: PathBuf) -> PyResult<&'static str> {
+    let format = py
+        .detach(|| fog_data::autopilot::sniff(&path))
+        .map_err(fog_error)?;
+    Ok(match format {
+        Format::Csv => "csv",
+        Format::ULog => "ulog",
+        Format::DataFlash => "dataflash",
+    })
 }
 
 /// A data file as the loader sees it, before anything is fitted (`trainer summarize`): a stream

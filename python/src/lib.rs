@@ -28,6 +28,7 @@ fn _fog(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(firmware::load_model, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::allan, m)?)?;
     m.add_function(wrap_pyfunction!(analysis::summarize, m)?)?;
+    m.add_function(wrap_pyfunction!(analysis::log_format, m)?)?;
     m.add_function(wrap_pyfunction!(commands::trainer, m)?)?;
     Ok(())
 }

@@ -61,6 +61,26 @@ def test_summarize_is_the_commands(tmp_path):
         fog.summarize(LOG)
 
 
+def test_a_units_summary_is_the_commands_on_a_channels_file_and_a_flight_controllers_log(tmp_path):
+    out = tmp_path / "unit.json"
+    channels = LOG.with_name("imu.toml")
+    run("trainer", "summarize", "--stream", LOG, "--channels", channels, "--json", out, "-q")
+    assert fog.summarize(LOG, channels=channels).to_dict() == json.loads(out.read_text())
+    board = tmp_path / "cal.bin"
+    run("firmware-sim", "generate", "board", "--seed", "1", "--minutes", "20", "--out", board, "-q")
+    assert fog.log_format(board) == "dataflash"
+    run("trainer", "summarize", "--stream", board, "--sensor", "imu1", "--json", out, "-q")
+    ours = fog.summarize(board, sensor="imu1")
+    assert ours.to_dict() == json.loads(out.read_text())
+    [imu1] = ours.files
+    assert [ch.channel for ch in imu1] == ["gyr.x", "gyr.y", "gyr.z", "acc.x", "acc.y", "acc.z"]
+    assert dict(imu1[0].columns)["voltage_v"] == "IMU[1].GyrX × 180/π"
+    junk = tmp_path / "x.bin"
+    junk.write_bytes(bytes(range(1, 200)))
+    with pytest.raises(fog.FogError, match="neither a CSV"):
+        fog.log_format(junk)
+
+
 def test_tables_come_as_pandas_frames():
     pd = pytest.importorskip("pandas")
     t = np.arange(3000.0)

@@ -256,10 +256,11 @@ fn push(s: &mut Samples, data: &inst::Format, timestamp: u64, factor: f64) {
         }
     }
     if s.time_s.is_empty() {
-        s.time_field = match (sample_time, time) {
-            (Some(_), _) => "timestamp_sample",
-            (None, Some(_)) => "timestamp",
-            (None, None) => "the message's timestamp",
+        // Without either field, the message's own timestamp: ULog's `timestamp` all the same.
+        s.time_field = if sample_time.is_some() {
+            "timestamp_sample"
+        } else {
+            "timestamp"
         };
     }
     let t = sample_time.or(time).unwrap_or(timestamp as f64) * 1e-6;

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use fog_data::channels::{Channels, Read};
+use fog_data::columns::Source;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_json_list};
 use fog_terminal::log::{Maps, UnitArgs};
@@ -123,9 +124,11 @@ pub(super) fn unit_summaries(
         .map(|(k, ch)| {
             let own = channels.maps(k, &maps.list, read)?;
             let summary = match &streams {
-                Some(s) => match &channels.recorded {
-                    Some(sensor) => summary::of_stream(&file, &s[k], &own).recorded_from(sensor, k),
-                    None => summary::of_stream(&file, &s[k], &own),
+                Some(s) => match (&channels.recorded, &ch.output) {
+                    (Some(sensor), Source::Column { name, .. }) => {
+                        summary::of_stream(&file, &s[k], &own).recorded_from(sensor, name)
+                    }
+                    _ => summary::of_stream(&file, &s[k], &own),
                 },
                 None => {
                     let (points, left_out) =

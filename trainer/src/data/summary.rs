@@ -254,10 +254,10 @@ pub fn of_stream(file: &str, stream: &Stream, maps: &[ColumnMap]) -> Summary {
 }
 
 impl Summary {
-    /// Axis `axis` of a flight controller's `sensor` read as this file's stream: where its time,
-    /// temperature and output come from named as the log's fields (`sensor_gyro[0].x`), not as
-    /// the columns the project reads them into.
-    pub fn recorded_from(mut self, sensor: &Sensor, axis: usize) -> Self {
+    /// The axis of a flight controller's `sensor` whose values are the column `axis` read as this
+    /// file's stream: where its time, temperature and output come from named as the log's fields
+    /// (`sensor_gyro[0].x`), not as the columns the project reads them into.
+    pub fn recorded_from(mut self, sensor: &Sensor, axis: &str) -> Self {
         for (name, from) in &mut self.columns {
             let field = match name.as_str() {
                 "time_s" => Some(format!("{} (µs)", sensor.field_source(sensor.time_field))),
@@ -265,10 +265,18 @@ impl Summary {
                     Some(format!("{} (°C)", sensor.field_source(sensor.temp_field)))
                 }
                 // Both formats log rad/s and m/s²; the project reads rates in °/s.
-                "voltage_v" => sensor.axes.get(axis).map(|a| match a.quantity {
-                    Quantity::AngularRate => format!("{} × 180/π", sensor.field_source(a.field)),
-                    Quantity::SpecificForce => sensor.field_source(a.field),
-                }),
+                "voltage_v" => {
+                    sensor
+                        .axes
+                        .iter()
+                        .find(|a| a.name == axis)
+                        .map(|a| match a.quantity {
+                            Quantity::AngularRate => {
+                                format!("{} × 180/π", sensor.field_source(a.field))
+                            }
+                            Quantity::SpecificForce => sensor.field_source(a.field),
+                        })
+                }
                 _ => None,
             };
             if let Some(field) = field {
