@@ -124,12 +124,15 @@ pub(super) fn unit_summaries(
         .map(|(k, ch)| {
             let own = channels.maps(k, &maps.list, read)?;
             let summary = match &streams {
-                Some(s) => match (&channels.recorded, &ch.output) {
-                    (Some(sensor), Source::Column { name, .. }) => {
-                        summary::of_stream(&file, &s[k], &own).recorded_from(sensor, name)
+                Some(s) => {
+                    let summary = summary::of_stream(&file, &s[k], &own);
+                    match (&channels.recorded, &ch.output) {
+                        (Some(sensor), Source::Column { name, .. }) => {
+                            summary.recorded_from(sensor, name)
+                        }
+                        _ => summary,
                     }
-                    _ => summary::of_stream(&file, &s[k], &own),
-                },
+                }
                 None => {
                     let (points, left_out) =
                         Points::load_screened(path, &own, None, ch.scale_factor, Screen::Exclude)?;
