@@ -6,8 +6,12 @@
 //! The floor is `DenseFloor`'s: the fit's likelihood count times one Cholesky + inverse timed at
 //! the same n, here against the median fit.
 //!
-//! Usage: cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
-//! [--map NAME=SOURCE …] [--mean constant|physics|polyN] (constant unless told: scikit-learn's)
+//! Usage (the mean is constant unless told: scikit-learn's):
+//!
+//! ```text
+//! cargo run --release -p trainer --example fit_timing -- points.csv [repeats] [--json]
+//!     [--map NAME=SOURCE …] [--mean constant|physics|polyN]
+//! ```
 
 use fog_data::columns::ColumnMap;
 use trainer::data::points::Points;

@@ -4,7 +4,11 @@
 //! stream through its firmware blob. Writes the blobs, so that `firmware-sim qemu` can count their
 //! M4 instructions, and prints one table row per model.
 //!
-//! Usage: cargo run --release -p trainer --example sparse_curve -- OUT_DIR POINTS HELD_OUT STREAM...
+//! Usage:
+//!
+//! ```text
+//! cargo run --release -p trainer --example sparse_curve -- OUT_DIR POINTS HELD_OUT STREAM...
+//! ```
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
