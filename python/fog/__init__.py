@@ -8,11 +8,13 @@ this package only moves numpy arrays across.
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import json
+import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from . import _fog
 from ._fog import (
@@ -130,6 +132,44 @@ def _short(value: Any) -> str:
     return repr(value)
 
 
+def _shown_as_written(stream: Any, fd: int) -> bool:
+    """Whether what the process writes to its file descriptor `fd` is what `stream` (`sys.stdout`,
+    `sys.stderr`) shows: in a terminal or a script it is; in a notebook, under pytest's `capsys`
+    or `contextlib.redirect_stdout`, the stream is an object of its own, and the process's lines
+    go elsewhere (a notebook's to the kernel's log, not the cell)."""
+    try:
+        return stream.fileno() == fd
+    except (AttributeError, OSError, ValueError):
+        return False
+
+
+@contextlib.contextmanager
+def _forwarded() -> Iterator[None]:
+    """The commands print from Rust, to the process's file descriptors 1 and 2. Where either is
+    not what the person sees (a notebook), its lines are forwarded to `sys.stdout` or
+    `sys.stderr` as they are printed, by wurlitzer (the commands run without the GIL, so its
+    reader threads run beside them): the command's summary under `quiet=False`, and its warnings
+    always. Progress bars draw only in a terminal, so a notebook sees the lines alone."""
+    out = None if _shown_as_written(sys.stdout, 1) else sys.stdout
+    err = None if _shown_as_written(sys.stderr, 2) else sys.stderr
+    if out is None and err is None:
+        yield
+        return
+    try:
+        from wurlitzer import pipes
+    except ImportError:  # Windows: wurlitzer pipes POSIX file descriptors only.
+        yield
+        return
+    with pipes(stdout=out, stderr=err):
+        yield
+
+
+def _command(args: list[str]) -> None:
+    """Runs `trainer ARGS…` in this process, its lines where the person sees them."""
+    with _forwarded():
+        _fog.trainer(args)
+
+
 def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> Record:
     """The overlapping Allan deviation of `rate_dps` (less `reference_dps` where given; NaN where
     unknown), with its noise terms, as `trainer allan --json` gives it: `tau_s`, `adev_dps`,
@@ -163,7 +203,7 @@ def summarize(
             scale_factor=scale_factor,
             json=str(out),
         )
-        _fog.trainer(args)
+        _command(args)
         return Record(json.loads(out.read_text()))
 
 
@@ -273,7 +313,7 @@ def calibrate(
             json=str(folder / "fit.json"),
             **options,
         )
-        _fog.trainer(args)
+        _command(args)
         models, reports = {}, {}
         for blob in sorted(folder.glob("model*.bin")):
             name = blob.stem.partition(".")[2] or "model"
@@ -318,7 +358,7 @@ def investigate(
             json=str(out),
             **options,
         )
-        _fog.trainer(args)
+        _command(args)
         return Record(json.loads(out.read_text()))
 
 
@@ -352,7 +392,7 @@ def report(
         out=str(folder),
         **options,
     )
-    _fog.trainer(args)
+    _command(args)
     if (folder / "report.json").exists():
         return Record(json.loads((folder / "report.json").read_text()))
     return {

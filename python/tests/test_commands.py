@@ -1,6 +1,8 @@
 """`fog.calibrate` and `fog.investigate` are `trainer fit` and `trainer investigate`: the same blob,
 byte for byte, and the same report, on the MEMS log and a flight controller's log."""
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -103,3 +105,27 @@ def test_quiet_false_prints_what_the_command_prints(tmp_path, capfd):
 
     assert "gyro.x (angular rate in °/s, [1/6])" in printed
     assert lines(printed) == lines(cli)
+
+
+def test_in_a_notebook_the_commands_lines_and_warnings_reach_the_cell(tmp_path, capsys):
+    # capsys is what a notebook is: sys.stdout and sys.stderr are objects of their own, and what
+    # the process writes to its file descriptors 1 and 2 would not be shown.
+    fog.calibrate(LOG, channels=CHANNELS, window=(None, 2400), features=None, quiet=False)
+    shown = capsys.readouterr()
+    assert "gyro.x (angular rate in °/s, [1/6])" in shown.out
+    assert "firmware (f32) vs host (f64)" in shown.out
+    # A warning reaches the cell even when quiet: a rate table with an impossible row, left out.
+    table = tmp_path / "table.csv"
+    run("firmware-sim", "generate", "paper", "--seed", "1", "--out", table, "-q")
+    with table.open("a") as f:
+        f.write("400.0,0.38,0,400,0\n")
+    fog.calibrate(points=table, features=None, exclude_implausible=True)
+    shown = capsys.readouterr()
+    assert shown.out == ""
+    assert "column temp_c: 400 lies far outside the other rows" in shown.err
+    assert shown.err.startswith("warning: ")
+    # Only stdout redirected (`contextlib.redirect_stdout`): its lines follow it.
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        fog.calibrate(points=table, features=None, exclude_implausible=True, quiet=False)
+    assert "fitted GP on 140 points" in buf.getvalue()

@@ -8,13 +8,15 @@
 //! it has come), [`data`] (rate-table points as model inputs), [`models`] (the regressions),
 //! [`firmware`] (the blob and its checks), [`analysis`] (evaluation, diagnosis, extension,
 //! investigation, noise terms, the simulator's twin), [`plot`] (the figures' common drawing),
-//! [`report`], [`cli`]. The integration test `layers` holds them to it.
+//! [`report`], [`pipeline`] (what each command does, as a
+//! library: a plan and the data in, a typed result out), [`cli`]. The integration test `layers` holds them to it.
 
 pub mod analysis;
 pub mod cli;
 pub mod data;
 pub mod firmware;
 pub mod models;
+pub mod pipeline;
 pub mod plot;
 pub mod progress;
 pub mod report;

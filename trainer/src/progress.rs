@@ -20,3 +20,37 @@ impl Progress for () {
     fn advance(&self, _: u64) {}
     fn stage(&self, _: &str) {}
 }
+
+/// What a command's pipeline tells whoever runs it, beside the typed result it returns: the
+/// results worth a line as they are reached, warnings, details for the curious, and work of
+/// unknown length. The command line prints them (`cli`, on its console); a test or a notebook
+/// passes `&()` and reads the result alone.
+pub trait Messages {
+    /// A result worth a line of its own (a choice made and why, a figure measured).
+    fn result(&self, text: &str);
+    /// Something the person should act on or know, whatever else they asked to see.
+    fn warn(&self, text: &str);
+    /// Whether details ([`Messages::detail`]) are wanted: building them may cost.
+    fn verbose(&self) -> bool {
+        false
+    }
+    /// A detail (every optimizer start of a fit, …), shown only when asked for.
+    fn detail(&self, _text: &str) {}
+    /// Work of unknown length begins, described by `what`: the handle says what it does now,
+    /// and the work ends when it is dropped.
+    fn busy(&self, what: &str) -> Box<dyn Progress + '_>;
+    /// The messages about one channel of a unit, under its `heading` (said now).
+    fn channel(&self, name: &str, heading: &str) -> Box<dyn Messages + '_>;
+}
+
+/// Nobody listening.
+impl Messages for () {
+    fn result(&self, _: &str) {}
+    fn warn(&self, _: &str) {}
+    fn busy(&self, _: &str) -> Box<dyn Progress + '_> {
+        Box::new(())
+    }
+    fn channel(&self, _: &str, _: &str) -> Box<dyn Messages + '_> {
+        Box::new(())
+    }
+}

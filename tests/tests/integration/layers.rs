@@ -18,8 +18,8 @@ const CRATES: [&str; 6] = [
 ];
 
 /// The trainer's layers, each using only those before it.
-const TRAINER_LAYERS: [&str; 8] = [
-    "progress", "data", "models", "firmware", "analysis", "plot", "report", "cli",
+const TRAINER_LAYERS: [&str; 9] = [
+    "progress", "data", "models", "firmware", "analysis", "plot", "report", "pipeline", "cli",
 ];
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {

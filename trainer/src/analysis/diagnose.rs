@@ -662,6 +662,14 @@ pub fn joined(causes: &[Cause]) -> String {
         .join(" + ")
 }
 
+/// Named causes joined by " + ", or `none`.
+pub fn causes_text(causes: &[Cause]) -> String {
+    if causes.is_empty() {
+        return "none".to_owned();
+    }
+    joined(causes)
+}
+
 /// Why a step's design was not taken, in words.
 fn refusal(s: &Step) -> String {
     let forward = if !s.forward_sees {

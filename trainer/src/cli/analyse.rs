@@ -14,12 +14,11 @@ use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
 use serde::Serialize;
 
-use super::inputs::{
-    FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_points, load_runs, load_stream,
-};
-use super::text::{causes_text, render_diagnosis};
+use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
+use super::text::render_diagnosis;
 use crate::analysis::capacity;
 use crate::analysis::diagnose;
+use crate::analysis::diagnose::causes_text;
 use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
@@ -27,6 +26,7 @@ use crate::analysis::reproduce;
 use crate::data::points::Points;
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::GpConfig;
+use crate::pipeline::source::{Source, load_points, load_runs};
 use firmware_core::Quantity;
 use fog_data::channels::Channels;
 use fog_terminal::log::load_unit_log;
@@ -228,7 +228,7 @@ pub(super) fn investigate_command(
             anyhow::bail!("{}: no stream read", stream.display());
         };
         let (inv, blobs) = investigate_one(
-            &input,
+            &input.source(),
             (&stream, train, valid),
             (&fit, asked.as_deref()),
             &console,
@@ -267,7 +267,7 @@ pub(super) fn investigate_command(
             ),
         );
         let one = investigate_one(
-            &input.for_channel(&channels, k)?,
+            &input.source().for_channel(&channels, k)?,
             (&stream, train[k].clone(), valid[k].clone()),
             (&fit, asked.as_deref()),
             &console,
@@ -380,15 +380,16 @@ fn unit_gains(
 /// One channel's investigation, said as it goes: static fit, diagnosis and extension on `train`,
 /// both models scored on `valid`.
 fn investigate_one(
-    input: &ModelInput,
+    source: &Source,
     (train_path, train, valid): (&Path, Stream, Stream),
     (fit, asked): (&FitOptions, Option<&[Cause]>),
     console: &Console,
 ) -> anyhow::Result<(investigate::Investigation, investigate::Blobs)> {
     let train = [(train_path, train)];
-    let points = input.static_points(&train, false)?;
+    let points = source.static_points(&train, false, console)?;
     let [(_, train)] = train;
-    let rebuild = |part: &Stream| input.static_points(&[(train_path, part.clone())], false);
+    let rebuild =
+        |part: &Stream| source.static_points(&[(train_path, part.clone())], false, console);
     let bar = console.bar(0);
     let (inv, blobs) =
         investigate::investigate(&points, &train, &valid, &fit.gp(), asked, &rebuild, &bar)?;
@@ -461,6 +462,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         &input.maps.list,
         (group.as_deref(), None),
         input.exclude_implausible,
+        &console,
     )?;
     let bar = console.bar(0);
     let mut cfg = EvalConfig {
@@ -674,9 +676,9 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
     let points = load_points(
         &input.points,
         &input.maps.list,
-        None,
-        None,
+        (None, None),
         input.exclude_implausible,
+        &console,
     )?;
     let cfg = EvalConfig {
         gp: fit.gp(),

@@ -3,19 +3,17 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::{Args, ValueEnum};
 use firmware_core::Quantity;
-use fog_data::channels::{Channels, Read};
 use fog_data::columns::ColumnMap;
 use fog_data::stream::{Stream, Window};
 use fog_terminal::console::Console;
 use fog_terminal::log::{Excludes, Maps, UnitArgs};
 
 use crate::analysis::evaluate::Method;
-use crate::data::points::{Points, Screen};
 use crate::models::gp::{GpConfig, Inducing};
 use crate::models::prior::MeanBasis;
+use crate::pipeline::source::Source;
 
 #[derive(Args, Clone)]
 pub(super) struct Input {
@@ -76,30 +74,17 @@ pub(super) struct ModelInput {
 }
 
 impl ModelInput {
-    /// The input of channel `k` of `channels`, as if it were a single channel's: its columns
-    /// mapped onto the canonical ones (a rate table read as a table), and its scale factor (the
-    /// one it gives; without a rate table, 1 for an output in a physical unit: a bias model).
-    pub(super) fn for_channel(&self, channels: &Channels, k: usize) -> anyhow::Result<Self> {
-        anyhow::ensure!(
-            self.scale_factor.is_none(),
-            "--scale-factor is for one channel: a unit's channels give theirs in {} \
-             (scale_factor, or an output in a physical unit)",
-            channels.path.display()
-        );
-        let ch = &channels.list[k];
-        let scale_factor = match &self.points {
-            Some(_) => ch.scale_factor,
-            None => ch.bias_scale_factor(),
-        };
-        Ok(Self {
-            maps: Maps {
-                list: channels.maps(k, &self.maps.list, Read::Table)?,
-            },
-            scale_factor,
-            unit: UnitArgs::default(),
-            quantity: ch.quantity,
-            ..self.clone()
-        })
+    /// Where the static model's points come from, as the pipelines take it.
+    pub(super) fn source(&self) -> Source {
+        Source {
+            points: self.points.clone(),
+            runs: self.runs.clone(),
+            maps: self.maps.list.clone(),
+            scale_factor: self.scale_factor,
+            exclude_implausible: self.exclude_implausible,
+            group: self.group.clone(),
+            quantity: self.quantity,
+        }
     }
 
     /// This input with the other power-ons' tables `runs` pooled with its rate table.
@@ -109,97 +94,6 @@ impl ModelInput {
             ..self
         }
     }
-
-    /// The points of the static model: the rate table when given, else the streams' block means;
-    /// with `pool`, every sample of the streams as well.
-    pub(super) fn static_points(
-        &self,
-        streams: &[(&Path, Stream)],
-        pool: bool,
-    ) -> anyhow::Result<Points> {
-        let mut out = match &self.points {
-            Some(path) => Some(load_runs(
-                path,
-                &self.runs,
-                &self.maps.list,
-                (self.group.as_deref(), self.scale_factor),
-                self.exclude_implausible,
-            )?),
-            None => None,
-        };
-        if !pool && let Some(points) = out {
-            return Ok(points.measuring(self.quantity));
-        }
-        for (path, s) in streams {
-            let more = if pool {
-                Points::from_stream_samples(path, s, self.scale_factor)?
-            } else {
-                Points::from_stream(path, s, self.scale_factor)?
-            };
-            out = Some(match out {
-                Some(p) => p.pooled(more)?,
-                None => more,
-            });
-        }
-        out.map(|p| p.measuring(self.quantity))
-            .context("give --points (a rate table) or --stream to fit on")
-    }
-}
-
-/// Loads rate-table points; with `exclude`, implausible rows are left out with a warning each
-/// rather than refused.
-pub(super) fn load_points(
-    path: &Path,
-    maps: &[ColumnMap],
-    group: Option<&str>,
-    scale_factor: Option<f64>,
-    exclude: bool,
-) -> anyhow::Result<Points> {
-    let screen = if exclude {
-        Screen::Exclude
-    } else {
-        Screen::Refuse
-    };
-    let (points, left_out) = Points::load_screened(path, maps, group, scale_factor, screen)?;
-    for row in &left_out {
-        eprintln!(
-            "warning: {} {row}: left out (--exclude-implausible)",
-            path.display()
-        );
-    }
-    Ok(points)
-}
-
-/// Loads the rate table at `first` and those of other power-ons, `runs`, pooled: each file a run
-/// ([`Points::run`]). With runs, each keeps its groups apart: its file's name, or the `group`
-/// column's labels within it.
-pub(super) fn load_runs(
-    first: &Path,
-    runs: &[PathBuf],
-    maps: &[ColumnMap],
-    (group, scale_factor): (Option<&str>, Option<f64>),
-    exclude: bool,
-) -> anyhow::Result<Points> {
-    let mut out = load_points(first, maps, group, scale_factor, exclude)?;
-    if runs.is_empty() {
-        return Ok(out);
-    }
-    let named = |mut points: Points, path: &Path| {
-        let name = path.display().to_string();
-        for g in &mut points.group {
-            *g = match group {
-                Some(_) => format!("{name}: {g}"),
-                None => name.clone(),
-            };
-        }
-        points
-    };
-    out = named(out, first);
-    for path in runs {
-        let run = load_points(path, maps, group, scale_factor, exclude)?;
-        out = out.pooled(named(run, path))?;
-    }
-    Ok(out)
 }
 
 /// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in

@@ -2,7 +2,7 @@
 //! library. `main.rs` only calls [`run`]; tests call it too, with arguments of their own.
 
 use clap::{Parser, Subcommand};
-use fog_terminal::console::{AFTER_HELP, ConsoleFlags};
+use fog_terminal::console::{AFTER_HELP, Console, ConsoleFlags};
 
 mod analyse;
 mod challenge;
@@ -27,6 +27,57 @@ impl crate::progress::Progress for fog_terminal::console::ProgressBar {
 
     fn stage(&self, what: &str) {
         self.set_message(what.to_owned());
+    }
+}
+
+/// The pipelines' messages, on the console: results on stdout, warnings and details on stderr,
+/// work of unknown length as a spinner that clears when it ends.
+impl crate::progress::Messages for fog_terminal::console::Console {
+    fn result(&self, text: &str) {
+        Console::result(self, text);
+    }
+
+    fn warn(&self, text: &str) {
+        Console::warn(self, text);
+    }
+
+    fn verbose(&self) -> bool {
+        Console::verbose(self)
+    }
+
+    fn detail(&self, text: &str) {
+        Console::detail(self, text);
+    }
+
+    fn busy(&self, what: &str) -> Box<dyn crate::progress::Progress + '_> {
+        Box::new(Spinner(self.spinner(what)))
+    }
+
+    fn channel(&self, name: &str, heading: &str) -> Box<dyn crate::progress::Messages + '_> {
+        Box::new(Console::channel(self, name, heading))
+    }
+}
+
+/// A console spinner that clears itself when the work it shows ends (is dropped).
+struct Spinner(fog_terminal::console::ProgressBar);
+
+impl crate::progress::Progress for Spinner {
+    fn expect(&self, steps: u64) {
+        self.0.expect(steps);
+    }
+
+    fn advance(&self, steps: u64) {
+        self.0.advance(steps);
+    }
+
+    fn stage(&self, what: &str) {
+        self.0.stage(what);
+    }
+}
+
+impl Drop for Spinner {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
     }
 }
 

@@ -8,11 +8,12 @@ use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::ensure_not_input;
 
 use super::demo;
-use super::fit::params::{ParamsArgs, unit_cubics};
+use super::fit::params::ParamsArgs;
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
 use super::look::{unit_summaries, unit_text};
 use crate::analysis::autopilot;
 use crate::firmware::autopilot::SensorCubics;
+use crate::pipeline::fit::unit_cubics;
 use crate::report;
 use fog_data::channels::{Channels, Read};
 use fog_terminal::log::load_unit_log;
@@ -130,7 +131,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     let gp = fit.gp();
     let r = match files {
         Files::None => {
-            let points = input.static_points(&[], false)?;
+            let points = input.source().static_points(&[], false, &console)?;
             report::table(
                 &input.points.clone().unwrap_or_default(),
                 summaries,
@@ -155,9 +156,11 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 anyhow::bail!("{}: no stream read", path.display());
             };
             let train = [(path.as_path(), train)];
-            let points = input.static_points(&train, false)?;
-            let rebuild =
-                |part: &Stream| input.static_points(&[(path.as_path(), part.clone())], false);
+            let source = input.source();
+            let points = source.static_points(&train, false, &console)?;
+            let rebuild = |part: &Stream| {
+                source.static_points(&[(path.as_path(), part.clone())], false, &console)
+            };
             let (kind, source) = kind_and_source(input.points.as_deref(), &path, &held_out);
             report::with_streams(
                 &source,
@@ -252,10 +255,10 @@ fn report_unit(
     let mut pages = Vec::new();
     for (k, ch) in channels.list.iter().enumerate() {
         bar.set_message(format!("channel {}", ch.name));
-        let own = input.for_channel(channels, k)?;
+        let own = input.source().for_channel(channels, k)?;
         let report = match &held {
             None => {
-                let points = own.static_points(&[], false)?;
+                let points = own.static_points(&[], false, console)?;
                 report::table(
                     &own.points.clone().unwrap_or_default(),
                     Vec::new(),
@@ -266,9 +269,10 @@ fn report_unit(
             }
             Some((path, held_out, (train, valid, said))) => {
                 let train = [(path.as_path(), train[k].clone())];
-                let points = own.static_points(&train, false)?;
-                let rebuild =
-                    |part: &Stream| own.static_points(&[(path.as_path(), part.clone())], false);
+                let points = own.static_points(&train, false, console)?;
+                let rebuild = |part: &Stream| {
+                    own.static_points(&[(path.as_path(), part.clone())], false, console)
+                };
                 report::with_streams(
                     path,
                     kind_and_source(own.points.as_deref(), path, held_out).0,

@@ -1,45 +1,8 @@
-//! How results read on a terminal: the optimizer's starts, named causes, a diagnosis.
+//! How results read on a terminal: a diagnosis.
 
 use firmware_core::units::DPH_PER_DPS;
-use fog_data::cause::Cause;
-use fog_terminal::console::Console;
 
-use crate::analysis::diagnose::{self, Diagnosis};
-use crate::models::gp::GpModel;
-
-/// Under --verbose: every optimizer start of a fit, where it began and ended.
-pub(super) fn log_starts(console: &Console, model: &GpModel) {
-    if !console.verbose() {
-        return;
-    }
-    console.detail("optimizer starts (θ = ln ℓ…, ln σ_f, ln σ_n[, ln σ_g]; normalized):");
-    for (i, s) in model.starts.iter().enumerate() {
-        let fmt = |t: &[f64]| {
-            t.iter()
-                .map(|v| format!("{v:.3}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        console.detail(&format!(
-            "  {i:>2}: [{}] → [{}]  log ML {}  {} likelihoods, {} evaluations: {}",
-            fmt(&s.start),
-            s.end.as_deref().map_or("failed".to_owned(), fmt),
-            s.log_marginal_likelihood
-                .map_or("—".to_owned(), |l| format!("{l:.3}")),
-            s.likelihoods,
-            s.evaluations,
-            s.status
-        ));
-    }
-}
-
-/// Named causes joined by " + ", or `none`.
-pub(super) fn causes_text(causes: &[Cause]) -> String {
-    if causes.is_empty() {
-        return "none".to_owned();
-    }
-    diagnose::joined(causes)
-}
+use crate::analysis::diagnose::{Diagnosis, causes_text};
 
 /// The diagnosis as a terminal reads it: the verdict, every candidate alone, then the selection.
 pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
@@ -100,6 +63,7 @@ pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
 mod tests {
     use super::*;
     use crate::analysis::diagnose::Step;
+    use fog_data::cause::Cause;
 
     #[test]
     fn the_selection_shows_a_state_s_own_share_and_what_took_its_place() {

@@ -1,21 +1,16 @@
 //! `trainer fit`'s flags, as clap reads them: what to fit on and how, the target's budget, and
 //! what the blob states for service (rated range, full scale, repeatability, the rule beyond the
-//! trained range). [`super::FitPlan::check`] turns them into a plan.
+//! trained range). `FitCommand::check` turns them into the pipeline's plan.
 
 use std::path::PathBuf;
 
 use clap::Args;
-use fog_data::replay;
+use firmware_core::blob::Beyond;
 use fog_data::stream::Window;
 
-use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::budget::{Budget, Bytes};
-use crate::analysis::uncertainty::Calibration;
 use crate::cli::inputs::{FitOptions, ModelInput, Runs};
-use crate::data::points::Points;
-use crate::firmware::export;
-use crate::models::gp::GpConfig;
-use firmware_core::blob::{Beyond, Limits};
+use crate::pipeline::fit::Service;
 
 /// The arguments of `trainer fit`.
 #[derive(Args)]
@@ -160,63 +155,18 @@ pub(super) fn parse_rated(text: &str) -> Result<(f32, f32), String> {
 }
 
 impl ServiceArgs {
-    /// The blob's limits.
-    pub(super) fn limits(&self) -> Limits {
-        let (temp_min_c, temp_max_c) = self
-            .rated_temp
-            .unwrap_or((Limits::DEFAULT.temp_min_c, Limits::DEFAULT.temp_max_c));
-        Limits {
-            temp_min_c,
-            temp_max_c,
-            full_scale: self.full_scale.unwrap_or(0.0),
+    /// The settings the blob states for service, as the pipeline takes them.
+    pub(super) fn service(&self) -> Service {
+        Service {
+            rated_temp: self.rated_temp,
+            full_scale: self.full_scale,
+            repeatability: self.repeatability,
+            beyond: match self.beyond {
+                BeyondArg::Auto => None,
+                BeyondArg::Tangent => Some(Beyond::Tangent),
+                BeyondArg::Hold => Some(Beyond::Hold),
+                BeyondArg::Follow => Some(Beyond::Follow),
+            },
         }
-    }
-
-    /// The rule beyond the trained range: as asked, or chosen on `points` (fitted as `gp`).
-    pub(super) fn beyond(&self, points: &Points, gp: &GpConfig) -> BeyondChoice {
-        let asked = |rule, name| BeyondChoice {
-            rule,
-            inside_c: None,
-            scored: 0,
-            rmse: None,
-            verdict: format!("{name} as asked (--beyond)"),
-        };
-        match self.beyond {
-            BeyondArg::Auto => beyond::choose(points, gp),
-            BeyondArg::Tangent => asked(Beyond::Tangent, "along the tangent"),
-            BeyondArg::Hold => asked(Beyond::Hold, "held at the edge"),
-            BeyondArg::Follow => asked(Beyond::Follow, "the GP's own prediction"),
-        }
-    }
-
-    /// `blob` (its σ `calibration`) with the limits, the repeatability and the rule beyond the
-    /// trained range written in.
-    pub(super) fn apply(
-        &self,
-        blob: &[u8],
-        calibration: &mut Calibration,
-        beyond: Beyond,
-    ) -> anyhow::Result<Vec<u8>> {
-        if let Some(sigma) = self.repeatability {
-            calibration.set_turn_on(sigma);
-        }
-        let blob = calibration.apply(blob)?;
-        let limits = self.limits();
-        let blob = export::with_limits(&blob, &limits)?;
-        let fw = replay::decode(&blob).map_err(|_| {
-            anyhow::anyhow!(
-                "the training data hold readings beyond the sensor's limits (rated {}…{} °C{}): \
-                 a reading that was recorded is possible; widen --rated-temp or --full-scale",
-                limits.temp_min_c,
-                limits.temp_max_c,
-                if limits.full_scale > 0.0 {
-                    format!(", full scale ±{}", limits.full_scale)
-                } else {
-                    String::new()
-                }
-            )
-        })?;
-        debug_assert_eq!(fw.limits(), limits);
-        Ok(export::with_beyond(&blob, beyond)?)
     }
 }

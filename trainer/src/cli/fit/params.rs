@@ -5,12 +5,10 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use fog_data::channels::Channels;
-use fog_data::stream::Stream;
 use fog_terminal::console::Console;
 use fog_terminal::io::write_atomically;
 
-use crate::firmware::autopilot::{self, AxisCubic, Cubic, SensorCubics};
+use crate::firmware::autopilot::{self, SensorCubics};
 
 /// The autopilots' parameter files `fit` writes beside the blob (and `report` beside its pages).
 #[derive(Args, Clone, Default)]
@@ -35,17 +33,6 @@ impl ParamsArgs {
     /// True when a file is asked for.
     pub(in crate::cli) fn asked(&self) -> bool {
         self.files().next().is_some()
-    }
-
-    /// The unit's cubics ([`unit_cubics`]) where a file is asked for.
-    pub(in crate::cli) fn cubics<'s, S: IntoIterator<Item = &'s Stream>>(
-        &self,
-        channels: &Channels,
-        streams: impl IntoIterator<Item = S>,
-    ) -> anyhow::Result<Option<SensorCubics>> {
-        self.asked()
-            .then(|| unit_cubics(channels, streams))
-            .transpose()
     }
 
     /// Writes the files asked for from every unit's cubics, and says what each holds.
@@ -78,44 +65,6 @@ impl ParamsArgs {
         }
         Ok(())
     }
-}
-
-/// Each channel's cubic in temperature, fitted on its training `streams` (the training window,
-/// handled minutes left out): the output less its reference, in °/s or m/s². A channel in a raw
-/// unit (volts, counts) has no rate offset to fit and is left out.
-pub(in crate::cli) fn unit_cubics<'s, S: IntoIterator<Item = &'s Stream>>(
-    channels: &Channels,
-    streams: impl IntoIterator<Item = S>,
-) -> anyhow::Result<SensorCubics> {
-    let mut axes = Vec::new();
-    for (ch, streams) in channels.list.iter().zip(streams) {
-        if ch.unit.factor().is_none() {
-            continue;
-        }
-        let (mut temp, mut offset) = (Vec::new(), Vec::new());
-        for s in streams {
-            for i in s.referenced() {
-                temp.push(s.temp_c[i]);
-                offset.push(s.voltage_v[i] - s.rate_dps[i]);
-            }
-        }
-        let cubic = Cubic::fit(&temp, &offset)
-            .map_err(|e| anyhow::anyhow!("{} channel {}: {e}", channels.sensor_id, ch.name))?;
-        axes.push(AxisCubic {
-            name: ch.name.clone(),
-            quantity: ch.quantity,
-            cubic,
-        });
-    }
-    let sensor = channels.recorded.as_deref();
-    Ok(SensorCubics {
-        name: channels
-            .unit_name()
-            .map_or_else(|| channels.sensor_id.clone(), str::to_owned),
-        instance: sensor.map_or(0, |s| s.instance),
-        device_id: sensor.and_then(|s| s.device_id),
-        axes,
-    })
 }
 
 /// `path` with `name` before its extension: a unit's file among several (`imu.bin` → `imu.gyro0.bin`).

@@ -1,23 +1,23 @@
-//! What `trainer fit` reports: its JSON (one channel's, a unit's) and the lines it prints.
+//! What `trainer fit` reports of a fit: its JSON (one channel's, a unit's) and its lines of text.
 
 use std::path::Path;
 
+use crate::progress::Messages;
 use firmware_core::Feature;
 use fog_data::cause::Cause;
 use fog_data::stream::Handled;
-use fog_terminal::console::Console;
 use serde::Serialize;
 
 use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget;
 use crate::analysis::capacity;
 use crate::analysis::diagnose::Diagnosis;
+use crate::analysis::diagnose::causes_text;
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::pool::PoolCheck;
 use crate::analysis::table::TableDiagnosis;
 use crate::analysis::uncertainty::Calibration;
-use crate::cli::text::causes_text;
 use crate::data::points::Points;
 use crate::firmware::export::{AgreementReport, Extension};
 use crate::firmware::unit;
@@ -28,92 +28,123 @@ use firmware_core::Quantity;
 use fog_data::channels::Channels;
 
 /// A model fitted and checked: its blob, what `fit` reports of it, the GP and its points' count.
-pub(super) struct ChannelFit {
-    pub(super) blob: Vec<u8>,
-    pub(super) summary: FitReport,
-    pub(super) model: GpModel,
-    pub(super) n: usize,
+pub struct ChannelFit {
+    /// The blob: its model, error model, limits and rule beyond the trained range.
+    pub blob: Vec<u8>,
+    /// What `fit --json` reports of it.
+    pub summary: FitReport,
+    /// The static GP (or, where a pooled check kept the table's, the table's).
+    pub model: GpModel,
+    /// The points it was fitted on.
+    pub n: usize,
 }
 
 /// What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that
 /// shipped, and how the firmware's f32 evaluation follows the host.
 #[derive(Serialize)]
-pub(super) struct FitReport {
-    pub(super) scale_factor: Option<f64>,
-    pub(super) log_marginal_likelihood: f64,
-    pub(super) hyperparameters: Hyperparameters,
-    pub(super) fit_seconds: f64,
-    pub(super) n_train: usize,
-    pub(super) features: Inputs,
-    pub(super) mean_basis: MeanBasis,
-    pub(super) prior_mean: PolyPrior,
-    pub(super) output_scale: f64,
-    pub(super) jitter: f64,
-    pub(super) centres: usize,
-    pub(super) sparse: Option<SparseFit>,
-    pub(super) starts: Vec<StartReport>,
-    pub(super) optimization: Optimization,
-    pub(super) warnings: Vec<String>,
+pub struct FitReport {
+    /// The nominal scale factor the bias was learned with (`--scale-factor`, or a unit's), output units per °/s; `null` for the map ω = f(T, output).
+    pub scale_factor: Option<f64>,
+    /// The GP's log marginal likelihood (a sparse GP's bound), on the normalized data.
+    pub log_marginal_likelihood: f64,
+    /// Length scales, signal and noise σ (normalized inputs and output).
+    pub hyperparameters: Hyperparameters,
+    /// Wall time of the static fit, s (the one field two runs do not share).
+    pub fit_seconds: f64,
+    /// Points the static model was fitted on.
+    pub n_train: usize,
+    /// The model's inputs: the points' columns, or the firmware's features once extended.
+    pub features: Inputs,
+    /// The prior mean's basis (`physics`, `constant`, `polyN`).
+    pub mean_basis: MeanBasis,
+    /// The prior mean's terms and their GLS coefficients.
+    pub prior_mean: PolyPrior,
+    /// The output's normalization scale, its units.
+    pub output_scale: f64,
+    /// Jitter added to the kernel's diagonal for its Cholesky factor (0: none needed).
+    pub jitter: f64,
+    /// Centres in the blob: training points for an exact GP, inducing points for a sparse one.
+    pub centres: usize,
+    /// The sparse fit (method, inducing points, bound), where sparse.
+    pub sparse: Option<SparseFit>,
+    /// Every optimizer start: where it began and ended.
+    pub starts: Vec<StartReport>,
+    /// How the chosen start's optimization ended.
+    pub optimization: Optimization,
+    /// What the fit warns of (no start converged, a length scale at its bound, …).
+    pub warnings: Vec<String>,
     /// The diagnosis of a table recorded in time order (`--features auto` without a stream).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) table_diagnosis: Option<TableDiagnosis>,
+    pub table_diagnosis: Option<TableDiagnosis>,
+    /// The extension in the blob, where one shipped.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) extension: Option<ExtensionReport>,
+    pub extension: Option<ExtensionReport>,
     /// The pooled model against the table's alone, forward in time (`--pool-stream` with
     /// `--points`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) pool_check: Option<PoolCheck>,
+    pub pool_check: Option<PoolCheck>,
     /// The diagnosis of the stream and the forward check (`--features` with a stream).
     #[serde(flatten)]
-    pub(super) stream_choice: Option<StreamChoice>,
+    pub stream_choice: Option<StreamChoice>,
     /// How the default chose a sparse GP's size for more points than the firmware holds.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) centres_choice: Option<capacity::Choice>,
-    pub(super) handled: Vec<Handled>,
+    pub centres_choice: Option<capacity::Choice>,
+    /// The streams' handling events, left out of the fit.
+    pub handled: Vec<Handled>,
     /// The shipped model's σ, measured on the training data alone.
-    pub(super) calibration: Option<Calibration>,
+    pub calibration: Option<Calibration>,
     /// What the mean does beyond the trained range, and why.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) beyond: Option<BeyondChoice>,
-    pub(super) firmware_agreement: AgreementReport,
-    pub(super) blob_bytes: usize,
+    pub beyond: Option<BeyondChoice>,
+    /// The firmware's f32 evaluation of the blob as written against the host's f64: on the training points, a grid over the trained range and 10% beyond.
+    pub firmware_agreement: AgreementReport,
+    /// The blob's size.
+    pub blob_bytes: usize,
     /// How the budget was met, where one was given.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) budget: Option<budget::Report>,
+    pub budget: Option<budget::Report>,
 }
 
 /// A model's inputs: the points' columns for a static model, the firmware's features for an
 /// extended one.
 #[derive(Serialize)]
 #[serde(untagged)]
-pub(super) enum Inputs {
+pub enum Inputs {
+    /// The points' columns (`temp_c`, `voltage_v`).
     Columns(Vec<&'static str>),
+    /// The firmware's features, as the blob computes them.
     Firmware(Vec<Feature>),
 }
 
 /// The extension in the blob: a table's transient terms, or inputs fitted on a stream.
 #[derive(Serialize)]
 #[serde(untagged)]
-pub(super) enum ExtensionReport {
+pub enum ExtensionReport {
+    /// A table's transient terms.
     Table(Extension),
+    /// Inputs fitted on a stream, with the training residual before and after.
     Stream(extend::ExtensionFit),
 }
 
 /// What the diagnosis of the training stream chose, and why.
 #[derive(Serialize)]
-pub(super) struct StreamChoice {
-    pub(super) diagnosis: Diagnosis,
+pub struct StreamChoice {
+    /// The diagnosis of the training stream's residuals.
+    pub diagnosis: Diagnosis,
     /// The causes whose extension was fitted and checked last: the named ones, or the nested
     /// design that shipped in their place.
-    pub(super) causes: Vec<Cause>,
-    pub(super) forward_check: Option<investigate::ForwardCheck>,
-    pub(super) shipped: investigate::Shipped,
-    pub(super) verdict: String,
+    pub causes: Vec<Cause>,
+    /// The extension against the static model on the stream's later part, each fitted on the earlier.
+    pub forward_check: Option<investigate::ForwardCheck>,
+    /// Which model ships: `static` or `extended`.
+    pub shipped: investigate::Shipped,
+    /// Why, in words.
+    pub verdict: String,
 }
 
 impl FitReport {
     /// The static part, from the model and its points; the rest is filled in as it is known.
-    pub(super) fn new(
+    pub fn new(
         m: &GpModel,
         points: &Points,
         agreement: AgreementReport,
@@ -161,33 +192,42 @@ impl FitReport {
 /// What `trainer fit --channels --json` writes: the sensor, its trained temperature range, each
 /// channel's fit as `fit --json` gives one channel's, and what the unit's blob costs.
 #[derive(Serialize)]
-pub(super) struct UnitFitReport<'a> {
-    pub(super) sensor_id: &'a str,
-    pub(super) temperature_c: [f32; 2],
-    pub(super) channels: Vec<ChannelReport<'a>>,
-    pub(super) blob_bytes: usize,
-    pub(super) footprint: &'a unit::UnitFootprint,
+pub struct UnitFitReport<'a> {
+    /// The sensor's ID, as the blob carries it.
+    pub sensor_id: &'a str,
+    /// The unit's trained temperature range, °C.
+    pub temperature_c: [f32; 2],
+    /// Each channel's fit.
+    pub channels: Vec<ChannelReport<'a>>,
+    /// The unit blob's size.
+    pub blob_bytes: usize,
+    /// What the blob costs the firmware: RAM, scratch, instructions per sample.
+    pub footprint: &'a unit::UnitFootprint,
     /// How the budget was met, where one was given.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) budget: Option<budget::Report>,
+    pub budget: Option<budget::Report>,
     /// The cubic per channel the autopilots' parameters were written from (`--px4-params`,
     /// `--ardupilot-params`), in the channel's units.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(super) autopilot: Option<&'a crate::firmware::autopilot::SensorCubics>,
+    pub autopilot: Option<&'a crate::firmware::autopilot::SensorCubics>,
 }
 
 /// One channel of [`UnitFitReport`]: its figures in `units` (the `_dps` fields too).
 #[derive(Serialize)]
-pub(super) struct ChannelReport<'a> {
-    pub(super) name: &'a str,
-    pub(super) quantity: Quantity,
-    pub(super) units: &'static str,
+pub struct ChannelReport<'a> {
+    /// The channel's name.
+    pub name: &'a str,
+    /// What its output measures.
+    pub quantity: Quantity,
+    /// Its output's unit, in which its figures are given.
+    pub units: &'static str,
+    /// Its fit, as one channel's.
     #[serde(flatten)]
-    pub(super) fit: &'a FitReport,
+    pub fit: &'a FitReport,
 }
 
 /// A quantity in words.
-pub(super) fn quantity_words(q: Quantity) -> &'static str {
+pub fn quantity_words(q: Quantity) -> &'static str {
     match q {
         Quantity::AngularRate => "angular rate",
         Quantity::SpecificForce => "specific force",
@@ -196,7 +236,7 @@ pub(super) fn quantity_words(q: Quantity) -> &'static str {
 
 /// What `trainer fit --channels` prints last: each channel's model and what ships, and the
 /// unit's blob with what it costs the firmware.
-pub(super) fn unit_table(
+pub fn unit_table(
     channels: &Channels,
     fitted: &[ChannelFit],
     f: &unit::UnitFootprint,
@@ -258,20 +298,20 @@ pub(super) fn unit_table(
 
 /// What `trainer fit` prints of the model it wrote: the GP, the blob, and the firmware's f32
 /// evaluation against the host's.
-pub(super) fn print_fit(
-    console: &Console,
+pub fn say_fit(
+    messages: &dyn Messages,
     fitted: &ChannelFit,
     (out, bytes): (Option<&Path>, usize),
     q: Quantity,
 ) {
     let (model, n, agreement) = (&fitted.model, fitted.n, &fitted.summary.firmware_agreement);
     if let Some(s) = &model.sparse {
-        console.result(&format!(
+        messages.result(&format!(
             "sparse GP ({}): {} inducing points for {} samples, starting hyperparameters from an exact GP on {}; bound {:.3}",
             s.method, s.inducing, s.n_train, s.subset, s.bound
         ));
     }
-    console.result(&format!(
+    messages.result(&format!(
         "fitted GP on {n} points: log ML {:.3}, length scales {:?}, σ_f {:.4}, σ_n {:.3e} (normalized), jitter {:e}, {:.1} ms",
         model.log_marginal_likelihood(),
         model.posterior.hyper.length_scales,
@@ -281,17 +321,17 @@ pub(super) fn print_fit(
         model.fit_seconds * 1e3
     ));
     if let Some(g) = model.posterior.hyper.offset_std {
-        console.result(&format!(
+        messages.result(&format!(
             "offsets between groups: σ_g {:.3e} (output units), counted as noise in the \
              firmware's variance (a new run's offset is unknown)",
             g * model.output_scale
         ));
     }
-    console.result(&match out {
+    messages.result(&match out {
         Some(out) => format!("wrote {} ({bytes} bytes)", out.display()),
         None => format!("its model: {bytes} bytes of the unit's blob"),
     });
-    console.result(&format!(
+    messages.result(&format!(
         "firmware (f32) vs host (f64):      n   max |Δmean| ({:>4})   max rel Δvar   extrapolating",
         q.unit()
     ));
@@ -300,7 +340,7 @@ pub(super) fn print_fit(
         ("grid, trained range", agreement.grid_inside),
         ("grid, 10% beyond", agreement.grid_beyond),
     ] {
-        console.result(&format!(
+        messages.result(&format!(
             "  {name:<22} {:>7}   {:>17.3e}   {:>12.3e}   {:>13}",
             a.n, a.max_abs_mean_diff, a.max_rel_var_diff, a.n_extrapolating
         ));
