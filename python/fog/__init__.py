@@ -336,13 +336,14 @@ def investigate(
     sensor=None,
     quiet: bool = True,
     **options: Any,
-) -> Record:
+) -> Record | dict[str, Record]:
     """What the static model gets wrong on a stream, forward in time, as `trainer investigate`
     finds it in this process and by its own code: the diagnosis on the training part, the
     extended model's inputs and the gain on the part held out (`valid_stream`, or the log from
-    `hold_out_from` seconds on, or its last third). Returns the command's `--json`; every other
-    flag of `trainer investigate` is a keyword, and `quiet=False` shows the command's own output
-    as `calibrate`'s does. Raises `FogError` with the command's message."""
+    `hold_out_from` seconds on, or its last third). Returns the command's `--json`: for a flight
+    controller's log of several sensors, a dict of them by sensor name. Every other flag of
+    `trainer investigate` is a keyword, and `quiet=False` shows the command's own output as
+    `calibrate`'s does. Raises `FogError` with the command's message."""
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "investigation.json"
         args = (["-q"] if quiet else []) + ["investigate"] + _arguments(
@@ -359,7 +360,12 @@ def investigate(
             **options,
         )
         _command(args)
-        return Record(json.loads(out.read_text()))
+        if out.exists():
+            return Record(json.loads(out.read_text()))
+        return {
+            each.stem.partition(".")[2]: Record(json.loads(each.read_text()))
+            for each in sorted(Path(scratch).glob("investigation.*.json"))
+        }
 
 
 def report(

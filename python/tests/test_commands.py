@@ -68,6 +68,16 @@ def test_investigate_is_trainer_investigate(tmp_path):
     assert ours.static_score.rmse_60s_dps > 0
 
 
+def test_investigate_takes_each_sensor_of_a_boards_log(tmp_path):
+    board = tmp_path / "cal.ulg"
+    run("firmware-sim", "generate", "board", "--seed", "7", "--minutes", "30", "--out", board, "-q")
+    both = fog.investigate(board, sensor=["gyro0", "gyro1"])
+    assert sorted(both) == ["gyro0", "gyro1"]
+    alone = fog.investigate(board, sensor="gyro1")
+    assert without_timings(both["gyro1"].to_dict()) == without_timings(alone.to_dict())
+    assert [ch.name for ch in alone.channels] == ["x", "y", "z"]
+
+
 def test_a_commands_refusal_is_a_python_exception(tmp_path):
     with pytest.raises(fog.FogError, match="cannot read"):
         fog.calibrate(tmp_path / "absent.csv")

@@ -39,6 +39,9 @@ pub trait Messages {
     /// Work of unknown length begins, described by `what`: the handle says what it does now,
     /// and the work ends when it is dropped.
     fn busy(&self, what: &str) -> Box<dyn Progress + '_>;
+    /// Work counted in steps begins (it says how many it expects as it learns them), and ends
+    /// when the handle is dropped.
+    fn counted(&self) -> Box<dyn Progress + '_>;
     /// The messages about one channel of a unit, under its `heading` (said now).
     fn channel(&self, name: &str, heading: &str) -> Box<dyn Messages + '_>;
 }
@@ -48,6 +51,9 @@ impl Messages for () {
     fn result(&self, _: &str) {}
     fn warn(&self, _: &str) {}
     fn busy(&self, _: &str) -> Box<dyn Progress + '_> {
+        Box::new(())
+    }
+    fn counted(&self) -> Box<dyn Progress + '_> {
         Box::new(())
     }
     fn channel(&self, _: &str, _: &str) -> Box<dyn Messages + '_> {

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use trainer::analysis::autopilot::CubicFigures;
 
+use crate::cli::without_timings;
 use crate::{at, json, sim, trainer};
 
 /// PX4's `.params` file: parameter name → value.
@@ -376,13 +377,29 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
     // A command that takes one unit says which there are.
     let e = trainer(&[
         "-q",
-        "investigate",
+        "allan",
         "--stream",
         &px4("sample_log_small.ulg"),
+        "--scale-factor",
+        "1",
     ])
     .unwrap_err()
     .to_string();
     assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
+    // One that takes every sensor names the one it could not do, and why.
+    let e = trainer(&[
+        "-q",
+        "investigate",
+        "--stream",
+        &px4("sample_log_small.ulg"),
+    ])
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(e.starts_with("sensor gyro0: channel x: "), "{e}");
+    assert!(
+        e.contains("a static model from a stream needs at least 10"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -500,10 +517,8 @@ fn a_ulog_whose_gyros_record_no_temperature_is_said_so_and_refused() {
     );
 }
 
-#[test]
-fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// A simulated board's 30-minute warm-up as PX4 logs it, `cal.ulg` in `d`: its path.
+fn short_board(d: &Path) -> String {
     let log = at(d, "cal.ulg");
     sim(&[
         "generate",
@@ -516,6 +531,14 @@ fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
         &log,
     ])
     .unwrap();
+    log
+}
+
+#[test]
+fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = short_board(d);
     let fit = |extra: &[&str]| {
         let base = ["-q", "fit", "--stream", &log, "--out", &at(d, "imu.bin")];
         let json = at(d, "fit.json");
@@ -532,6 +555,51 @@ fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
         e.contains("a name of 1 to 32 bytes, without a slash"),
         "{e}"
     );
+}
+
+/// `investigate` takes every sensor of a flight controller's log, as `fit` does: one blob and one
+/// JSON per sensor beside the names given, each byte for byte what it writes for that sensor
+/// alone; `--json -` is refused for several, before any work.
+#[test]
+fn investigate_takes_each_sensor_of_a_boards_log_as_it_takes_it_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = short_board(d);
+    let investigate = |sensors: &[&str], out: &str| {
+        let (blob, js) = (at(d, &format!("{out}.bin")), at(d, &format!("{out}.json")));
+        let static_blob = at(d, "static.bin");
+        let mut args = vec!["-q", "investigate", "--stream", &log];
+        for s in sensors {
+            args.extend(["--sensor", s]);
+        }
+        args.extend(["--out", &blob, "--out-static", &static_blob, "--json", &js]);
+        trainer(&args)
+    };
+    investigate(&["gyro0", "gyro1"], "both").unwrap();
+    for name in ["gyro0", "gyro1"] {
+        investigate(&[name], name).unwrap();
+        let read = |path: String| std::fs::read(path).unwrap();
+        assert_eq!(
+            read(at(d, &format!("both.{name}.bin"))),
+            read(at(d, &format!("{name}.bin"))),
+            "{name}"
+        );
+        assert!(d.join(format!("static.{name}.bin")).exists(), "{name}");
+        let (both, alone) = (
+            json(d.join(format!("both.{name}.json"))),
+            json(d.join(format!("{name}.json"))),
+        );
+        assert!(
+            both["sensor_id"].as_str().unwrap().starts_with(name),
+            "{both}"
+        );
+        assert_eq!(both["channels"].as_array().unwrap().len(), 3);
+        assert_eq!(without_timings(both), without_timings(alone), "{name}");
+    }
+    let e = trainer(&["-q", "investigate", "--stream", &log, "--json", "-"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("holds 4 sensors"), "{e}");
 }
 
 #[test]

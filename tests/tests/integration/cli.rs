@@ -274,7 +274,7 @@ fn the_default_fit_of_too_many_points_yields_a_firmware_model_and_exact_is_refus
 }
 
 /// `value` without the wall-clock fields (`*_seconds`): the only bytes a rerun may change.
-fn without_timings(mut value: serde_json::Value) -> serde_json::Value {
+pub(crate) fn without_timings(mut value: serde_json::Value) -> serde_json::Value {
     match &mut value {
         serde_json::Value::Object(map) => {
             map.retain(|k, _| !k.ends_with("_seconds"));

@@ -5,30 +5,29 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use fog_data::cause::Cause;
-use fog_data::sigma::{self, Coverage};
-use fog_data::stream::{Stream, Window};
+use fog_data::sigma::Coverage;
+use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
 use serde::Serialize;
 
+use super::fit::naming;
+use super::fit::params::beside;
 use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
-use super::text::render_diagnosis;
 use crate::analysis::capacity;
 use crate::analysis::diagnose;
-use crate::analysis::diagnose::causes_text;
 use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
-use crate::firmware::unit::{self, ChannelBlob};
+use crate::firmware::unit;
 use crate::models::gp::GpConfig;
-use crate::pipeline::source::{Source, load_points, load_runs};
-use firmware_core::Quantity;
-use fog_data::channels::Channels;
+use crate::pipeline::investigate::InvestigatePlan;
+use crate::pipeline::source::{load_points, load_runs};
+use crate::pipeline::text::render_diagnosis;
 use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer diagnose`.
@@ -65,13 +64,15 @@ pub(super) struct InvestigateArgs {
     /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
     #[arg(long, default_value = "auto")]
     features: String,
-    /// Write the extended model's blob here.
+    /// Write the extended model's blob here (a unit blob with --channels or a flight
+    /// controller's log, one per sensor beside this name where the log holds several).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Write the static model's blob here.
+    /// Write the static model's blob here (as --out).
     #[arg(long)]
     out_static: Option<PathBuf>,
-    /// Write the investigation as JSON here (`-`: stdout, alone).
+    /// Write the investigation as JSON here (`-`: stdout, alone; one per sensor beside this
+    /// name where a flight controller's log holds several).
     #[arg(long)]
     json: Option<PathBuf>,
 }
@@ -205,11 +206,16 @@ pub(super) fn investigate_command(
     for o in out.iter().chain(&out_static).chain(&json) {
         ensure_not_input(o, &inputs)?;
     }
-    let asked = match features.as_str() {
-        "auto" => None,
-        list => Some(extend::parse_features(list)?),
+    let plan = InvestigatePlan {
+        source: input.source(),
+        gp: fit.gp(),
+        asked: match features.as_str() {
+            "auto" => None,
+            list => Some(extend::parse_features(list)?),
+        },
     };
-    let Some(channels) = input.unit.load(Some(&stream), &console)? else {
+    let units = input.unit.units(Some(&stream), &console)?;
+    if units.is_empty() {
         let load = |path: &Path| {
             load_stream(
                 path,
@@ -227,12 +233,7 @@ pub(super) fn investigate_command(
         else {
             anyhow::bail!("{}: no stream read", stream.display());
         };
-        let (inv, blobs) = investigate_one(
-            &input.source(),
-            (&stream, train, valid),
-            (&fit, asked.as_deref()),
-            &console,
-        )?;
+        let (inv, blobs) = plan.one((&stream, train, valid), &console)?;
         if let Some(path) = out {
             write_atomically(&path, &blobs.extended_blob)?;
         }
@@ -243,196 +244,65 @@ pub(super) fn investigate_command(
             write_json(&path, &inputs, schema::INVESTIGATE, &inv)?;
         }
         return Ok(());
-    };
-    let load = |path: &Path| {
-        load_unit_log(
-            path,
-            &channels,
-            &input.maps.list,
-            (window, &input.exclude.list),
-            &console,
-        )
-    };
-    let (train, valid, _) = held_out.parts((&stream, load(&stream)?), load, &console)?;
-    let mut each = Vec::new();
-    for (k, ch) in channels.list.iter().enumerate() {
-        let console = console.channel(
-            &ch.name,
-            &format!(
-                "{} ({}, [{}/{}]):",
-                ch.name,
-                ch.quantity.unit(),
-                k + 1,
-                channels.len()
-            ),
-        );
-        let one = investigate_one(
-            &input.source().for_channel(&channels, k)?,
-            (&stream, train[k].clone(), valid[k].clone()),
-            (&fit, asked.as_deref()),
-            &console,
-        )
-        .with_context(|| format!("channel {}", ch.name))?;
-        each.push(one);
     }
-    console.result(&unit_gains(&channels, &each));
-    write_unit_investigation(&channels, &each, (out, out_static, json), &inputs)
-}
-
-/// A unit's investigation written: its extended and static unit blobs and its JSON, each where
-/// asked.
-fn write_unit_investigation(
-    channels: &Channels,
-    each: &[(investigate::Investigation, investigate::Blobs)],
-    (out, out_static, json): (Option<PathBuf>, Option<PathBuf>, Option<PathBuf>),
-    inputs: &[&Path],
-) -> anyhow::Result<()> {
-    let pack = |pick: fn(&investigate::Blobs) -> &Vec<u8>| {
-        let parts: Vec<ChannelBlob<'_>> = channels
-            .list
-            .iter()
-            .zip(each)
-            .map(|(ch, (_, b))| ChannelBlob {
-                name: &ch.name,
-                quantity: ch.quantity,
-                blob: pick(b),
-            })
-            .collect();
-        unit::unit_blob(&channels.sensor_id, &parts)
-    };
-    if let Some(path) = out {
-        write_atomically(&path, &pack(|b| &b.extended_blob)?)?;
-    }
-    if let Some(path) = out_static {
-        write_atomically(&path, &pack(|b| &b.static_blob)?)?;
-    }
-    if let Some(path) = json {
-        let report = UnitInvestigation {
-            sensor_id: &channels.sensor_id,
-            channels: channels
-                .list
-                .iter()
-                .zip(each)
-                .map(|(ch, (inv, _))| ChannelInvestigation {
-                    name: &ch.name,
-                    quantity: ch.quantity,
-                    units: ch.quantity.unit(),
-                    investigation: inv,
-                })
-                .collect(),
+    let several = units.len() > 1;
+    anyhow::ensure!(
+        !several || json.as_deref() != Some(Path::new("-")),
+        "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
+         written beside it), or choose one with --sensor",
+        stream.display(),
+        units.len()
+    );
+    for channels in &units {
+        let name = channels.unit_name();
+        let each = |path: &Path| match name.filter(|_| several) {
+            Some(n) => beside(path, n),
+            None => path.to_owned(),
         };
-        write_json(&path, inputs, schema::INVESTIGATE_UNIT, &report)?;
+        if several {
+            console.result(&format!(
+                "{} ({}):",
+                name.unwrap_or_default(),
+                channels.sensor_id
+            ));
+        }
+        let load = |path: &Path| {
+            load_unit_log(
+                path,
+                channels,
+                &input.maps.list,
+                (window, &input.exclude.list),
+                &console,
+            )
+        };
+        let named = |e| naming(e, several.then_some(channels));
+        let (train, valid, _) = held_out
+            .parts((&stream, load(&stream)?), load, &console)
+            .map_err(named)?;
+        let investigated = plan
+            .unit(channels, (&stream, &train, &valid), &console)
+            .map_err(named)?;
+        let mut read = inputs.clone();
+        read.push(&channels.path);
+        for (path, pick) in [
+            (
+                &out,
+                (|b| &b.extended_blob) as fn(&investigate::Blobs) -> &Vec<u8>,
+            ),
+            (&out_static, |b| &b.static_blob),
+        ] {
+            if let Some(path) = path {
+                let path = each(path);
+                ensure_not_input(&path, &read)?;
+                write_atomically(&path, &investigated.blob(channels, pick)?)?;
+            }
+        }
+        if let Some(path) = &json {
+            let report = investigated.report(channels);
+            write_json(&each(path), &read, schema::INVESTIGATE_UNIT, &report)?;
+        }
     }
     Ok(())
-}
-
-/// What `investigate --channels --json` writes: each channel's investigation, its figures in
-/// `units` (the `_dps` fields too).
-#[derive(Serialize)]
-struct UnitInvestigation<'a> {
-    sensor_id: &'a str,
-    channels: Vec<ChannelInvestigation<'a>>,
-}
-
-/// One channel of [`UnitInvestigation`].
-#[derive(Serialize)]
-struct ChannelInvestigation<'a> {
-    name: &'a str,
-    quantity: Quantity,
-    units: &'static str,
-    #[serde(flatten)]
-    investigation: &'a investigate::Investigation,
-}
-
-/// A unit's investigation in one table: each channel's held-out figures, static and shipped, in
-/// its bias unit, with its causes and gain.
-fn unit_gains(
-    channels: &Channels,
-    each: &[(investigate::Investigation, investigate::Blobs)],
-) -> String {
-    let mut s = String::from(
-        "held out, rmse_60s:  static          shipped         gain   causes named (shipped)\n",
-    );
-    let mut counted = String::new();
-    for (ch, (inv, _)) in channels.list.iter().zip(each) {
-        let (k, u) = (ch.quantity.bias_per_unit(), ch.quantity.bias_unit());
-        s.push_str(&format!(
-            "  {:<16} {:>9.3} {u:<4}  {:>9.3} {u:<4}  {:>5.2}×  {} ({})\n",
-            ch.name,
-            inv.static_score.rmse_60s_dps * k,
-            inv.extended_score.rmse_60s_dps * k,
-            inv.gain,
-            causes_text(&inv.diagnosis.causes),
-            match inv.shipped {
-                investigate::Shipped::Extended => "extended",
-                investigate::Shipped::Static => "static",
-            }
-        ));
-        counted.push_str(&format!(
-            "  {:<16} {}\n",
-            ch.name,
-            inv.extended_score.counted()
-        ));
-    }
-    s + &counted
-}
-
-/// One channel's investigation, said as it goes: static fit, diagnosis and extension on `train`,
-/// both models scored on `valid`.
-fn investigate_one(
-    source: &Source,
-    (train_path, train, valid): (&Path, Stream, Stream),
-    (fit, asked): (&FitOptions, Option<&[Cause]>),
-    console: &Console,
-) -> anyhow::Result<(investigate::Investigation, investigate::Blobs)> {
-    let train = [(train_path, train)];
-    let points = source.static_points(&train, false, console)?;
-    let [(_, train)] = train;
-    let rebuild =
-        |part: &Stream| source.static_points(&[(train_path, part.clone())], false, console);
-    let bar = console.bar(0);
-    let (inv, blobs) =
-        investigate::investigate(&points, &train, &valid, &fit.gp(), asked, &rebuild, &bar)?;
-    bar.finish_and_clear();
-    for w in &inv.warnings {
-        console.warn(w);
-    }
-    let (k, u, unit) = (
-        points.quantity.bias_per_unit(),
-        points.quantity.bias_unit(),
-        points.quantity.unit(),
-    );
-    console.result(render_diagnosis(&inv.diagnosis).trim_end());
-    console.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
-    console.result(&format!(
-        "static rmse_60s {:.3e} {unit} ({:.2} {u}) | causes {} | added {} | shipped rmse_60s \
-         {:.3e} {unit} ({:.2} {u}) | gain {:.2}× {}",
-        inv.static_score.rmse_60s_dps,
-        inv.static_score.rmse_60s_dps * k,
-        causes_text(&inv.diagnosis.causes),
-        if inv.added_inputs.is_empty() {
-            "nothing".to_owned()
-        } else {
-            inv.added_inputs.join(", ")
-        },
-        inv.extended_score.rmse_60s_dps,
-        inv.extended_score.rmse_60s_dps * k,
-        inv.gain,
-        inv.extended_score.counted()
-    ));
-    console.result(&format!("beyond the trained range: {}", inv.beyond.verdict));
-    console.result(&format!(
-        "shipped model's {}",
-        inv.calibration.describe(unit)
-    ));
-    console.result(&format!(
-        "on the held-out stream, the shipped model's σ: {}",
-        sigma::describe(
-            &inv.extended_score.sigma_samples,
-            &inv.extended_score.sigma_60s
-        )
-    ));
-    Ok((inv, blobs))
 }
 
 /// `trainer loo`: leave-one-out and leave-one-group-out of one method.

@@ -171,7 +171,8 @@ impl FitCommand {
                     channels.sensor_id
                 ));
             }
-            cubics.extend(self.run_unit(channels, (&out, json.as_deref()), &console)?);
+            let fitted = self.run_unit(channels, (&out, json.as_deref()), &console);
+            cubics.extend(fitted.map_err(|e| naming(e, several.then_some(channels)))?);
         }
         self.params.write(&cubics, &console)
     }
@@ -240,6 +241,14 @@ impl FitCommand {
         }
         console.result(&unit_table(channels, &fit.fitted, &fit.footprint, out));
         Ok(fit.cubics.take())
+    }
+}
+
+/// `e`, named by the sensor it is about where a log holds `several` (one of them `channels`).
+pub(super) fn naming(e: anyhow::Error, several: Option<&Channels>) -> anyhow::Error {
+    match several {
+        Some(c) => e.context(format!("sensor {}", c.unit_name().unwrap_or(&c.sensor_id))),
+        None => e,
     }
 }
 

@@ -13,7 +13,6 @@ mod inputs;
 mod inspect;
 mod look;
 mod report;
-mod text;
 
 /// The library's progress, drawn by the console's bar.
 impl crate::progress::Progress for fog_terminal::console::ProgressBar {
@@ -31,7 +30,7 @@ impl crate::progress::Progress for fog_terminal::console::ProgressBar {
 }
 
 /// The pipelines' messages, on the console: results on stdout, warnings and details on stderr,
-/// work of unknown length as a spinner that clears when it ends.
+/// work as a bar (counted) or a spinner (of unknown length) that clears when it ends.
 impl crate::progress::Messages for fog_terminal::console::Console {
     fn result(&self, text: &str) {
         Console::result(self, text);
@@ -50,7 +49,11 @@ impl crate::progress::Messages for fog_terminal::console::Console {
     }
 
     fn busy(&self, what: &str) -> Box<dyn crate::progress::Progress + '_> {
-        Box::new(Spinner(self.spinner(what)))
+        Box::new(Shown(self.spinner(what)))
+    }
+
+    fn counted(&self) -> Box<dyn crate::progress::Progress + '_> {
+        Box::new(Shown(self.bar(0)))
     }
 
     fn channel(&self, name: &str, heading: &str) -> Box<dyn crate::progress::Messages + '_> {
@@ -58,10 +61,10 @@ impl crate::progress::Messages for fog_terminal::console::Console {
     }
 }
 
-/// A console spinner that clears itself when the work it shows ends (is dropped).
-struct Spinner(fog_terminal::console::ProgressBar);
+/// A console bar or spinner that clears itself when the work it shows ends (is dropped).
+struct Shown(fog_terminal::console::ProgressBar);
 
-impl crate::progress::Progress for Spinner {
+impl crate::progress::Progress for Shown {
     fn expect(&self, steps: u64) {
         self.0.expect(steps);
     }
@@ -75,7 +78,7 @@ impl crate::progress::Progress for Spinner {
     }
 }
 
-impl Drop for Spinner {
+impl Drop for Shown {
     fn drop(&mut self) {
         self.0.finish_and_clear();
     }

@@ -68,7 +68,7 @@ impl ParamsArgs {
 }
 
 /// `path` with `name` before its extension: a unit's file among several (`imu.bin` → `imu.gyro0.bin`).
-pub(super) fn beside(path: &Path, name: &str) -> PathBuf {
+pub(in crate::cli) fn beside(path: &Path, name: &str) -> PathBuf {
     let stem = path
         .file_stem()
         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());

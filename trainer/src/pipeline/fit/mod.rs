@@ -32,6 +32,7 @@ use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
+use crate::pipeline::ChannelEntry;
 use crate::pipeline::source::Source;
 use crate::progress::Messages;
 
@@ -40,8 +41,8 @@ mod service;
 mod within_budget;
 
 pub use report::{
-    ChannelFit, ChannelReport, ExtensionReport, FitReport, Inputs, StreamChoice, UnitFitReport,
-    quantity_words, say_fit, unit_table,
+    ChannelFit, ExtensionReport, FitReport, Inputs, StreamChoice, UnitFitReport, quantity_words,
+    say_fit, unit_table,
 };
 
 /// A channel to size: its name, its plan and its loaded streams.
@@ -118,12 +119,7 @@ impl UnitFit {
                 .list
                 .iter()
                 .zip(&self.fitted)
-                .map(|(ch, f)| ChannelReport {
-                    name: &ch.name,
-                    quantity: ch.quantity,
-                    units: ch.quantity.unit(),
-                    fit: &f.summary,
-                })
+                .map(|(ch, f)| ChannelEntry::new(ch, &f.summary))
                 .collect(),
             blob_bytes: self.blob.len(),
             footprint: &self.footprint,

@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use crate::pipeline::ChannelEntry;
 use crate::progress::Messages;
 use firmware_core::Feature;
 use fog_data::cause::Cause;
@@ -198,7 +199,7 @@ pub struct UnitFitReport<'a> {
     /// The unit's trained temperature range, °C.
     pub temperature_c: [f32; 2],
     /// Each channel's fit.
-    pub channels: Vec<ChannelReport<'a>>,
+    pub channels: Vec<ChannelEntry<'a, FitReport>>,
     /// The unit blob's size.
     pub blob_bytes: usize,
     /// What the blob costs the firmware: RAM, scratch, instructions per sample.
@@ -210,20 +211,6 @@ pub struct UnitFitReport<'a> {
     /// `--ardupilot-params`), in the channel's units.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub autopilot: Option<&'a crate::firmware::autopilot::SensorCubics>,
-}
-
-/// One channel of [`UnitFitReport`]: its figures in `units` (the `_dps` fields too).
-#[derive(Serialize)]
-pub struct ChannelReport<'a> {
-    /// The channel's name.
-    pub name: &'a str,
-    /// What its output measures.
-    pub quantity: Quantity,
-    /// Its output's unit, in which its figures are given.
-    pub units: &'static str,
-    /// Its fit, as one channel's.
-    #[serde(flatten)]
-    pub fit: &'a FitReport,
 }
 
 /// A quantity in words.

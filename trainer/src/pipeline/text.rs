@@ -5,7 +5,7 @@ use firmware_core::units::DPH_PER_DPS;
 use crate::analysis::diagnose::{Diagnosis, causes_text};
 
 /// The diagnosis as a terminal reads it: the verdict, every candidate alone, then the selection.
-pub(super) fn render_diagnosis(d: &Diagnosis) -> String {
+pub fn render_diagnosis(d: &Diagnosis) -> String {
     let (k, u) = (d.quantity.bias_per_unit(), d.quantity.bias_unit());
     let mut s = format!(
         "causes: {} — {}\nresidual rmse_60s {:.3e} {} ({:.2} {u}) over {} blocks of 60 s\n\

@@ -1,0 +1,215 @@
+//! `trainer investigate` as a library pipeline: on a log's training part, the static model, its
+//! diagnosis and the extension it calls for; both models scored forward in time on the held-out
+//! part; the one that ships, and its σ. One channel ([`InvestigatePlan::one`]) or a unit's, each
+//! channel as one ([`InvestigatePlan::unit`]). Reading the logs and splitting off the held-out
+//! part, and writing what comes back, are the caller's.
+
+use std::path::Path;
+
+use anyhow::Context;
+use fog_data::cause::Cause;
+use fog_data::channels::Channels;
+use fog_data::sigma;
+use fog_data::stream::Stream;
+use serde::Serialize;
+
+use crate::analysis::diagnose::causes_text;
+use crate::analysis::investigate::{self, Blobs, Investigation};
+use crate::firmware::export::ExportError;
+use crate::firmware::unit::{self, ChannelBlob};
+use crate::models::gp::GpConfig;
+use crate::pipeline::ChannelEntry;
+use crate::pipeline::source::Source;
+use crate::pipeline::text::render_diagnosis;
+use crate::progress::Messages;
+
+/// `trainer investigate`'s settings, checked once by whoever built them.
+#[derive(Clone, Debug)]
+pub struct InvestigatePlan {
+    /// Where the static model's points come from.
+    pub source: Source,
+    /// The GP's settings.
+    pub gp: GpConfig,
+    /// The causes to extend by; `None`: those the diagnosis names.
+    pub asked: Option<Vec<Cause>>,
+}
+
+/// A unit investigated: each channel's investigation and blobs, in the unit's order.
+pub struct UnitInvestigated {
+    /// Each channel's investigation and its two blobs.
+    pub each: Vec<(Investigation, Blobs)>,
+}
+
+/// What `investigate --json` writes for a unit: each channel's investigation, its figures in
+/// `units` (the `_dps` fields too).
+#[derive(Serialize)]
+pub struct UnitInvestigation<'a> {
+    /// The sensor's ID.
+    pub sensor_id: &'a str,
+    /// Each channel's investigation.
+    pub channels: Vec<ChannelEntry<'a, Investigation>>,
+}
+
+impl InvestigatePlan {
+    /// One channel's investigation, said as it goes: the static fit, diagnosis and extension on
+    /// `train` (read from `train_path`), both models scored on `valid`.
+    pub fn one(
+        &self,
+        (train_path, train, valid): (&Path, Stream, Stream),
+        messages: &dyn Messages,
+    ) -> anyhow::Result<(Investigation, Blobs)> {
+        let source = &self.source;
+        let train = [(train_path, train)];
+        let points = source.static_points(&train, false, messages)?;
+        let [(_, train)] = train;
+        let rebuild =
+            |part: &Stream| source.static_points(&[(train_path, part.clone())], false, messages);
+        let progress = messages.counted();
+        let (inv, blobs) = investigate::investigate(
+            &points,
+            &train,
+            &valid,
+            &self.gp,
+            self.asked.as_deref(),
+            &rebuild,
+            &*progress,
+        )?;
+        drop(progress);
+        for w in &inv.warnings {
+            messages.warn(w);
+        }
+        let (k, u, unit) = (
+            points.quantity.bias_per_unit(),
+            points.quantity.bias_unit(),
+            points.quantity.unit(),
+        );
+        messages.result(render_diagnosis(&inv.diagnosis).trim_end());
+        messages.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
+        messages.result(&format!(
+            "static rmse_60s {:.3e} {unit} ({:.2} {u}) | causes {} | added {} | shipped \
+             rmse_60s {:.3e} {unit} ({:.2} {u}) | gain {:.2}× {}",
+            inv.static_score.rmse_60s_dps,
+            inv.static_score.rmse_60s_dps * k,
+            causes_text(&inv.diagnosis.causes),
+            if inv.added_inputs.is_empty() {
+                "nothing".to_owned()
+            } else {
+                inv.added_inputs.join(", ")
+            },
+            inv.extended_score.rmse_60s_dps,
+            inv.extended_score.rmse_60s_dps * k,
+            inv.gain,
+            inv.extended_score.counted()
+        ));
+        messages.result(&format!("beyond the trained range: {}", inv.beyond.verdict));
+        messages.result(&format!(
+            "shipped model's {}",
+            inv.calibration.describe(unit)
+        ));
+        messages.result(&format!(
+            "on the held-out stream, the shipped model's σ: {}",
+            sigma::describe(
+                &inv.extended_score.sigma_samples,
+                &inv.extended_score.sigma_60s
+            )
+        ));
+        Ok((inv, blobs))
+    }
+
+    /// Every channel of `channels` investigated as one channel is, on its training and held-out
+    /// parts (`train`, `valid`: one stream per channel, read from `train_path`); their held-out
+    /// figures said in one table at the end.
+    pub fn unit(
+        &self,
+        channels: &Channels,
+        (train_path, train, valid): (&Path, &[Stream], &[Stream]),
+        messages: &dyn Messages,
+    ) -> anyhow::Result<UnitInvestigated> {
+        let mut each = Vec::new();
+        for (k, ch) in channels.list.iter().enumerate() {
+            let heading = format!(
+                "{} ({}, [{}/{}]):",
+                ch.name,
+                ch.quantity.unit(),
+                k + 1,
+                channels.len()
+            );
+            let said = messages.channel(&ch.name, &heading);
+            let plan = Self {
+                source: self.source.for_channel(channels, k)?,
+                ..self.clone()
+            };
+            let one = plan
+                .one((train_path, train[k].clone(), valid[k].clone()), &*said)
+                .with_context(|| format!("channel {}", ch.name))?;
+            each.push(one);
+        }
+        let investigated = UnitInvestigated { each };
+        messages.result(&investigated.gains(channels));
+        Ok(investigated)
+    }
+}
+
+impl UnitInvestigated {
+    /// The unit's blob of each channel's extended (`Blobs::extended_blob`) or static model.
+    pub fn blob(
+        &self,
+        channels: &Channels,
+        pick: fn(&Blobs) -> &Vec<u8>,
+    ) -> Result<Vec<u8>, ExportError> {
+        let parts: Vec<ChannelBlob<'_>> = channels
+            .list
+            .iter()
+            .zip(&self.each)
+            .map(|(ch, (_, b))| ChannelBlob {
+                name: &ch.name,
+                quantity: ch.quantity,
+                blob: pick(b),
+            })
+            .collect();
+        unit::unit_blob(&channels.sensor_id, &parts)
+    }
+
+    /// What `investigate --json` writes of it, for `channels`.
+    pub fn report<'a>(&'a self, channels: &'a Channels) -> UnitInvestigation<'a> {
+        UnitInvestigation {
+            sensor_id: &channels.sensor_id,
+            channels: channels
+                .list
+                .iter()
+                .zip(&self.each)
+                .map(|(ch, (inv, _))| ChannelEntry::new(ch, inv))
+                .collect(),
+        }
+    }
+
+    /// The unit's investigation in one table: each channel's held-out figures, static and
+    /// shipped, in its bias unit, with its causes and gain.
+    fn gains(&self, channels: &Channels) -> String {
+        let mut s = String::from(
+            "held out, rmse_60s:  static          shipped         gain   causes named (shipped)\n",
+        );
+        let mut counted = String::new();
+        for (ch, (inv, _)) in channels.list.iter().zip(&self.each) {
+            let (k, u) = (ch.quantity.bias_per_unit(), ch.quantity.bias_unit());
+            s.push_str(&format!(
+                "  {:<16} {:>9.3} {u:<4}  {:>9.3} {u:<4}  {:>5.2}×  {} ({})\n",
+                ch.name,
+                inv.static_score.rmse_60s_dps * k,
+                inv.extended_score.rmse_60s_dps * k,
+                inv.gain,
+                causes_text(&inv.diagnosis.causes),
+                match inv.shipped {
+                    investigate::Shipped::Extended => "extended",
+                    investigate::Shipped::Static => "static",
+                }
+            ));
+            counted.push_str(&format!(
+                "  {:<16} {}\n",
+                ch.name,
+                inv.extended_score.counted()
+            ));
+        }
+        s + &counted
+    }
+}
