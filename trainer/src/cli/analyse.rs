@@ -216,34 +216,8 @@ pub(super) fn investigate_command(
     };
     let units = input.unit.units(Some(&stream), &console)?;
     if units.is_empty() {
-        let load = |path: &Path| {
-            load_stream(
-                path,
-                &input.maps.list,
-                (window, &input.exclude.list),
-                &console,
-            )
-        };
-        let (train, valid, _) = held_out.parts(
-            (&stream, vec![load(&stream)?]),
-            |v| Ok(vec![load(v)?]),
-            &console,
-        )?;
-        let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next())
-        else {
-            anyhow::bail!("{}: no stream read", stream.display());
-        };
-        let (inv, blobs) = plan.one((&stream, train, valid), &console)?;
-        if let Some(path) = out {
-            write_atomically(&path, &blobs.extended_blob)?;
-        }
-        if let Some(path) = out_static {
-            write_atomically(&path, &blobs.static_blob)?;
-        }
-        if let Some(path) = json {
-            write_json(&path, &inputs, schema::INVESTIGATE, &inv)?;
-        }
-        return Ok(());
+        let files = (&stream, (out, out_static, json), inputs.as_slice());
+        return investigate_single(&plan, (&input, window, &held_out), files, &console);
     }
     let several = units.len() > 1;
     anyhow::ensure!(
@@ -304,6 +278,46 @@ pub(super) fn investigate_command(
     }
     Ok(())
 }
+
+/// `trainer investigate` on one channel's stream: its training and held-out parts read, the
+/// pipeline run, and its blobs and JSON written where asked.
+fn investigate_single(
+    plan: &InvestigatePlan,
+    (input, window, held_out): (&ModelInput, Option<Window>, &HeldOut),
+    (stream, (out, out_static, json), inputs): (&PathBuf, Outputs, &[&Path]),
+    console: &Console,
+) -> anyhow::Result<()> {
+    let load = |path: &Path| {
+        load_stream(
+            path,
+            &input.maps.list,
+            (window, &input.exclude.list),
+            console,
+        )
+    };
+    let (train, valid, _) = held_out.parts(
+        (stream, vec![load(stream)?]),
+        |v| Ok(vec![load(v)?]),
+        console,
+    )?;
+    let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next()) else {
+        anyhow::bail!("{}: no stream read", stream.display());
+    };
+    let (inv, blobs) = plan.one((stream, train, valid), console)?;
+    if let Some(path) = out {
+        write_atomically(&path, &blobs.extended_blob)?;
+    }
+    if let Some(path) = out_static {
+        write_atomically(&path, &blobs.static_blob)?;
+    }
+    if let Some(path) = json {
+        write_json(&path, inputs, schema::INVESTIGATE, &inv)?;
+    }
+    Ok(())
+}
+
+/// Where `trainer investigate` writes: the extended blob, the static blob, the JSON.
+type Outputs = (Option<PathBuf>, Option<PathBuf>, Option<PathBuf>);
 
 /// `trainer loo`: leave-one-out and leave-one-group-out of one method.
 pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
