@@ -1,7 +1,7 @@
-//! How long work says how far it has come, without knowing who is watching: the command line draws
-//! a bar from it (`cli`, with indicatif), a test or a notebook passes `&()` and sees nothing.
-//! The library takes this trait rather than a terminal's type, so it runs the same under any
-//! front end.
+//! How long work says how far it has come ([`Progress`]), and what a command's pipeline says as it
+//! goes ([`Messages`]), without knowing who is watching: the command line draws bars and prints
+//! lines from them (`cli`, with indicatif), a test passes `&()` and sees nothing. The library takes
+//! these traits rather than a terminal's types, so it runs the same under any front end.
 
 /// What a long computation reports: the steps it expects, the steps done, and what it is doing.
 /// `Sync`, so that folds running in parallel report to one watcher.

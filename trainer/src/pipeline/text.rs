@@ -1,4 +1,5 @@
-//! How results read on a terminal: a diagnosis.
+//! A diagnosis in words, as `diagnose` and `investigate` say it: the verdict, each candidate
+//! alone, then the selection.
 
 use firmware_core::units::DPH_PER_DPS;
 
