@@ -387,19 +387,20 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
     .to_string();
     assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
     // One that takes every sensor names the one it could not do, and why.
-    let e = trainer(&[
-        "-q",
-        "investigate",
-        "--stream",
-        &px4("sample_log_small.ulg"),
-    ])
-    .unwrap_err();
-    let e = format!("{e:#}");
-    assert!(e.starts_with("sensor gyro0: channel x: "), "{e}");
-    assert!(
-        e.contains("a static model from a stream needs at least 10"),
-        "{e}"
-    );
+    let out = at(dir.path(), "never.bin");
+    for command in ["investigate", "fit"] {
+        let log = px4("sample_log_small.ulg");
+        let mut args = vec!["-q", command, "--stream", &log];
+        if command == "fit" {
+            args.extend(["--out", &out]);
+        }
+        let e = format!("{:#}", trainer(&args).unwrap_err());
+        assert!(e.starts_with("sensor gyro0: channel x: "), "{command}: {e}");
+        assert!(
+            e.contains("a static model from a stream needs at least 10"),
+            "{command}: {e}"
+        );
+    }
 }
 
 #[test]
