@@ -161,6 +161,46 @@ impl UnitArgs {
         );
         Ok(units.pop())
     }
+
+    /// The one unit of `stream` that the blob `blob` (of sensor `sensor_id`) compensates: a
+    /// channels file's, or the flight controller's sensor the blob names ([`unit_of_blob`]).
+    /// `None` for a CSV of one channel.
+    pub fn load_for(
+        &self,
+        stream: &Path,
+        (blob, sensor_id): (&Path, &str),
+        console: &Console,
+    ) -> anyhow::Result<Option<Channels>> {
+        let mut units = self.units(Some(stream), console)?;
+        if units.is_empty() || units.len() == 1 && units[0].recorded.is_none() {
+            return Ok(units.pop());
+        }
+        unit_of_blob(&mut units, (blob, sensor_id), stream).map(Some)
+    }
+}
+
+/// Takes out of `units` (read from `stream`) the one a blob (`blob`, of sensor `sensor_id`)
+/// compensates: the one whose sensor ID it names (`trainer fit` writes a sensor's ID into its
+/// blob). Refused where none is, with the sensors there are.
+pub fn unit_of_blob(
+    units: &mut Vec<Channels>,
+    (blob, sensor_id): (&Path, &str),
+    stream: &Path,
+) -> anyhow::Result<Channels> {
+    match units.iter().position(|u| u.sensor_id == sensor_id) {
+        Some(k) => Ok(units.remove(k)),
+        None => anyhow::bail!(
+            "{}: a blob of sensor \"{sensor_id}\", which is not among {}'s sensors left to pair \
+             (one blob per sensor): {}",
+            blob.display(),
+            stream.display(),
+            units
+                .iter()
+                .map(|u| u.sensor_id.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
 }
 
 impl LogArgs {

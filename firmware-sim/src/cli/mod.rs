@@ -86,7 +86,8 @@ enum Command {
 /// `--channels`).
 #[derive(Args)]
 struct ReplayInput {
-    /// Model blob (from `trainer fit --out`): one model, or a unit's channels.
+    /// Model blob (from `trainer fit --out`): one model, or a unit's channels. With a flight
+    /// controller's log, the blob compensates the sensor it names.
     #[arg(long)]
     model: PathBuf,
     #[command(flatten)]
@@ -123,7 +124,8 @@ impl ReplayInput {
             .with_context(|| format!("reading {}", self.model.display()))?;
         let unit = replay::decode_unit(&blob)
             .with_context(|| format!("decoding {}", self.model.display()))?;
-        let Some(channels) = self.log.unit.load(Some(&self.log.stream), console)? else {
+        let sensor = (self.model.as_path(), unit.sensor_id());
+        let Some(channels) = self.log.unit.load_for(&self.log.stream, sensor, console)? else {
             let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
             anyhow::ensure!(
                 names.len() == 1,

@@ -375,20 +375,30 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
         "{e}"
     );
     // A command that takes one unit says which there are.
-    let e = trainer(&[
+    let e = sim(&[
         "-q",
-        "allan",
+        "identify",
         "--stream",
         &px4("sample_log_small.ulg"),
-        "--scale-factor",
-        "1",
+        "--out",
+        &at(dir.path(), "unit.json"),
     ])
     .unwrap_err()
     .to_string();
     assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
     // One that takes every sensor names the one it could not do, and why.
     let out = at(dir.path(), "never.bin");
-    for command in ["investigate", "fit"] {
+    for (command, why) in [
+        (
+            "investigate",
+            "a static model from a stream needs at least 10",
+        ),
+        ("fit", "a static model from a stream needs at least 10"),
+        (
+            "allan",
+            "6 samples without a gap: too few for an Allan deviation",
+        ),
+    ] {
         let log = px4("sample_log_small.ulg");
         let mut args = vec!["-q", command, "--stream", &log];
         if command == "fit" {
@@ -396,10 +406,7 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
         }
         let e = format!("{:#}", trainer(&args).unwrap_err());
         assert!(e.starts_with("sensor gyro0: channel x: "), "{command}: {e}");
-        assert!(
-            e.contains("a static model from a stream needs at least 10"),
-            "{command}: {e}"
-        );
+        assert!(e.contains(why), "{command}: {e}");
     }
 }
 
@@ -601,6 +608,87 @@ fn investigate_takes_each_sensor_of_a_boards_log_as_it_takes_it_alone() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("holds 4 sensors"), "{e}");
+    each_blob_is_taken_on_the_sensor_it_names(d, &log);
+}
+
+/// `diagnose`, `allan` and `replay` on a board's log: each blob on the sensor it names, with no
+/// `--sensor`, as on that sensor alone; a blob of a sensor the log does not give is refused.
+fn each_blob_is_taken_on_the_sensor_it_names(d: &Path, log: &str) {
+    let (gyro0, gyro1) = (at(d, "both.gyro0.bin"), at(d, "both.gyro1.bin"));
+    let diagnosed = at(d, "diagnosed.json");
+    trainer(&[
+        "-q", "diagnose", "--model", &gyro0, &gyro1, "--stream", log, "--json", &diagnosed,
+    ])
+    .unwrap();
+    let alone = at(d, "alone.json");
+    for (name, blob) in [("gyro0", &gyro0), ("gyro1", &gyro1)] {
+        trainer(&[
+            "-q", "diagnose", "--model", blob, "--stream", log, "--json", &alone,
+        ])
+        .unwrap();
+        let both = json(d.join(format!("diagnosed.{name}.json")));
+        assert_eq!(both["schema"]["name"], "trainer.diagnose-unit");
+        assert_eq!(both["channels"].as_array().unwrap().len(), 3, "{both}");
+        assert_eq!(both, json(&alone), "diagnose {name}");
+    }
+    let e = trainer(&[
+        "-q", "diagnose", "--model", &gyro0, "--stream", log, "--sensor", "gyro1",
+    ])
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("a blob of sensor \"gyro0 "), "{e}");
+    assert!(
+        e.contains("sensors left to pair (one blob per sensor): gyro1 "),
+        "{e}"
+    );
+
+    let allan = at(d, "allan.json");
+    trainer(&["-q", "allan", "--stream", log, "--json", &allan]).unwrap();
+    for name in ["gyro0", "gyro1", "accel0", "accel1"] {
+        let args = [
+            "-q", "allan", "--stream", log, "--sensor", name, "--json", &alone,
+        ];
+        trainer(&args).unwrap();
+        let each = json(d.join(format!("allan.{name}.json")));
+        assert_eq!(each["channels"].as_array().unwrap().len(), 3, "{each}");
+        assert_eq!(each, json(&alone), "allan {name}");
+    }
+    let compensated = at(d, "compensated.json");
+    trainer(&[
+        "-q",
+        "allan",
+        "--stream",
+        log,
+        "--model",
+        &gyro1,
+        "--json",
+        &compensated,
+    ])
+    .unwrap();
+    let c = json(&compensated);
+    assert!(
+        c["channels"][0]["of"]
+            .as_str()
+            .unwrap()
+            .contains("compensated by"),
+        "{c}"
+    );
+
+    let (named, chosen) = (at(d, "named.json"), at(d, "chosen.json"));
+    sim(&[
+        "-q", "replay", "--model", &gyro1, "--stream", log, "--json", &named,
+    ])
+    .unwrap();
+    let args = [
+        "-q", "replay", "--model", &gyro1, "--stream", log, "--sensor", "gyro1",
+    ];
+    sim(&[&args[..], &["--json", &chosen]].concat()).unwrap();
+    let (named, chosen) = (json(&named), json(&chosen));
+    assert!(
+        named["sensor_id"].as_str().unwrap().starts_with("gyro1 "),
+        "{named}"
+    );
+    assert_eq!(without_timings(named), without_timings(chosen));
 }
 
 #[test]

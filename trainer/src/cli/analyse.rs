@@ -13,29 +13,27 @@ use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
 use serde::Serialize;
 
-use super::fit::naming;
-use super::fit::params::beside;
 use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
+use super::sensors::{Blob, Each, units_of_blobs};
 use crate::analysis::capacity;
-use crate::analysis::diagnose;
 use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
-use crate::firmware::unit;
 use crate::models::gp::GpConfig;
+use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;
 use crate::pipeline::source::{load_points, load_runs};
-use crate::pipeline::text::render_diagnosis;
 use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer diagnose`.
 #[derive(Args)]
 pub(super) struct DiagnoseArgs {
-    /// Model blob.
-    #[arg(long)]
-    model: PathBuf,
+    /// Model blob. With a flight controller's log, a sensor's blob is diagnosed on the sensor it
+    /// names; give several (`--model fit.gyro0.bin fit.gyro1.bin`, or repeat the flag) for several.
+    #[arg(long, required = true, num_args = 1..)]
+    model: Vec<PathBuf>,
     #[command(flatten)]
     log: LogArgs,
     /// Write the diagnosis as JSON here (`-`: stdout, alone).
@@ -123,53 +121,46 @@ pub(super) struct ReproduceArgs {
 }
 
 /// `trainer diagnose`: replays a stream through a blob and names the cause of its residual (each
-/// channel's, for a unit's blob and log with `--channels`).
+/// channel's, for a unit's blob and log; each sensor's blob on its sensor of a flight
+/// controller's log).
 pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let DiagnoseArgs { model, log, json } = args;
     let console = Console::new(flags, json.as_deref());
-    let bytes = std::fs::read(&model).with_context(|| format!("reading {}", model.display()))?;
-    if let Some(channels) = log.unit.load(Some(&log.stream), &console)? {
-        let streams = log.load_unit(&channels, &console)?;
-        let mut all = Vec::new();
-        for (name, quantity, blob) in
-            unit::channel_blobs(&bytes).with_context(|| format!("decoding {}", model.display()))?
-        {
-            let k = channels
-                .list
-                .iter()
-                .position(|c| c.name == name)
-                .with_context(|| {
-                    format!(
-                        "{}'s channel {name} is not in {}",
-                        model.display(),
-                        channels.path.display()
-                    )
-                })?;
-            let fw = fog_data::replay::decode(&blob)?;
-            let mut d = diagnose::diagnose(&fw, &streams[k]);
-            d = d.in_quantity(quantity);
-            let console = console.channel(&name, &format!("{name}:"));
-            console.result(render_diagnosis(&d).trim_end());
-            all.push(serde_json::json!({ "name": name, "units": quantity.unit(), "diagnosis": d }));
-        }
+    let blobs = Blob::read(&model)?;
+    let units = log.unit.units(Some(&log.stream), &console)?;
+    if units.is_empty() {
+        let [blob] = <[Blob; 1]>::try_from(blobs).map_err(|_| {
+            anyhow::anyhow!(
+                "several --model take a flight controller's log (or --channels), each blob for \
+                 one of its sensors; {} is one channel's",
+                log.stream.display()
+            )
+        })?;
+        let data = log.load(&console)?;
+        let d = diagnose::one(&blob.bytes, &data, &console)
+            .with_context(|| format!("decoding {}", blob.path.display()))?;
         if let Some(path) = json {
-            let inputs = [model.as_path(), log.stream.as_path(), &channels.path];
-            write_json_list(&path, &inputs, schema::DIAGNOSE_UNIT, "channels", &all)?;
+            let inputs = [blob.path.as_path(), log.stream.as_path()];
+            write_json(&path, &inputs, schema::DIAGNOSE, &d)?;
         }
         return Ok(());
     }
-    let fw = fog_data::replay::decode(&bytes)
-        .with_context(|| format!("decoding {}", model.display()))?;
-    let data = log.load(&console)?;
-    let d = diagnose::diagnose(&fw, &data);
-    console.result(render_diagnosis(&d).trim_end());
-    if let Some(path) = json {
-        write_json(
-            &path,
-            &[model.as_path(), log.stream.as_path()],
-            schema::DIAGNOSE,
-            &d,
-        )?;
+    let pairs = units_of_blobs(units, blobs, &log.stream)?;
+    let each = Each::new(pairs.len(), &log.stream, json.as_deref())?;
+    for (channels, blob) in &pairs {
+        each.heading(channels, &console);
+        let diagnosed = (|| {
+            let streams = log.load_unit(channels, &console)?;
+            diagnose::unit(&blob.bytes, (channels, &streams), &console)
+                .with_context(|| blob.path.display().to_string())
+        })()
+        .map_err(|e| each.naming(channels, e))?;
+        if let Some(path) = &json {
+            let inputs = [blob.path.as_path(), log.stream.as_path(), &channels.path];
+            let entries = diagnose::entries(&diagnosed);
+            let path = each.file(channels, path);
+            write_json_list(&path, &inputs, schema::DIAGNOSE_UNIT, "channels", &entries)?;
+        }
     }
     Ok(())
 }
@@ -219,27 +210,9 @@ pub(super) fn investigate_command(
         let files = (&stream, (out, out_static, json), inputs.as_slice());
         return investigate_single(&plan, (&input, window, &held_out), files, &console);
     }
-    let several = units.len() > 1;
-    anyhow::ensure!(
-        !several || json.as_deref() != Some(Path::new("-")),
-        "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
-         written beside it), or choose one with --sensor",
-        stream.display(),
-        units.len()
-    );
+    let each = Each::new(units.len(), &stream, json.as_deref())?;
     for channels in &units {
-        let name = channels.unit_name();
-        let each = |path: &Path| match name.filter(|_| several) {
-            Some(n) => beside(path, n),
-            None => path.to_owned(),
-        };
-        if several {
-            console.result(&format!(
-                "{} ({}):",
-                name.unwrap_or_default(),
-                channels.sensor_id
-            ));
-        }
+        each.heading(channels, &console);
         let load = |path: &Path| {
             load_unit_log(
                 path,
@@ -249,7 +222,7 @@ pub(super) fn investigate_command(
                 &console,
             )
         };
-        let named = |e| naming(e, several.then_some(channels));
+        let named = |e| each.naming(channels, e);
         let (train, valid, _) = held_out
             .parts((&stream, load(&stream)?), load, &console)
             .map_err(named)?;
@@ -266,14 +239,15 @@ pub(super) fn investigate_command(
             (&out_static, |b| &b.static_blob),
         ] {
             if let Some(path) = path {
-                let path = each(path);
+                let path = each.file(channels, path);
                 ensure_not_input(&path, &read)?;
                 write_atomically(&path, &investigated.blob(channels, pick)?)?;
             }
         }
         if let Some(path) = &json {
             let report = investigated.report(channels);
-            write_json(&each(path), &read, schema::INVESTIGATE_UNIT, &report)?;
+            let path = each.file(channels, path);
+            write_json(&path, &read, schema::INVESTIGATE_UNIT, &report)?;
         }
     }
     Ok(())

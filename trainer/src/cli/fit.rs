@@ -20,7 +20,9 @@ mod args;
 pub(super) mod params;
 
 pub(super) use args::FitArgs;
-use params::{ParamsArgs, beside};
+use params::ParamsArgs;
+
+use super::sensors::Each;
 
 /// `trainer fit` as asked: the pipeline's plan, and what the command reads and writes beside it.
 struct FitCommand {
@@ -143,14 +145,11 @@ impl FitCommand {
         if units.is_empty() {
             return self.run_single(&console);
         }
-        let several = units.len() > 1;
-        anyhow::ensure!(
-            !several || self.json.as_deref() != Some(Path::new("-")),
-            "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
-             written beside it), or choose one with --sensor",
-            first.map_or(String::new(), |p| p.display().to_string()),
-            units.len()
-        );
+        let each = Each::new(
+            units.len(),
+            first.unwrap_or(Path::new("")),
+            self.json.as_deref(),
+        )?;
         let mut inputs = self.inputs();
         inputs.extend(units.iter().map(|u| u.path.as_path()));
         for p in &params {
@@ -158,21 +157,11 @@ impl FitCommand {
         }
         let mut cubics = Vec::new();
         for channels in &units {
-            let name = channels.unit_name();
-            let each = |path: &Path| match name.filter(|_| several) {
-                Some(n) => beside(path, n),
-                None => path.to_owned(),
-            };
-            let (out, json) = (each(&self.out), self.json.as_deref().map(each));
-            if several {
-                console.result(&format!(
-                    "{} ({}):",
-                    name.unwrap_or_default(),
-                    channels.sensor_id
-                ));
-            }
+            let out = each.file(channels, &self.out);
+            let json = self.json.as_deref().map(|j| each.file(channels, j));
+            each.heading(channels, &console);
             let fitted = self.run_unit(channels, (&out, json.as_deref()), &console);
-            cubics.extend(fitted.map_err(|e| naming(e, several.then_some(channels)))?);
+            cubics.extend(fitted.map_err(|e| each.naming(channels, e))?);
         }
         self.params.write(&cubics, &console)
     }
@@ -241,14 +230,6 @@ impl FitCommand {
         }
         console.result(&unit_table(channels, &fit.fitted, &fit.footprint, out));
         Ok(fit.cubics.take())
-    }
-}
-
-/// `e`, named by the sensor it is about where a log holds `several` (one of them `channels`).
-pub(super) fn naming(e: anyhow::Error, several: Option<&Channels>) -> anyhow::Error {
-    match several {
-        Some(c) => e.context(format!("sensor {}", c.unit_name().unwrap_or(&c.sensor_id))),
-        None => e,
     }
 }
 

@@ -13,6 +13,7 @@ mod inputs;
 mod inspect;
 mod look;
 mod report;
+mod sensors;
 
 /// The library's progress, drawn by the console's bar.
 impl crate::progress::Progress for fog_terminal::console::ProgressBar {

@@ -3,6 +3,8 @@
 //! makes them through [`crate::progress::Messages`]. The command line builds the plans from its
 //! flags and prints or writes the results; the Python package and the tests call the same code.
 
+pub mod allan;
+pub mod diagnose;
 pub mod fit;
 pub mod investigate;
 pub mod source;
