@@ -36,9 +36,10 @@ pub struct Console {
     json: bool,
     /// `--json -`: stdout carries the JSON alone.
     json_stdout: bool,
-    /// The channel of a unit the lines are about: results indented under its heading, warnings
-    /// named by it.
+    /// The channel of a unit the lines are about: warnings named by it.
     channel: Option<std::sync::Arc<str>>,
+    /// Results are indented under a channel's heading.
+    indent: bool,
 }
 
 /// The end of both programs' `--help`: where the examples are, and what the exit status means.
@@ -57,15 +58,19 @@ impl Console {
             json: json.is_some(),
             json_stdout: json.is_some_and(|p| p == Path::new(STDOUT)),
             channel: None,
+            indent: false,
         }
     }
 
-    /// The same policy for the lines about one channel of a unit: its heading printed now, its
-    /// results indented under it, its warnings named by it.
+    /// The same policy for the lines about one channel of a unit: its heading printed now and its
+    /// results indented under it (neither where the heading is empty), its warnings named by it.
     pub fn channel(&self, name: &str, heading: &str) -> Self {
-        self.result(heading);
+        if !heading.is_empty() {
+            self.result(heading);
+        }
         Self {
             channel: Some(name.into()),
+            indent: !heading.is_empty(),
             ..self.clone()
         }
     }
@@ -108,13 +113,12 @@ impl Console {
         if self.flags.quiet || self.json_stdout {
             return;
         }
-        match &self.channel {
-            Some(_) => {
-                for line in text.lines() {
-                    println!("  {line}");
-                }
+        if self.indent {
+            for line in text.lines() {
+                println!("  {line}");
             }
-            None => println!("{text}"),
+        } else {
+            println!("{text}");
         }
     }
 

@@ -42,7 +42,8 @@ pub trait Messages {
     /// Work counted in steps begins (it says how many it expects as it learns them), and ends
     /// when the handle is dropped.
     fn counted(&self) -> Box<dyn Progress + '_>;
-    /// The messages about one channel of a unit, under its `heading` (said now).
+    /// The messages about one channel of a unit, under its `heading` (said now, unless empty),
+    /// named by `name`.
     fn channel(&self, name: &str, heading: &str) -> Box<dyn Messages + '_>;
 }
 

@@ -11,19 +11,17 @@ use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema;
-use serde::Serialize;
 
 use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
 use super::sensors::{Blob, Each, units_of_blobs};
-use crate::analysis::capacity;
-use crate::analysis::evaluate::{self, CrossRun, EvalConfig, Evaluation};
+use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
-use crate::models::gp::GpConfig;
 use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;
+use crate::pipeline::loo::LooPlan;
 use crate::pipeline::source::{load_points, load_runs};
 use fog_terminal::log::load_unit_log;
 
@@ -306,13 +304,17 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         runs: Runs { list: runs },
         json,
     } = args;
-    if features.is_some() && (method != MethodArg::Gpr || test_points.is_some() || !runs.is_empty())
-    {
-        anyhow::bail!(
-            "--features auto evaluates the GP (--method gpr) on one table; --test-points and \
-             --run are not supported with it"
-        );
-    }
+    anyhow::ensure!(
+        features.is_none() || (runs.is_empty() && test_points.is_none()),
+        "--features auto evaluates the GP on one table; --test-points and --run are not \
+         supported with it"
+    );
+    let cfg = EvalConfig {
+        gp: fit.gp(),
+        offsets,
+        ..EvalConfig::default()
+    };
+    let plan = LooPlan::new(cfg, method.into(), features.is_some())?;
     let console = Console::new(flags, json.as_deref());
     let points = load_runs(
         &input.points,
@@ -322,119 +324,41 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         input.exclude_implausible,
         &console,
     )?;
-    let bar = console.bar(0);
-    let mut cfg = EvalConfig {
-        gp: fit.gp(),
-        offsets,
-        ..EvalConfig::default()
-    };
-    // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
-    let centres_choice = if method == MethodArg::Gpr {
-        resolve_loo_size(
-            &points,
-            &mut cfg.gp,
-            features.is_some() || offsets,
-            offsets,
-            &console,
-        )?
-    } else {
-        None
-    };
-    let cross = match &test_points {
-        Some(path) => {
-            let test = Points::load(path, &input.maps.list, None, None)?;
-            match evaluate::cross_run(&points, &test, method.into(), &cfg, &bar) {
-                Err(e @ evaluate::EvalError::NoOverlap) => {
-                    console.warn(&format!("skipped the test on {}: {e}", path.display()));
-                    None
-                }
-                other => Some((path, other?)),
-            }
-        }
+    let test = match &test_points {
+        Some(path) => Some((
+            path.as_path(),
+            Points::load(path, &input.maps.list, None, None)?,
+        )),
         None => None,
     };
-    let cross = match cross {
-        Some((path, c)) => {
-            console.result(&format!(
-                "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points \
-                 in {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
-                c.method,
-                input.points.display(),
-                path.display(),
-                c.rmse_dps,
-                c.rmse_dph,
-                c.n,
-                c.temp_range_c.0,
-                c.temp_range_c.1,
-                c.max_abs_rate_dps,
-                c.n_outside
-            ));
-            if let Some(sigma) = &c.sigma {
-                console.result(&format!("  its σ there: {}", sigma_line(sigma)));
-            }
-            Some(c)
+    let loo = plan.run(&points, test.as_ref().map(|(p, t)| (*p, t)), &console)?;
+    if let (Some(c), Some(path)) = (&loo.cross_run, &test_points) {
+        console.result(&format!(
+            "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points in \
+             {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
+            c.method,
+            input.points.display(),
+            path.display(),
+            c.rmse_dps,
+            c.rmse_dph,
+            c.n,
+            c.temp_range_c.0,
+            c.temp_range_c.1,
+            c.max_abs_rate_dps,
+            c.n_outside
+        ));
+        if let Some(sigma) = &c.sigma {
+            console.result(&format!("  its σ there: {}", sigma_line(sigma)));
         }
-        None => None,
-    };
-    let e = match features {
-        Some(_) => evaluate::evaluate_table(&points, &cfg, &bar)?,
-        None => evaluate::evaluate(&points, method.into(), &cfg, &bar)?,
-    };
-    bar.finish_and_clear();
-    print_loo(&console, &e);
+    }
+    print_loo(&console, &loo.evaluation);
     if let Some(path) = json {
         let mut inputs = vec![input.points.as_path()];
         inputs.extend(runs.iter().map(PathBuf::as_path));
         inputs.extend(test_points.as_deref());
-        let report = LooReport {
-            evaluation: &e,
-            cross_run: cross.as_ref(),
-            centres_choice: centres_choice.as_ref(),
-        };
-        write_json(&path, &inputs, schema::LOO, &report)?;
+        write_json(&path, &inputs, schema::LOO, &loo)?;
     }
     Ok(())
-}
-
-/// The size of the GP `loo` evaluates: what `fit` would ship ([`capacity::resolve`]), or, where
-/// the evaluation needs the exact GP (`exact_only`: `--features auto`, `--offsets`), the exact GP
-/// with a warning where `fit` would refuse to export it.
-fn resolve_loo_size(
-    points: &Points,
-    gp: &mut GpConfig,
-    exact_only: bool,
-    offsets: bool,
-    console: &Console,
-) -> anyhow::Result<Option<capacity::Choice>> {
-    if exact_only {
-        if capacity::needed(gp.inducing, points.len()) {
-            console.warn(&format!(
-                "{} points are more than the {} centres a firmware model holds, and {} needs the \
-                 exact GP: these are the exact GP's figures, which `fit` would refuse to export",
-                points.len(),
-                firmware_core::MAX_CENTRES,
-                if offsets {
-                    "--offsets"
-                } else {
-                    "--features auto"
-                }
-            ));
-        }
-        return Ok(None);
-    }
-    let spinner = console.spinner("choosing the model `fit` would ship");
-    let (resolved, choice) = capacity::resolve(points, gp, |step| {
-        spinner.set_message(format!("choosing the model `fit` would ship: {step}"));
-    })?;
-    spinner.finish_and_clear();
-    if let Some(c) = &choice {
-        console.result(&format!(
-            "evaluating what `fit` would ship (--inducing exact: the exact GP): {}",
-            c.verdict
-        ));
-    }
-    *gp = resolved;
-    Ok(choice)
 }
 
 /// What `loo` prints of an evaluation: the diagnosis of a table in time order where there is
@@ -516,17 +440,6 @@ fn sigma_line(c: &Coverage) -> String {
     )
 }
 
-/// What `trainer loo --json` writes: the evaluation's fields, and the cross-run test when one
-/// was asked for (`null` otherwise).
-#[derive(Serialize)]
-struct LooReport<'a> {
-    #[serde(flatten)]
-    evaluation: &'a Evaluation,
-    cross_run: Option<&'a CrossRun>,
-    /// How the default chose the size `fit` would ship (more points than the firmware holds).
-    centres_choice: Option<&'a capacity::Choice>,
-}
-
 /// `trainer reproduce`: our figures beside the reference paper's.
 pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> anyhow::Result<()> {
     let ReproduceArgs { input, fit, json } = args;
@@ -542,10 +455,9 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
         gp: fit.gp(),
         ..EvalConfig::default()
     };
-    let bar = console.bar(0);
-    let r = reproduce::reproduce(&points, &cfg, &bar)?;
-
-    bar.finish_and_clear();
+    let progress = crate::progress::Messages::counted(&console);
+    let r = reproduce::reproduce(&points, &cfg, &*progress)?;
+    drop(progress);
     console.result(r.render(&input.points.display().to_string()).trim_end());
     if let Some(path) = json {
         write_json(&path, &[input.points.as_path()], schema::REPRODUCE, &r)?;

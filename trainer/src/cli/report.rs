@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use fog_data::stream::{Stream, Window};
+use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::ensure_not_input;
 
@@ -11,9 +11,8 @@ use super::demo;
 use super::fit::params::ParamsArgs;
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
 use super::look::{unit_summaries, unit_text};
-use crate::analysis::autopilot;
 use crate::firmware::autopilot::SensorCubics;
-use crate::pipeline::fit::unit_cubics;
+use crate::pipeline::report::{Held, ReportPlan};
 use crate::report;
 use fog_data::channels::{Channels, Read};
 use fog_terminal::log::load_unit_log;
@@ -127,19 +126,12 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             input.scale_factor,
         )?);
     }
-    let bar = console.bar(0);
-    let gp = fit.gp();
+    let plan = ReportPlan {
+        source: input.source(),
+        gp: fit.gp(),
+    };
     let r = match files {
-        Files::None => {
-            let points = input.source().static_points(&[], false, &console)?;
-            report::table(
-                &input.points.clone().unwrap_or_default(),
-                summaries,
-                points,
-                &gp,
-                &bar,
-            )?
-        }
+        Files::None => plan.table(summaries, &console)?,
         Files::Logs(path, held_out) => {
             summaries.push(crate::data::summary::of_stream_file(
                 &path,
@@ -155,27 +147,16 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             else {
                 anyhow::bail!("{}: no stream read", path.display());
             };
-            let train = [(path.as_path(), train)];
-            let source = input.source();
-            let points = source.static_points(&train, false, &console)?;
-            let rebuild = |part: &Stream| {
-                source.static_points(&[(path.as_path(), part.clone())], false, &console)
-            };
-            let (kind, source) = kind_and_source(input.points.as_deref(), &path, &held_out);
-            report::with_streams(
-                &source,
-                kind,
-                summaries,
-                points,
-                &train[0].1,
+            let held = Held {
+                path: &path,
+                own_log: held_out.valid_stream.is_some(),
+                train,
                 valid,
                 said,
-                (&gp, &rebuild),
-                &bar,
-            )?
+            };
+            plan.logs(summaries, held, &console)?
         }
     };
-    bar.finish_and_clear();
     for path in report::write(&out_dir, &r)? {
         console.result(&format!("wrote {}", path.display()));
     }
@@ -188,23 +169,6 @@ enum Files {
     None,
     /// A training log, and where its held-out data are.
     Logs(PathBuf, HeldOut),
-}
-
-/// What a report on `path` held out as `held_out` says it is, and the file it names as its
-/// source: a table beside a log, a log alone, or a training log beside a held-out one.
-fn kind_and_source(
-    points: Option<&Path>,
-    path: &Path,
-    held_out: &HeldOut,
-) -> (report::ReportKind, PathBuf) {
-    match (points, &held_out.valid_stream) {
-        (_, Some(_)) => (
-            report::ReportKind::Full,
-            points.unwrap_or(path).to_path_buf(),
-        ),
-        (Some(p), None) => (report::ReportKind::TableAndStream, p.to_path_buf()),
-        (None, None) => (report::ReportKind::Log, path.to_path_buf()),
-    }
 }
 
 /// `trainer report --channels`: every channel of a unit's files analysed as one channel's report
@@ -246,66 +210,21 @@ fn report_unit(
             if let Some(v) = &held_out.valid_stream {
                 add(v, Read::Log)?;
             }
-            let parts = held_out.parts((path, load(path)?), load, console)?;
-            Some((path, held_out, parts))
+            let (train, valid, said) = held_out.parts((path, load(path)?), load, console)?;
+            Some(Held {
+                path,
+                own_log: held_out.valid_stream.is_some(),
+                train,
+                valid,
+                said,
+            })
         }
     };
-    let bar = console.bar(0);
-    let gp = fit.gp();
-    let mut pages = Vec::new();
-    for (k, ch) in channels.list.iter().enumerate() {
-        bar.set_message(format!("channel {}", ch.name));
-        let own = input.source().for_channel(channels, k)?;
-        let report = match &held {
-            None => {
-                let points = own.static_points(&[], false, console)?;
-                report::table(
-                    &own.points.clone().unwrap_or_default(),
-                    Vec::new(),
-                    points,
-                    &gp,
-                    &bar,
-                )?
-            }
-            Some((path, held_out, (train, valid, said))) => {
-                let train = [(path.as_path(), train[k].clone())];
-                let points = own.static_points(&train, false, console)?;
-                let rebuild = |part: &Stream| {
-                    own.static_points(&[(path.as_path(), part.clone())], false, console)
-                };
-                report::with_streams(
-                    path,
-                    kind_and_source(own.points.as_deref(), path, held_out).0,
-                    Vec::new(),
-                    points,
-                    &train[0].1,
-                    valid[k].clone(),
-                    said.clone(),
-                    (&gp, &rebuild),
-                    &bar,
-                )?
-            }
-        };
-        let cubic = match &held {
-            Some((_, _, (train, valid, _))) if ch.unit.factor().is_some() => {
-                match autopilot::held_out(&train[k], &valid[k]) {
-                    Ok(c) => Some(c),
-                    Err(e) => {
-                        console.warn(&format!("{}: no cubic to compare: {e}", ch.name));
-                        None
-                    }
-                }
-            }
-            _ => None,
-        };
-        pages.push(report::unit::ChannelSection {
-            name: &ch.name,
-            quantity: ch.quantity,
-            report,
-            cubic,
-        });
-    }
-    bar.finish_and_clear();
+    let plan = ReportPlan {
+        source: input.source(),
+        gp: fit.gp(),
+    };
+    let (pages, cubics) = plan.unit(channels, held.as_ref(), params, console)?;
     let source = inputs
         .iter()
         .map(|p| p.display().to_string())
@@ -314,12 +233,5 @@ fn report_unit(
     for path in report::unit::write(out_dir, &source, &summary, &pages)? {
         console.result(&format!("wrote {}", path.display()));
     }
-    // The autopilots' cubics, fitted on the training part as the page's are.
-    match &held {
-        Some((_, _, (train, _, _))) if params => Ok(Some(unit_cubics(
-            channels,
-            train.iter().map(std::iter::once),
-        )?)),
-        _ => Ok(None),
-    }
+    Ok(cubics)
 }

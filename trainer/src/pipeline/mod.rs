@@ -7,6 +7,8 @@ pub mod allan;
 pub mod diagnose;
 pub mod fit;
 pub mod investigate;
+pub mod loo;
+pub mod report;
 pub mod source;
 pub mod text;
 

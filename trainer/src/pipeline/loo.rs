@@ -1,0 +1,138 @@
+//! `trainer loo` as a library pipeline: one method left out a point and a group at a time on a
+//! rate table, the size `fit` would ship resolved first, and (where another run is given) the
+//! model fitted on all of it scored on that run inside the range both cover. Reading the tables,
+//! and printing or writing what comes back, are the caller's.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::analysis::capacity::{self, Choice};
+use crate::analysis::evaluate::{self, CrossRun, EvalConfig, EvalError, Evaluation, Method};
+use crate::data::points::Points;
+use crate::progress::Messages;
+
+/// `trainer loo`'s settings, checked once by whoever built them.
+#[derive(Clone, Debug)]
+pub struct LooPlan {
+    /// The method and its settings (the GP's, the two-step degree, offsets per group).
+    pub cfg: EvalConfig,
+    /// The method evaluated.
+    pub method: Method,
+    /// A table recorded in time order diagnosed for transients, the GP extended by those that
+    /// win inside each fold (the GP only, on one table).
+    pub transients: bool,
+}
+
+/// What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test
+/// where one was asked for and could be made (`null` otherwise), and how the size `fit` would
+/// ship was chosen (more points than the firmware holds).
+#[derive(Serialize)]
+pub struct Loo {
+    /// The leave-one-out and leave-one-group-out figures.
+    #[serde(flatten)]
+    pub evaluation: Evaluation,
+    /// Fitted on all points, scored on another run.
+    pub cross_run: Option<CrossRun>,
+    /// How the default chose the size `fit` would ship.
+    pub centres_choice: Option<Choice>,
+}
+
+impl LooPlan {
+    /// The plan, or why its settings do not make one.
+    pub fn new(cfg: EvalConfig, method: Method, transients: bool) -> anyhow::Result<Self> {
+        anyhow::ensure!(
+            !transients || method == Method::Gpr,
+            "--features auto evaluates the GP (--method gpr) on one table"
+        );
+        Ok(Self {
+            cfg,
+            method,
+            transients,
+        })
+    }
+
+    /// The evaluation of `points` (and, with `test`, the run read from its path, scored there),
+    /// the choices said as they are made.
+    pub fn run(
+        &self,
+        points: &Points,
+        test: Option<(&Path, &Points)>,
+        messages: &dyn Messages,
+    ) -> anyhow::Result<Loo> {
+        anyhow::ensure!(
+            !self.transients || test.is_none(),
+            "--features auto evaluates the GP on one table; --test-points is not supported with it"
+        );
+        let mut cfg = self.cfg.clone();
+        // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
+        let centres_choice = if self.method == Method::Gpr {
+            resolve_size(points, &mut cfg, self.transients, messages)?
+        } else {
+            None
+        };
+        let progress = messages.counted();
+        let cross_run = match test {
+            Some((path, test)) => {
+                match evaluate::cross_run(points, test, self.method, &cfg, &*progress) {
+                    Err(e @ EvalError::NoOverlap) => {
+                        messages.warn(&format!("skipped the test on {}: {e}", path.display()));
+                        None
+                    }
+                    other => Some(other?),
+                }
+            }
+            None => None,
+        };
+        let evaluation = if self.transients {
+            evaluate::evaluate_table(points, &cfg, &*progress)?
+        } else {
+            evaluate::evaluate(points, self.method, &cfg, &*progress)?
+        };
+        Ok(Loo {
+            evaluation,
+            cross_run,
+            centres_choice,
+        })
+    }
+}
+
+/// The size of the GP `loo` evaluates: what `fit` would ship ([`capacity::resolve`]), or, where
+/// the evaluation needs the exact GP (`--features auto`, `--offsets`), the exact GP with a
+/// warning where `fit` would refuse to export it.
+fn resolve_size(
+    points: &Points,
+    cfg: &mut EvalConfig,
+    transients: bool,
+    messages: &dyn Messages,
+) -> anyhow::Result<Option<Choice>> {
+    if transients || cfg.offsets {
+        if capacity::needed(cfg.gp.inducing, points.len()) {
+            messages.warn(&format!(
+                "{} points are more than the {} centres a firmware model holds, and {} needs the \
+                 exact GP: these are the exact GP's figures, which `fit` would refuse to export",
+                points.len(),
+                firmware_core::MAX_CENTRES,
+                if cfg.offsets {
+                    "--offsets"
+                } else {
+                    "--features auto"
+                }
+            ));
+        }
+        return Ok(None);
+    }
+    let busy = messages.busy("choosing the model `fit` would ship");
+    let (resolved, choice) = capacity::resolve(points, &cfg.gp, |step| {
+        busy.stage(&format!("choosing the model `fit` would ship: {step}"));
+    })?;
+    drop(busy);
+    if let Some(c) = &choice {
+        messages.result(&format!(
+            "evaluating what `fit` would ship (--inducing exact: the exact GP): {}",
+            c.verdict
+        ));
+    }
+    cfg.gp = resolved;
+    Ok(choice)
+}
