@@ -36,7 +36,7 @@ const MIN_CLUSTERS: usize = 3;
 const MIN_BOTTOM_CLUSTERS: usize = 7;
 
 /// An Allan deviation curve.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Curve {
     /// Cluster times, s.
     pub tau_s: Vec<f64>,
@@ -50,7 +50,7 @@ pub struct Curve {
 
 /// The noise terms read from a curve, each in the units of IEEE 952 and `None` where the curve does
 /// not show its slope.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Terms {
     /// Angle random walk N, °/√h: the slope −½ line at τ = 1 s.
     pub arw_deg_per_sqrt_h: Option<f64>,
@@ -208,7 +208,7 @@ pub fn runs(time_s: &[f64], rate: &[f64]) -> (Vec<std::ops::Range<usize>>, f64) 
 }
 
 /// An Allan analysis of a log: the curve, its terms, and what it was computed over.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Analysis {
     /// What the rate is (e.g. "output/K − reference").
     pub of: String,

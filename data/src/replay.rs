@@ -293,7 +293,7 @@ pub fn in_unit_order<'a>(
 
 /// One channel's scores, as the commands that replay a unit write them in their JSON: its values
 /// (`_dps` fields included) are in its quantity's unit, `units`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ChannelScore {
     /// The channel's name.
     pub name: String,
@@ -473,7 +473,7 @@ pub fn from_unit_result_records(bytes: &[u8], blob: &[u8]) -> Vec<Compensated> {
 }
 
 /// Scores of a replay against the stream's reference (docs/design.md §6 names).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Score {
     /// Scored samples (those with a reference).
     pub n: usize,

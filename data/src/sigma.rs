@@ -13,7 +13,7 @@ use serde::Serialize;
 use crate::stats::{median, rms};
 
 /// How a set of σ describes the errors they go with.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Coverage {
     /// Errors scored.
     pub n: usize,

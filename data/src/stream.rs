@@ -16,7 +16,7 @@ use crate::columns::{self, ColumnMap, DataError};
 pub const GAP_FACTOR: f64 = 3.0;
 
 /// What is wrong with the time between two rows.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum TimeIssue {
     /// Time went backwards at this line.
@@ -97,7 +97,7 @@ const HANDLED_MIN_BLOCKS: usize = 5;
 
 /// A 60 s window of a static log whose output scatters far beyond the log's own noise: someone
 /// handled the unit there (moved, tapped, re-cabled it), and what it shows is not the gyro at rest.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Handled {
     /// First line of the window.
     pub line: u64,

@@ -101,6 +101,7 @@ const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 /// One model input, computed from the raw sample by the feature pipeline
 /// ([`crate::features`] has the equations). Time constants are in seconds.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Feature {
     /// Temperature-sensor reading, °C.
@@ -233,6 +234,7 @@ pub struct Sections {
 /// The payload, generic over its containers: heapless vectors in the firmware, slices or vectors
 /// on the host. All encode to the same bytes, so this is the only definition of the format.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct Payload<Fe, Ex, Fl> {
     /// Input features, in input order.
     pub features: Fe,

@@ -107,6 +107,7 @@ pub struct Sample {
 /// Plain data (`serde`): to keep it through a power cycle, store it at power-down and call
 /// [`FeatureState::power_on`] on it at boot (module doc).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FeatureState {
     /// (power-on time, previous sample time), once a sample has been seen.

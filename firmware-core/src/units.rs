@@ -15,6 +15,7 @@ pub const STANDARD_GRAVITY: f64 = 9.80665;
 /// one its bias figures are stated in: a gyro's angular rate (°/s, biases in °/h) or an
 /// accelerometer's specific force (m/s², biases in mg). A unit blob carries it per channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Quantity {

@@ -28,7 +28,7 @@ use serde::Serialize;
 
 /// One axis's bias against the die temperature: a cubic in T − 25 °C, plus a knee (a smooth step
 /// of `knee` centred on `knee_c`, 3 °C wide), in rad/s or m/s².
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Bias {
     /// Coefficients of (T − 25)^0 … ^3.
     pub cubic: [f64; 4],
@@ -49,7 +49,7 @@ impl Bias {
 }
 
 /// One IMU: a gyro and an accelerometer on one die.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Imu {
     /// The gyro's device ID.
     pub gyro_id: u32,
@@ -70,14 +70,14 @@ pub struct Imu {
 }
 
 /// A flight controller: its IMUs.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Board {
     /// The IMUs, in instance order.
     pub imus: Vec<Imu>,
 }
 
 /// One thermal calibration run: the soak, the warm-up and the log's rate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Run {
     /// The board's temperature at power-on, °C.
     pub soak_c: f64,

@@ -66,7 +66,7 @@ pub enum QemuError {
 
 /// The image's cost measurement, converted to instructions: of the evaluator alone, and of the
 /// whole call per sample, every channel of the blob (one for a model blob).
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct Cost {
     /// Samples timed per path.
     pub samples: u32,
@@ -202,7 +202,7 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
 }
 
 /// How the M4 run and the host replay compare.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct Agreement {
     /// Largest |M4 mean − host mean|, °/s.
     pub max_abs_mean_diff: f64,

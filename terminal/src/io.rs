@@ -6,9 +6,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
-use serde::ser::SerializeMap;
 
-use crate::schema::Schema;
+use crate::schema::{Schema, Stamped};
 
 /// Errors while writing outputs.
 #[derive(Debug, thiserror::Error)]
@@ -66,13 +65,6 @@ pub fn write_json(
     schema: Schema,
     value: &impl Serialize,
 ) -> Result<(), OutputError> {
-    /// The value's fields after the schema.
-    #[derive(Serialize)]
-    struct Stamped<'a, T> {
-        schema: Schema,
-        #[serde(flatten)]
-        body: &'a T,
-    }
     write_text(
         path,
         inputs,
@@ -81,32 +73,6 @@ pub fn write_json(
             body: value,
         },
     )
-}
-
-/// Writes `items` as a JSON object of `schema` and the list under `key` (`channels`, `files`),
-/// as [`write_json`] does a struct.
-pub fn write_json_list<T: Serialize>(
-    path: &Path,
-    inputs: &[&Path],
-    schema: Schema,
-    key: &'static str,
-    items: &[T],
-) -> Result<(), OutputError> {
-    /// The list under its key, after the schema.
-    struct Listed<'a, T> {
-        schema: Schema,
-        key: &'static str,
-        items: &'a [T],
-    }
-    impl<T: Serialize> Serialize for Listed<'_, T> {
-        fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-            let mut map = s.serialize_map(Some(2))?;
-            map.serialize_entry("schema", &self.schema)?;
-            map.serialize_entry(self.key, self.items)?;
-            map.end()
-        }
-    }
-    write_text(path, inputs, &Listed { schema, key, items })
 }
 
 /// Pretty JSON of `value` to `path` or stdout.
@@ -141,7 +107,7 @@ mod tests {
 
     #[test]
     fn json_names_its_schema_first() {
-        #[derive(Serialize)]
+        #[derive(Serialize, schemars::JsonSchema)]
         struct Fit {
             rmse: f64,
         }
@@ -154,14 +120,15 @@ mod tests {
         assert_eq!(v["schema"]["version"], 1);
         assert_eq!(v["rmse"], 1.5);
         assert!(text.find("schema") < text.find("rmse"), "{text}");
-        write_json_list(&list, &[], crate::schema::SUMMARIZE, "files", &[1, 2]).unwrap();
+        let files = crate::schema::PerFile { files: &[1, 2] };
+        write_json(&list, &[], crate::schema::SUMMARIZE, &files).unwrap();
         let v: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&list).unwrap()).unwrap();
         assert_eq!(v["schema"]["name"], "trainer.summarize");
         assert_eq!(v["files"], serde_json::json!([1, 2]));
         assert!(
             write_json(&dir.path().join("x.json"), &[], crate::schema::FIT, &[1, 2]).is_err(),
-            "a list has no fields to follow the schema: write_json_list"
+            "a list has no fields to follow the schema: a body of its own holds it (PerFile)"
         );
     }
 

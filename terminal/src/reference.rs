@@ -1,11 +1,15 @@
-//! The parts of docs/commands.md that are the code's own words, rendered from it so they cannot
-//! drift: every command's flags from its clap definition (the help a user sees), and the JSON
-//! contracts from [`crate::schema`]. A test in the integration suite compares them with the page
-//! (and rewrites it under `FOG_BLESS=1`).
+//! The parts of docs/commands.md and docs/json.md that are the code's own words, rendered from it
+//! so they cannot drift: every command's flags from its clap definition (the help a user sees),
+//! the JSON contracts from [`crate::schema`], and each contract's fields from the JSON Schema of
+//! the type it is written from ([`schema::Contract`]). A test in the integration suite compares
+//! them with the pages (and rewrites them under `FOG_BLESS=1`).
+
+use std::collections::BTreeMap;
 
 use clap::Command;
+use serde_json::Value;
 
-use crate::schema;
+use crate::schema::{self, Contract};
 
 /// A markdown section per command of `program` (subcommands of subcommands too): a table of its
 /// arguments, each with its value, default and help, in the order `--help` gives them. The flags
@@ -95,14 +99,215 @@ pub fn schemas() -> String {
     out
 }
 
+/// Each contract's fields as a markdown table, then every type they are made of, each once (by
+/// name; a name two different types share is told apart by the contract it first appears in).
+pub fn json_fields(contracts: &[Contract]) -> String {
+    let mut types: BTreeMap<String, Value> = BTreeMap::new();
+    let mut out = String::new();
+    for c in contracts {
+        let s = c.schema;
+        out.push_str(&format!("### `{}`\n\n", s.name));
+        out.push_str(&format!(
+            "Version {}, written by `{}`.{}\n\n",
+            s.version,
+            s.written_by,
+            c.about
+                .as_deref()
+                .map_or(String::new(), |a| format!(" {}", one_line(a)))
+        ));
+        let mut root = c.fields.as_value().clone();
+        // A generic type is named without its parameters: where another contract already gave
+        // the name to a different type, this one is named for its contract.
+        let defs = root.get("$defs").and_then(Value::as_object).cloned();
+        let renamed: BTreeMap<String, String> = defs
+            .iter()
+            .flatten()
+            .filter(|(name, def)| types.get(*name).is_some_and(|d| d != *def))
+            .map(|(name, _)| (name.clone(), format!("{name} ({})", s.name)))
+            .collect();
+        rename_refs(&mut root, &renamed);
+        for (name, def) in root
+            .get("$defs")
+            .and_then(Value::as_object)
+            .into_iter()
+            .flatten()
+        {
+            let name = renamed.get(name).unwrap_or(name);
+            types.entry(name.clone()).or_insert_with(|| def.clone());
+        }
+        out.push_str(&fields_table(&root));
+        out.push('\n');
+    }
+    out.push_str("### Types\n\n");
+    for (name, def) in &types {
+        out.push_str(&format!("#### {name}\n\n"));
+        if let Some(d) = def.get("description").and_then(Value::as_str) {
+            out.push_str(&format!("{}\n\n", cell(d)));
+        }
+        if def.get("properties").is_some() {
+            out.push_str(&fields_table(def));
+        } else {
+            out.push_str(&format!("{}\n", variants(def)));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// `value` with every `$ref` to a type of `renamed` pointing at its new name.
+fn rename_refs(value: &mut Value, renamed: &BTreeMap<String, String>) {
+    match value {
+        Value::Object(map) => {
+            for (key, v) in map.iter_mut() {
+                match (key.as_str(), &*v) {
+                    ("$ref", Value::String(r)) => {
+                        let name = r.rsplit('/').next().unwrap_or(r);
+                        if let Some(new) = renamed.get(name) {
+                            *v = Value::String(format!("#/$defs/{new}"));
+                        }
+                    }
+                    _ => rename_refs(v, renamed),
+                }
+            }
+        }
+        Value::Array(list) => list.iter_mut().for_each(|v| rename_refs(v, renamed)),
+        _ => {}
+    }
+}
+
+/// An object schema's properties as a table: field, type, what it holds.
+fn fields_table(object: &Value) -> String {
+    let mut out = String::from("| field | type | what |\n|---|---|---|\n");
+    if let Some(props) = object.get("properties").and_then(Value::as_object) {
+        for (name, p) in props {
+            let what = p.get("description").and_then(Value::as_str).unwrap_or("");
+            out.push_str(&format!(
+                "| `{name}` | {} | {} |\n",
+                cell(&ty(p)),
+                cell(what)
+            ));
+        }
+    }
+    out
+}
+
+/// A schema that is not an object (an enum, a value of one of several shapes), in words.
+fn variants(def: &Value) -> String {
+    let alternatives = def
+        .get("oneOf")
+        .or_else(|| def.get("anyOf"))
+        .and_then(Value::as_array);
+    match alternatives {
+        Some(list) => list
+            .iter()
+            .map(|v| {
+                let what = v.get("description").and_then(Value::as_str);
+                let shape = match v.get("properties") {
+                    Some(_) if v.get("const").is_none() => ty_object(v),
+                    _ => ty(v),
+                };
+                match what {
+                    Some(w) => format!("- {shape}: {}", cell(w)),
+                    None => format!("- {shape}"),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n"),
+        None => format!("One of: {}.", ty(def)),
+    }
+}
+
+/// An object's fields, inline: `{a: T, b: U}`.
+fn ty_object(v: &Value) -> String {
+    let props = v.get("properties").and_then(Value::as_object);
+    let fields: Vec<String> = props
+        .into_iter()
+        .flatten()
+        .map(|(k, p)| format!("`{k}`: {}", ty(p)))
+        .collect();
+    format!("{{{}}}", fields.join(", "))
+}
+
+/// A schema's type as a reader needs it: a link to a named type, a list, one of several values.
+fn ty(v: &Value) -> String {
+    if let Some(r) = v.get("$ref").and_then(Value::as_str) {
+        let name = r.rsplit('/').next().unwrap_or(r);
+        return format!("[{name}](#{})", anchor(name));
+    }
+    if let Some(c) = v.get("const") {
+        return format!("`{c}`");
+    }
+    if let Some(e) = v.get("enum").and_then(Value::as_array) {
+        return e
+            .iter()
+            .map(|x| format!("`{x}`"))
+            .collect::<Vec<_>>()
+            .join(" or ");
+    }
+    for key in ["oneOf", "anyOf"] {
+        if let Some(list) = v.get(key).and_then(Value::as_array) {
+            return list.iter().map(ty).collect::<Vec<_>>().join(" or ");
+        }
+    }
+    if let Some([one]) = v.get("allOf").and_then(Value::as_array).map(Vec::as_slice) {
+        return ty(one);
+    }
+    let kinds: Vec<&str> = match v.get("type") {
+        Some(Value::String(t)) => vec![t.as_str()],
+        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => return "any".to_owned(),
+    };
+    let nullable = kinds.contains(&"null");
+    let shapes: Vec<String> = kinds
+        .iter()
+        .filter(|k| **k != "null")
+        .map(|k| match *k {
+            "array" => match (v.get("prefixItems"), v.get("items")) {
+                (Some(Value::Array(items)), _) => {
+                    format!("[{}]", items.iter().map(ty).collect::<Vec<_>>().join(", "))
+                }
+                (_, Some(items)) => format!("[{}]", ty(items)),
+                _ => "[any]".to_owned(),
+            },
+            "object" => match v.get("additionalProperties") {
+                Some(p) if p.is_object() => format!("{{string: {}}}", ty(p)),
+                _ if v.get("properties").is_some() => ty_object(v),
+                _ => "object".to_owned(),
+            },
+            other => other.to_owned(),
+        })
+        .collect();
+    match (shapes.is_empty(), nullable) {
+        (true, _) => "null".to_owned(),
+        (false, true) => format!("{} or null", shapes.join(" or ")),
+        (false, false) => shapes.join(" or "),
+    }
+}
+
+/// The anchor markdown gives a heading `name`.
+fn anchor(name: &str) -> String {
+    name.chars()
+        .filter_map(|c| match c {
+            c if c.is_alphanumeric() => Some(c.to_ascii_lowercase()),
+            '-' | '_' => Some(c),
+            ' ' => Some('-'),
+            _ => None,
+        })
+        .collect()
+}
+
 /// `text` on one line.
 fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// `text` fit for a table cell: one line, its pipes escaped.
+/// `text` fit for a table cell: one line, its pipes escaped, a rustdoc link to an item kept as
+/// the item's name.
 fn cell(text: &str) -> String {
-    one_line(text).replace('|', "\\|")
+    one_line(text)
+        .replace("[`", "`")
+        .replace("`]", "`")
+        .replace('|', "\\|")
 }
 
 /// `page` with the text between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`

@@ -1,12 +1,14 @@
 //! The contract of every JSON file the two programs write, in one place: each carries
 //! `"schema": {"name": …, "version": …}` first, so a script can tell what it reads and refuse what
 //! it does not know. A version grows when a field changes meaning or goes away; a new field does
-//! not change it. docs/commands.md lists them ([`ALL`]), generated from here.
+//! not change it. docs/commands.md lists them ([`ALL`]), generated from here; docs/json.md lists
+//! each one's fields, generated from the type its body is written from ([`Contract`]).
 
+use schemars::JsonSchema;
 use serde::Serialize;
 
 /// A JSON output's name and version.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 pub struct Schema {
     /// `program.command` (`-unit` where a unit's output differs from one channel's).
     pub name: &'static str,
@@ -104,8 +106,58 @@ pub const QEMU: Schema = v1("sim.qemu", "firmware-sim qemu --json");
 /// `firmware-sim qemu --json`, a unit blob.
 pub const QEMU_UNIT: Schema = v1("sim.qemu-unit", "firmware-sim qemu --json (a unit blob)");
 
+/// A JSON file as written: its contract first, then the fields of its body.
+#[derive(Serialize, JsonSchema)]
+pub struct Stamped<'a, T: ?Sized> {
+    /// Its contract's name and version.
+    pub schema: Schema,
+    /// The fields of what it holds.
+    #[serde(flatten)]
+    pub body: &'a T,
+}
+
+/// A body of one entry per channel of a unit, under `channels`.
+#[derive(Serialize, JsonSchema)]
+pub struct PerChannel<'a, T> {
+    /// Each channel's, in the unit's order.
+    pub channels: &'a [T],
+}
+
+/// A body of one entry per file read, under `files`.
+#[derive(Serialize, JsonSchema)]
+pub struct PerFile<'a, T> {
+    /// Each file's, in the order given.
+    pub files: &'a [T],
+}
+
+/// A contract with the fields its files hold: the JSON Schema of the type the body is written
+/// from, its `schema` field first.
+pub struct Contract {
+    /// Its name, version and writer.
+    pub schema: Schema,
+    /// The JSON Schema of the whole file.
+    pub fields: schemars::Schema,
+    /// What the body is, in the words of its type's documentation.
+    pub about: Option<String>,
+}
+
+impl Contract {
+    /// The contract `schema`, whose body is written from a `T`.
+    pub fn of<T: JsonSchema + ?Sized + 'static>(schema: Schema) -> Self {
+        let body = schemars::schema_for!(T);
+        Self {
+            schema,
+            fields: schemars::schema_for!(Stamped<'static, T>),
+            about: body
+                .get("description")
+                .and_then(|d| d.as_str())
+                .map(str::to_owned),
+        }
+    }
+}
+
 /// Every contract, in the order docs/commands.md lists them.
-pub const ALL: [Schema; 26] = [
+pub const ALL: [Schema; 27] = [
     SUMMARIZE,
     FIT,
     FIT_UNIT,
@@ -132,6 +184,7 @@ pub const ALL: [Schema; 26] = [
     REPLAY_UNIT,
     QEMU,
     QEMU_UNIT,
+    BOARD,
 ];
 
 #[cfg(test)]

@@ -27,6 +27,7 @@ use crate::error::BlobError;
 /// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
 /// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ErrorModel {
     /// White noise of one sample, output units²: what averages away over a mean.
@@ -165,6 +166,7 @@ impl ErrorModel {
 /// calibration, is compensated (`Extrapolating` beyond the trained range). Blobs of format 5 and
 /// before read as [`Limits::DEFAULT`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Limits {
     /// The lowest temperature the sensor can read, °C.
@@ -227,6 +229,9 @@ impl Default for Limits {
 /// What the mean does beyond the trained range (format version 6; [`crate::model`]'s module doc
 /// has the rule).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+// As the trainer's JSON names it (`--beyond`): the blob stores the variant's index alone.
+#[cfg_attr(feature = "schemars", schemars(rename_all = "lowercase"))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Beyond {
     /// The inputs the kernel reads held at the edge, the prior mean's too (PX4's and

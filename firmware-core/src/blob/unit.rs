@@ -51,6 +51,7 @@ pub const SENSOR_ID_BYTES: usize = 32;
 /// The payload, generic over the container of its channels: a heapless vector in the firmware,
 /// an iterator's adapter when the trainer writes it. Both encode to the same bytes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct UnitPayload<'a, Ch> {
     /// Numbers in all channels' flat arrays together.
     pub numbers: u32,
@@ -64,6 +65,7 @@ pub struct UnitPayload<'a, Ch> {
 
 /// One channel of a unit blob as encoded.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 pub struct ChannelEntry<'a> {
     /// Its name (`gyro.x`, `acc.z`, `coil`).
     pub name: &'a str,

@@ -305,8 +305,8 @@ fn with_effects(path: &std::path::Path, own: &[Effect], flagged: Hidden) -> anyh
 }
 
 /// What `generate … --json` writes: the row count, the seed, the unit and its hidden effects.
-#[derive(Serialize)]
-struct Generated<'a> {
+#[derive(Serialize, schemars::JsonSchema)]
+pub(super) struct Generated<'a> {
     n: usize,
     seed: u64,
     unit: &'a GyroParams,
@@ -316,8 +316,8 @@ struct Generated<'a> {
 }
 
 /// What `generate --axes … --json` writes: the row count, the seed and the unit's axes.
-#[derive(Serialize)]
-struct GeneratedUnit<'a> {
+#[derive(Serialize, schemars::JsonSchema)]
+pub(super) struct GeneratedUnit<'a> {
     n: usize,
     seed: u64,
     unit: &'a Axes,
@@ -500,8 +500,8 @@ fn board_command(
 }
 
 /// What `generate board --json` writes: the samples per IMU, the seed, the board and the run.
-#[derive(Serialize)]
-struct BoardTruth<'a> {
+#[derive(Serialize, schemars::JsonSchema)]
+pub(super) struct BoardTruth<'a> {
     n: usize,
     seed: u64,
     board: &'a Board,

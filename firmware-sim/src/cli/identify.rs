@@ -10,10 +10,10 @@ use firmware_core::Quantity;
 use fog_data::channels::Read;
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::{Excludes, Maps, UnitArgs, load_log, load_unit_log};
 use fog_terminal::plot::{BLUE, FONT, GREY, PlotError, TITLE, axes, legend, span, svg};
-use fog_terminal::schema;
+use fog_terminal::schema::{self, PerChannel};
 use plotters::prelude::*;
 
 use crate::gyro::axes::{Axes, Axis};
@@ -128,12 +128,16 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
                 params: id.unit.params.clone(),
                 effects: id.unit.effects.clone(),
             });
-            all.push(serde_json::json!({ "name": ch.name, "identification": id }));
+            all.push(IdentifiedChannel {
+                name: ch.name.clone(),
+                identification: id,
+            });
         }
         anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
         write_json(&out, &inputs, schema::SIM_AXES, &Axes { axes })?;
         if let Some(path) = &json {
-            write_json_list(path, &inputs, schema::IDENTIFY_UNIT, "channels", &all)?;
+            let body = PerChannel { channels: &all };
+            write_json(path, &inputs, schema::IDENTIFY_UNIT, &body)?;
         }
         console.result(&format!("wrote {}", out.display()));
         return Ok(());
@@ -159,6 +163,15 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     }
     console.result(&format!("wrote {}", out.display()));
     Ok(())
+}
+
+/// One gyro channel's identification, as `identify --channels --json` lists it.
+#[derive(serde::Serialize, schemars::JsonSchema)]
+pub(super) struct IdentifiedChannel {
+    /// The channel's name.
+    name: String,
+    /// Its identification, as one gyro's.
+    identification: twin::Identification,
 }
 
 /// One gyro identified from its table and/or log, with a spinner while it runs and its summary

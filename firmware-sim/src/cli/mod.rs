@@ -181,14 +181,14 @@ fn channel_lines(scores: &[replay::ChannelScore]) -> String {
 }
 
 /// What `replay --channels --json` writes: the sensor and each channel's scores.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 struct UnitReplay<'a> {
     sensor_id: &'a str,
     channels: &'a [replay::ChannelScore],
 }
 
 /// What `qemu --json` writes: the M4 run's scores, its agreement with the host replay, its cost.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 struct QemuReport<'a> {
     #[serde(flatten)]
     score: &'a replay::Score,
@@ -198,7 +198,7 @@ struct QemuReport<'a> {
 
 /// What `qemu --channels --json` writes: each channel's scores, the agreement of them all with
 /// the host replay, the cost per sample of them all.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 struct UnitQemuReport<'a> {
     sensor_id: &'a str,
     channels: &'a [replay::ChannelScore],
@@ -412,4 +412,25 @@ fn qemu_command(
         m4.cost.instructions_per_tick
     ));
     Ok(())
+}
+
+/// What each JSON the bench writes is made of: every contract of [`schema`] it writes, paired
+/// with the type its body is written from, in [`schema::ALL`]'s order. docs/json.md lists their
+/// fields from here (generated; a test fails where the page differs).
+pub fn contracts() -> Vec<schema::Contract> {
+    vec![
+        schema::Contract::of::<crate::twin::Identification>(schema::IDENTIFY),
+        schema::Contract::of::<schema::PerChannel<'static, identify::IdentifiedChannel>>(
+            schema::IDENTIFY_UNIT,
+        ),
+        schema::Contract::of::<crate::gyro::unit::Unit>(schema::SIM_UNIT),
+        schema::Contract::of::<crate::gyro::axes::Axes>(schema::SIM_AXES),
+        schema::Contract::of::<generate::Generated<'static>>(schema::GENERATE),
+        schema::Contract::of::<generate::GeneratedUnit<'static>>(schema::GENERATE_UNIT),
+        schema::Contract::of::<replay::Score>(schema::REPLAY),
+        schema::Contract::of::<UnitReplay<'static>>(schema::REPLAY_UNIT),
+        schema::Contract::of::<QemuReport<'static>>(schema::QEMU),
+        schema::Contract::of::<UnitQemuReport<'static>>(schema::QEMU_UNIT),
+        schema::Contract::of::<generate::BoardTruth<'static>>(schema::BOARD),
+    ]
 }

@@ -24,7 +24,7 @@ use crate::gyro::stream::{self, Row, StreamConfig};
 pub const MAX_AXES: usize = 6;
 
 /// One axis: its name, its gyro and its hidden effects.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Axis {
     /// Its name (`gyro.x`).
     pub name: String,
@@ -35,7 +35,7 @@ pub struct Axis {
 }
 
 /// The axes of a unit, the first setting the housing's thermal behaviour (module doc).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Axes {
     /// The axes, in order.
     pub axes: Vec<Axis>,

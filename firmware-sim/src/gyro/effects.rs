@@ -36,7 +36,7 @@ const HYSTERESIS_MIN_RATE_C_PER_MIN: f64 = 0.05;
 const DRIFT_TAU_S: f64 = 20.0 * SECONDS_PER_HOUR;
 
 /// One hidden effect with its magnitude.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(tag = "id", rename_all = "kebab-case")]
 pub enum Effect {
     /// No effect: the residual of a good static model is noise.
@@ -95,7 +95,7 @@ pub fn range(cause: Cause) -> Option<(f64, f64)> {
 }
 
 /// Where a drawn strength comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum Strength {
     /// The documented range ([`range`]).
@@ -204,7 +204,7 @@ impl Effect {
 
 /// The hidden effects of one gyro, acting together (none, one, or several of distinct causes):
 /// a lag sets the temperature the coil feels, and the biases add.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, schemars::JsonSchema)]
 #[serde(transparent)]
 pub struct Hidden(pub Vec<Effect>);
 

@@ -32,7 +32,7 @@ pub const EARTH_RATE_DPH: f64 = 15.041;
 const T_REF_C: f64 = 25.0;
 
 /// Parameters of one gyro unit (see the module doc for the equations).
-#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GyroParams {
     /// Scale factor at 25 °C, V/(°/s). Paper: about 38 mV/(°/s).

@@ -12,7 +12,7 @@ use crate::gyro::effects::Effect;
 use crate::gyro::plant::GyroParams;
 
 /// A simulated gyro: its parameters and hidden effects. The unit file's format.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Unit {
     /// The output map, temperature dependence and noise.
     pub params: GyroParams,

@@ -62,7 +62,7 @@ const LAG_GRID_MIN: [f64; 12] = [
 ];
 
 /// A design of candidate effects, tried on the forward test inside the training data.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Candidate {
     /// Its causes.
     pub causes: Vec<Cause>,
@@ -77,7 +77,7 @@ pub struct Candidate {
 }
 
 /// What `identify --json` writes.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Identification {
     /// The twin (fitted on all the data, with the effects the training data chose).
     pub unit: Unit,

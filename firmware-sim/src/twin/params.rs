@@ -194,7 +194,7 @@ pub(super) fn determinable(records: &[&Record]) -> (Vec<Static>, Vec<(Static, St
 }
 
 /// One parameter as identified.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Parameter {
     /// Name, as in the unit file.
     pub name: String,

@@ -34,7 +34,7 @@ pub struct Source {
 }
 
 /// The kind of a [`Source`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum SourceKind {
     /// Averaged rate-table points.

@@ -38,10 +38,51 @@ pub fn at(dir: &Path, name: &str) -> String {
     dir.join(name).display().to_string()
 }
 
-/// Reads a JSON file.
+/// Reads a JSON file; one a command wrote (with a `schema`) is checked against its contract on
+/// the way: every field it holds is one docs/json.md lists, and every field listed as required
+/// is there. Every test that reads a command's JSON so checks the contract too.
 pub fn json(path: impl Into<PathBuf>) -> serde_json::Value {
-    let text = std::fs::read_to_string(path.into()).expect("JSON output exists");
-    serde_json::from_str(&text).expect("valid JSON")
+    let path = path.into();
+    let text = std::fs::read_to_string(&path).expect("JSON output exists");
+    let value: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+    if let Some(name) = value["schema"]["name"].as_str() {
+        let fields = contract_fields(name);
+        let object = value.as_object().expect("a contract's JSON is an object");
+        let listed = fields["properties"].as_object().expect("listed fields");
+        for key in object.keys() {
+            assert!(
+                listed.contains_key(key),
+                "{}: `{key}` is not a field of {name} (docs/json.md)",
+                path.display()
+            );
+        }
+        for key in fields["required"].as_array().into_iter().flatten() {
+            let key = key.as_str().unwrap_or_default();
+            assert!(
+                object.contains_key(key),
+                "{}: {name}'s field `{key}` is missing",
+                path.display()
+            );
+        }
+    }
+    value
+}
+
+/// The JSON Schema of the contract named `name`, as docs/json.md is generated from it.
+fn contract_fields(name: &str) -> serde_json::Value {
+    static ALL: std::sync::OnceLock<Vec<fog_terminal::schema::Contract>> =
+        std::sync::OnceLock::new();
+    let all = ALL.get_or_init(|| {
+        let mut all = trainer::cli::contracts();
+        all.extend(firmware_sim::cli::contracts());
+        all
+    });
+    all.iter()
+        .find(|c| c.schema.name == name)
+        .unwrap_or_else(|| panic!("no contract named {name}"))
+        .fields
+        .as_value()
+        .clone()
 }
 
 /// The MIT-licensed MEMS thermal-cycle log copied in `tests/data/`.

@@ -17,7 +17,7 @@ use serde::Serialize;
 use crate::firmware::autopilot::{Cubic, CubicError};
 
 /// A cubic's held-out figures.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct CubicScore {
     /// RMS of the held-out 60 s means' error, in the channel's units.
     pub rmse_60s: f64,
@@ -35,7 +35,7 @@ pub struct CubicScore {
 }
 
 /// A channel's cubics, held out.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct CubicFigures {
     /// The project's cubic (temperature-binned, the training window and handling).
     pub project: CubicScore,

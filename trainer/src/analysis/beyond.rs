@@ -31,7 +31,7 @@ const MIN_OUTSIDE: usize = 4;
 const MAX_POINTS: usize = 256;
 
 /// The rule chosen and the evidence (`beyond` in `fit --json`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct BeyondChoice {
     /// The rule shipped.
     #[serde(serialize_with = "rule_name")]

@@ -73,7 +73,7 @@ impl FromStr for Bytes {
 }
 
 /// A target's budget: each part where given.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Budget {
     /// RAM for the unit (its numbers, bookkeeping and scratch), bytes.
     pub ram_bytes: Option<usize>,
@@ -114,7 +114,7 @@ impl fmt::Display for Budget {
 }
 
 /// What a model (or a unit) costs the firmware.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Cost {
     /// RAM, bytes.
     pub ram_bytes: usize,
@@ -183,7 +183,7 @@ pub fn static_dims(points: &Points, basis: MeanBasis, m: usize) -> Dims {
 }
 
 /// One size a channel's model may take.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Size {
     /// Inducing points asked for, or the points of the exact GP.
     pub asked: usize,
@@ -256,7 +256,7 @@ pub fn sizes(
 }
 
 /// How the budget was met, as `fit --json` reports it (`budget`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Report {
     /// The budget.
     pub budget: Budget,
@@ -270,7 +270,7 @@ pub struct Report {
 }
 
 /// One channel's sizes in a [`Report`].
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ChannelSizes {
     /// The channel.
     pub name: String,

@@ -47,7 +47,7 @@ pub fn instructions(m: usize) -> f64 {
 }
 
 /// One model tried.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Tried {
     /// Inducing points asked for (the training points for the exact GP).
     pub asked: usize,
@@ -66,7 +66,7 @@ pub struct Tried {
 }
 
 /// The choice, as `fit --json` reports it (`centres_choice`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Choice {
     /// The rule, in words.
     pub rule: String,

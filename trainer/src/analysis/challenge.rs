@@ -25,7 +25,7 @@ use crate::data::points::Points;
 use crate::models::gp::GpConfig;
 
 /// Which cases a challenge runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum CaseSet {
     /// Every cause alone (and `none`), strengths from the documented ranges.
@@ -95,7 +95,7 @@ pub fn lab_warm_up(seed: u64) -> Hidden {
 }
 
 /// One case and what the investigation made of it.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Case {
     /// The hidden effects.
     pub hidden: Hidden,
@@ -365,7 +365,7 @@ pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow:
 }
 
 /// What a challenge found, over its cases.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Summary {
     /// Cases.
     pub cases: usize,

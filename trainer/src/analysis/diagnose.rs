@@ -139,7 +139,7 @@ fn grid(cause: Cause) -> &'static [f32] {
 }
 
 /// One cause fitted to a residual.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct CauseFit {
     /// The cause.
     pub id: Cause,
@@ -235,7 +235,7 @@ pub fn fit_candidates(
 }
 
 /// One step of the selection: the best design of one more cause than the step before.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Step {
     /// Its causes, strongest first.
     pub causes: Vec<Cause>,
@@ -290,7 +290,7 @@ impl Try {
 }
 
 /// The diagnosis of one stream (docs/design.md §6 `diagnose` JSON).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Diagnosis {
     /// The first named cause (`none` when nothing is named).
     pub cause: Cause,

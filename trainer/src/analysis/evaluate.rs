@@ -27,7 +27,7 @@ use crate::models::poly::{PolyError, PolyModel};
 use crate::models::two_step::{TwoStepError, TwoStepModel};
 
 /// The compared methods.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Gaussian-process regression (the paper's method).
@@ -53,7 +53,7 @@ impl Method {
 }
 
 /// Settings shared by all methods.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct EvalConfig {
     /// GP settings (its prior degree is also LS-SVR's).
     pub gp: GpConfig,
@@ -229,7 +229,7 @@ impl MethodFit {
 
 /// A method's fitted hyperparameters or coefficients, as the JSON report shows them: the fields
 /// of the method's own type, the method named beside them.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum Parameters {
     /// The GP's hyperparameters (normalized units).
@@ -263,7 +263,7 @@ fn loo_errors(
 }
 
 /// RMSE of one left-out group.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct GroupRmse {
     /// Group label (plateau index, or the `--group` column's value).
     pub group: String,
@@ -278,7 +278,7 @@ pub struct GroupRmse {
 }
 
 /// One method's evaluation.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Evaluation {
     /// Method name.
     pub method: &'static str,
@@ -514,7 +514,7 @@ pub fn evaluate(
 }
 
 /// What the diagnosis of a timed table chose, on all rows and in every fold.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TableReport {
     /// On all rows: the model `fit` would ship.
     pub all_rows: TableDiagnosis,
@@ -525,7 +525,7 @@ pub struct TableReport {
 }
 
 /// The choice made inside one fold.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct FoldChoice {
     /// The group left out.
     pub group: String,
@@ -598,7 +598,7 @@ pub fn evaluate_table(
 }
 
 /// A model fitted on one run and tested on another, inside the range both cover.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct CrossRun {
     /// Method name.
     pub method: &'static str,
@@ -673,7 +673,7 @@ pub fn cross_run(
 }
 
 /// The paper's Fig. 2 check at one rate.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct RateLineFit {
     /// Reference rate, °/s.
     pub rate_dps: f64,
@@ -684,7 +684,7 @@ pub struct RateLineFit {
 }
 
 /// The paper's Fig. 2 check: per rate, a first-order fit of V against T.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Fig2 {
     /// Least-squares scale factor over all points, mV per °/s.
     pub scale_factor_mv_per_dps: f64,

@@ -87,7 +87,7 @@ pub fn parse_features(list: &str) -> Result<Vec<Cause>, ExtendError> {
 }
 
 /// An extension and the fits behind it.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ExtensionFit {
     /// What the blob adds.
     pub extension: Extension,
@@ -101,7 +101,7 @@ pub struct ExtensionFit {
 }
 
 /// The offset the static GP absorbed from the points at one plateau temperature.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct PointOffset {
     /// Plateau temperature, °C.
     pub temp_c: f64,

@@ -33,7 +33,7 @@ pub use split::{Rebuild, Sight, Split, splits};
 pub const STEPS: u64 = 5;
 
 /// The result (docs/design.md §6 names where they exist).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Investigation {
     /// The static model on the held-out stream.
     pub static_score: Score,
@@ -74,7 +74,7 @@ impl Investigation {
 }
 
 /// Which model an extension step ships.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum Shipped {
     /// The static model with the extension.

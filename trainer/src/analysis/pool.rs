@@ -22,7 +22,7 @@ use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpError, GpModel, Hyperparameters};
 
 /// Which static model a pooled fit ships.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum Pooling {
     /// The model of the table and the streams' samples.
@@ -32,7 +32,7 @@ pub enum Pooling {
 }
 
 /// The comparison (`trainer fit --json`: `pool_check`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct PoolCheck {
     /// Where each stream was cut, s from its first sample.
     pub split_s: Vec<f64>,

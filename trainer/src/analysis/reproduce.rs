@@ -28,7 +28,7 @@ pub const PAPER_LOO_LSSVR: f64 = 1.26e-2;
 pub const PAPER_FIG2: (f64, f64, f64) = (4.8, 0.13, -80.0);
 
 /// Everything the reproduction table shows.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Reproduction {
     /// GPR evaluation.
     pub gpr: Evaluation,

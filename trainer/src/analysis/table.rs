@@ -72,7 +72,7 @@ pub enum TableError {
 }
 
 /// Where a transient acts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum ActsOn {
     /// ω += c·x.
@@ -82,7 +82,7 @@ pub enum ActsOn {
 }
 
 /// One transient input a table may lack.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Candidate {
     /// The cause it stands for.
     pub cause: Cause,
@@ -196,7 +196,7 @@ impl Transients {
 }
 
 /// A candidate's score on the training rows.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Tried {
     /// What was tried.
     pub name: String,
@@ -205,7 +205,7 @@ pub struct Tried {
 }
 
 /// What the diagnosis of a table found and did.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TableDiagnosis {
     /// Closed-form leave-one-group-out RMSE of the static GP on the training rows, °/s, at the
     /// hyperparameters the candidates were scored at: the best end of its search's starts
@@ -226,7 +226,7 @@ pub struct TableDiagnosis {
 }
 
 /// One term of a fitted table model.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct FittedTerm {
     /// The candidate.
     pub candidate: Candidate,

@@ -78,7 +78,7 @@ const MAX_RHO: f64 = 0.95;
 const BOTH_LEGS: f32 = 0.5;
 
 /// Where a series of residuals comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum Source {
     /// A rate table's groups, each left out in turn (closed form, hyperparameters held).
@@ -162,7 +162,7 @@ pub struct Series {
 }
 
 /// The white noise of one sample.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct SampleNoise {
     /// Variance of one sample, output units².
     pub var: f64,
@@ -205,7 +205,7 @@ impl SampleNoise {
 }
 
 /// What one test's residuals show.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SourceSummary {
     /// The test.
     pub source: Source,
@@ -220,7 +220,7 @@ pub struct SourceSummary {
 }
 
 /// The error model of a shipped model and the evidence behind it (`calibration` in the JSON).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Calibration {
     /// What the blob carries.
     #[serde(skip)]
@@ -274,7 +274,7 @@ pub struct Calibration {
 }
 
 /// What the σ assumes where the training data cannot show a term (module doc), output units².
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Prior {
     /// Model error everywhere: the GP's noise level on its points, × the small-sample factor at
     /// the fewest degrees of freedom.

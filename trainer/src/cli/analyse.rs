@@ -8,9 +8,9 @@ use clap::Args;
 use fog_data::sigma::Coverage;
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
-use fog_terminal::schema;
+use fog_terminal::schema::{self, PerChannel};
 
 use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
 use super::sensors::{Blob, Each, units_of_blobs};
@@ -157,7 +157,8 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
             let inputs = [blob.path.as_path(), log.stream.as_path(), &channels.path];
             let entries = diagnose::entries(&diagnosed);
             let path = each.file(channels, path);
-            write_json_list(&path, &inputs, schema::DIAGNOSE_UNIT, "channels", &entries)?;
+            let body = PerChannel { channels: &entries };
+            write_json(&path, &inputs, schema::DIAGNOSE_UNIT, &body)?;
         }
     }
     Ok(())

@@ -103,8 +103,8 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
 }
 
 /// What `trainer challenge --json` writes.
-#[derive(Serialize)]
-struct ChallengeReport<'a> {
+#[derive(Serialize, schemars::JsonSchema)]
+pub(super) struct ChallengeReport<'a> {
     kind: challenge::CaseSet,
     /// Hidden (rows) against first named (columns), in `order`.
     confusion: [[usize; 6]; 6],

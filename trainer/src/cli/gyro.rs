@@ -7,9 +7,9 @@ use clap::Args;
 use fog_data::allan::{Analysis, Curve};
 use fog_data::channels::Channel;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_atomically, write_json, write_json_list};
+use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
-use fog_terminal::schema;
+use fog_terminal::schema::{self, PerChannel};
 
 use super::sensors::{Blob, Each, units_of_blobs};
 use crate::pipeline::ChannelEntry;
@@ -139,7 +139,8 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
                 .map(|(c, a)| ChannelEntry::new(c, a))
                 .collect();
             let path = each.file(channels, path);
-            write_json_list(&path, &read, schema::ALLAN_UNIT, "channels", &entries)?;
+            let body = PerChannel { channels: &entries };
+            write_json(&path, &read, schema::ALLAN_UNIT, &body)?;
         }
         if let Some(path) = &plot {
             let title = match &label {

@@ -6,9 +6,9 @@ use clap::Args;
 use fog_data::channels::{Channels, Read};
 use fog_data::columns::Source;
 use fog_terminal::console::{Console, ConsoleFlags};
-use fog_terminal::io::{ensure_not_input, write_json_list};
+use fog_terminal::io::{ensure_not_input, write_json};
 use fog_terminal::log::{Maps, UnitArgs};
-use fog_terminal::schema;
+use fog_terminal::schema::{self, PerFile};
 
 use crate::data::points::{Points, Screen};
 use crate::data::summary::{self, Summary};
@@ -65,16 +65,16 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
             if let Some(p) = points.as_ref().filter(|_| channels.recorded.is_none()) {
                 let each = unit_summaries(p, channels, &maps, Read::Table)?;
                 console.result(unit_text(channels, &each).trim_end());
-                all.push(each);
+                all.push(SummarizedFile::Unit(each));
             }
             if let Some(s) = &stream {
                 let each = unit_summaries(s, channels, &maps, Read::Log)?;
                 console.result(unit_text(channels, &each).trim_end());
-                all.push(each);
+                all.push(SummarizedFile::Unit(each));
             }
         }
         if let Some(out) = &json {
-            write_json_list(out, &inputs, schema::SUMMARIZE, "files", &all)?;
+            write_json(out, &inputs, schema::SUMMARIZE, &PerFile { files: &all })?;
         }
         return Ok(());
     }
@@ -88,14 +88,29 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
     for s in &all {
         console.result(s.text().trim_end());
     }
+    let all: Vec<SummarizedFile> = all
+        .into_iter()
+        .map(|s| SummarizedFile::File(Box::new(s)))
+        .collect();
     if let Some(out) = &json {
-        write_json_list(out, &inputs, schema::SUMMARIZE, "files", &all)?;
+        write_json(out, &inputs, schema::SUMMARIZE, &PerFile { files: &all })?;
     }
     Ok(())
 }
 
+/// What `summarize --json` lists under `files`, per file: its summary, or (a unit's file) each
+/// channel's.
+#[derive(Serialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub(super) enum SummarizedFile {
+    /// A file of one channel.
+    File(Box<Summary>),
+    /// A unit's file: each channel's summary.
+    Unit(Vec<ChannelSummary>),
+}
+
 /// One channel of a unit's file, summarized (`summarize --channels --json`: one per channel).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub(super) struct ChannelSummary {
     channel: String,
     quantity: Quantity,

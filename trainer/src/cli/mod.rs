@@ -6,6 +6,7 @@ use fog_terminal::console::{AFTER_HELP, Console, ConsoleFlags};
 
 mod analyse;
 mod challenge;
+mod contracts;
 mod demo;
 mod fit;
 mod gyro;
@@ -14,6 +15,8 @@ mod inspect;
 mod look;
 mod report;
 mod sensors;
+
+pub use contracts::contracts;
 
 /// The library's progress, drawn by the console's bar.
 impl crate::progress::Progress for fog_terminal::console::ProgressBar {

@@ -146,7 +146,7 @@ pub enum PointsError {
 
 /// A row that is implausible next to the others: a value separated from the rest of its column
 /// by a gap wider than the rest spans ([`implausible`]).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Implausible {
     /// 1-based line in the file.
     pub line: u64,

@@ -43,7 +43,7 @@ pub fn of_stream_file(
 }
 
 /// What a file holds, as loaded.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Summary {
     /// The file.
     pub file: String,

@@ -47,7 +47,7 @@ pub enum CubicError {
 
 /// One axis's thermal offset: a cubic in T − `tref_c`, T clipped to [`tmin_c`, `tmax_c`], in the
 /// channel's quantity's unit (°/s or m/s²).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Cubic {
     /// Coldest temperature calibrated, °C.
     pub tmin_c: f64,
@@ -191,7 +191,7 @@ fn range(pairs: &[(f64, f64)]) -> (f64, f64) {
 }
 
 /// One sensor instance's calibration, as the autopilots index it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct SensorCubics {
     /// Its name (`gyro0`, `imu1`).
     pub name: String,
@@ -205,7 +205,7 @@ pub struct SensorCubics {
 }
 
 /// One axis's cubic, in °/s or m/s².
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct AxisCubic {
     /// The channel's name.
     pub name: String,

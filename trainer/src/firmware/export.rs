@@ -120,7 +120,7 @@ fn split_raw_linear(model: &GpModel) -> (Vec<Vec<u8>>, Vec<f64>, Vec<f64>) {
 
 /// What an extended model adds to a static GP (docs/design.md §5: keep the static GP, add the new
 /// inputs' contribution as a term of its own). The kernel and its weights stay the static model's.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Extension {
     /// Replaces the `Temperature` input (a lag-compensated coil temperature).
     pub temperature: Option<Feature>,
@@ -131,7 +131,7 @@ pub struct Extension {
 }
 
 /// One additive input of an [`Extension`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Term {
     /// The input.
     pub feature: Feature,
@@ -476,7 +476,7 @@ pub fn held_at_range(
 }
 
 /// How closely the firmware (f32) follows the host (f64) over one set of inputs.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, schemars::JsonSchema)]
 pub struct Agreement {
     /// Inputs compared.
     pub n: usize,
@@ -500,7 +500,7 @@ pub struct Agreement {
 
 /// The agreement figures of a blob: on the training inputs, on a dense grid over the trained
 /// range, and on the band 10% of the range beyond it.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct AgreementReport {
     /// The training inputs.
     pub training: Agreement,
@@ -713,7 +713,7 @@ pub fn verify(
 }
 
 /// Size and static memory of a blob's model on the firmware.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Footprint {
     /// Centres, inputs, prior-mean monomials.
     pub m: usize,

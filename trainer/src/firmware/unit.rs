@@ -199,7 +199,7 @@ pub fn channel_bytes(d: usize, p: usize) -> usize {
 }
 
 /// What a unit blob costs the firmware (`trainer inspect`, `fit --json`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct UnitFootprint {
     /// The sensor's ID.
     pub sensor_id: String,

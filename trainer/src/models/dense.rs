@@ -142,7 +142,7 @@ pub fn subtract_outer_lower(a: &mut DMatrix<f64>, g: &DMatrix<f64>) {
 /// evaluation factors K (n³/3 flops) and inverts it from the factor (2n³/3), so the floor is the
 /// fit's likelihood count times one such pair, timed here at the same n. The rest of a fit's time
 /// is the O(n²) work around them and the search's own.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct DenseFloor {
     /// Likelihood evaluations of the fit's optimizer runs.
     pub likelihoods: u64,

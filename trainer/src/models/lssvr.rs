@@ -353,7 +353,7 @@ pub struct LssvrModel {
 }
 
 /// The tuned hyperparameters, for reports.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct LssvrHyper {
     /// Length scales (normalized inputs).
     pub length_scales: Vec<f64>,

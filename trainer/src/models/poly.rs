@@ -30,7 +30,7 @@ pub enum PolyError {
 }
 
 /// A fitted polynomial surface.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct PolyModel {
     /// (offset, half-span) mapping the output onto [−1, 1].
     pub output_norm: (f64, f64),

@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// Which monomials make up the prior mean. Inputs 0 and 1 are temperature and gyro output.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(into = "String")]
 pub enum MeanBasis {
     /// A constant, the data's mean, fixed rather than marginalized: exactly the paper's model.
@@ -137,7 +137,7 @@ fn monomial(e: &[u8], z: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// A polynomial mean over normalized inputs, in output units.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct PolyPrior {
     /// Exponents of each monomial, one entry per input.
     pub exponents: Vec<Vec<u8>>,
@@ -148,7 +148,7 @@ pub struct PolyPrior {
 }
 
 /// A monomial of the requested basis that the fitted prior leaves out.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Dropped {
     /// The monomial, as `t^i·v^j·x2^k…` over the inputs (temperature, output, further inputs).
     pub monomial: String,
@@ -157,7 +157,7 @@ pub struct Dropped {
 }
 
 /// Why a monomial is left out of the prior mean.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum DropReason {
     /// Fewer than two samples per coefficient.

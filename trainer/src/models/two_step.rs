@@ -23,7 +23,7 @@ pub enum TwoStepError {
 }
 
 /// A fitted two-step model.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct TwoStepModel {
     /// Temperature normalization (offset, scale) for the polynomials, °C.
     pub temp_norm: (f64, f64),

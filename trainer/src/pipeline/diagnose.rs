@@ -15,7 +15,7 @@ use crate::pipeline::text::render_diagnosis;
 use crate::progress::Messages;
 
 /// One channel's diagnosis, as a unit's JSON holds it (under its [`ChannelEntry`]).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct Diagnosed {
     /// The diagnosis, its figures in the channel's unit.
     pub diagnosis: Diagnosis,

@@ -42,7 +42,7 @@ pub struct UnitInvestigated {
 
 /// What `investigate --json` writes for a unit: each channel's investigation, its figures in
 /// `units` (the `_dps` fields too).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct UnitInvestigation<'a> {
     /// The sensor's ID.
     pub sensor_id: &'a str,

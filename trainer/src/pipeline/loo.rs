@@ -27,7 +27,7 @@ pub struct LooPlan {
 /// What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test
 /// where one was asked for and could be made (`null` otherwise), and how the size `fit` would
 /// ship was chosen (more points than the firmware holds).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct Loo {
     /// The leave-one-out and leave-one-group-out figures.
     #[serde(flatten)]

@@ -18,7 +18,7 @@ use serde::Serialize;
 
 /// One channel in a unit's JSON: its name, what it measures and its output's unit, then its
 /// fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct ChannelEntry<'a, T> {
     /// The channel's name.
     pub name: &'a str,

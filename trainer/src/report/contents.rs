@@ -51,7 +51,7 @@ pub const FIGURES: [(&str, &str); 9] = [
 ];
 
 /// What a report is made from: the data a user brings decides what it can show.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum ReportKind {
     /// A rate table alone (the paper's protocol).
@@ -113,7 +113,7 @@ pub struct Report {
 /// The figures behind a report's page, as data (`report.json` beside `report.html`): what was
 /// loaded, the paper's reproduction, the held-out investigation and what the data could and
 /// could not show. The streams and replays the figures are drawn from are left out.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct Figures<'a> {
     /// Where the data came from.
     pub source: &'a str,
@@ -132,7 +132,7 @@ pub struct Figures<'a> {
 }
 
 /// The held-out part of a report, as data.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct HeldOutFigures<'a> {
     /// How it was held out, in words.
     pub split: &'a str,

@@ -37,7 +37,7 @@ pub struct ChannelSection<'a> {
 
 /// A unit's page as data (`report.json` beside `report.html`): each channel's held-out
 /// investigation, and the autopilots' cubics against it with the verdict.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct UnitFigures<'a> {
     /// Where the data came from.
     pub source: &'a str,
@@ -46,7 +46,7 @@ pub struct UnitFigures<'a> {
 }
 
 /// One channel of a unit's page, as data.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, schemars::JsonSchema)]
 pub struct ChannelFigures<'a> {
     /// Its name.
     pub name: &'a str,

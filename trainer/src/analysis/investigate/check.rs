@@ -17,7 +17,7 @@ use super::split::{Forward, Rebuild, Sight, Split, forward, inside, splits};
 /// stream (the static model too, where it was fitted on the stream), both scored on the later
 /// part. The causes are those the whole training stream names: running the whole diagnosis again
 /// on the earlier part was measured and is too conservative (docs/diagnosis.md).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct ForwardCheck {
     /// Where the stream was cut, s from its first sample.
     pub split_s: f64,
@@ -76,7 +76,7 @@ impl ForwardCheck {
 /// real warm-up fails as often as a false one (on the simulated cool-downs, every seed), but a
 /// cause that loses on both legs explains neither (the MEMS log's acc.z, whose warm-up, named
 /// on the training stream, is 1.5× worse than static held out).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct LegCheck {
     /// The leg fitted on, `heating` or `cooling`; the other is scored.
     pub fitted_on: &'static str,
@@ -122,7 +122,7 @@ pub fn vote(static_rmse: f64, extended_rmse: f64, sight: &Sight) -> bool {
 /// stream replayed, so stateful inputs keep their history). A state can win the forward test in
 /// time and still fail beyond the trained temperatures, where a held-out part often lies
 /// (docs/real-data.md, the MEMS thermal cycle's x axis).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct TemperatureCheck {
     /// The temperatures fitted on, °C.
     pub inside_c: (f64, f64),

@@ -167,7 +167,7 @@ pub(crate) fn forward(stream: &Stream) -> Option<Forward> {
 }
 
 /// What a test could see of an extension.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct Sight {
     /// Whether the scored part exercised it: the extension's contribution (extended − static,
     /// 60 s means) moves there by at least [`diagnose::VISIBLE`] of its spread over the training

@@ -84,7 +84,7 @@ const REFINE: exact::Stopping = exact::Stopping {
 };
 
 /// What a sparse fit was.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SparseFit {
     /// The approximation: `vfe`.
     pub method: &'static str,

@@ -42,7 +42,7 @@ pub struct ChannelFit {
 
 /// What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that
 /// shipped, and how the firmware's f32 evaluation follows the host.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct FitReport {
     /// The nominal scale factor the bias was learned with (`--scale-factor`, or a unit's), output units per °/s; `null` for the map ω = f(T, output).
     pub scale_factor: Option<f64>,
@@ -108,7 +108,7 @@ pub struct FitReport {
 
 /// A model's inputs: the points' columns for a static model, the firmware's features for an
 /// extended one.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum Inputs {
     /// The points' columns (`temp_c`, `voltage_v`).
@@ -118,7 +118,7 @@ pub enum Inputs {
 }
 
 /// The extension in the blob: a table's transient terms, or inputs fitted on a stream.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum ExtensionReport {
     /// A table's transient terms.
@@ -128,7 +128,7 @@ pub enum ExtensionReport {
 }
 
 /// What the diagnosis of the training stream chose, and why.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct StreamChoice {
     /// The diagnosis of the training stream's residuals.
     pub diagnosis: Diagnosis,
@@ -192,7 +192,7 @@ impl FitReport {
 
 /// What `trainer fit --channels --json` writes: the sensor, its trained temperature range, each
 /// channel's fit as `fit --json` gives one channel's, and what the unit's blob costs.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct UnitFitReport<'a> {
     /// The sensor's ID, as the blob carries it.
     pub sensor_id: &'a str,

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::models::prior::MeanBasis;
 
 /// Box bounds on the log-hyperparameters (normalized units).
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
 pub struct Bounds {
     /// ln ℓ range.
     pub log_length: (f64, f64),
@@ -50,7 +50,7 @@ impl Bounds {
 }
 
 /// Fit settings.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct GpConfig {
     /// Random starts in addition to the paper's start (all zero) and a data-informed one.
     pub random_starts: usize,
@@ -68,7 +68,7 @@ pub struct GpConfig {
 
 /// Exact or sparse GP. `Auto` fits an exact GP up to [`AUTO_EXACT_MAX`] samples and a sparse one
 /// with [`DEFAULT_INDUCING`] inducing points above.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(into = "String")]
 pub enum Inducing {
     /// By size.

@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 /// Kernel hyperparameters in natural units (normalized inputs and outputs).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Hyperparameters {
     /// One length scale per input.
     pub length_scales: Vec<f64>,

@@ -108,7 +108,7 @@ impl Objective<'_> {
 }
 
 /// What one optimizer start did.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct StartReport {
     /// Samples the run's likelihood was computed on: for a sparse GP, the start subset's for the
     /// starts ([`crate::models::gp::sparse`]) and all for the refinements on the bound.
@@ -134,7 +134,7 @@ pub struct StartReport {
 /// How the hyperparameter search ended. For a sparse GP, the search on the start subset's exact GP:
 /// the refinement on the bound that follows runs on a fixed budget by design ([`crate::models::gp::sparse`])
 /// and keeps the best point it reaches.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
 #[serde(tag = "outcome", rename_all = "kebab-case")]
 pub enum Optimization {
     /// At least one run converged: the best point of all runs is used.
