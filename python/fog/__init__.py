@@ -14,9 +14,10 @@ import json
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Iterator, Union
 
-from . import _fog
+from . import _fog, records
+from ._record import Record
 from ._fog import (
     LSSVR,
     Compensated,
@@ -42,6 +43,10 @@ __all__ = [
     "Status",
     "__version__",
     "Calibration",
+    "FitReport",
+    "Investigation",
+    "ReportFigures",
+    "records",
     "allan",
     "calibrate",
     "investigate",
@@ -64,72 +69,6 @@ class Status(enum.IntEnum):
     """A stateful input's history is not to be trusted (a time jump, a stuck sensor): settling."""
     FAULT = 3
     """A reading that cannot be true: the mean is 0, do not use it."""
-
-
-class Record:
-    """A command's result with its JSON fields as attributes (nested ones too); `to_dict()` gives
-    the plain JSON back."""
-
-    def __init__(self, fields: dict[str, Any]):
-        self._fields = fields
-
-    def __getattr__(self, name: str) -> Any:
-        try:
-            value = self._fields[name]
-        except KeyError:
-            raise AttributeError(
-                f"{name!r}: no such field (fields: {', '.join(self._fields)})"
-            ) from None
-        return _wrap(value)
-
-    def __dir__(self) -> list[str]:
-        return list(self._fields)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The fields as the command's `--json` writes them."""
-        return self._fields
-
-    def to_frame(self) -> Any:
-        """The record's table as a pandas DataFrame (pandas must be installed): its list fields
-        of numbers that share the longest length as columns (`tau_s`, `adev_dps`, … of an Allan
-        analysis), or, where its fields are records in a list (`channels` of a fit's report), one
-        row per record of their numbers and words."""
-        import pandas as pd
-
-        lists = {k: v for k, v in self._fields.items() if isinstance(v, list) and v}
-        rows = [v for v in lists.values() if all(isinstance(x, dict) for x in v)]
-        if rows:
-            return pd.DataFrame(
-                [{k: x for k, x in r.items() if not isinstance(x, (dict, list))} for r in rows[0]]
-            )
-        numeric = {
-            k: v for k, v in lists.items()
-            if all(isinstance(x, (int, float)) or x is None for x in v)
-        }
-        if not numeric:
-            raise ValueError("this record holds no table")
-        longest = max(len(v) for v in numeric.values())
-        return pd.DataFrame({k: v for k, v in numeric.items() if len(v) == longest})
-
-    def __repr__(self) -> str:
-        shown = ", ".join(f"{k}={_short(v)}" for k, v in self._fields.items())
-        return f"Record({shown})"
-
-
-def _wrap(value: Any) -> Any:
-    if isinstance(value, dict):
-        return Record(value)
-    if isinstance(value, list):
-        return [_wrap(v) for v in value]
-    return value
-
-
-def _short(value: Any) -> str:
-    if isinstance(value, list) and len(value) > 4:
-        return f"[{len(value)} values]"
-    if isinstance(value, dict):
-        return "{…}"
-    return repr(value)
 
 
 def _shown_as_written(stream: Any, fd: int) -> bool:
@@ -170,18 +109,18 @@ def _command(args: list[str]) -> None:
         _fog.trainer(args)
 
 
-def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> Record:
+def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> records.AllanRecord:
     """The overlapping Allan deviation of `rate_dps` (less `reference_dps` where given; NaN where
     unknown), with its noise terms, as `trainer allan --json` gives it: `tau_s`, `adev_dps`,
     `adev_lo_dps`, `adev_hi_dps`, `arw_deg_per_sqrt_h`, `bias_instability_deg_per_h` (at
     `bias_instability_tau_s`) and `rrw_deg_per_h_per_sqrt_h` (None where the curve does not show
     the term)."""
-    return Record(_fog.allan(time_s, rate_dps, reference_dps, what))
+    return records.AllanRecord(_fog.allan(time_s, rate_dps, reference_dps, what))
 
 
 def summarize(
     path, map=None, points: bool = False, scale_factor=None, channels=None, sensor=None
-) -> Record:
+) -> records.Summary | records.SummarizeRecord:
     """A data file as the loader sees it, before anything is fitted, as `trainer summarize --json`
     gives it: a stream (or, with `points=True`, a points table), its columns named as the
     trainer's (`time_s`, `temp_c`, `voltage_v`, `rate_dps`) or mapped by `map`
@@ -191,7 +130,7 @@ def summarize(
     summary. Raises `FogError` with the command's message."""
     if channels is None and sensor is None and _fog.log_format(str(path)) == "csv":
         pairs = None if map is None else [(str(k), str(v)) for k, v in dict(map).items()]
-        return Record(_fog.summarize(str(path), pairs, points, scale_factor))
+        return records.Summary(_fog.summarize(str(path), pairs, points, scale_factor))
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "summary.json"
         source = {"points" if points else "stream": str(path)}
@@ -204,7 +143,7 @@ def summarize(
             json=str(out),
         )
         _command(args)
-        return Record(json.loads(out.read_text()))
+        return records.SummarizeRecord(json.loads(out.read_text()))
 
 
 def _window(w: Any) -> str:
@@ -241,13 +180,27 @@ def _arguments(**options: Any) -> list[str]:
     return args
 
 
+FitReport = Union["records.FitRecord", "records.FitUnitRecord"]
+"""A fit's report: one channel's (`trainer.fit`) or a unit's (`trainer.fit-unit`)."""
+Investigation = Union["records.InvestigateRecord", "records.InvestigateUnitRecord"]
+"""An investigation: one channel's or a unit's."""
+ReportFigures = Union["records.ReportRecord", "records.ReportUnitRecord"]
+"""The figures behind a report's page: one channel's or a unit's."""
+
+
+def _record(path: Path) -> Any:
+    """The JSON a command wrote at `path`, as the record class of its contract."""
+    fields = json.loads(path.read_text())
+    return records.BY_SCHEMA.get(fields["schema"]["name"], Record)(fields)
+
+
 class Calibration:
     """What `trainer fit` made: the firmware blob (`model`, a `Model`) and the fit's report
     (`report`, its `--json`: the unit, each channel's model, diagnosis and figures). A flight
     controller's log of several sensors gives one of each per sensor: `models` and `reports`, by
     sensor name."""
 
-    def __init__(self, models: dict[str, Model], reports: dict[str, Record]):
+    def __init__(self, models: dict[str, Model], reports: dict[str, FitReport]):
         self.models = models
         self.reports = reports
 
@@ -257,7 +210,7 @@ class Calibration:
         return self._one(self.models)
 
     @property
-    def report(self) -> Record:
+    def report(self) -> FitReport:
         """The fit's report, where the log held one sensor (or one unit)."""
         return self._one(self.reports)
 
@@ -319,7 +272,7 @@ def calibrate(
             name = blob.stem.partition(".")[2] or "model"
             models[name] = load_model(blob)
             report = blob.with_name(blob.name.replace("model", "fit", 1)).with_suffix(".json")
-            reports[name] = Record(json.loads(report.read_text()))
+            reports[name] = _record(report)
         return Calibration(models, reports)
 
 
@@ -336,7 +289,7 @@ def investigate(
     sensor=None,
     quiet: bool = True,
     **options: Any,
-) -> Record | dict[str, Record]:
+) -> Investigation | dict[str, records.InvestigateUnitRecord]:
     """What the static model gets wrong on a stream, forward in time, as `trainer investigate`
     finds it in this process and by its own code: the diagnosis on the training part, the
     extended model's inputs and the gain on the part held out (`valid_stream`, or the log from
@@ -361,9 +314,9 @@ def investigate(
         )
         _command(args)
         if out.exists():
-            return Record(json.loads(out.read_text()))
+            return _record(out)
         return {
-            each.stem.partition(".")[2]: Record(json.loads(each.read_text()))
+            each.stem.partition(".")[2]: _record(each)
             for each in sorted(Path(scratch).glob("investigation.*.json"))
         }
 
@@ -380,7 +333,7 @@ def report(
     sensor=None,
     quiet: bool = True,
     **options: Any,
-) -> Record | dict[str, Record]:
+) -> ReportFigures | dict[str, records.ReportUnitRecord]:
     """Writes `trainer report`'s page and figures into `out_dir`, in this process and by the
     command's own code, and returns the figures behind the page (its `report.json`): for a flight
     controller's log of several sensors, a dict of them by sensor name (a page each, in a folder
@@ -400,8 +353,8 @@ def report(
     )
     _command(args)
     if (folder / "report.json").exists():
-        return Record(json.loads((folder / "report.json").read_text()))
+        return _record(folder / "report.json")
     return {
-        page.parent.name: Record(json.loads(page.read_text()))
+        page.parent.name: _record(page)
         for page in sorted(folder.glob("*/report.json"))
     }

@@ -35,6 +35,11 @@ def test_calibrate_is_trainer_fit(tmp_path):
     cli = json.loads((tmp_path / "fit.json").read_text())
     assert without_timings(c.report.to_dict()) == without_timings(cli)
     assert [ch.name for ch in c.report.channels] == c.model.channels
+    # The report is typed as its contract: its class, and its nested objects' classes.
+    assert isinstance(c.report, fog.records.FitUnitRecord)
+    assert isinstance(c.report.channels[0], fog.records.ChannelEntry)
+    assert isinstance(c.report.channels[0].firmware_agreement, fog.records.AgreementReport)
+    assert isinstance(c.report.footprint, fog.records.UnitFootprint)
     pd = pytest.importorskip("pandas")
     frame = c.report.to_frame()
     assert isinstance(frame, pd.DataFrame)

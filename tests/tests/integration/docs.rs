@@ -42,6 +42,7 @@ fn the_command_reference_is_the_code_s_own() {
             vec![("json", reference::json_fields(&contracts))],
         ),
     ];
+    python_records(&contracts);
     for (page_name, parts) in pages {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../docs")
@@ -62,4 +63,25 @@ fn the_command_reference_is_the_code_s_own() {
              integration -- docs"
         );
     }
+}
+
+/// python/fog/records.py is generated whole from the trainer's contracts (the ones the Python
+/// package returns).
+fn python_records(contracts: &[fog_terminal::schema::Contract]) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../python/fog/records.py");
+    let trainer: Vec<_> = contracts
+        .iter()
+        .filter(|c| c.schema.name.starts_with("trainer."))
+        .collect();
+    let fresh = reference::python_records(&trainer);
+    if std::env::var_os("FOG_BLESS").is_some() {
+        std::fs::write(&path, &fresh).unwrap();
+        return;
+    }
+    let page = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        fresh == page,
+        "python/fog/records.py is stale: FOG_BLESS=1 cargo test -p integration-tests --test \
+         integration -- docs"
+    );
 }
