@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde_json::Value;
 
-use super::{cell, one_line};
+use super::text::{cell, one_line};
 use crate::schema::{Contract, Schema};
 
 /// The contracts' JSON Schemas, every type they are made of named once: a generic type is named

@@ -10,9 +10,11 @@ use crate::schema;
 
 mod json;
 mod python;
+mod text;
 
 pub use json::json_fields;
 pub use python::python_records;
+use text::{cell, one_line};
 
 /// A markdown section per command of `program` (subcommands of subcommands too): a table of its
 /// arguments, each with its value, default and help, in the order `--help` gives them. The flags
@@ -100,20 +102,6 @@ pub fn schemas() -> String {
         ));
     }
     out
-}
-
-/// `text` on one line.
-pub(crate) fn one_line(text: &str) -> String {
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
-/// `text` fit for a table cell: one line, its pipes escaped, a rustdoc link to an item kept as
-/// the item's name.
-pub(crate) fn cell(text: &str) -> String {
-    one_line(text)
-        .replace("[`", "`")
-        .replace("`]", "`")
-        .replace('|', "\\|")
 }
 
 /// `page` with the text between `<!-- generated: NAME -->` and `<!-- end generated: NAME -->`

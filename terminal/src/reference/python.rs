@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use serde_json::Value;
 
 use super::json::{Collected, collect, ref_name};
-use super::one_line;
+use super::text::one_line;
 use crate::schema::Contract;
 
 /// Python's keywords and the names a record's own methods take: fields so named are left to
