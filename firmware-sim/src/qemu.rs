@@ -67,7 +67,7 @@ pub enum QemuError {
 /// The image's cost measurement, converted to instructions: of the evaluator alone, and of the
 /// whole call per sample, every channel of the blob (one for a model blob).
 #[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
-pub struct Cost {
+pub struct M4Cost {
     /// Samples timed per path.
     pub samples: u32,
     /// Instructions per prediction of the evaluator alone, every channel's mean at inputs
@@ -86,7 +86,7 @@ pub struct Cost {
     pub instructions_per_tick: f64,
 }
 
-impl Cost {
+impl M4Cost {
     /// The arithmetic minimum of the mean path per centre: one `expf` and 3·d multiply-adds.
     pub fn minimum_per_centre(&self, d: usize) -> f64 {
         self.exp_instructions + 3.0 * d as f64
@@ -99,7 +99,7 @@ pub struct QemuRun {
     /// Per-sample output of each channel, as the host replay's.
     pub compensated: Vec<Compensated>,
     /// Cost per sample.
-    pub cost: Cost,
+    pub cost: M4Cost,
 }
 
 /// Directory of the image's crate in the source tree `root` ([`crate::source_tree`]).
@@ -189,7 +189,7 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
     let per = |ticks: f64, empty: f64| (ticks - empty) * instructions_per_tick / samples;
     Ok(QemuRun {
         compensated,
-        cost: Cost {
+        cost: M4Cost {
             samples: word(0) as u32,
             mean_instructions: per(word(2), word(1)),
             full_instructions: per(word(3), word(1)),
@@ -203,7 +203,7 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
 
 /// How the M4 run and the host replay compare.
 #[derive(Debug, Clone, Copy, Serialize, schemars::JsonSchema)]
-pub struct Agreement {
+pub struct M4Agreement {
     /// Largest |M4 mean − host mean|, °/s.
     pub max_abs_mean_diff: f64,
     /// Samples whose mean and bias variance are bit-identical.
@@ -212,11 +212,11 @@ pub struct Agreement {
     pub statuses_equal: bool,
 }
 
-impl Agreement {
+impl M4Agreement {
     /// The agreement of several channels' replays together: the largest difference, the
     /// bit-identical samples of them all, and whether every status is equal.
-    pub fn all(each: &[Agreement]) -> Agreement {
-        Agreement {
+    pub fn all(each: &[M4Agreement]) -> M4Agreement {
+        M4Agreement {
             max_abs_mean_diff: each.iter().map(|a| a.max_abs_mean_diff).fold(0.0, f64::max),
             identical: each.iter().map(|a| a.identical).sum(),
             statuses_equal: each.iter().all(|a| a.statuses_equal),
@@ -225,9 +225,9 @@ impl Agreement {
 }
 
 /// Compares two replays of the same stream.
-pub fn compare(host: &Compensated, m4: &Compensated) -> Agreement {
+pub fn compare(host: &Compensated, m4: &Compensated) -> M4Agreement {
     let pairs = || host.rate_dps.iter().zip(&m4.rate_dps);
-    Agreement {
+    M4Agreement {
         max_abs_mean_diff: pairs()
             .map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs())
             .fold(0.0, f64::max),

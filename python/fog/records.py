@@ -386,7 +386,7 @@ class ChallengeRecord(Record):
 
     order: list[str]
 
-    summary: SummaryTrainerChallenge
+    summary: ChallengeSummary
 
 
 class ReportRecord(Record):
@@ -708,6 +708,40 @@ class CauseFit(Record):
     """Slope b, °/s per unit of the regressor."""
 
 
+class ChallengeSummary(Record):
+    """What a challenge found, over its cases."""
+
+    all_named: int
+    """Cases where every hidden cause was named."""
+
+    at_least_70pc_of_oracle: int
+    """Cases whose gain is at least 70% of the oracle's (pairs)."""
+
+    cases: int
+    """Cases."""
+
+    false_alarms_none: int
+    """Cases of `none` where a cause was named."""
+
+    first_named_right: int
+    """Cases whose first named cause is one of the hidden ones (`none` for none)."""
+
+    gain_min_median: list[float]
+    """Smallest and median gain."""
+
+    harmed: int
+    """Of those, the ones worse by more than [`diagnose::HARM`]."""
+
+    of_oracle_min_median: list[float] | None
+    """Smallest and median gain over the oracle's (pairs)."""
+
+    worse_than_static: int
+    """Cases whose shipped model did worse on the held-out stream than the static one."""
+
+    wrong_names: int
+    """Cases that named a cause that was not hidden."""
+
+
 class ChannelEntry(Record):
     """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too)."""
 
@@ -1021,16 +1055,16 @@ class ChannelSummary(Record):
 class Choice(Record):
     """The choice, as `fit --json` reports it (`centres_choice`)."""
 
-    candidates: list[Tried2]
+    candidates: list[TriedSize]
     """Every sparse candidate."""
 
     chosen: int
     """Inducing points asked for by the choice."""
 
-    default_mean_candidates: list[Tried2]
+    default_mean_candidates: list[TriedSize]
     """The sizes tried with the default mean, where they were (else empty)."""
 
-    exact: Tried2
+    exact: TriedSize
     """The exact GP on the same split; its centres, instructions and exportability are those it would have on all the points (more than the firmware holds)."""
 
     held_out: int
@@ -1889,40 +1923,6 @@ class Summary(Record):
     """A stream's gaps and other time problems, as text."""
 
 
-class SummaryTrainerChallenge(Record):
-    """What a challenge found, over its cases."""
-
-    all_named: int
-    """Cases where every hidden cause was named."""
-
-    at_least_70pc_of_oracle: int
-    """Cases whose gain is at least 70% of the oracle's (pairs)."""
-
-    cases: int
-    """Cases."""
-
-    false_alarms_none: int
-    """Cases of `none` where a cause was named."""
-
-    first_named_right: int
-    """Cases whose first named cause is one of the hidden ones (`none` for none)."""
-
-    gain_min_median: list[float]
-    """Smallest and median gain."""
-
-    harmed: int
-    """Of those, the ones worse by more than [`diagnose::HARM`]."""
-
-    of_oracle_min_median: list[float] | None
-    """Smallest and median gain over the oracle's (pairs)."""
-
-    worse_than_static: int
-    """Cases whose shipped model did worse on the held-out stream than the static one."""
-
-    wrong_names: int
-    """Cases that named a cause that was not hidden."""
-
-
 class TableDiagnosis(Record):
     """What the diagnosis of a table found and did."""
 
@@ -1941,7 +1941,7 @@ class TableDiagnosis(Record):
     static_rmse_dps: float
     """Closed-form leave-one-group-out RMSE of the static GP on the training rows, °/s, at the hyperparameters the candidates were scored at: the best end of its search's starts ([`GpModel::fit_grouped_unpolished`]; a static model that ships is polished from there)."""
 
-    steps: list[list[Tried]]
+    steps: list[list[TriedTerm]]
     """At each step, the best candidate of each family (cause and form), best first."""
 
     verdict: str
@@ -1999,17 +1999,7 @@ class Term(Record):
     """Range of the input in the training data (beyond it the firmware flags extrapolation)."""
 
 
-class Tried(Record):
-    """A candidate's score on the training rows."""
-
-    name: str
-    """What was tried."""
-
-    rmse_dps: float
-    """Leave-one-group-out RMSE with it added, °/s."""
-
-
-class Tried2(Record):
+class TriedSize(Record):
     """One model tried."""
 
     asked: int
@@ -2032,6 +2022,16 @@ class Tried2(Record):
 
     kind: str
     """`sparse` or `exact`."""
+
+
+class TriedTerm(Record):
+    """A candidate's score on the training rows."""
+
+    name: str
+    """What was tried."""
+
+    rmse_dps: float
+    """Leave-one-group-out RMSE with it added, °/s."""
 
 
 class TwoStepModel(Record):
@@ -2081,7 +2081,7 @@ InvestigateRecord._nested = {"beyond": BeyondChoice, "calibration": Calibration,
 InvestigateUnitRecord._nested = {"channels": ChannelEntryTrainerInvestigateUnit}
 LooRecord._nested = {"calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "per_temperature": GroupRmse, "sigma_groups": Coverage}
 ReproduceRecord._nested = {"fig2": Fig2, "gpr": Evaluation, "lssvr": Evaluation, "two_step": Evaluation}
-ChallengeRecord._nested = {"cases": Case, "summary": SummaryTrainerChallenge}
+ChallengeRecord._nested = {"cases": Case, "summary": ChallengeSummary}
 ReportRecord._nested = {"held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
 ReportUnitRecord._nested = {"channels": ChannelFigures}
 AllanUnitRecord._nested = {"channels": ChannelEntryTrainerAllanUnit}
@@ -2092,7 +2092,7 @@ ChannelEntryTrainerDiagnoseUnit._nested = {"diagnosis": Diagnosis}
 ChannelEntryTrainerInvestigateUnit._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures}
 ChannelSizes._nested = {"sizes": Size}
-Choice._nested = {"candidates": Tried2, "default_mean_candidates": Tried2, "exact": Tried2}
+Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize, "exact": TriedSize}
 CrossRun._nested = {"sigma": Coverage}
 CubicFigures._nested = {"ardupilot_script": CubicScore, "project": CubicScore, "px4_script": CubicScore}
 Diagnosis._nested = {"candidates": CauseFit, "steps": Step}
@@ -2113,7 +2113,7 @@ Score._nested = {"handled": Handled, "sigma_60s": Coverage, "sigma_samples": Cov
 SensorCubics._nested = {"axes": AxisCubic}
 Size._nested = {"cost": Cost}
 SourceSummary._nested = {"coverage": Coverage}
-TableDiagnosis._nested = {"chosen": Candidate, "steps": Tried}
+TableDiagnosis._nested = {"chosen": Candidate, "steps": TriedTerm}
 TableReport._nested = {"all_rows": TableDiagnosis, "per_group": FoldChoice, "terms": FittedTerm}
 TemperatureCheck._nested = {"sight": Sight}
 
@@ -2164,6 +2164,7 @@ __all__ = [
     "Candidate",
     "Case",
     "CauseFit",
+    "ChallengeSummary",
     "ChannelEntry",
     "ChannelEntryTrainerAllanUnit",
     "ChannelEntryTrainerDiagnoseUnit",
@@ -2211,13 +2212,12 @@ __all__ = [
     "StartReport",
     "Step",
     "Summary",
-    "SummaryTrainerChallenge",
     "TableDiagnosis",
     "TableReport",
     "TemperatureCheck",
     "Term",
-    "Tried",
-    "Tried2",
+    "TriedSize",
+    "TriedTerm",
     "TwoStepModel",
     "UnitFootprint",
 ]

@@ -192,8 +192,8 @@ struct UnitReplay<'a> {
 struct QemuReport<'a> {
     #[serde(flatten)]
     score: &'a replay::Score,
-    agreement_with_host: qemu::Agreement,
-    cost: qemu::Cost,
+    agreement_with_host: qemu::M4Agreement,
+    cost: qemu::M4Cost,
 }
 
 /// What `qemu --channels --json` writes: each channel's scores, the agreement of them all with
@@ -202,8 +202,8 @@ struct QemuReport<'a> {
 struct UnitQemuReport<'a> {
     sensor_id: &'a str,
     channels: &'a [replay::ChannelScore],
-    agreement_with_host: qemu::Agreement,
-    cost: qemu::Cost,
+    agreement_with_host: qemu::M4Agreement,
+    cost: qemu::M4Cost,
 }
 
 /// Runs one parsed command line.
@@ -324,12 +324,12 @@ fn qemu_command(
     spinner.set_message("host replay, for the comparison");
     let host = replay::replay_unit(&loaded.unit, &streams, false);
     spinner.finish_and_clear();
-    let agreements: Vec<qemu::Agreement> = host
+    let agreements: Vec<qemu::M4Agreement> = host
         .iter()
         .zip(&m4.compensated)
         .map(|(h, m)| qemu::compare(h, m))
         .collect();
-    let agreement = qemu::Agreement::all(&agreements);
+    let agreement = qemu::M4Agreement::all(&agreements);
     let scores = replay::unit_scores(&loaded.unit, &streams, &m4.compensated);
     if let Some(path) = out {
         let csv = if loaded.per_channel {

@@ -63,7 +63,7 @@ const LAG_GRID_MIN: [f64; 12] = [
 
 /// A design of candidate effects, tried on the forward test inside the training data.
 #[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
-pub struct Candidate {
+pub struct TriedDesign {
     /// Its causes.
     pub causes: Vec<Cause>,
     /// Fitted strength of each (the effect's unit, `generate --strength`).
@@ -98,7 +98,7 @@ pub struct Identification {
     /// Effects kept, in the candidates' order (`none` when none helped).
     pub causes: Vec<Cause>,
     /// Every candidate tried.
-    pub candidates: Vec<Candidate>,
+    pub candidates: Vec<TriedDesign>,
     /// The held-out residual before and after, for the figure: (time or index, °/h, °/h).
     #[serde(skip)]
     pub residual: Vec<(f64, f64, f64)>,
@@ -220,7 +220,7 @@ struct Found {
     lag: Option<f64>,
     linear: Vec<usize>,
     causes: Vec<(Cause, f64)>,
-    candidates: Vec<Candidate>,
+    candidates: Vec<TriedDesign>,
 }
 
 /// Identification's data and fits: the source whose last third is held out (`primary`), the rate
@@ -380,7 +380,7 @@ impl<'a> Twin<'a> {
                         .join(" + "),
                 );
                 let tried = self.try_design(&causes)?;
-                found.candidates.push(Candidate {
+                found.candidates.push(TriedDesign {
                     causes,
                     strengths: tried.strengths.clone(),
                     forward_dph: tried.score,

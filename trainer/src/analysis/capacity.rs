@@ -48,7 +48,7 @@ pub fn instructions(m: usize) -> f64 {
 
 /// One model tried.
 #[derive(Debug, Clone, PartialEq, Serialize, schemars::JsonSchema)]
-pub struct Tried {
+pub struct TriedSize {
     /// Inducing points asked for (the training points for the exact GP).
     pub asked: usize,
     /// Centres the model has: a sparse fit drops inducing points its data cannot tell apart.
@@ -75,17 +75,17 @@ pub struct Choice {
     /// Of which held out for the comparison.
     pub held_out: usize,
     /// Every sparse candidate.
-    pub candidates: Vec<Tried>,
+    pub candidates: Vec<TriedSize>,
     /// The exact GP on the same split; its centres, instructions and exportability are those it
     /// would have on all the points (more than the firmware holds).
-    pub exact: Tried,
+    pub exact: TriedSize,
     /// Inducing points asked for by the choice.
     pub chosen: usize,
     /// The prior mean of the choice: the one asked for, or the default where the one asked for
     /// keeps no size within [`WORSE_THAN_EXACT`] of the exact GP and the default does (module doc).
     pub mean: MeanBasis,
     /// The sizes tried with the default mean, where they were (else empty).
-    pub default_mean_candidates: Vec<Tried>,
+    pub default_mean_candidates: Vec<TriedSize>,
     /// What the choice costs against the exact GP, in words.
     pub verdict: String,
 }
@@ -156,32 +156,33 @@ pub fn choose(
             model.posterior.xs.nrows(),
         ))
     };
-    let sizes = |mean: MeanBasis, progress: &mut dyn FnMut(&str)| -> Result<Vec<Tried>, GpError> {
-        let mut tried = Vec::new();
-        for &m in CANDIDATES.iter().filter(|&&m| m < train.len()) {
-            progress(&format!(
-                "a sparse GP with {m} inducing points (--mean {mean})"
-            ));
-            let (rmse, secs, kept) = score(Inducing::Count(m), mean)?;
-            tried.push(Tried {
-                asked: m,
-                centres: kept,
-                kind: "sparse",
-                held_out_rmse_dps: rmse,
-                instructions: instructions(kept),
-                exportable: true,
-                fit_seconds: secs,
-            });
-        }
-        Ok(tried)
-    };
+    let sizes =
+        |mean: MeanBasis, progress: &mut dyn FnMut(&str)| -> Result<Vec<TriedSize>, GpError> {
+            let mut tried = Vec::new();
+            for &m in CANDIDATES.iter().filter(|&&m| m < train.len()) {
+                progress(&format!(
+                    "a sparse GP with {m} inducing points (--mean {mean})"
+                ));
+                let (rmse, secs, kept) = score(Inducing::Count(m), mean)?;
+                tried.push(TriedSize {
+                    asked: m,
+                    centres: kept,
+                    kind: "sparse",
+                    held_out_rmse_dps: rmse,
+                    instructions: instructions(kept),
+                    exportable: true,
+                    fit_seconds: secs,
+                });
+            }
+            Ok(tried)
+        };
     let candidates = sizes(cfg.mean, &mut progress)?;
     progress(&format!(
         "the exact GP on {} points, for comparison",
         train.len()
     ));
     let (rmse, secs, _) = score(Inducing::Exact, cfg.mean)?;
-    let exact = Tried {
+    let exact = TriedSize {
         asked: train.len(),
         centres: n,
         kind: "exact",
@@ -232,7 +233,7 @@ pub fn choose(
 /// The rule's pick among the sparse `candidates`, beside the `exact` GP, and how it was picked
 /// in words: the fewest inducing points within [`TOLERANCE`] of the best held-out error, unless
 /// that is more than [`WORSE_THAN_EXACT`] times the exact GP's: then the most accurate.
-fn rule(candidates: &[Tried], exact: &Tried) -> (Tried, String) {
+fn rule(candidates: &[TriedSize], exact: &TriedSize) -> (TriedSize, String) {
     let best = candidates
         .iter()
         .map(|c| c.held_out_rmse_dps)
@@ -293,8 +294,8 @@ fn rule(candidates: &[Tried], exact: &Tried) -> (Tried, String) {
 fn verdict(
     n: usize,
     stride: usize,
-    (pick, how): (&Tried, &str),
-    exact: &Tried,
+    (pick, how): (&TriedSize, &str),
+    exact: &TriedSize,
     quantity: Quantity,
 ) -> String {
     let (u, k, b) = (

@@ -366,7 +366,7 @@ pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow:
 
 /// What a challenge found, over its cases.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
-pub struct Summary {
+pub struct ChallengeSummary {
     /// Cases.
     pub cases: usize,
     /// Cases whose first named cause is one of the hidden ones (`none` for none).
@@ -389,7 +389,7 @@ pub struct Summary {
     pub at_least_70pc_of_oracle: usize,
 }
 
-impl Summary {
+impl ChallengeSummary {
     /// The summary in words.
     pub fn text(&self) -> String {
         let mut s = format!(
@@ -429,13 +429,13 @@ fn min_median(mut v: Vec<f64>) -> [f64; 2] {
 }
 
 /// Counts and extremes over `cases`.
-pub fn summary(cases: &[Case]) -> Summary {
+pub fn summary(cases: &[Case]) -> ChallengeSummary {
     let count = |f: &dyn Fn(&Case) -> bool| cases.iter().filter(|c| f(c)).count();
     let of_oracle: Vec<f64> = cases
         .iter()
         .filter_map(|c| c.oracle_gain.map(|o| c.gain / o))
         .collect();
-    Summary {
+    ChallengeSummary {
         cases: cases.len(),
         first_named_right: count(&|c| {
             let hidden = c.hidden.causes();

@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
-use crate::analysis::uncertainty::{self, Calibration, SampleNoise, Source};
+use crate::analysis::uncertainty::{self, Calibration, ResidualSource, SampleNoise};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
@@ -141,7 +141,7 @@ pub fn calibrate(
     }
     match (points.soaked, kind) {
         (true, Shipped::Static) => series.push(uncertainty::streams::stream_series(
-            Source::Stream,
+            ResidualSource::Stream,
             static_blob,
             train,
             &uncertainty::streams::hours_on(train),
@@ -152,7 +152,7 @@ pub fn calibrate(
             // asked about the other (an extension's transient fitted late asked what it was
             // early), which the shipped model, fitted on both, never is. With its residuals the
             // MEMS log's gyro y was 2.1× too wide held out (1.55 without); acc x and z narrower.
-            for split in splits.iter().filter(|s| s.source != Source::Leg) {
+            for split in splits.iter().filter(|s| s.source != ResidualSource::Leg) {
                 let blob = match kind {
                     Shipped::Static => Some(&split.static_blob),
                     Shipped::Extended => split.extended_blob.as_ref(),

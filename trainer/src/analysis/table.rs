@@ -197,7 +197,7 @@ impl Transients {
 
 /// A candidate's score on the training rows.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
-pub struct Tried {
+pub struct TriedTerm {
     /// What was tried.
     pub name: String,
     /// Leave-one-group-out RMSE with it added, °/s.
@@ -212,7 +212,7 @@ pub struct TableDiagnosis {
     /// ([`GpModel::fit_grouped_unpolished`]; a static model that ships is polished from there).
     pub static_rmse_dps: f64,
     /// At each step, the best candidate of each family (cause and form), best first.
-    pub steps: Vec<Vec<Tried>>,
+    pub steps: Vec<Vec<TriedTerm>>,
     /// The candidates added, in order.
     pub chosen: Vec<Candidate>,
     /// Their ids (`none` when nothing was added), for scripts.
@@ -471,7 +471,7 @@ fn search(
     transients: &Transients,
     score: &dyn Fn(&[usize]) -> Result<f64, GpError>,
     static_rmse: f64,
-) -> (Vec<usize>, f64, Vec<Vec<Tried>>) {
+) -> (Vec<usize>, f64, Vec<Vec<TriedTerm>>) {
     let mut chosen: Vec<usize> = Vec::new();
     let mut current = static_rmse;
     let mut steps = Vec::new();
@@ -505,7 +505,7 @@ fn search(
         steps.push(
             best_per_family
                 .iter()
-                .map(|&(j, r)| Tried {
+                .map(|&(j, r)| TriedTerm {
                     name: transients.candidates[j].name(),
                     rmse_dps: r,
                 })

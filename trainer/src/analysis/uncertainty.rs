@@ -80,7 +80,7 @@ const BOTH_LEGS: f32 = 0.5;
 /// Where a series of residuals comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
-pub enum Source {
+pub enum ResidualSource {
     /// A rate table's groups, each left out in turn (closed form, hyperparameters held).
     Groups,
     /// Runs (power-ons) pooled, each left out in turn (closed form, hyperparameters held): a
@@ -99,7 +99,7 @@ pub enum Source {
     Stream,
 }
 
-impl Source {
+impl ResidualSource {
     /// Whether its residuals are of a run (a stream), as a gyro meets in service, rather than of
     /// a rate table's groups or points.
     pub fn is_run(self) -> bool {
@@ -156,7 +156,7 @@ impl Residual {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
     /// The test.
-    pub source: Source,
+    pub source: ResidualSource,
     /// Its residuals.
     pub residuals: Vec<Residual>,
 }
@@ -208,7 +208,7 @@ impl SampleNoise {
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct SourceSummary {
     /// The test.
-    pub source: Source,
+    pub source: ResidualSource,
     /// Residuals.
     pub n: usize,
     /// Independent residuals they are worth (lag-1 autocorrelation taken out).
@@ -398,10 +398,12 @@ impl Calibration {
         self.error_model.turn_on_var = (sigma * sigma) as f32;
     }
 
-    /// Whether the residuals came from power-ons left out ([`Source::Runs`]): their model error
-    /// then holds another power-on's bias, measured.
+    /// Whether the residuals came from power-ons left out ([`ResidualSource::Runs`]): their model
+    /// error then holds another power-on's bias, measured.
     pub fn runs_measured(&self) -> bool {
-        self.sources.iter().any(|s| s.source == Source::Runs)
+        self.sources
+            .iter()
+            .any(|s| s.source == ResidualSource::Runs)
     }
 
     /// States the heating/cooling states the training stream held (`states`, each sample's, as
@@ -471,7 +473,7 @@ impl Calibration {
 
     /// The residuals' sources, each kind counted once (several series of one kind together).
     fn sources_in_words(&self) -> String {
-        let mut counted: Vec<(Source, usize)> = Vec::new();
+        let mut counted: Vec<(ResidualSource, usize)> = Vec::new();
         for s in &self.sources {
             match counted.iter_mut().find(|(source, _)| *source == s.source) {
                 Some((_, n)) => *n += s.n,

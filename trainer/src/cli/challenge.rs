@@ -113,7 +113,7 @@ pub(super) struct ChallengeReport<'a> {
     accuracy: f64,
     false_alarms_none: usize,
     cases: &'a [challenge::Case],
-    summary: &'a challenge::Summary,
+    summary: &'a challenge::ChallengeSummary,
 }
 
 /// The challenge's kinds as `--kind` values, by the names their JSON carries (the library's type

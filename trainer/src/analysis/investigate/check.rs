@@ -7,7 +7,7 @@ use fog_data::stream::Stream;
 use serde::Serialize;
 
 use crate::analysis::diagnose;
-use crate::analysis::uncertainty::Source;
+use crate::analysis::uncertainty::ResidualSource;
 use crate::data::points::Points;
 use crate::models::gp::{GpConfig, GpModel};
 
@@ -170,11 +170,11 @@ pub(super) fn forward_check(
         return Ok((None, splits));
     };
     let scored = |source| splits.iter().find(|s| s.source == source);
-    let Some(f) = scored(Source::Forward) else {
+    let Some(f) = scored(ResidualSource::Forward) else {
         return Ok((None, splits));
     };
     let (static_rmse, extended_rmse, sight) = f.scores()?;
-    let temperature = match scored(Source::Temperature) {
+    let temperature = match scored(ResidualSource::Temperature) {
         Some(t) if !causes.is_empty() => {
             let (static_rmse_60s_dps, extended_rmse_60s_dps, sight) = t.scores()?;
             let (inside_c, inside_blocks, outside_blocks) = inside(train);
@@ -191,7 +191,7 @@ pub(super) fn forward_check(
     };
     let mut legs = Vec::new();
     if !causes.is_empty() {
-        for split in splits.iter().filter(|s| s.source == Source::Leg) {
+        for split in splits.iter().filter(|s| s.source == ResidualSource::Leg) {
             let (static_rmse_60s_dps, extended_rmse_60s_dps, sight) = split.scores()?;
             let (fitted_on, fitted_blocks, scored_blocks) = split.leg.unwrap_or_default();
             legs.push(LegCheck {

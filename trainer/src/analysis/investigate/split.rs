@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::analysis::diagnose;
 use crate::analysis::extend;
-use crate::analysis::uncertainty::{self, Source};
+use crate::analysis::uncertainty::{self, ResidualSource};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
@@ -39,7 +39,7 @@ const LEG_MIN_BLOCKS: usize = 15;
 /// A model fitted on part of the training stream and the rest it is scored on.
 pub struct Split {
     /// The test: forward in time, or across temperature.
-    pub source: Source,
+    pub source: ResidualSource,
     /// The training stream with its reference only where scored (replayed whole, so the stateful
     /// inputs keep their history).
     pub scored: Stream,
@@ -49,8 +49,8 @@ pub struct Split {
     pub static_blob: Vec<u8>,
     /// The extension of the named causes fitted without it, where causes were named.
     pub extended_blob: Option<Vec<u8>>,
-    /// For a leg split ([`Source::Leg`]): the leg fitted on, and the 60 s blocks fitted on and
-    /// scored.
+    /// For a leg split ([`ResidualSource::Leg`]): the leg fitted on, and the 60 s blocks fitted
+    /// on and scored.
     pub leg: Option<(&'static str, usize, usize)>,
 }
 
@@ -210,7 +210,7 @@ pub fn splits(
             .filter(|&i| train.time_s[i] - t0 < split_s)
             .collect();
         out.push(Split {
-            source: Source::Forward,
+            source: ResidualSource::Forward,
             hours: uncertainty::streams::hours_from(&later, &fitted),
             scored: later,
             static_blob,
@@ -233,7 +233,7 @@ pub fn splits(
             let m = GpModel::fit(p.inputs(), &p.target(), cfg)?;
             let (static_blob, extended_blob) = split_blobs(&m, &p, &fit_on, causes)?;
             out.push(Split {
-                source: Source::Temperature,
+                source: ResidualSource::Temperature,
                 hours: uncertainty::streams::hours_from(&scored, &fit_on.referenced()),
                 scored,
                 static_blob,
@@ -290,7 +290,7 @@ fn leg_splits(
             LEG_MIN_BLOCKS,
         )?;
         out.push(Split {
-            source: Source::Leg,
+            source: ResidualSource::Leg,
             hours: uncertainty::streams::hours_from(&scored, &fit_on.referenced()),
             scored,
             static_blob,

@@ -7,7 +7,7 @@ use firmware_core::units::SECONDS_PER_HOUR;
 use fog_data::replay;
 use fog_data::stream::Stream;
 
-use super::{Residual, SampleNoise, Series, Source};
+use super::{Residual, ResidualSource, SampleNoise, Series};
 use crate::firmware::export::{self, ExportError};
 
 /// The residuals of a model fitted on part of `stream` and scored on another: the 60 s means of
@@ -16,7 +16,7 @@ use crate::firmware::export::{self, ExportError};
 /// the data it was fitted on) of its samples. `blob` is the model as exported, before any error
 /// model; the latent variance and e(x)² come from the firmware's own evaluation of it.
 pub fn stream_series(
-    source: Source,
+    source: ResidualSource,
     blob: &[u8],
     stream: &Stream,
     hours: &[f64],

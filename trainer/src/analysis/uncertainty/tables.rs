@@ -3,7 +3,7 @@
 
 use firmware_core::model::Conditions;
 
-use super::{Calibration, Prior, Residual, SampleNoise, Series, Source, calibrate};
+use super::{Calibration, Prior, Residual, ResidualSource, SampleNoise, Series, calibrate};
 use crate::data::points::Points;
 use crate::firmware::export;
 use crate::models::gp::{GpConfig, GpError, GpModel};
@@ -23,7 +23,7 @@ pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration
 /// The σ of a model fitted with `cfg` on `points` of several power-ons pooled: as
 /// [`table_calibration`], but where the GP is sparse (no closed form leaves a run out) each run is
 /// left out by fitting again on the others, so that the model error holds another power-on's
-/// bias ([`Source::Runs`]). One run, or an exact GP: [`table_calibration`].
+/// bias ([`ResidualSource::Runs`]). One run, or an exact GP: [`table_calibration`].
 pub fn pooled_calibration(
     points: &Points,
     model: &GpModel,
@@ -48,7 +48,7 @@ pub fn pooled_calibration(
         }
     }
     Ok(calibrate(
-        &[series_of(points, Source::Runs, &runs, &loo)],
+        &[series_of(points, ResidualSource::Runs, &runs, &loo)],
         table_noise(points, model),
         Prior::of(model, points),
     ))
@@ -65,15 +65,18 @@ pub fn table_noise(points: &Points, model: &GpModel) -> SampleNoise {
 /// How a rate table is left out for its residuals: each run (power-on) in turn where the points
 /// hold two or more, so that the σ carries the bias of another power-on; else each group in turn
 /// where there are two or more; each point otherwise. Groups and runs need the exact GP.
-pub fn table_groups(model: &GpModel, points: &Points) -> (Source, Vec<Vec<usize>>) {
+pub fn table_groups(model: &GpModel, points: &Points) -> (ResidualSource, Vec<Vec<usize>>) {
     let runs = points.run_members();
     let groups: Vec<Vec<usize>> = points.groups().into_iter().map(|(_, g)| g).collect();
     if runs.len() >= 2 && model.sparse.is_none() {
-        (Source::Runs, runs)
+        (ResidualSource::Runs, runs)
     } else if groups.len() >= 2 && model.sparse.is_none() {
-        (Source::Groups, groups)
+        (ResidualSource::Groups, groups)
     } else {
-        (Source::Points, (0..points.len()).map(|i| vec![i]).collect())
+        (
+            ResidualSource::Points,
+            (0..points.len()).map(|i| vec![i]).collect(),
+        )
     }
 }
 
@@ -89,7 +92,7 @@ pub fn table_series(model: &GpModel, points: &Points) -> Result<Series, GpError>
 /// noise, per point), e(x) against the trained range of the rows left in for each group.
 pub fn series_of(
     points: &Points,
-    source: Source,
+    source: ResidualSource,
     groups: &[Vec<usize>],
     loo: &[(f64, f64)],
 ) -> Series {

@@ -26,7 +26,7 @@ fn the_terms_the_residuals_show_are_found_and_the_others_stay_near_zero() {
     // Model error 0.1 everywhere and 0.5 one width beyond the range; no time growth.
     let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
     let series = [Series {
-        source: Source::Forward,
+        source: ResidualSource::Forward,
         residuals: r,
     }];
     let noise = SampleNoise {
@@ -55,7 +55,7 @@ fn a_term_whose_covariate_does_not_move_abstains() {
     }
     let c = calibrate(
         &[Series {
-            source: Source::Groups,
+            source: ResidualSource::Groups,
             residuals: r,
         }],
         SampleNoise {
@@ -84,7 +84,7 @@ fn few_correlated_residuals_widen_the_sigma() {
     assert!(effective(&z) < 3.0);
     let c = calibrate(
         &[Series {
-            source: Source::Forward,
+            source: ResidualSource::Forward,
             residuals: r,
         }],
         SampleNoise {
@@ -119,7 +119,7 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
         x.excess2 = 0.0;
     }
     let series = [Series {
-        source: Source::Forward,
+        source: ResidualSource::Forward,
         residuals: r,
     }];
     let c = calibrate(&series, noise, prior);
@@ -165,7 +165,7 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
 fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     let r = residuals(400, 5, |_, _| 0.05);
     let series = [Series {
-        source: Source::Forward,
+        source: ResidualSource::Forward,
         residuals: r,
     }];
     let noise = SampleNoise {
@@ -216,7 +216,7 @@ fn runs_left_out_measure_another_power_ons_bias_and_a_datasheet_states_it() {
             residuals: residuals(400, 7, |_, _| 0.05),
         }]
     };
-    let mut one = calibrate(&series(Source::Forward), noise, Prior::NONE);
+    let mut one = calibrate(&series(ResidualSource::Forward), noise, Prior::NONE);
     assert!(!one.runs_measured());
     one.set_turn_on(0.02);
     assert!(
@@ -229,7 +229,7 @@ fn runs_left_out_measure_another_power_ons_bias_and_a_datasheet_states_it() {
     own.another_power_on = false;
     let added = e.model_error(0.0, Conditions::at_hours(0.0)) - e.model_error(0.0, own);
     assert!((f64::from(added) / 0.02f64.powi(2) - 1.0).abs() < 1e-3);
-    let runs = calibrate(&series(Source::Runs), noise, Prior::NONE);
+    let runs = calibrate(&series(ResidualSource::Runs), noise, Prior::NONE);
     assert!(runs.runs_measured());
     assert!(
         runs.describe("°/s")
