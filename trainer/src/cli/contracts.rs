@@ -6,7 +6,6 @@ use fog_data::allan::Analysis;
 use fog_terminal::schema::{self, Contract, PerChannel, PerFile};
 
 use super::challenge::ChallengeReport;
-use super::look::SummarizedFile;
 use crate::analysis::diagnose::Diagnosis;
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::Reproduction;
@@ -17,6 +16,7 @@ use crate::pipeline::diagnose::Diagnosed;
 use crate::pipeline::fit::report::{FitReport, UnitFitReport};
 use crate::pipeline::investigate::UnitInvestigation;
 use crate::pipeline::loo::Loo;
+use crate::pipeline::summarize::SummarizedFile;
 use crate::report::Figures;
 use crate::report::unit::UnitFigures;
 

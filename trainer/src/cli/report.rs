@@ -10,9 +10,9 @@ use fog_terminal::io::ensure_not_input;
 use super::demo;
 use super::fit::params::ParamsArgs;
 use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
-use super::look::{unit_summaries, unit_text};
 use crate::firmware::autopilot::SensorCubics;
 use crate::pipeline::report::{Held, ReportPlan};
+use crate::pipeline::summarize::{unit_summaries, unit_text};
 use crate::report;
 use fog_data::channels::{Channels, Read};
 use fog_terminal::log::load_unit_log;
@@ -196,7 +196,7 @@ fn report_unit(
     let load = |path: &Path| load_unit_log(path, channels, &input.maps.list, parts, console);
     let mut summary = String::new();
     let mut add = |path: &Path, read| -> anyhow::Result<()> {
-        let each = unit_summaries(path, channels, &input.maps, read)?;
+        let each = unit_summaries(path, channels, &input.maps.list, read)?;
         summary.push_str(&unit_text(channels, &each));
         Ok(())
     };

@@ -10,6 +10,7 @@ pub mod investigate;
 pub mod loo;
 pub mod report;
 pub mod source;
+pub mod summarize;
 pub mod text;
 
 use firmware_core::Quantity;
