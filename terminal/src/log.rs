@@ -189,6 +189,12 @@ pub fn unit_of_blob(
 ) -> anyhow::Result<Channels> {
     match units.iter().position(|u| u.sensor_id == sensor_id) {
         Some(k) => Ok(units.remove(k)),
+        None if units.is_empty() => anyhow::bail!(
+            "{}: a blob of sensor \"{sensor_id}\", and every sensor of {} read already has its \
+             blob (one blob per sensor)",
+            blob.display(),
+            stream.display()
+        ),
         None => anyhow::bail!(
             "{}: a blob of sensor \"{sensor_id}\", which is not among {}'s sensors left to pair \
              (one blob per sensor): {}",

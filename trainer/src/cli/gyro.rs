@@ -64,37 +64,8 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
     let blobs = Blob::read(&model)?;
     let units = log.unit.units(Some(stream), &console)?;
     if units.is_empty() {
-        anyhow::ensure!(
-            blobs.len() <= 1,
-            "several --model take a flight controller's log (or --channels), each blob for one \
-             of its sensors; {} is one channel's",
-            stream.display()
-        );
-        let label = blobs.first().map(|b| b.path.display().to_string());
-        let output = match (&blobs.first(), &label) {
-            (Some(b), Some(label)) => Output::Compensated {
-                blob: &b.bytes,
-                label,
-            },
-            _ => Output::Raw(scale_factor),
-        };
-        let data = log.load(&console)?;
-        let analysis = allan::one(&stream.display().to_string(), &data, output, &console)?;
-        if let Some(path) = &json {
-            write_json(path, &inputs, schema::ALLAN, &analysis)?;
-        }
-        if let Some(path) = &plot {
-            let curve = analysis.curve();
-            let series = [plot::AllanSeries {
-                label: &analysis.of,
-                colour: plot::BLUE,
-                curve: &curve,
-                terms: analysis.terms,
-            }];
-            let svg = plot::allan(&format!("Allan deviation: {}", analysis.of), &series)?;
-            write_atomically(path, svg.as_bytes())?;
-        }
-        return Ok(());
+        let files = (json.as_deref(), plot.as_deref(), inputs.as_slice());
+        return allan_single((&log, scale_factor, blobs), files, &console);
     }
     anyhow::ensure!(
         scale_factor.is_none(),
@@ -150,6 +121,47 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
             let svg = figure(&format!("Allan deviation, {title}"), &analysed)?;
             write_atomically(&each.file(channels, path), svg.as_bytes())?;
         }
+    }
+    Ok(())
+}
+
+/// `trainer allan` on one channel's log: raw over `scale_factor`, or compensated by the one blob
+/// given; its JSON and figure written where asked.
+fn allan_single(
+    (log, scale_factor, blobs): (&LogArgs, Option<f64>, Vec<Blob>),
+    (json, plot, inputs): (Option<&Path>, Option<&Path>, &[&Path]),
+    console: &Console,
+) -> anyhow::Result<()> {
+    let stream = &log.stream;
+    anyhow::ensure!(
+        blobs.len() <= 1,
+        "several --model take a flight controller's log (or --channels), each blob for one of \
+         its sensors; {} is one channel's",
+        stream.display()
+    );
+    let label = blobs.first().map(|b| b.path.display().to_string());
+    let output = match (blobs.first(), &label) {
+        (Some(b), Some(label)) => Output::Compensated {
+            blob: &b.bytes,
+            label,
+        },
+        _ => Output::Raw(scale_factor),
+    };
+    let data = log.load(console)?;
+    let analysis = allan::one(&stream.display().to_string(), &data, output, console)?;
+    if let Some(path) = json {
+        write_json(path, inputs, schema::ALLAN, &analysis)?;
+    }
+    if let Some(path) = plot {
+        let curve = analysis.curve();
+        let series = [plot::AllanSeries {
+            label: &analysis.of,
+            colour: plot::BLUE,
+            curve: &curve,
+            terms: analysis.terms,
+        }];
+        let svg = plot::allan(&format!("Allan deviation: {}", analysis.of), &series)?;
+        write_atomically(path, svg.as_bytes())?;
     }
     Ok(())
 }

@@ -91,11 +91,27 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         }
         return params.write(&cubics, &console);
     }
+    report_single(
+        (input, &fit),
+        (stream, held_out, window),
+        &out_dir,
+        &console,
+    )
+}
+
+/// `trainer report` on one channel's data (or, with none, on a simulated gyro's): its page, its
+/// figures and its JSON written into `out_dir`.
+fn report_single(
+    (input, fit): (ModelInput, &FitOptions),
+    (stream, held_out, window): (Option<PathBuf>, HeldOut, Option<Window>),
+    out_dir: &Path,
+    console: &Console,
+) -> anyhow::Result<()> {
     let (input, files) = match stream {
         Some(s) => (input, Files::Logs(s, held_out)),
         _ if input.points.is_some() => (input, Files::None),
         _ => {
-            let (input, a, b) = demo::simulated(&out_dir.join("data"), &console)?;
+            let (input, a, b) = demo::simulated(&out_dir.join("data"), console)?;
             let held_out = HeldOut {
                 hold_out_from: None,
                 valid_stream: Some(b),
@@ -131,7 +147,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         gp: fit.gp(),
     };
     let r = match files {
-        Files::None => plan.table(summaries, &console)?,
+        Files::None => plan.table(summaries, console)?,
         Files::Logs(path, held_out) => {
             summaries.push(crate::data::summary::of_stream_file(
                 &path,
@@ -141,8 +157,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 summaries.push(crate::data::summary::of_stream_file(v, &input.maps.list)?);
             }
             let parts = (window, input.exclude.list.as_slice());
-            let load = |p: &Path| Ok(vec![load_stream(p, &input.maps.list, parts, &console)?]);
-            let (train, valid, said) = held_out.parts((&path, load(&path)?), load, &console)?;
+            let load = |p: &Path| Ok(vec![load_stream(p, &input.maps.list, parts, console)?]);
+            let (train, valid, said) = held_out.parts((&path, load(&path)?), load, console)?;
             let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next())
             else {
                 anyhow::bail!("{}: no stream read", path.display());
@@ -154,10 +170,10 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
                 valid,
                 said,
             };
-            plan.logs(summaries, held, &console)?
+            plan.logs(summaries, held, console)?
         }
     };
-    for path in report::write(&out_dir, &r)? {
+    for path in report::write(out_dir, &r)? {
         console.result(&format!("wrote {}", path.display()));
     }
     Ok(())
