@@ -60,7 +60,7 @@ pub struct UnitArgs {
     /// The sensor of a flight controller's log (a PX4 ULog, an ArduPilot DataFlash log) to use:
     /// gyro0, accel1 (ULog), imu0 (DataFlash), or NAME=NEW to give it a name of your own (its
     /// files', pages' and blob's); repeatable. Each is a unit whose channels are its axes.
-    /// Default: every sensor the log holds, where the command takes several, else the one.
+    /// Default: every sensor the log holds (a command that takes a blob: the sensor it names).
     #[arg(
         long = "sensor",
         value_name = "NAME[=NEW]",
@@ -138,28 +138,6 @@ impl UnitArgs {
             ));
         }
         Ok(with)
-    }
-
-    /// The one unit `stream` is read as ([`Self::units`]), where the command takes one: a log of
-    /// several sensors needs `--sensor`.
-    pub fn load(
-        &self,
-        stream: Option<&Path>,
-        console: &Console,
-    ) -> anyhow::Result<Option<Channels>> {
-        let mut units = self.units(stream, console)?;
-        anyhow::ensure!(
-            units.len() <= 1,
-            "{}: {} sensors ({}); this command takes one: name it with --sensor",
-            stream.map_or(String::new(), |s| s.display().to_string()),
-            units.len(),
-            units
-                .iter()
-                .map(|u| u.unit_name().unwrap_or("?"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        Ok(units.pop())
     }
 
     /// The one unit of `stream` that the blob `blob` (of sensor `sensor_id`) compensates: a
@@ -319,4 +297,72 @@ fn say(path: &std::path::Path, s: &fog_data::stream::Stream, console: &Console) 
     for h in &s.handled {
         console.detail(&format!("{} {h}", path.display()));
     }
+}
+
+/// A flight controller's log holds several sensors, and a command that takes each runs once per
+/// sensor: its files one per sensor beside the names given, its lines under the sensor's heading,
+/// its errors prefixed by the sensor. One definition, so every command of both programs names
+/// them alike.
+pub struct Each {
+    several: bool,
+}
+
+impl Each {
+    /// For `units` units read from `stream`; refused where `json` is stdout and there are several
+    /// (one JSON each).
+    pub fn new(units: usize, stream: &Path, json: Option<&Path>) -> anyhow::Result<Self> {
+        let several = units > 1;
+        anyhow::ensure!(
+            !several || json != Some(Path::new("-")),
+            "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
+             written beside it), or choose one with --sensor",
+            stream.display(),
+            units
+        );
+        Ok(Self { several })
+    }
+
+    /// Where `unit`'s copy of the file `path` goes: beside it, named by the sensor, where there
+    /// are several; `path` itself otherwise.
+    pub fn file(&self, unit: &Channels, path: &Path) -> PathBuf {
+        match unit.unit_name().filter(|_| self.several) {
+            Some(n) => beside(path, n),
+            None => path.to_owned(),
+        }
+    }
+
+    /// Says `unit`'s heading, where there are several.
+    pub fn heading(&self, unit: &Channels, console: &Console) {
+        if self.several {
+            console.result(&format!(
+                "{} ({}):",
+                unit.unit_name().unwrap_or_default(),
+                unit.sensor_id
+            ));
+        }
+    }
+
+    /// `e`, named by `unit`'s sensor where there are several.
+    pub fn naming(&self, unit: &Channels, e: anyhow::Error) -> anyhow::Error {
+        if self.several {
+            e.context(format!(
+                "sensor {}",
+                unit.unit_name().unwrap_or(&unit.sensor_id)
+            ))
+        } else {
+            e
+        }
+    }
+}
+
+/// `path` with `name` before its extension: a unit's file among several (`imu.bin` → `imu.gyro0.bin`).
+pub fn beside(path: &Path, name: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let file = match path.extension() {
+        Some(ext) => format!("{stem}.{name}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.{name}"),
+    };
+    path.with_file_name(file)
 }

@@ -7,11 +7,11 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use firmware_core::Quantity;
-use fog_data::channels::Read;
+use fog_data::channels::{Channels, Read};
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
-use fog_terminal::log::{Excludes, Maps, UnitArgs, load_log, load_unit_log};
+use fog_terminal::log::{Each, Excludes, Maps, UnitArgs, load_log, load_unit_log};
 use fog_terminal::plot::{BLUE, FONT, GREY, PlotError, TITLE, axes, legend, span, svg};
 use fog_terminal::schema::{self, PerChannel};
 use plotters::prelude::*;
@@ -75,71 +75,39 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     for o in std::iter::once(&out).chain(&json).chain(&figure) {
         ensure_not_input(o, &inputs)?;
     }
-    if let Some(channels) = unit.load(stream.as_deref(), &console)? {
-        anyhow::ensure!(
-            scale_factor.is_none(),
-            "--scale-factor is for one channel: a unit's channels give theirs in {}",
-            channels.path.display()
-        );
-        let logs = stream
-            .as_deref()
-            .map(|s| load_unit_log(s, &channels, &maps.list, (window, &exclude.list), &console))
-            .transpose()?;
-        let mut axes = Vec::new();
-        let mut all = Vec::new();
-        let skipped: Vec<&str> = channels
-            .list
-            .iter()
-            .filter(|c| c.quantity != Quantity::AngularRate)
-            .map(|c| c.name.as_str())
-            .collect();
-        if !skipped.is_empty() {
+    let units = unit.units(stream.as_deref(), &console)?;
+    if !units.is_empty() {
+        let (gyros, others): (Vec<Channels>, Vec<Channels>) = units
+            .into_iter()
+            .partition(|u| u.list.iter().any(|c| c.quantity == Quantity::AngularRate));
+        let names: Vec<&str> = others.iter().filter_map(Channels::unit_name).collect();
+        if !names.is_empty() {
             console.result(&format!(
                 "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
                  accelerometer has none",
-                skipped.join(", ")
+                names.join(", ")
             ));
         }
-        for (k, ch) in channels.list.iter().enumerate() {
-            if ch.quantity != Quantity::AngularRate {
-                continue;
-            }
-            let console = console.channel(&ch.name, &format!("{}:", ch.name));
-            let own = channels.maps(k, &maps.list, Read::Table)?;
-            let table = points
-                .as_deref()
-                .map(|p| twin::load_points(p, &own))
-                .transpose()?;
-            let log = logs.as_ref().map(|l| twin::Source::from(&l[k]));
-            let k_sf = if points.is_some() {
-                ch.scale_factor
-            } else {
-                ch.bias_scale_factor()
-            };
-            let id = identified(table.as_ref(), log.as_ref(), k_sf, &console)
-                .with_context(|| format!("channel {}", ch.name))?;
-            if let Some(path) = &figure {
-                let own = path.with_extension(format!("{}.svg", ch.name));
-                write_atomically(&own, twin_figure(&id)?.as_bytes())?;
-                console.result(&format!("wrote {}", own.display()));
-            }
-            axes.push(Axis {
-                name: ch.name.clone(),
-                params: id.unit.params.clone(),
-                effects: id.unit.effects.clone(),
-            });
-            all.push(IdentifiedChannel {
-                name: ch.name.clone(),
-                identification: id,
-            });
+        anyhow::ensure!(!gyros.is_empty(), "no gyro channel to identify");
+        let from = stream.as_deref().unwrap_or(Path::new(""));
+        let each = Each::new(gyros.len(), from, json.as_deref())?;
+        let data = Data {
+            points: points.as_deref(),
+            stream: stream.as_deref(),
+            maps: &maps,
+            window,
+            exclude: &exclude,
+        };
+        for channels in &gyros {
+            each.heading(channels, &console);
+            let files = (
+                each.file(channels, &out),
+                json.as_deref().map(|j| each.file(channels, j)),
+                figure.as_deref().map(|f| each.file(channels, f)),
+            );
+            identify_unit(channels, &data, (scale_factor, files), &inputs, &console)
+                .map_err(|e| each.naming(channels, e))?;
         }
-        anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
-        write_json(&out, &inputs, schema::SIM_AXES, &Axes { axes })?;
-        if let Some(path) = &json {
-            let body = PerChannel { channels: &all };
-            write_json(path, &inputs, schema::IDENTIFY_UNIT, &body)?;
-        }
-        console.result(&format!("wrote {}", out.display()));
         return Ok(());
     }
     let points = points
@@ -160,6 +128,98 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     }
     if let Some(path) = &figure {
         write_atomically(path, twin_figure(&id)?.as_bytes())?;
+    }
+    console.result(&format!("wrote {}", out.display()));
+    Ok(())
+}
+
+/// What `identify` reads a unit's data from: the rate table, the log, and how they are read.
+#[derive(Clone, Copy)]
+struct Data<'a> {
+    points: Option<&'a Path>,
+    stream: Option<&'a Path>,
+    maps: &'a Maps,
+    window: Option<Window>,
+    exclude: &'a Excludes,
+}
+
+/// Where `identify` writes a unit's twin: the unit file, the JSON, the figures.
+type Files = (PathBuf, Option<PathBuf>, Option<PathBuf>);
+
+/// Every gyro channel of a unit identified, into one unit file of several axes (`out`), with its
+/// JSON and a figure per channel where asked.
+fn identify_unit(
+    channels: &Channels,
+    data: &Data<'_>,
+    (scale_factor, (out, json, figure)): (Option<f64>, Files),
+    inputs: &[&Path],
+    console: &Console,
+) -> anyhow::Result<()> {
+    let Data {
+        points,
+        stream,
+        maps,
+        window,
+        exclude,
+    } = *data;
+    anyhow::ensure!(
+        scale_factor.is_none(),
+        "--scale-factor is for one channel: a unit's channels give theirs in {}",
+        channels.path.display()
+    );
+    let logs = stream
+        .map(|s| load_unit_log(s, channels, &maps.list, (window, &exclude.list), console))
+        .transpose()?;
+    let mut axes = Vec::new();
+    let mut all = Vec::new();
+    let skipped: Vec<&str> = channels
+        .list
+        .iter()
+        .filter(|c| c.quantity != Quantity::AngularRate)
+        .map(|c| c.name.as_str())
+        .collect();
+    if !skipped.is_empty() {
+        console.result(&format!(
+            "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
+             accelerometer has none",
+            skipped.join(", ")
+        ));
+    }
+    for (k, ch) in channels.list.iter().enumerate() {
+        if ch.quantity != Quantity::AngularRate {
+            continue;
+        }
+        let console = console.channel(&ch.name, &format!("{}:", ch.name));
+        let own = channels.maps(k, &maps.list, Read::Table)?;
+        let table = points.map(|p| twin::load_points(p, &own)).transpose()?;
+        let log = logs.as_ref().map(|l| twin::Source::from(&l[k]));
+        let k_sf = if points.is_some() {
+            ch.scale_factor
+        } else {
+            ch.bias_scale_factor()
+        };
+        let id = identified(table.as_ref(), log.as_ref(), k_sf, &console)
+            .with_context(|| format!("channel {}", ch.name))?;
+        if let Some(path) = &figure {
+            let own = path.with_extension(format!("{}.svg", ch.name));
+            write_atomically(&own, twin_figure(&id)?.as_bytes())?;
+            console.result(&format!("wrote {}", own.display()));
+        }
+        axes.push(Axis {
+            name: ch.name.clone(),
+            params: id.unit.params.clone(),
+            effects: id.unit.effects.clone(),
+        });
+        all.push(IdentifiedChannel {
+            name: ch.name.clone(),
+            identification: id,
+        });
+    }
+    anyhow::ensure!(!axes.is_empty(), "no gyro channel to identify");
+    write_json(&out, inputs, schema::SIM_AXES, &Axes { axes })?;
+    if let Some(path) = &json {
+        let body = PerChannel { channels: &all };
+        write_json(path, inputs, schema::IDENTIFY_UNIT, &body)?;
     }
     console.result(&format!("wrote {}", out.display()));
     Ok(())

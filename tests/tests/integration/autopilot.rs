@@ -374,19 +374,7 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
         e.contains("a PX4 ULog with no gyro or accelerometer samples"),
         "{e}"
     );
-    // A command that takes one unit says which there are.
-    let e = sim(&[
-        "-q",
-        "identify",
-        "--stream",
-        &px4("sample_log_small.ulg"),
-        "--out",
-        &at(dir.path(), "unit.json"),
-    ])
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("6 sensors (gyro0, gyro1, gyro2, accel0, accel1, accel2); this command takes one: name it with --sensor"), "{e}");
-    // One that takes every sensor names the one it could not do, and why.
+    // Each command names the sensor and channel it could not do, and why.
     let out = at(dir.path(), "never.bin");
     for (command, why) in [
         (
@@ -398,13 +386,20 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
             "allan",
             "6 samples without a gap: too few for an Allan deviation",
         ),
+        (
+            "identify",
+            "6 measurements: identification needs at least 12",
+        ),
     ] {
         let log = px4("sample_log_small.ulg");
         let mut args = vec!["-q", command, "--stream", &log];
-        if command == "fit" {
+        if matches!(command, "fit" | "identify") {
             args.extend(["--out", &out]);
         }
-        let e = format!("{:#}", trainer(&args).unwrap_err());
+        let e = match command {
+            "identify" => format!("{:#}", sim(&args).unwrap_err()),
+            _ => format!("{:#}", trainer(&args).unwrap_err()),
+        };
         assert!(e.starts_with("sensor gyro0: channel x: "), "{command}: {e}");
         assert!(e.contains(why), "{command}: {e}");
     }
@@ -612,7 +607,8 @@ fn investigate_takes_each_sensor_of_a_boards_log_as_it_takes_it_alone() {
 }
 
 /// `diagnose`, `allan` and `replay` on a board's log: each blob on the sensor it names, with no
-/// `--sensor`, as on that sensor alone; a blob of a sensor the log does not give is refused.
+/// `--sensor`, as on that sensor alone; a blob of a sensor the log does not give is refused. And
+/// `identify` twins each gyro as it twins that gyro alone.
 fn each_blob_is_taken_on_the_sensor_it_names(d: &Path, log: &str) {
     let (gyro0, gyro1) = (at(d, "both.gyro0.bin"), at(d, "both.gyro1.bin"));
     let diagnosed = at(d, "diagnosed.json");
@@ -689,6 +685,21 @@ fn each_blob_is_taken_on_the_sensor_it_names(d: &Path, log: &str) {
         "{named}"
     );
     assert_eq!(without_timings(named), without_timings(chosen));
+
+    // The bench's twin of each gyro of the board, as of that gyro alone.
+    let twin = at(d, "twin.json");
+    sim(&["-q", "identify", "--stream", log, "--out", &twin]).unwrap();
+    assert!(
+        !d.join("twin.accel0.json").exists(),
+        "an accelerometer has no twin"
+    );
+    let alone = at(d, "twin1.json");
+    let args = ["-q", "identify", "--stream", log, "--sensor", "gyro1"];
+    sim(&[&args[..], &["--out", &alone]].concat()).unwrap();
+    let each = json(d.join("twin.gyro1.json"));
+    assert_eq!(each["axes"].as_array().unwrap().len(), 3, "{each}");
+    assert_eq!(each, json(&alone));
+    assert!(d.join("twin.gyro0.json").exists());
 }
 
 #[test]

@@ -13,7 +13,7 @@ use fog_terminal::log::LogArgs;
 use fog_terminal::schema::{self, PerChannel};
 
 use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
-use super::sensors::{Blob, Each, units_of_blobs};
+use super::sensors::{Blob, units_of_blobs};
 use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
@@ -23,6 +23,7 @@ use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;
 use crate::pipeline::loo::LooPlan;
 use crate::pipeline::source::{load_points, load_runs};
+use fog_terminal::log::Each;
 use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer diagnose`.

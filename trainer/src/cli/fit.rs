@@ -22,7 +22,7 @@ pub(super) mod params;
 pub(super) use args::FitArgs;
 use params::ParamsArgs;
 
-use super::sensors::Each;
+use fog_terminal::log::Each;
 
 /// `trainer fit` as asked: the pipeline's plan, and what the command reads and writes beside it.
 struct FitCommand {

@@ -11,10 +11,11 @@ use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema::{self, PerChannel};
 
-use super::sensors::{Blob, Each, units_of_blobs};
+use super::sensors::{Blob, units_of_blobs};
 use crate::pipeline::ChannelEntry;
 use crate::pipeline::allan::{self, Output};
 use crate::plot;
+use fog_terminal::log::Each;
 
 /// The arguments of `trainer allan`.
 #[derive(Args)]

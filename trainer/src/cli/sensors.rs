@@ -1,70 +1,12 @@
-//! A flight controller's log holds several sensors, and a command that takes each runs once per
-//! sensor: its files one per sensor beside the names given, its lines under the sensor's heading,
-//! its errors prefixed by the sensor. The commands that take a blob take one per sensor, each
-//! matched to the sensor it names. One place for these rules, so every command follows them alike.
+//! The commands that take a blob take one per sensor of a flight controller's log, each matched
+//! to the sensor it names; how each sensor's files, lines and errors are named is
+//! [`fog_terminal::log::Each`]'s.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use fog_data::channels::Channels;
-use fog_terminal::console::Console;
 use fog_terminal::log::unit_of_blob;
-
-use super::fit::params::beside;
-
-/// How a command names what it does for each of the units it runs on: by the sensor, where there
-/// are several.
-pub(super) struct Each {
-    several: bool,
-}
-
-impl Each {
-    /// For `units` units read from `stream`; refused where `json` is stdout and there are several
-    /// (one JSON each).
-    pub(super) fn new(units: usize, stream: &Path, json: Option<&Path>) -> anyhow::Result<Self> {
-        let several = units > 1;
-        anyhow::ensure!(
-            !several || json != Some(Path::new("-")),
-            "--json - writes one JSON and {} holds {} sensors: name a file (one per sensor is \
-             written beside it), or choose one with --sensor",
-            stream.display(),
-            units
-        );
-        Ok(Self { several })
-    }
-
-    /// Where `unit`'s copy of the file `path` goes: beside it, named by the sensor, where there
-    /// are several; `path` itself otherwise.
-    pub(super) fn file(&self, unit: &Channels, path: &Path) -> PathBuf {
-        match unit.unit_name().filter(|_| self.several) {
-            Some(n) => beside(path, n),
-            None => path.to_owned(),
-        }
-    }
-
-    /// Says `unit`'s heading, where there are several.
-    pub(super) fn heading(&self, unit: &Channels, console: &Console) {
-        if self.several {
-            console.result(&format!(
-                "{} ({}):",
-                unit.unit_name().unwrap_or_default(),
-                unit.sensor_id
-            ));
-        }
-    }
-
-    /// `e`, named by `unit`'s sensor where there are several.
-    pub(super) fn naming(&self, unit: &Channels, e: anyhow::Error) -> anyhow::Error {
-        if self.several {
-            e.context(format!(
-                "sensor {}",
-                unit.unit_name().unwrap_or(&unit.sensor_id)
-            ))
-        } else {
-            e
-        }
-    }
-}
 
 /// A blob read, with the file it came from.
 pub(super) struct Blob {

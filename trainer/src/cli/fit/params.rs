@@ -2,7 +2,7 @@
 //! training samples as its models, written as the autopilots take them
 //! ([`crate::firmware::autopilot`]).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::Args;
 use fog_terminal::console::Console;
@@ -65,16 +65,4 @@ impl ParamsArgs {
         }
         Ok(())
     }
-}
-
-/// `path` with `name` before its extension: a unit's file among several (`imu.bin` → `imu.gyro0.bin`).
-pub(in crate::cli) fn beside(path: &Path, name: &str) -> PathBuf {
-    let stem = path
-        .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    let file = match path.extension() {
-        Some(ext) => format!("{stem}.{name}.{}", ext.to_string_lossy()),
-        None => format!("{stem}.{name}"),
-    };
-    path.with_file_name(file)
 }
