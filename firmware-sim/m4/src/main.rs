@@ -15,9 +15,10 @@
 //! calibration loop of known length (`cortex_m::asm::delay(n)` executes exactly `2(n + 1)`
 //! instructions: `subs` and `bne` per pass). All go to `cost.bin` as eleven u32: samples, empty,
 //! mean, mean + variance, expf calls, expf ticks, calibration instructions, calibration ticks,
-//! per-sample empty, per-sample mean, per-sample mean + variance. Under `-icount shift=0` QEMU advances its clock by 1 ns per
-//! instruction and SysTick counts the 25 MHz system clock, so one tick should be 40 instructions;
-//! the calibration loop measures it rather than trusting that, and the host converts with the
+//! per-sample empty, per-sample mean, per-sample mean + variance. Under `-icount shift=0` (the
+//! host's cost run, on the first samples only) QEMU advances its clock by 1 ns per instruction
+//! and SysTick counts the 25 MHz system clock, so one tick should be 40 instructions; the
+//! calibration loop measures it rather than trusting that, and the host converts with the
 //! measured ratio.
 //!
 //! With the `embedded-model` feature the blob is compiled in instead (`FOG_M4_MODEL=path/model.bin`

@@ -313,9 +313,11 @@ fn qemu_command(
     let image = qemu::build_image(&root)?;
     spinner.suspend(|| {
         console.detail(&format!(
-            "qemu-system-arm {} {}",
+            "qemu-system-arm {} -kernel {} (every sample), then with {} on the first {} (the cost)",
             qemu::QEMU_ARGS.join(" "),
-            image.display()
+            image.display(),
+            qemu::COUNTED.join(" "),
+            qemu::COST_SAMPLES
         ))
     });
     let n = streams.first().map_or(0, |s| s.len());

@@ -96,10 +96,11 @@ pub(super) struct LooArgs {
     /// redone inside every fold from its training rows alone (gpr only).
     #[arg(long, value_parser = ["auto"])]
     features: Option<String>,
-    /// Another run: also fit on all of --points and score on these, inside the temperature
-    /// and rate range both cover.
-    #[arg(long)]
-    test_points: Option<PathBuf>,
+    /// Hold out a table of its own (another run, another power-on): also fit on all of
+    /// --points and score on these, inside the temperature and rate range both cover (as
+    /// --valid-stream holds out a log).
+    #[arg(long, alias = "test-points")]
+    valid_points: Option<PathBuf>,
     #[command(flatten)]
     runs: Runs,
     /// Write the evaluation as JSON here (`-`: stdout, alone).
@@ -302,13 +303,13 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         group,
         offsets,
         features,
-        test_points,
+        valid_points,
         runs: Runs { list: runs },
         json,
     } = args;
     anyhow::ensure!(
-        features.is_none() || (runs.is_empty() && test_points.is_none()),
-        "--features auto evaluates the GP on one table; --test-points and --run are not \
+        features.is_none() || (runs.is_empty() && valid_points.is_none()),
+        "--features auto evaluates the GP on one table; --valid-points and --run are not \
          supported with it"
     );
     let cfg = EvalConfig {
@@ -326,7 +327,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         input.exclude_implausible,
         &console,
     )?;
-    let test = match &test_points {
+    let test = match &valid_points {
         Some(path) => Some((
             path.as_path(),
             Points::load(path, &input.maps.list, None, None)?,
@@ -334,7 +335,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         None => None,
     };
     let loo = plan.run(&points, test.as_ref().map(|(p, t)| (*p, t)), &console)?;
-    if let (Some(c), Some(path)) = (&loo.cross_run, &test_points) {
+    if let (Some(c), Some(path)) = (&loo.cross_run, &valid_points) {
         console.result(&format!(
             "{}: fitted on {}, tested on {}: RMSE {:.3e} °/s ({:.2} °/h) over {} points in \
              {:.2}–{:.2} °C, |rate| ≤ {:.1} °/s ({} outside, not scored)",
@@ -357,7 +358,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
     if let Some(path) = json {
         let mut inputs = vec![input.points.as_path()];
         inputs.extend(runs.iter().map(PathBuf::as_path));
-        inputs.extend(test_points.as_deref());
+        inputs.extend(valid_points.as_deref());
         write_json(&path, &inputs, schema::LOO, &loo)?;
     }
     Ok(())

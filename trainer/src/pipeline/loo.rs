@@ -62,7 +62,7 @@ impl LooPlan {
     ) -> anyhow::Result<Loo> {
         anyhow::ensure!(
             !self.transients || test.is_none(),
-            "--features auto evaluates the GP on one table; --test-points is not supported with it"
+            "--features auto evaluates the GP on one table; --valid-points is not supported with it"
         );
         let mut cfg = self.cfg.clone();
         // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
