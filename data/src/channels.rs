@@ -377,15 +377,12 @@ impl Channels {
         }
     }
 
-    /// The sensors of `log` named `names` (all where none is named), each as a unit's channels
-    /// ([`Self::of_sensor`]).
+    /// The sensors of `log` named `names`, each as a unit's channels ([`Self::of_sensor`]);
+    /// where none is named, all but the autopilot's learning means ([`Sensor::learned`]), which
+    /// record the same sensors again (all of them, where the log holds nothing else).
     pub fn of_log(log: &Recorded, names: &[String]) -> Result<Vec<Self>, RecordedError> {
         if names.is_empty() {
-            return Ok(log
-                .sensors
-                .iter()
-                .map(|s| Self::of_sensor(s, &log.path))
-                .collect());
+            return Ok(log.taken().map(|s| Self::of_sensor(s, &log.path)).collect());
         }
         names
             .iter()

@@ -3,7 +3,8 @@
 //! does when it is powered on after a night in the freezer (the thermal calibration PX4's and
 //! ArduPilot's guides ask for). It records what the boards record: a PX4 ULog (`sensor_gyro`,
 //! `sensor_accel` per instance, a `sensor_baro`) or an ArduPilot DataFlash log (`IMU` per
-//! instance, `BARO`), in their units (rad/s, m/s², °C).
+//! instance, `BARO`, and the `TCLR` rows ArduPilot's temperature learning writes as the board
+//! warms), in their units (rad/s, m/s², °C).
 //!
 //! The two IMUs differ in what the autopilots' cubic can follow:
 //!
@@ -266,6 +267,7 @@ impl Board {
     pub fn dataflash(&self, samples: &[Vec<Sample>], out: impl Write) -> std::io::Result<()> {
         const IMU: u8 = 129;
         const BARO: u8 = 130;
+        const TCLR: u8 = 131;
         let mut w = DataFlashWriter::new(out)?;
         w.define(
             IMU,
@@ -274,10 +276,28 @@ impl Board {
             "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T,GH,AH,GHz,AHz",
         )?;
         w.define(BARO, "BARO", "QBfff", "TimeUS,I,Alt,Press,Temp")?;
+        w.define(TCLR, "TCLR", "QBBffffI", "TimeUS,I,SType,Temp,X,Y,Z,NSamp")?;
+        let mut learning: Vec<Learning> = samples
+            .iter()
+            .map(|own| Learning::new(own.first().map_or(0.0, |s| s.temp_c)))
+            .collect();
         let n = samples.iter().map(Vec::len).min().unwrap_or(0);
         for i in 0..n {
             for (k, own) in samples.iter().enumerate() {
                 let s = &own[i];
+                if let Some((temp_c, count, means)) = learning[k].add(s) {
+                    for (kind, xyz) in means.iter().enumerate() {
+                        let mut v = vec![
+                            Value::U64(s.time_us),
+                            Value::U8(k as u8),
+                            Value::U8(kind as u8),
+                            Value::F32(temp_c as f32),
+                        ];
+                        v.extend(xyz.iter().map(|&x| Value::F32(x as f32)));
+                        v.push(Value::U32(count));
+                        w.write(TCLR, &v)?;
+                    }
+                }
                 let mut v = vec![Value::U64(s.time_us), Value::U8(k as u8)];
                 v.extend(s.gyro.iter().chain(&s.accel).map(|&x| Value::F32(x as f32)));
                 v.extend([Value::U32(0), Value::U32(0), Value::F32(s.temp_c as f32)]);
@@ -303,6 +323,55 @@ impl Board {
             }
         }
         w.into_inner().flush()
+    }
+}
+
+/// ArduPilot's temperature learning as it logs (`INS_TCALn_ENABLE` 2; its
+/// `AP_InertialSensor_tempcal.cpp`): each sensor's samples summed until there are at least 100
+/// and the temperature has risen 0.5 °C since the last row, then their mean at the mid
+/// temperature, the accelerometer's less its first mean (the learning's zero). The firmware
+/// low-passes the temperature first; the simulated reading is smooth already.
+struct Learning {
+    /// The sums of the accelerometer's and the gyro's axes (`TCLR`'s `SType` 0 and 1).
+    sums: [[f64; 3]; 2],
+    count: u32,
+    last_temp_c: f64,
+    accel_start: Option<[f64; 3]>,
+}
+
+impl Learning {
+    fn new(temp_c: f64) -> Self {
+        Self {
+            sums: [[0.0; 3]; 2],
+            count: 0,
+            last_temp_c: temp_c,
+            accel_start: None,
+        }
+    }
+
+    /// Adds a sample; where a row is due, its temperature, sample count and the two means.
+    fn add(&mut self, s: &Sample) -> Option<(f64, u32, [[f64; 3]; 2])> {
+        for (sum, xyz) in self.sums.iter_mut().zip([s.accel, s.gyro]) {
+            for (a, v) in sum.iter_mut().zip(xyz) {
+                *a += v;
+            }
+        }
+        self.count += 1;
+        if self.count < 100 || s.temp_c - self.last_temp_c < 0.5 {
+            return None;
+        }
+        let n = f64::from(self.count);
+        let mut means = self.sums.map(|sum| sum.map(|v| v / n));
+        let start = *self.accel_start.get_or_insert(means[0]);
+        for (m, z) in means[0].iter_mut().zip(start) {
+            *m -= z;
+        }
+        let row = (0.5 * (s.temp_c + self.last_temp_c), self.count, means);
+        *self = Self {
+            accel_start: Some(start),
+            ..Self::new(s.temp_c)
+        };
+        Some(row)
     }
 }
 

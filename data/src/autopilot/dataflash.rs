@@ -1,8 +1,11 @@
 //! An ArduPilot DataFlash log's sensors: every instance `I` of the `IMU` message (`GyrX/Y/Z` in
 //! rad/s, `AccX/Y/Z` in m/s², `T` in °C; older logs' `IMU2`, `IMU3` for instances 1 and 2), read
-//! by `ardupilot-binlog` from the whole messages [`super::framing`] passes on. `TCLR` (the
-//! firmware's own temperature-learning rows) and the raw `GYR`, `ACC` and `BARO` messages are
-//! counted.
+//! by `ardupilot-binlog` from the whole messages [`super::framing`] passes on; and the `TCLR`
+//! rows the firmware's own temperature learning writes (`INS_TCALn_ENABLE` 2: per instance `I`
+//! and sensor type `SType`, 0 the accelerometer and 1 the gyro, the mean `X`, `Y`, `Z` of the
+//! samples over each 0.5 °C of warming at their mid temperature `Temp`, the accelerometer's less
+//! its first mean), read as sensors of their own (`tclr-gyro0`, `tclr-accel0`), taken only when
+//! named ([`Sensor::learned`]). The raw `GYR`, `ACC` and `BARO` messages are counted.
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
@@ -20,8 +23,10 @@ const FMT: u8 = 0x80;
 const FMT_LEN: usize = 89;
 /// The messages read as sensors, and their instance where the name gives it.
 const IMUS: [(&str, u8); 3] = [("IMU", 0), ("IMU2", 1), ("IMU3", 2)];
+/// The temperature learning's rows, read as sensors of their own.
+const LEARNING: &str = "TCLR";
 /// The messages counted and listed.
-const COUNTED: [&str; 4] = ["TCLR", "GYR", "ACC", "BARO"];
+const COUNTED: [&str; 3] = ["GYR", "ACC", "BARO"];
 
 /// What the frames showed: each type's name and length, and how many messages of each.
 #[derive(Default)]
@@ -81,7 +86,7 @@ impl Framing for Frames {
             types.formats.insert(ty, (fmt_name, length));
             return Ok(Frame::Message(msg, true));
         }
-        let keep = IMUS.iter().any(|(n, _)| *n == name);
+        let keep = name == LEARNING || IMUS.iter().any(|(n, _)| *n == name);
         if keep || COUNTED.contains(&name.as_str()) {
             *types.counts.entry(name).or_default() += 1;
         }
@@ -132,19 +137,35 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
     };
     let filtered = Filtered::new(file, total, frames, Rc::clone(&damage), progress);
     let mut by_instance: BTreeMap<u8, Samples> = BTreeMap::new();
+    let mut learned: BTreeMap<(u8, u8), Samples> = BTreeMap::new();
     for entry in ardupilot_binlog::Reader::new(filtered) {
         // The frames passed on are whole and typed: an entry the parser refuses is skipped.
         let Ok(e) = entry else { continue };
-        let Some(&(_, default)) = IMUS.iter().find(|(n, _)| *n == e.name) else {
-            continue;
+        let number = |field| {
+            e.get_u64(field)
+                .or_else(|| e.get_i64(field).map(|i| i as u64))
         };
-        let instance = e
-            .get_u64("I")
-            .or_else(|| e.get_i64("I").map(|i| i as u64))
-            .map_or(default, |i| i as u8);
         let Some(t) = e.timestamp_usec.or_else(|| e.get_u64("TimeUS")) else {
             continue;
         };
+        if e.name == LEARNING {
+            let (Some(i), Some(kind @ (TCLR_ACCEL | TCLR_GYRO))) = (number("I"), number("SType"))
+            else {
+                continue;
+            };
+            let s = learned.entry((kind as u8, i as u8)).or_default();
+            s.time_s.push(t as f64 * 1e-6);
+            s.temp_c.push(e.get_f64("Temp").unwrap_or(f64::NAN));
+            let k = if kind == TCLR_GYRO { AXES[0].3 } else { 1.0 };
+            for (a, field) in s.axes.iter_mut().zip(["X", "Y", "Z"]) {
+                a.push(e.get_f64(field).map_or(f64::NAN, |v| v * k));
+            }
+            continue;
+        }
+        let Some(&(_, default)) = IMUS.iter().find(|(n, _)| *n == e.name) else {
+            continue;
+        };
+        let instance = number("I").map_or(default, |i| i as u8);
         let s = by_instance.entry(instance).or_default();
         s.time_s.push(t as f64 * 1e-6);
         s.temp_c.push(e.get_f64("T").unwrap_or(f64::NAN));
@@ -154,35 +175,31 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
     }
     let damage = damage.borrow_mut().take();
     let types = types.borrow();
-    let sensors = by_instance
-        .into_iter()
-        .map(|(i, s)| Sensor {
-            name: format!("imu{i}"),
-            topic: "IMU".to_owned(),
-            instance: i,
-            device_id: None,
-            id_changes: Vec::new(),
-            time_field: "TimeUS",
-            temp_field: "T",
-            temp_c: if s.temp_c.iter().any(|t| t.is_finite()) {
-                s.temp_c
-            } else {
-                Vec::new()
-            },
-            time_s: s.time_s,
-            unreadable: 0,
-            axes: AXES
-                .iter()
-                .zip(s.axes)
-                .map(|(&(field, name, quantity, _), values)| Axis {
-                    name: name.to_owned(),
-                    field,
-                    quantity,
-                    values,
-                })
-                .collect(),
-        })
-        .collect();
+    let imus = by_instance.into_iter().map(|(i, s)| {
+        let axes = AXES
+            .iter()
+            .map(|&(field, name, quantity, _)| (field, name, quantity));
+        sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
+    });
+    let learning = learned.into_iter().map(|((kind, i), s)| {
+        let (short, quantity) = if u64::from(kind) == TCLR_GYRO {
+            ("gyro", Quantity::AngularRate)
+        } else {
+            ("accel", Quantity::SpecificForce)
+        };
+        let axes = [("X", "x"), ("Y", "y"), ("Z", "z")]
+            .into_iter()
+            .map(|(field, name)| (field, name, quantity));
+        sensor(
+            format!("tclr-{short}{i}"),
+            LEARNING,
+            i,
+            ("Temp", s),
+            axes,
+            true,
+        )
+    });
+    let sensors = imus.chain(learning).collect();
     let others = types
         .counts
         .iter()
@@ -190,4 +207,46 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
         .map(|(name, n)| (name.clone(), *n))
         .collect();
     Ok((sensors, others, damage))
+}
+
+/// `TCLR`'s sensor types.
+const TCLR_ACCEL: u64 = 0;
+const TCLR_GYRO: u64 = 1;
+
+/// One instance's samples as a sensor: its name, message, instance, temperature field and
+/// samples, and its axes (field, channel name, quantity) in the samples' order.
+fn sensor<'a>(
+    name: String,
+    topic: &str,
+    instance: u8,
+    (temp_field, s): (&'static str, Samples),
+    axes: impl Iterator<Item = (&'static str, &'a str, Quantity)>,
+    learned: bool,
+) -> Sensor {
+    Sensor {
+        name,
+        topic: topic.to_owned(),
+        instance,
+        device_id: None,
+        id_changes: Vec::new(),
+        time_field: "TimeUS",
+        temp_field,
+        temp_c: if s.temp_c.iter().any(|t| t.is_finite()) {
+            s.temp_c
+        } else {
+            Vec::new()
+        },
+        time_s: s.time_s,
+        unreadable: 0,
+        axes: axes
+            .zip(s.axes)
+            .map(|((field, name, quantity), values)| Axis {
+                name: name.to_owned(),
+                field,
+                quantity,
+                values,
+            })
+            .collect(),
+        learned,
+    }
 }

@@ -148,8 +148,18 @@ impl Recorded {
         }))
     }
 
+    /// The sensors a command takes where none is named: all but the learning means
+    /// ([`Sensor::learned`]), or those where the log holds nothing else.
+    pub fn taken(&self) -> impl Iterator<Item = &Arc<Sensor>> {
+        let recorded = self.sensors.iter().any(|s| !s.learned);
+        self.sensors
+            .iter()
+            .filter(move |s| !(recorded && s.learned))
+    }
+
     /// What a calibration must be told about the log, a line each: its damage, then each kind of
-    /// finding with the sensors it holds for ([`Sensor::findings`]), then what else it holds.
+    /// finding with the sensors taken it holds for ([`Sensor::findings`]), then what else it
+    /// holds.
     pub fn notes(&self) -> Vec<String> {
         let mut out = Vec::new();
         if let Some(d) = &self.damage {
@@ -162,7 +172,7 @@ impl Recorded {
             ));
         }
         let mut findings: Vec<(Finding, String)> =
-            self.sensors.iter().flat_map(|s| s.findings()).collect();
+            self.taken().flat_map(|s| s.findings()).collect();
         findings.sort_by_key(|f| f.0);
         for group in findings.chunk_by(|a, b| a.0 == b.0) {
             let which: Vec<&str> = group.iter().map(|f| f.1.as_str()).collect();
@@ -170,6 +180,21 @@ impl Recorded {
                 "{}: {}",
                 self.path.display(),
                 group[0].0.line(&which.join(", "))
+            ));
+        }
+        let learned: Vec<&str> = self
+            .sensors
+            .iter()
+            .filter(|s| s.learned)
+            .map(|s| s.name.as_str())
+            .collect();
+        if !learned.is_empty() && self.taken().any(|s| !s.learned) {
+            out.push(format!(
+                "{}: also holds the means its temperature learning logged (TCLR), the same \
+                 sensors again: {}; taken when named (--sensor {})",
+                self.path.display(),
+                learned.join(", "),
+                learned[0]
             ));
         }
         if !self.others.is_empty() {

@@ -46,6 +46,10 @@ pub struct Sensor {
     pub axes: Vec<Axis>,
     /// Samples left out because their temperature or an axis was not a number.
     pub unreadable: usize,
+    /// A second record of a sensor the log also holds whole: the means the autopilot's own
+    /// temperature learning logged (ArduPilot's `TCLR`, one per 0.5 °C of warming). Taken only
+    /// when named, or where the log holds nothing else ([`Channels::of_log`](crate::channels::Channels::of_log)).
+    pub learned: bool,
 }
 
 impl Sensor {
@@ -78,7 +82,12 @@ impl Sensor {
     /// 1-based ordinal among the sensor's samples.
     pub fn streams(&self, references: &[f64]) -> Vec<Stream> {
         let lines: Vec<u64> = (1..=self.len() as u64).collect();
-        let (step_s, time_issues) = stream::time_checks(&self.time_s, &lines);
+        let (step_s, mut time_issues) = stream::time_checks(&self.time_s, &lines);
+        if self.learned {
+            // A learning row closes each 0.5 °C of warming however long it took: a long interval
+            // is a board warming slowly, not a pause or a power cycle.
+            time_issues.retain(|i| !matches!(i, stream::TimeIssue::Gap { .. }));
+        }
         let mut data: Vec<(Vec<f64>, Vec<f64>)> = self
             .axes
             .iter()

@@ -374,3 +374,79 @@ fn a_long_reads_progress_is_heard_in_order_up_to_the_whole_file() {
     let size = std::fs::metadata(&short).unwrap().len();
     assert_eq!(heard, [(size, size)]);
 }
+
+/// ArduPilot's temperature learning logs its means (`TCLR`) beside the `IMU` messages: each
+/// instance and sensor type is a sensor of its own, in the project's units, whose long intervals
+/// (a row per 0.5 °C of warming) are no gap. They record the `IMU` sensors again, so a command
+/// takes them only when they are named, or where the log holds nothing else.
+#[test]
+fn the_temperature_learnings_means_are_sensors_taken_when_named() {
+    const TCLR: u8 = 131;
+    let rows = |with_imu: bool| {
+        let mut log = if with_imu {
+            dataflash()
+        } else {
+            DataFlashWriter::new(Vec::new()).unwrap().into_inner()
+        };
+        let mut w = DataFlashWriter::new(Vec::new()).unwrap();
+        w.define(TCLR, "TCLR", "QBBffffI", "TimeUS,I,SType,Temp,X,Y,Z,NSamp")
+            .unwrap();
+        // Rows ever further apart, as a board settles warm.
+        let mut t = 0u64;
+        for k in 0..30u64 {
+            t += 20_000_000 * (1 + k / 5);
+            for kind in 0..2u8 {
+                let v = [0.001 * k as f32, 0.0, -0.002 * k as f32];
+                let mut row = vec![
+                    Value::U64(t),
+                    Value::U8(1),
+                    Value::U8(kind),
+                    Value::F32(20.0 + 0.5 * k as f32),
+                ];
+                row.extend(v.map(Value::F32));
+                row.push(Value::U32(100));
+                w.write(TCLR, &row).unwrap();
+            }
+        }
+        // The format of formats once: the second writer's own is left out.
+        let bytes = w.into_inner();
+        log.extend_from_slice(&bytes[89..]);
+        log
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let log = read(&file(dir.path(), "learned.bin", &rows(true)))
+        .unwrap()
+        .unwrap();
+    let names: Vec<&str> = log.sensors.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["imu0", "imu1", "tclr-accel1", "tclr-gyro1"]);
+    let taken: Vec<&str> = log.taken().map(|s| s.name.as_str()).collect();
+    assert_eq!(taken, ["imu0", "imu1"]);
+    let gyro = &log.sensors[3];
+    assert!(gyro.learned && gyro.topic == "TCLR" && gyro.temp_field == "Temp");
+    assert_eq!(gyro.len(), 30);
+    assert_eq!(gyro.axes[0].quantity, Quantity::AngularRate);
+    let deg = 0.029f32.to_degrees() as f64;
+    assert!(
+        (gyro.axes[0].values[29] - deg).abs() < 1e-5,
+        "{:?}",
+        gyro.axes[0]
+    );
+    assert_eq!(log.sensors[2].axes[2].quantity, Quantity::SpecificForce);
+    assert!((log.sensors[2].axes[2].values[29] + 0.058).abs() < 1e-6);
+    assert!(gyro.streams(&[0.0; 3])[0].time_issues.is_empty());
+    let note = log.notes().join("\n");
+    assert!(
+        note.contains("temperature learning logged (TCLR)")
+            && note.contains("tclr-accel1, tclr-gyro1; taken when named"),
+        "{note}"
+    );
+    let named = Channels::of_log(&log, &["tclr-gyro1".to_owned()]).unwrap();
+    assert_eq!(named[0].sensor_id, "tclr-gyro1");
+    // A log of learning rows alone: they are what it holds, and taken.
+    let alone = read(&file(dir.path(), "alone.bin", &rows(false)))
+        .unwrap()
+        .unwrap();
+    assert_eq!(alone.taken().count(), 2);
+    assert_eq!(Channels::of_log(&alone, &[]).unwrap().len(), 2);
+    assert!(!alone.notes().join("\n").contains("TCLR"));
+}

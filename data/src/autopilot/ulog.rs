@@ -205,6 +205,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
                     Vec::new()
                 },
                 unreadable: 0,
+                learned: false,
                 axes: ["x", "y", "z"]
                     .into_iter()
                     .zip(s.axes)

@@ -80,6 +80,24 @@ fn cubic(fit: &serde_json::Value, axis: usize, t: f64) -> f64 {
     k[0] + d * (k[1] + d * (k[2] + d * k[3]))
 }
 
+/// A simulated board's log of `minutes` (`firmware-sim generate board --seed SEED`), written as
+/// `name` in `d` (its format by the extension); its path.
+fn board(d: &Path, name: &str, seed: &str, minutes: &str) -> String {
+    let log = at(d, name);
+    sim(&[
+        "generate",
+        "board",
+        "--seed",
+        seed,
+        "--minutes",
+        minutes,
+        "--out",
+        &log,
+    ])
+    .unwrap();
+    log
+}
+
 #[test]
 fn a_px4_and_an_ardupilot_log_give_the_parameters_their_firmware_evaluates_as_the_cubic() {
     let dir = tempfile::tempdir().unwrap();
@@ -88,22 +106,12 @@ fn a_px4_and_an_ardupilot_log_give_the_parameters_their_firmware_evaluates_as_th
         ("cal.ulg", "--px4-params", "cal.params"),
         ("cal.bin", "--ardupilot-params", "tcal.parm"),
     ] {
-        sim(&[
-            "generate",
-            "board",
-            "--seed",
-            "3",
-            "--minutes",
-            "60",
-            "--out",
-            &at(d, log),
-        ])
-        .unwrap();
+        let log = &board(d, log, "3", "60");
         trainer(&[
             "-q",
             "fit",
             "--stream",
-            &at(d, log),
+            log,
             flag,
             &at(d, file),
             "--out",
@@ -174,6 +182,51 @@ fn a_px4_and_an_ardupilot_log_give_the_parameters_their_firmware_evaluates_as_th
                     );
                 }
             }
+        }
+    }
+}
+
+/// ArduPilot's own temperature learning logs its means (`TCLR`, one per 0.5 °C of warming) beside
+/// the `IMU` messages, as the simulated board does. Named, they are calibrated as any sensor is,
+/// and their parameters agree with the `IMU` messages' on the IMU whose bias is a cubic: within
+/// 1% of the correction's swing over the range both cover, at every degree.
+#[test]
+fn the_learnings_means_calibrate_as_the_imu_messages_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let log = board(d, "cal.bin", "3", "60");
+    let fit = |sensors: &[&str], parm: &str| {
+        let mut args = vec!["-q", "fit", "--stream", &log];
+        for s in sensors {
+            args.extend(["--sensor", s]);
+        }
+        let (parm, out) = (at(d, parm), at(d, &format!("{}.bin", sensors.join("-"))));
+        args.extend(["--ardupilot-params", &parm, "--out", &out]);
+        trainer(&args).unwrap();
+        ardupilot_params(Path::new(&parm))
+    };
+    let imu = fit(&["imu0"], "imu.parm");
+    let learned = fit(&["tclr-gyro0", "tclr-accel0"], "tclr.parm");
+    let range = |p: &HashMap<String, f64>| (p["INS_TCAL1_TMIN"], p["INS_TCAL1_TMAX"]);
+    let (a, b) = (range(&imu), range(&learned));
+    let (lo, hi) = (a.0.max(b.0), a.1.min(b.1));
+    assert!(hi - lo > 50.0, "{lo} … {hi}");
+    for kind in ["GYR", "ACC"] {
+        for axis in ["X", "Y", "Z"] {
+            let at_t = |p: &HashMap<String, f64>, t| ardupilot_offset(p, (1, kind, axis), t, lo);
+            let temps: Vec<f64> = (0..=(hi - lo) as usize).map(|k| lo + k as f64).collect();
+            let swing = temps
+                .iter()
+                .map(|&t| at_t(&imu, t).abs())
+                .fold(0.0, f64::max);
+            let worst = temps
+                .iter()
+                .map(|&t| (at_t(&imu, t) - at_t(&learned, t)).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                worst < 0.01 * swing,
+                "{kind} {axis}: {worst:e} against a swing of {swing:e}"
+            );
         }
     }
 }
@@ -409,18 +462,7 @@ fn the_real_px4_logs_are_summarized_sensor_by_sensor_and_a_log_without_sensors_i
 fn the_report_on_a_boards_log_sets_the_cubic_beside_the_gp_and_writes_the_parameters_too() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let log = at(d, "cal.bin");
-    sim(&[
-        "generate",
-        "board",
-        "--seed",
-        "6",
-        "--minutes",
-        "60",
-        "--out",
-        &log,
-    ])
-    .unwrap();
+    let log = board(d, "cal.bin", "6", "60");
     let out = at(d, "report");
     let parm = at(d, "tcal.parm");
     trainer(&[
