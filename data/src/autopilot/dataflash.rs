@@ -6,6 +6,11 @@
 //! samples over each 0.5 °C of warming at their mid temperature `Temp`, the accelerometer's less
 //! its first mean), read as sensors of their own (`tclr-gyro0`, `tclr-accel0`), taken only when
 //! named ([`Sensor::learned`]). The raw `GYR`, `ACC` and `BARO` messages are counted.
+//!
+//! An `IMU` message is what the firmware compensated: where its own temperature correction was
+//! on while it logged (`INS_TCALn_ENABLE` 1), the correction the log's `PARM` messages describe
+//! is undone on reading ([`Tcal`]), as ArduPilot's `tempcal_IMU.py` undoes it, so that a fit sees
+//! the sensor's own output.
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
@@ -16,7 +21,7 @@ use firmware_core::Quantity;
 
 use super::error::{Damage, Progress, RecordedError, open};
 use super::framing::{Filtered, Frame, Framing, read_full};
-use super::sensor::{Axis, Collected, Sensor};
+use super::sensor::{Axis, Collected, Correction, Sensor};
 
 /// A format message's type byte, and its whole length (header included).
 const FMT: u8 = 0x80;
@@ -25,6 +30,8 @@ const FMT_LEN: usize = 89;
 const IMUS: [(&str, u8); 3] = [("IMU", 0), ("IMU2", 1), ("IMU3", 2)];
 /// The temperature learning's rows, read as sensors of their own.
 const LEARNING: &str = "TCLR";
+/// The parameters, read for the temperature correction the firmware applied.
+const PARAMETERS: &str = "PARM";
 /// The messages counted and listed.
 const COUNTED: [&str; 3] = ["GYR", "ACC", "BARO"];
 
@@ -86,7 +93,8 @@ impl Framing for Frames {
             types.formats.insert(ty, (fmt_name, length));
             return Ok(Frame::Message(msg, true));
         }
-        let keep = name == LEARNING || IMUS.iter().any(|(n, _)| *n == name);
+        let keep =
+            [LEARNING, PARAMETERS].contains(&name.as_str()) || IMUS.iter().any(|(n, _)| *n == name);
         if keep || COUNTED.contains(&name.as_str()) {
             *types.counts.entry(name).or_default() += 1;
         }
@@ -138,6 +146,8 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
     let filtered = Filtered::new(file, total, frames, Rc::clone(&damage), progress);
     let mut by_instance: BTreeMap<u8, Samples> = BTreeMap::new();
     let mut learned: BTreeMap<(u8, u8), Samples> = BTreeMap::new();
+    let mut tcal = Tcal::default();
+    let mut corrected: BTreeMap<u8, Correction> = BTreeMap::new();
     for entry in ardupilot_binlog::Reader::new(filtered) {
         // The frames passed on are whole and typed: an entry the parser refuses is skipped.
         let Ok(e) = entry else { continue };
@@ -145,6 +155,12 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
             e.get_u64(field)
                 .or_else(|| e.get_i64(field).map(|i| i as u64))
         };
+        if e.name == PARAMETERS {
+            if let (Some(name), Some(value)) = (e.get_str("Name"), e.get_f64("Value")) {
+                tcal.set(name, value);
+            }
+            continue;
+        }
         let Some(t) = e.timestamp_usec.or_else(|| e.get_u64("TimeUS")) else {
             continue;
         };
@@ -167,10 +183,16 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
         };
         let instance = number("I").map_or(default, |i| i as u8);
         let s = by_instance.entry(instance).or_default();
+        let temp_c = e.get_f64("T").unwrap_or(f64::NAN);
+        let undo = tcal.undo(instance, temp_c);
+        if let Some((how, _)) = undo {
+            corrected.entry(instance).or_insert(how);
+        }
         s.time_s.push(t as f64 * 1e-6);
-        s.temp_c.push(e.get_f64("T").unwrap_or(f64::NAN));
-        for (a, (field, _, _, k)) in s.axes.iter_mut().zip(AXES) {
-            a.push(e.get_f64(field).map_or(f64::NAN, |v| v * k));
+        s.temp_c.push(temp_c);
+        for (j, (a, (field, _, _, k))) in s.axes.iter_mut().zip(AXES).enumerate() {
+            let applied = undo.map_or(0.0, |(_, by)| by[j]);
+            a.push(e.get_f64(field).map_or(f64::NAN, |v| (v + applied) * k));
         }
     }
     let damage = damage.borrow_mut().take();
@@ -179,7 +201,10 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
         let axes = AXES
             .iter()
             .map(|&(field, name, quantity, _)| (field, name, quantity));
-        sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
+        Sensor {
+            correction: corrected.get(&i).copied(),
+            ..sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
+        }
     });
     let learning = learned.into_iter().map(|((kind, i), s)| {
         let (short, quantity) = if u64::from(kind) == TCLR_GYRO {
@@ -248,5 +273,120 @@ fn sensor<'a>(
             })
             .collect(),
         learned,
+        correction: None,
+    }
+}
+
+/// ArduPilot's temperature correction as the log's `PARM` messages set it, the values last set
+/// (`INS_TCALn_*` for instance n − 1, `INS_ACCn_CALTEMP`, `INS_GYRn_CALTEMP`,
+/// `AHRS_ORIENTATION`). Undone as `tempcal_IMU.py` undoes it: the firmware subtracted
+/// p(T) − p(T_cal) from each axis, p(x) = (c₁d + c₂d² + c₃d³)·10⁻⁶ with d = x − 35 °C, T and T_cal
+/// clipped to [TMIN, TMAX] (`AP_InertialSensor_tempcal.cpp`); with no calibration temperature of
+/// its own a sensor's is 35 °C, and one below −80 °C means none was applied.
+#[derive(Debug, Default)]
+struct Tcal {
+    /// Per instance, the values last set.
+    imus: BTreeMap<u8, TcalImu>,
+    /// The board's mounting rotation (`AHRS_ORIENTATION`; 0 none).
+    orientation: f64,
+}
+
+/// One instance's correction parameters.
+#[derive(Debug, Clone, Copy)]
+struct TcalImu {
+    enable: f64,
+    range: (f64, f64),
+    /// `[accelerometer, gyro][power − 1][axis]`.
+    coeff: [[[f64; 3]; 3]; 2],
+    /// The accelerometer's and the gyro's calibration temperatures.
+    cal_temp: [f64; 2],
+}
+
+impl Default for TcalImu {
+    fn default() -> Self {
+        // The parameters' defaults: disabled, 0…70 °C, no coefficient.
+        Self {
+            enable: 0.0,
+            range: (0.0, 70.0),
+            coeff: [[[0.0; 3]; 3]; 2],
+            cal_temp: [TCAL_REFERENCE_C; 2],
+        }
+    }
+}
+
+/// ArduPilot's fixed reference temperature of the correction polynomial, °C.
+const TCAL_REFERENCE_C: f64 = 35.0;
+
+impl Tcal {
+    /// Takes a parameter the correction depends on; others are ignored.
+    fn set(&mut self, name: &str, value: f64) {
+        if name == "AHRS_ORIENTATION" {
+            self.orientation = value;
+            return;
+        }
+        // 1-based in the names, the log's instance less one.
+        let instance = |s: &str| s.parse::<u8>().ok().filter(|n| *n >= 1).map(|n| n - 1);
+        if let Some(rest) = name.strip_prefix("INS_TCAL") {
+            let Some((i, field)) = rest
+                .split_once('_')
+                .and_then(|(n, f)| Some((instance(n)?, f)))
+            else {
+                return;
+            };
+            let imu = self.imus.entry(i).or_default();
+            match field {
+                "ENABLE" => imu.enable = value,
+                "TMIN" => imu.range.0 = value,
+                "TMAX" => imu.range.1 = value,
+                _ => {
+                    let kind = match field.get(..3) {
+                        Some("ACC") => 0,
+                        Some("GYR") => 1,
+                        _ => return,
+                    };
+                    let power = field.get(3..4).and_then(instance).filter(|p| *p < 3);
+                    let axis = ["_X", "_Y", "_Z"]
+                        .iter()
+                        .position(|a| field.get(4..) == Some(a));
+                    if let (Some(p), Some(axis)) = (power, axis) {
+                        imu.coeff[kind][usize::from(p)][axis] = value;
+                    }
+                }
+            }
+            return;
+        }
+        for (kind, prefix) in ["INS_ACC", "INS_GYR"].into_iter().enumerate() {
+            let n = name
+                .strip_prefix(prefix)
+                .and_then(|r| r.strip_suffix("_CALTEMP"));
+            if let Some(i) = n.and_then(instance) {
+                self.imus.entry(i).or_default().cal_temp[kind] = value;
+            }
+        }
+    }
+
+    /// Where instance `imu`'s correction was on at temperature `temp_c`: what becomes of it, and
+    /// what to add back to each of an `IMU` message's axes (gyro x, y, z in rad/s, then the
+    /// accelerometer's in m/s²).
+    fn undo(&self, imu: u8, temp_c: f64) -> Option<(Correction, [f64; 6])> {
+        let c = self.imus.get(&imu).filter(|c| c.enable == 1.0)?;
+        if self.orientation != 0.0 {
+            return Some((Correction::Left, [0.0; 6]));
+        }
+        let poly = |kind: usize, axis: usize, t: f64| {
+            // As `constrain_float`, never panicking on a range the parameters got backwards.
+            let d = t.max(c.range.0).min(c.range.1) - TCAL_REFERENCE_C;
+            let k = |p: usize| c.coeff[kind][p][axis];
+            (k(0) * d + k(1) * d * d + k(2) * d * d * d) * 1e-6
+        };
+        let mut by = [0.0; 6];
+        for (j, b) in by.iter_mut().enumerate() {
+            let (kind, axis) = if j < 3 { (1, j) } else { (0, j - 3) };
+            let cal = c.cal_temp[kind];
+            if cal >= -80.0 && temp_c.is_finite() {
+                *b = poly(kind, axis, temp_c) - poly(kind, axis, cal);
+            }
+        }
+        Some((Correction::Undone, by))
     }
 }

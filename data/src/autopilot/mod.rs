@@ -23,7 +23,7 @@ mod ulog;
 pub mod write;
 
 pub use error::{Damage, Format, Progress, RecordedError};
-pub use sensor::{Axis, Finding, MIN_SPAN_C, Sensor, gravity_reference};
+pub use sensor::{Axis, Correction, Finding, MIN_SPAN_C, Sensor, gravity_reference};
 
 use std::io::Read;
 use std::path::{Path, PathBuf};

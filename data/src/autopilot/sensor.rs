@@ -50,6 +50,20 @@ pub struct Sensor {
     /// temperature learning logged (ArduPilot's `TCLR`, one per 0.5 °C of warming). Taken only
     /// when named, or where the log holds nothing else ([`Channels::of_log`](crate::channels::Channels::of_log)).
     pub learned: bool,
+    /// The autopilot's own temperature correction was on while it logged (ArduPilot's
+    /// `INS_TCALn_ENABLE` 1): whether it was undone on reading, so that the samples are the
+    /// sensor's own ([`Correction`]).
+    pub correction: Option<Correction>,
+}
+
+/// What became of the temperature correction the autopilot applied while it logged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Correction {
+    /// Undone, as `tempcal_IMU.py` undoes it, from the parameters the log's `PARM` messages set.
+    Undone,
+    /// Left in: the board is mounted rotated (`AHRS_ORIENTATION`), so the logged axes are the
+    /// vehicle's and the parameters the sensor's.
+    Left,
 }
 
 impl Sensor {
@@ -167,6 +181,11 @@ impl Sensor {
                 format!("{name} {} samples", self.unreadable),
             ));
         }
+        match self.correction {
+            Some(Correction::Undone) => out.push((Finding::CorrectionUndone, name.clone())),
+            Some(Correction::Left) => out.push((Finding::CorrectionLeft, name.clone())),
+            None => {}
+        }
         if let Some(&(t, id)) = self.id_changes.first() {
             out.push((
                 Finding::IdChanges,
@@ -198,6 +217,10 @@ pub enum Finding {
     NotNumbers,
     /// Its device ID changes mid-log.
     IdChanges,
+    /// The autopilot's temperature correction, on while it logged, was undone.
+    CorrectionUndone,
+    /// The autopilot's temperature correction, on while it logged, could not be undone.
+    CorrectionLeft,
 }
 
 impl Finding {
@@ -218,6 +241,17 @@ impl Finding {
             Self::NotNumbers => {
                 format!("samples left out, their temperature or an axis not a number: {which}")
             }
+            Self::CorrectionUndone => format!(
+                "logged with ArduPilot's temperature correction on (INS_TCALn_ENABLE 1): {which}; \
+                 the correction its parameters applied is undone, as tempcal_IMU.py does, so the \
+                 fit sees the sensor's own output"
+            ),
+            Self::CorrectionLeft => format!(
+                "logged with ArduPilot's temperature correction on (INS_TCALn_ENABLE 1) and the \
+                 board mounted rotated (AHRS_ORIENTATION): {which}; the correction is left in \
+                 (its parameters are in the sensor's axes, the log's in the vehicle's), so a fit \
+                 is of what the correction left, not of the sensor"
+            ),
             Self::IdChanges => format!(
                 "the device ID changes: {which}; another sensor answered as this instance, and \
                  its samples are read as one sensor's"

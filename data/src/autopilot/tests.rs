@@ -66,8 +66,8 @@ fn ulog_of(gyro0_id: u32) -> Vec<u8> {
     w.into_inner()
 }
 
-/// A DataFlash log of two IMUs, 1 Hz for 20 min, warming 20 → 45 °C.
-fn dataflash() -> Vec<u8> {
+/// A DataFlash log whose `IMU` messages are defined (type 129), as ArduPilot defines them.
+fn imu_log() -> DataFlashWriter<Vec<u8>> {
     let mut w = DataFlashWriter::new(Vec::new()).unwrap();
     w.define(
         129,
@@ -76,21 +76,34 @@ fn dataflash() -> Vec<u8> {
         "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T,GH,AH,GHz,AHz",
     )
     .unwrap();
+    w
+}
+
+/// One `IMU` message of instance `imu` at `t_us`: gyro x, y, z (rad/s), then the accelerometer's
+/// (m/s²), and the temperature.
+fn imu_message(w: &mut DataFlashWriter<Vec<u8>>, t_us: u64, imu: u8, axes: [f32; 6], temp: f32) {
+    let mut v = vec![Value::U64(t_us), Value::U8(imu)];
+    v.extend(axes.map(Value::F32));
+    v.extend([Value::U32(0), Value::U32(0), Value::F32(temp)]);
+    v.extend([
+        Value::U8(1),
+        Value::U8(1),
+        Value::U16(1000),
+        Value::U16(1000),
+    ]);
+    w.write(129, &v).unwrap();
+}
+
+/// A DataFlash log of two IMUs, 1 Hz for 20 min, warming 20 → 45 °C.
+fn dataflash() -> Vec<u8> {
+    let mut w = imu_log();
     w.define(130, "BARO", "Qf", "TimeUS,Press").unwrap();
     for i in 0..1200u64 {
         let temp = 20.0 + 25.0 * (i as f32 / 1200.0);
         for imu in 0..2u8 {
             let g = 2e-4 * (temp - 20.0) * f32::from(imu + 1);
-            let mut v = vec![Value::U64(i * 1_000_000), Value::U8(imu)];
-            v.extend([g, 0.0, -g, 0.05, -0.02, -9.8 + g].map(Value::F32));
-            v.extend([Value::U32(0), Value::U32(0), Value::F32(temp)]);
-            v.extend([
-                Value::U8(1),
-                Value::U8(1),
-                Value::U16(1000),
-                Value::U16(1000),
-            ]);
-            w.write(129, &v).unwrap();
+            let axes = [g, 0.0, -g, 0.05, -0.02, -9.8 + g];
+            imu_message(&mut w, i * 1_000_000, imu, axes, temp);
         }
         w.write(130, &[Value::U64(i * 1_000_000), Value::F32(101_325.0)])
             .unwrap();
@@ -449,4 +462,87 @@ fn the_temperature_learnings_means_are_sensors_taken_when_named() {
     assert_eq!(alone.taken().count(), 2);
     assert_eq!(Channels::of_log(&alone, &[]).unwrap().len(), 2);
     assert!(!alone.notes().join("\n").contains("TCLR"));
+}
+
+/// A board logged with ArduPilot's temperature correction on (`INS_TCAL1_ENABLE` 1): its `IMU`
+/// messages are what the correction left. The log's `PARM` messages say what it was, and it is
+/// undone on reading, so the samples are the sensor's own again, said in one line. With the board
+/// mounted rotated the parameters' axes are not the log's: the correction is left in, and said.
+#[test]
+fn a_correction_the_autopilot_applied_while_logging_is_undone() {
+    const PARM: u8 = 132;
+    // The sensor's own gyro x of IMU 0 at T, rad/s, and the correction's polynomial.
+    let own = |t: f64| 2e-4 * (t - 20.0);
+    let (c1, c2, cal) = (150.0, -2.0, 25.0);
+    let poly = |t: f64| {
+        let d = t.clamp(10.0, 50.0) - 35.0;
+        (c1 * d + c2 * d * d) * 1e-6
+    };
+    let log = |orientation: f32| {
+        let mut w = imu_log();
+        w.define(PARM, "PARM", "QNf", "TimeUS,Name,Value").unwrap();
+        for (name, value) in [
+            ("AHRS_ORIENTATION", orientation),
+            ("INS_TCAL1_ENABLE", 1.0),
+            ("INS_TCAL1_TMIN", 10.0),
+            ("INS_TCAL1_TMAX", 50.0),
+            ("INS_TCAL1_GYR1_X", c1 as f32),
+            ("INS_TCAL1_GYR2_X", c2 as f32),
+            ("INS_GYR1_CALTEMP", cal as f32),
+            ("INS_TCAL2_ENABLE", 0.0),
+        ] {
+            w.write(PARM, &[Value::U64(0), Value::name(name), Value::F32(value)])
+                .unwrap();
+        }
+        for i in 0..1200u64 {
+            let temp = 5.0 + 50.0 * (i as f64 / 1200.0);
+            for imu in 0..2u8 {
+                // What the firmware logs: its own output less the correction, on IMU 0 only.
+                let applied = if imu == 0 {
+                    poly(temp) - poly(cal)
+                } else {
+                    0.0
+                };
+                let axes = [own(temp) - applied, 0.0, 0.0, 0.0, 0.0, -9.8].map(|x| x as f32);
+                imu_message(&mut w, i * 1_000_000, imu, axes, temp as f32);
+            }
+        }
+        w.into_inner()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let read_log = |name, orientation| {
+        read(&file(dir.path(), name, &log(orientation)))
+            .unwrap()
+            .unwrap()
+    };
+    let undone = read_log("on.bin", 0.0);
+    let [imu0, imu1] = [&undone.sensors[0], &undone.sensors[1]];
+    assert_eq!(imu0.correction, Some(Correction::Undone));
+    assert_eq!(imu1.correction, None);
+    // Own output, in °/s, to f32's precision: below 5 °C and above 50 °C too, where the
+    // firmware clipped the temperature.
+    let worst = |s: &Sensor, own: &dyn Fn(f64) -> f64| {
+        s.temp_c
+            .iter()
+            .zip(&s.axes[0].values)
+            .map(|(&t, &v)| (v - own(t).to_degrees()).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(worst(imu0, &own) < 1e-6, "{}", worst(imu0, &own));
+    assert!(worst(imu1, &own) < 1e-6);
+    let notes = undone.notes().join("\n");
+    assert!(
+        notes.contains("temperature correction on (INS_TCALn_ENABLE 1): imu0; the correction")
+            && notes.contains("undone"),
+        "{notes}"
+    );
+    let left = read_log("rotated.bin", 4.0);
+    assert_eq!(left.sensors[0].correction, Some(Correction::Left));
+    let logged = |t: f64| own(t) - (poly(t) - poly(cal));
+    assert!(worst(&left.sensors[0], &logged) < 1e-6);
+    assert!(
+        left.notes()
+            .join("\n")
+            .contains("AHRS_ORIENTATION): imu0; the correction is left in")
+    );
 }

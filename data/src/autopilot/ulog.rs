@@ -206,6 +206,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
                 },
                 unreadable: 0,
                 learned: false,
+                correction: None,
                 axes: ["x", "y", "z"]
                     .into_iter()
                     .zip(s.axes)

@@ -35,9 +35,20 @@ pub enum Value {
     U64(u64),
     /// `float`, DataFlash `f`.
     F32(f32),
+    /// A name of up to 16 bytes, zero-padded: DataFlash `N` (a `PARM` message's `Name`).
+    Name([u8; 16]),
 }
 
 impl Value {
+    /// `text` as a DataFlash `N` field: its first 16 bytes, zero-padded.
+    pub fn name(text: &str) -> Self {
+        let mut field = [0u8; 16];
+        for (f, b) in field.iter_mut().zip(text.bytes()) {
+            *f = b;
+        }
+        Self::Name(field)
+    }
+
     fn bytes(self, out: &mut Vec<u8>) {
         match self {
             Self::U8(v) => out.push(v),
@@ -45,6 +56,7 @@ impl Value {
             Self::U32(v) => out.extend_from_slice(&v.to_le_bytes()),
             Self::U64(v) => out.extend_from_slice(&v.to_le_bytes()),
             Self::F32(v) => out.extend_from_slice(&v.to_le_bytes()),
+            Self::Name(v) => out.extend_from_slice(&v),
         }
     }
 }
