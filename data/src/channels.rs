@@ -34,7 +34,7 @@ use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
 use serde::Deserialize;
 
 use crate::autopilot::{Recorded, RecordedError, Sensor, gravity_reference};
-use crate::columns::{self, ColumnMap, DataError, Source};
+use crate::columns::{self, ColumnMap, ColumnSource, DataError};
 use crate::stream::{self, Stream};
 
 /// What kind of file the channels are read from.
@@ -130,9 +130,9 @@ pub struct Channel {
     /// The unit its output column is in.
     pub unit: OutputUnit,
     /// Where its output comes from, converted to the quantity's unit where the unit is physical.
-    pub output: Source,
+    pub output: ColumnSource,
     /// Where its reference comes from (°/s or m/s²).
-    pub reference: Source,
+    pub reference: ColumnSource,
     /// A raw output's scale factor, for a log without a rate table.
     pub scale_factor: Option<f64>,
 }
@@ -154,9 +154,9 @@ pub struct Channels {
     /// The sensor's ID (empty where the file gives none).
     pub sensor_id: String,
     /// The time column, where the file names it.
-    pub time: Option<Source>,
+    pub time: Option<ColumnSource>,
     /// The temperature column, where the file names it.
-    pub temperature: Option<Source>,
+    pub temperature: Option<ColumnSource>,
     /// The channels, in order.
     pub list: Vec<Channel>,
     /// The sensor of an autopilot's log they are the axes of, read already: its samples are
@@ -246,7 +246,7 @@ impl Channels {
             why,
         };
         let source = |what: &str, text: &str| {
-            text.parse::<Source>().map_err(|_| {
+            text.parse::<ColumnSource>().map_err(|_| {
                 invalid(format!(
                     "{what} '{text}': expected a column, COLUMN*FACTOR or a number"
                 ))
@@ -307,7 +307,7 @@ impl Channels {
                 )));
             }
             let output = source(&format!("channel '{name}': output"), &e.output)?;
-            if matches!(output, Source::Constant(_)) {
+            if matches!(output, ColumnSource::Constant(_)) {
                 return Err(invalid(format!(
                     "channel '{name}': output '{}' is a number, not a column",
                     e.output
@@ -355,11 +355,11 @@ impl Channels {
                     Quantity::AngularRate => OutputUnit::DegreePerSecond,
                     Quantity::SpecificForce => OutputUnit::MetrePerSecond2,
                 },
-                output: Source::Column {
+                output: ColumnSource::Column {
                     name: a.name.clone(),
                     factor: 1.0,
                 },
-                reference: Source::Constant(match a.quantity {
+                reference: ColumnSource::Constant(match a.quantity {
                     Quantity::AngularRate => 0.0,
                     Quantity::SpecificForce => gravity_reference(&sensor.time_s, &a.values),
                 }),
@@ -591,8 +591,8 @@ impl Channels {
         self.list
             .iter()
             .map(|ch| match ch.reference {
-                Source::Constant(r) => r,
-                Source::Column { .. } => f64::NAN,
+                ColumnSource::Constant(r) => r,
+                ColumnSource::Column { .. } => f64::NAN,
             })
             .collect()
     }
@@ -607,7 +607,8 @@ impl Channels {
         else {
             return e.into();
         };
-        let uses = |s: &Source| matches!(s, Source::Column { name, .. } if name == column);
+        let uses =
+            |s: &ColumnSource| matches!(s, ColumnSource::Column { name, .. } if name == column);
         let by = self.list.iter().find_map(|ch| {
             if uses(&ch.output) {
                 Some(format!("channel {}'s output", ch.name))

@@ -162,10 +162,10 @@ pub struct BadMap(pub String);
 
 /// Where a canonical column's values come from.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Source {
+pub enum ColumnSource {
     /// A source column, scaled by a factor (1 when none is given).
     Column {
-        /// Source column name.
+        /// The source column's name.
         name: String,
         /// Multiplier applied to every value.
         factor: f64,
@@ -180,10 +180,10 @@ pub struct ColumnMap {
     /// Canonical name (`temp_c`, `voltage_v`, `rate_dps`, …).
     pub name: String,
     /// Where its values come from.
-    pub source: Source,
+    pub source: ColumnSource,
 }
 
-impl FromStr for Source {
+impl FromStr for ColumnSource {
     type Err = BadMap;
 
     /// A column, `COLUMN*FACTOR` or a number.
@@ -195,7 +195,7 @@ impl FromStr for Source {
         }
         if let Ok(v) = source.parse::<f64>() {
             return if v.is_finite() {
-                Ok(Source::Constant(v))
+                Ok(ColumnSource::Constant(v))
             } else {
                 Err(bad())
             };
@@ -205,19 +205,19 @@ impl FromStr for Source {
             if !factor.is_finite() || col.trim().is_empty() {
                 return Err(bad());
             }
-            return Ok(Source::Column {
+            return Ok(ColumnSource::Column {
                 name: col.trim().to_owned(),
                 factor,
             });
         }
-        Ok(Source::Column {
+        Ok(ColumnSource::Column {
             name: source.to_owned(),
             factor: 1.0,
         })
     }
 }
 
-impl Source {
+impl ColumnSource {
     /// The same source scaled by `k`: a column's factor times `k`, a constant times `k`.
     pub fn scaled(&self, k: f64) -> Self {
         match self {
@@ -230,7 +230,7 @@ impl Source {
     }
 }
 
-impl std::fmt::Display for Source {
+impl std::fmt::Display for ColumnSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Column { name, factor } if *factor == 1.0 => write!(f, "column {name}"),
@@ -400,8 +400,8 @@ pub fn read_columns(
             .find(|m| m.name == name)
             .map(|m| &m.source)
         {
-            Some(Source::Constant(v)) => Ok(Resolved::Constant(*v)),
-            Some(Source::Column { name: col, factor }) => index_of(col)
+            Some(ColumnSource::Constant(v)) => Ok(Resolved::Constant(*v)),
+            Some(ColumnSource::Column { name: col, factor }) => index_of(col)
                 .map(|i| Resolved::Column(i, col.clone(), *factor))
                 .ok_or_else(|| missing(col)),
             None => index_of(name)
@@ -541,11 +541,11 @@ mod tests {
     #[test]
     fn map_parses_columns_factors_and_constants() {
         let m: ColumnMap = "rate_dps=0".parse().unwrap();
-        assert_eq!(m.source, Source::Constant(0.0));
+        assert_eq!(m.source, ColumnSource::Constant(0.0));
         let m: ColumnMap = "voltage_v=imu.gyro.x*57.29577951".parse().unwrap();
         assert_eq!(
             m.source,
-            Source::Column {
+            ColumnSource::Column {
                 name: "imu.gyro.x".into(),
                 factor: 57.29577951
             }
@@ -553,7 +553,7 @@ mod tests {
         let m: ColumnMap = "temp_c=T".parse().unwrap();
         assert_eq!(
             m.source,
-            Source::Column {
+            ColumnSource::Column {
                 name: "T".into(),
                 factor: 1.0
             }

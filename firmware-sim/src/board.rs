@@ -164,7 +164,7 @@ impl Board {
 
     /// Every sample of `run`, per IMU: time (µs), sensor reading (°C), gyro (rad/s) and
     /// accelerometer (m/s²).
-    pub fn record(&self, run: &Run, seed: u64) -> Vec<Vec<Sample>> {
+    pub fn record(&self, run: &Run, seed: u64) -> Vec<Vec<ImuSample>> {
         let n = (run.duration_s * run.rate_hz).round() as usize;
         let dt = 1.0 / run.rate_hz;
         self.imus
@@ -192,7 +192,7 @@ impl Board {
                         let g = imu.gyro.map(|b| b.at(die) + noise(imu.gyro_noise));
                         let mut a = imu.accel.map(|b| b.at(die) + noise(imu.accel_noise));
                         a[2] -= firmware_core::units::STANDARD_GRAVITY;
-                        Sample {
+                        ImuSample {
                             time_us: 1_000_000 + (t * 1e6).round() as u64,
                             // As the sensors report it, in hundredths of a degree.
                             temp_c: (sensor * 100.0).round() / 100.0,
@@ -206,7 +206,7 @@ impl Board {
     }
 
     /// Writes `samples` ([`Self::record`]) as a PX4 ULog.
-    pub fn ulog(&self, samples: &[Vec<Sample>], out: impl Write) -> std::io::Result<()> {
+    pub fn ulog(&self, samples: &[Vec<ImuSample>], out: impl Write) -> std::io::Result<()> {
         let mut w = ULogWriter::new(out, 0)?;
         w.format("sensor_gyro", &PX4_SENSOR_FIELDS)?;
         w.format("sensor_accel", &PX4_SENSOR_FIELDS)?;
@@ -264,7 +264,7 @@ impl Board {
     }
 
     /// Writes `samples` ([`Self::record`]) as an ArduPilot DataFlash log.
-    pub fn dataflash(&self, samples: &[Vec<Sample>], out: impl Write) -> std::io::Result<()> {
+    pub fn dataflash(&self, samples: &[Vec<ImuSample>], out: impl Write) -> std::io::Result<()> {
         const IMU: u8 = 129;
         const BARO: u8 = 130;
         const TCLR: u8 = 131;
@@ -350,7 +350,7 @@ impl Learning {
     }
 
     /// Adds a sample; where a row is due, its temperature, sample count and the two means.
-    fn add(&mut self, s: &Sample) -> Option<(f64, u32, [[f64; 3]; 2])> {
+    fn add(&mut self, s: &ImuSample) -> Option<(f64, u32, [[f64; 3]; 2])> {
         for (sum, xyz) in self.sums.iter_mut().zip([s.accel, s.gyro]) {
             for (a, v) in sum.iter_mut().zip(xyz) {
                 *a += v;
@@ -377,7 +377,7 @@ impl Learning {
 
 /// One IMU's sample as the board reports it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
+pub struct ImuSample {
     /// Time since boot, µs.
     pub time_us: u64,
     /// The temperature sensor's reading, °C (0.01 °C steps).

@@ -38,14 +38,14 @@ fn a_channels_file_names_each_channel_once() {
     assert_eq!(gx.quantity, Quantity::AngularRate);
     assert_eq!(
         gx.output,
-        Source::Column {
+        ColumnSource::Column {
             name: "imu.gyro.x".into(),
             factor: 180.0 / std::f64::consts::PI
         }
     );
     assert_eq!(gx.bias_scale_factor(), Some(1.0));
     assert_eq!(az.quantity, Quantity::SpecificForce);
-    assert_eq!(az.reference, Source::Constant(-9.80665));
+    assert_eq!(az.reference, ColumnSource::Constant(-9.80665));
     assert_eq!(coil.quantity, Quantity::AngularRate);
     assert_eq!(coil.unit, OutputUnit::Raw("counts".into()));
     assert_eq!(coil.bias_scale_factor(), Some(26592.6));

@@ -117,7 +117,7 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     let stream = match &stream {
         Some(path) => {
             let s = load_log(path, &maps.list, (window, &exclude.list), &console)?;
-            Some(twin::Source::from(&s))
+            Some(twin::Measured::from(&s))
         }
         None => None,
     };
@@ -192,7 +192,7 @@ fn identify_unit(
         let console = console.channel(&ch.name, &format!("{}:", ch.name));
         let own = channels.maps(k, &maps.list, Read::Table)?;
         let table = points.map(|p| twin::load_points(p, &own)).transpose()?;
-        let log = logs.as_ref().map(|l| twin::Source::from(&l[k]));
+        let log = logs.as_ref().map(|l| twin::Measured::from(&l[k]));
         let k_sf = if points.is_some() {
             ch.scale_factor
         } else {
@@ -237,8 +237,8 @@ pub(super) struct IdentifiedChannel {
 /// One gyro identified from its table and/or log, with a spinner while it runs and its summary
 /// said.
 fn identified(
-    points: Option<&twin::Source>,
-    stream: Option<&twin::Source>,
+    points: Option<&twin::Measured>,
+    stream: Option<&twin::Measured>,
     scale_factor: Option<f64>,
     console: &Console,
 ) -> anyhow::Result<twin::Identification> {

@@ -173,7 +173,7 @@ impl GyroParams {
 
 /// One 1 Hz sample as the data logger sees it, plus the truth behind it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sample {
+pub struct LoggedSample {
     /// Temperature-sensor reading, °C.
     pub temp_c: f64,
     /// Gyro output, V (quantized by the ADC).
@@ -226,7 +226,7 @@ impl Noise {
         t_sensor: f64,
         rate_dps: f64,
         extra_bias_dps: f64,
-    ) -> Sample {
+    ) -> LoggedSample {
         // ARW N (°/√h) is white rate noise of density N·60 (°/h)/√Hz: σ = N·60/3600 °/s at 1 Hz.
         let arw = params.arw_dpsqrth * 60.0 / SECONDS_PER_HOUR * self.normal();
         let omega_eff =
@@ -235,7 +235,7 @@ impl Noise {
         let voltage_v = (params.output_voltage(t_c, omega_eff) / lsb).round() * lsb;
         let temp_c = t_sensor + params.temp_noise_c * self.normal();
         self.advance(params, 1.0);
-        Sample {
+        LoggedSample {
             temp_c,
             voltage_v,
             rate_dps,

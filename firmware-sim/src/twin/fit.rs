@@ -16,7 +16,7 @@ use fog_data::stream::{GAP_FACTOR, typical_step};
 
 use super::error::IdentifyError;
 use super::params::Static;
-use super::source::{Record, Source, SourceKind};
+use super::source::{Measured, Record, SourceKind};
 
 /// The bias effects whose strength enters the output linearly, fitted with the map.
 pub(super) const LINEAR: [Cause; 4] = [
@@ -187,7 +187,7 @@ pub(super) fn fit(start: &GyroParams, free: &Free, rows: &[Row]) -> Result<TwinF
 /// The rows of one source with `effects` replayed over it: the lag sets the coil temperature, and
 /// each linear effect's bias at unit strength is a column. Power-ons are the start and every gap
 /// of more than [`GAP_FACTOR`] typical steps.
-pub(super) fn rows(source: &Source, lag_min: Option<f64>, linear: &[usize]) -> Vec<Row> {
+pub(super) fn rows(source: &Measured, lag_min: Option<f64>, linear: &[usize]) -> Vec<Row> {
     let recs = &source.records;
     let times: Vec<f64> = recs.iter().filter_map(|r| r.time_s).collect();
     let typical = typical_step(&times);

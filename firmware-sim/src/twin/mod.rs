@@ -52,7 +52,7 @@ use fog_data::blocks;
 use noise::{noise_parameters, noise_terms, other_parameters};
 pub use params::Parameter;
 use params::{Static, determinable};
-pub use source::{Record, Source, SourceKind, load_points};
+pub use source::{Measured, Record, SourceKind, load_points};
 
 /// Parts of the training data for the rolling-origin forward test.
 const FOLDS: usize = 5;
@@ -120,8 +120,8 @@ struct Tried {
 /// Identifies a twin from `points` and/or `stream`; `scale_factor` (output units per °/s) stands
 /// in for a scale factor the data cannot show (a static log). `progress` is told each step.
 pub fn identify(
-    points: Option<&Source>,
-    stream: Option<&Source>,
+    points: Option<&Measured>,
+    stream: Option<&Measured>,
     scale_factor: Option<f64>,
     mut progress: impl FnMut(&str),
 ) -> Result<Identification, IdentifyError> {
@@ -227,8 +227,8 @@ struct Found {
 /// table the map comes from where there is one (`other`), and the starting map with the static
 /// parameters the data determine.
 struct Twin<'a> {
-    primary: std::borrow::Cow<'a, Source>,
-    other: Option<&'a Source>,
+    primary: std::borrow::Cow<'a, Measured>,
+    other: Option<&'a Measured>,
     n: usize,
     train_end: usize,
     start: GyroParams,
@@ -242,8 +242,8 @@ impl<'a> Twin<'a> {
     /// The split and the starting map. Untimed table points hold out every third point (their
     /// file order is the protocol's, not time); anything with a clock holds out its last third.
     fn new(
-        points: Option<&'a Source>,
-        stream: Option<&'a Source>,
+        points: Option<&'a Measured>,
+        stream: Option<&'a Measured>,
         scale_factor: Option<f64>,
     ) -> Result<Self, IdentifyError> {
         use std::borrow::Cow;
@@ -252,7 +252,7 @@ impl<'a> Twin<'a> {
             (None, Some(p)) if !p.timed() => {
                 let (train, test): (Vec<usize>, Vec<usize>) =
                     (0..p.records.len()).partition(|i| i % 3 != 2);
-                let interleaved = Source {
+                let interleaved = Measured {
                     kind: p.kind,
                     records: train.iter().chain(&test).map(|&i| p.records[i]).collect(),
                     setpoint_c: None,

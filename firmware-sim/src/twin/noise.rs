@@ -7,7 +7,7 @@ use firmware_core::units::SECONDS_PER_HOUR;
 use fog_data::stats::rms;
 
 use super::params::Parameter;
-use super::source::Source;
+use super::source::Measured;
 use fog_data::allan;
 
 /// The noise parameters, from the residual's Allan deviation of a static log (`noise`), set in
@@ -94,8 +94,8 @@ pub(super) fn noise_parameters(
 /// stream, the self-heating from soaked points with their setpoints) set in `params`, and those
 /// no data here can show, nominal with the reason.
 pub(super) fn other_parameters(
-    points: Option<&Source>,
-    stream: Option<&Source>,
+    points: Option<&Measured>,
+    stream: Option<&Measured>,
     params: &mut GyroParams,
 ) -> Vec<Parameter> {
     let nominal = GyroParams::nominal();
@@ -175,7 +175,7 @@ pub(super) fn other_parameters(
 }
 
 /// The noise terms of a stream's residual (°/s), over its longest run without a gap.
-pub(super) fn noise_terms(stream: &Source, residual_dps: &[f64]) -> allan::Terms {
+pub(super) fn noise_terms(stream: &Measured, residual_dps: &[f64]) -> allan::Terms {
     let t: Vec<f64> = stream
         .records
         .iter()

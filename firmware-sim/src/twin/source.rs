@@ -23,7 +23,7 @@ pub struct Record {
 
 /// Measured data of one kind, in time (or file) order.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Source {
+pub struct Measured {
     /// What it is, for the report: `points` or `stream`.
     pub kind: SourceKind,
     /// The measurements.
@@ -33,7 +33,7 @@ pub struct Source {
     pub setpoint_c: Option<Vec<f64>>,
 }
 
-/// The kind of a [`Source`].
+/// The kind of a [`Measured`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum SourceKind {
@@ -43,7 +43,7 @@ pub enum SourceKind {
     Stream,
 }
 
-impl Source {
+impl Measured {
     pub(super) fn timed(&self) -> bool {
         self.records.iter().all(|r| r.time_s.is_some())
     }
@@ -51,7 +51,7 @@ impl Source {
 
 /// Loads a rate-table points CSV as identification reads it: `temp_c`, `voltage_v`, `rate_dps`,
 /// and `time_s` where `--map` gives one (a table recorded in time order).
-pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Source, DataError> {
+pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Measured, DataError> {
     let timed = maps.iter().any(|m| m.name == "time_s");
     let mut numeric = vec!["temp_c", "voltage_v", "rate_dps"];
     if timed {
@@ -68,7 +68,7 @@ pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Source, DataError>
     }
     let c = columns::read_columns(path, &numeric, &[], &[], maps)?;
     let time = timed.then(|| c.get("time_s"));
-    Ok(Source {
+    Ok(Measured {
         kind: SourceKind::Points,
         records: (0..c.len())
             .map(|i| Record {
@@ -82,11 +82,11 @@ pub fn load_points(path: &Path, maps: &[ColumnMap]) -> Result<Source, DataError>
     })
 }
 
-impl From<&Stream> for Source {
+impl From<&Stream> for Measured {
     /// The samples with a reference rate (those without, e.g. where the unit was handled, say
     /// nothing of the map).
     fn from(s: &Stream) -> Self {
-        Source {
+        Measured {
             kind: SourceKind::Stream,
             records: s
                 .referenced()

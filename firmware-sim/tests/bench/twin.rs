@@ -5,11 +5,11 @@ use firmware_sim::gyro::effects::Effect;
 use firmware_sim::gyro::paper;
 use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::stream as gyro_stream;
-use firmware_sim::twin::{self, Record, Source, SourceKind};
+use firmware_sim::twin::{self, Measured, Record, SourceKind};
 use fog_data::cause::Cause;
 
-fn points(p: &GyroParams, seed: u64) -> Source {
-    Source {
+fn points(p: &GyroParams, seed: u64) -> Measured {
+    Measured {
         kind: SourceKind::Points,
         records: paper::run(p, Effect::None, seed, false)
             .iter()
@@ -24,8 +24,8 @@ fn points(p: &GyroParams, seed: u64) -> Source {
     }
 }
 
-fn stream(p: &GyroParams, effect: Effect, seed: u64) -> Source {
-    Source {
+fn stream(p: &GyroParams, effect: Effect, seed: u64) -> Measured {
+    Measured {
         kind: SourceKind::Stream,
         records: gyro_stream::run(p, &gyro_stream::StreamConfig::default(), effect, seed)
             .iter()

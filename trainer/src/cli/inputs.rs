@@ -13,7 +13,7 @@ use fog_terminal::log::{Excludes, Maps, UnitArgs};
 use crate::analysis::evaluate::Method;
 use crate::models::gp::{GpConfig, Inducing};
 use crate::models::prior::MeanBasis;
-use crate::pipeline::source::Source;
+use crate::pipeline::source::PointFiles;
 
 #[derive(Args, Clone)]
 pub(super) struct Input {
@@ -75,8 +75,8 @@ pub(super) struct ModelInput {
 
 impl ModelInput {
     /// Where the static model's points come from, as the pipelines take it.
-    pub(super) fn source(&self) -> Source {
-        Source {
+    pub(super) fn source(&self) -> PointFiles {
+        PointFiles {
             points: self.points.clone(),
             runs: self.runs.clone(),
             maps: self.maps.list.clone(),

@@ -19,7 +19,7 @@ use crate::firmware::export::ExportError;
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::GpConfig;
 use crate::pipeline::ChannelEntry;
-use crate::pipeline::source::Source;
+use crate::pipeline::source::PointFiles;
 use crate::pipeline::text::render_diagnosis;
 use crate::progress::Messages;
 
@@ -27,7 +27,7 @@ use crate::progress::Messages;
 #[derive(Clone, Debug)]
 pub struct InvestigatePlan {
     /// Where the static model's points come from.
-    pub source: Source,
+    pub source: PointFiles,
     /// The GP's settings.
     pub gp: GpConfig,
     /// The causes to extend by; `None`: those the diagnosis names.

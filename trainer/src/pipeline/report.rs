@@ -14,7 +14,7 @@ use crate::data::summary::Summary;
 use crate::firmware::autopilot::SensorCubics;
 use crate::models::gp::GpConfig;
 use crate::pipeline::fit::unit_cubics;
-use crate::pipeline::source::Source;
+use crate::pipeline::source::PointFiles;
 use crate::progress::Messages;
 use crate::report::unit::ChannelSection;
 use crate::report::{self, Report, ReportKind};
@@ -23,7 +23,7 @@ use crate::report::{self, Report, ReportKind};
 #[derive(Clone, Debug)]
 pub struct ReportPlan {
     /// Where the static model's points come from.
-    pub source: Source,
+    pub source: PointFiles,
     /// The GP's settings.
     pub gp: GpConfig,
 }
@@ -138,7 +138,7 @@ impl ReportPlan {
 
 /// The report on `source`'s rate table alone.
 fn table(
-    source: &Source,
+    source: &PointFiles,
     summaries: Vec<Summary>,
     gp: &GpConfig,
     messages: &dyn Messages,
@@ -152,7 +152,7 @@ fn table(
 /// The report on a log's parts, the static points from `source` (its rate table, or the
 /// training part's block means).
 fn logs(
-    source: &Source,
+    source: &PointFiles,
     (named, kind): (std::path::PathBuf, ReportKind),
     summaries: Vec<Summary>,
     (path, train, valid, said): (&Path, &Stream, Stream, String),

@@ -1,6 +1,6 @@
 //! Where a static model's points come from: a rate table (other power-ons' tables pooled with it),
 //! a stream's 60 s block means, or, pooled, every sample of the streams. The command line reads
-//! its flags into a [`Source`]; a unit's channel gets its own ([`Source::for_channel`]), so that
+//! its flags into a [`PointFiles`]; a unit's channel gets its own ([`PointFiles::for_channel`]), so that
 //! every channel is fitted as one channel is.
 
 use std::path::{Path, PathBuf};
@@ -16,7 +16,7 @@ use crate::progress::Messages;
 
 /// The files and settings a static model's points are read with.
 #[derive(Clone, Debug)]
-pub struct Source {
+pub struct PointFiles {
     /// The rate table; without it the points come from the streams.
     pub points: Option<PathBuf>,
     /// Other power-ons' rate tables of the same sensor, pooled with `points`, each a run.
@@ -33,7 +33,7 @@ pub struct Source {
     pub quantity: Quantity,
 }
 
-impl Source {
+impl PointFiles {
     /// The source of channel `k` of `channels`, as if it were a single channel's: its columns
     /// mapped onto the canonical ones (a rate table read as a table), and its scale factor (the
     /// one it gives; without a rate table, 1 for an output in a physical unit: a bias model).

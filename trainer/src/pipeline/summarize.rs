@@ -6,7 +6,7 @@ use std::path::Path;
 
 use firmware_core::Quantity;
 use fog_data::channels::{Channels, Read};
-use fog_data::columns::{ColumnMap, Source};
+use fog_data::columns::{ColumnMap, ColumnSource};
 use serde::Serialize;
 
 use crate::data::points::{Points, Screen};
@@ -56,7 +56,7 @@ pub fn unit_summaries(
                 Some(s) => {
                     let summary = summary::of_stream(&file, &s[k], &own);
                     match (&channels.recorded, &ch.output) {
-                        (Some(sensor), Source::Column { name, .. }) => {
+                        (Some(sensor), ColumnSource::Column { name, .. }) => {
                             summary.recorded_from(sensor, name)
                         }
                         _ => summary,

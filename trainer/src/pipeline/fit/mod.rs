@@ -33,7 +33,7 @@ use crate::firmware::export::{self, Extension};
 use crate::firmware::unit::{self, ChannelBlob};
 use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
 use crate::pipeline::ChannelEntry;
-use crate::pipeline::source::Source;
+use crate::pipeline::source::PointFiles;
 use crate::progress::Messages;
 
 pub mod report;
@@ -65,7 +65,7 @@ pub enum Extend {
 #[derive(Clone)]
 pub struct FitPlan {
     /// Where the static model's points come from.
-    pub source: Source,
+    pub source: PointFiles,
     /// The GP's settings, as asked (its size resolved per channel).
     pub gp: GpConfig,
     /// Each group of the rate table its own offset (`--offsets`).
