@@ -31,8 +31,8 @@ pub enum ExportError {
         /// Model inputs.
         inputs: usize,
     },
-    /// The firmware encoder or decoder refused the blob.
-    #[error("blob: {0}")]
+    /// The firmware encoder or decoder refused the blob (its reason says so: "blob truncated").
+    #[error(transparent)]
     Blob(#[from] firmware_core::BlobError),
     /// A unit blob could not be made of its channels' blobs, or does not compute what they do.
     #[error("unit blob: {0}")]

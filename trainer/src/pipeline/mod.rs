@@ -6,6 +6,7 @@
 pub mod allan;
 pub mod diagnose;
 pub mod fit;
+pub mod inspect;
 pub mod investigate;
 pub mod loo;
 pub mod report;
