@@ -145,8 +145,9 @@ pub fn run(image: &Path, blob: &[u8], streams: &[&Stream]) -> Result<QemuRun, Qe
             c.rate_dps.len()
         )));
     }
-    let first = records.len() / samples.max(1) * samples.min(COST_SAMPLES);
-    let (counted, cost) = session(image, blob, &records[..first], true)?;
+    let record_bytes = records.len() / samples.max(1);
+    let first = &records[..record_bytes * samples.min(COST_SAMPLES)];
+    let (counted, cost) = session(image, blob, first, true)?;
     let agree = counted.iter().zip(&compensated).all(|(c, all)| {
         let n = c.rate_dps.len();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

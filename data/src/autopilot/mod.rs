@@ -158,8 +158,8 @@ impl Recorded {
     }
 
     /// What a calibration must be told about the log, a line each: its damage, then each kind of
-    /// finding with the sensors taken it holds for ([`Sensor::findings`]), then what else it
-    /// holds.
+    /// finding with the sensors it holds for, of those [`Self::taken`] ([`Sensor::findings`]),
+    /// then what else it holds.
     pub fn notes(&self) -> Vec<String> {
         let mut out = Vec::new();
         if let Some(d) = &self.damage {
