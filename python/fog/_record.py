@@ -11,8 +11,10 @@ class Record:
     the plain JSON back. Each contract and each object in it has a class of its own in
     `fog.records`, its fields annotated and documented."""
 
-    _nested: ClassVar[dict[str, type[Record]]] = {}
-    """The class each nested object field is read as (the items' class, for a list)."""
+    _nested: ClassVar[dict[str, type[Record] | tuple[type[Record], ...]]] = {}
+    """The class each nested object field is read as (the items' class, for a list); for a field
+    that may hold either of several, their tuple, of which the one whose fields the object's are
+    is taken."""
 
     def __init__(self, fields: dict[str, Any]):
         self._fields = fields
@@ -60,12 +62,25 @@ class Record:
         return f"{type(self).__name__}({shown})"
 
 
-def _wrap(value: Any, cls: type[Record]) -> Any:
+def _wrap(value: Any, cls: type[Record] | tuple[type[Record], ...]) -> Any:
     if isinstance(value, dict):
-        return cls(value)
+        return _class_of(value, cls)(value)
     if isinstance(value, list):
         return [_wrap(v, cls) for v in value]
     return value
+
+
+def _class_of(value: dict[str, Any], cls: type[Record] | tuple[type[Record], ...]) -> type[Record]:
+    """`cls`, or of several the one that names every field of `value` and leaves fewest of its own
+    out (each class's fields are its annotations)."""
+    if not isinstance(cls, tuple):
+        return cls
+    keys = set(value)
+
+    def fields(c: type[Record]) -> set[str]:
+        return {name for k in c.__mro__ for name in getattr(k, "__annotations__", {})}
+
+    return min(cls, key=lambda c: (not keys <= fields(c), len(fields(c) - keys)))
 
 
 def _short(value: Any) -> str:

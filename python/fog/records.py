@@ -2073,13 +2073,14 @@ class UnitFootprint(Record):
 
     unit_bytes: int
     """RAM of that `StaticUnit` on a 32-bit target, bytes: 4·N, each channel's bookkeeping and the unit's (its ID, range and shared features)."""
-FitRecord._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
+SummarizeRecord._nested = {"files": (Summary, ChannelSummary)}
+FitRecord._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
 FitUnitRecord._nested = {"autopilot": SensorCubics, "budget": Report, "channels": ChannelEntry, "footprint": UnitFootprint}
 DiagnoseRecord._nested = {"candidates": CauseFit, "steps": Step}
 DiagnoseUnitRecord._nested = {"channels": ChannelEntryTrainerDiagnoseUnit}
 InvestigateRecord._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 InvestigateUnitRecord._nested = {"channels": ChannelEntryTrainerInvestigateUnit}
-LooRecord._nested = {"calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "per_temperature": GroupRmse, "sigma_groups": Coverage}
+LooRecord._nested = {"calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
 ReproduceRecord._nested = {"fig2": Fig2, "gpr": Evaluation, "lssvr": Evaluation, "two_step": Evaluation}
 ChallengeRecord._nested = {"cases": Case, "summary": ChallengeSummary}
 ReportRecord._nested = {"held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
@@ -2087,7 +2088,7 @@ ReportUnitRecord._nested = {"channels": ChannelFigures}
 AllanUnitRecord._nested = {"channels": ChannelEntryTrainerAllanUnit}
 AgreementReport._nested = {"grid_beyond": Agreement, "grid_inside": Agreement, "training": Agreement}
 Calibration._nested = {"before": Coverage, "coverage": Coverage, "sources": SourceSummary}
-ChannelEntry._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
+ChannelEntry._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
 ChannelEntryTrainerDiagnoseUnit._nested = {"diagnosis": Diagnosis}
 ChannelEntryTrainerInvestigateUnit._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures}
@@ -2096,7 +2097,7 @@ Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize,
 CrossRun._nested = {"sigma": Coverage}
 CubicFigures._nested = {"ardupilot_script": CubicScore, "project": CubicScore, "px4_script": CubicScore}
 Diagnosis._nested = {"candidates": CauseFit, "steps": Step}
-Evaluation._nested = {"calibration": Calibration, "diagnosis": TableReport, "per_temperature": GroupRmse, "sigma_groups": Coverage}
+Evaluation._nested = {"calibration": Calibration, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
 Extension._nested = {"terms": Term}
 ExtensionFit._nested = {"extension": Extension, "fits": CauseFit, "point_offsets": PointOffset}
 Fig2._nested = {"per_rate": RateLineFit, "worst": RateLineFit}

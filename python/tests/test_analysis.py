@@ -105,3 +105,17 @@ def test_every_record_class_names_its_fields_types():
         assert all(k in hints for k in cls.__annotations__), name
     assert fog.records.BY_SCHEMA["trainer.allan"] is fog.records.AllanRecord
     assert "tau_s" in typing.get_type_hints(fog.records.AllanRecord)
+
+
+def test_a_field_of_either_of_two_classes_is_read_as_the_one_its_fields_name():
+    """A fit's `extension` is an `Extension` or an `ExtensionFit`, a `loo`'s `parameters` one of
+    four methods' fields: each object is read as the class whose fields it holds."""
+    r = fog.records
+    alone = {"offset": 0.1, "temperature": None, "terms": []}
+    fitted = {"extension": alone, "fits": [], "point_offsets": []}
+    assert type(r.FitRecord({"extension": alone}).extension) is r.Extension
+    ext = r.FitRecord({"extension": fitted}).extension
+    assert type(ext) is r.ExtensionFit
+    assert type(ext.extension) is r.Extension
+    poly = {name: 0 for name in r.PolyModel.__annotations__}
+    assert type(r.LooRecord({"parameters": poly}).parameters) is r.PolyModel

@@ -43,7 +43,7 @@ pub fn python_records(contracts: &[&Contract]) -> String {
             about.as_deref().unwrap_or_default()
         );
         class(&mut out, (&name, &doc), root, &classes, &types);
-        nested.push_str(&nested_map(&name, root, &classes));
+        nested.push_str(&nested_map(&name, root, (&classes, &types)));
         by_schema.push_str(&format!("    \"{}\": {name},\n", s.name));
         all.push(name);
     }
@@ -56,7 +56,7 @@ pub fn python_records(contracts: &[&Contract]) -> String {
             .and_then(Value::as_str)
             .unwrap_or(name);
         class(&mut out, (class_name, doc), def, &classes, &types);
-        nested.push_str(&nested_map(class_name, def, &classes));
+        nested.push_str(&nested_map(class_name, def, (&classes, &types)));
         all.push(class_name.clone());
     }
     out.push_str(&nested);
@@ -111,11 +111,19 @@ fn class(
     }
 }
 
-/// The line that tells a class which classes its nested fields are read as.
-fn nested_map(name: &str, fields: &Value, classes: &BTreeMap<&str, String>) -> String {
+/// The line that tells a class which classes its nested fields are read as: one class, or, for
+/// a field that may hold either of several, a tuple of them (the reader picks by the fields).
+fn nested_map(name: &str, fields: &Value, known: Known<'_>) -> String {
     let entries: Vec<String> = properties(fields)
         .filter(|(field, _)| *field != "schema")
-        .filter_map(|(field, p)| object_class(p, classes).map(|c| format!("\"{field}\": {c}")))
+        .filter_map(|(field, p)| match object_classes(p, known).as_slice() {
+            [] => None,
+            [one] => Some(format!("\"{field}\": {one}")),
+            several => {
+                let names: Vec<&str> = several.iter().map(|c| c.as_str()).collect();
+                Some(format!("\"{field}\": ({})", names.join(", ")))
+            }
+        })
         .collect();
     if entries.is_empty() {
         return String::new();
@@ -133,30 +141,33 @@ fn properties(fields: &Value) -> impl Iterator<Item = (&str, &Value)> {
         .map(|(k, v)| (k.as_str(), v))
 }
 
-/// The class of the objects a field holds (itself, or the items of its list), where they are of
-/// one generated class.
-fn object_class<'c>(v: &Value, classes: &'c BTreeMap<&str, String>) -> Option<&'c String> {
+/// The generated classes of the objects a field holds (itself, or the items of its list): one,
+/// several where it may hold either, none where it holds no record.
+fn object_classes<'c>(v: &'c Value, known: Known<'c>) -> Vec<&'c String> {
+    let (classes, types) = known;
     if let Some(name) = ref_name(v) {
-        return classes.get(name);
+        return match (classes.get(name), types.get(name)) {
+            (Some(c), _) => vec![c],
+            // A type that is no record of its own, but a choice of records.
+            (None, Some(def)) => object_classes(def, known),
+            (None, None) => Vec::new(),
+        };
     }
     for key in ["anyOf", "oneOf"] {
         if let Some(list) = v.get(key).and_then(Value::as_array) {
-            let found: Vec<&String> = list
-                .iter()
-                .filter_map(|x| object_class(x, classes))
-                .collect();
-            return match found.as_slice() {
-                [one] => Some(one),
-                _ => None,
-            };
+            return list.iter().flat_map(|x| object_classes(x, known)).collect();
         }
     }
     if let Some([one]) = v.get("allOf").and_then(Value::as_array).map(Vec::as_slice) {
-        return object_class(one, classes);
+        return object_classes(one, known);
     }
     v.get("items")
-        .and_then(|items| object_class(items, classes))
+        .map(|items| object_classes(items, known))
+        .unwrap_or_default()
 }
+
+/// The generated classes by type name, and every type's definition by name.
+type Known<'a> = (&'a BTreeMap<&'a str, String>, &'a BTreeMap<String, Value>);
 
 /// Whether a type is an object with fields of its own (a record), not a value or a choice of
 /// words.
