@@ -689,3 +689,44 @@ fn the_sensors_limits_are_checked_against_the_data_and_written_into_the_blob() {
     );
     assert_eq!(at(-41.0, &mut scratch), firmware_core::Status::Fault);
 }
+
+/// Another run's table is held out by `loo --valid-points`, as a log by `--valid-stream`; the
+/// flag's former name, `--test-points`, still does the same.
+#[test]
+fn loo_holds_out_another_table_by_either_name() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    std::fs::copy(dir.path().join("p.csv"), dir.path().join("q.csv")).unwrap();
+    let cross = |flag: &str, json: &str| {
+        let args = [
+            "loo", "--points", "p.csv", flag, "q.csv", "--method", "two-step",
+        ];
+        let out = trainer(&[&args[..], &["--json", json, "-q"]].concat(), dir.path());
+        assert_eq!(out.status.code(), Some(0), "{flag}: {out:?}");
+        let text = std::fs::read_to_string(dir.path().join(json)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["cross_run"].clone()
+    };
+    let valid = cross("--valid-points", "v.json");
+    assert_eq!(valid["n"], 48, "{valid}");
+    assert_eq!(cross("--test-points", "t.json"), valid);
+}
+
+/// A blob cut short is refused with its name and the firmware's reason, said once.
+#[test]
+fn inspect_names_a_blob_it_cannot_decode_and_why_once() {
+    let dir = tempfile::tempdir().unwrap();
+    rate_table(dir.path());
+    let fit = trainer(
+        &["fit", "--points", "p.csv", "--out", "m.bin", "-q"],
+        dir.path(),
+    );
+    assert_eq!(fit.status.code(), Some(0), "{fit:?}");
+    let blob = std::fs::read(dir.path().join("m.bin")).unwrap();
+    std::fs::write(dir.path().join("cut.bin"), &blob[..blob.len() / 2]).unwrap();
+    let out = trainer(&["inspect", "cut.bin"], dir.path());
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("decoding cut.bin: "), "{err}");
+    assert_eq!(err.matches("truncated").count(), 1, "{err}");
+}
