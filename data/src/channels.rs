@@ -31,6 +31,7 @@ use std::sync::Arc;
 
 use firmware_core::Quantity;
 use firmware_core::blob::unit::{NAME_BYTES, SENSOR_ID_BYTES};
+use firmware_core::unit::SINGLE_CHANNEL;
 use serde::Deserialize;
 
 use crate::autopilot::{Recorded, RecordedError, Sensor, gravity_reference};
@@ -164,6 +165,9 @@ pub struct Channels {
     pub recorded: Option<Arc<Sensor>>,
     /// The name the user gave that sensor (`--sensor gyro0=front`), where one was given.
     pub renamed: Option<String>,
+    /// A CSV of one channel ([`Channels::single`]): read by its canonical columns, `--map`
+    /// renaming any of them.
+    pub single: bool,
 }
 
 /// A channels file that cannot be used.
@@ -337,7 +341,36 @@ impl Channels {
             list,
             recorded: None,
             renamed: None,
+            single: false,
         })
+    }
+
+    /// A CSV of one channel (`time_s,temp_c,voltage_v,rate_dps`, or what `--map` names) as a unit
+    /// of one: its channel is the firmware's [`SINGLE_CHANNEL`], a gyro whose raw output is
+    /// `voltage_v` and whose reference is `rate_dps`, read as every log of one channel is
+    /// ([`Stream::load`]), so that every command has one path for one channel and for many.
+    pub fn single(path: &Path) -> Self {
+        let column = |name: &str| ColumnSource::Column {
+            name: name.to_owned(),
+            factor: 1.0,
+        };
+        Self {
+            path: path.to_owned(),
+            sensor_id: String::new(),
+            time: None,
+            temperature: None,
+            list: vec![Channel {
+                name: SINGLE_CHANNEL.to_owned(),
+                quantity: Quantity::AngularRate,
+                unit: OutputUnit::Raw("V".to_owned()),
+                output: column("voltage_v"),
+                reference: column("rate_dps"),
+                scale_factor: None,
+            }],
+            recorded: None,
+            renamed: None,
+            single: true,
+        }
     }
 
     /// A flight controller log's sensor as a unit's channels, as a channels file would name them:
@@ -374,6 +407,7 @@ impl Channels {
             list,
             recorded: Some(Arc::clone(sensor)),
             renamed: None,
+            single: false,
         }
     }
 
@@ -425,6 +459,49 @@ impl Channels {
         Ok(())
     }
 
+    /// `--scale-factor K` (raw output per °/s): one channel's data take it as their channel's; a
+    /// unit's channels give theirs in its file (or are in a physical unit), and it is refused
+    /// there, as a scale factor that is not a finite non-zero number is.
+    pub fn take_scale_factor(&mut self, k: Option<f64>) -> Result<(), ChannelsError> {
+        let invalid = |why: String| ChannelsError::Invalid {
+            path: self.path.clone(),
+            why,
+        };
+        match k {
+            Some(k) if !(k.is_finite() && k != 0.0) => Err(invalid(format!(
+                "--scale-factor {k}: a scale factor is a finite non-zero number"
+            ))),
+            Some(_) if !self.single => Err(invalid(
+                "--scale-factor is for one channel: a unit's channels give theirs in its \
+                 channels file, or are in a physical unit"
+                    .to_owned(),
+            )),
+            _ => {
+                if self.single {
+                    self.list[0].scale_factor = k;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// How the lines about channel `k` name it: by its name, or (one channel's CSV, a unit of one)
+    /// not at all.
+    pub fn label(&self, k: usize) -> &str {
+        match self.list.get(k) {
+            Some(ch) if !self.single => &ch.name,
+            _ => "",
+        }
+    }
+
+    /// `result`, its error naming channel `k` ([`Self::label`]: not for one channel's CSV).
+    pub fn in_channel<T>(&self, k: usize, result: anyhow::Result<T>) -> anyhow::Result<T> {
+        match self.label(k) {
+            "" => result,
+            label => anyhow::Context::with_context(result, || format!("channel {label}")),
+        }
+    }
+
     /// Number of channels.
     pub fn len(&self) -> usize {
         self.list.len()
@@ -445,6 +522,9 @@ impl Channels {
         maps: &[ColumnMap],
         read: Read,
     ) -> Result<Vec<ColumnMap>, ChannelsError> {
+        if self.single {
+            return Ok(maps.to_vec());
+        }
         let mut out = self.shared_maps(maps, read)?;
         if let Some(ch) = self.list.get(k) {
             out.push(ColumnMap {
@@ -503,6 +583,9 @@ impl Channels {
     /// reference as `rate_dps`), the time checked once and the minutes where the unit was handled
     /// found on any channel and left out of every channel.
     pub fn load_log(&self, path: &Path, maps: &[ColumnMap]) -> anyhow::Result<Vec<Stream>> {
+        if self.single {
+            return Ok(vec![Stream::load(path, maps)?]);
+        }
         if let Some(sensor) = &self.recorded {
             anyhow::ensure!(
                 maps.is_empty(),

@@ -15,6 +15,7 @@
 use firmware_core::blob::Dims;
 use firmware_core::model::{Model, Prediction};
 use firmware_core::record;
+use firmware_core::unit::SINGLE_CHANNEL;
 use firmware_core::unit::{Numbers, Unit, UnitSample};
 use firmware_core::{BlobError, ErrorModel, FeatureState, Sample, Status};
 use serde::Serialize;
@@ -262,15 +263,16 @@ pub fn replay_unit(
 }
 
 /// The streams of a unit's log (`names`: the channels file's, in its order) in the order of the
-/// unit's channels, matched by name; a model blob's one channel takes a log of one channel.
+/// unit's channels, matched by name; a blob of one channel takes a log of one channel where
+/// either is one channel's data (named [`SINGLE_CHANNEL`]).
 pub fn in_unit_order<'a>(
     unit: &HostUnit,
     names: &[&str],
     streams: &'a [Stream],
 ) -> Result<Vec<&'a Stream>, String> {
     let ours = unit.channels();
-    if let ([only], [stream]) = (ours, streams)
-        && only.name() == firmware_core::unit::SINGLE_CHANNEL
+    if let ([only], [stream], [name]) = (ours, streams, names)
+        && (only.name() == SINGLE_CHANNEL || *name == SINGLE_CHANNEL)
     {
         return Ok(vec![stream]);
     }
@@ -325,8 +327,12 @@ pub fn unit_scores(
         .collect()
 }
 
-/// A unit's compensated CSV: time and temperature, then each channel's columns of [`to_csv`]
-/// prefixed by its name (`gyro.x.comp_rate_dps`; its values in its quantity's unit).
+/// A unit's compensated CSV (docs/design.md §3): time and temperature, then each channel's
+/// output and reference (empty where unknown), `comp_rate_dps`, `comp_std_dps` (the sample's σ:
+/// bias and noise), `status` and `comp_bias_std_dps` (the bias part alone, which a mean keeps),
+/// its values in its quantity's unit. Where the unit has several channels, each column is
+/// prefixed by its channel's name (`gyro.x.comp_rate_dps`); one channel's are the canonical
+/// names (`voltage_v`, `rate_dps`, `comp_rate_dps`, …).
 pub fn unit_csv(unit: &HostUnit, streams: &[&Stream], comps: &[Compensated]) -> String {
     let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
     let mut s = String::from("time_s,temp_c");
@@ -339,7 +345,11 @@ pub fn unit_csv(unit: &HostUnit, streams: &[&Stream], comps: &[Compensated]) -> 
             "status",
             "comp_bias_std_dps",
         ] {
-            s.push_str(&format!(",{n}.{col}"));
+            if names.len() == 1 {
+                s.push_str(&format!(",{col}"));
+            } else {
+                s.push_str(&format!(",{n}.{col}"));
+            }
         }
     }
     s.push('\n');
@@ -626,24 +636,6 @@ pub fn degraded_reason(stream: &Stream, score: &Score) -> Option<String> {
     })
 }
 
-/// The compensated CSV (docs/design.md §3): the stream's canonical columns, then `comp_rate_dps`,
-/// `comp_std_dps` (the sample's σ: bias and noise), `status`, `comp_bias_std_dps` (the bias part
-/// alone, which a mean keeps). An unknown reference stays an empty cell.
-pub fn to_csv(stream: &Stream, comp: &Compensated) -> String {
-    let mut s = String::from(
-        "time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,comp_std_dps,status,comp_bias_std_dps\n",
-    );
-    for i in 0..stream.len() {
-        s.push_str(&format!(
-            "{},{},{}\n",
-            stream.time_s[i],
-            stream.temp_c[i],
-            csv_cells(stream, comp, i)
-        ));
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -702,7 +694,12 @@ mod tests {
         assert_eq!(sc.sigma_60s.within_2sigma, 0.5);
         assert_eq!(sc.sigma_60s.within_1sigma, 0.0);
         assert!(sc.sigma_60s.median_sigma > 0.5 * first);
-        let csv = to_csv(&s, &comp);
+        let one = decode_unit(GYRO).unwrap();
+        let csv = unit_csv(&one, &[&s], std::slice::from_ref(&comp));
+        assert!(
+            csv.starts_with("time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,"),
+            "{csv}"
+        );
         assert!(csv.lines().nth(6).unwrap().starts_with("5,20,0,,"), "{csv}");
         // What the figures leave out, in one line: a fault is not scored, nor a row without a
         // reference.

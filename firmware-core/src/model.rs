@@ -269,7 +269,9 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         }
     }
 
-    /// Decodes and validates a blob. Every way a blob can be wrong is a [`BlobError`].
+    /// Decodes and validates a model blob, or a unit blob of one channel (its model). Every way a
+    /// blob can be wrong is a [`BlobError`]; a unit of several channels is
+    /// [`BlobError::CapacityExceeded`] (decode it as a [`crate::unit::Unit`]).
     pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
         let mut model = Self::new();
         model.decode_into(bytes)?;
@@ -330,6 +332,22 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         bytes: &[u8],
         keep: impl FnMut(f32) -> Result<(), ()>,
     ) -> Result<(Dims, Read<Vec<Feature, D>, Vec<u8, E>>), BlobError> {
+        if bytes.get(..4) == Some(&blob::unit::MAGIC[..]) {
+            // A unit blob of one channel (what `trainer fit` writes for one channel's data) is
+            // that channel's model, as a unit reads a model blob as a unit of one.
+            let header = blob::unit::read_header(bytes)?;
+            capacity(Storage::Channels, header.channels, 1)?;
+            let payload = blob::unit::read_payload::<1>(&header)?;
+            let [entry] = payload.channels.as_slice() else {
+                return Err(BlobError::Malformed);
+            };
+            let dims = entry.dims();
+            let read = read_numbers::<D, E>((dims, N), header.model_version, entry.model, keep)?;
+            if read.error.is_none() {
+                return Err(BlobError::Malformed);
+            }
+            return Ok((dims, read));
+        }
         let header = blob::read_header(bytes)?;
         let dims = header.dims;
         let read = read_numbers::<D, E>((dims, N), header.version, header.payload, keep)?;

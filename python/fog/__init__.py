@@ -14,7 +14,7 @@ import json
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, Iterator, Union
+from typing import Any, Iterator
 
 from . import _fog, records
 from ._record import Record
@@ -43,9 +43,6 @@ __all__ = [
     "Status",
     "__version__",
     "Calibration",
-    "FitReport",
-    "Investigation",
-    "ReportFigures",
     "records",
     "allan",
     "calibrate",
@@ -109,13 +106,15 @@ def _command(args: list[str]) -> None:
         _fog.trainer(args)
 
 
-def allan(time_s, rate_dps, reference_dps=None, what: str = "rate") -> records.AllanRecord:
+def allan(
+    time_s, rate_dps, reference_dps=None, what: str = "rate"
+) -> records.AllanAnalysisRecord:
     """The overlapping Allan deviation of `rate_dps` (less `reference_dps` where given; NaN where
-    unknown), with its noise terms, as `trainer allan --json` gives it: `tau_s`, `adev_dps`,
+    unknown), with its noise terms, as `trainer allan --json` gives each channel's: `tau_s`, `adev_dps`,
     `adev_lo_dps`, `adev_hi_dps`, `arw_deg_per_sqrt_h`, `bias_instability_deg_per_h` (at
     `bias_instability_tau_s`) and `rrw_deg_per_h_per_sqrt_h` (None where the curve does not show
     the term)."""
-    return records.AllanRecord(_fog.allan(time_s, rate_dps, reference_dps, what))
+    return records.AllanAnalysisRecord(_fog.allan(time_s, rate_dps, reference_dps, what))
 
 
 def summarize(
@@ -180,12 +179,6 @@ def _arguments(**options: Any) -> list[str]:
     return args
 
 
-FitReport = Union["records.FitRecord", "records.FitUnitRecord"]
-"""A fit's report: one channel's (`trainer.fit`) or a unit's (`trainer.fit-unit`)."""
-Investigation = Union["records.InvestigateRecord", "records.InvestigateUnitRecord"]
-"""An investigation: one channel's or a unit's."""
-ReportFigures = Union["records.ReportRecord", "records.ReportUnitRecord"]
-"""The figures behind a report's page: one channel's or a unit's."""
 
 
 def _record(path: Path) -> Any:
@@ -200,7 +193,7 @@ class Calibration:
     controller's log of several sensors gives one of each per sensor: `models` and `reports`, by
     sensor name."""
 
-    def __init__(self, models: dict[str, Model], reports: dict[str, FitReport]):
+    def __init__(self, models: dict[str, Model], reports: dict[str, records.FitRecord]):
         self.models = models
         self.reports = reports
 
@@ -210,7 +203,7 @@ class Calibration:
         return self._one(self.models)
 
     @property
-    def report(self) -> FitReport:
+    def report(self) -> records.FitRecord:
         """The fit's report, where the log held one sensor (or one unit)."""
         return self._one(self.reports)
 
@@ -289,7 +282,7 @@ def investigate(
     sensor=None,
     quiet: bool = True,
     **options: Any,
-) -> Investigation | dict[str, records.InvestigateUnitRecord]:
+) -> records.InvestigateRecord | dict[str, records.InvestigateRecord]:
     """What the static model gets wrong on a stream, forward in time, as `trainer investigate`
     finds it in this process and by its own code: the diagnosis on the training part, the
     extended model's inputs and the gain on the part held out (`valid_stream`, or the log from
@@ -333,7 +326,7 @@ def report(
     sensor=None,
     quiet: bool = True,
     **options: Any,
-) -> ReportFigures | dict[str, records.ReportUnitRecord]:
+) -> records.ReportRecord | dict[str, records.ReportRecord]:
     """Writes `trainer report`'s page and figures into `out_dir`, in this process and by the
     command's own code, and returns the figures behind the page (its `report.json`): for a flight
     controller's log of several sensors, a dict of them by sensor name (a page each, in a folder

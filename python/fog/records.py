@@ -13,106 +13,12 @@ from ._record import Record
 class SummarizeRecord(Record):
     """`trainer.summarize` (version 1), as `trainer summarize --json` writes it. A body of one entry per file read, under `files`."""
 
-    files: list[Summary | list[ChannelSummary]]
+    files: list[list[ChannelSummary]]
     """Each file's, in the order given."""
 
 
 class FitRecord(Record):
-    """`trainer.fit` (version 1), as `trainer fit --json` writes it. What `trainer fit --json` writes (docs/design.md §6): the fitted GP, the extension that shipped, and how the firmware's f32 evaluation follows the host."""
-
-    beyond: BeyondChoice | None
-    """What the mean does beyond the trained range, and why."""
-
-    blob_bytes: int
-    """The blob's size."""
-
-    budget: Report | None
-    """How the budget was met, where one was given."""
-
-    calibration: Calibration | None
-    """The shipped model's σ, measured on the training data alone."""
-
-    causes: list[str]
-    """The causes whose extension was fitted and checked last: the named ones, or the nested design that shipped in their place."""
-
-    centres: int
-    """Centres in the blob: training points for an exact GP, inducing points for a sparse one."""
-
-    centres_choice: Choice | None
-    """How the default chose a sparse GP's size for more points than the firmware holds."""
-
-    diagnosis: Diagnosis
-    """The diagnosis of the training stream's residuals."""
-
-    extension: Extension | ExtensionFit | None
-    """The extension in the blob, where one shipped."""
-
-    features: list[str] | list[str | Record]
-    """The model's inputs: the points' columns, or the firmware's features once extended."""
-
-    firmware_agreement: AgreementReport
-    """The firmware's f32 evaluation of the blob as written against the host's f64: on the training points, a grid over the trained range and 10% beyond."""
-
-    fit_seconds: float
-    """Wall time of the static fit, s (the one field two runs do not share)."""
-
-    forward_check: ForwardCheck | None
-    """The extension against the static model on the stream's later part, each fitted on the earlier."""
-
-    handled: list[Handled]
-    """The streams' handling events, left out of the fit."""
-
-    hyperparameters: Hyperparameters
-    """Length scales, signal and noise σ (normalized inputs and output)."""
-
-    jitter: float
-    """Jitter added to the kernel's diagonal for its Cholesky factor (0: none needed)."""
-
-    log_marginal_likelihood: float
-    """The GP's log marginal likelihood (a sparse GP's bound), on the normalized data."""
-
-    mean_basis: str | Record
-    """The prior mean's basis (`physics`, `constant`, `polyN`)."""
-
-    n_train: int
-    """Points the static model was fitted on."""
-
-    optimization: Record
-    """How the chosen start's optimization ended."""
-
-    output_scale: float
-    """The output's normalization scale, its units."""
-
-    pool_check: PoolCheck | None
-    """The pooled model against the table's alone, forward in time (`--pool-stream` with `--points`)."""
-
-    prior_mean: PolyPrior
-    """The prior mean's terms and their GLS coefficients."""
-
-    scale_factor: float | None
-    """The nominal scale factor the bias was learned with (`--scale-factor`, or a unit's), output units per °/s; `null` for the map ω = f(T, output)."""
-
-    shipped: str
-    """Which model ships: `static` or `extended`."""
-
-    sparse: SparseFit | None
-    """The sparse fit (method, inducing points, bound), where sparse."""
-
-    starts: list[StartReport]
-    """Every optimizer start: where it began and ended."""
-
-    table_diagnosis: TableDiagnosis | None
-    """The diagnosis of a table recorded in time order (`--features auto` without a stream)."""
-
-    verdict: str
-    """Why, in words."""
-
-    warnings: list[str]
-    """What the fit warns of (no start converged, a length scale at its bound, …)."""
-
-
-class FitUnitRecord(Record):
-    """`trainer.fit-unit` (version 1), as `trainer fit --channels --json` writes it. What `trainer fit --channels --json` writes: the sensor, its trained temperature range, each channel's fit as `fit --json` gives one channel's, and what the unit's blob costs."""
+    """`trainer.fit` (version 2), as `trainer fit --json` writes it. What `trainer fit --json` writes: the sensor, its trained temperature range, each channel's fit, and what the unit's blob costs (one channel's data: a unit of one)."""
 
     autopilot: SensorCubics | None
     """The cubic per channel the autopilots' parameters were written from (`--px4-params`, `--ardupilot-params`), in the channel's units."""
@@ -137,32 +43,7 @@ class FitUnitRecord(Record):
 
 
 class InspectRecord(Record):
-    """`trainer.inspect` (version 1), as `trainer inspect --json` writes it. Size and static memory of a blob's model on the firmware."""
-
-    blob_bytes: int
-    """Blob size, bytes."""
-
-    d: int
-    """Inputs."""
-
-    floats: int
-    """Numbers in the flat array: 7d + p + 2 + m·d + m + m(m+1)/2."""
-
-    m: int
-    """Centres, inputs, prior-mean monomials."""
-
-    model_bytes: int
-    """Static memory of `Model<d, p·d, floats>` on a 32-bit target, bytes: 4·floats + p·d + d, three 4-byte vector lengths and 12 bytes of dimensions, rounded up to 4."""
-
-    p: int
-    """Prior-mean monomials."""
-
-    scratch_bytes: int
-    """Scratch the variance path needs: m f32, bytes."""
-
-
-class InspectUnitRecord(Record):
-    """`trainer.inspect-unit` (version 1), as `trainer inspect --json (a unit blob)` writes it. What a unit blob costs the firmware (`trainer inspect`, `fit --json`)."""
+    """`trainer.inspect` (version 2), as `trainer inspect --json` writes it. What a unit blob costs the firmware (`trainer inspect`, `fit --json`)."""
 
     blob_bytes: int
     """Blob size, bytes: what a calibration slot holds (two slots, twice this in flash)."""
@@ -190,99 +71,16 @@ class InspectUnitRecord(Record):
 
 
 class DiagnoseRecord(Record):
-    """`trainer.diagnose` (version 1), as `trainer diagnose --json` writes it. The diagnosis of one stream (docs/design.md §6 `diagnose` JSON)."""
+    """`trainer.diagnose` (version 2), as `trainer diagnose --json` writes it. A body of one entry per channel of a unit, under `channels`."""
 
-    add_feature: str | Record | None
-    """The input the first cause calls for, with its fitted parameter."""
-
-    add_features: list[str | Record]
-    """The inputs every named cause calls for, in order."""
-
-    candidates: list[CauseFit]
-    """Every candidate alone, best first."""
-
-    cause: str
-    """The first named cause (`none` when nothing is named)."""
-
-    causes: list[str]
-    """Every named cause, strongest first: the first predicts at least [`MIN_SCORE`] of the residual, each further one at least [`MIN_NEXT_SCORE`] of what those before it left, on interleaved chunks and forward in time."""
-
-    explanation: str
-    """What the model gets wrong and why, in words."""
-
-    n_blocks: int
-    """60 s blocks used."""
-
-    quantity: str
-    """What the channel measures: the unit of the `_dps` figures (`°/s` or `m/s²`, and the amplitudes' `_dph` that times 3600) and of the explanation's."""
-
-    residual_rmse_60s_dps: float
-    """RMS of the residual's 60 s block means, °/s (m/s² for an accelerometer: [`Self::quantity`])."""
-
-    runner_up: str | None
-    """The runner-up (best candidate other than the named cause)."""
-
-    steps: list[Step]
-    """The best try of each selection step (added or the reason to stop)."""
-
-
-class DiagnoseUnitRecord(Record):
-    """`trainer.diagnose-unit` (version 1), as `trainer diagnose --channels --json` writes it. A body of one entry per channel of a unit, under `channels`."""
-
-    channels: list[ChannelEntryTrainerDiagnoseUnit]
+    channels: list[ChannelEntryTrainerDiagnose]
     """Each channel's, in the unit's order."""
 
 
 class InvestigateRecord(Record):
-    """`trainer.investigate` (version 1), as `trainer investigate --json` writes it. The result (docs/design.md §6 names where they exist)."""
+    """`trainer.investigate` (version 2), as `trainer investigate --json` writes it. What `investigate --json` writes for a unit: each channel's investigation, its figures in `units` (the `_dps` fields too)."""
 
-    added_inputs: list[str]
-    """Inputs the shipped model adds (`--features` names)."""
-
-    beyond: BeyondChoice
-    """What both models' means do beyond the trained range, chosen on the training points."""
-
-    calibration: Calibration
-    """The shipped model's σ, measured on the training data alone."""
-
-    diagnosis: Diagnosis
-    """Diagnosis of the static model on the training stream."""
-
-    extended_score: Score
-    """The shipped model on the held-out stream."""
-
-    extension: ExtensionFit | None
-    """The extension fitted on the training stream (absent when the static model is shipped)."""
-
-    forward_check: ForwardCheck | None
-    """The extension's forward test inside the training stream (absent when nothing was named)."""
-
-    gain: float
-    """Static over shipped `rmse_60s_dps` on the held-out stream."""
-
-    shipped: str
-    """Which model was shipped: `extended` or `static`."""
-
-    static_calibration: Calibration
-    """The static model's σ, the same way."""
-
-    static_score: Score
-    """The static model on the held-out stream."""
-
-    train_handled: list[Handled]
-    """Windows of the training stream where the unit was handled, left out (the held-out stream's are in its scores)."""
-
-    verdict: str
-    """Why, in words."""
-
-    warnings: list[str]
-    """What the static fit warned of ([`GpModel::warnings`]) and what the choice warned of."""
-
-
-class InvestigateUnitRecord(Record):
-    """`trainer.investigate-unit` (version 1), as `trainer investigate --channels --json` writes it. What `investigate --json` writes for a unit: each channel's investigation, its figures in `units` (the `_dps` fields too)."""
-
-    channels: list[ChannelEntryTrainerInvestigateUnit]
+    channels: list[ChannelEntryTrainerInvestigate]
     """Each channel's investigation."""
 
     sensor_id: str
@@ -390,32 +188,7 @@ class ChallengeRecord(Record):
 
 
 class ReportRecord(Record):
-    """`trainer.report` (version 1), as `trainer report (report.json)` writes it. The figures behind a report's page, as data (`report.json` beside `report.html`): what was loaded, the paper's reproduction, the held-out investigation and what the data could and could not show. The streams and replays the figures are drawn from are left out."""
-
-    could: list[str]
-    """What these data could show."""
-
-    could_not: list[str]
-    """What they could not."""
-
-    held_out: HeldOutFigures | None
-    """The held-out part: how it was held out, and the investigation on it."""
-
-    kind: str
-    """What the data are."""
-
-    reproduction: Reproduction | None
-    """LOO evaluations and the Fig. 2 check (a rate table only)."""
-
-    source: str
-    """Where the data came from."""
-
-    summaries: list[Summary]
-    """Each file as the loader saw it."""
-
-
-class ReportUnitRecord(Record):
-    """`trainer.report-unit` (version 1), as `trainer report (report.json, a unit's page)` writes it. A unit's page as data (`report.json` beside `report.html`): each channel's held-out investigation, and the autopilots' cubics against it with the verdict."""
+    """`trainer.report` (version 2), as `trainer report (report.json)` writes it. A unit's page as data (`report.json` beside `report.html`): each channel's held-out investigation, and the autopilots' cubics against it with the verdict."""
 
     channels: list[ChannelFigures]
     """Each channel, in the unit's order."""
@@ -425,7 +198,14 @@ class ReportUnitRecord(Record):
 
 
 class AllanRecord(Record):
-    """`trainer.allan` (version 1), as `trainer allan --json` writes it. An Allan analysis of a log: the curve, its terms, and what it was computed over."""
+    """`trainer.allan` (version 2), as `trainer allan --json` writes it. A body of one entry per channel of a unit, under `channels`."""
+
+    channels: list[ChannelEntryTrainerAllan]
+    """Each channel's, in the unit's order."""
+
+
+class AllanAnalysisRecord(Record):
+    """`trainer.allan-analysis` (version 1), as `fog.allan (Python)` writes it. An Allan analysis of a log: the curve, its terms, and what it was computed over."""
 
     adev_dps: list[float]
     """Allan deviation, °/s."""
@@ -462,13 +242,6 @@ class AllanRecord(Record):
 
     tau_s: list[float]
     """Cluster times, s."""
-
-
-class AllanUnitRecord(Record):
-    """`trainer.allan-unit` (version 1), as `trainer allan --channels --json` writes it. A body of one entry per channel of a unit, under `channels`."""
-
-    channels: list[ChannelEntryTrainerAllanUnit]
-    """Each channel's, in the unit's order."""
 
 
 class Agreement(Record):
@@ -743,7 +516,7 @@ class ChallengeSummary(Record):
 
 
 class ChannelEntry(Record):
-    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too)."""
+    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields, its figures in that unit (the `_dps` fields too)."""
 
     beyond: BeyondChoice | None
     """What the mean does beyond the trained range, and why."""
@@ -845,8 +618,8 @@ class ChannelEntry(Record):
     """What the fit warns of (no start converged, a length scale at its bound, …)."""
 
 
-class ChannelEntryTrainerAllanUnit(Record):
-    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too)."""
+class ChannelEntryTrainerAllan(Record):
+    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields, its figures in that unit (the `_dps` fields too)."""
 
     adev_dps: list[float]
     """Allan deviation, °/s."""
@@ -894,8 +667,8 @@ class ChannelEntryTrainerAllanUnit(Record):
     """Its output's unit."""
 
 
-class ChannelEntryTrainerDiagnoseUnit(Record):
-    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too)."""
+class ChannelEntryTrainerDiagnose(Record):
+    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields, its figures in that unit (the `_dps` fields too)."""
 
     diagnosis: Diagnosis
     """The diagnosis, its figures in the channel's unit."""
@@ -910,8 +683,8 @@ class ChannelEntryTrainerDiagnoseUnit(Record):
     """Its output's unit."""
 
 
-class ChannelEntryTrainerInvestigateUnit(Record):
-    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too)."""
+class ChannelEntryTrainerInvestigate(Record):
+    """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields, its figures in that unit (the `_dps` fields too)."""
 
     added_inputs: list[str]
     """Inputs the shipped model adds (`--features` names)."""
@@ -968,6 +741,12 @@ class ChannelEntryTrainerInvestigateUnit(Record):
 class ChannelFigures(Record):
     """One channel of a unit's page, as data."""
 
+    could: list[str]
+    """What these data could show."""
+
+    could_not: list[str]
+    """What they could not."""
+
     cubic: CubicFigures | None
     """The autopilots' cubics held out."""
 
@@ -975,13 +754,25 @@ class ChannelFigures(Record):
     """The verdict on the cubic, as the page words it."""
 
     held_out: HeldOutFigures | None
-    """The held-out part and the investigation on it."""
+    """The held-out part: how it was held out, and the investigation on it."""
+
+    kind: str
+    """What the data are."""
 
     name: str
     """Its name."""
 
     quantity: str
     """What it measures."""
+
+    reproduction: Reproduction | None
+    """LOO evaluations and the Fig. 2 check (a rate table only)."""
+
+    source: str
+    """Where the data came from."""
+
+    summaries: list[Summary]
+    """Each file as the loader saw it."""
 
 
 class ChannelSizes(Record):
@@ -998,7 +789,7 @@ class ChannelSizes(Record):
 
 
 class ChannelSummary(Record):
-    """One channel of a unit's file, summarized (`summarize --channels --json`: one per channel)."""
+    """One channel of a unit's file, summarized (`summarize --json` lists one per channel of each file under `files`; one channel's file is a unit of one)."""
 
     channel: str
 
@@ -1671,7 +1462,7 @@ class Schema(Record):
     """A JSON output's name and version."""
 
     name: str
-    """`program.command` (`-unit` where a unit's output differs from one channel's)."""
+    """`program.command`."""
 
     version: int
     """Its version, from 1."""
@@ -2073,25 +1864,21 @@ class UnitFootprint(Record):
 
     unit_bytes: int
     """RAM of that `StaticUnit` on a 32-bit target, bytes: 4·N, each channel's bookkeeping and the unit's (its ID, range and shared features)."""
-SummarizeRecord._nested = {"files": (Summary, ChannelSummary)}
-FitRecord._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
-FitUnitRecord._nested = {"autopilot": SensorCubics, "budget": Report, "channels": ChannelEntry, "footprint": UnitFootprint}
-DiagnoseRecord._nested = {"candidates": CauseFit, "steps": Step}
-DiagnoseUnitRecord._nested = {"channels": ChannelEntryTrainerDiagnoseUnit}
-InvestigateRecord._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
-InvestigateUnitRecord._nested = {"channels": ChannelEntryTrainerInvestigateUnit}
+SummarizeRecord._nested = {"files": ChannelSummary}
+FitRecord._nested = {"autopilot": SensorCubics, "budget": Report, "channels": ChannelEntry, "footprint": UnitFootprint}
+DiagnoseRecord._nested = {"channels": ChannelEntryTrainerDiagnose}
+InvestigateRecord._nested = {"channels": ChannelEntryTrainerInvestigate}
 LooRecord._nested = {"calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
 ReproduceRecord._nested = {"fig2": Fig2, "gpr": Evaluation, "lssvr": Evaluation, "two_step": Evaluation}
 ChallengeRecord._nested = {"cases": Case, "summary": ChallengeSummary}
-ReportRecord._nested = {"held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
-ReportUnitRecord._nested = {"channels": ChannelFigures}
-AllanUnitRecord._nested = {"channels": ChannelEntryTrainerAllanUnit}
+ReportRecord._nested = {"channels": ChannelFigures}
+AllanRecord._nested = {"channels": ChannelEntryTrainerAllan}
 AgreementReport._nested = {"grid_beyond": Agreement, "grid_inside": Agreement, "training": Agreement}
 Calibration._nested = {"before": Coverage, "coverage": Coverage, "sources": SourceSummary}
 ChannelEntry._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
-ChannelEntryTrainerDiagnoseUnit._nested = {"diagnosis": Diagnosis}
-ChannelEntryTrainerInvestigateUnit._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
-ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures}
+ChannelEntryTrainerDiagnose._nested = {"diagnosis": Diagnosis}
+ChannelEntryTrainerInvestigate._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
+ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
 ChannelSizes._nested = {"sizes": Size}
 Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize, "exact": TriedSize}
 CrossRun._nested = {"sigma": Coverage}
@@ -2121,20 +1908,15 @@ TemperatureCheck._nested = {"sight": Sight}
 BY_SCHEMA: dict[str, type[Record]] = {
     "trainer.summarize": SummarizeRecord,
     "trainer.fit": FitRecord,
-    "trainer.fit-unit": FitUnitRecord,
     "trainer.inspect": InspectRecord,
-    "trainer.inspect-unit": InspectUnitRecord,
     "trainer.diagnose": DiagnoseRecord,
-    "trainer.diagnose-unit": DiagnoseUnitRecord,
     "trainer.investigate": InvestigateRecord,
-    "trainer.investigate-unit": InvestigateUnitRecord,
     "trainer.loo": LooRecord,
     "trainer.reproduce": ReproduceRecord,
     "trainer.challenge": ChallengeRecord,
     "trainer.report": ReportRecord,
-    "trainer.report-unit": ReportUnitRecord,
     "trainer.allan": AllanRecord,
-    "trainer.allan-unit": AllanUnitRecord,
+    "trainer.allan-analysis": AllanAnalysisRecord,
 }
 """The class of each contract, by its `schema` name."""
 
@@ -2142,20 +1924,15 @@ __all__ = [
     "BY_SCHEMA",
     "SummarizeRecord",
     "FitRecord",
-    "FitUnitRecord",
     "InspectRecord",
-    "InspectUnitRecord",
     "DiagnoseRecord",
-    "DiagnoseUnitRecord",
     "InvestigateRecord",
-    "InvestigateUnitRecord",
     "LooRecord",
     "ReproduceRecord",
     "ChallengeRecord",
     "ReportRecord",
-    "ReportUnitRecord",
     "AllanRecord",
-    "AllanUnitRecord",
+    "AllanAnalysisRecord",
     "Agreement",
     "AgreementReport",
     "AxisCubic",
@@ -2167,9 +1944,9 @@ __all__ = [
     "CauseFit",
     "ChallengeSummary",
     "ChannelEntry",
-    "ChannelEntryTrainerAllanUnit",
-    "ChannelEntryTrainerDiagnoseUnit",
-    "ChannelEntryTrainerInvestigateUnit",
+    "ChannelEntryTrainerAllan",
+    "ChannelEntryTrainerDiagnose",
+    "ChannelEntryTrainerInvestigate",
     "ChannelFigures",
     "ChannelSizes",
     "ChannelSummary",

@@ -26,13 +26,14 @@ def test_allan_is_the_commands(tmp_path):
         "--map", "temp_c=imu.temperature", "--map", "voltage_v=imu.gyro.z",
         "--map", "rate_dps=0", "--scale-factor", "1", "--json", out, "-q",
     )
-    cli = json.loads(out.read_text())
+    [cli] = json.loads(out.read_text())["channels"]
+    assert (cli.pop("name"), cli.pop("quantity"), cli.pop("units")) == ("rate", "angular-rate", "°/s")
     c = columns(LOG)
     t = c["timestamp"] * 1e-6
     ours = fog.allan(t, c["imu.gyro.z"] / 1.0, reference_dps=np.zeros_like(t), what="output / 1")
     for field in ("tau_s", "adev_dps", "adev_lo_dps", "adev_hi_dps"):
         assert getattr(ours, field) == cli[field], field
-    assert ours.to_dict() == {k: v for k, v in cli.items() if k != "schema"}
+    assert ours.to_dict() == cli
     assert ours.of == "output / 1 − reference"
 
 
@@ -53,7 +54,8 @@ def test_summarize_is_the_commands(tmp_path):
     maps = {"time_s": "timestamp*1e-6", "temp_c": "imu.temperature", "voltage_v": "imu.gyro.z", "rate_dps": "0"}
     out = tmp_path / "summary.json"
     run("trainer", "summarize", "--stream", LOG, *sum((["--map", f"{k}={v}"] for k, v in maps.items()), []), "--json", out, "-q")
-    cli = json.loads(out.read_text())["files"][0]
+    [cli] = json.loads(out.read_text())["files"][0]
+    assert (cli.pop("channel"), cli.pop("quantity"), cli.pop("units")) == ("rate", "angular-rate", "°/s")
     ours = fog.summarize(LOG, map=maps)
     assert ours.to_dict() == cli
     assert ours.rows == cli["rows"]
@@ -103,8 +105,9 @@ def test_every_record_class_names_its_fields_types():
         hints = typing.get_type_hints(cls)
         assert issubclass(cls, fog.Record), name
         assert all(k in hints for k in cls.__annotations__), name
-    assert fog.records.BY_SCHEMA["trainer.allan"] is fog.records.AllanRecord
-    assert "tau_s" in typing.get_type_hints(fog.records.AllanRecord)
+    assert fog.records.BY_SCHEMA["trainer.allan-analysis"] is fog.records.AllanAnalysisRecord
+    assert "tau_s" in typing.get_type_hints(fog.records.AllanAnalysisRecord)
+    assert "channels" in typing.get_type_hints(fog.records.AllanRecord)
 
 
 def test_a_field_of_either_of_two_classes_is_read_as_the_one_its_fields_name():
@@ -113,8 +116,8 @@ def test_a_field_of_either_of_two_classes_is_read_as_the_one_its_fields_name():
     r = fog.records
     alone = {"offset": 0.1, "temperature": None, "terms": []}
     fitted = {"extension": alone, "fits": [], "point_offsets": []}
-    assert type(r.FitRecord({"extension": alone}).extension) is r.Extension
-    ext = r.FitRecord({"extension": fitted}).extension
+    assert type(r.ChannelEntry({"extension": alone}).extension) is r.Extension
+    ext = r.ChannelEntry({"extension": fitted}).extension
     assert type(ext) is r.ExtensionFit
     assert type(ext.extension) is r.Extension
     poly = {name: 0 for name in r.PolyModel.__annotations__}

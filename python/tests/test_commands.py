@@ -36,7 +36,7 @@ def test_calibrate_is_trainer_fit(tmp_path):
     assert without_timings(c.report.to_dict()) == without_timings(cli)
     assert [ch.name for ch in c.report.channels] == c.model.channels
     # The report is typed as its contract: its class, and its nested objects' classes.
-    assert isinstance(c.report, fog.records.FitUnitRecord)
+    assert isinstance(c.report, fog.records.FitRecord)
     assert isinstance(c.report.channels[0], fog.records.ChannelEntry)
     assert isinstance(c.report.channels[0].firmware_agreement, fog.records.AgreementReport)
     assert isinstance(c.report.footprint, fog.records.UnitFootprint)
@@ -70,7 +70,7 @@ def test_investigate_is_trainer_investigate(tmp_path):
         *flags, "--json", out, "-q")
     ours = fog.investigate(LOG, hold_out_from=2400, scale_factor=1, map=maps)
     assert without_timings(ours.to_dict()) == without_timings(json.loads(out.read_text()))
-    assert ours.static_score.rmse_60s_dps > 0
+    assert ours.channels[0].static_score.rmse_60s_dps > 0
 
 
 def test_investigate_takes_each_sensor_of_a_boards_log(tmp_path):

@@ -63,13 +63,14 @@ impl Console {
     }
 
     /// The same policy for the lines about one channel of a unit: its heading printed now and its
-    /// results indented under it (neither where the heading is empty), its warnings named by it.
+    /// results indented under it (neither where the heading is empty), its warnings named by it
+    /// (not where the name is empty: one channel's data).
     pub fn channel(&self, name: &str, heading: &str) -> Self {
         if !heading.is_empty() {
             self.result(heading);
         }
         Self {
-            channel: Some(name.into()),
+            channel: (!name.is_empty()).then(|| name.into()),
             indent: !heading.is_empty(),
             ..self.clone()
         }

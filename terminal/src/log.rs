@@ -71,8 +71,8 @@ pub struct UnitArgs {
 
 impl UnitArgs {
     /// The units `stream` is read as: the channels file's, or the sensors of a flight
-    /// controller's log (those named with `--sensor`, else all, each with a temperature); none for
-    /// a CSV of one channel. A flight controller's log is read once here, with a progress bar,
+    /// controller's log (those named with `--sensor`, else all, each with a temperature); a CSV
+    /// of one channel is a unit of one ([`Channels::single`]); none without a log. A flight controller's log is read once here, with a progress bar,
     /// and what a calibration must be told about it said a line each.
     pub fn units(&self, stream: Option<&Path>, console: &Console) -> anyhow::Result<Vec<Channels>> {
         if let Some(c) = &self.channels {
@@ -92,7 +92,7 @@ impl UnitArgs {
                  ArduPilot DataFlash log); this is a CSV (--channels names a CSV's unit)",
                 stream.display()
             );
-            return Ok(Vec::new());
+            return Ok(vec![Channels::single(stream)]);
         }
         let bar = console.bar(0);
         let log = Recorded::read(stream, &mut |at, total| {
@@ -142,18 +142,20 @@ impl UnitArgs {
 
     /// The one unit of `stream` that the blob `blob` (of sensor `sensor_id`) compensates: a
     /// channels file's, or the flight controller's sensor the blob names ([`unit_of_blob`]).
-    /// `None` for a CSV of one channel.
+    /// A CSV of one channel is a unit of one ([`Channels::single`]).
     pub fn load_for(
         &self,
         stream: &Path,
         (blob, sensor_id): (&Path, &str),
         console: &Console,
-    ) -> anyhow::Result<Option<Channels>> {
+    ) -> anyhow::Result<Channels> {
         let mut units = self.units(Some(stream), console)?;
-        if units.is_empty() || units.len() == 1 && units[0].recorded.is_none() {
-            return Ok(units.pop());
+        if let [unit] = units.as_slice()
+            && unit.recorded.is_none()
+        {
+            return Ok(unit.clone());
         }
-        unit_of_blob(&mut units, (blob, sensor_id), stream).map(Some)
+        unit_of_blob(&mut units, (blob, sensor_id), stream)
     }
 }
 
@@ -188,16 +190,6 @@ pub fn unit_of_blob(
 }
 
 impl LogArgs {
-    /// The log, loaded as [`load_log`] loads it.
-    pub fn load(&self, console: &Console) -> anyhow::Result<fog_data::stream::Stream> {
-        load_log(
-            &self.stream,
-            &self.maps.list,
-            (self.window, &self.exclude.list),
-            console,
-        )
-    }
-
     /// The log of the unit `channels` names, one stream per channel ([`load_unit_log`]).
     pub fn load_unit(
         &self,
@@ -214,24 +206,11 @@ impl LogArgs {
     }
 }
 
-/// Loads a log as the commands read it: `exclude` left out (s from its first sample), then the
-/// part inside `window` kept. The windows left out (the handled ones the loader found and those
-/// named) are said in one line, each under `--verbose`; the time problems a line each.
-pub fn load_log(
-    path: &std::path::Path,
-    maps: &[ColumnMap],
-    (window, exclude): (Option<Window>, &[Window]),
-    console: &Console,
-) -> anyhow::Result<fog_data::stream::Stream> {
-    let s = fog_data::stream::Stream::load(path, maps)?;
-    let [s] = <[_; 1]>::try_from(cut(path, vec![s], (window, exclude))?)
-        .map_err(|_| anyhow::anyhow!("{}: one stream expected", path.display()))?;
-    say(path, &s, console);
-    Ok(s)
-}
-
 /// Loads a unit's log as the commands read it ([`Channels::load_log`]: one stream per channel,
-/// the time and handling checked once), cut as [`load_log`] cuts one, and said once.
+/// the time and handling checked once; one channel's CSV is a unit of one): `exclude` left out
+/// (s from its first sample), then the part inside `window` kept. The windows left out (the
+/// handled ones the loader found and those named) are said in one line, each under
+/// `--verbose`; the time problems a line each.
 pub fn load_unit_log(
     path: &std::path::Path,
     channels: &Channels,

@@ -10,7 +10,7 @@ use serde::Serialize;
 /// A JSON output's name and version.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 pub struct Schema {
-    /// `program.command` (`-unit` where a unit's output differs from one channel's).
+    /// `program.command`.
     pub name: &'static str,
     /// Its version, from 1.
     pub version: u32,
@@ -27,66 +27,50 @@ const fn v1(name: &'static str, written_by: &'static str) -> Schema {
     }
 }
 
+/// Version 2: the outputs that were one channel's or a unit's, now every one a unit's (one
+/// channel's data is a unit of one).
+const fn v2(name: &'static str, written_by: &'static str) -> Schema {
+    Schema {
+        name,
+        version: 2,
+        written_by,
+    }
+}
+
 /// `firmware-sim generate board --json`: the simulated flight controller's truth.
 pub const BOARD: Schema = v1("sim.board", "firmware-sim generate board --json");
 
 /// `trainer summarize --json`: each file's summary under `files` (a unit's: a list per file of
 /// each channel's).
 pub const SUMMARIZE: Schema = v1("trainer.summarize", "trainer summarize --json");
-/// `trainer fit --json`, one channel.
-pub const FIT: Schema = v1("trainer.fit", "trainer fit --json");
-/// `trainer fit --channels --json`: the unit and each channel's fit.
-pub const FIT_UNIT: Schema = v1("trainer.fit-unit", "trainer fit --channels --json");
-/// `trainer inspect --json`, a model blob.
-pub const INSPECT: Schema = v1("trainer.inspect", "trainer inspect --json");
-/// `trainer inspect --json`, a unit blob.
-pub const INSPECT_UNIT: Schema = v1(
-    "trainer.inspect-unit",
-    "trainer inspect --json (a unit blob)",
-);
-/// `trainer diagnose --json`, one channel.
-pub const DIAGNOSE: Schema = v1("trainer.diagnose", "trainer diagnose --json");
-/// `trainer diagnose --channels --json`: each channel's diagnosis (`channels`).
-pub const DIAGNOSE_UNIT: Schema = v1(
-    "trainer.diagnose-unit",
-    "trainer diagnose --channels --json",
-);
-/// `trainer investigate --json`, one channel.
-pub const INVESTIGATE: Schema = v1("trainer.investigate", "trainer investigate --json");
-/// `trainer investigate --channels --json`.
-pub const INVESTIGATE_UNIT: Schema = v1(
-    "trainer.investigate-unit",
-    "trainer investigate --channels --json",
-);
+/// `trainer fit --json`: the unit and each channel's fit (one channel's data: a unit of one).
+pub const FIT: Schema = v2("trainer.fit", "trainer fit --json");
+/// `trainer inspect --json`: the blob's footprint, each channel's (a model blob: a unit of one).
+pub const INSPECT: Schema = v2("trainer.inspect", "trainer inspect --json");
+/// `trainer diagnose --json`: each channel's diagnosis (`channels`).
+pub const DIAGNOSE: Schema = v2("trainer.diagnose", "trainer diagnose --json");
+/// `trainer investigate --json`: each channel's investigation.
+pub const INVESTIGATE: Schema = v2("trainer.investigate", "trainer investigate --json");
 /// `trainer loo --json`.
 pub const LOO: Schema = v1("trainer.loo", "trainer loo --json");
 /// `trainer reproduce --json`.
 pub const REPRODUCE: Schema = v1("trainer.reproduce", "trainer reproduce --json");
 /// `trainer challenge --json`.
 pub const CHALLENGE: Schema = v1("trainer.challenge", "trainer challenge --json");
-/// `trainer report`'s `report.json` beside its page, one channel: the figures behind it.
-pub const REPORT: Schema = v1("trainer.report", "trainer report (report.json)");
-/// `trainer report`'s `report.json` on a unit's page: each channel's figures and cubics.
-pub const REPORT_UNIT: Schema = v1(
-    "trainer.report-unit",
-    "trainer report (report.json, a unit's page)",
-);
-/// `trainer allan --json`, one channel.
-pub const ALLAN: Schema = v1("trainer.allan", "trainer allan --json");
-/// `trainer allan --channels --json`: each channel's (`channels`).
-pub const ALLAN_UNIT: Schema = v1("trainer.allan-unit", "trainer allan --channels --json");
-/// `firmware-sim identify --json`, one gyro.
-pub const IDENTIFY: Schema = v1("sim.identify", "firmware-sim identify --json");
-/// `firmware-sim identify --channels --json`: each gyro channel's (`channels`).
-pub const IDENTIFY_UNIT: Schema = v1(
-    "sim.identify-unit",
-    "firmware-sim identify --channels --json",
-);
-/// The simulator's unit file of one gyro (`firmware-sim identify --out`, `firmware-sim generate
-/// --unit`).
-pub const SIM_UNIT: Schema = v1("sim.unit", "firmware-sim identify --out");
-/// The simulator's unit file of several axes (`firmware-sim identify --channels --out`).
-pub const SIM_AXES: Schema = v1("sim.axes", "firmware-sim identify --channels --out");
+/// `trainer report`'s `report.json` beside its page: each channel's figures and cubics.
+pub const REPORT: Schema = v2("trainer.report", "trainer report (report.json)");
+/// `trainer allan --json`: each channel's (`channels`).
+pub const ALLAN: Schema = v2("trainer.allan", "trainer allan --json");
+/// `fog.allan` in Python: one rate's Allan analysis, as each channel of `trainer.allan` holds it.
+pub const ALLAN_ANALYSIS: Schema = v1("trainer.allan-analysis", "fog.allan (Python)");
+/// `firmware-sim identify --json`: each gyro channel's (`channels`).
+pub const IDENTIFY: Schema = v2("sim.identify", "firmware-sim identify --json");
+/// The simulator's unit file of one gyro, as `firmware-sim identify --out` wrote it before it
+/// wrote axes: `firmware-sim generate --unit` still reads it.
+pub const SIM_UNIT: Schema = v1("sim.unit", "firmware-sim identify --out (earlier versions)");
+/// The simulator's unit file of a unit's gyro axes (`firmware-sim identify --out`; one gyro's
+/// data: one axis).
+pub const SIM_AXES: Schema = v1("sim.axes", "firmware-sim identify --out");
 /// `firmware-sim generate --json`, one gyro.
 pub const GENERATE: Schema = v1("sim.generate", "firmware-sim generate --json");
 /// `firmware-sim generate --unit AXES --json`.
@@ -94,17 +78,10 @@ pub const GENERATE_UNIT: Schema = v1(
     "sim.generate-unit",
     "firmware-sim generate --json (a unit of axes)",
 );
-/// `firmware-sim replay --json`, one channel.
-pub const REPLAY: Schema = v1("sim.replay", "firmware-sim replay --json");
-/// `firmware-sim replay --json`, a unit blob.
-pub const REPLAY_UNIT: Schema = v1(
-    "sim.replay-unit",
-    "firmware-sim replay --json (a unit blob)",
-);
-/// `firmware-sim qemu --json`, one channel.
-pub const QEMU: Schema = v1("sim.qemu", "firmware-sim qemu --json");
-/// `firmware-sim qemu --json`, a unit blob.
-pub const QEMU_UNIT: Schema = v1("sim.qemu-unit", "firmware-sim qemu --json (a unit blob)");
+/// `firmware-sim replay --json`: the sensor and each channel's scores.
+pub const REPLAY: Schema = v2("sim.replay", "firmware-sim replay --json");
+/// `firmware-sim qemu --json`: each channel's scores, their agreement with the host, the cost.
+pub const QEMU: Schema = v2("sim.qemu", "firmware-sim qemu --json");
 
 /// A JSON file as written: its contract first, then the fields of its body.
 #[derive(Serialize, JsonSchema)]
@@ -157,33 +134,25 @@ impl Contract {
 }
 
 /// Every contract, in the order docs/commands.md lists them.
-pub const ALL: [Schema; 27] = [
+pub const ALL: [Schema; 19] = [
     SUMMARIZE,
     FIT,
-    FIT_UNIT,
     INSPECT,
-    INSPECT_UNIT,
     DIAGNOSE,
-    DIAGNOSE_UNIT,
     INVESTIGATE,
-    INVESTIGATE_UNIT,
     LOO,
     REPRODUCE,
     CHALLENGE,
     REPORT,
-    REPORT_UNIT,
     ALLAN,
-    ALLAN_UNIT,
+    ALLAN_ANALYSIS,
     IDENTIFY,
-    IDENTIFY_UNIT,
     SIM_UNIT,
     SIM_AXES,
     GENERATE,
     GENERATE_UNIT,
     REPLAY,
-    REPLAY_UNIT,
     QEMU,
-    QEMU_UNIT,
     BOARD,
 ];
 

@@ -431,8 +431,10 @@ unsafe fn decode_in<S: Holds>(storage: *mut S, blob: *const u8, len: usize) -> F
     }
 }
 
-/// Decodes the blob of `len` bytes at `blob` into `model`. On any error (a null `blob`
-/// included) `model` is left holding no model, whatever it held before.
+/// Decodes the blob of `len` bytes at `blob` into `model`: a model blob, or a unit blob of one
+/// channel (what `trainer fit` writes for one channel's data). On any error (a null `blob`
+/// included, or a unit of several channels: `fog_unit_decode` takes it) `model` is left holding
+/// no model, whatever it held before.
 ///
 /// # Safety
 /// `model` points to a writable `FogModel`; `blob` to `len` readable bytes. Either may be null

@@ -236,6 +236,45 @@ fn a_single_channel_blob_loads_as_a_unit_of_one() {
     );
 }
 
+/// What `trainer fit` writes for one channel's data, a unit blob of one entry, decodes as that
+/// channel's model where a model is asked for (`fog_model_decode` in C), and predicts bit for bit
+/// what the model blob does; a unit of several channels is refused there.
+#[test]
+fn a_unit_blob_of_one_channel_decodes_as_its_model() {
+    let r = Reference::small();
+    let one = unit_blob("", &[("rate", Quantity::AngularRate, r.blob())]);
+    let (ours, theirs) = (
+        Small::decode(&one).unwrap(),
+        Small::decode(&r.blob()).unwrap(),
+    );
+    assert_eq!(ours.dims(), theirs.dims());
+    assert_eq!(ours.error_model(), theirs.error_model());
+    assert_eq!(Small::check(&one), Small::check(&r.blob()));
+    let mut scratch = [0.0f32; 5];
+    let (mut a, mut b) = (FeatureState::default(), FeatureState::default());
+    for k in 0..200 {
+        let (time_s, temp_c, outputs) = sample_at(k);
+        let sample = Sample {
+            time_s,
+            temp_c,
+            output: outputs[0],
+        };
+        assert_eq!(
+            ours.compensate(&sample, &mut a, &mut scratch),
+            theirs.compensate(&sample, &mut b, &mut scratch)
+        );
+    }
+    let (several, _) = three();
+    assert!(matches!(
+        Small::decode(&several),
+        Err(BlobError::CapacityExceeded {
+            what: crate::error::Storage::Channels,
+            needed: 3,
+            capacity: 1
+        })
+    ));
+}
+
 #[test]
 fn capacities_refuse_a_unit_before_anything_is_stored() {
     let (blob, _) = three();

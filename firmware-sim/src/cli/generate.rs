@@ -187,7 +187,7 @@ impl GenerateCommon {
                 path.display(),
                 axes.axes.len()
             );
-            let parts = axes
+            let mut parts = axes
                 .axes
                 .iter()
                 .enumerate()
@@ -198,6 +198,11 @@ impl GenerateCommon {
                     ))
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?;
+            // A unit of one axis (the twin of one gyro's data) is that gyro.
+            if parts.len() == 1 {
+                let (params, hidden) = parts.remove(0);
+                return Ok(Simulated::One(params, hidden));
+            }
             return Ok(Simulated::Unit(Axes::new(parts)));
         }
         let params = |k: usize| match (&self.unit, &file) {

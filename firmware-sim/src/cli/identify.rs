@@ -4,14 +4,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::Args;
 use firmware_core::Quantity;
 use fog_data::channels::{Channels, Read};
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
-use fog_terminal::log::{Each, Excludes, Maps, UnitArgs, load_log, load_unit_log};
+use fog_terminal::log::{Each, Excludes, Maps, UnitArgs, load_unit_log};
 use fog_terminal::plot::{BLUE, FONT, GREY, PlotError, TITLE, axes, legend, span, svg};
 use fog_terminal::schema::{self, PerChannel};
 use plotters::prelude::*;
@@ -75,61 +74,41 @@ pub(super) fn identify_command(args: IdentifyArgs, flags: ConsoleFlags) -> anyho
     for o in std::iter::once(&out).chain(&json).chain(&figure) {
         ensure_not_input(o, &inputs)?;
     }
-    let units = unit.units(stream.as_deref(), &console)?;
-    if !units.is_empty() {
-        let (gyros, others): (Vec<Channels>, Vec<Channels>) = units
-            .into_iter()
-            .partition(|u| u.list.iter().any(|c| c.quantity == Quantity::AngularRate));
-        let names: Vec<&str> = others.iter().filter_map(Channels::unit_name).collect();
-        if !names.is_empty() {
-            console.result(&format!(
-                "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
-                 accelerometer has none",
-                names.join(", ")
-            ));
-        }
-        anyhow::ensure!(!gyros.is_empty(), "no gyro channel to identify");
-        let from = stream.as_deref().unwrap_or(Path::new(""));
-        let each = Each::new(gyros.len(), from, json.as_deref())?;
-        let data = Data {
-            points: points.as_deref(),
-            stream: stream.as_deref(),
-            maps: &maps,
-            window,
-            exclude: &exclude,
-        };
-        for channels in &gyros {
-            each.heading(channels, &console);
-            let files = (
-                each.file(channels, &out),
-                json.as_deref().map(|j| each.file(channels, j)),
-                figure.as_deref().map(|f| each.file(channels, f)),
-            );
-            identify_unit(channels, &data, (scale_factor, files), &inputs, &console)
-                .map_err(|e| each.naming(channels, e))?;
-        }
-        return Ok(());
+    let mut units = unit.units(stream.as_deref(), &console)?;
+    if let (true, Some(table)) = (units.is_empty(), &points) {
+        units.push(Channels::single(table));
     }
-    let points = points
-        .as_deref()
-        .map(|p| twin::load_points(p, &maps.list))
-        .transpose()?;
-    let stream = match &stream {
-        Some(path) => {
-            let s = load_log(path, &maps.list, (window, &exclude.list), &console)?;
-            Some(twin::Measured::from(&s))
-        }
-        None => None,
+    let (gyros, others): (Vec<Channels>, Vec<Channels>) = units
+        .into_iter()
+        .partition(|u| u.list.iter().any(|c| c.quantity == Quantity::AngularRate));
+    let names: Vec<&str> = others.iter().filter_map(Channels::unit_name).collect();
+    if !names.is_empty() {
+        console.result(&format!(
+            "skipped {}: the simulator's twin is a gyro's (an open-loop FOG), and an \
+             accelerometer has none",
+            names.join(", ")
+        ));
+    }
+    anyhow::ensure!(!gyros.is_empty(), "no gyro channel to identify");
+    let from = stream.as_deref().unwrap_or(Path::new(""));
+    let each = Each::new(gyros.len(), from, json.as_deref())?;
+    let data = Data {
+        points: points.as_deref(),
+        stream: stream.as_deref(),
+        maps: &maps,
+        window,
+        exclude: &exclude,
     };
-    let id = identified(points.as_ref(), stream.as_ref(), scale_factor, &console)?;
-    write_json(&out, &inputs, schema::SIM_UNIT, &id.unit)?;
-    if let Some(path) = &json {
-        write_json(path, &inputs, schema::IDENTIFY, &id)?;
+    for channels in &gyros {
+        each.heading(channels, &console);
+        let files = (
+            each.file(channels, &out),
+            json.as_deref().map(|j| each.file(channels, j)),
+            figure.as_deref().map(|f| each.file(channels, f)),
+        );
+        identify_unit(channels, &data, (scale_factor, files), &inputs, &console)
+            .map_err(|e| each.naming(channels, e))?;
     }
-    if let Some(path) = &figure {
-        write_atomically(path, twin_figure(&id)?.as_bytes())?;
-    }
-    console.result(&format!("wrote {}", out.display()));
     Ok(())
 }
 
@@ -162,11 +141,9 @@ fn identify_unit(
         window,
         exclude,
     } = *data;
-    anyhow::ensure!(
-        scale_factor.is_none(),
-        "--scale-factor is for one channel: a unit's channels give theirs in {}",
-        channels.path.display()
-    );
+    let mut channels = channels.clone();
+    channels.take_scale_factor(scale_factor)?;
+    let channels = &channels;
     let logs = stream
         .map(|s| load_unit_log(s, channels, &maps.list, (window, &exclude.list), console))
         .transpose()?;
@@ -189,7 +166,12 @@ fn identify_unit(
         if ch.quantity != Quantity::AngularRate {
             continue;
         }
-        let console = console.channel(&ch.name, &format!("{}:", ch.name));
+        let heading = if channels.single {
+            String::new()
+        } else {
+            format!("{}:", ch.name)
+        };
+        let console = console.channel(channels.label(k), &heading);
         let own = channels.maps(k, &maps.list, Read::Table)?;
         let table = points.map(|p| twin::load_points(p, &own)).transpose()?;
         let log = logs.as_ref().map(|l| twin::Measured::from(&l[k]));
@@ -198,10 +180,14 @@ fn identify_unit(
         } else {
             ch.bias_scale_factor()
         };
-        let id = identified(table.as_ref(), log.as_ref(), k_sf, &console)
-            .with_context(|| format!("channel {}", ch.name))?;
+        let id =
+            channels.in_channel(k, identified(table.as_ref(), log.as_ref(), k_sf, &console))?;
         if let Some(path) = &figure {
-            let own = path.with_extension(format!("{}.svg", ch.name));
+            let own = if channels.len() == 1 {
+                path.clone()
+            } else {
+                path.with_extension(format!("{}.svg", ch.name))
+            };
             write_atomically(&own, twin_figure(&id)?.as_bytes())?;
             console.result(&format!("wrote {}", own.display()));
         }
@@ -219,13 +205,13 @@ fn identify_unit(
     write_json(&out, inputs, schema::SIM_AXES, &Axes { axes })?;
     if let Some(path) = &json {
         let body = PerChannel { channels: &all };
-        write_json(path, inputs, schema::IDENTIFY_UNIT, &body)?;
+        write_json(path, inputs, schema::IDENTIFY, &body)?;
     }
     console.result(&format!("wrote {}", out.display()));
     Ok(())
 }
 
-/// One gyro channel's identification, as `identify --channels --json` lists it.
+/// One gyro channel's identification, as `identify --json` lists it.
 #[derive(serde::Serialize, schemars::JsonSchema)]
 pub(super) struct IdentifiedChannel {
     /// The channel's name.

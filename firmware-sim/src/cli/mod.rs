@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use firmware_core::units::DPH_PER_DPS;
 use serde::Serialize;
 
 use crate::qemu;
@@ -100,8 +99,6 @@ struct Loaded {
     blob: Vec<u8>,
     unit: Box<replay::HostUnit>,
     streams: Vec<fog_data::stream::Stream>,
-    /// Whether the log was read as a unit's (`--channels`): its results are reported per channel.
-    per_channel: bool,
 }
 
 impl Loaded {
@@ -125,22 +122,15 @@ impl ReplayInput {
         let unit = replay::decode_unit(&blob)
             .with_context(|| format!("decoding {}", self.model.display()))?;
         let sensor = (self.model.as_path(), unit.sensor_id());
-        let Some(channels) = self.log.unit.load_for(&self.log.stream, sensor, console)? else {
-            let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
-            anyhow::ensure!(
-                names.len() == 1,
-                "{} holds a unit of {} channels ({}): give --channels FILE naming them in the log",
-                self.model.display(),
-                names.len(),
-                names.join(", ")
-            );
-            return Ok(Loaded {
-                blob,
-                unit,
-                streams: vec![self.log.load(console)?],
-                per_channel: false,
-            });
-        };
+        let channels = self.log.unit.load_for(&self.log.stream, sensor, console)?;
+        let names: Vec<&str> = unit.channels().iter().map(|c| c.name()).collect();
+        anyhow::ensure!(
+            !channels.single || names.len() == 1,
+            "{} holds a unit of {} channels ({}): give --channels FILE naming them in the log",
+            self.model.display(),
+            names.len(),
+            names.join(", ")
+        );
         let all = self.log.load_unit(&channels, console)?;
         let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
         let streams = replay::in_unit_order(&unit, &names, &all)
@@ -152,7 +142,6 @@ impl ReplayInput {
             blob,
             unit,
             streams,
-            per_channel: true,
         })
     }
 }
@@ -180,23 +169,14 @@ fn channel_lines(scores: &[replay::ChannelScore]) -> String {
         .join("\n")
 }
 
-/// What `replay --channels --json` writes: the sensor and each channel's scores.
+/// What `replay --json` writes: the sensor and each channel's scores.
 #[derive(Serialize, schemars::JsonSchema)]
 struct UnitReplay<'a> {
     sensor_id: &'a str,
     channels: &'a [replay::ChannelScore],
 }
 
-/// What `qemu --json` writes: the M4 run's scores, its agreement with the host replay, its cost.
-#[derive(Serialize, schemars::JsonSchema)]
-struct QemuReport<'a> {
-    #[serde(flatten)]
-    score: &'a replay::Score,
-    agreement_with_host: qemu::M4Agreement,
-    cost: qemu::M4Cost,
-}
-
-/// What `qemu --channels --json` writes: each channel's scores, the agreement of them all with
+/// What `qemu --json` writes: each channel's scores, the agreement of them all with
 /// the host replay, the cost per sample of them all.
 #[derive(Serialize, schemars::JsonSchema)]
 struct UnitQemuReport<'a> {
@@ -239,56 +219,34 @@ fn replay_command(
     let loaded = input.load(&out.iter().chain(&json).collect::<Vec<_>>(), &console)?;
     let streams = loaded.streams();
     let comps = replay::replay_unit(&loaded.unit, &streams, calibration_run);
-    if loaded.per_channel {
-        let scores = replay::unit_scores(&loaded.unit, &streams, &comps);
-        if let Some(path) = out {
-            write_atomically(
-                &path,
-                replay::unit_csv(&loaded.unit, &streams, &comps).as_bytes(),
-            )?;
-        }
-        if let Some(path) = json {
-            let report = UnitReplay {
-                sensor_id: loaded.unit.sensor_id(),
-                channels: &scores,
-            };
-            write_json(&path, &[], schema::REPLAY_UNIT, &report)?;
-        }
-        console.result(&format!(
-            "replayed {} samples of {} channels through one unit blob:\n{}",
-            streams.first().map_or(0, |s| s.len()),
-            scores.len(),
-            channel_lines(&scores)
-        ));
-        return Ok(());
-    }
-    let (data, comp) = (&loaded.streams[0], &comps[0]);
-    let score = replay::score(data, comp);
+    let scores = replay::unit_scores(&loaded.unit, &streams, &comps);
     if let Some(path) = out {
-        write_atomically(&path, replay::to_csv(data, comp).as_bytes())?;
+        write_atomically(
+            &path,
+            replay::unit_csv(&loaded.unit, &streams, &comps).as_bytes(),
+        )?;
     }
     if let Some(path) = json {
-        write_json(&path, &[], schema::REPLAY, &score)?;
+        let report = UnitReplay {
+            sensor_id: loaded.unit.sensor_id(),
+            channels: &scores,
+        };
+        write_json(&path, &[], schema::REPLAY, &report)?;
     }
     console.result(&format!(
-        "replayed {} samples ({} scored, {} extrapolating, {} degraded, {} fault, {} time issues, {} handled): \
-         rmse {:.3e} °/s, rmse_60s {:.3e} °/s ({:.2} °/h), max |err| {:.3e} °/s\n\
-         the firmware's σ: {}",
-        data.len(),
-        score.n,
-        score.n_extrapolating,
-        score.n_degraded,
-        score.n_fault,
-        score.time_issues.len(),
-        score.n_handled,
-        score.rmse_dps,
-        score.rmse_60s_dps,
-        score.rmse_60s_dps * DPH_PER_DPS,
-        score.max_abs_err_dps,
-        sigma::describe(&score.sigma_samples, &score.sigma_60s)
+        "replayed {} samples{} through {}:\n{}",
+        streams.first().map_or(0, |s| s.len()),
+        match scores.len() {
+            1 => String::new(),
+            n => format!(" of {n} channels"),
+        },
+        input.model.display(),
+        channel_lines(&scores)
     ));
-    if let Some(why) = replay::degraded_reason(data, &score) {
-        console.warn(&why);
+    for (data, c) in streams.iter().zip(&scores) {
+        if let Some(why) = replay::degraded_reason(data, &c.score) {
+            console.warn(&format!("{}: {why}", c.name));
+        }
     }
     Ok(())
 }
@@ -334,34 +292,17 @@ fn qemu_command(
     let agreement = qemu::M4Agreement::all(&agreements);
     let scores = replay::unit_scores(&loaded.unit, &streams, &m4.compensated);
     if let Some(path) = out {
-        let csv = if loaded.per_channel {
-            replay::unit_csv(&loaded.unit, &streams, &m4.compensated)
-        } else {
-            replay::to_csv(streams[0], &m4.compensated[0])
-        };
+        let csv = replay::unit_csv(&loaded.unit, &streams, &m4.compensated);
         write_atomically(&path, csv.as_bytes())?;
     }
     if let Some(path) = json {
-        if loaded.per_channel {
-            write_json(
-                &path,
-                &[],
-                schema::QEMU_UNIT,
-                &UnitQemuReport {
-                    sensor_id: loaded.unit.sensor_id(),
-                    channels: &scores,
-                    agreement_with_host: agreement,
-                    cost: m4.cost,
-                },
-            )?;
-        } else {
-            let report = QemuReport {
-                score: &scores[0].score,
-                agreement_with_host: agreement,
-                cost: m4.cost,
-            };
-            write_json(&path, &[], schema::QEMU, &report)?;
-        }
+        let report = UnitQemuReport {
+            sensor_id: loaded.unit.sensor_id(),
+            channels: &scores,
+            agreement_with_host: agreement,
+            cost: m4.cost,
+        };
+        write_json(&path, &[], schema::QEMU, &report)?;
     }
     let c = loaded.unit.channels().len();
     console.result(&format!(
@@ -377,14 +318,7 @@ fn qemu_command(
         n * c,
         agreement.statuses_equal
     ));
-    if loaded.per_channel {
-        console.result(&channel_lines(&scores));
-    } else {
-        console.result(&format!(
-            "M4 rmse_60s {:.3e} °/s",
-            scores[0].score.rmse_60s_dps
-        ));
-    }
+    console.result(&channel_lines(&scores));
     console.result(&format!(
         "instructions per prediction{}: mean {:.0}, mean + variance {:.0}; per sample, the \
          feature pipeline included: {:.0}, {:.0}",
@@ -421,18 +355,15 @@ fn qemu_command(
 /// fields from here (generated; a test fails where the page differs).
 pub fn contracts() -> Vec<schema::Contract> {
     vec![
-        schema::Contract::of::<crate::twin::Identification>(schema::IDENTIFY),
         schema::Contract::of::<schema::PerChannel<'static, identify::IdentifiedChannel>>(
-            schema::IDENTIFY_UNIT,
+            schema::IDENTIFY,
         ),
         schema::Contract::of::<crate::gyro::unit::Unit>(schema::SIM_UNIT),
         schema::Contract::of::<crate::gyro::axes::Axes>(schema::SIM_AXES),
         schema::Contract::of::<generate::Generated<'static>>(schema::GENERATE),
         schema::Contract::of::<generate::GeneratedUnit<'static>>(schema::GENERATE_UNIT),
-        schema::Contract::of::<replay::Score>(schema::REPLAY),
-        schema::Contract::of::<UnitReplay<'static>>(schema::REPLAY_UNIT),
-        schema::Contract::of::<QemuReport<'static>>(schema::QEMU),
-        schema::Contract::of::<UnitQemuReport<'static>>(schema::QEMU_UNIT),
+        schema::Contract::of::<UnitReplay<'static>>(schema::REPLAY),
+        schema::Contract::of::<UnitQemuReport<'static>>(schema::QEMU),
         schema::Contract::of::<generate::BoardTruth<'static>>(schema::BOARD),
     ]
 }

@@ -47,7 +47,7 @@ fn replay_puts_json_alone_on_stdout_and_names_bad_samples() {
     let out = sim(&[&replay[..], &["--json", "-"]].concat(), d);
     assert_eq!(out.status.code(), Some(0));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("stdout is JSON alone");
-    assert_eq!(v["n"], 120);
+    assert_eq!(v["channels"][0]["n"], 120);
     assert!(out.stderr.is_empty());
     let quiet = sim(&[&replay[..], &["-q"]].concat(), d);
     assert_eq!(quiet.status.code(), Some(0));

@@ -449,7 +449,8 @@ fn a_power_cut_at_every_byte_of_a_six_channel_units_update_boots_the_old_unit_or
         assert_eq!(unit, decoded(expected), "cut at {cut}");
         assert_eq!(unit.channels().len(), 6);
     }
-    // A model's storage refuses the unit blob before anything is erased.
+    // A model's storage refuses the unit blob of six channels before anything is erased (it
+    // takes a unit blob of one).
     let mut f = flash.clone();
     assert_eq!(
         slots::update::<_, Gyro>(
@@ -458,7 +459,11 @@ fn a_power_cut_at_every_byte_of_a_six_channel_units_update_boots_the_old_unit_or
             &mut next.clone(),
             &mut [0u8; 3 * 4096]
         ),
-        Err(SlotError::Blob(BlobError::BadMagic))
+        Err(SlotError::Blob(BlobError::CapacityExceeded {
+            what: firmware_core::error::Storage::Channels,
+            needed: 6,
+            capacity: 1
+        }))
     );
     assert_eq!(f, flash);
 }

@@ -487,7 +487,7 @@ fn the_report_on_a_boards_log_sets_the_cubic_beside_the_gp_and_writes_the_parame
         );
         // The same figures as data, beside the page: every axis's cubics and verdict.
         let figures = json(d.join("report").join(imu).join("report.json"));
-        assert_eq!(figures["schema"]["name"], "trainer.report-unit", "{imu}");
+        assert_eq!(figures["schema"]["name"], "trainer.report", "{imu}");
         let channels = figures["channels"].as_array().unwrap();
         assert_eq!(channels.len(), 6, "{imu}");
         for ch in channels {
@@ -665,7 +665,7 @@ fn each_blob_is_taken_on_the_sensor_it_names(d: &Path, log: &str) {
         ])
         .unwrap();
         let both = json(d.join(format!("diagnosed.{name}.json")));
-        assert_eq!(both["schema"]["name"], "trainer.diagnose-unit");
+        assert_eq!(both["schema"]["name"], "trainer.diagnose");
         assert_eq!(both["channels"].as_array().unwrap().len(), 3, "{both}");
         assert_eq!(both, json(&alone), "diagnose {name}");
     }

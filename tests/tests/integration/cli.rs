@@ -1,6 +1,6 @@
 //! The command line end to end, and its manners with bad input.
 
-use super::{at, json, sim, trainer};
+use super::{at, json, one, sim, trainer};
 
 /// A temporary directory holding `points.csv`: the paper protocol on the nominal unit.
 fn paper_points(seed: &str) -> (tempfile::TempDir, String) {
@@ -25,12 +25,14 @@ fn generate_fit_loo_reproduce_end_to_end() {
 
     let (model, fit) = (at(dir.path(), "model.bin"), at(dir.path(), "fit.json"));
     trainer(&["fit", "--points", &points, "--out", &model, "--json", &fit]).unwrap();
-    let f = json(&fit);
+    let whole = json(&fit);
     // Every JSON names its contract first (fog_terminal::schema).
     assert_eq!(
-        f["schema"],
-        serde_json::json!({"name": "trainer.fit", "version": 1})
+        whole["schema"],
+        serde_json::json!({"name": "trainer.fit", "version": 2})
     );
+    let f = one(&fit);
+    assert_eq!(f["name"], "rate");
     assert_eq!(f["n_train"], 140);
     assert_eq!(f["features"], serde_json::json!(["temp_c", "voltage_v"]));
     assert!(f["log_marginal_likelihood"].as_f64().unwrap().is_finite());
@@ -43,14 +45,17 @@ fn generate_fit_loo_reproduce_end_to_end() {
     );
     assert!(f["fit_seconds"].as_f64().unwrap() > 0.0);
     let blob = std::fs::read(&model).unwrap();
-    assert_eq!(&blob[..4], b"FOGB");
-    assert_eq!(f["blob_bytes"], blob.len());
+    // One channel's model, in a unit blob of one entry.
+    assert_eq!(&blob[..4], &firmware_core::blob::unit::MAGIC[..]);
+    assert_eq!(whole["blob_bytes"], blob.len());
     let agreement = &f["firmware_agreement"]["grid_inside"];
     assert!(agreement["max_abs_mean_diff"].as_f64().unwrap() < 1e-5);
     let inspect = at(dir.path(), "inspect.json");
     trainer(&["inspect", &model, "--json", &inspect]).unwrap();
-    let i = json(&inspect);
-    assert_eq!(i["schema"]["name"], "trainer.inspect");
+    let whole = json(&inspect);
+    assert_eq!(whole["schema"]["name"], "trainer.inspect");
+    let [name, i] = [&whole["channels"][0][0], &whole["channels"][0][1]];
+    assert_eq!(name, "rate");
     assert_eq!(
         (i["m"].as_u64(), i["d"].as_u64(), i["p"].as_u64()),
         (Some(140), Some(2), Some(7))
@@ -231,7 +236,7 @@ fn the_default_fit_of_too_many_points_yields_a_firmware_model_and_exact_is_refus
     let out = at(dir.path(), "model.bin");
     let report = at(dir.path(), "fit.json");
     trainer(&["fit", "--points", &points, "--out", &out, "--json", &report]).unwrap();
-    let fit = json(&report);
+    let fit = one(&report);
     let choice = &fit["centres_choice"];
     let chosen = choice["chosen"].as_u64().unwrap();
     assert!([24, 48, 96, 160, 256].contains(&chosen), "{choice:#}");
@@ -406,7 +411,7 @@ fn handling_and_excluded_windows_stay_out_of_the_allan_deviation_and_the_scores(
             &out,
         ])
         .unwrap();
-        json(&out)["arw_deg_per_sqrt_h"].as_f64().unwrap()
+        one(&out)["arw_deg_per_sqrt_h"].as_f64().unwrap()
     };
     let (a, b) = (arw(&quiet, "q.json"), arw(&moved, "m.json"));
     assert!(
@@ -425,7 +430,7 @@ fn handling_and_excluded_windows_stay_out_of_the_allan_deviation_and_the_scores(
         ]
         .concat();
         sim(&args).unwrap();
-        json(&out)
+        one(&out)
     };
     let all = replay(&[], "all.json");
     let cut = replay(&["--exclude", "100:700", "--window", ":7000"], "cut.json");

@@ -59,7 +59,7 @@ fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
 /// the Cortex-M4F: a stateful input and a refitted GP run there as they do on the host.
 #[test]
 fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
-    use crate::{at, json, sim};
+    use crate::{at, sim};
     let dir = tempfile::tempdir().unwrap();
     let p = |name| at(dir.path(), name);
     let effect = ["--effect", "hysteresis", "--strength", "20"];
@@ -86,7 +86,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         &p("d.json"),
     ])
     .unwrap();
-    assert_eq!(json(p("d.json"))["cause"], "hysteresis");
+    assert_eq!(crate::one(p("d.json"))["diagnosis"]["cause"], "hysteresis");
     crate::trainer(&[
         "fit",
         "--points",
@@ -101,7 +101,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         &p("ext.json"),
     ])
     .unwrap();
-    let summary = json(p("ext.json"));
+    let summary = crate::one(p("ext.json"));
     let rmse = &summary["extension"]["train_rmse_60s_dps"];
     assert!(
         rmse[1].as_f64().unwrap() < rmse[0].as_f64().unwrap() / 3.0,

@@ -38,6 +38,23 @@ pub fn at(dir: &Path, name: &str) -> String {
     dir.join(name).display().to_string()
 }
 
+/// The one channel's entry of a command's JSON on one channel's data (a unit of one), read and
+/// checked as [`json`] reads it.
+pub fn one(path: impl Into<PathBuf>) -> serde_json::Value {
+    let value = json(path);
+    let list = value["channels"].as_array().expect("a unit's channels");
+    assert_eq!(list.len(), 1, "one channel: {value}");
+    list[0].clone()
+}
+
+/// The model blob of a blob of one channel (`fit` writes one channel's model in a unit blob of one
+/// entry; a model blob of one channel is still read everywhere).
+pub fn model_blob(blob: &[u8]) -> Vec<u8> {
+    let [(_, _, model)] = <[_; 1]>::try_from(trainer::firmware::unit::channel_blobs(blob).unwrap())
+        .expect("a blob of one channel");
+    model
+}
+
 /// Reads a JSON file; one a command wrote (with a `schema`) is checked against its contract on
 /// the way: every field it holds is one docs/json.md lists, and every field listed as required
 /// is there. Every test that reads a command's JSON so checks the contract too.

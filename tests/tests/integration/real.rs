@@ -10,7 +10,7 @@ use trainer::analysis::table::{self, Transients};
 use trainer::data::points::Points;
 use trainer::models::gp::{GpConfig, GpModel};
 
-use crate::{IMU_MAPS, at, imu, json, trainer};
+use crate::{IMU_MAPS, at, imu, trainer};
 
 #[test]
 fn a_static_log_without_a_scale_factor_is_refused_with_the_reason() {
@@ -64,7 +64,7 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
         ]
         .concat();
         trainer(&args).unwrap();
-        let inv = json(&out);
+        let inv = crate::one(&out);
         let s = &inv["static_score"];
         let in_range = s["rmse_60s_in_range_dps"].as_f64().unwrap() * 3600.0;
         assert!(

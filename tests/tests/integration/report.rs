@@ -27,11 +27,11 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
     }
     // The hidden effect is named from the training stream and the shipped blob is the one
     // replayed: the replay scores exactly what the investigation measured.
-    let investigation = json(dir.path().join("investigate.json"));
+    let investigation = crate::one(dir.path().join("investigate.json"));
     assert_eq!(investigation["diagnosis"]["causes"][0], "thermal-rate");
     let gain = investigation["gain"].as_f64().unwrap();
     assert!(gain > 3.0, "gain {gain}");
-    let replay = json(dir.path().join("replay.json"));
+    let replay = crate::one(dir.path().join("replay.json"));
     assert_eq!(
         replay["rmse_60s_dps"],
         investigation["extended_score"]["rmse_60s_dps"]
@@ -84,8 +84,11 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
         assert!(!page.contains(external), "{external}");
     }
     // The figures behind the page as data: the cause it names and both models held out.
-    let figures = json(out.join("report.json"));
-    assert_eq!(figures["schema"]["name"], "trainer.report");
+    assert_eq!(
+        json(out.join("report.json"))["schema"]["name"],
+        "trainer.report"
+    );
+    let figures = crate::one(out.join("report.json"));
     assert_eq!(figures["kind"], "full");
     let inv = &figures["held_out"]["investigation"];
     assert!(
@@ -136,7 +139,8 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
     .unwrap();
     let summary = json(dir.path().join("summary.json"));
     assert_eq!(summary["schema"]["name"], "trainer.summarize");
-    let files = &summary["files"];
+    // Each file's one channel.
+    let files = [&summary["files"][0][0], &summary["files"][1][0]];
     assert_eq!(files[0]["rows"], 140);
     assert_eq!(files[0]["plateaus"], 10);
     assert_eq!(files[1]["kind"], "stream");

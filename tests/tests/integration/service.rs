@@ -2,7 +2,7 @@
 //! (or hotter) than any trained is compensated, never a fault: its mean is the model's at the
 //! trained range's edge (as PX4's clamp gives it), and its σ grows with the distance.
 
-use crate::{at, imu, json, sim, trainer};
+use crate::{at, imu, json, model_blob, one, sim, trainer};
 
 /// A gyro calibrated on a 30-minute warm-up (24.9…28.3 °C) and replayed as it cools to 6.4 °C,
 /// 18 °C colder than its coldest training point: every sample is compensated, the shipped model
@@ -41,7 +41,7 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
         "fit", "--stream", &cal, "--window", ":1800", "--out", &clamp, "-q",
     ])
     .unwrap();
-    let calibration = &json(&fit)["calibration"];
+    let calibration = &one(&fit)["calibration"];
     assert_eq!(calibration["residuals"], 0, "{calibration}");
     // No residual to fit on, and a warm-up heats only: the floor, the growth beyond the range
     // and the cooling leg are all assumed, and said.
@@ -56,7 +56,7 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
             "replay", "--model", model, "--stream", &held, "--json", &out, "-q",
         ])
         .unwrap();
-        json(&out)
+        one(&out)
     };
     let (s, c) = (replay(&shipped, "s.json"), replay(&clamp, "c.json"));
     let n = s["n"].as_u64().unwrap();
@@ -165,7 +165,7 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
         "-q",
     ])
     .unwrap();
-    let calibration = &json(&fit)["calibration"];
+    let calibration = &one(&fit)["calibration"];
     assert!(
         calibration["legs_trained"][0].as_f64().unwrap() > 0.0,
         "{calibration}"
@@ -194,11 +194,12 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
             "-q",
         ])
         .unwrap();
-        json(&out)["sigma_60s"]["within_2sigma"].as_f64().unwrap()
+        one(&out)["sigma_60s"]["within_2sigma"].as_f64().unwrap()
     };
     let with_leg = cooling(&blob, "r.json");
     assert!((0.85..=0.99).contains(&with_leg), "{with_leg}");
-    let mut bytes = std::fs::read(&blob).unwrap();
+    // Its one channel's model, as a model blob of its own (still read), without the leg's term.
+    let mut bytes = model_blob(&std::fs::read(&blob).unwrap());
     let fw = fog_data::replay::decode(&bytes).unwrap();
     let without = firmware_core::ErrorModel {
         leg_var: 0.0,
@@ -234,7 +235,7 @@ fn a_calibration_on_several_power_ons_covers_another() {
         args.extend(extra);
         args.extend(["--out", &blob, "--json", &report, "-q"]);
         trainer(&args).unwrap();
-        (blob, json(&report)["calibration"].clone())
+        (blob, one(&report)["calibration"].clone())
     };
     let replay = |blob: &str, stream: &str, extra: &[&str]| {
         let out = at(dir.path(), "r.json");
@@ -244,7 +245,7 @@ fn a_calibration_on_several_power_ons_covers_another() {
         args.extend(extra);
         args.push("-q");
         sim(&args).unwrap();
-        json(&out)["sigma_60s"].clone()
+        one(&out)["sigma_60s"].clone()
     };
     let within = |s: serde_json::Value| s["within_2sigma"].as_f64().unwrap();
 
@@ -260,12 +261,12 @@ fn a_calibration_on_several_power_ons_covers_another() {
     assert!((0.85..=1.0).contains(&another), "{another}");
 
     // One power-on and the datasheet's 80 °/h (1σ, in °/s).
-    let (one, calibration) = fit(&runs[..1], &["--repeatability", "0.0222"], "one");
+    let (single, calibration) = fit(&runs[..1], &["--repeatability", "0.0222"], "one");
     assert!((calibration["turn_on_std"].as_f64().unwrap() - 0.0222).abs() < 1e-9);
-    let another = within(replay(&one, &runs[3], &[]));
+    let another = within(replay(&single, &runs[3], &[]));
     assert!((0.85..=1.0).contains(&another), "{another}");
     let median = |extra: &[&str]| {
-        replay(&one, &runs[0], extra)["median_sigma"]
+        replay(&single, &runs[0], extra)["median_sigma"]
             .as_f64()
             .unwrap()
     };
@@ -297,7 +298,7 @@ fn a_fit_on_several_tables_leaves_each_power_on_out() {
         "-q",
     ])
     .unwrap();
-    let fit = json(&report);
+    let fit = one(&report);
     assert_eq!(fit["n_train"], 420, "{fit}");
     let calibration = &fit["calibration"];
     assert_eq!(calibration["sources"][0]["source"], "runs", "{calibration}");

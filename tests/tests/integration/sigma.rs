@@ -3,7 +3,7 @@
 //! comes from the training data alone; where the model lacks an effect, the training stream's
 //! residuals are the evidence of it.
 
-use crate::{at, json, sim, trainer};
+use crate::{at, one, sim, trainer};
 
 /// Simulates a table, a training and a held-out run with `effect`, fits, replays the held-out
 /// run; returns (the fit's JSON, the replay's JSON).
@@ -57,7 +57,7 @@ fn calibrated(effect: &[&str], seed: u64, design: &str) -> (serde_json::Value, s
         "-q",
     ])
     .unwrap();
-    (json(p("fit.json")), json(p("r.json")))
+    (one(p("fit.json")), one(p("r.json")))
 }
 
 fn assert_honest(what: &str, fit: &serde_json::Value, replay: &serde_json::Value) {

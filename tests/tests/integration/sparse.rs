@@ -77,7 +77,7 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     let p = |name| at(dir.path(), name);
     sim(&["generate", "stream", "--seed", "9", "--out", &p("v.csv")]).unwrap();
     // A thin table, which the pooled model beats (the next test), so the sparse model ships.
-    let fit = json(p("thin.json"));
+    let fit = crate::one(p("thin.json"));
     // Chosen by size: 50 points + 28,621 samples is far beyond an exact fit.
     assert_eq!(fit["sparse"]["method"], "vfe", "{fit}");
     // Up to the default m: selection stops short when every remaining sample is nearly
@@ -162,7 +162,7 @@ fn a_pooled_fit_ships_only_when_it_beats_the_table_alone_forward_in_time() {
         let (out, json_path) = (p(&format!("{name}.bin")), p(&format!("{name}.json")));
         args.extend_from_slice(&["--out", &out, "--json", &json_path]);
         run_trainer(&args).unwrap();
-        json(json_path)
+        crate::one(json_path)
     };
 
     // The default 24 inducing points do not hold what the 140-point table's exact GP does
@@ -191,7 +191,7 @@ fn a_pooled_fit_ships_only_when_it_beats_the_table_alone_forward_in_time() {
     );
 
     // Fifty scattered points leave most of (T, rate) to the stream: pooling wins and ships.
-    let fit = json(p("thin.json"));
+    let fit = crate::one(p("thin.json"));
     let check = &fit["pool_check"];
     assert_eq!(check["shipped"], "pooled", "{check}");
     assert!(
@@ -237,7 +237,7 @@ fn a_constant_mean_that_no_sparse_size_holds_gives_way_to_the_default() {
         "-q",
     ])
     .unwrap();
-    let choice = &json(&fit_json)["centres_choice"];
+    let choice = &crate::one(&fit_json)["centres_choice"];
     assert_eq!(choice["mean"], "physics", "{choice}");
     let exact = choice["exact"]["held_out_rmse_dps"].as_f64().unwrap();
     let best_constant = choice["candidates"]

@@ -57,7 +57,7 @@ fn a_twin_from_a_table_and_a_stream_names_the_missing_lag_and_simulates_the_unit
         "--quiet",
     ])
     .unwrap();
-    let id = json(dir.path().join("id.json"));
+    let id = &crate::one(dir.path().join("id.json"))["identification"];
     assert_eq!(id["causes"][0], "sensor-lag", "{:#}", id["candidates"]);
     let (before, after) = (
         id["fidelity_before_dph"].as_f64().unwrap(),
@@ -70,7 +70,8 @@ fn a_twin_from_a_table_and_a_stream_names_the_missing_lag_and_simulates_the_unit
     for param in id["parameters"].as_array().unwrap() {
         assert!(!param["why"].as_str().unwrap().is_empty(), "{param}");
     }
-    let unit_file = json(dir.path().join("unit.json"));
+    // The twin of one gyro's data: a unit file of one axis.
+    let unit_file = &json(dir.path().join("unit.json"))["axes"][0];
     let lag = unit_file["effects"][0]["tau_min"].as_f64().unwrap();
     assert!((lag - 8.0).abs() < 0.8, "lag {lag} min");
 
@@ -191,7 +192,7 @@ fn the_mems_logs_allan_deviation_gives_its_noise_and_falls_at_long_tau_when_comp
         .concat(),
     )
     .unwrap();
-    let raw = json(dir.path().join("raw.json"));
+    let raw = crate::one(dir.path().join("raw.json"));
     let arw = raw["arw_deg_per_sqrt_h"].as_f64().unwrap();
     assert!((arw / 0.53 - 1.0).abs() < 0.1, "ARW {arw} °/√h");
     for key in [
@@ -234,7 +235,7 @@ fn the_mems_logs_allan_deviation_gives_its_noise_and_falls_at_long_tau_when_comp
         .concat(),
     )
     .unwrap();
-    let comp = json(dir.path().join("comp.json"));
+    let comp = crate::one(dir.path().join("comp.json"));
     let at_end = |v: &serde_json::Value| {
         let a = v["adev_dps"].as_array().unwrap();
         a[a.len() - 1].as_f64().unwrap()
@@ -287,7 +288,7 @@ fn the_fog_turntable_twin_has_the_measured_scale_factor_and_compression() {
         "--quiet",
     ])
     .unwrap();
-    let u = &json(out.path().join("fog.json"))["params"];
+    let u = &json(out.path().join("fog.json"))["axes"][0]["params"];
     let s25 = u["scale_factor_v_per_dps"].as_f64().unwrap();
     let c1 = u["sf_tc_per_c"].as_f64().unwrap();
     let s42 = s25 * (1.0 + c1 * 17.0);

@@ -108,7 +108,7 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
         );
     }
     let unit = json(p("replay.json"));
-    assert_eq!(unit["schema"]["name"], "sim.replay-unit");
+    assert_eq!(unit["schema"]["name"], "sim.replay");
     for (k, (name, output, reference)) in CHANNELS.iter().enumerate() {
         let one = |file: &str| p(&format!("{name}.{file}"));
         let maps = [&IMU_MAPS[..4], &["--map", output, "--map", reference]].concat();
@@ -144,7 +144,7 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
         ]
         .concat())
         .unwrap();
-        let alone = json(one("json"))["rmse_60s_dps"].as_f64().unwrap();
+        let alone = crate::one(one("json"))["rmse_60s_dps"].as_f64().unwrap();
         let ours = &unit["channels"][k];
         assert_eq!(ours["name"], *name);
         let together = ours["rmse_60s_dps"].as_f64().unwrap();

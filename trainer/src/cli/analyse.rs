@@ -12,7 +12,7 @@ use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema::{self, PerChannel};
 
-use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs, load_stream};
+use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs};
 use super::sensors::{Blob, units_of_blobs};
 use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
@@ -61,8 +61,9 @@ pub(super) struct InvestigateArgs {
     /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
     #[arg(long, default_value = "auto")]
     features: String,
-    /// Write the extended model's blob here (a unit blob with --channels or a flight
-    /// controller's log, one per sensor beside this name where the log holds several).
+    /// Write the extended model's blob here: a unit blob, every channel's (one entry for one
+    /// channel's data); one per sensor beside this name where a flight controller's log holds
+    /// several.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Write the static model's blob here (as --out).
@@ -128,23 +129,6 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
     let console = Console::new(flags, json.as_deref());
     let blobs = Blob::read(&model)?;
     let units = log.unit.units(Some(&log.stream), &console)?;
-    if units.is_empty() {
-        let [blob] = <[Blob; 1]>::try_from(blobs).map_err(|_| {
-            anyhow::anyhow!(
-                "several --model take a flight controller's log (or --channels), each blob for \
-                 one of its sensors; {} is one channel's",
-                log.stream.display()
-            )
-        })?;
-        let data = log.load(&console)?;
-        let d = diagnose::one(&blob.bytes, &data, &console)
-            .with_context(|| format!("decoding {}", blob.path.display()))?;
-        if let Some(path) = json {
-            let inputs = [blob.path.as_path(), log.stream.as_path()];
-            write_json(&path, &inputs, schema::DIAGNOSE, &d)?;
-        }
-        return Ok(());
-    }
     let pairs = units_of_blobs(units, blobs, &log.stream)?;
     let each = Each::new(pairs.len(), &log.stream, json.as_deref())?;
     for (channels, blob) in &pairs {
@@ -160,7 +144,7 @@ pub(super) fn diagnose_command(args: DiagnoseArgs, flags: ConsoleFlags) -> anyho
             let entries = diagnose::entries(&diagnosed);
             let path = each.file(channels, path);
             let body = PerChannel { channels: &entries };
-            write_json(&path, &inputs, schema::DIAGNOSE_UNIT, &body)?;
+            write_json(&path, &inputs, schema::DIAGNOSE, &body)?;
         }
     }
     Ok(())
@@ -207,10 +191,6 @@ pub(super) fn investigate_command(
         },
     };
     let units = input.unit.units(Some(&stream), &console)?;
-    if units.is_empty() {
-        let files = (&stream, (out, out_static, json), inputs.as_slice());
-        return investigate_single(&plan, (&input, window, &held_out), files, &console);
-    }
     let each = Each::new(units.len(), &stream, json.as_deref())?;
     for channels in &units {
         each.heading(channels, &console);
@@ -248,51 +228,11 @@ pub(super) fn investigate_command(
         if let Some(path) = &json {
             let report = investigated.report(channels);
             let path = each.file(channels, path);
-            write_json(&path, &read, schema::INVESTIGATE_UNIT, &report)?;
+            write_json(&path, &read, schema::INVESTIGATE, &report)?;
         }
     }
     Ok(())
 }
-
-/// `trainer investigate` on one channel's stream: its training and held-out parts read, the
-/// pipeline run, and its blobs and JSON written where asked.
-fn investigate_single(
-    plan: &InvestigatePlan,
-    (input, window, held_out): (&ModelInput, Option<Window>, &HeldOut),
-    (stream, (out, out_static, json), inputs): (&PathBuf, Outputs, &[&Path]),
-    console: &Console,
-) -> anyhow::Result<()> {
-    let load = |path: &Path| {
-        load_stream(
-            path,
-            &input.maps.list,
-            (window, &input.exclude.list),
-            console,
-        )
-    };
-    let (train, valid, _) = held_out.parts(
-        (stream, vec![load(stream)?]),
-        |v| Ok(vec![load(v)?]),
-        console,
-    )?;
-    let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next()) else {
-        anyhow::bail!("{}: no stream read", stream.display());
-    };
-    let (inv, blobs) = plan.one((stream, train, valid), console)?;
-    if let Some(path) = out {
-        write_atomically(&path, &blobs.extended_blob)?;
-    }
-    if let Some(path) = out_static {
-        write_atomically(&path, &blobs.static_blob)?;
-    }
-    if let Some(path) = json {
-        write_json(&path, inputs, schema::INVESTIGATE, &inv)?;
-    }
-    Ok(())
-}
-
-/// Where `trainer investigate` writes: the extended blob, the static blob, the JSON.
-type Outputs = (Option<PathBuf>, Option<PathBuf>, Option<PathBuf>);
 
 /// `trainer loo`: leave-one-out and leave-one-group-out of one method.
 pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<()> {

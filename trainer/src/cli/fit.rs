@@ -1,20 +1,21 @@
 //! `trainer fit`: its flags checked once into a plan ([`FitPlan`]: the pipeline's, in
-//! [`crate::pipeline::fit`]), the logs read, the pipeline run on one channel or on each unit, and
-//! what it returns written and printed. Its flags are in [`args`].
+//! [`crate::pipeline::fit`]), the logs read, the pipeline run on each unit (one channel's data is
+//! a unit of one), and what it returns written and printed. Its flags are in [`args`].
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context;
 use fog_data::channels::Channels;
-use fog_data::stream::{Stream, Window};
+use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::load_unit_log;
 use fog_terminal::schema;
 
-use super::inputs::{ModelInput, load_stream};
+use super::inputs::ModelInput;
 use crate::analysis::extend;
 use crate::firmware::autopilot::SensorCubics;
-use crate::pipeline::fit::{Extend, FitPlan, say_fit, unit_table};
+use crate::pipeline::fit::{Extend, FitPlan, unit_table};
 
 mod args;
 pub(super) mod params;
@@ -68,7 +69,7 @@ impl FitCommand {
         );
         anyhow::ensure!(
             (service.full_scale.is_none() && service.repeatability.is_none())
-                || input.unit.channels.is_none(),
+                || (input.unit.channels.is_none() && input.unit.sensors.is_empty()),
             "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
              each have their own (fit them one at a time to state them)"
         );
@@ -130,21 +131,26 @@ impl FitCommand {
             .collect()
     }
 
-    /// The model (or, with `--channels` or a flight controller's log, every channel's of each
-    /// unit), checked against the firmware and written; the autopilots' parameters beside.
+    /// Every channel's model of each unit (a CSV or a rate table of one channel is a unit of
+    /// one), checked against the firmware and written; the autopilots' parameters beside.
     fn run(self, flags: ConsoleFlags) -> anyhow::Result<()> {
         let console = Console::new(flags, self.json.as_deref());
         let first = self.streams.first().map(PathBuf::as_path);
-        let units = self.input.unit.units(first, &console)?;
+        let mut units = self.input.unit.units(first, &console)?;
+        if units.is_empty() {
+            let table = self
+                .input
+                .points
+                .as_deref()
+                .context("give --points (a rate table) or --stream to fit on")?;
+            units.push(Channels::single(table));
+        }
         let params: Vec<&PathBuf> = self.params.files().collect();
         anyhow::ensure!(
-            params.is_empty() || !units.is_empty(),
+            params.is_empty() || units.iter().all(|u| !u.single),
             "--px4-params and --ardupilot-params take a sensor's three axes: a unit (a flight \
              controller's log, or --channels), not one channel"
         );
-        if units.is_empty() {
-            return self.run_single(&console);
-        }
         let each = Each::new(
             units.len(),
             first.unwrap_or(Path::new("")),
@@ -164,36 +170,6 @@ impl FitCommand {
             cubics.extend(fitted.map_err(|e| each.naming(channels, e))?);
         }
         self.params.write(&cubics, &console)
-    }
-
-    /// One channel: the pipeline's fit on its streams, its blob and report written.
-    fn run_single(self, console: &Console) -> anyhow::Result<()> {
-        ensure_not_input(&self.out, &self.inputs())?;
-        let streams = self
-            .streams
-            .iter()
-            .map(|p| {
-                let s = load_stream(
-                    p,
-                    &self.input.maps.list,
-                    (self.window, &self.input.exclude.list),
-                    console,
-                )?;
-                Ok((p.as_path(), s))
-            })
-            .collect::<anyhow::Result<Vec<(&Path, Stream)>>>()?;
-        let fitted = self.plan.fit_one(&streams, console)?;
-        write_atomically(&self.out, &fitted.blob)?;
-        if let Some(path) = &self.json {
-            write_json(path, &self.inputs(), schema::FIT, &fitted.summary)?;
-        }
-        say_fit(
-            console,
-            &fitted,
-            (Some(&self.out), fitted.blob.len()),
-            self.plan.source.quantity,
-        );
-        Ok(())
     }
 
     /// Every channel of a unit's files, each fitted as one channel is, into one blob: the logs
@@ -226,7 +202,7 @@ impl FitCommand {
             .fit_unit(channels, &logs, self.params.asked(), console)?;
         write_atomically(out, &fit.blob)?;
         if let Some(path) = json {
-            write_json(path, &inputs, schema::FIT_UNIT, &fit.report(channels))?;
+            write_json(path, &inputs, schema::FIT, &fit.report(channels))?;
         }
         console.result(&unit_table(channels, &fit.fitted, &fit.footprint, out));
         Ok(fit.cubics.take())

@@ -63,17 +63,14 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
         ensure_not_input(out, &inputs)?;
     }
     let blobs = Blob::read(&model)?;
-    let units = log.unit.units(Some(stream), &console)?;
-    if units.is_empty() {
-        let files = (json.as_deref(), plot.as_deref(), inputs.as_slice());
-        return allan_single((&log, scale_factor, blobs), files, &console);
+    let mut units = log.unit.units(Some(stream), &console)?;
+    for unit in &mut units {
+        anyhow::ensure!(
+            !unit.single || scale_factor.is_some() || !blobs.is_empty(),
+            "give --scale-factor K or --model M"
+        );
+        unit.take_scale_factor(scale_factor)?;
     }
-    anyhow::ensure!(
-        scale_factor.is_none(),
-        "--scale-factor is one channel's: {}'s channels are in their units, or take theirs from \
-         the channels file",
-        stream.display()
-    );
     let pairs: Vec<_> = if blobs.is_empty() {
         units.into_iter().map(|u| (u, None)).collect()
     } else {
@@ -91,7 +88,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
                 blob: &b.bytes,
                 label,
             },
-            _ => Output::Raw(None),
+            _ => Output::Raw,
         };
         let analysed = (|| {
             let streams = log.load_unit(channels, &console)?;
@@ -112,7 +109,7 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
                 .collect();
             let path = each.file(channels, path);
             let body = PerChannel { channels: &entries };
-            write_json(&path, &read, schema::ALLAN_UNIT, &body)?;
+            write_json(&path, &read, schema::ALLAN, &body)?;
         }
         if let Some(path) = &plot {
             let title = match &label {
@@ -122,47 +119,6 @@ pub(super) fn allan_command(args: AllanArgs, flags: ConsoleFlags) -> anyhow::Res
             let svg = figure(&format!("Allan deviation, {title}"), &analysed)?;
             write_atomically(&each.file(channels, path), svg.as_bytes())?;
         }
-    }
-    Ok(())
-}
-
-/// `trainer allan` on one channel's log: raw over `scale_factor`, or compensated by the one blob
-/// given; its JSON and figure written where asked.
-fn allan_single(
-    (log, scale_factor, blobs): (&LogArgs, Option<f64>, Vec<Blob>),
-    (json, plot, inputs): (Option<&Path>, Option<&Path>, &[&Path]),
-    console: &Console,
-) -> anyhow::Result<()> {
-    let stream = &log.stream;
-    anyhow::ensure!(
-        blobs.len() <= 1,
-        "several --model take a flight controller's log (or --channels), each blob for one of \
-         its sensors; {} is one channel's",
-        stream.display()
-    );
-    let label = blobs.first().map(|b| b.path.display().to_string());
-    let output = match (blobs.first(), &label) {
-        (Some(b), Some(label)) => Output::Compensated {
-            blob: &b.bytes,
-            label,
-        },
-        _ => Output::Raw(scale_factor),
-    };
-    let data = log.load(console)?;
-    let analysis = allan::one(&stream.display().to_string(), &data, output, console)?;
-    if let Some(path) = json {
-        write_json(path, inputs, schema::ALLAN, &analysis)?;
-    }
-    if let Some(path) = plot {
-        let curve = analysis.curve();
-        let series = [plot::AllanSeries {
-            label: &analysis.of,
-            colour: plot::BLUE,
-            curve: &curve,
-            terms: analysis.terms,
-        }];
-        let svg = plot::allan(&format!("Allan deviation: {}", analysis.of), &series)?;
-        write_atomically(path, svg.as_bytes())?;
     }
     Ok(())
 }

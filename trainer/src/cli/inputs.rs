@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use firmware_core::Quantity;
-use fog_data::columns::ColumnMap;
 use fog_data::stream::{Stream, Window};
 use fog_terminal::console::Console;
 use fog_terminal::log::{Excludes, Maps, UnitArgs};
@@ -94,17 +93,6 @@ impl ModelInput {
             ..self
         }
     }
-}
-
-/// Loads a stream: `exclude` left out, the part inside `window` kept, what was left out said in
-/// one line ([`fog_terminal::log::load_log`]).
-pub(super) fn load_stream(
-    path: &Path,
-    maps: &[ColumnMap],
-    (window, exclude): (Option<Window>, &[Window]),
-    console: &Console,
-) -> anyhow::Result<Stream> {
-    fog_terminal::log::load_log(path, maps, (window, exclude), console)
 }
 
 /// Where a command's held-out data are, named one way for every command that scores on data it

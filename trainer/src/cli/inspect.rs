@@ -8,12 +8,12 @@ use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::write_json;
 use fog_terminal::schema;
 
-use crate::pipeline::inspect::{self, Inspection};
+use crate::pipeline::inspect;
 
 /// The arguments of `trainer inspect`.
 #[derive(Args)]
 pub(super) struct InspectArgs {
-    /// The model blob.
+    /// The blob: a unit's, or a model blob of one channel.
     model: PathBuf,
     /// Write the figures as JSON here (`-`: stdout, alone).
     #[arg(long)]
@@ -31,10 +31,7 @@ pub(super) fn inspect_command(args: InspectArgs, flags: ConsoleFlags) -> anyhow:
     console.result(&inspection.text(&model.display().to_string()));
     if let Some(path) = json {
         let inputs = [model.as_path()];
-        match &inspection {
-            Inspection::Unit(f, _) => write_json(&path, &inputs, schema::INSPECT_UNIT, f)?,
-            Inspection::Model(f) => write_json(&path, &inputs, schema::INSPECT, f)?,
-        }
+        write_json(&path, &inputs, schema::INSPECT, &inspection.footprint)?;
     }
     Ok(())
 }

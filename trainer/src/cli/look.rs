@@ -4,14 +4,13 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use fog_data::channels::Read;
+use fog_data::channels::{Channels, Read};
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{ensure_not_input, write_json};
 use fog_terminal::log::{Maps, UnitArgs};
 use fog_terminal::schema::{self, PerFile};
 
-use crate::data::summary;
-use crate::pipeline::summarize::{SummarizedFile, unit_summaries, unit_text};
+use crate::pipeline::summarize::{unit_summaries, unit_text};
 
 /// The arguments of `trainer summarize`.
 #[derive(Args)]
@@ -51,45 +50,24 @@ pub(super) fn summarize_command(args: SummarizeArgs, flags: ConsoleFlags) -> any
     if let Some(out) = &json {
         ensure_not_input(out, &inputs)?;
     }
-    let units = unit.units(stream.as_deref(), &console)?;
-    if let Some(first) = units.first() {
-        anyhow::ensure!(
-            scale_factor.is_none(),
-            "--scale-factor is for one channel: a unit's channels give theirs in {}",
-            first.path.display()
-        );
-        let mut all = Vec::new();
-        for channels in &units {
-            if let Some(p) = points.as_ref().filter(|_| channels.recorded.is_none()) {
-                let each = unit_summaries(p, channels, &maps.list, Read::Table)?;
-                console.result(unit_text(channels, &each).trim_end());
-                all.push(SummarizedFile::Unit(each));
-            }
-            if let Some(s) = &stream {
-                let each = unit_summaries(s, channels, &maps.list, Read::Log)?;
-                console.result(unit_text(channels, &each).trim_end());
-                all.push(SummarizedFile::Unit(each));
-            }
-        }
-        if let Some(out) = &json {
-            write_json(out, &inputs, schema::SUMMARIZE, &PerFile { files: &all })?;
-        }
-        return Ok(());
+    let mut units = unit.units(stream.as_deref(), &console)?;
+    if let (true, Some(table)) = (units.is_empty(), &points) {
+        units.push(Channels::single(table));
     }
     let mut all = Vec::new();
-    if let Some(p) = &points {
-        all.push(summary::of_points_file(p, &maps.list, scale_factor)?);
+    for channels in &mut units {
+        channels.take_scale_factor(scale_factor)?;
+        if let Some(p) = points.as_ref().filter(|_| channels.recorded.is_none()) {
+            let each = unit_summaries(p, channels, &maps.list, Read::Table)?;
+            console.result(unit_text(channels, &each).trim_end());
+            all.push(each);
+        }
+        if let Some(s) = &stream {
+            let each = unit_summaries(s, channels, &maps.list, Read::Log)?;
+            console.result(unit_text(channels, &each).trim_end());
+            all.push(each);
+        }
     }
-    if let Some(s) = &stream {
-        all.push(summary::of_stream_file(s, &maps.list)?);
-    }
-    for s in &all {
-        console.result(s.text().trim_end());
-    }
-    let all: Vec<SummarizedFile> = all
-        .into_iter()
-        .map(|s| SummarizedFile::File(Box::new(s)))
-        .collect();
     if let Some(out) = &json {
         write_json(out, &inputs, schema::SUMMARIZE, &PerFile { files: &all })?;
     }

@@ -137,7 +137,7 @@ enum Command {
     /// Example (one static log, forward in time): trainer investigate --stream imu.tsv
     /// --hold-out-from 2400 --scale-factor 1 --map …
     Investigate(analyse::InvestigateArgs),
-    /// Size and static memory of a model blob on the firmware, with the formula.
+    /// Size and static memory of a blob on the firmware, every channel's, with the formula.
     ///
     /// Example: trainer inspect model.bin
     Inspect(inspect::InspectArgs),

@@ -9,7 +9,8 @@ use fog_terminal::io::ensure_not_input;
 
 use super::demo;
 use super::fit::params::ParamsArgs;
-use super::inputs::{FitOptions, HeldOut, ModelInput, load_stream};
+use super::inputs::{FitOptions, HeldOut, ModelInput};
+use crate::data::summary::Summary;
 use crate::firmware::autopilot::SensorCubics;
 use crate::pipeline::report::{Held, ReportPlan};
 use crate::pipeline::summarize::{unit_summaries, unit_text};
@@ -53,9 +54,28 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         out: out_dir,
     } = args;
     let console = Console::new(flags, None);
-    let units = input.unit.units(stream.as_deref(), &console)?;
+    let (input, stream, held_out) = match stream {
+        None if input.points.is_none() && input.unit.channels.is_none() => {
+            let (input, a, b) = demo::simulated(&out_dir.join("data"), &console)?;
+            let held_out = HeldOut {
+                hold_out_from: None,
+                valid_stream: Some(b),
+            };
+            (input, Some(a), held_out)
+        }
+        _ => (input, stream, held_out),
+    };
     anyhow::ensure!(
-        !params.asked() || (!units.is_empty() && stream.is_some()),
+        stream.is_some() || input.points.is_some(),
+        "--channels names a unit's files: give them (--points, --stream, and --valid-stream for a \
+         held-out log of its own)"
+    );
+    let mut units = input.unit.units(stream.as_deref(), &console)?;
+    if let (true, Some(table)) = (units.is_empty(), &input.points) {
+        units.push(Channels::single(table));
+    }
+    anyhow::ensure!(
+        !params.asked() || (units.iter().all(|u| !u.single) && stream.is_some()),
         "--px4-params and --ardupilot-params take a sensor's three axes, fitted on a log: a \
          unit's log (a flight controller's, or --channels with --stream)"
     );
@@ -68,115 +88,23 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     for p in params.files() {
         ensure_not_input(p, &inputs)?;
     }
-    if !units.is_empty() {
-        anyhow::ensure!(
-            stream.is_some() || input.points.is_some(),
-            "--channels names a unit's files: give them (--points, --stream, and --valid-stream \
-             for a held-out log of its own)"
-        );
-        // A log of several sensors: a page each, in a folder named for it.
-        let several = units.len() > 1;
-        let mut cubics = Vec::new();
-        for channels in &units {
-            let files = match &stream {
-                Some(s) => Files::Logs(s.clone(), held_out.clone()),
-                None => Files::None,
-            };
-            let dir = match channels.unit_name().filter(|_| several) {
-                Some(name) => out_dir.join(name),
-                None => out_dir.clone(),
-            };
-            let unit = (&input, channels, params.asked());
-            cubics.extend(report_unit(unit, (&fit, files, window), &dir, &console)?);
-        }
-        return params.write(&cubics, &console);
+    // A log of several sensors: a page each, in a folder named for it.
+    let several = units.len() > 1;
+    let mut cubics = Vec::new();
+    for channels in &mut units {
+        channels.take_scale_factor(input.scale_factor)?;
+        let files = match &stream {
+            Some(s) => Files::Logs(s.clone(), held_out.clone()),
+            None => Files::None,
+        };
+        let dir = match channels.unit_name().filter(|_| several) {
+            Some(name) => out_dir.join(name),
+            None => out_dir.clone(),
+        };
+        let unit = (&input, &*channels, params.asked());
+        cubics.extend(report_unit(unit, (&fit, files, window), &dir, &console)?);
     }
-    report_single(
-        (input, &fit),
-        (stream, held_out, window),
-        &out_dir,
-        &console,
-    )
-}
-
-/// `trainer report` on one channel's data (or, with none, on a simulated gyro's): its page, its
-/// figures and its JSON written into `out_dir`.
-fn report_single(
-    (input, fit): (ModelInput, &FitOptions),
-    (stream, held_out, window): (Option<PathBuf>, HeldOut, Option<Window>),
-    out_dir: &Path,
-    console: &Console,
-) -> anyhow::Result<()> {
-    let (input, files) = match stream {
-        Some(s) => (input, Files::Logs(s, held_out)),
-        _ if input.points.is_some() => (input, Files::None),
-        _ => {
-            let (input, a, b) = demo::simulated(&out_dir.join("data"), console)?;
-            let held_out = HeldOut {
-                hold_out_from: None,
-                valid_stream: Some(b),
-            };
-            (input, Files::Logs(a, held_out))
-        }
-    };
-    let mut inputs: Vec<&Path> = input.points.iter().map(PathBuf::as_path).collect();
-    match &files {
-        Files::Logs(s, held_out) => {
-            inputs.push(s);
-            inputs.extend(held_out.valid_stream.as_deref());
-        }
-        Files::None => {}
-    }
-    let names = report::FIGURES
-        .iter()
-        .map(|f| f.0)
-        .chain(["report.html", "report.json"]);
-    for name in names {
-        ensure_not_input(&out_dir.join(name), &inputs)?;
-    }
-    let mut summaries = Vec::new();
-    if let Some(p) = &input.points {
-        summaries.push(crate::data::summary::of_points_file(
-            p,
-            &input.maps.list,
-            input.scale_factor,
-        )?);
-    }
-    let plan = ReportPlan {
-        source: input.source(),
-        gp: fit.gp(),
-    };
-    let r = match files {
-        Files::None => plan.table(summaries, console)?,
-        Files::Logs(path, held_out) => {
-            summaries.push(crate::data::summary::of_stream_file(
-                &path,
-                &input.maps.list,
-            )?);
-            if let Some(v) = &held_out.valid_stream {
-                summaries.push(crate::data::summary::of_stream_file(v, &input.maps.list)?);
-            }
-            let parts = (window, input.exclude.list.as_slice());
-            let load = |p: &Path| Ok(vec![load_stream(p, &input.maps.list, parts, console)?]);
-            let (train, valid, said) = held_out.parts((&path, load(&path)?), load, console)?;
-            let (Some(train), Some(valid)) = (train.into_iter().next(), valid.into_iter().next())
-            else {
-                anyhow::bail!("{}: no stream read", path.display());
-            };
-            let held = Held {
-                path: &path,
-                own_log: held_out.valid_stream.is_some(),
-                train,
-                valid,
-                said,
-            };
-            plan.logs(summaries, held, console)?
-        }
-    };
-    for path in report::write(out_dir, &r)? {
-        console.result(&format!("wrote {}", path.display()));
-    }
-    Ok(())
+    params.write(&cubics, &console)
 }
 
 /// The streams a report is given besides the points.
@@ -187,8 +115,8 @@ enum Files {
     Logs(PathBuf, HeldOut),
 }
 
-/// `trainer report --channels`: every channel of a unit's files analysed as one channel's report
-/// analyses its data (the logs read once), on one page (`report::unit`).
+/// `trainer report` on a unit's files: every channel analysed as one channel's data are (the logs
+/// read once), on one page (`report::unit`).
 fn report_unit(
     (input, channels, params): (&ModelInput, &Channels, bool),
     (fit, files, window): (&FitOptions, Files, Option<Window>),
@@ -211,9 +139,13 @@ fn report_unit(
     let parts = (window, input.exclude.list.as_slice());
     let load = |path: &Path| load_unit_log(path, channels, &input.maps.list, parts, console);
     let mut summary = String::new();
+    let mut per_channel: Vec<Vec<Summary>> = vec![Vec::new(); channels.len()];
     let mut add = |path: &Path, read| -> anyhow::Result<()> {
         let each = unit_summaries(path, channels, &input.maps.list, read)?;
         summary.push_str(&unit_text(channels, &each));
+        for (k, c) in each.into_iter().enumerate() {
+            per_channel[k].push(c.summary);
+        }
         Ok(())
     };
     if let Some(p) = &input.points {
@@ -240,7 +172,7 @@ fn report_unit(
         source: input.source(),
         gp: fit.gp(),
     };
-    let (pages, cubics) = plan.unit(channels, held.as_ref(), params, console)?;
+    let (pages, cubics) = plan.unit((channels, per_channel), held.as_ref(), params, console)?;
     let source = inputs
         .iter()
         .map(|p| p.display().to_string())

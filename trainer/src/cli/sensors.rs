@@ -39,8 +39,17 @@ pub(super) fn units_of_blobs(
     blobs: Vec<Blob>,
     stream: &Path,
 ) -> anyhow::Result<Vec<(Channels, Blob)>> {
-    if units.len() == 1 && blobs.len() == 1 && units[0].recorded.is_none() {
-        return Ok(units.into_iter().zip(blobs).collect());
+    if let [unit] = units.as_slice()
+        && unit.recorded.is_none()
+    {
+        let [blob] = <[Blob; 1]>::try_from(blobs).map_err(|_| {
+            anyhow::anyhow!(
+                "several --model take a flight controller's log, each blob for one of its \
+                 sensors; {} is one unit's (a CSV, one channel or --channels)",
+                stream.display()
+            )
+        })?;
+        return Ok(vec![(unit.clone(), blob)]);
     }
     blobs
         .into_iter()

@@ -1,7 +1,7 @@
 //! `trainer allan` as a library pipeline: the Allan deviation of a log's output, raw (over its
 //! scale factor) or compensated by a blob, less the reference where the log has one, with its
-//! noise terms. One channel ([`one`]) or a unit's ([`unit()`]). Reading the log and the blob, and
-//! writing or drawing what comes back, are the caller's.
+//! noise terms, every channel of a unit ([`unit()`]; one channel is a unit of one). Reading the log
+//! and the blob, and writing or drawing what comes back, are the caller's.
 
 use anyhow::Context;
 use fog_data::allan::{self, Analysis};
@@ -14,9 +14,9 @@ use crate::progress::Messages;
 /// What the Allan deviation is taken of.
 #[derive(Clone, Copy)]
 pub enum Output<'a> {
-    /// The raw output over this scale factor (output units per °/s); for a unit, each channel's
-    /// own (its channels file's `scale_factor`, or 1 for an output in a physical unit).
-    Raw(Option<f64>),
+    /// The raw output over each channel's own scale factor (its channels file's `scale_factor`,
+    /// `--scale-factor` for one channel, or 1 for an output in a physical unit).
+    Raw,
     /// The output as this blob compensates it, named in the figures by `label` (its file).
     Compensated {
         /// The blob: one channel's, or the unit's.
@@ -24,37 +24,6 @@ pub enum Output<'a> {
         /// How the figures name it.
         label: &'a str,
     },
-}
-
-/// One channel's Allan analysis of `stream` (read from `path`, which errors name), said in full
-/// with what a quantized output adds to it.
-pub fn one(
-    path: &str,
-    stream: &Stream,
-    output: Output<'_>,
-    messages: &dyn Messages,
-) -> anyhow::Result<Analysis> {
-    let (rate, what, k) = match output {
-        Output::Compensated { blob, label } => {
-            let model = replay::decode(blob)?;
-            let comp = replay::means(&model, stream);
-            let rate = comp.rate_dps.iter().map(|&w| f64::from(w)).collect();
-            (rate, format!("the output compensated by {label}"), None)
-        }
-        Output::Raw(Some(k)) => {
-            anyhow::ensure!(
-                k.is_finite() && k != 0.0,
-                "--scale-factor {k}: a scale factor is a finite non-zero number"
-            );
-            let rate = stream.voltage_v.iter().map(|v| v / k).collect();
-            (rate, format!("output / {k}"), Some(k))
-        }
-        Output::Raw(None) => anyhow::bail!("give --scale-factor K or --model M"),
-    };
-    let analysis = analyse(path, stream, (rate, what), messages)?;
-    messages.result(&analysis.text());
-    quantization(stream, (k, &analysis), messages);
-    Ok(analysis)
 }
 
 /// Every channel of a unit's log (`streams`, in the order of `channels`), raw or compensated by
@@ -73,28 +42,29 @@ pub fn unit<'c>(
             let ordered = replay::in_unit_order(&unit, &names, streams)
                 .map_err(|e| anyhow::anyhow!("{label}: {e}"))?;
             let comps = replay::replay_unit(&unit, &ordered, false);
-            // Back in the channels file's order.
+            // Back in the channels file's order: each replay is of one of `streams`.
             let mut by_name: Vec<Option<Vec<f64>>> = vec![None; channels.len()];
-            for (ch, comp) in unit.channels().iter().zip(comps) {
-                if let Some(k) = names.iter().position(|n| *n == ch.name()) {
+            for (stream, comp) in ordered.iter().zip(comps) {
+                if let Some(k) = streams.iter().position(|s| std::ptr::eq(s, *stream)) {
                     by_name[k] = Some(comp.rate_dps.iter().map(|&w| f64::from(w)).collect());
                 }
             }
             Some((label, by_name))
         }
-        Output::Raw(_) => None,
+        Output::Raw => None,
     };
     let mut out = Vec::new();
     for (k, (ch, data)) in channels.list.iter().zip(streams).enumerate() {
         let rate = match &compensated {
             Some((label, by_name)) => by_name[k]
                 .clone()
-                .map(|r| (r, format!("{} compensated by {label}", ch.name))),
+                .map(|r| (r, format!("{} compensated by {label}", named(channels, k)))),
             None => ch.bias_scale_factor().map(|s| {
-                (
-                    data.voltage_v.iter().map(|v| v / s).collect(),
-                    format!("{} raw", ch.name),
-                )
+                let what = match channels.label(k) {
+                    "" => format!("output / {s}"),
+                    name => format!("{name} raw"),
+                };
+                (data.voltage_v.iter().map(|v| v / s).collect(), what)
             }),
         };
         let Some(rate) = rate else {
@@ -104,17 +74,35 @@ pub fn unit<'c>(
                 if compensated.is_some() {
                     "the blob has no such channel"
                 } else {
-                    "a raw output without a scale_factor in the channels file"
+                    "a raw output without a scale factor (a channels file's scale_factor, or \
+                     --scale-factor for one channel)"
                 }
             ));
             continue;
         };
-        let analysis =
-            analyse(path, data, rate, messages).with_context(|| format!("channel {}", ch.name))?;
-        messages.result(&format!("{}: {}", ch.name, analysis.text_in(ch.quantity)));
+        let analysis = channels.in_channel(k, analyse(path, data, rate, messages))?;
+        let text = analysis.text_in(ch.quantity);
+        messages.result(&match channels.label(k) {
+            "" => text,
+            label => format!("{label}: {text}"),
+        });
+        let raw_scale = compensated
+            .is_none()
+            .then(|| ch.bias_scale_factor())
+            .flatten();
+        quantization(data, (raw_scale, &analysis), messages);
         out.push((ch, analysis));
     }
     Ok(out)
+}
+
+/// How channel `k` is named in what its analysis is of: by its name, or (one channel's data)
+/// as the output.
+fn named(channels: &Channels, k: usize) -> &str {
+    match channels.label(k) {
+        "" => "the output",
+        name => name,
+    }
 }
 
 /// The Allan analysis of `rate` (and what it is, in words) of a log, less the reference where the

@@ -1,9 +1,10 @@
 //! `trainer diagnose` as a library pipeline: a blob replayed on a log, and the cause of each
-//! channel's residual named. One channel's blob on its stream ([`one`]) or a unit's blob on its
-//! channels' streams ([`unit()`]). Reading the blob and the log, and writing what comes back, are
-//! the caller's.
+//! channel's residual named ([`unit()`]: a unit's blob on its channels' streams; one channel's
+//! blob is a unit of one). Reading the blob and the log, and writing what comes back, are the
+//! caller's.
 
 use anyhow::Context;
+use firmware_core::unit::SINGLE_CHANNEL;
 use fog_data::channels::{Channel, Channels};
 use fog_data::stream::Stream;
 use serde::Serialize;
@@ -21,15 +22,7 @@ pub struct Diagnosed {
     pub diagnosis: Diagnosis,
 }
 
-/// The cause of the residual `blob` (one channel's) leaves on `stream`, said in full.
-pub fn one(blob: &[u8], stream: &Stream, messages: &dyn Messages) -> anyhow::Result<Diagnosis> {
-    let model = fog_data::replay::decode(blob)?;
-    let d = diagnose::diagnose(&model, stream);
-    messages.result(render_diagnosis(&d).trim_end());
-    Ok(d)
-}
-
-/// Each channel of the unit blob `blob` diagnosed on its stream of `streams` (in the order of
+/// Each channel of the unit blob `blob` (or one channel's blob, a unit of one) diagnosed on its stream of `streams` (in the order of
 /// `channels`, whose log they were read from), in the blob's order, each said under its name. A
 /// channel of the blob that `channels` does not hold is refused.
 pub fn unit<'c>(
@@ -38,11 +31,16 @@ pub fn unit<'c>(
     messages: &dyn Messages,
 ) -> anyhow::Result<Vec<(&'c Channel, Diagnosed)>> {
     let mut out = Vec::new();
-    for (name, quantity, blob) in unit::channel_blobs(blob)? {
+    let blobs = unit::channel_blobs(blob)?;
+    let one = match (blobs.as_slice(), channels.list.as_slice()) {
+        ([(name, _, _)], [ch]) => name == SINGLE_CHANNEL || ch.name == SINGLE_CHANNEL,
+        _ => false,
+    };
+    for (name, quantity, blob) in blobs {
         let k = channels
             .list
             .iter()
-            .position(|c| c.name == name)
+            .position(|c| one || c.name == name)
             .with_context(|| {
                 format!(
                     "the blob's channel {name} is not among {}'s ({})",
@@ -52,8 +50,14 @@ pub fn unit<'c>(
             })?;
         let model = fog_data::replay::decode(&blob)?;
         let diagnosis = diagnose::diagnose(&model, &streams[k]).in_quantity(quantity);
+        let label = channels.label(k);
+        let heading = if label.is_empty() {
+            String::new()
+        } else {
+            format!("{label}:")
+        };
         messages
-            .channel(&name, &format!("{name}:"))
+            .channel(label, &heading)
             .result(render_diagnosis(&diagnosis).trim_end());
         out.push((&channels.list[k], Diagnosed { diagnosis }));
     }

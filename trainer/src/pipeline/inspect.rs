@@ -1,71 +1,68 @@
-//! `inspect`: what a blob holds and what it costs the firmware, a unit's blob channel by channel.
+//! `inspect`: what a blob holds and what it costs the firmware, channel by channel (a model blob
+//! of one channel is a unit of one).
 
 use firmware_core::blob::{HEADER_LEN, unit::MAGIC};
 
-use crate::firmware::export::{self, ExportError, Footprint};
+use crate::firmware::export::ExportError;
 use crate::firmware::unit::{self, UnitFootprint};
 
-/// What a blob holds and costs.
+/// What a blob holds and costs: a unit's footprint (a model blob's, as a unit of one channel),
+/// and each channel's output unit in channel order.
 #[derive(Debug, Clone)]
-pub enum Inspection {
-    /// A unit's blob: its footprint, and each channel's output unit in channel order.
-    Unit(UnitFootprint, Vec<&'static str>),
-    /// One model's blob.
-    Model(Footprint),
+pub struct Inspection {
+    /// Its footprint.
+    pub footprint: UnitFootprint,
+    /// Each channel's output unit.
+    pub units: Vec<&'static str>,
+    /// A model blob of one channel (as `fit` wrote them before unit blobs): read as a unit of one.
+    pub model_blob: bool,
 }
 
 /// Decodes `bytes` as the firmware would (refusing what it would refuse) and measures it.
 pub fn inspect(bytes: &[u8]) -> Result<Inspection, ExportError> {
-    if bytes.get(..4) == Some(&MAGIC[..]) {
-        let footprint = unit::unit_footprint(bytes)?;
-        let decoded = fog_data::replay::decode_unit(bytes).map_err(ExportError::Blob)?;
-        let units = decoded
-            .channels()
-            .iter()
-            .map(|c| c.quantity().unit())
-            .collect();
-        return Ok(Inspection::Unit(footprint, units));
-    }
-    let footprint = export::footprint(bytes)?;
-    fog_data::replay::decode(bytes).map_err(ExportError::Blob)?;
-    Ok(Inspection::Model(footprint))
+    let decoded = fog_data::replay::decode_unit(bytes).map_err(ExportError::Blob)?;
+    let footprint = unit::unit_footprint(bytes)?;
+    let units = decoded
+        .channels()
+        .iter()
+        .map(|c| c.quantity().unit())
+        .collect();
+    Ok(Inspection {
+        footprint,
+        units,
+        model_blob: bytes.get(..4) != Some(&MAGIC[..]),
+    })
 }
 
 impl Inspection {
     /// What `trainer inspect` prints of the blob `name`.
     pub fn text(&self, name: &str) -> String {
-        match self {
-            Self::Unit(f, units) => unit_text(name, f, units),
-            Self::Model(f) => format!(
-                "{name}: m = {} centres, d = {} inputs, p = {} prior monomials\n\
-                 blob: {} bytes ({HEADER_LEN}-byte header + postcard payload)\n\
-                 flat f32 array: 7d + p + 2 + m·d + m + m(m+1)/2 = {} numbers\n\
-                 static memory of Model<{}, {}, {}>: 4·{} + p·d + d + 24 = {} bytes (32-bit target)\n\
-                 variance scratch: 4·m = {} bytes",
-                f.m,
-                f.d,
-                f.p,
-                f.blob_bytes,
-                f.floats,
-                f.d,
-                f.p * f.d,
-                f.floats,
-                f.floats,
-                f.model_bytes,
-                f.scratch_bytes
-            ),
-        }
+        let header = if self.model_blob {
+            format!(
+                "a model blob: {HEADER_LEN}-byte header + postcard payload, read as a unit of one"
+            )
+        } else {
+            "22-byte header + postcard payload".to_owned()
+        };
+        unit_text(name, &self.footprint, &self.units, &header)
     }
 }
 
 /// A unit blob's lines: the unit, a row per channel, the firmware's sizes.
-fn unit_text(name: &str, f: &UnitFootprint, units: &[&str]) -> String {
+fn unit_text(name: &str, f: &UnitFootprint, units: &[&str], header: &str) -> String {
     let mut text = format!(
-        "{name}: a unit of {} channels for sensor '{}', trained {:.1} … {:.1} °C\n\
-         blob: {} bytes (22-byte header + postcard payload)\n\
+        "{name}: a unit of {}{}, trained {:.1} … {:.1} °C\n\
+         blob: {} bytes ({header})\n\
          channel           centres  inputs  monomials  numbers  unit\n",
-        f.channels.len(),
-        f.sensor_id,
+        match f.channels.len() {
+            1 => "one channel".to_owned(),
+            n => format!("{n} channels"),
+        },
+        if f.sensor_id.is_empty() {
+            String::new()
+        } else {
+            format!(" for sensor '{}'", f.sensor_id)
+        },
         f.temperature_c[0],
         f.temperature_c[1],
         f.blob_bytes

@@ -1,12 +1,11 @@
 //! `trainer investigate` as a library pipeline: on a log's training part, the static model, its
 //! diagnosis and the extension it calls for; both models scored forward in time on the held-out
-//! part; the one that ships, and its σ. One channel ([`InvestigatePlan::one`]) or a unit's, each
-//! channel as one ([`InvestigatePlan::unit`]). Reading the logs and splitting off the held-out
-//! part, and writing what comes back, are the caller's.
+//! part; the one that ships, and its σ: every channel of a unit ([`InvestigatePlan::unit`]; one
+//! channel is a unit of one). Reading the logs and splitting off the held-out part, and writing
+//! what comes back, are the caller's.
 
 use std::path::Path;
 
-use anyhow::Context;
 use fog_data::cause::Cause;
 use fog_data::channels::Channels;
 use fog_data::sigma;
@@ -53,7 +52,7 @@ pub struct UnitInvestigation<'a> {
 impl InvestigatePlan {
     /// One channel's investigation, said as it goes: the static fit, diagnosis and extension on
     /// `train` (read from `train_path`), both models scored on `valid`.
-    pub fn one(
+    fn channel(
         &self,
         (train_path, train, valid): (&Path, Stream, Stream),
         messages: &dyn Messages,
@@ -127,21 +126,26 @@ impl InvestigatePlan {
     ) -> anyhow::Result<UnitInvestigated> {
         let mut each = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
-            let heading = format!(
-                "{} ({}, [{}/{}]):",
-                ch.name,
-                ch.quantity.unit(),
-                k + 1,
-                channels.len()
-            );
-            let said = messages.channel(&ch.name, &heading);
+            let heading = if channels.single {
+                String::new()
+            } else {
+                format!(
+                    "{} ({}, [{}/{}]):",
+                    ch.name,
+                    ch.quantity.unit(),
+                    k + 1,
+                    channels.len()
+                )
+            };
+            let said = messages.channel(channels.label(k), &heading);
             let plan = Self {
                 source: self.source.for_channel(channels, k)?,
                 ..self.clone()
             };
-            let one = plan
-                .one((train_path, train[k].clone(), valid[k].clone()), &*said)
-                .with_context(|| format!("channel {}", ch.name))?;
+            let one = channels.in_channel(
+                k,
+                plan.channel((train_path, train[k].clone(), valid[k].clone()), &*said),
+            )?;
             each.push(one);
         }
         let investigated = UnitInvestigated { each };

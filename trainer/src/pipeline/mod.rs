@@ -19,7 +19,7 @@ use fog_data::channels::Channel;
 use serde::Serialize;
 
 /// One channel in a unit's JSON: its name, what it measures and its output's unit, then its
-/// fields as one channel's JSON gives them, its figures in that unit (the `_dps` fields too).
+/// fields, its figures in that unit (the `_dps` fields too).
 #[derive(Serialize, schemars::JsonSchema)]
 pub struct ChannelEntry<'a, T> {
     /// The channel's name.

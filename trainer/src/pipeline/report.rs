@@ -1,8 +1,8 @@
-//! `trainer report` as a library pipeline: the analyses a report page shows, on a rate table
-//! alone ([`ReportPlan::table`]), on a log's training and held-out parts ([`ReportPlan::logs`]),
-//! or on each channel of a unit's ([`ReportPlan::unit`], with the autopilots' cubic held out
-//! beside each channel in a physical unit). Reading the files, splitting off the held-out part
-//! and writing the pages are the caller's.
+//! `trainer report` as a library pipeline: the analyses a report page shows, on each channel of a
+//! unit ([`ReportPlan::unit`]; one channel's data is a unit of one): on a rate table alone, or on
+//! a log's training and held-out parts, with the autopilots' cubic held out beside each channel
+//! in a physical unit. Reading the files, splitting off the held-out part and writing the pages
+//! are the caller's.
 
 use std::path::Path;
 
@@ -45,68 +45,29 @@ pub struct Held<'a, T> {
 }
 
 impl ReportPlan {
-    /// The report on the rate table alone.
-    pub fn table(
-        &self,
-        summaries: Vec<Summary>,
-        messages: &dyn Messages,
-    ) -> anyhow::Result<Report> {
-        table(&self.source, summaries, &self.gp, messages)
-    }
-
-    /// The report on a log's parts (and the rate table beside it, where there is one).
-    pub fn logs(
-        &self,
-        summaries: Vec<Summary>,
-        held: Held<'_, Stream>,
-        messages: &dyn Messages,
-    ) -> anyhow::Result<Report> {
-        let (kind, source) =
-            kind_and_source(self.source.points.as_deref(), held.path, held.own_log);
-        let Held {
-            path,
-            train,
-            valid,
-            said,
-            ..
-        } = held;
-        logs(
-            &self.source,
-            (source, kind),
-            summaries,
-            (path, &train, valid, said),
-            &self.gp,
-            messages,
-        )
-    }
-
-    /// Each channel of `channels` analysed as one channel's report analyses its data, with the
-    /// autopilots' cubic held out beside it (a channel in a physical unit, where a part is held
-    /// out); and, where `params` asks, the autopilots' cubics fitted on the training part.
+    /// Each channel of `channels` analysed as one channel's data are (its files as loaded from
+    /// `summaries`, one list per channel), with the autopilots' cubic held out beside it (a
+    /// channel in a physical unit, where a part is held out); and, where `params` asks, the
+    /// autopilots' cubics fitted on the training part.
     pub fn unit<'c>(
         &self,
-        channels: &'c Channels,
+        (channels, summaries): (&'c Channels, Vec<Vec<Summary>>),
         held: Option<&Held<'_, Vec<Stream>>>,
         params: bool,
         messages: &dyn Messages,
     ) -> anyhow::Result<(Vec<ChannelSection<'c>>, Option<SensorCubics>)> {
         let mut pages = Vec::new();
+        let mut summaries = summaries.into_iter();
         for (k, ch) in channels.list.iter().enumerate() {
-            let messages = messages.channel(&ch.name, "");
+            let messages = messages.channel(channels.label(k), "");
             let own = self.source.for_channel(channels, k)?;
+            let files = summaries.next().unwrap_or_default();
             let report = match held {
-                None => table(&own, Vec::new(), &self.gp, &*messages)?,
+                None => table(&own, files, &self.gp, &*messages)?,
                 Some(h) => {
-                    let kind = kind_and_source(own.points.as_deref(), h.path, h.own_log).0;
+                    let (kind, named) = kind_and_source(own.points.as_deref(), h.path, h.own_log);
                     let parts = (h.path, &h.train[k], h.valid[k].clone(), h.said.clone());
-                    logs(
-                        &own,
-                        (h.path.to_owned(), kind),
-                        Vec::new(),
-                        parts,
-                        &self.gp,
-                        &*messages,
-                    )?
+                    logs(&own, (named, kind), files, parts, &self.gp, &*messages)?
                 }
             };
             let cubic = match held {

@@ -34,10 +34,15 @@ pub struct PointFiles {
 }
 
 impl PointFiles {
-    /// The source of channel `k` of `channels`, as if it were a single channel's: its columns
+    /// The source of channel `k` of `channels` (of a unit of one CSV channel, this one), as if it
+    /// were a single channel's: its columns
     /// mapped onto the canonical ones (a rate table read as a table), and its scale factor (the
     /// one it gives; without a rate table, 1 for an output in a physical unit: a bias model).
     pub fn for_channel(&self, channels: &Channels, k: usize) -> anyhow::Result<Self> {
+        if channels.single {
+            // A CSV of one channel is read by the command's own flags.
+            return Ok(self.clone());
+        }
         anyhow::ensure!(
             self.scale_factor.is_none(),
             "--scale-factor is for one channel: a unit's channels give theirs in {} \

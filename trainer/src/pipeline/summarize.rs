@@ -12,25 +12,16 @@ use serde::Serialize;
 use crate::data::points::{Points, Screen};
 use crate::data::summary::{self, Summary};
 
-/// What `summarize --json` lists under `files`, per file: its summary, or (a unit's file) each
-/// channel's.
-#[derive(Serialize, schemars::JsonSchema)]
-#[serde(untagged)]
-pub enum SummarizedFile {
-    /// A file of one channel.
-    File(Box<Summary>),
-    /// A unit's file: each channel's summary.
-    Unit(Vec<ChannelSummary>),
-}
-
-/// One channel of a unit's file, summarized (`summarize --channels --json`: one per channel).
+/// One channel of a unit's file, summarized (`summarize --json` lists one per channel of each
+/// file under `files`; one channel's file is a unit of one).
 #[derive(Serialize, schemars::JsonSchema)]
 pub struct ChannelSummary {
     channel: String,
     quantity: Quantity,
     units: &'static str,
+    /// The channel's summary, as one channel's file has it.
     #[serde(flatten)]
-    summary: Summary,
+    pub summary: Summary,
 }
 
 /// Each channel's summary of the file at `path`, read as `read` (a log once for all channels,
@@ -79,11 +70,14 @@ pub fn unit_summaries(
 }
 
 /// A unit's file as text: what the channels share once (the file's rows, time, temperature,
-/// sampling and what was left out), then a line per channel.
+/// sampling and what was left out), then a line per channel; one channel's file, its summary.
 pub fn unit_text(channels: &Channels, each: &[ChannelSummary]) -> String {
     let Some(first) = each.first() else {
         return String::new();
     };
+    if channels.single {
+        return first.summary.text();
+    }
     let shared = first.summary.shared_text(&format!(
         "a unit of {} channels{}",
         channels.len(),

@@ -482,8 +482,9 @@ fn held_out_figures(h: &HeldOut) -> anyhow::Result<Vec<(&'static str, String)>> 
     Ok(out)
 }
 
-/// Writes `report.html`, its figures as data (`report.json`) and the figure files into `dir` (created if missing); returns the paths.
-pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
+/// Writes one channel's page, `report.html`, and its figure files into `dir` (created if
+/// missing); returns the paths. The figures as data are the unit's ([`unit::write`]).
+fn write_page(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let figures = figures(r)?;
     let mut written = Vec::new();
@@ -495,8 +496,5 @@ pub fn write(dir: &Path, r: &Report) -> anyhow::Result<Vec<PathBuf>> {
     let page = dir.join("report.html");
     write_atomically(&page, html(r, &figures).as_bytes())?;
     written.push(page);
-    let json = dir.join("report.json");
-    fog_terminal::io::write_json(&json, &[], fog_terminal::schema::REPORT, &r.figures())?;
-    written.push(json);
     Ok(written)
 }

@@ -1,6 +1,6 @@
-//! `trainer report --channels`: one page for a sensor unit. Each channel gets the analysis a
-//! single channel's report makes of its data ([`super::table`], [`super::with_streams`]); the
-//! page shows them side by side: a table of each channel's held-out figures, cause and gain, a
+//! `trainer report`'s page of a sensor unit. Each channel gets the whole analysis of its data
+//! ([`super::table`], [`super::with_streams`]). A unit of one channel (one channel's data) shows
+//! it as the page; a unit of several shows them side by side: a table of each channel's held-out figures, cause and gain, a
 //! small multiple per channel (its held-out error with the firmware's ±2σ, static and shipped; a
 //! rate table's leave-one-out error where there is no log), and the unit's Allan deviations of
 //! the held-out error on one figure. Every figure states a channel in its own units (°/h for a
@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use super::html::escape;
 use super::plots::{self, ReplaySeries};
-use super::{HeldOutFigures, Report, replay_blocks};
+use super::{Figures, Report, replay_blocks};
 use crate::analysis::autopilot::CubicFigures;
 use crate::plot::{AllanSeries, CHANNEL_COLOURS};
 use fog_data::allan::Analysis as Allan;
@@ -52,8 +52,9 @@ pub struct ChannelFigures<'a> {
     pub name: &'a str,
     /// What it measures.
     pub quantity: Quantity,
-    /// The held-out part and the investigation on it.
-    pub held_out: Option<HeldOutFigures<'a>>,
+    /// Its analysis, as a page of one channel shows it.
+    #[serde(flatten)]
+    pub figures: Figures<'a>,
     /// The autopilots' cubics held out.
     pub cubic: Option<&'a CubicFigures>,
     /// The verdict on the cubic, as the page words it.
@@ -71,7 +72,7 @@ pub fn figures<'a>(source: &'a str, channels: &'a [ChannelSection<'a>]) -> UnitF
                 ChannelFigures {
                     name: c.name,
                     quantity: c.quantity,
-                    held_out: held.map(|h| h.figures()),
+                    figures: c.report.figures(),
                     cubic: c.cubic.as_ref(),
                     cubic_verdict: c.cubic.as_ref().zip(held).map(|(f, h)| {
                         let inv = &h.investigation;
@@ -353,9 +354,27 @@ fn html(
     s
 }
 
-/// Writes the unit's `report.html` and its figures into `dir` (created if missing); returns the
-/// paths.
+/// Writes the unit's `report.html` (one channel's whole page, or several side by side), its
+/// figures, and its figures as data (`report.json`) into `dir` (created if missing); returns
+/// the paths.
 pub fn write(
+    dir: &Path,
+    source: &str,
+    summary: &str,
+    channels: &[ChannelSection<'_>],
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut written = match channels {
+        [one] => super::write_page(dir, &one.report)?,
+        _ => overview(dir, source, summary, channels)?,
+    };
+    let json = dir.join("report.json");
+    write_json(&json, &[], schema::REPORT, &self::figures(source, channels))?;
+    written.push(json);
+    Ok(written)
+}
+
+/// The page of several channels side by side (module doc), and its figure files.
+fn overview(
     dir: &Path,
     source: &str,
     summary: &str,
@@ -395,23 +414,22 @@ pub fn write(
         html(source, summary, channels, &figures, allan.as_deref()).as_bytes(),
     )?;
     written.push(page);
-    let json = dir.join("report.json");
-    write_json(
-        &json,
-        &[],
-        schema::REPORT_UNIT,
-        &self::figures(source, channels),
-    )?;
-    written.push(json);
     Ok(written)
 }
 
 /// The files [`write()`] writes for channels named `names`, for the check that no output overwrites
 /// an input.
 pub fn files(names: &[&str]) -> Vec<String> {
-    names
-        .iter()
-        .flat_map(|n| figure_names(n))
-        .chain(["allan.svg", "report.html", "report.json"].map(str::to_owned))
+    let figures: Vec<String> = match names {
+        [_] => super::FIGURES.iter().map(|f| f.0.to_owned()).collect(),
+        _ => names
+            .iter()
+            .flat_map(|n| figure_names(n))
+            .chain(["allan.svg".to_owned()])
+            .collect(),
+    };
+    figures
+        .into_iter()
+        .chain(["report.html", "report.json"].map(str::to_owned))
         .collect()
 }

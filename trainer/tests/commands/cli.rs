@@ -81,8 +81,15 @@ fn a_fit_that_stops_short_says_so_on_stderr_and_in_the_json_and_still_writes_its
     assert!(dir.path().join("m.bin").exists());
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
-    assert_eq!(json["optimization"]["outcome"], "stopped-early", "{json}");
-    assert_eq!(json["warnings"].as_array().map(Vec::len), Some(1), "{json}");
+    assert_eq!(
+        json["channels"][0]["optimization"]["outcome"], "stopped-early",
+        "{json}"
+    );
+    assert_eq!(
+        json["channels"][0]["warnings"].as_array().map(Vec::len),
+        Some(1),
+        "{json}"
+    );
     let clean = trainer(
         &["fit", "--points", "p.csv", "--out", "m.bin", "-q"],
         dir.path(),
@@ -146,7 +153,7 @@ fn results_go_to_stdout_json_alone_under_json_dash_and_nothing_under_quiet() {
     let json = trainer(&[fit, &["--json", "-"][..]].concat(), dir.path());
     assert_eq!(json.status.code(), Some(0));
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).expect("stdout is JSON alone");
-    assert_eq!(v["n_train"], 48);
+    assert_eq!(v["channels"][0]["n_train"], 48);
     assert!(!dir.path().join("-").exists());
     // An exact fit says nothing of this machine's speed: that is the benchmark's
     // (`examples/fit_timing.rs`), not every fit's.
@@ -267,10 +274,14 @@ fn a_static_log_where_the_unit_was_handled_says_where_and_leaves_it_out() {
     assert_eq!(err.matches("handled").count(), 1, "{err}");
     let fit: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("f.json")).unwrap()).unwrap();
-    assert_eq!(fit["handled"].as_array().unwrap().len(), 1, "{fit}");
-    assert_eq!(fit["handled"][0]["n"], 60);
+    assert_eq!(
+        fit["channels"][0]["handled"].as_array().unwrap().len(),
+        1,
+        "{fit}"
+    );
+    assert_eq!(fit["channels"][0]["handled"][0]["n"], 60);
     // The static model was fitted on the 29 other minutes: 29 points.
-    assert_eq!(fit["n_train"], 29, "{fit}");
+    assert_eq!(fit["channels"][0]["n_train"], 29, "{fit}");
 }
 
 /// A turntable run in time order: 12 half-sweeps of 13 rates, 20 s per row, the temperature
@@ -318,13 +329,15 @@ fn a_table_in_time_order_is_diagnosed_and_its_transient_carried_to_the_blob() {
         String::from_utf8_lossy(&out.stderr)
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let d = &json["table_diagnosis"];
+    let d = &json["channels"][0]["table_diagnosis"];
     assert_eq!(d["shipped"], true, "{d}");
     assert_eq!(d["chosen"][0]["acts_on"], "scale-factor", "{d}");
     assert!(
-        json["features"].to_string().contains("TemperatureRate"),
+        json["channels"][0]["features"]
+            .to_string()
+            .contains("TemperatureRate"),
         "{}",
-        json["features"]
+        json["channels"][0]["features"]
     );
 
     // The same, evaluated: the choice redone inside every left-out half-sweep.
@@ -410,8 +423,10 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
     let mut args = vec!["fit", "--offsets", "--out", "m.bin", "--json", "-"];
     args.extend(table);
     let fit = run(&args);
-    let g = fit["hyperparameters"]["offset_std"].as_f64().unwrap()
-        * fit["output_scale"].as_f64().unwrap();
+    let g = fit["channels"][0]["hyperparameters"]["offset_std"]
+        .as_f64()
+        .unwrap()
+        * fit["channels"][0]["output_scale"].as_f64().unwrap();
     // The offsets are 1.4e-3 V RMS: 0.028 °/s at 0.05 V per °/s.
     assert!((0.01..0.06).contains(&g), "σ_g {g}");
 
@@ -537,7 +552,7 @@ fn an_implausible_row_is_refused_or_with_the_option_left_out_with_a_warning() {
         "{err}"
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(json["n_train"], 48, "{json}");
+    assert_eq!(json["channels"][0]["n_train"], 48, "{json}");
 }
 
 #[test]

@@ -220,7 +220,7 @@ fn outcome(family: Family, dir: &Path, case: usize, rng: &mut impl Rng) -> Strin
             }
             let summary: serde_json::Value =
                 serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
-            let warnings = summary["warnings"].as_array().unwrap();
+            let warnings = summary["channels"][0]["warnings"].as_array().unwrap();
             if warnings.is_empty() {
                 "fitted".to_owned()
             } else {

@@ -241,7 +241,8 @@ fn a_units_slots_boot_and_update_through_c_function_pointers() {
         assert_eq!((slot.slot, slot.sequence), (0, 3));
         assert_eq!(fog_unit_info(&*unit, &mut info), FogResult::FogOk);
         assert_eq!((info.channels, &info.sensor_id[..6]), (6, &b"IMU-7\0"[..]));
-        // A model's storage does not take a unit blob: refused before anything is erased.
+        // A model's storage does not take a unit blob of six channels: refused before anything
+        // is erased.
         let before = device_cells(&flash);
         let mut blob = unit_blob.clone();
         let r = fog_slots_update(
@@ -253,7 +254,7 @@ fn a_units_slots_boot_and_update_through_c_function_pointers() {
             buf.len(),
             &mut slot,
         );
-        assert_eq!(r, FogResult::FogErrBadMagic);
+        assert_eq!(r, FogResult::FogErrCapacityExceeded);
         assert_eq!(device_cells(&flash), before);
     }
 }

@@ -51,8 +51,8 @@ pub(in crate::cli) struct FitArgs {
     pub(super) service: ServiceArgs,
     #[command(flatten)]
     pub(super) params: super::params::ParamsArgs,
-    /// Model blob to write (firmware-core format; a unit blob with --channels or a flight
-    /// controller's log, one per sensor beside this name where the log holds several).
+    /// The blob to write: a unit blob, every channel's model (one entry for one channel's data);
+    /// one per sensor beside this name where a flight controller's log holds several.
     #[arg(long)]
     pub(super) out: PathBuf,
     /// Write the fit summary as JSON here (`-`: stdout, alone).

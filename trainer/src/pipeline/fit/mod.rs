@@ -1,6 +1,6 @@
 //! `trainer fit` as a library pipeline: a [`FitPlan`] (checked once by whoever built it, the
-//! command line from its flags) run on the data already read, one channel ([`FitPlan::fit_one`])
-//! or a unit's channels into one blob ([`FitPlan::fit_unit`]). It returns the blobs and what
+//! command line from its flags) run on the data already read: a unit's channels into one blob
+//! ([`FitPlan::fit_unit`]; one channel's data is a unit of one). It returns the blobs and what
 //! `fit --json` reports of them, and says its choices as it makes them ([`Messages`]); writing
 //! the files is the caller's.
 //!
@@ -12,7 +12,6 @@
 
 use std::path::Path;
 
-use anyhow::Context;
 use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Beyond;
 use fog_data::cause::Cause;
@@ -130,26 +129,6 @@ impl UnitFit {
 }
 
 impl FitPlan {
-    /// One channel, on its loaded `streams`: the static model, its extension and its σ, its blob
-    /// checked against the firmware (and the budget, where one is given).
-    pub fn fit_one(
-        &self,
-        streams: &[(&Path, Stream)],
-        messages: &dyn Messages,
-    ) -> anyhow::Result<ChannelFit> {
-        let (plans, budgeted) = self.within_budget(&[("the model", self, streams)], messages)?;
-        let [plan] = plans
-            .try_into()
-            .map_err(|_| anyhow::anyhow!("one plan per channel"))?;
-        let mut fitted = plan.fit(streams, messages)?;
-        fitted.summary.budget = budgeted;
-        if self.budget.is_set() {
-            let f = unit::unit_footprint(&fitted.blob)?;
-            self.check_fitted(&f)?;
-        }
-        Ok(fitted)
-    }
-
     /// Every channel of a unit, each fitted as one channel is, into one blob. `logs` holds each
     /// log read (its path, then one stream per channel of `channels`); with `cubics`, the
     /// autopilots' cubic per channel is fitted on the same samples.
@@ -180,18 +159,20 @@ impl FitPlan {
         let (plans, budgeted) = self.within_budget(&named, messages)?;
         let mut fitted = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
-            let heading = format!(
-                "{} ({} in {}, [{}/{}]):",
-                ch.name,
-                quantity_words(ch.quantity),
-                ch.quantity.unit(),
-                k + 1,
-                channels.len()
-            );
-            let said = messages.channel(&ch.name, &heading);
-            let one = plans[k]
-                .fit(&per_channel[k].1, &*said)
-                .with_context(|| format!("channel {}", ch.name))?;
+            let heading = if channels.single {
+                String::new()
+            } else {
+                format!(
+                    "{} ({} in {}, [{}/{}]):",
+                    ch.name,
+                    quantity_words(ch.quantity),
+                    ch.quantity.unit(),
+                    k + 1,
+                    channels.len()
+                )
+            };
+            let said = messages.channel(channels.label(k), &heading);
+            let one = channels.in_channel(k, plans[k].fit(&per_channel[k].1, &*said))?;
             say_fit(&*said, &one, (None, one.blob.len()), ch.quantity);
             fitted.push(one);
         }

@@ -190,8 +190,8 @@ impl FitReport {
     }
 }
 
-/// What `trainer fit --channels --json` writes: the sensor, its trained temperature range, each
-/// channel's fit as `fit --json` gives one channel's, and what the unit's blob costs.
+/// What `trainer fit --json` writes: the sensor, its trained temperature range, each channel's
+/// fit, and what the unit's blob costs (one channel's data: a unit of one).
 #[derive(Serialize, schemars::JsonSchema)]
 pub struct UnitFitReport<'a> {
     /// The sensor's ID, as the blob carries it.
@@ -221,7 +221,7 @@ pub fn quantity_words(q: Quantity) -> &'static str {
     }
 }
 
-/// What `trainer fit --channels` prints last: each channel's model and what ships, and the
+/// What `trainer fit` prints last: each channel's model and what ships, and the
 /// unit's blob with what it costs the firmware.
 pub fn unit_table(
     channels: &Channels,
