@@ -69,7 +69,7 @@ impl FitCommand {
         );
         anyhow::ensure!(
             (service.full_scale.is_none() && service.repeatability.is_none())
-                || (input.unit.channels.is_none() && input.unit.sensors.is_empty()),
+                || input.unit.channels.is_none(),
             "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
              each have their own (fit them one at a time to state them)"
         );
