@@ -494,6 +494,15 @@ impl Channels {
         }
     }
 
+    /// The heading of channel `k`'s lines, `what` it is beside its name and place (`gyro.x (°/s,
+    /// [1/6]):`); none for one channel's CSV ([`Self::label`]).
+    pub fn heading(&self, k: usize, what: &str) -> String {
+        match self.label(k) {
+            "" => String::new(),
+            name => format!("{name} ({what}, [{}/{}]):", k + 1, self.len()),
+        }
+    }
+
     /// `result`, its error naming channel `k` ([`Self::label`]: not for one channel's CSV).
     pub fn in_channel<T>(&self, k: usize, result: anyhow::Result<T>) -> anyhow::Result<T> {
         match self.label(k) {

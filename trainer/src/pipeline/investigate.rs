@@ -126,17 +126,7 @@ impl InvestigatePlan {
     ) -> anyhow::Result<UnitInvestigated> {
         let mut each = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
-            let heading = if channels.single {
-                String::new()
-            } else {
-                format!(
-                    "{} ({}, [{}/{}]):",
-                    ch.name,
-                    ch.quantity.unit(),
-                    k + 1,
-                    channels.len()
-                )
-            };
+            let heading = channels.heading(k, ch.quantity.unit());
             let said = messages.channel(channels.label(k), &heading);
             let plan = Self {
                 source: self.source.for_channel(channels, k)?,

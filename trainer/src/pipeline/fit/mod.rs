@@ -159,18 +159,10 @@ impl FitPlan {
         let (plans, budgeted) = self.within_budget(&named, messages)?;
         let mut fitted = Vec::new();
         for (k, ch) in channels.list.iter().enumerate() {
-            let heading = if channels.single {
-                String::new()
-            } else {
-                format!(
-                    "{} ({} in {}, [{}/{}]):",
-                    ch.name,
-                    quantity_words(ch.quantity),
-                    ch.quantity.unit(),
-                    k + 1,
-                    channels.len()
-                )
-            };
+            let heading = channels.heading(
+                k,
+                &format!("{} in {}", quantity_words(ch.quantity), ch.quantity.unit()),
+            );
             let said = messages.channel(channels.label(k), &heading);
             let one = channels.in_channel(k, plans[k].fit(&per_channel[k].1, &*said))?;
             say_fit(&*said, &one, (None, one.blob.len()), ch.quantity);
