@@ -159,3 +159,38 @@ fn a_units_log_is_read_once_and_a_minute_handled_on_one_channel_is_left_out_of_a
         "{e}"
     );
 }
+
+/// One channel's CSV is a unit of one: read as a log of one channel is (`--map` renaming its
+/// columns), its lines unlabelled, and `--scale-factor` its channel's; a unit's channels refuse
+/// it, and no channel takes a scale factor that is not a finite non-zero number.
+#[test]
+fn one_channels_csv_is_a_unit_of_one_that_takes_the_scale_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("s.csv");
+    let mut csv = String::from("t,temp_c,v,rate_dps\n");
+    for k in 0..120 {
+        csv.push_str(&format!("{k},25,{},0\n", 0.1 + 1e-3 * f64::from(k)));
+    }
+    std::fs::write(&log, csv).unwrap();
+    let mut one = Channels::single(&log);
+    assert_eq!(
+        (one.len(), one.label(0), one.heading(0, "°/s")),
+        (1, "", String::new())
+    );
+    let maps: Vec<ColumnMap> = ["time_s=t", "voltage_v=v"]
+        .iter()
+        .map(|m| m.parse().unwrap())
+        .collect();
+    let [s] = <[Stream; 1]>::try_from(one.load_log(&log, &maps).unwrap()).unwrap();
+    let alone = Stream::load(&log, &maps).unwrap();
+    assert_eq!((&s.time_s, &s.voltage_v), (&alone.time_s, &alone.voltage_v));
+    assert_eq!(s.voltage_v[119], 0.1 + 1e-3 * 119.0);
+    one.take_scale_factor(Some(0.05)).unwrap();
+    assert_eq!(one.list[0].bias_scale_factor(), Some(0.05));
+    assert!(one.take_scale_factor(Some(0.0)).is_err());
+    let mut unit = Channels::parse(Path::new("imu.toml"), IMU).unwrap();
+    assert_eq!(unit.heading(1, "m/s²"), "acc.z (m/s², [2/3]):");
+    unit.take_scale_factor(None).unwrap();
+    let e = unit.take_scale_factor(Some(0.05)).unwrap_err().to_string();
+    assert!(e.contains("--scale-factor is for one channel"), "{e}");
+}
