@@ -4,7 +4,6 @@
 //! caller's.
 
 use anyhow::Context;
-use firmware_core::unit::SINGLE_CHANNEL;
 use fog_data::channels::{Channel, Channels};
 use fog_data::stream::Stream;
 use serde::Serialize;
@@ -30,26 +29,19 @@ pub fn unit<'c>(
     (channels, streams): (&'c Channels, &[Stream]),
     messages: &dyn Messages,
 ) -> anyhow::Result<Vec<(&'c Channel, Diagnosed)>> {
+    let names: Vec<&str> = channels.list.iter().map(|c| c.name.as_str()).collect();
+    let decoded = fog_data::replay::decode_unit(blob)?;
+    // Matched as every replay matches a blob's channels to a log's (one to one channel's data).
+    let ordered = fog_data::replay::in_unit_order(&decoded, &names, streams)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", channels.path.display()))?;
     let mut out = Vec::new();
-    let blobs = unit::channel_blobs(blob)?;
-    let one = match (blobs.as_slice(), channels.list.as_slice()) {
-        ([(name, _, _)], [ch]) => name == SINGLE_CHANNEL || ch.name == SINGLE_CHANNEL,
-        _ => false,
-    };
-    for (name, quantity, blob) in blobs {
-        let k = channels
-            .list
+    for ((name, quantity, blob), stream) in unit::channel_blobs(blob)?.into_iter().zip(ordered) {
+        let k = streams
             .iter()
-            .position(|c| one || c.name == name)
-            .with_context(|| {
-                format!(
-                    "the blob's channel {name} is not among {}'s ({})",
-                    channels.path.display(),
-                    names(channels)
-                )
-            })?;
+            .position(|s| std::ptr::eq(s, stream))
+            .with_context(|| format!("the blob's channel {name}: its stream"))?;
         let model = fog_data::replay::decode(&blob)?;
-        let diagnosis = diagnose::diagnose(&model, &streams[k]).in_quantity(quantity);
+        let diagnosis = diagnose::diagnose(&model, stream).in_quantity(quantity);
         let label = channels.label(k);
         let heading = if label.is_empty() {
             String::new()
@@ -67,14 +59,4 @@ pub fn unit<'c>(
 /// A unit's diagnoses as its JSON lists them.
 pub fn entries<'a>(each: &'a [(&'a Channel, Diagnosed)]) -> Vec<ChannelEntry<'a, Diagnosed>> {
     each.iter().map(|(c, d)| ChannelEntry::new(c, d)).collect()
-}
-
-/// The channels' names, comma-separated.
-fn names(channels: &Channels) -> String {
-    channels
-        .list
-        .iter()
-        .map(|c| c.name.as_str())
-        .collect::<Vec<_>>()
-        .join(", ")
 }
