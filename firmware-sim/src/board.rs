@@ -21,6 +21,7 @@
 
 use std::io::Write;
 
+use fog_data::autopilot::BoardRotation;
 use fog_data::autopilot::write::{DataFlashWriter, PX4_SENSOR_FIELDS, ULogWriter, Value};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -263,12 +264,29 @@ impl Board {
         w.into_inner().flush()
     }
 
-    /// Writes `samples` ([`Self::record`]) as an ArduPilot DataFlash log.
-    pub fn dataflash(&self, samples: &[Vec<ImuSample>], out: impl Write) -> std::io::Result<()> {
+    /// Writes `samples` ([`Self::record`]) as an ArduPilot DataFlash log, of the board mounted in
+    /// the vehicle by `mounting` (`AHRS_ORIENTATION`, written as a `PARM`): the `IMU` messages
+    /// then hold the vehicle's axes, as the firmware logs them, and the `TCLR` rows the board's.
+    pub fn dataflash(
+        &self,
+        samples: &[Vec<ImuSample>],
+        mounting: &BoardRotation,
+        out: impl Write,
+    ) -> std::io::Result<()> {
         const IMU: u8 = 129;
         const BARO: u8 = 130;
         const TCLR: u8 = 131;
+        const PARM: u8 = 132;
         let mut w = DataFlashWriter::new(out)?;
+        w.define(PARM, "PARM", "QNf", "TimeUS,Name,Value")?;
+        w.write(
+            PARM,
+            &[
+                Value::U64(0),
+                Value::name("AHRS_ORIENTATION"),
+                Value::F32(f32::from(mounting.id)),
+            ],
+        )?;
         w.define(
             IMU,
             "IMU",
@@ -299,7 +317,8 @@ impl Board {
                     }
                 }
                 let mut v = vec![Value::U64(s.time_us), Value::U8(k as u8)];
-                v.extend(s.gyro.iter().chain(&s.accel).map(|&x| Value::F32(x as f32)));
+                let (gyro, accel) = (mounting.turn(s.gyro), mounting.turn(s.accel));
+                v.extend(gyro.iter().chain(&accel).map(|&x| Value::F32(x as f32)));
                 v.extend([Value::U32(0), Value::U32(0), Value::F32(s.temp_c as f32)]);
                 v.extend([
                     Value::U8(1),

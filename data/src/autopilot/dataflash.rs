@@ -7,10 +7,12 @@
 //! its first mean), read as sensors of their own (`tclr-gyro0`, `tclr-accel0`), taken only when
 //! named ([`Sensor::learned`]). The raw `GYR`, `ACC` and `BARO` messages are counted.
 //!
-//! An `IMU` message is what the firmware compensated: where its own temperature correction was
-//! on while it logged (`INS_TCALn_ENABLE` 1), the correction the log's `PARM` messages describe
-//! is undone on reading ([`Tcal`]), as ArduPilot's `tempcal_IMU.py` undoes it, so that a fit sees
-//! the sensor's own output.
+//! An `IMU` message is what the firmware compensated, in the vehicle's axes: on reading, its axes
+//! are turned back to the board's where the board is mounted rotated (`AHRS_ORIENTATION`,
+//! [`BoardRotation`]), and where the firmware's own temperature correction was on while it logged
+//! (`INS_TCALn_ENABLE` 1) the correction the log's `PARM` messages describe is undone ([`Tcal`]),
+//! both as ArduPilot's `tempcal_IMU.py` does, so that a fit sees the sensor's own output in the
+//! axes the autopilot's parameters apply in.
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
@@ -21,7 +23,8 @@ use firmware_core::Quantity;
 
 use super::error::{Damage, Progress, RecordedError, open};
 use super::framing::{Filtered, Frame, Framing, read_full};
-use super::sensor::{Axis, Collected, Correction, Sensor};
+use super::rotation::{self, BoardRotation};
+use super::sensor::{Axis, Collected, Correction, Mounting, Sensor};
 
 /// A format message's type byte, and its whole length (header included).
 const FMT: u8 = 0x80;
@@ -148,6 +151,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
     let mut learned: BTreeMap<(u8, u8), Samples> = BTreeMap::new();
     let mut tcal = Tcal::default();
     let mut corrected: BTreeMap<u8, Correction> = BTreeMap::new();
+    let mut mounted: BTreeMap<u8, Mounting> = BTreeMap::new();
     for entry in ardupilot_binlog::Reader::new(filtered) {
         // The frames passed on are whole and typed: an entry the parser refuses is skipped.
         let Ok(e) = entry else { continue };
@@ -188,11 +192,16 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
         if let Some((how, _)) = undo {
             corrected.entry(instance).or_insert(how);
         }
+        if let Some(m) = &tcal.mounting {
+            mounted.entry(instance).or_insert_with(|| m.clone());
+        }
         s.time_s.push(t as f64 * 1e-6);
         s.temp_c.push(temp_c);
-        for (j, (a, (field, _, _, k))) in s.axes.iter_mut().zip(AXES).enumerate() {
+        let logged = AXES.map(|(field, ..)| e.get_f64(field).unwrap_or(f64::NAN));
+        let own = tcal.board_axes(logged);
+        for (j, (a, (.., k))) in s.axes.iter_mut().zip(AXES).enumerate() {
             let applied = undo.map_or(0.0, |(_, by)| by[j]);
-            a.push(e.get_f64(field).map_or(f64::NAN, |v| (v + applied) * k));
+            a.push((own[j] + applied) * k);
         }
     }
     let damage = damage.borrow_mut().take();
@@ -203,6 +212,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
             .map(|&(field, name, quantity, _)| (field, name, quantity));
         Sensor {
             correction: corrected.get(&i).copied(),
+            mounting: mounted.get(&i).cloned(),
             ..sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
         }
     });
@@ -274,12 +284,14 @@ fn sensor<'a>(
             .collect(),
         learned,
         correction: None,
+        mounting: None,
     }
 }
 
-/// ArduPilot's temperature correction as the log's `PARM` messages set it, the values last set
-/// (`INS_TCALn_*` for instance n − 1, `INS_ACCn_CALTEMP`, `INS_GYRn_CALTEMP`,
-/// `AHRS_ORIENTATION`). Undone as `tempcal_IMU.py` undoes it: the firmware subtracted
+/// ArduPilot's temperature correction and board rotation as the log's `PARM` messages set them,
+/// the values last set (`INS_TCALn_*` for instance n − 1, `INS_ACCn_CALTEMP`, `INS_GYRn_CALTEMP`,
+/// `AHRS_ORIENTATION` and a custom rotation's angles). Undone as `tempcal_IMU.py` undoes it, in
+/// the board's axes: the firmware subtracted
 /// p(T) − p(T_cal) from each axis, p(x) = (c₁d + c₂d² + c₃d³)·10⁻⁶ with d = x − 35 °C, T and T_cal
 /// clipped to [TMIN, TMAX] (`AP_InertialSensor_tempcal.cpp`); with no calibration temperature of
 /// its own a sensor's is 35 °C, and one below −80 °C means none was applied.
@@ -287,8 +299,10 @@ fn sensor<'a>(
 struct Tcal {
     /// Per instance, the values last set.
     imus: BTreeMap<u8, TcalImu>,
-    /// The board's mounting rotation (`AHRS_ORIENTATION`; 0 none).
-    orientation: f64,
+    /// The parameters the board's rotation is read from ([`rotation::is_parameter`]).
+    mounting_parameters: BTreeMap<String, f64>,
+    /// The board's rotation they give: `None` for none, else turned back or not known.
+    mounting: Option<Mounting>,
 }
 
 /// One instance's correction parameters.
@@ -320,8 +334,26 @@ const TCAL_REFERENCE_C: f64 = 35.0;
 impl Tcal {
     /// Takes a parameter the correction depends on; others are ignored.
     fn set(&mut self, name: &str, value: f64) {
-        if name == "AHRS_ORIENTATION" {
-            self.orientation = value;
+        if rotation::is_parameter(name) {
+            self.mounting_parameters.insert(name.to_owned(), value);
+            self.mounting = self
+                .mounting_parameters
+                .get("AHRS_ORIENTATION")
+                .and_then(|&id| {
+                    let rotation = u16::try_from(id as i64)
+                        .ok()
+                        .filter(|_| id.fract() == 0.0)
+                        .and_then(|id| {
+                            BoardRotation::ardupilot(id, |n| {
+                                self.mounting_parameters.get(n).copied()
+                            })
+                        });
+                    match rotation {
+                        Some(r) if r.is_identity() => None,
+                        Some(r) => Some(Mounting::TurnedBack(r)),
+                        None => Some(Mounting::Unknown(id)),
+                    }
+                });
             return;
         }
         // 1-based in the names, the log's instance less one.
@@ -365,12 +397,23 @@ impl Tcal {
         }
     }
 
+    /// An `IMU` message's axes (gyro x, y, z, then the accelerometer's) in the board's axes: turned
+    /// back where the board is mounted rotated, as logged where it is not or the rotation is not
+    /// known.
+    fn board_axes(&self, [gx, gy, gz, ax, ay, az]: [f64; 6]) -> [f64; 6] {
+        let Some(Mounting::TurnedBack(r)) = &self.mounting else {
+            return [gx, gy, gz, ax, ay, az];
+        };
+        let ([gx, gy, gz], [ax, ay, az]) = (r.turn_back([gx, gy, gz]), r.turn_back([ax, ay, az]));
+        [gx, gy, gz, ax, ay, az]
+    }
+
     /// Where instance `imu`'s correction was on at temperature `temp_c`: what becomes of it, and
     /// what to add back to each of an `IMU` message's axes (gyro x, y, z in rad/s, then the
     /// accelerometer's in m/s²).
     fn undo(&self, imu: u8, temp_c: f64) -> Option<(Correction, [f64; 6])> {
         let c = self.imus.get(&imu).filter(|c| c.enable == 1.0)?;
-        if self.orientation != 0.0 {
+        if let Some(Mounting::Unknown(_)) = self.mounting {
             return Some((Correction::Left, [0.0; 6]));
         }
         let poly = |kind: usize, axis: usize, t: f64| {

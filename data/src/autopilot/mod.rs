@@ -16,6 +16,7 @@
 mod dataflash;
 mod error;
 mod framing;
+mod rotation;
 mod sensor;
 #[cfg(test)]
 mod tests;
@@ -23,7 +24,8 @@ mod ulog;
 pub mod write;
 
 pub use error::{Damage, Format, Progress, RecordedError};
-pub use sensor::{Axis, Correction, Finding, MIN_SPAN_C, Sensor, gravity_reference};
+pub use rotation::BoardRotation;
+pub use sensor::{Axis, Correction, Finding, MIN_SPAN_C, Mounting, Sensor, gravity_reference};
 
 use std::io::Read;
 use std::path::{Path, PathBuf};

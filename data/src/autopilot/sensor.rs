@@ -54,6 +54,20 @@ pub struct Sensor {
     /// `INS_TCALn_ENABLE` 1): whether it was undone on reading, so that the samples are the
     /// sensor's own ([`Correction`]).
     pub correction: Option<Correction>,
+    /// The board's rotation in the vehicle (ArduPilot's `AHRS_ORIENTATION`), where the log's axes
+    /// are the vehicle's: `None` where they are the board's.
+    pub mounting: Option<Mounting>,
+}
+
+/// A board mounted rotated in the vehicle, whose log holds the vehicle's axes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mounting {
+    /// Its axes were turned back to the board's on reading, as `tempcal_IMU.py` turns them: the
+    /// axes the autopilot's temperature correction and its parameters apply in.
+    TurnedBack(super::BoardRotation),
+    /// Left as the vehicle's: its `AHRS_ORIENTATION` (this value) is no rotation ArduPilot
+    /// defines, or a custom one whose angles the log does not give.
+    Unknown(f64),
 }
 
 /// What became of the temperature correction the autopilot applied while it logged.
@@ -61,8 +75,9 @@ pub struct Sensor {
 pub enum Correction {
     /// Undone, as `tempcal_IMU.py` undoes it, from the parameters the log's `PARM` messages set.
     Undone,
-    /// Left in: the board is mounted rotated (`AHRS_ORIENTATION`), so the logged axes are the
-    /// vehicle's and the parameters the sensor's.
+    /// Left in: the board is mounted rotated by a rotation that cannot be turned back
+    /// ([`Mounting::Unknown`]), so the logged axes are the vehicle's and the parameters the
+    /// board's.
     Left,
 }
 
@@ -186,6 +201,17 @@ impl Sensor {
             Some(Correction::Left) => out.push((Finding::CorrectionLeft, name.clone())),
             None => {}
         }
+        match &self.mounting {
+            Some(Mounting::TurnedBack(r)) => out.push((
+                Finding::TurnedBack,
+                format!("{name} (AHRS_ORIENTATION {}, {})", r.id, r.name),
+            )),
+            Some(Mounting::Unknown(id)) => out.push((
+                Finding::MountingUnknown,
+                format!("{name} (AHRS_ORIENTATION {id})"),
+            )),
+            None => {}
+        }
         if let Some(&(t, id)) = self.id_changes.first() {
             out.push((
                 Finding::IdChanges,
@@ -221,6 +247,10 @@ pub enum Finding {
     CorrectionUndone,
     /// The autopilot's temperature correction, on while it logged, could not be undone.
     CorrectionLeft,
+    /// Its axes were turned back from the vehicle's to the board's.
+    TurnedBack,
+    /// Its axes are the vehicle's, the board's rotation not known.
+    MountingUnknown,
 }
 
 impl Finding {
@@ -248,9 +278,20 @@ impl Finding {
             ),
             Self::CorrectionLeft => format!(
                 "logged with ArduPilot's temperature correction on (INS_TCALn_ENABLE 1) and the \
-                 board mounted rotated (AHRS_ORIENTATION): {which}; the correction is left in \
-                 (its parameters are in the sensor's axes, the log's in the vehicle's), so a fit \
-                 is of what the correction left, not of the sensor"
+                 board mounted by a rotation that cannot be turned back: {which}; the correction \
+                 is left in (its parameters are in the board's axes, the log's in the vehicle's), \
+                 so a fit is of what the correction left, not of the sensor"
+            ),
+            Self::TurnedBack => format!(
+                "the board is mounted rotated in the vehicle: {which}; the logged axes (the \
+                 vehicle's) are turned back to the board's, as tempcal_IMU.py does, where the \
+                 autopilot's temperature correction and its parameters apply"
+            ),
+            Self::MountingUnknown => format!(
+                "the board's rotation is none ArduPilot defines, or a custom one whose angles the \
+                 log does not give: {which}; its axes are left as logged (the vehicle's), so \
+                 parameters fitted on them are in the vehicle's axes, not the board's where the \
+                 firmware applies them"
             ),
             Self::IdChanges => format!(
                 "the device ID changes: {which}; another sensor answered as this instance, and \

@@ -466,8 +466,11 @@ fn the_temperature_learnings_means_are_sensors_taken_when_named() {
 
 /// A board logged with ArduPilot's temperature correction on (`INS_TCAL1_ENABLE` 1): its `IMU`
 /// messages are what the correction left. The log's `PARM` messages say what it was, and it is
-/// undone on reading, so the samples are the sensor's own again, said in one line. With the board
-/// mounted rotated the parameters' axes are not the log's: the correction is left in, and said.
+/// undone on reading, so the samples are the sensor's own again, said in one line. A board
+/// mounted rotated logs the vehicle's axes: they are turned back to the board's first, where the
+/// parameters apply, and said. With a rotation that cannot be turned back (a custom one whose
+/// angles the log does not give) the parameters' axes are not the log's: the correction is left
+/// in, and said.
 #[test]
 fn a_correction_the_autopilot_applied_while_logging_is_undone() {
     const PARM: u8 = 132;
@@ -503,7 +506,10 @@ fn a_correction_the_autopilot_applied_while_logging_is_undone() {
                 } else {
                     0.0
                 };
-                let axes = [own(temp) - applied, 0.0, 0.0, 0.0, 0.0, -9.8].map(|x| x as f32);
+                // Logged in the vehicle's axes: yaw 180° (4) negates x and y.
+                let x = own(temp) - applied;
+                let x = if orientation == 4.0 { -x } else { x };
+                let axes = [x, 0.0, 0.0, 0.0, 0.0, -9.8].map(|x| x as f32);
                 imu_message(&mut w, i * 1_000_000, imu, axes, temp as f32);
             }
         }
@@ -536,13 +542,28 @@ fn a_correction_the_autopilot_applied_while_logging_is_undone() {
             && notes.contains("undone"),
         "{notes}"
     );
-    let left = read_log("rotated.bin", 4.0);
+    let turned = read_log("rotated.bin", 4.0);
+    let [imu0, imu1] = [&turned.sensors[0], &turned.sensors[1]];
+    assert_eq!(imu0.correction, Some(Correction::Undone));
+    assert!(matches!(&imu0.mounting, Some(Mounting::TurnedBack(r)) if r.id == 4));
+    assert!(worst(imu0, &own) < 1e-6, "{}", worst(imu0, &own));
+    assert!(worst(imu1, &own) < 1e-6);
+    // Gravity stays on z through a yaw.
+    assert!(imu0.axes[5].values.iter().all(|&z| (z + 9.8).abs() < 1e-5));
+    let notes = turned.notes().join("\n");
+    assert!(
+        notes.contains("mounted rotated in the vehicle: imu0 (AHRS_ORIENTATION 4, YAW_180), imu1"),
+        "{notes}"
+    );
+    let left = read_log("custom.bin", 101.0);
     assert_eq!(left.sensors[0].correction, Some(Correction::Left));
+    assert_eq!(left.sensors[0].mounting, Some(Mounting::Unknown(101.0)));
     let logged = |t: f64| own(t) - (poly(t) - poly(cal));
     assert!(worst(&left.sensors[0], &logged) < 1e-6);
+    let notes = left.notes().join("\n");
     assert!(
-        left.notes()
-            .join("\n")
-            .contains("AHRS_ORIENTATION): imu0; the correction is left in")
+        notes.contains("cannot be turned back: imu0; the correction is left in")
+            && notes.contains("imu0 (AHRS_ORIENTATION 101), imu1 (AHRS_ORIENTATION 101); its axes are left as logged"),
+        "{notes}"
     );
 }

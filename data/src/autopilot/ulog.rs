@@ -207,6 +207,7 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
                 unreadable: 0,
                 learned: false,
                 correction: None,
+                mounting: None,
                 axes: ["x", "y", "z"]
                     .into_iter()
                     .zip(s.axes)

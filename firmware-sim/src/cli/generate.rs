@@ -11,6 +11,7 @@ use crate::gyro::axes::Axes;
 use crate::gyro::effects::{Effect, Hidden};
 use crate::gyro::unit::UnitFile;
 use crate::gyro::{output, paper, plant::GyroParams, stream};
+use fog_data::autopilot::BoardRotation;
 use fog_data::cause::Cause;
 use fog_terminal::console::{Console, ConsoleFlags};
 use fog_terminal::io::{write_atomically, write_json};
@@ -76,6 +77,11 @@ pub(crate) enum Generate {
         /// The log's length, minutes.
         #[arg(long, default_value_t = 120.0)]
         minutes: f64,
+        /// How the board is mounted in the vehicle: ArduPilot's `AHRS_ORIENTATION` (0 level, 2 yaw
+        /// 90°, 8 roll 180°, … up to 43). A `.bin` log then holds the vehicle's axes, as the
+        /// firmware logs them; a ULog's sensor topics are the board's whatever the mounting.
+        #[arg(long, default_value_t = 0)]
+        orientation: u16,
         /// The log to write: a PX4 ULog (`.ulg`) or an ArduPilot DataFlash log (`.bin`).
         #[arg(long)]
         out: PathBuf,
@@ -443,6 +449,7 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
             settle,
             warm_up_min,
             minutes,
+            orientation,
             out,
             json,
         } => {
@@ -453,7 +460,7 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
                 duration_s: minutes * 60.0,
                 ..board::Run::default()
             };
-            board_command(seed, run, (&out, json.as_deref()), flags)
+            board_command(seed, (run, orientation), (&out, json.as_deref()), flags)
         }
     }
 }
@@ -461,7 +468,7 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
 /// `firmware-sim generate board`: the board's log, in the format its extension names.
 fn board_command(
     seed: u64,
-    run: board::Run,
+    (run, orientation): (board::Run, u16),
     (out, json): (&std::path::Path, Option<&std::path::Path>),
     flags: ConsoleFlags,
 ) -> anyhow::Result<()> {
@@ -469,12 +476,24 @@ fn board_command(
         run.warm_up_s > 0.0 && run.duration_s >= 60.0,
         "--warm-up-min must be positive and --minutes at least 1"
     );
+    let mounting = BoardRotation::ardupilot(orientation, |_| None).ok_or_else(|| {
+        anyhow::anyhow!(
+            "--orientation {orientation}: the board's mounting is one of ArduPilot's rotations, \
+             0 to 43 (a custom one, 100 to 102, takes angles this simulator does not)"
+        )
+    })?;
+    anyhow::ensure!(
+        orientation == 0 || out.extension().is_none_or(|e| e != "ulg"),
+        "--orientation is ArduPilot's AHRS_ORIENTATION: a PX4 ULog's sensor topics hold the \
+         board's axes however it is mounted (PX4 turns them by SENS_BOARD_ROT later); name the \
+         log .bin"
+    );
     let board = Board::nominal();
     let samples = board.record(&run, seed);
     let mut bytes = Vec::new();
     match out.extension().and_then(|e| e.to_str()) {
         Some("ulg") => board.ulog(&samples, &mut bytes)?,
-        Some("bin") => board.dataflash(&samples, &mut bytes)?,
+        Some("bin") => board.dataflash(&samples, &mounting, &mut bytes)?,
         _ => anyhow::bail!(
             "{}: name the log .ulg (a PX4 ULog) or .bin (an ArduPilot DataFlash log)",
             out.display()

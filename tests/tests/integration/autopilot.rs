@@ -211,24 +211,99 @@ fn the_learnings_means_calibrate_as_the_imu_messages_do() {
     let (a, b) = (range(&imu), range(&learned));
     let (lo, hi) = (a.0.max(b.0), a.1.min(b.1));
     assert!(hi - lo > 50.0, "{lo} … {hi}");
+    same_correction(&imu, &learned, 1, (lo, hi), 0.01);
+}
+
+/// Asserts that two `tcal.parm` give IMU `n` the same correction (calibrated at `lo`) on every
+/// axis at every whole degree from `lo` to `hi`, within `tolerance` of the first's swing there.
+fn same_correction(
+    a: &HashMap<String, f64>,
+    b: &HashMap<String, f64>,
+    n: u32,
+    (lo, hi): (f64, f64),
+    tolerance: f64,
+) {
+    let temps: Vec<f64> = (0..=(hi - lo) as usize).map(|k| lo + k as f64).collect();
     for kind in ["GYR", "ACC"] {
         for axis in ["X", "Y", "Z"] {
-            let at_t = |p: &HashMap<String, f64>, t| ardupilot_offset(p, (1, kind, axis), t, lo);
-            let temps: Vec<f64> = (0..=(hi - lo) as usize).map(|k| lo + k as f64).collect();
-            let swing = temps
-                .iter()
-                .map(|&t| at_t(&imu, t).abs())
-                .fold(0.0, f64::max);
+            let at_t = |p: &HashMap<String, f64>, t| ardupilot_offset(p, (n, kind, axis), t, lo);
+            let swing = temps.iter().map(|&t| at_t(a, t).abs()).fold(0.0, f64::max);
             let worst = temps
                 .iter()
-                .map(|&t| (at_t(&imu, t) - at_t(&learned, t)).abs())
+                .map(|&t| (at_t(a, t) - at_t(b, t)).abs())
                 .fold(0.0, f64::max);
             assert!(
-                worst < 0.01 * swing,
-                "{kind} {axis}: {worst:e} against a swing of {swing:e}"
+                worst < tolerance * swing,
+                "IMU {n} {kind} {axis}: {worst:e} against a swing of {swing:e}"
             );
         }
     }
+}
+
+/// A board mounted turned in the vehicle (`AHRS_ORIENTATION`): ArduPilot logs the vehicle's axes,
+/// and applies its temperature correction in the board's. The same board logged level and mounted
+/// rolled 90° and pitched 90° (every axis moved, two negated) gives the same `tcal.parm` to the
+/// digit; mounted at an angle that is not a right one (38: roll 90°, pitch 68.8°, yaw 293.3°), the
+/// same within what the log's f32 samples keep. A ULog, whose sensor topics are the board's axes,
+/// takes no mounting.
+#[test]
+fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let parm = |orientation: &str| {
+        let (log, parm) = (
+            at(d, &format!("cal{orientation}.bin")),
+            at(d, &format!("tcal{orientation}.parm")),
+        );
+        sim(&[
+            "-q",
+            "generate",
+            "board",
+            "--minutes",
+            "30",
+            "--orientation",
+            orientation,
+            "--out",
+            &log,
+        ])
+        .unwrap();
+        let out = at(d, "imu.bin");
+        trainer(&[
+            "-q",
+            "fit",
+            "--stream",
+            &log,
+            "--ardupilot-params",
+            &parm,
+            "--out",
+            &out,
+        ])
+        .unwrap();
+        parm
+    };
+    let level = parm("0");
+    let read = |p: &str| std::fs::read_to_string(p).unwrap();
+    assert_eq!(read(&level), read(&parm("28")));
+    let (level, odd) = (
+        ardupilot_params(Path::new(&level)),
+        ardupilot_params(Path::new(&parm("38"))),
+    );
+    assert_eq!(level.len(), odd.len());
+    for n in [1, 2] {
+        let range = |k: &str| level[&format!("INS_TCAL{n}_{k}")];
+        same_correction(&level, &odd, n, (range("TMIN"), range("TMAX")), 1e-6);
+    }
+    let e = sim(&[
+        "-q",
+        "generate",
+        "board",
+        "--orientation",
+        "2",
+        "--out",
+        &at(d, "cal.ulg"),
+    ])
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("name the log .bin"), "{e:#}");
 }
 
 /// The cubic and the GP of each axis of `sensor`, held out on another power-on of the board
