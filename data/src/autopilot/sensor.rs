@@ -289,9 +289,9 @@ impl Finding {
             ),
             Self::MountingUnknown => format!(
                 "the board's rotation is none ArduPilot defines, or a custom one whose angles the \
-                 log does not give: {which}; its axes are left as logged (the vehicle's), so \
-                 parameters fitted on them are in the vehicle's axes, not the board's where the \
-                 firmware applies them"
+                 log does not give: {which}; its axes are left as logged (the vehicle's), and \
+                 no autopilot parameter file is written from them (the firmware applies one in \
+                 the board's axes)"
             ),
             Self::IdChanges => format!(
                 "the device ID changes: {which}; another sensor answered as this instance, and \

@@ -244,8 +244,8 @@ fn same_correction(
 /// and applies its temperature correction in the board's. The same board logged level and mounted
 /// rolled 90° and pitched 90° (every axis moved, two negated) gives the same `tcal.parm` to the
 /// digit; mounted at an angle that is not a right one (38: roll 90°, pitch 68.8°, yaw 293.3°), the
-/// same within what the log's f32 samples keep. A ULog, whose sensor topics are the board's axes,
-/// takes no mounting.
+/// same within what the log's f32 samples keep. A rotation that cannot be turned back writes
+/// neither autopilot's file. A ULog, whose sensor topics are the board's axes, takes no mounting.
 #[test]
 fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
     let dir = tempfile::tempdir().unwrap();
@@ -293,6 +293,31 @@ fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
         let range = |k: &str| level[&format!("INS_TCAL{n}_{k}")];
         same_correction(&level, &odd, n, (range("TMIN"), range("TMAX")), 1e-6);
     }
+    // A rotation this reader does not know (44: past ArduPilot's table, as a newer firmware's
+    // might be): the axes stay the vehicle's, so neither autopilot's file is written; the blob is.
+    let log = at(d, "cal0.bin");
+    let mut bytes = std::fs::read(&log).unwrap();
+    let name = b"AHRS_ORIENTATION";
+    let at_value = bytes.windows(16).position(|w| w == name).unwrap() + 16;
+    bytes[at_value..at_value + 4].copy_from_slice(&44f32.to_le_bytes());
+    let unknown = at(d, "unknown.bin");
+    std::fs::write(&unknown, bytes).unwrap();
+    let (parm, params, out) = (at(d, "u.parm"), at(d, "u.params"), at(d, "u-imu.bin"));
+    trainer(&[
+        "-q",
+        "fit",
+        "--stream",
+        &unknown,
+        "--ardupilot-params",
+        &parm,
+        "--px4-params",
+        &params,
+        "--out",
+        &out,
+    ])
+    .unwrap();
+    assert!(!Path::new(&parm).exists() && !Path::new(&params).exists());
+    assert!(Path::new(&at(d, "u-imu.imu0.bin")).exists());
     let e = sim(&[
         "-q",
         "generate",

@@ -202,6 +202,13 @@ pub struct SensorCubics {
     /// Each axis's cubic. A gyro's three axes are those whose quantity is angular rate, in x, y,
     /// z order; likewise an accelerometer's.
     pub axes: Vec<AxisCubic>,
+    /// Its axes are the vehicle's, not the board's the autopilots apply their parameters in: an
+    /// ArduPilot log whose board rotation could not be turned back
+    /// ([`Mounting::Unknown`](fog_data::autopilot::Mounting::Unknown)). Not in the JSON: its
+    /// parameter files are then not written, and that is said.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub vehicle_axes: bool,
 }
 
 /// One axis's cubic, in °/s or m/s².

@@ -14,6 +14,7 @@ use std::path::Path;
 
 use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Beyond;
+use fog_data::autopilot::Mounting;
 use fog_data::cause::Cause;
 use fog_data::channels::Channels;
 use fog_data::replay::HostModel;
@@ -552,5 +553,6 @@ pub fn unit_cubics<'s, S: IntoIterator<Item = &'s Stream>>(
         instance: sensor.map_or(0, |s| s.instance),
         device_id: sensor.and_then(|s| s.device_id),
         axes,
+        vehicle_axes: sensor.is_some_and(|s| matches!(s.mounting, Some(Mounting::Unknown(_)))),
     })
 }
