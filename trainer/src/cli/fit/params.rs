@@ -51,20 +51,20 @@ impl ParamsArgs {
         ];
         // The axes of a board whose rotation could not be turned back are the vehicle's: an
         // autopilot would apply their curves to the board's (tempcal_IMU.py refuses such a log).
-        let turned: Vec<&str> = units
+        let unturned: Vec<&str> = units
             .iter()
             .filter(|u| u.vehicle_axes)
             .map(|u| u.name.as_str())
             .collect();
         for (path, text, who) in files {
             let Some(path) = path else { continue };
-            if !turned.is_empty() {
+            if !unturned.is_empty() {
                 console.warn(&format!(
                     "{} not written: the board's rotation (AHRS_ORIENTATION) could not be turned \
                      back for {}, so their axes are the vehicle's, and {who} would apply the \
                      curves to the board's",
                     path.display(),
-                    turned.join(", ")
+                    unturned.join(", ")
                 ));
                 continue;
             }
