@@ -220,9 +220,9 @@ impl Reference {
 /// The unit blob of `channels` (name, quantity, model blob), for sensor `id`, calibrated over
 /// −30…60 °C.
 pub fn unit_blob(id: &str, channels: &[(&str, crate::units::Quantity, Vec<u8>)]) -> Vec<u8> {
-    let entries: Vec<blob::unit::Channel<'_>> = channels
+    let entries: Vec<blob::unit::ChannelBlob<'_>> = channels
         .iter()
-        .map(|(name, quantity, model)| blob::unit::Channel {
+        .map(|(name, quantity, model)| blob::unit::ChannelBlob {
             name,
             quantity: *quantity,
             model,

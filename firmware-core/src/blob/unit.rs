@@ -96,7 +96,7 @@ impl ChannelEntry<'_> {
 /// A channel to encode: its name, its quantity and its model blob (format
 /// [`FORMAT_VERSION`], as the trainer exported and checked it).
 #[derive(Debug, Clone, Copy)]
-pub struct Channel<'a> {
+pub struct ChannelBlob<'a> {
     /// Its name, at most [`NAME_BYTES`].
     pub name: &'a str,
     /// What it measures.
@@ -107,7 +107,7 @@ pub struct Channel<'a> {
 
 /// The channels as the payload encodes them, from their model blobs (checked by [`encode`]
 /// before it serializes them).
-struct Entries<'a>(&'a [Channel<'a>]);
+struct Entries<'a>(&'a [ChannelBlob<'a>]);
 
 impl Serialize for Entries<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
@@ -134,7 +134,7 @@ impl Serialize for Entries<'_> {
 pub fn encode(
     sensor_id: &str,
     temperature_c: [f32; 2],
-    channels: &[Channel<'_>],
+    channels: &[ChannelBlob<'_>],
     buf: &mut [u8],
 ) -> Result<usize, BlobError> {
     let c = u8::try_from(channels.len()).map_err(|_| BlobError::InvalidParameter)?;

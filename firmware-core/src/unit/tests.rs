@@ -325,7 +325,7 @@ fn every_defect_of_a_unit_blob_has_its_error() {
     assert_eq!(resealed(&|b| b[8] = 4), BlobError::InconsistentDimensions);
     assert_eq!(resealed(&|b| b[6] = 0), BlobError::InconsistentDimensions);
     // The encoder refuses what the format cannot hold.
-    let entry = |name| format::Channel {
+    let entry = |name| format::ChannelBlob {
         name,
         quantity: Quantity::AngularRate,
         model: &models[0],

@@ -379,10 +379,10 @@ const UNIT_LAYOUT: Layout = Layout {
 fn unit_blob_of(sequence: u32) -> Vec<u8> {
     let model = blob_of(sequence);
     let names = ["gyro.x", "gyro.y", "gyro.z", "acc.x", "acc.y", "acc.z"];
-    let channels: Vec<blob::unit::Channel<'_>> = names
+    let channels: Vec<blob::unit::ChannelBlob<'_>> = names
         .iter()
         .enumerate()
-        .map(|(k, name)| blob::unit::Channel {
+        .map(|(k, name)| blob::unit::ChannelBlob {
             name,
             quantity: if k < 3 {
                 Quantity::AngularRate

@@ -7,24 +7,13 @@
 //! nothing: every channel of the decoded unit computes, bit for bit, what its own blob computes
 //! on a ramp over the unit's trained temperatures.
 
-use firmware_core::blob::unit::{self as format, Channel};
+use firmware_core::blob::unit::{self as format, ChannelBlob};
 use firmware_core::features::MAX_FEATURES;
 use firmware_core::{Feature, FeatureState, Quantity, Sample, UnitSample};
 use fog_data::replay::{self, HostModel};
 use serde::Serialize;
 
 use super::export::{ExportError, Footprint, footprint};
-
-/// One channel to pack: its name, what it measures and its blob.
-#[derive(Debug, Clone, Copy)]
-pub struct ChannelBlob<'a> {
-    /// Its name.
-    pub name: &'a str,
-    /// What it measures.
-    pub quantity: Quantity,
-    /// Its model blob, as `fit` checked and wrote it.
-    pub blob: &'a [u8],
-}
 
 /// The trained range of each channel's temperature input (the sensor's reading, or where a
 /// channel's model reads the coil's estimate instead, that), and the unit's: where every channel
@@ -62,20 +51,12 @@ fn temperature_range(models: &[Box<HostModel>]) -> Result<[f32; 2], ExportError>
 pub fn unit_blob(sensor_id: &str, channels: &[ChannelBlob<'_>]) -> Result<Vec<u8>, ExportError> {
     let models = channels
         .iter()
-        .map(|c| replay::decode(c.blob))
+        .map(|c| replay::decode(c.model))
         .collect::<Result<Vec<_>, _>>()?;
     let temperature_c = temperature_range(&models)?;
-    let entries: Vec<Channel<'_>> = channels
-        .iter()
-        .map(|c| Channel {
-            name: c.name,
-            quantity: c.quantity,
-            model: c.blob,
-        })
-        .collect();
-    let room = 256 + channels.iter().map(|c| c.blob.len() + 64).sum::<usize>();
+    let room = 256 + channels.iter().map(|c| c.model.len() + 64).sum::<usize>();
     let mut buf = vec![0u8; room];
-    let n = format::encode(sensor_id, temperature_c, &entries, &mut buf)?;
+    let n = format::encode(sensor_id, temperature_c, channels, &mut buf)?;
     buf.truncate(n);
     let unit = replay::decode_unit(&buf)?;
     if unit.shared_features().len() > MAX_FEATURES {
@@ -262,12 +243,12 @@ mod tests {
             ChannelBlob {
                 name: "gyro.x",
                 quantity: Quantity::AngularRate,
-                blob: GYRO,
+                model: GYRO,
             },
             ChannelBlob {
                 name: "acc.z",
                 quantity: Quantity::SpecificForce,
-                blob: GYRO,
+                model: GYRO,
             },
         ];
         let blob = unit_blob("IMU-1", &channels).unwrap();

@@ -15,12 +15,13 @@ use serde::Serialize;
 use crate::analysis::diagnose::causes_text;
 use crate::analysis::investigate::{self, Blobs, Investigation};
 use crate::firmware::export::ExportError;
-use crate::firmware::unit::{self, ChannelBlob};
+use crate::firmware::unit;
 use crate::models::gp::GpConfig;
 use crate::pipeline::ChannelEntry;
 use crate::pipeline::source::PointFiles;
 use crate::pipeline::text::render_diagnosis;
 use crate::progress::Messages;
+use firmware_core::blob::unit::ChannelBlob;
 
 /// `trainer investigate`'s settings, checked once by whoever built them.
 #[derive(Clone, Debug)]
@@ -158,7 +159,7 @@ impl UnitInvestigated {
             .map(|(ch, (_, b))| ChannelBlob {
                 name: &ch.name,
                 quantity: ch.quantity,
-                blob: pick(b),
+                model: pick(b),
             })
             .collect();
         unit::unit_blob(&channels.sensor_id, &parts)

@@ -270,9 +270,9 @@ const CHANNELS: [(&str, Quantity); 6] = [
 
 /// A unit blob of [`CHANNELS`].
 fn unit_blob() -> Vec<u8> {
-    let channels: Vec<unit::Channel<'_>> = CHANNELS
+    let channels: Vec<unit::ChannelBlob<'_>> = CHANNELS
         .iter()
-        .map(|&(name, quantity)| unit::Channel {
+        .map(|&(name, quantity)| unit::ChannelBlob {
             name,
             quantity,
             model: BLOB,

@@ -169,10 +169,10 @@ fn slots_boot_and_update_through_c_function_pointers() {
 #[test]
 fn a_units_slots_boot_and_update_through_c_function_pointers() {
     // Six channels, each the example's model: 10 KB, three sectors a slot.
-    let entries: Vec<firmware_core::blob::unit::Channel<'_>> =
+    let entries: Vec<firmware_core::blob::unit::ChannelBlob<'_>> =
         ["gyro.x", "gyro.y", "gyro.z", "acc.x", "acc.y", "acc.z"]
             .into_iter()
-            .map(|name| firmware_core::blob::unit::Channel {
+            .map(|name| firmware_core::blob::unit::ChannelBlob {
                 name,
                 quantity: firmware_core::Quantity::AngularRate,
                 model: BLOB,

@@ -30,11 +30,12 @@ use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::Points;
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
-use crate::firmware::unit::{self, ChannelBlob};
+use crate::firmware::unit;
 use crate::models::gp::{AUTO_EXACT_MAX, GpConfig, GpModel, Inducing};
 use crate::pipeline::ChannelEntry;
 use crate::pipeline::source::PointFiles;
 use crate::progress::Messages;
+use firmware_core::blob::unit::ChannelBlob;
 
 pub mod report;
 mod service;
@@ -176,7 +177,7 @@ impl FitPlan {
             .map(|(ch, f)| ChannelBlob {
                 name: &ch.name,
                 quantity: ch.quantity,
-                blob: &f.blob,
+                model: &f.blob,
             })
             .collect();
         let blob = unit::unit_blob(&channels.sensor_id, &parts)?;
