@@ -303,6 +303,158 @@ impl Columns {
     }
 }
 
+/// Refuses a log of an autopilot given where a CSV is read, and a file of neither kind, each
+/// with what it is.
+fn refuse_logs(path: &Path) -> Result<(), DataError> {
+    let not_csv = |what: String| DataError::NotCsv {
+        path: path.to_owned(),
+        what,
+    };
+    match crate::autopilot::sniff(path) {
+        Ok(crate::autopilot::Format::Csv) => Ok(()),
+        Ok(format) => Err(not_csv(format!(
+            "{format}, not a CSV: give it to --stream, without --channels or --map (each of its \
+             sensors is a unit of its own)"
+        ))),
+        Err(crate::autopilot::RecordedError::Unknown { found, .. }) => Err(not_csv(format!(
+            "neither a CSV, a PX4 ULog nor an ArduPilot DataFlash log: it begins with {found}"
+        ))),
+        Err(_) => Ok(()),
+    }
+}
+
+/// `bytes` without a byte-order mark and with LF line ends: the csv reader's line numbers drift
+/// on CRLF files; plain LF keeps them exact.
+fn plain_lines(bytes: &[u8]) -> Vec<u8> {
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    if !text.contains(&b'\r') {
+        return text.to_vec();
+    }
+    let mut out = Vec::with_capacity(text.len());
+    for (i, &b) in text.iter().enumerate() {
+        if !(b == b'\r' && text.get(i + 1) == Some(&b'\n')) {
+            out.push(b);
+        }
+    }
+    out
+}
+
+/// The delimiter a header line uses: a tab where it has one, else a semicolon where it has one
+/// and no comma, else a comma.
+fn delimiter_of(header_line: &[u8]) -> u8 {
+    if header_line.contains(&b'\t') {
+        b'\t'
+    } else if header_line.contains(&b';') && !header_line.contains(&b',') {
+        b';'
+    } else {
+        b','
+    }
+}
+
+/// Where a cell is: its file, line and column.
+struct Cell<'a> {
+    path: &'a Path,
+    line: u64,
+    column: &'a str,
+}
+
+impl Cell<'_> {
+    /// The cell's number times `factor` (with `decimal_comma`, one comma is the decimal point):
+    /// an error where it is not a number or not finite.
+    fn number(&self, field: &str, decimal_comma: bool, factor: f64) -> Result<f64, DataError> {
+        let parsed: Result<f64, _> = if decimal_comma && field.matches(',').count() == 1 {
+            field.replacen(',', ".", 1).parse()
+        } else {
+            field.parse()
+        };
+        let (path, line, column, value) = (
+            self.path.to_owned(),
+            self.line,
+            self.column.to_owned(),
+            field.to_owned(),
+        );
+        let Ok(v) = parsed.map(|v| v * factor) else {
+            return Err(DataError::NotANumber {
+                path,
+                line,
+                column,
+                value,
+            });
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(DataError::NonFinite {
+                path,
+                line,
+                column,
+                value,
+            })
+        }
+    }
+}
+
+/// A canonical column's source: a column of the file (its index and name, with a factor) or a
+/// constant.
+enum Resolved {
+    Column(usize, String, f64),
+    Constant(f64),
+}
+
+impl Resolved {
+    /// Its value in `record` (NaN for an empty cell where it may be empty), the cell named by
+    /// `at` for an error.
+    fn value<'a>(
+        &'a self,
+        record: &csv::StringRecord,
+        may_be_empty: bool,
+        decimal_comma: bool,
+        at: impl Fn(&'a str) -> Cell<'a>,
+    ) -> Result<f64, DataError> {
+        match self {
+            Self::Constant(v) => Ok(*v),
+            Self::Column(i, _, _)
+                if may_be_empty && record.get(*i).unwrap_or_default().is_empty() =>
+            {
+                Ok(f64::NAN)
+            }
+            Self::Column(i, col, factor) => {
+                at(col).number(record.get(*i).unwrap_or_default(), decimal_comma, *factor)
+            }
+        }
+    }
+}
+
+/// Where canonical column `name` comes from: the last of `maps` that names it, else the file's
+/// column of that name; missing where the file has no such column.
+fn resolve(
+    name: &str,
+    maps: &[ColumnMap],
+    headers: &[String],
+    path: &Path,
+) -> Result<Resolved, DataError> {
+    let missing = |column: &str| DataError::MissingColumn {
+        path: path.to_owned(),
+        column: column.to_owned(),
+        available: headers.join(", "),
+    };
+    let index_of = |name: &str| headers.iter().position(|h| h == name);
+    match maps
+        .iter()
+        .rev()
+        .find(|m| m.name == name)
+        .map(|m| &m.source)
+    {
+        Some(ColumnSource::Constant(v)) => Ok(Resolved::Constant(*v)),
+        Some(ColumnSource::Column { name: col, factor }) => index_of(col)
+            .map(|i| Resolved::Column(i, col.clone(), *factor))
+            .ok_or_else(|| missing(col)),
+        None => index_of(name)
+            .map(|i| Resolved::Column(i, name.to_owned(), 1.0))
+            .ok_or_else(|| missing(name)),
+    }
+}
+
 /// Reads the `numeric` canonical columns (and `label` columns as text) from a CSV file. Columns
 /// named in `nullable` may have empty cells, read as NaN (e.g. a stream's reference rate where it
 /// is unknown); everywhere else an empty or non-finite cell is an error.
@@ -317,38 +469,8 @@ pub fn read_columns(
         path: path.to_owned(),
         source,
     })?;
-    let not_csv = |what: String| DataError::NotCsv {
-        path: path.to_owned(),
-        what,
-    };
-    match crate::autopilot::sniff(path) {
-        Ok(crate::autopilot::Format::Csv) => {}
-        Ok(format) => {
-            return Err(not_csv(format!(
-                "{format}, not a CSV: give it to --stream, without --channels or --map (each \
-                 of its sensors is a unit of its own)"
-            )));
-        }
-        Err(crate::autopilot::RecordedError::Unknown { found, .. }) => {
-            return Err(not_csv(format!(
-                "neither a CSV, a PX4 ULog nor an ArduPilot DataFlash log: it begins with {found}"
-            )));
-        }
-        Err(_) => {}
-    }
-    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    // The csv reader's line numbers drift on CRLF files; plain LF keeps them exact.
-    let text: Vec<u8> = if text.contains(&b'\r') {
-        let mut out = Vec::with_capacity(text.len());
-        for (i, &b) in text.iter().enumerate() {
-            if !(b == b'\r' && text.get(i + 1) == Some(&b'\n')) {
-                out.push(b);
-            }
-        }
-        out
-    } else {
-        text.to_vec()
-    };
+    refuse_logs(path)?;
+    let text = plain_lines(&bytes);
     let text = text.as_slice();
     let header_line = text.split(|&b| b == b'\n').next().unwrap_or_default();
     if header_line.iter().all(u8::is_ascii_whitespace) {
@@ -356,13 +478,7 @@ pub fn read_columns(
             path: path.to_owned(),
         });
     }
-    let delimiter = if header_line.contains(&b'\t') {
-        b'\t'
-    } else if header_line.contains(&b';') && !header_line.contains(&b',') {
-        b';'
-    } else {
-        b','
-    };
+    let delimiter = delimiter_of(header_line);
     // A spreadsheet's export with semicolons writes its decimals with a comma.
     let decimal_comma = delimiter == b';';
     let mut reader = csv::ReaderBuilder::new()
@@ -381,41 +497,23 @@ pub fn read_columns(
         .iter()
         .map(str::to_owned)
         .collect();
-    let index_of = |name: &str| headers.iter().position(|h| h == name);
     let missing = |column: &str| DataError::MissingColumn {
         path: path.to_owned(),
         column: column.to_owned(),
         available: headers.join(", "),
     };
-
-    // Resolve each requested canonical column to (source column index, factor) or a constant.
-    enum Resolved {
-        Column(usize, String, f64),
-        Constant(f64),
-    }
-    let resolve = |name: &str| -> Result<Resolved, DataError> {
-        match maps
-            .iter()
-            .rev()
-            .find(|m| m.name == name)
-            .map(|m| &m.source)
-        {
-            Some(ColumnSource::Constant(v)) => Ok(Resolved::Constant(*v)),
-            Some(ColumnSource::Column { name: col, factor }) => index_of(col)
-                .map(|i| Resolved::Column(i, col.clone(), *factor))
-                .ok_or_else(|| missing(col)),
-            None => index_of(name)
-                .map(|i| Resolved::Column(i, name.to_owned(), 1.0))
-                .ok_or_else(|| missing(name)),
-        }
-    };
     let numeric_sources = numeric
         .iter()
-        .map(|n| resolve(n))
+        .map(|n| resolve(n, maps, &headers, path))
         .collect::<Result<Vec<_>, _>>()?;
     let label_sources = label
         .iter()
-        .map(|n| index_of(n).ok_or_else(|| missing(n)))
+        .map(|n| {
+            headers
+                .iter()
+                .position(|h| h == n)
+                .ok_or_else(|| missing(n))
+        })
         .collect::<Result<Vec<_>, _>>()?;
 
     let mut values: Vec<Vec<f64>> = vec![Vec::new(); numeric.len()];
@@ -438,39 +536,8 @@ pub fn read_columns(
         }
         for ((out, source), &empty_ok) in values.iter_mut().zip(&numeric_sources).zip(&may_be_empty)
         {
-            let v = match source {
-                Resolved::Constant(v) => *v,
-                Resolved::Column(i, _, _)
-                    if empty_ok && record.get(*i).unwrap_or_default().is_empty() =>
-                {
-                    f64::NAN
-                }
-                Resolved::Column(i, col, factor) => {
-                    let field = record.get(*i).unwrap_or_default();
-                    let parsed = if decimal_comma && field.matches(',').count() == 1 {
-                        field.replacen(',', ".", 1).parse()
-                    } else {
-                        field.parse()
-                    };
-                    let v: f64 = parsed.map_err(|_| DataError::NotANumber {
-                        path: path.to_owned(),
-                        line,
-                        column: col.clone(),
-                        value: field.to_owned(),
-                    })?;
-                    let v = v * factor;
-                    if !v.is_finite() {
-                        return Err(DataError::NonFinite {
-                            path: path.to_owned(),
-                            line,
-                            column: col.clone(),
-                            value: field.to_owned(),
-                        });
-                    }
-                    v
-                }
-            };
-            out.push(v);
+            let at = |column| Cell { path, line, column };
+            out.push(source.value(&record, empty_ok, decimal_comma, at)?);
         }
         for (out, &i) in labels.iter_mut().zip(&label_sources) {
             out.push(record.get(i).unwrap_or_default().to_owned());

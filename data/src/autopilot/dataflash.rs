@@ -138,6 +138,112 @@ const AXES: [(&str, &str, Quantity, f64); 6] = [
     ("AccZ", "acc.z", Quantity::SpecificForce, 1.0),
 ];
 
+/// What a log's entries hold for its sensors, gathered entry by entry: each IMU instance's samples
+/// (turned back to the board's axes, with the correction undone where it was on) and each `TCLR`
+/// sensor's, with the parameters that say how.
+#[derive(Default)]
+struct Gathered {
+    by_instance: BTreeMap<u8, Samples>,
+    learned: BTreeMap<(u8, u8), Samples>,
+    tcal: Tcal,
+    corrected: BTreeMap<u8, Correction>,
+    mounted: BTreeMap<u8, Mounting>,
+}
+
+impl Gathered {
+    /// Takes entry `e`: a parameter, a `TCLR` row or an IMU sample; any other is passed over.
+    fn take(&mut self, e: &ardupilot_binlog::Entry) {
+        let number = |field| {
+            e.get_u64(field)
+                .or_else(|| e.get_i64(field).map(|i| i as u64))
+        };
+        if e.name == PARAMETERS {
+            if let (Some(name), Some(value)) = (e.get_str("Name"), e.get_f64("Value")) {
+                self.tcal.set(name, value);
+            }
+            return;
+        }
+        let Some(t) = e.timestamp_usec.or_else(|| e.get_u64("TimeUS")) else {
+            return;
+        };
+        if e.name == LEARNING {
+            let (Some(i), Some(kind @ (TCLR_ACCEL | TCLR_GYRO))) = (number("I"), number("SType"))
+            else {
+                return;
+            };
+            let s = self.learned.entry((kind as u8, i as u8)).or_default();
+            s.time_s.push(t as f64 * 1e-6);
+            s.temp_c.push(e.get_f64("Temp").unwrap_or(f64::NAN));
+            let k = if kind == TCLR_GYRO { AXES[0].3 } else { 1.0 };
+            for (a, field) in s.axes.iter_mut().zip(["X", "Y", "Z"]) {
+                a.push(e.get_f64(field).map_or(f64::NAN, |v| v * k));
+            }
+            return;
+        }
+        let Some(&(_, default)) = IMUS.iter().find(|(n, _)| *n == e.name) else {
+            return;
+        };
+        let instance = number("I").map_or(default, |i| i as u8);
+        let s = self.by_instance.entry(instance).or_default();
+        let temp_c = e.get_f64("T").unwrap_or(f64::NAN);
+        let undo = self.tcal.undo(instance, temp_c);
+        if let Some((how, _)) = undo {
+            self.corrected.entry(instance).or_insert(how);
+        }
+        if let Some(m) = &self.tcal.mounting {
+            self.mounted.entry(instance).or_insert_with(|| m.clone());
+        }
+        s.time_s.push(t as f64 * 1e-6);
+        s.temp_c.push(temp_c);
+        let logged = AXES.map(|(field, ..)| e.get_f64(field).unwrap_or(f64::NAN));
+        let own = self.tcal.board_axes(logged);
+        for (j, (a, (.., k))) in s.axes.iter_mut().zip(AXES).enumerate() {
+            let applied = undo.map_or(0.0, |(_, by)| by[j]);
+            a.push((own[j] + applied) * k);
+        }
+    }
+
+    /// The sensors gathered: each IMU instance, then each `TCLR` sensor.
+    fn sensors(self) -> Vec<Sensor> {
+        let Self {
+            by_instance,
+            learned,
+            corrected,
+            mounted,
+            ..
+        } = self;
+        let imus = by_instance.into_iter().map(|(i, s)| {
+            let axes = AXES
+                .iter()
+                .map(|&(field, name, quantity, _)| (field, name, quantity));
+            Sensor {
+                correction: corrected.get(&i).copied(),
+                mounting: mounted.get(&i).cloned(),
+                ..sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
+            }
+        });
+        let learning = learned.into_iter().map(|((kind, i), s)| {
+            let (short, quantity) = if u64::from(kind) == TCLR_GYRO {
+                ("gyro", Quantity::AngularRate)
+            } else {
+                ("accel", Quantity::SpecificForce)
+            };
+            let axes = [("X", "x"), ("Y", "y"), ("Z", "z")]
+                .into_iter()
+                .map(|(field, name)| (field, name, quantity));
+            sensor(
+                format!("tclr-{short}{i}"),
+                LEARNING,
+                i,
+                ("Temp", s),
+                axes,
+                true,
+            )
+        });
+        imus.chain(learning).collect()
+    }
+}
+
 /// Reads `path`'s sensors ([`Recorded::read`](super::Recorded::read)).
 pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, RecordedError> {
     let (file, total) = open(path)?;
@@ -147,94 +253,14 @@ pub(super) fn read(path: &Path, progress: Progress<'_>) -> Result<Collected, Rec
         types: Rc::clone(&types),
     };
     let filtered = Filtered::new(file, total, frames, Rc::clone(&damage), progress);
-    let mut by_instance: BTreeMap<u8, Samples> = BTreeMap::new();
-    let mut learned: BTreeMap<(u8, u8), Samples> = BTreeMap::new();
-    let mut tcal = Tcal::default();
-    let mut corrected: BTreeMap<u8, Correction> = BTreeMap::new();
-    let mut mounted: BTreeMap<u8, Mounting> = BTreeMap::new();
-    for entry in ardupilot_binlog::Reader::new(filtered) {
-        // The frames passed on are whole and typed: an entry the parser refuses is skipped.
-        let Ok(e) = entry else { continue };
-        let number = |field| {
-            e.get_u64(field)
-                .or_else(|| e.get_i64(field).map(|i| i as u64))
-        };
-        if e.name == PARAMETERS {
-            if let (Some(name), Some(value)) = (e.get_str("Name"), e.get_f64("Value")) {
-                tcal.set(name, value);
-            }
-            continue;
-        }
-        let Some(t) = e.timestamp_usec.or_else(|| e.get_u64("TimeUS")) else {
-            continue;
-        };
-        if e.name == LEARNING {
-            let (Some(i), Some(kind @ (TCLR_ACCEL | TCLR_GYRO))) = (number("I"), number("SType"))
-            else {
-                continue;
-            };
-            let s = learned.entry((kind as u8, i as u8)).or_default();
-            s.time_s.push(t as f64 * 1e-6);
-            s.temp_c.push(e.get_f64("Temp").unwrap_or(f64::NAN));
-            let k = if kind == TCLR_GYRO { AXES[0].3 } else { 1.0 };
-            for (a, field) in s.axes.iter_mut().zip(["X", "Y", "Z"]) {
-                a.push(e.get_f64(field).map_or(f64::NAN, |v| v * k));
-            }
-            continue;
-        }
-        let Some(&(_, default)) = IMUS.iter().find(|(n, _)| *n == e.name) else {
-            continue;
-        };
-        let instance = number("I").map_or(default, |i| i as u8);
-        let s = by_instance.entry(instance).or_default();
-        let temp_c = e.get_f64("T").unwrap_or(f64::NAN);
-        let undo = tcal.undo(instance, temp_c);
-        if let Some((how, _)) = undo {
-            corrected.entry(instance).or_insert(how);
-        }
-        if let Some(m) = &tcal.mounting {
-            mounted.entry(instance).or_insert_with(|| m.clone());
-        }
-        s.time_s.push(t as f64 * 1e-6);
-        s.temp_c.push(temp_c);
-        let logged = AXES.map(|(field, ..)| e.get_f64(field).unwrap_or(f64::NAN));
-        let own = tcal.board_axes(logged);
-        for (j, (a, (.., k))) in s.axes.iter_mut().zip(AXES).enumerate() {
-            let applied = undo.map_or(0.0, |(_, by)| by[j]);
-            a.push((own[j] + applied) * k);
-        }
+    let mut gathered = Gathered::default();
+    // The frames passed on are whole and typed: an entry the parser refuses is skipped.
+    for e in ardupilot_binlog::Reader::new(filtered).flatten() {
+        gathered.take(&e);
     }
     let damage = damage.borrow_mut().take();
     let types = types.borrow();
-    let imus = by_instance.into_iter().map(|(i, s)| {
-        let axes = AXES
-            .iter()
-            .map(|&(field, name, quantity, _)| (field, name, quantity));
-        Sensor {
-            correction: corrected.get(&i).copied(),
-            mounting: mounted.get(&i).cloned(),
-            ..sensor(format!("imu{i}"), "IMU", i, ("T", s), axes, false)
-        }
-    });
-    let learning = learned.into_iter().map(|((kind, i), s)| {
-        let (short, quantity) = if u64::from(kind) == TCLR_GYRO {
-            ("gyro", Quantity::AngularRate)
-        } else {
-            ("accel", Quantity::SpecificForce)
-        };
-        let axes = [("X", "x"), ("Y", "y"), ("Z", "z")]
-            .into_iter()
-            .map(|(field, name)| (field, name, quantity));
-        sensor(
-            format!("tclr-{short}{i}"),
-            LEARNING,
-            i,
-            ("Temp", s),
-            axes,
-            true,
-        )
-    });
-    let sensors = imus.chain(learning).collect();
+    let sensors = gathered.sensors();
     let others = types
         .counts
         .iter()

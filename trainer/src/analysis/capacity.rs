@@ -114,36 +114,45 @@ pub fn resolve(
     Ok((resolved, Some(choice)))
 }
 
-/// Chooses the inducing points for `points` (module doc); `progress` is told each fit.
-pub fn choose(
-    points: &Points,
-    cfg: &GpConfig,
-    mut progress: impl FnMut(&str),
-) -> Result<Choice, GpError> {
-    let n = points.len();
-    let stride = n.div_ceil(COMPARE_MAX);
-    let compared: Vec<usize> = (0..n).step_by(stride).collect();
-    let held = |k: usize| k % HOLD_OUT_EVERY == HOLD_OUT_EVERY - 1;
-    let pick = |out: bool| -> Vec<usize> {
-        compared
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| held(*k) == out)
-            .map(|(_, &i)| i)
-            .collect()
-    };
-    let (train, test) = (pick(false), pick(true));
-    let fit_part = points.select(&train);
-    let test_part = points.select(&test);
-    let target = test_part.target();
-    let score = |inducing: Inducing, mean: MeanBasis| -> Result<(f64, f64, usize), GpError> {
+/// The points a choice compares sizes on: at most [`COMPARE_MAX`] of them, evenly spaced, every
+/// [`HOLD_OUT_EVERY`]th held out.
+struct Comparison {
+    fit_part: Points,
+    test_part: Points,
+    cfg: GpConfig,
+}
+
+impl Comparison {
+    fn of(points: &Points, cfg: &GpConfig) -> Self {
+        let stride = points.len().div_ceil(COMPARE_MAX);
+        let compared: Vec<usize> = (0..points.len()).step_by(stride).collect();
+        let held = |k: usize| k % HOLD_OUT_EVERY == HOLD_OUT_EVERY - 1;
+        let pick = |out: bool| -> Vec<usize> {
+            compared
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| held(*k) == out)
+                .map(|(_, &i)| i)
+                .collect()
+        };
+        Self {
+            fit_part: points.select(&pick(false)),
+            test_part: points.select(&pick(true)),
+            cfg: cfg.clone(),
+        }
+    }
+
+    /// The held-out RMSE, fit seconds and centres kept of a GP of size `inducing` with prior mean
+    /// `mean`, fitted on the fit part.
+    fn score(&self, inducing: Inducing, mean: MeanBasis) -> Result<(f64, f64, usize), GpError> {
         let cfg = GpConfig {
             inducing,
             mean,
-            ..cfg.clone()
+            ..self.cfg.clone()
         };
-        let model = GpModel::fit(fit_part.inputs(), &fit_part.target(), &cfg)?;
-        let x = test_part.inputs();
+        let model = GpModel::fit(self.fit_part.inputs(), &self.fit_part.target(), &cfg)?;
+        let x = self.test_part.inputs();
+        let target = self.test_part.target();
         let sq: f64 = (0..x.nrows())
             .map(|i| {
                 let row: Vec<f64> = x.row(i).iter().copied().collect();
@@ -155,35 +164,49 @@ pub fn choose(
             model.fit_seconds,
             model.posterior.xs.nrows(),
         ))
-    };
-    let sizes =
-        |mean: MeanBasis, progress: &mut dyn FnMut(&str)| -> Result<Vec<TriedSize>, GpError> {
-            let mut tried = Vec::new();
-            for &m in CANDIDATES.iter().filter(|&&m| m < train.len()) {
-                progress(&format!(
-                    "a sparse GP with {m} inducing points (--mean {mean})"
-                ));
-                let (rmse, secs, kept) = score(Inducing::Count(m), mean)?;
-                tried.push(TriedSize {
-                    asked: m,
-                    centres: kept,
-                    kind: "sparse",
-                    held_out_rmse_dps: rmse,
-                    instructions: instructions(kept),
-                    exportable: true,
-                    fit_seconds: secs,
-                });
-            }
-            Ok(tried)
-        };
-    let candidates = sizes(cfg.mean, &mut progress)?;
-    progress(&format!(
-        "the exact GP on {} points, for comparison",
-        train.len()
-    ));
-    let (rmse, secs, _) = score(Inducing::Exact, cfg.mean)?;
+    }
+
+    /// Every sparse size of [`CANDIDATES`] below the fit part's points, with prior mean `mean`.
+    fn sizes(
+        &self,
+        mean: MeanBasis,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<Vec<TriedSize>, GpError> {
+        let mut tried = Vec::new();
+        for &m in CANDIDATES.iter().filter(|&&m| m < self.fit_part.len()) {
+            progress(&format!(
+                "a sparse GP with {m} inducing points (--mean {mean})"
+            ));
+            let (rmse, secs, kept) = self.score(Inducing::Count(m), mean)?;
+            tried.push(TriedSize {
+                asked: m,
+                centres: kept,
+                kind: "sparse",
+                held_out_rmse_dps: rmse,
+                instructions: instructions(kept),
+                exportable: true,
+                fit_seconds: secs,
+            });
+        }
+        Ok(tried)
+    }
+}
+
+/// Chooses the inducing points for `points` (module doc); `progress` is told each fit.
+pub fn choose(
+    points: &Points,
+    cfg: &GpConfig,
+    mut progress: impl FnMut(&str),
+) -> Result<Choice, GpError> {
+    let n = points.len();
+    let stride = n.div_ceil(COMPARE_MAX);
+    let comparison = Comparison::of(points, cfg);
+    let train = comparison.fit_part.len();
+    let candidates = comparison.sizes(cfg.mean, &mut progress)?;
+    progress(&format!("the exact GP on {train} points, for comparison"));
+    let (rmse, secs, _) = comparison.score(Inducing::Exact, cfg.mean)?;
     let exact = TriedSize {
-        asked: train.len(),
+        asked: train,
         centres: n,
         kind: "exact",
         held_out_rmse_dps: rmse,
@@ -196,7 +219,7 @@ pub fn choose(
     let mut default_mean_candidates = Vec::new();
     let limit = WORSE_THAN_EXACT * exact.held_out_rmse_dps;
     if pick.held_out_rmse_dps > limit && cfg.mean != MeanBasis::Physics {
-        default_mean_candidates = sizes(MeanBasis::Physics, &mut progress)?;
+        default_mean_candidates = comparison.sizes(MeanBasis::Physics, &mut progress)?;
         let (other, other_how) = rule(&default_mean_candidates, &exact);
         if other.held_out_rmse_dps <= limit {
             how = format!(
@@ -220,7 +243,7 @@ pub fn choose(
             TOLERANCE * 100.0
         ),
         n,
-        held_out: test.len(),
+        held_out: comparison.test_part.len(),
         candidates,
         exact,
         chosen: pick.asked,

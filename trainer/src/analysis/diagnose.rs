@@ -383,6 +383,123 @@ pub fn diagnose_residual(res: &Residual<'_>, quantity: Quantity) -> Diagnosis {
     }
 }
 
+/// The candidate causes a selection draws from (those with regressors) and what scores a design
+/// of them, given as indices into them: the residual, its interleaved and forward splits, and a
+/// table's plateaus.
+struct Designs<'a> {
+    y: &'a [f64],
+    real: Vec<(Cause, &'a Candidates)>,
+    splits: [Vec<Split>; 2],
+    plateaus: Option<&'a Plateaus>,
+}
+
+impl<'a> Designs<'a> {
+    fn new(
+        y: &'a [f64],
+        regressors: &'a [(Cause, Candidates)],
+        plateaus: Option<&'a Plateaus>,
+    ) -> Self {
+        let real = regressors
+            .iter()
+            .filter(|(c, x)| *c != Cause::None && !x.is_empty())
+            .map(|(c, x)| (*c, x))
+            .collect();
+        let n = y.len();
+        Self {
+            y,
+            real,
+            splits: [interleaved_splits(n), forward_splits(n)],
+            plateaus,
+        }
+    }
+
+    fn state(&self, i: usize) -> bool {
+        self.real[i].0 == Cause::Hysteresis
+    }
+
+    fn constant(&self, idx: &[usize]) -> Constant<'a> {
+        Constant::of(self.plateaus, idx.iter().any(|&i| self.state(i)))
+    }
+
+    fn design(&self, idx: &[usize]) -> Vec<&'a Candidates> {
+        idx.iter().map(|&i| self.real[i].1).collect()
+    }
+
+    /// Test-set SSE of design `idx` over `constant`, interleaved and forward.
+    fn sse_with(&self, idx: &[usize], constant: Constant<'_>) -> [f64; 2] {
+        let design = self.design(idx);
+        [0, 1].map(|k| split_sse(self.y, constant, &design, &self.splits[k], false).0)
+    }
+
+    fn sse(&self, idx: &[usize]) -> [f64; 2] {
+        self.sse_with(idx, self.constant(idx))
+    }
+
+    fn without_state(&self, idx: &[usize]) -> Vec<usize> {
+        idx.iter().copied().filter(|&i| !self.state(i)).collect()
+    }
+
+    fn sees(&self, idx: &[usize]) -> bool {
+        forward_sees(self.y, self.constant(idx), &self.design(idx))
+    }
+
+    /// The plateau constants come with a heating/cooling state; they can also follow a static
+    /// curve that is off at the table's temperatures, so the state must predict by itself: the
+    /// share of what the design without it leaves over the plateaus that it predicts.
+    fn state_share(&self, idx: &[usize], s: &[f64; 2]) -> Option<[f64; 2]> {
+        let p = self
+            .plateaus
+            .filter(|_| idx.iter().any(|&i| self.state(i)))?;
+        let without = self.sse_with(&self.without_state(idx), Constant::Plateaus(p));
+        Some([0, 1].map(|k| share(s[k], without[k])))
+    }
+
+    /// Design `idx` scored against the SSE `current` of the design taken before it.
+    fn attempt(&self, idx: Vec<usize>, current: &[f64; 2]) -> Try {
+        let s = self.sse(&idx);
+        let seen = self.sees(&idx);
+        Try {
+            share: [0, 1].map(|k| share(s[k], current[k])),
+            state_share: self.state_share(&idx, &s),
+            sees: seen,
+            blind_harm: !seen && blind_harm(self.y, self.constant(&idx), &self.design(&idx)),
+            idx,
+            sse: s,
+        }
+    }
+
+    fn step(
+        &self,
+        idx: &[usize],
+        share: [f64; 2],
+        state_share: Option<[f64; 2]>,
+        replaces: Option<Cause>,
+        added: bool,
+    ) -> Step {
+        Step {
+            causes: idx.iter().map(|&i| self.real[i].0).collect(),
+            parameters: parameters(self.y, self.constant(idx), &self.design(idx))
+                .into_iter()
+                .map(f64::from)
+                .collect(),
+            score: share[0],
+            forward_score: share[1],
+            forward_sees: self.sees(idx),
+            state_share,
+            replaces,
+            added,
+        }
+    }
+
+    /// The causes of design `idx` with their parameters.
+    fn named(&self, idx: &[usize]) -> Vec<(Cause, f32)> {
+        idx.iter()
+            .map(|&i| self.real[i].0)
+            .zip(parameters(self.y, self.constant(idx), &self.design(idx)))
+            .collect()
+    }
+}
+
 /// Best-subset selection (module doc): for one, two, then three causes, the design that predicts
 /// the most of what the design taken before it left on both tests together, among those that
 /// predict at least [`MIN_SCORE`] (first step) or [`MIN_NEXT_SCORE`] (later steps) of it there and
@@ -393,58 +510,16 @@ fn select(
     regressors: &[(Cause, Candidates)],
     plateaus: Option<&Plateaus>,
 ) -> (Vec<(Cause, f32)>, Vec<Step>) {
-    let n = y.len();
     let mut steps = Vec::new();
-    if n < 2 * FOLDS {
+    if y.len() < 2 * FOLDS {
         return (Vec::new(), steps);
     }
-    let real: Vec<(Cause, &Candidates)> = regressors
-        .iter()
-        .filter(|(c, x)| *c != Cause::None && !x.is_empty())
-        .map(|(c, x)| (*c, x))
-        .collect();
-    let splits = [interleaved_splits(n), forward_splits(n)];
-    let state = |i: usize| real[i].0 == Cause::Hysteresis;
-    let constant = |idx: &[usize]| Constant::of(plateaus, idx.iter().any(|&i| state(i)));
-    let sse_with = |idx: &[usize], constant: Constant<'_>| {
-        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        [0, 1].map(|k| split_sse(y, constant, &design, &splits[k], false).0)
-    };
-    let sse = |idx: &[usize]| sse_with(idx, constant(idx));
-    let without_state =
-        |idx: &[usize]| -> Vec<usize> { idx.iter().copied().filter(|&i| !state(i)).collect() };
-    let sees = |idx: &[usize]| {
-        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        forward_sees(y, constant(idx), &design)
-    };
-    let step = |idx: &[usize], share: [f64; 2], state_share, replaces, added| {
-        let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-        Step {
-            causes: idx.iter().map(|&i| real[i].0).collect(),
-            parameters: parameters(y, constant(idx), &design)
-                .into_iter()
-                .map(f64::from)
-                .collect(),
-            score: share[0],
-            forward_score: share[1],
-            forward_sees: sees(idx),
-            state_share,
-            replaces,
-            added,
-        }
-    };
-    // The plateau constants come with a heating/cooling state; they can also follow a static
-    // curve that is off at the table's temperatures, so the state must predict by itself.
-    let state_share = |idx: &[usize], s: &[f64; 2]| {
-        let p = plateaus.filter(|_| idx.iter().any(|&i| state(i)))?;
-        let without = sse_with(&without_state(idx), Constant::Plateaus(p));
-        Some([0, 1].map(|k| share(s[k], without[k])))
-    };
+    let d = Designs::new(y, regressors, plateaus);
     let mut taken: Vec<usize> = Vec::new();
-    let mut current = sse(&[]);
+    let mut current = d.sse(&[]);
     let mut before_taken = current;
     let least = |size: usize| selection::TWO_TESTS.least(size);
-    for size in selection::sizes(real.len()) {
+    for size in selection::sizes(d.real.len()) {
         // The forward test counts where it sees the design; where it does not, only its harm.
         let bar = |g: &[f64; 2]| g[0] >= least(size) && g[1] >= least(size);
         let bar_seen = |t: &Try| {
@@ -455,20 +530,8 @@ fn select(
             }
         };
         let passes = |t: &Try| bar_seen(t) && t.state_share.as_ref().is_none_or(bar);
-        let tries: Vec<Try> = selection::designs(real.len(), size)
-            .map(|idx| {
-                let s = sse(&idx);
-                let seen = sees(&idx);
-                let design: Vec<&Candidates> = idx.iter().map(|&i| real[i].1).collect();
-                Try {
-                    share: [0, 1].map(|k| share(s[k], current[k])),
-                    state_share: state_share(&idx, &s),
-                    sees: seen,
-                    blind_harm: !seen && blind_harm(y, constant(&idx), &design),
-                    idx,
-                    sse: s,
-                }
-            })
+        let tries: Vec<Try> = selection::designs(d.real.len(), size)
+            .map(|idx| d.attempt(idx, &current))
             .collect();
         let by_score = |a: &&Try, b: &&Try| a.rank().total_cmp(&b.rank());
         let Some(best) = tries
@@ -481,22 +544,22 @@ fn select(
             break;
         };
         let added = passes(&best);
-        let idx = strongest_first(best.idx.clone(), best.sse[0], &sse);
-        steps.push(step(&idx, best.share, best.state_share, None, added));
+        let idx = strongest_first(best.idx.clone(), best.sse[0], &|idx: &[usize]| d.sse(idx));
+        steps.push(d.step(&idx, best.share, best.state_share, None, added));
         if !added {
             // It predicts more, but its state is redundant beside its other causes: those take
             // the place of the design taken, if they passed that design's own bar.
-            let rest = without_state(&idx);
+            let rest = d.without_state(&idx);
             let swapped = bar_seen(&best)
                 && rest.len() == taken.len()
-                && taken.iter().any(|&i| state(i))
+                && taken.iter().any(|&i| d.state(i))
                 && best.state_share.is_some_and(|g| !bar(&g));
             let g = swapped.then(|| {
-                let s = sse(&rest);
+                let s = d.sse(&rest);
                 [0, 1].map(|k| share(s[k], before_taken[k]))
             });
             if let Some(g) = g.filter(|g| g[0] >= least(size - 1) && g[1] >= least(size - 1)) {
-                steps.push(step(&rest, g, None, Some(Cause::Hysteresis), true));
+                steps.push(d.step(&rest, g, None, Some(Cause::Hysteresis), true));
                 taken = rest;
             }
             break;
@@ -505,13 +568,7 @@ fn select(
         before_taken = current;
         current = best.sse;
     }
-    let design: Vec<&Candidates> = taken.iter().map(|&i| real[i].1).collect();
-    let named = taken
-        .iter()
-        .map(|&i| real[i].0)
-        .zip(parameters(y, constant(&taken), &design))
-        .collect();
-    (named, steps)
+    (d.named(&taken), steps)
 }
 
 /// The causes of a design ordered by what leaving each out costs on interleaved chunks, most
@@ -553,7 +610,6 @@ fn explain(
     quantity: Quantity,
 ) -> String {
     let (k, u) = (quantity.bias_per_unit(), quantity.bias_unit());
-    let gyro = quantity == Quantity::AngularRate;
     let rival = other.map_or(String::new(), |o| {
         format!(
             "; runner-up {} predicts {:.0}%",
@@ -563,28 +619,7 @@ fn explain(
     });
     let more: String = steps
         .windows(2)
-        .map(|w| {
-            let (before, s) = (&w[0], &w[1]);
-            if let Some(state) = s.replaces {
-                format!(
-                    "; so {} takes the place of the design with {state} (it predicted {:.0}% of \
-                     what the design before left, {:.0}% forward)",
-                    joined(&s.causes),
-                    100.0 * s.score,
-                    100.0 * s.forward_score
-                )
-            } else if s.added {
-                format!(
-                    "; with more, {} predicts {:.0}% of what {} left ({:.0}% forward)",
-                    joined(&s.causes),
-                    100.0 * s.score,
-                    joined(&before.causes),
-                    100.0 * s.forward_score
-                )
-            } else {
-                format!("; nothing more: {}", refusal(s))
-            }
-        })
+        .map(|w| further_step(&w[0], &w[1]))
         .collect();
     let Some(c) = named.filter(|_| cause != Cause::None) else {
         let why = steps
@@ -599,8 +634,51 @@ fn explain(
         );
     };
     let share = 100.0 * c.score;
+    let what = what_it_follows(cause, c, quantity);
+    let forward = if c.forward_sees {
+        format!("{:.0}% forward in time", 100.0 * c.forward_score)
+    } else {
+        "forward in time it cannot be seen: its input barely moves in the later half, so that \
+         test abstains"
+            .to_owned()
+    };
+    format!(
+        "{what}. It predicts {share:.0}% of the residual variance out of sample \
+         ({forward}){rival}{more}"
+    )
+}
+
+/// What a step after the first did in words: took the place of a design with a redundant
+/// heating/cooling state, added a cause to the design `before` it, or was refused.
+fn further_step(before: &Step, s: &Step) -> String {
+    if let Some(state) = s.replaces {
+        format!(
+            "; so {} takes the place of the design with {state} (it predicted {:.0}% of what the \
+             design before left, {:.0}% forward)",
+            joined(&s.causes),
+            100.0 * s.score,
+            100.0 * s.forward_score
+        )
+    } else if s.added {
+        format!(
+            "; with more, {} predicts {:.0}% of what {} left ({:.0}% forward)",
+            joined(&s.causes),
+            100.0 * s.score,
+            joined(&before.causes),
+            100.0 * s.forward_score
+        )
+    } else {
+        format!("; nothing more: {}", refusal(s))
+    }
+}
+
+/// What the residual follows under `cause` (fitted as `c`), its physical reading for the sensor's
+/// `quantity`, and the input that compensates it.
+fn what_it_follows(cause: Cause, c: &CauseFit, quantity: Quantity) -> String {
+    let (k, u) = (quantity.bias_per_unit(), quantity.bias_unit());
+    let gyro = quantity == Quantity::AngularRate;
     let minutes = c.parameter / 60.0;
-    let what = match cause {
+    match cause {
         Cause::ThermalRate => format!(
             "residual follows dT/dt (r = {:.2}, {:.1} ({u})/(°C/min), filter {minutes:.0} min) \
              whatever the {}: {}; add a temperature-rate input",
@@ -639,18 +717,7 @@ fn explain(
             c.correlation
         ),
         Cause::None => String::new(),
-    };
-    let forward = if c.forward_sees {
-        format!("{:.0}% forward in time", 100.0 * c.forward_score)
-    } else {
-        "forward in time it cannot be seen: its input barely moves in the later half, so that \
-         test abstains"
-            .to_owned()
-    };
-    format!(
-        "{what}. It predicts {share:.0}% of the residual variance out of sample \
-         ({forward}){rival}{more}"
-    )
+    }
 }
 
 /// Cause ids joined by " + ".

@@ -186,7 +186,7 @@ fn fit_on_residual(
     let mut fits = Vec::new();
     // Each column: the input, its parameter's cause, and its regressor (partialled where the
     // static GP was fitted on this stream: diagnose's module doc).
-    let mut columns: Vec<(Feature, Cause, f32, Vec<f64>)> = Vec::new();
+    let mut columns: Vec<Column> = Vec::new();
     for &cause in causes.iter().filter(|c| **c != Cause::None) {
         let candidates = diagnose::candidates(res, cause);
         let fit = diagnose::fit_candidates(res, cause, &candidates)
@@ -218,13 +218,46 @@ fn fit_on_residual(
     let xs: Vec<&[f64]> = columns.iter().map(|(_, _, _, x)| x.as_slice()).collect();
     let all: Vec<usize> = (0..n).collect();
     let (beta, after) = diagnose::ols(constant, &xs, &y, &all);
-    let knots = res.plateau_knots();
     for (j, (feature, _, _, _)) in columns.iter().enumerate() {
         extension
             .terms
             .push(Term::bias(*feature, -beta[k + j], res.range(*feature)));
     }
-    let (model, point_offsets) = if res.is_self_fitted() && !columns.is_empty() {
+    let (model, point_offsets) = condition(model, points, res, &columns, &beta, &mut extension)?;
+    let blob = export::points_blob(&model, points, &extension)?;
+    let (_, agreement) = export::verify(&model, &blob, points, &extension)?;
+    Ok(Extended {
+        fitted: ExtensionFit {
+            extension,
+            fits,
+            train_rmse_60s_dps: [res.rmse_60s(), (after / n as f64).sqrt()],
+            point_offsets,
+        },
+        blob,
+        agreement,
+        model,
+    })
+}
+
+/// One regressor of an extension: the input, its parameter's cause and value, and the regressor
+/// over the residual's blocks.
+type Column = (Feature, Cause, f32, Vec<f64>);
+
+/// The GP and the table's point offsets that go with the extension's least-squares fit `beta`
+/// (the constant part's columns, then one per column of `columns`): where the static GP was
+/// fitted on this stream, refitted to the targets with the transient taken out; else with the
+/// constant part taken into `extension`'s offset (one constant) or the table's plateau offsets.
+fn condition(
+    model: &GpModel,
+    points: &Points,
+    res: &Residual<'_>,
+    columns: &[Column],
+    beta: &[f64],
+    extension: &mut Extension,
+) -> Result<(GpModel, Vec<PointOffset>), ExtendError> {
+    let knots = res.plateau_knots();
+    let k = beta.len() - columns.len();
+    Ok(if res.is_self_fitted() && !columns.is_empty() {
         // Static and transient parts together: t = f + c·x with c = −β, so the GP is conditioned
         // on t + β·x at the raw inputs, and the GP's mean basis carries the constant.
         let mut target = points.target();
@@ -258,19 +291,6 @@ fn fit_on_residual(
             .map(|(&temp_c, &offset_dps)| PointOffset { temp_c, offset_dps })
             .collect();
         (refit, table)
-    };
-    let blob = export::points_blob(&model, points, &extension)?;
-    let (_, agreement) = export::verify(&model, &blob, points, &extension)?;
-    Ok(Extended {
-        fitted: ExtensionFit {
-            extension,
-            fits,
-            train_rmse_60s_dps: [res.rmse_60s(), (after / n as f64).sqrt()],
-            point_offsets,
-        },
-        blob,
-        agreement,
-        model,
     })
 }
 

@@ -309,6 +309,53 @@ fn nested(
     Ok(None)
 }
 
+/// The forward check's figures in words: forward in time, beyond the temperatures fitted and
+/// across the heating/cooling legs, each with what a test that cannot see the extension judged.
+fn check_figures(c: &ForwardCheck, names: &str, unit: &str) -> String {
+    let blind = |sight: &Sight| {
+        if sight.sees {
+            String::new()
+        } else {
+            let [s, e] = sight.centred_rmse_60s_dps;
+            format!(
+                " (its input barely moves there: that test cannot see it, and judges only harm, \
+                 {e:.3e} against {s:.3e} with each model's mean taken out)"
+            )
+        }
+    };
+    let mut figures = format!(
+        "fitted on the first {:.0} min of the training stream, {names} scores {:.3e} {unit} on \
+         the {} later blocks against the static model's {:.3e}{}",
+        c.split_s / 60.0,
+        c.extended_rmse_60s_dps,
+        c.later_blocks,
+        c.static_rmse_60s_dps,
+        blind(&c.sight)
+    );
+    if let Some(t) = &c.temperature {
+        figures += &format!(
+            "; fitted inside {:.1}…{:.1} °C, {:.3e} against {:.3e} on the {} blocks outside{}",
+            t.inside_c.0,
+            t.inside_c.1,
+            t.extended_rmse_60s_dps,
+            t.static_rmse_60s_dps,
+            t.outside_blocks,
+            blind(&t.sight)
+        );
+    }
+    for l in &c.legs {
+        figures += &format!(
+            "; fitted on the {} leg, {:.3e} against {:.3e} on the {} blocks of the other{}",
+            l.fitted_on,
+            l.extended_rmse_60s_dps,
+            l.static_rmse_60s_dps,
+            l.scored_blocks,
+            blind(&l.sight)
+        );
+    }
+    figures
+}
+
 /// Which model ships after the forward `check` of the extension by `names`, and why in words:
 /// the extension where it helps on every check that can see it (or where it was `asked` for),
 /// the static model otherwise, and where the stream is too short to check.
@@ -331,53 +378,7 @@ fn decide(
             ),
         ),
         (Some(c), asked) => {
-            let earlier = format!(
-                "fitted on the first {:.0} min of the training stream",
-                c.split_s / 60.0
-            );
-            let blind = |sight: &Sight| {
-                if sight.sees {
-                    String::new()
-                } else {
-                    let [s, e] = sight.centred_rmse_60s_dps;
-                    format!(
-                        " (its input barely moves there: that test cannot see it, and judges only \
-                         harm, {e:.3e} against {s:.3e} with each model's mean taken out)"
-                    )
-                }
-            };
-            let mut figures = format!(
-                "{earlier}, {names} scores {:.3e} {} on the {} later blocks against the static \
-                 model's {:.3e}{}",
-                c.extended_rmse_60s_dps,
-                unit,
-                c.later_blocks,
-                c.static_rmse_60s_dps,
-                blind(&c.sight)
-            );
-            if let Some(t) = &c.temperature {
-                figures += &format!(
-                    "; fitted inside {:.1}…{:.1} °C, {:.3e} against {:.3e} on the {} blocks \
-                     outside{}",
-                    t.inside_c.0,
-                    t.inside_c.1,
-                    t.extended_rmse_60s_dps,
-                    t.static_rmse_60s_dps,
-                    t.outside_blocks,
-                    blind(&t.sight)
-                );
-            }
-            for l in &c.legs {
-                figures += &format!(
-                    "; fitted on the {} leg, {:.3e} against {:.3e} on the {} blocks of the \
-                     other{}",
-                    l.fitted_on,
-                    l.extended_rmse_60s_dps,
-                    l.static_rmse_60s_dps,
-                    l.scored_blocks,
-                    blind(&l.sight)
-                );
-            }
+            let figures = check_figures(c, names, unit);
             let forward_fails = !vote(c.static_rmse_60s_dps, c.extended_rmse_60s_dps, &c.sight);
             let elsewhere = match (
                 c.temperature.as_ref().is_none_or(|t| t.extension_helps()),

@@ -389,25 +389,7 @@ pub fn fit(
         })
     };
     if chosen.is_empty() {
-        let best = steps.first().and_then(|s| s.first()).map_or(
-            String::from("no candidate could be scored"),
-            |t| {
-                format!(
-                    "the best, {}, cut it by {:.0}% (at least {:.0}% needed)",
-                    t.name,
-                    100.0 * (1.0 - t.rmse_dps / static_rmse),
-                    100.0 * MIN_GAIN
-                )
-            },
-        );
-        return static_model(
-            format!(
-                "none: leaving one group out, the static model's error is {:.3e} °/s; {best}",
-                static_rmse
-            ),
-            None,
-            Vec::new(),
-        );
+        return static_model(none_verdict(&steps, static_rmse), None, Vec::new());
     }
     let terms = transients.design(rows, &chosen);
     let (extended, gamma) = GpModel::fit_with_terms(x, &terms, &target, &offsets, cfg, &gp)?;
@@ -424,22 +406,7 @@ pub fn fit(
             chosen,
         );
     }
-    let fitted: Vec<FittedTerm> = chosen
-        .iter()
-        .zip(&gamma)
-        .map(|(&j, &coefficient)| {
-            let f = rows.iter().map(|&i| transients.features[(i, j)]);
-            let range = f.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-            FittedTerm {
-                candidate: transients.candidates[j],
-                coefficient,
-                range,
-                column: j,
-            }
-        })
-        .collect();
+    let fitted = fitted_terms(transients, rows, &chosen, &gamma);
     Ok(TableModel {
         gp: extended,
         terms: fitted,
@@ -461,6 +428,51 @@ pub fn fit(
             ),
         },
     })
+}
+
+/// Why no transient was taken: the best candidate's cut of the static model's
+/// leave-one-group-out error, against the [`MIN_GAIN`] needed.
+fn none_verdict(steps: &[Vec<TriedTerm>], static_rmse: f64) -> String {
+    let best = steps.first().and_then(|s| s.first()).map_or(
+        String::from("no candidate could be scored"),
+        |t| {
+            format!(
+                "the best, {}, cut it by {:.0}% (at least {:.0}% needed)",
+                t.name,
+                100.0 * (1.0 - t.rmse_dps / static_rmse),
+                100.0 * MIN_GAIN
+            )
+        },
+    );
+    format!(
+        "none: leaving one group out, the static model's error is {static_rmse:.3e} °/s; {best}"
+    )
+}
+
+/// The `chosen` columns of the transients with their fitted coefficients `gamma`, each with the
+/// range its feature spans over the training `rows`.
+fn fitted_terms(
+    transients: &Transients,
+    rows: &[usize],
+    chosen: &[usize],
+    gamma: &[f64],
+) -> Vec<FittedTerm> {
+    chosen
+        .iter()
+        .zip(gamma)
+        .map(|(&j, &coefficient)| {
+            let f = rows.iter().map(|&i| transients.features[(i, j)]);
+            let range = f.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+            FittedTerm {
+                candidate: transients.candidates[j],
+                coefficient,
+                range,
+                column: j,
+            }
+        })
+        .collect()
 }
 
 /// The terms, one family at a time: each round scores every candidate of a family not yet taken

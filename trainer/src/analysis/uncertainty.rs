@@ -602,26 +602,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let floor = if runs { c[1] } else { c[0] };
     let shipped = [0.0, floor, c[2], c[3], c[4]];
     let shipped_sigma = |r: &Residual| var(r, true, &shipped).sqrt();
-    let coverage = |rs: &[&Residual], c: &dyn Fn(&Residual) -> f64| {
-        let errors: Vec<f64> = rs.iter().map(|r| r.error).collect();
-        let sigmas: Vec<f64> = rs.iter().map(|r| c(r)).collect();
-        Coverage::of(&errors, &sigmas)
-    };
-    let sources = series
-        .iter()
-        .zip(&standardized)
-        .filter(|(s, _)| !s.residuals.is_empty())
-        .map(|(s, z)| {
-            let rs: Vec<&Residual> = s.residuals.iter().collect();
-            SourceSummary {
-                source: s.source,
-                n: rs.len(),
-                effective: effective(z),
-                rmse: rms(&rs.iter().map(|r| r.error).collect::<Vec<_>>()),
-                coverage: coverage(&rs, &shipped_sigma),
-            }
-        })
-        .collect();
+    let sources = summaries(series, &standardized, &shipped_sigma);
     let scored: Vec<&Residual> = all
         .iter()
         .filter(|(_, run)| *run || !runs)
@@ -658,6 +639,37 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         legs_trained: None,
         leg_std: 0.0,
     }
+}
+
+/// How `sigma` covers the residuals `rs`.
+fn coverage(rs: &[&Residual], sigma: &dyn Fn(&Residual) -> f64) -> Coverage {
+    let errors: Vec<f64> = rs.iter().map(|r| r.error).collect();
+    let sigmas: Vec<f64> = rs.iter().map(|r| sigma(r)).collect();
+    Coverage::of(&errors, &sigmas)
+}
+
+/// Each series' residuals summed up: their count, independent count (from their `standardized`
+/// values), RMS and how the shipped `sigma` covers them.
+fn summaries(
+    series: &[Series],
+    standardized: &[Vec<f64>],
+    sigma: &dyn Fn(&Residual) -> f64,
+) -> Vec<SourceSummary> {
+    series
+        .iter()
+        .zip(standardized)
+        .filter(|(s, _)| !s.residuals.is_empty())
+        .map(|(s, z)| {
+            let rs: Vec<&Residual> = s.residuals.iter().collect();
+            SourceSummary {
+                source: s.source,
+                n: rs.len(),
+                effective: effective(z),
+                rmse: rms(&rs.iter().map(|r| r.error).collect::<Vec<_>>()),
+                coverage: coverage(&rs, sigma),
+            }
+        })
+        .collect()
 }
 
 /// Which terms the residuals can show: a floor where there are residuals of its kind; a growth

@@ -41,14 +41,7 @@ impl FitPlan {
             .map(|((name, _, _), p)| (*name, dims(p, p.len())))
             .collect();
         budget::check_smallest(&self.budget, &smallest)?;
-        let default: Vec<Dims> = points
-            .iter()
-            .map(|p| dims(p, p.len().min(MAX_CENTRES)))
-            .collect();
-        let most_m = default.iter().map(|d| d.m).max().unwrap_or(0);
-        let default_cost = default.iter().fold(budget::Cost::unit(most_m), |acc, d| {
-            acc + budget::Cost::model(*d)
-        });
+        let default_cost = default_cost(&points, &dims);
         if self.budget.holds(&default_cost) {
             messages.result(&format!(
                 "the budget ({}) holds the models the default fit ships ({default_cost}): no size \
@@ -88,50 +81,36 @@ impl FitPlan {
                 self.budget
             )
         })?;
-        let mut lines = format!(
+        let channels: Vec<budget::ChannelSizes> = named
+            .iter()
+            .zip(sizes)
+            .zip(&chosen)
+            .map(|(((name, _, _), sizes), &i)| budget::ChannelSizes {
+                name: (*name).to_owned(),
+                sizes,
+                chosen: Some(i),
+            })
+            .collect();
+        messages.result(&format!(
             "the budget ({}) does not hold the default models ({default_cost}); chosen within \
-             it, on each channel's points with every fifth held out ({cost}):",
-            self.budget
-        );
-        let mut out = Vec::new();
-        for (((name, _, _), s), (&i, mut plan)) in
-            named.iter().zip(&sizes).zip(chosen.iter().zip(plans))
-        {
-            let pick = &s[i];
-            let best = s
-                .iter()
-                .map(|x| x.held_out_rmse)
-                .fold(f64::INFINITY, f64::min);
-            lines.push_str(&format!(
-                "\n  {name}: {} GP of {} {} ({:+.1}% held-out error against its best size), \
-                 {} bytes of RAM",
-                pick.kind,
-                pick.asked,
-                if pick.kind == "exact" {
-                    "points"
-                } else {
-                    "inducing points"
-                },
-                100.0 * (pick.held_out_rmse / best - 1.0),
-                pick.cost.ram_bytes
-            ));
-            plan.gp.inducing = pick.inducing();
-            out.push(plan);
-        }
-        messages.result(&lines);
+             it, on each channel's points with every fifth held out ({cost}):{}",
+            self.budget,
+            channels.iter().map(chosen_line).collect::<String>()
+        ));
+        let out = plans
+            .into_iter()
+            .zip(&channels)
+            .map(|(mut plan, c)| {
+                if let Some(i) = c.chosen {
+                    plan.gp.inducing = c.sizes[i].inducing();
+                }
+                plan
+            })
+            .collect();
         let report = budget::Report {
             budget: self.budget,
             default_cost,
-            channels: named
-                .iter()
-                .zip(sizes)
-                .zip(&chosen)
-                .map(|(((name, _, _), sizes), &i)| budget::ChannelSizes {
-                    name: (*name).to_owned(),
-                    sizes,
-                    chosen: Some(i),
-                })
-                .collect(),
+            channels,
             chosen_cost: cost,
         };
         Ok((out, Some(report)))
@@ -154,4 +133,43 @@ impl FitPlan {
         );
         Ok(())
     }
+}
+
+/// What the models the default fit ships would cost together: each channel's exact GP on its
+/// points, up to the firmware's centres, with the unit's scratch sized for the largest.
+fn default_cost(points: &[Points], dims: &dyn Fn(&Points, usize) -> Dims) -> budget::Cost {
+    let default: Vec<Dims> = points
+        .iter()
+        .map(|p| dims(p, p.len().min(MAX_CENTRES)))
+        .collect();
+    let most_m = default.iter().map(|d| d.m).max().unwrap_or(0);
+    default.iter().fold(budget::Cost::unit(most_m), |acc, d| {
+        acc + budget::Cost::model(*d)
+    })
+}
+
+/// One channel's line of the sizes chosen: its size, how far its held-out error is from its best
+/// size's, and its RAM.
+fn chosen_line(c: &budget::ChannelSizes) -> String {
+    let Some(pick) = c.chosen.map(|i| &c.sizes[i]) else {
+        return String::new();
+    };
+    let best = c
+        .sizes
+        .iter()
+        .map(|x| x.held_out_rmse)
+        .fold(f64::INFINITY, f64::min);
+    format!(
+        "\n  {}: {} GP of {} {} ({:+.1}% held-out error against its best size), {} bytes of RAM",
+        c.name,
+        pick.kind,
+        pick.asked,
+        if pick.kind == "exact" {
+            "points"
+        } else {
+            "inducing points"
+        },
+        100.0 * (pick.held_out_rmse / best - 1.0),
+        pick.cost.ram_bytes
+    )
 }
