@@ -123,6 +123,7 @@ struct Comparison {
 }
 
 impl Comparison {
+    /// The comparison on `points`, each size fitted as `cfg` says.
     fn of(points: &Points, cfg: &GpConfig) -> Self {
         let stride = points.len().div_ceil(COMPARE_MAX);
         let compared: Vec<usize> = (0..points.len()).step_by(stride).collect();

@@ -394,6 +394,7 @@ struct Designs<'a> {
 }
 
 impl<'a> Designs<'a> {
+    /// The causes of `regressors` that have candidates, scored on `y` over `plateaus`.
     fn new(
         y: &'a [f64],
         regressors: &'a [(Cause, Candidates)],
@@ -413,14 +414,17 @@ impl<'a> Designs<'a> {
         }
     }
 
+    /// Whether candidate cause `i` is the heating/cooling state.
     fn state(&self, i: usize) -> bool {
         self.real[i].0 == Cause::Hysteresis
     }
 
+    /// The constant part of design `idx`: the table's plateaus where it holds the state.
     fn constant(&self, idx: &[usize]) -> Constant<'a> {
         Constant::of(self.plateaus, idx.iter().any(|&i| self.state(i)))
     }
 
+    /// The regressors of design `idx`.
     fn design(&self, idx: &[usize]) -> Vec<&'a Candidates> {
         idx.iter().map(|&i| self.real[i].1).collect()
     }
@@ -431,14 +435,17 @@ impl<'a> Designs<'a> {
         [0, 1].map(|k| split_sse(self.y, constant, &design, &self.splits[k], false).0)
     }
 
+    /// Test-set SSE of design `idx` over its own constant part, interleaved and forward.
     fn sse(&self, idx: &[usize]) -> [f64; 2] {
         self.sse_with(idx, self.constant(idx))
     }
 
+    /// Design `idx` without the heating/cooling state.
     fn without_state(&self, idx: &[usize]) -> Vec<usize> {
         idx.iter().copied().filter(|&i| !self.state(i)).collect()
     }
 
+    /// Whether the forward test can see design `idx` ([`forward_sees`]).
     fn sees(&self, idx: &[usize]) -> bool {
         forward_sees(self.y, self.constant(idx), &self.design(idx))
     }
@@ -468,6 +475,7 @@ impl<'a> Designs<'a> {
         }
     }
 
+    /// Design `idx` as a step of the selection, with its parameters chosen on all blocks.
     fn step(
         &self,
         idx: &[usize],
@@ -603,6 +611,8 @@ fn parameters(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Vec<
         .collect()
 }
 
+/// The diagnosis in words: the cause named (or why none is), what it predicts out of sample and
+/// forward in time, the runner-up, and each further step of the selection.
 fn explain(
     (cause, named, other): (Cause, Option<&CauseFit>, Option<&CauseFit>),
     steps: &[Step],
