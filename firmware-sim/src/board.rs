@@ -265,7 +265,8 @@ impl Board {
     }
 
     /// Writes `samples` ([`Self::record`]) as an ArduPilot DataFlash log, of the board mounted in
-    /// the vehicle by `mounting` (`AHRS_ORIENTATION`, written as a `PARM`): the `IMU` messages
+    /// the vehicle by `mounting` (`AHRS_ORIENTATION`, and a custom rotation's angles, written as
+    /// `PARM`s): the `IMU` messages
     /// then hold the vehicle's axes, as the firmware logs them, and the `TCLR` rows the board's.
     pub fn dataflash(
         &self,
@@ -279,14 +280,13 @@ impl Board {
         const PARM: u8 = 132;
         let mut w = DataFlashWriter::new(out)?;
         w.define(PARM, "PARM", "QNf", "TimeUS,Name,Value")?;
-        w.write(
-            PARM,
-            &[
-                Value::U64(0),
-                Value::name("AHRS_ORIENTATION"),
-                Value::F32(f32::from(mounting.id)),
-            ],
-        )?;
+        let orientation = ("AHRS_ORIENTATION".to_owned(), f64::from(mounting.id));
+        for (name, value) in std::iter::once(orientation).chain(mounting.parameters()) {
+            w.write(
+                PARM,
+                &[Value::U64(0), Value::name(&name), Value::F32(value as f32)],
+            )?;
+        }
         w.define(
             IMU,
             "IMU",

@@ -80,6 +80,8 @@ pub struct BoardRotation {
     /// yaw y)`.
     pub name: String,
     matrix: [[f64; 3]; 3],
+    /// A custom rotation's roll, pitch and yaw, degrees, as its parameters give them.
+    custom: Option<[f64; 3]>,
 }
 
 impl BoardRotation {
@@ -97,7 +99,26 @@ impl BoardRotation {
             "CUSTOM (roll {}°, pitch {}°, yaw {}°)",
             angles[0], angles[1], angles[2]
         );
-        Some(Self::from_euler(id, name, angles))
+        Some(Self {
+            custom: Some(angles),
+            ..Self::from_euler(id, name, angles)
+        })
+    }
+
+    /// The parameters besides `AHRS_ORIENTATION` that a log must set for a reader to know this
+    /// rotation: a custom one's roll, pitch and yaw (`CUST_ROT1_ROLL` …), none for the table's.
+    pub fn parameters(&self) -> Vec<(String, f64)> {
+        let Some((angles, (_, prefix))) = self
+            .custom
+            .zip(CUSTOM.iter().find(|(custom, _)| *custom == self.id))
+        else {
+            return Vec::new();
+        };
+        ["ROLL", "PITCH", "YAW"]
+            .iter()
+            .zip(angles)
+            .map(|(axis, angle)| (format!("{prefix}{axis}"), angle))
+            .collect()
     }
 
     /// ArduPilot's `Matrix3::from_euler` of angles in degrees, the entries that are 0 or ±1 but
@@ -116,7 +137,12 @@ impl BoardRotation {
             [-sp, sr * cp, cr * cp],
         ]
         .map(|row| row.map(exact));
-        Self { id, name, matrix }
+        Self {
+            id,
+            name,
+            matrix,
+            custom: None,
+        }
     }
 
     /// Whether it turns nothing (`NONE`, or a custom rotation of zero angles).
@@ -200,6 +226,18 @@ mod tests {
         })
         .unwrap();
         assert_eq!(custom.turn([1.0, 2.0, 3.0]), [-2.0, 1.0, 3.0]);
+        // The parameters it names read back as the same rotation; the table's need none.
+        let named = custom.parameters();
+        let again = BoardRotation::ardupilot(101, |name| {
+            named.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+        });
+        assert_eq!(again, Some(custom));
+        assert!(
+            BoardRotation::ardupilot(2, |_| None)
+                .unwrap()
+                .parameters()
+                .is_empty()
+        );
         assert!(is_parameter("CUST_ROT2_YAW") && is_parameter("AHRS_ORIENTATION"));
         assert!(!is_parameter("INS_TCAL1_ENABLE"));
     }

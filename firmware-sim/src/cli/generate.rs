@@ -78,10 +78,21 @@ pub(crate) enum Generate {
         #[arg(long, default_value_t = 120.0)]
         minutes: f64,
         /// How the board is mounted in the vehicle: ArduPilot's `AHRS_ORIENTATION` (0 level, 2 yaw
-        /// 90°, 8 roll 180°, … up to 43). A `.bin` log then holds the vehicle's axes, as the
-        /// firmware logs them; a ULog's sensor topics are the board's whatever the mounting.
+        /// 90°, 8 roll 180°, … up to 43; 100–102 custom, with `--custom-rotation`). A `.bin` log
+        /// then holds the vehicle's axes, as the firmware logs them; a ULog's sensor topics are the
+        /// board's whatever the mounting.
         #[arg(long, default_value_t = 0)]
         orientation: u16,
+        /// A custom `--orientation` (100, 101 or 102)'s roll, pitch and yaw, degrees, written as
+        /// the parameters ArduPilot reads them from (`AHRS_CUSTOM_*`, `CUST_ROT1_*`,
+        /// `CUST_ROT2_*`).
+        #[arg(
+            long,
+            value_name = "ROLL,PITCH,YAW",
+            value_delimiter = ',',
+            allow_hyphen_values = true
+        )]
+        custom_rotation: Vec<f64>,
         /// The log to write: a PX4 ULog (`.ulg`) or an ArduPilot DataFlash log (`.bin`).
         #[arg(long)]
         out: PathBuf,
@@ -450,6 +461,7 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
             warm_up_min,
             minutes,
             orientation,
+            custom_rotation,
             out,
             json,
         } => {
@@ -460,15 +472,56 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
                 duration_s: minutes * 60.0,
                 ..board::Run::default()
             };
-            board_command(seed, (run, orientation), (&out, json.as_deref()), flags)
+            let mounting = mounting(orientation, &custom_rotation)?;
+            anyhow::ensure!(
+                orientation == 0 || out.extension().is_none_or(|e| e != "ulg"),
+                "--orientation is ArduPilot's AHRS_ORIENTATION: a PX4 ULog's sensor topics hold \
+                 the board's axes however it is mounted (PX4 turns them by SENS_BOARD_ROT later); \
+                 name the log .bin"
+            );
+            board_command(seed, (run, &mounting), (&out, json.as_deref()), flags)
         }
     }
+}
+
+/// The board's mounting: ArduPilot's rotation `orientation`, a custom one (100 to 102) with its
+/// `angles` (roll, pitch, yaw in degrees); refused where the two do not go together.
+fn mounting(orientation: u16, angles: &[f64]) -> anyhow::Result<BoardRotation> {
+    let custom = (100..=102).contains(&orientation);
+    anyhow::ensure!(
+        custom || angles.is_empty(),
+        "--custom-rotation gives a custom rotation's angles: use it with --orientation 100, 101 \
+         or 102"
+    );
+    anyhow::ensure!(
+        angles.is_empty() || (angles.len() == 3 && angles.iter().all(|a| a.is_finite())),
+        "--custom-rotation takes three finite angles in degrees: ROLL,PITCH,YAW"
+    );
+    BoardRotation::ardupilot(orientation, |name| {
+        let k = ["ROLL", "PITCH", "YAW"]
+            .iter()
+            .position(|axis| name.ends_with(axis))?;
+        angles.get(k).copied()
+    })
+    .ok_or_else(|| {
+        if custom {
+            anyhow::anyhow!(
+                "--orientation {orientation} is a custom rotation: give its angles with \
+                 --custom-rotation ROLL,PITCH,YAW (degrees)"
+            )
+        } else {
+            anyhow::anyhow!(
+                "--orientation {orientation}: the board's mounting is one of ArduPilot's \
+                 rotations, 0 to 43, or a custom one, 100 to 102"
+            )
+        }
+    })
 }
 
 /// `firmware-sim generate board`: the board's log, in the format its extension names.
 fn board_command(
     seed: u64,
-    (run, orientation): (board::Run, u16),
+    (run, mounting): (board::Run, &BoardRotation),
     (out, json): (&std::path::Path, Option<&std::path::Path>),
     flags: ConsoleFlags,
 ) -> anyhow::Result<()> {
@@ -476,24 +529,12 @@ fn board_command(
         run.warm_up_s > 0.0 && run.duration_s >= 60.0,
         "--warm-up-min must be positive and --minutes at least 1"
     );
-    let mounting = BoardRotation::ardupilot(orientation, |_| None).ok_or_else(|| {
-        anyhow::anyhow!(
-            "--orientation {orientation}: the board's mounting is one of ArduPilot's rotations, \
-             0 to 43 (a custom one, 100 to 102, takes angles this simulator does not)"
-        )
-    })?;
-    anyhow::ensure!(
-        orientation == 0 || out.extension().is_none_or(|e| e != "ulg"),
-        "--orientation is ArduPilot's AHRS_ORIENTATION: a PX4 ULog's sensor topics hold the \
-         board's axes however it is mounted (PX4 turns them by SENS_BOARD_ROT later); name the \
-         log .bin"
-    );
     let board = Board::nominal();
     let samples = board.record(&run, seed);
     let mut bytes = Vec::new();
     match out.extension().and_then(|e| e.to_str()) {
         Some("ulg") => board.ulog(&samples, &mut bytes)?,
-        Some("bin") => board.dataflash(&samples, &mounting, &mut bytes)?,
+        Some("bin") => board.dataflash(&samples, mounting, &mut bytes)?,
         _ => anyhow::bail!(
             "{}: name the log .ulg (a PX4 ULog) or .bin (an ArduPilot DataFlash log)",
             out.display()

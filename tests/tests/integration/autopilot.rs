@@ -244,18 +244,20 @@ fn same_correction(
 /// and applies its temperature correction in the board's. The same board logged level and mounted
 /// rolled 90° and pitched 90° (every axis moved, two negated) gives the same `tcal.parm` to the
 /// digit; mounted at an angle that is not a right one (38: roll 90°, pitch 68.8°, yaw 293.3°), the
-/// same within what the log's f32 samples keep. A rotation that cannot be turned back writes
-/// neither autopilot's file. A ULog, whose sensor topics are the board's axes, takes no mounting.
+/// same within what the log's f32 samples keep, and so mounted at a custom rotation whose angles
+/// the log's parameters give. A rotation that cannot be turned back writes neither autopilot's
+/// file. A ULog, whose sensor topics are the board's axes, takes no mounting; a custom rotation
+/// takes its angles.
 #[test]
 fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let parm = |orientation: &str| {
+    let parm_of = |orientation: &str, angles: &[&str]| {
         let (log, parm) = (
             at(d, &format!("cal{orientation}.bin")),
             at(d, &format!("tcal{orientation}.parm")),
         );
-        sim(&[
+        let board = [
             "-q",
             "generate",
             "board",
@@ -265,8 +267,8 @@ fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
             orientation,
             "--out",
             &log,
-        ])
-        .unwrap();
+        ];
+        sim(&[&board[..], angles].concat()).unwrap();
         let out = at(d, "imu.bin");
         trainer(&[
             "-q",
@@ -281,17 +283,20 @@ fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
         .unwrap();
         parm
     };
+    let parm = |orientation: &str| parm_of(orientation, &[]);
     let level = parm("0");
     let read = |p: &str| std::fs::read_to_string(p).unwrap();
     assert_eq!(read(&level), read(&parm("28")));
-    let (level, odd) = (
-        ardupilot_params(Path::new(&level)),
-        ardupilot_params(Path::new(&parm("38"))),
-    );
-    assert_eq!(level.len(), odd.len());
-    for n in [1, 2] {
-        let range = |k: &str| level[&format!("INS_TCAL{n}_{k}")];
-        same_correction(&level, &odd, n, (range("TMIN"), range("TMAX")), 1e-6);
+    // A custom rotation (101, `CUST_ROT1_*`): its angles are read from the log's parameters.
+    let custom = parm_of("101", &["--custom-rotation", "30,-20,250"]);
+    let level = ardupilot_params(Path::new(&level));
+    for odd in [parm("38"), custom] {
+        let odd = ardupilot_params(Path::new(&odd));
+        assert_eq!(level.len(), odd.len());
+        for n in [1, 2] {
+            let range = |k: &str| level[&format!("INS_TCAL{n}_{k}")];
+            same_correction(&level, &odd, n, (range("TMIN"), range("TMAX")), 1e-6);
+        }
     }
     // A rotation this reader does not know (44: past ArduPilot's table, as a newer firmware's
     // might be): the axes stay the vehicle's, so neither autopilot's file is written; the blob is.
@@ -318,17 +323,22 @@ fn a_board_mounted_turned_gets_the_parameters_of_its_own_axes() {
     .unwrap();
     assert!(!Path::new(&parm).exists() && !Path::new(&params).exists());
     assert!(Path::new(&at(d, "u-imu.imu0.bin")).exists());
-    let e = sim(&[
-        "-q",
-        "generate",
-        "board",
-        "--orientation",
-        "2",
-        "--out",
-        &at(d, "cal.ulg"),
-    ])
-    .unwrap_err();
-    assert!(format!("{e:#}").contains("name the log .bin"), "{e:#}");
+    for (orientation, log, refusal) in [
+        ("2", "cal.ulg", "name the log .bin"),
+        ("102", "custom.bin", "--custom-rotation"),
+    ] {
+        let e = sim(&[
+            "-q",
+            "generate",
+            "board",
+            "--orientation",
+            orientation,
+            "--out",
+            &at(d, log),
+        ])
+        .unwrap_err();
+        assert!(format!("{e:#}").contains(refusal), "{e:#}");
+    }
 }
 
 /// The cubic and the GP of each axis of `sensor`, held out on another power-on of the board
