@@ -66,6 +66,8 @@ use evaluate::Evaluator;
 pub use evaluate::{Conditions, Mean, Prediction};
 
 pub(crate) mod evaluate;
+#[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+mod exp;
 
 /// Most centres (inducing points, or training points of an exact GP) in a model this project
 /// exports: 256 already need about 132 KB of f32 on the microcontroller, the top of a

@@ -111,6 +111,14 @@ impl Accumulator {
     }
 }
 
+/// |s − c|², summed in input order (the kernel's distance, the same on every target).
+#[inline(always)]
+fn squared_distance<const K: usize>(s: &[f32; K], c: &[f32]) -> f32 {
+    s.iter()
+        .zip(c)
+        .fold(0.0f32, |r2, (a, b)| r2 + (a - b) * (a - b))
+}
+
 /// A decoded model's numbers as the evaluator reads them: its sizes, prior exponents, flat array
 /// and error model, borrowed from where they are stored (a [`Model`]'s own storage, or a
 /// channel's part of a [`crate::unit::Unit`]'s). Every prediction's arithmetic is here, once, so a
@@ -369,7 +377,9 @@ impl<const D: usize> Evaluator<'_, D> {
     /// Adds the kernel terms `w_i·k(s, c_i)` with the input count fixed at compile time, so the
     /// distance loop unrolls completely: a generic-length loop cost about 40 instructions per
     /// centre in bookkeeping on the Cortex-M4 (docs/firmware.md, "Cost on the M4"). The arithmetic
-    /// and its order are the same for every `K`.
+    /// and its order are the same for every `K`, and on every target: on a host the exponentials
+    /// of [`super::exp::LANES`] centres are taken at a time, vectorized ([`super::exp`]), then
+    /// added in the same order.
     fn add_kernel_terms<const K: usize>(
         s: &[f32],
         centres: &[f32],
@@ -380,16 +390,34 @@ impl<const D: usize> Evaluator<'_, D> {
         let Some(s) = s.first_chunk::<K>() else {
             return;
         };
+        #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
         for (i, (c, w)) in centres.chunks_exact(K).zip(weights).enumerate() {
-            let r2 = s
-                .iter()
-                .zip(c)
-                .fold(0.0f32, |r2, (a, b)| r2 + (a - b) * (a - b));
-            let kv = libm::expf(-0.5 * r2);
+            let kv = libm::expf(-0.5 * squared_distance(s, c));
             if let Some(slot) = k.as_deref_mut().and_then(|k| k.get_mut(i)) {
                 *slot = kv;
             }
             acc.add(w * kv);
+        }
+        #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+        {
+            use super::exp::{LANES, expf_lanes};
+            let m = weights.len().min(centres.len() / K);
+            let mut kv = [0.0f32; LANES];
+            for start in (0..m).step_by(LANES) {
+                let n = LANES.min(m - start);
+                let batch = centres.get(start * K..(start + n) * K).unwrap_or(&[]);
+                for (x, c) in kv.iter_mut().zip(batch.chunks_exact(K)) {
+                    *x = -0.5 * squared_distance(s, c);
+                }
+                expf_lanes(&mut kv);
+                let w = weights.get(start..start + n).unwrap_or(&[]);
+                if let Some(slots) = k.as_deref_mut().and_then(|k| k.get_mut(start..start + n)) {
+                    slots.copy_from_slice(kv.get(..n).unwrap_or(&[]));
+                }
+                for (w, kv) in w.iter().zip(kv) {
+                    acc.add(w * kv);
+                }
+            }
         }
     }
 
