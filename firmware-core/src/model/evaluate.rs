@@ -411,8 +411,10 @@ impl<const D: usize> Evaluator<'_, D> {
                 }
                 expf_lanes(&mut kv);
                 let w = weights.get(start..start + n).unwrap_or(&[]);
-                if let Some(slots) = k.as_deref_mut().and_then(|k| k.get_mut(start..start + n)) {
-                    slots.copy_from_slice(kv.get(..n).unwrap_or(&[]));
+                if let Some(slots) = k.as_deref_mut().and_then(|k| k.get_mut(start..)) {
+                    for (slot, v) in slots.iter_mut().zip(&kv).take(n) {
+                        *slot = *v;
+                    }
                 }
                 for (w, kv) in w.iter().zip(kv) {
                     acc.add(w * kv);
