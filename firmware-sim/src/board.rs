@@ -266,8 +266,8 @@ impl Board {
 
     /// Writes `samples` ([`Self::record`]) as an ArduPilot DataFlash log, of the board mounted in
     /// the vehicle by `mounting` (`AHRS_ORIENTATION`, and a custom rotation's angles, written as
-    /// `PARM`s): the `IMU` messages
-    /// then hold the vehicle's axes, as the firmware logs them, and the `TCLR` rows the board's.
+    /// `PARM`s): the `IMU` messages then hold the vehicle's axes, as the firmware logs them, and
+    /// the `TCLR` rows the board's.
     pub fn dataflash(
         &self,
         samples: &[Vec<ImuSample>],

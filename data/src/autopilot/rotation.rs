@@ -65,6 +65,9 @@ const CUSTOM: [(u16, &str); 3] = [
     (102, "CUST_ROT2_"),
 ];
 
+/// The suffixes of a custom rotation's three parameters after its prefix, in angle order.
+const AXES: [&str; 3] = ["ROLL", "PITCH", "YAW"];
+
 /// Whether a parameter is one a board rotation is read from.
 pub(super) fn is_parameter(name: &str) -> bool {
     name == "AHRS_ORIENTATION" || CUSTOM.iter().any(|(_, prefix)| name.starts_with(prefix))
@@ -94,7 +97,8 @@ impl BoardRotation {
         }
         let (_, prefix) = CUSTOM.iter().find(|(custom, _)| *custom == id)?;
         let angle = |axis: &str| parameter(&format!("{prefix}{axis}")).filter(|a| a.is_finite());
-        let angles = [angle("ROLL")?, angle("PITCH")?, angle("YAW")?];
+        let [roll, pitch, yaw] = AXES.map(angle);
+        let angles = [roll?, pitch?, yaw?];
         let name = format!(
             "CUSTOM (roll {}°, pitch {}°, yaw {}°)",
             angles[0], angles[1], angles[2]
@@ -102,6 +106,18 @@ impl BoardRotation {
         Some(Self {
             custom: Some(angles),
             ..Self::from_euler(id, name, angles)
+        })
+    }
+
+    /// The custom rotation `id` (100 to 102) of `angles` (roll, pitch, yaw, degrees), as a log
+    /// whose parameters give those angles names it; `None` for any other `id`.
+    pub fn custom(id: u16, angles: [f64; 3]) -> Option<Self> {
+        if usize::from(id) < TABLE.len() {
+            return None;
+        }
+        Self::ardupilot(id, |name| {
+            let k = AXES.iter().position(|axis| name.ends_with(axis))?;
+            angles.get(k).copied()
         })
     }
 
@@ -114,8 +130,7 @@ impl BoardRotation {
         else {
             return Vec::new();
         };
-        ["ROLL", "PITCH", "YAW"]
-            .iter()
+        AXES.iter()
             .zip(angles)
             .map(|(axis, angle)| (format!("{prefix}{axis}"), angle))
             .collect()
@@ -226,6 +241,12 @@ mod tests {
         })
         .unwrap();
         assert_eq!(custom.turn([1.0, 2.0, 3.0]), [-2.0, 1.0, 3.0]);
+        // Made from its angles it is the same; a table rotation takes none.
+        assert_eq!(
+            BoardRotation::custom(101, [0.0, 0.0, 90.0]),
+            Some(custom.clone())
+        );
+        assert_eq!(BoardRotation::custom(2, [0.0, 0.0, 90.0]), None);
         // The parameters it names read back as the same rotation; the table's need none.
         let named = custom.parameters();
         let again = BoardRotation::ardupilot(101, |name| {

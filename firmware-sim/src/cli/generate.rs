@@ -497,12 +497,10 @@ fn mounting(orientation: u16, angles: &[f64]) -> anyhow::Result<BoardRotation> {
         angles.is_empty() || (angles.len() == 3 && angles.iter().all(|a| a.is_finite())),
         "--custom-rotation takes three finite angles in degrees: ROLL,PITCH,YAW"
     );
-    BoardRotation::ardupilot(orientation, |name| {
-        let k = ["ROLL", "PITCH", "YAW"]
-            .iter()
-            .position(|axis| name.ends_with(axis))?;
-        angles.get(k).copied()
-    })
+    match <[f64; 3]>::try_from(angles) {
+        Ok(angles) => BoardRotation::custom(orientation, angles),
+        Err(_) => BoardRotation::ardupilot(orientation, |_| None),
+    }
     .ok_or_else(|| {
         if custom {
             anyhow::anyhow!(
