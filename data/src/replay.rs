@@ -13,7 +13,7 @@
 //! contract"). `coverage_2sigma` is the per-sample fraction within 2σ.
 
 use firmware_core::blob::Dims;
-use firmware_core::model::{Model, Prediction};
+use firmware_core::model::{Conditions, Evaluation, Mean, Model, Prediction, Prepared};
 use firmware_core::record;
 use firmware_core::unit::SINGLE_CHANNEL;
 use firmware_core::unit::{Numbers, Unit, UnitSample};
@@ -126,19 +126,19 @@ impl Compensated {
         (bias + f64::from(self.error.noise_of_mean(window_s as f32))).sqrt()
     }
 
-    fn push(&mut self, rate: f32, bias_var: f32, noise_var: f32, status: Status) {
-        self.rate_dps.push(rate);
-        self.bias_var.push(bias_var);
-        self.noise_var.push(noise_var);
-        self.status.push(status);
+    fn push(&mut self, p: &Prediction) {
+        self.rate_dps.push(p.mean);
+        self.bias_var.push(p.bias_variance);
+        self.noise_var.push(p.noise_variance);
+        self.status.push(p.status);
     }
 
-    /// A prediction, or a `Fault` with mean 0 and an infinite variance where there is none.
-    fn push_result<E>(&mut self, p: Result<Prediction, E>) {
-        match p {
-            Ok(p) => self.push(p.mean, p.bias_variance, p.noise_variance, p.status),
-            Err(_) => self.push(0.0, f32::INFINITY, 0.0, Status::Fault),
-        }
+    /// Sample `i`'s prediction.
+    fn set(&mut self, i: usize, p: &Prediction) {
+        self.rate_dps[i] = p.mean;
+        self.bias_var[i] = p.bias_variance;
+        self.noise_var[i] = p.noise_variance;
+        self.status[i] = p.status;
     }
 }
 
@@ -191,15 +191,7 @@ fn walk(stream: &Stream, mut each: impl FnMut(usize, &Sample, &mut FeatureState)
 /// Runs every sample through the firmware, its feature state kept through the power cycles at
 /// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
 pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
-    let mut scratch = vec![0.0f32; model.dims().m];
-    let mut out = Compensated {
-        error: model.error_model(),
-        ..Compensated::default()
-    };
-    walk(stream, |_, sample, state| {
-        out.push_result(model.compensate(sample, state, &mut scratch));
-    });
-    out
+    replay_where(model, stream, &vec![true; stream.len()]).1
 }
 
 /// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
@@ -224,19 +216,36 @@ pub fn replay_unit(
     let Some(first) = streams.first() else {
         return out;
     };
-    let mut scratch = vec![0.0f32; unit.scratch_len()];
+    let mut scratch = vec![0.0f32; unit.evaluate_scratch_len()];
     let mut state = FeatureState::default();
     if calibration_run {
         state.calibration_run();
     }
-    let fault = Prediction {
-        mean: 0.0,
-        bias_variance: f32::INFINITY,
-        noise_variance: 0.0,
-        status: Status::Fault,
-    };
-    let mut predictions = vec![fault; c];
+    // Each channel's samples wait to be evaluated side by side ([`HostUnit::evaluate`]); a
+    // sample the unit refused (fewer outputs than channels) is `None`, and a `Fault` with mean 0
+    // and an infinite variance in every channel.
+    let none = Prepared::inputs(&[], Conditions::at_hours(0.0));
+    let mut one = vec![none; c];
+    let mut batch: Vec<Option<Vec<Prepared<MAX_INPUTS>>>> = Vec::with_capacity(BATCH);
     let mut outputs = vec![0.0f32; streams.len()];
+    let mut evaluations = vec![Evaluation::NONE; BATCH];
+    let mut flush = |batch: &mut Vec<Option<Vec<Prepared<MAX_INPUTS>>>>,
+                     out: &mut Vec<Compensated>| {
+        for (k, o) in out.iter_mut().enumerate() {
+            let kept: Vec<Prepared<MAX_INPUTS>> = batch.iter().flatten().map(|p| p[k]).collect();
+            let evaluated = unit.evaluate(k, &kept, &mut scratch, &mut evaluations[..kept.len()]);
+            let mut done = evaluations.iter();
+            for p in batch.iter() {
+                let e = match (p, evaluated) {
+                    (Some(_), Some(Ok(()))) => done.next().copied(),
+                    _ => None,
+                }
+                .unwrap_or(Evaluation::NONE);
+                o.push(&e.prediction);
+            }
+        }
+        batch.clear();
+    };
     for (i, restart) in restarts(first).into_iter().enumerate() {
         if restart {
             state.power_on();
@@ -249,16 +258,13 @@ pub fn replay_unit(
             temp_c: first.temp_c[i] as f32,
             outputs: &outputs,
         };
-        if unit
-            .compensate(&sample, &mut state, &mut scratch, &mut predictions)
-            .is_err()
-        {
-            predictions.fill(fault);
-        }
-        for (o, p) in out.iter_mut().zip(&predictions) {
-            o.push(p.mean, p.bias_variance, p.noise_variance, p.status);
+        let prepared = unit.prepare(&sample, &mut state, &mut one).is_ok();
+        batch.push(prepared.then(|| one.clone()));
+        if batch.len() == BATCH {
+            flush(&mut batch, &mut out);
         }
     }
+    flush(&mut batch, &mut out);
     out
 }
 
@@ -397,6 +403,17 @@ pub struct Means {
     pub excess2: Vec<f32>,
 }
 
+impl Means {
+    fn set(&mut self, i: usize, m: Mean, excess2: f32) {
+        self.rate_dps[i] = m.mean;
+        self.status[i] = m.status;
+        self.excess2[i] = excess2;
+    }
+}
+
+/// Samples [`replay_where`] evaluates at a time, [`firmware_core::model::LANES`] side by side.
+const BATCH: usize = 64;
+
 /// Every sample of `stream` through `model`'s mean alone: the rates and statuses of [`replay`]
 /// at a fraction of its cost (the variance is O(m²) per sample, the mean O(m·d)).
 pub fn means(model: &HostModel, stream: &Stream) -> Means {
@@ -409,24 +426,59 @@ pub fn means(model: &HostModel, stream: &Stream) -> Means {
 /// prediction is the one [`replay`] gives; elsewhere the returned replay holds the mean path's
 /// rate and status with NaN variances.
 pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Means, Compensated) {
-    let mut scratch = vec![0.0f32; model.dims().m];
-    let mut means = Means::default();
+    let n = stream.len();
+    let mut means = Means {
+        rate_dps: vec![0.0; n],
+        status: vec![Status::Fault; n],
+        excess2: vec![0.0; n],
+    };
     let mut full = Compensated {
+        rate_dps: vec![0.0; n],
+        bias_var: vec![f32::NAN; n],
+        noise_var: vec![f32::NAN; n],
+        status: vec![Status::Fault; n],
         error: model.error_model(),
-        ..Compensated::default()
+    };
+    // The marked samples wait to be evaluated side by side ([`HostModel::evaluate`]); the others
+    // take the mean path at once.
+    let mut scratch = vec![0.0f32; model.evaluate_scratch_len()];
+    let (mut at, mut batch) = (Vec::with_capacity(BATCH), Vec::with_capacity(BATCH));
+    let mut evaluations = Vec::with_capacity(BATCH);
+    let mut flush = |at: &mut Vec<usize>,
+                     batch: &mut Vec<Prepared<MAX_INPUTS>>,
+                     means: &mut Means,
+                     full: &mut Compensated| {
+        evaluations.resize(batch.len(), Evaluation::NONE);
+        let evaluated = model.evaluate(batch, &mut scratch, &mut evaluations);
+        for ((&i, p), e) in at.iter().zip(batch.iter()).zip(&evaluations) {
+            if evaluated.is_ok() {
+                full.set(i, &e.prediction);
+                means.set(i, e.mean, e.excess2);
+            } else {
+                full.set(i, &Evaluation::NONE.prediction);
+                let (m, excess2) = model.mean_of(p);
+                means.set(i, m, excess2);
+            }
+        }
+        at.clear();
+        batch.clear();
     };
     walk(stream, |i, sample, state| {
+        let prepared = model.prepare(sample, state);
         if wanted.get(i).copied().unwrap_or(false) {
-            full.push_result(model.compensate(sample, &mut state.clone(), &mut scratch));
+            at.push(i);
+            batch.push(prepared);
+            if batch.len() == BATCH {
+                flush(&mut at, &mut batch, &mut means, &mut full);
+            }
+        } else {
+            let (m, excess2) = model.mean_of(&prepared);
+            full.rate_dps[i] = m.mean;
+            full.status[i] = m.status;
+            means.set(i, m, excess2);
         }
-        let (m, excess2) = model.compensate_mean(sample, state);
-        if full.rate_dps.len() == i {
-            full.push(m.mean, f32::NAN, f32::NAN, m.status);
-        }
-        means.rate_dps.push(m.mean);
-        means.status.push(m.status);
-        means.excess2.push(excess2);
     });
+    flush(&mut at, &mut batch, &mut means, &mut full);
     (means, full)
 }
 
@@ -475,8 +527,12 @@ pub fn from_unit_result_records(bytes: &[u8], blob: &[u8]) -> Vec<Compensated> {
         let Ok(rec) = rec.try_into() else { continue };
         let (mean, variance, status) = record::decode_result(rec);
         if let Some(o) = out.get_mut(k % c) {
-            let noise = o.error.sample_noise_var;
-            o.push(mean, variance, noise, status);
+            o.push(&Prediction {
+                mean,
+                bias_variance: variance,
+                noise_variance: o.error.sample_noise_var,
+                status,
+            });
         }
     }
     out
@@ -742,6 +798,48 @@ mod tests {
         assert_eq!(means.rmse_60s_dps(&s), score(&s, &full).rmse_60s_dps);
         assert!(means.excess2.iter().any(|&e| e > 0.0));
         assert!(means.excess2.contains(&0.0));
+    }
+
+    #[test]
+    fn samples_evaluated_side_by_side_are_those_of_one_at_a_time_bit_for_bit() {
+        // Not a whole number of batches or lanes; inside the trained range and far beyond it,
+        // with one reading that cannot be true.
+        let mut s = stream(&[0.0; 403], 1.0);
+        for (i, (t, v)) in s.temp_c.iter_mut().zip(&mut s.voltage_v).enumerate() {
+            *t = -60.0 + 0.5 * i as f64;
+            *v = (0.1 * i as f64).sin();
+        }
+        s.temp_c[7] = f64::NAN;
+        let model = decode(GYRO).unwrap();
+        let mut scratch = vec![0.0f32; model.dims().m];
+        let mut alone = Compensated::default();
+        walk(&s, |_, sample, state| {
+            alone.push(&model.compensate(sample, state, &mut scratch).unwrap());
+        });
+        let bits = |c: &Compensated, i: usize| {
+            (
+                c.rate_dps[i].to_bits(),
+                c.bias_var[i].to_bits(),
+                c.noise_var[i].to_bits(),
+                c.status[i],
+            )
+        };
+        let full = replay(&model, &s);
+        let unit = replay_unit(&decode_unit(GYRO).unwrap(), &[&s], false);
+        let wanted: Vec<bool> = (0..s.len()).map(|i| i % 3 != 0).collect();
+        let (means, part) = replay_where(&model, &s, &wanted);
+        assert!(alone.status.contains(&Status::Fault));
+        assert!(alone.status.contains(&Status::Extrapolating));
+        for (i, &wanted) in wanted.iter().enumerate() {
+            assert_eq!(bits(&full, i), bits(&alone, i), "sample {i}");
+            assert_eq!(bits(&unit[0], i), bits(&alone, i), "sample {i}");
+            assert_eq!(means.rate_dps[i].to_bits(), alone.rate_dps[i].to_bits());
+            if wanted {
+                assert_eq!(bits(&part, i), bits(&alone, i), "sample {i}");
+            } else {
+                assert!(part.bias_var[i].is_nan());
+            }
+        }
     }
 
     #[test]

@@ -22,7 +22,7 @@ pub mod units;
 pub use blob::{Beyond, Dims, ErrorModel, Feature, Limits};
 pub use error::{BlobError, PredictError};
 pub use features::{FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
-pub use model::{MAX_CENTRES, Mean, Model, Prediction};
+pub use model::{Evaluation, MAX_CENTRES, Mean, Model, Prediction, Prepared};
 pub use slots::{Calibration, Flash, FlashError, Layout, LayoutError, Slot, SlotError};
 pub use status::Status;
 pub use unit::{StaticUnit, Unit, UnitSample};

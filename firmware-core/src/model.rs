@@ -64,10 +64,12 @@ use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
 use evaluate::Evaluator;
 pub use evaluate::{Conditions, Mean, Prediction};
+pub use lanes::{Evaluation, LANES, Prepared};
 
 pub(crate) mod evaluate;
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
 mod exp;
+mod lanes;
 
 /// Most centres (inducing points, or training points of an exact GP) in a model this project
 /// exports: 256 already need about 132 KB of f32 on the microcontroller, the top of a
@@ -412,6 +414,20 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         self.evaluator().mean_into(x, None).0
     }
 
+    /// The feature pipeline on one raw sample: the model's inputs, their health and the
+    /// conditions the model error reads, for [`Self::evaluate`] or [`Self::mean_of`].
+    pub fn prepare(&self, sample: &Sample, state: &mut FeatureState) -> Prepared<D> {
+        let mut x = [0.0f32; D];
+        // `decode` checked d ≤ D, so the inputs always fit.
+        let health = features::compute(&self.features, sample, state, &mut x);
+        Prepared {
+            x,
+            len: D,
+            health,
+            at: Conditions::of(state),
+        }
+    }
+
     /// The feature pipeline on one raw sample, then [`Self::predict`] on its inputs.
     pub fn compensate(
         &self,
@@ -438,10 +454,32 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
     /// those `compensate` returns for the same sample and state (but for a blob of absurd numbers
     /// whose variance overflows, which `compensate` calls a `Fault`).
     pub fn compensate_mean(&self, sample: &Sample, state: &mut FeatureState) -> (Mean, f32) {
-        let mut x = [0.0f32; D];
-        let health = features::compute(&self.features, sample, state, &mut x);
+        self.mean_of(&self.prepare(sample, state))
+    }
+
+    /// [`Self::compensate_mean`] of a sample already through the feature pipeline.
+    pub fn mean_of(&self, prepared: &Prepared<D>) -> (Mean, f32) {
         self.evaluator()
-            .mean_with(x.get(..self.dims.d).unwrap_or(&[]), health)
+            .mean_with(prepared.read(self.dims.d), prepared.health)
+    }
+
+    /// Scratch numbers [`Self::evaluate`] needs: 2 · [`LANES`] · m.
+    pub fn evaluate_scratch_len(&self) -> usize {
+        self.evaluator().lanes_scratch_len()
+    }
+
+    /// Every `prepared` sample's [`Evaluation`] into `out` (as many as both hold), [`LANES`]
+    /// side by side: bit for bit what [`Self::compensate`] and [`Self::compensate_mean`] give
+    /// each, for a host that replays a stream (the forward substitution of one sample waits on
+    /// its own additions, of several it fills the vector registers). `scratch` must hold
+    /// [`Self::evaluate_scratch_len`] numbers.
+    pub fn evaluate(
+        &self,
+        prepared: &[Prepared<D>],
+        scratch: &mut [f32],
+        out: &mut [Evaluation],
+    ) -> Result<(), PredictError> {
+        self.evaluator().evaluate(prepared, scratch, out)
     }
 
     /// Predictive mean and variances at inputs `x`, at power-on (no time term of the model

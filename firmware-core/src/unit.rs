@@ -29,7 +29,9 @@ use crate::blob::{self, Beyond, Dims, ErrorModel, Feature, Limits};
 use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
 use crate::model::evaluate::Evaluator;
-use crate::model::{Conditions, Mean, Prediction, capacity, read_numbers};
+use crate::model::{
+    Conditions, Evaluation, LANES, Mean, Prediction, Prepared, capacity, read_numbers,
+};
 use crate::status::Status;
 use crate::units::Quantity;
 
@@ -502,6 +504,45 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
             };
         }
         Ok(self.channels.len())
+    }
+
+    /// Every channel's inputs for one sample, through the unit's one feature state (advancing
+    /// it), into `out` (one per channel, in channel order), for [`Self::evaluate`]; returns the
+    /// number of channels. `sample.outputs` and `out` hold at least one per channel.
+    pub fn prepare(
+        &self,
+        sample: &UnitSample<'_>,
+        state: &mut FeatureState,
+        out: &mut [Prepared<D>],
+    ) -> Result<usize, PredictError> {
+        let (health, shared, at) = self.shared(sample, state, out.len())?;
+        for ((ch, slot), &output) in self.channels.iter().zip(out.iter_mut()).zip(sample.outputs) {
+            *slot = match Self::inputs(ch, &shared, output, health) {
+                None => Prepared::judged(&[], Status::Fault, at),
+                Some(x) => Prepared::judged(&x, health, at),
+            };
+        }
+        Ok(self.channels.len())
+    }
+
+    /// Scratch numbers [`Self::evaluate`] needs: 2 · [`LANES`] · the most centres of any channel.
+    pub fn evaluate_scratch_len(&self) -> usize {
+        2 * LANES * self.scratch_len()
+    }
+
+    /// Channel `k`'s [`Evaluation`] of each of its `prepared` samples ([`Self::prepare`]) into
+    /// `out` (as many as both hold), [`LANES`] side by side ([`crate::Model::evaluate`]): bit for
+    /// bit what [`Self::compensate`] and [`Self::compensate_mean`] give it. `None` for no such
+    /// channel.
+    pub fn evaluate(
+        &self,
+        k: usize,
+        prepared: &[Prepared<D>],
+        scratch: &mut [f32],
+        out: &mut [Evaluation],
+    ) -> Option<Result<(), PredictError>> {
+        let ch = self.channels.get(k)?;
+        Some(self.evaluator(ch).evaluate(prepared, scratch, out))
     }
 
     /// [`Self::compensate`]'s means and statuses alone, the cheap path, each with e(x)² (as

@@ -17,6 +17,8 @@ mod exercise;
 use std::collections::BTreeMap;
 
 use exercise::{Roomy, exercise, reseal};
+use firmware_core::model::Conditions;
+use firmware_core::{Evaluation, Prepared};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -250,7 +252,11 @@ fn exercise_unit(unit: &RoomyUnit) -> usize {
         };
         c
     ];
-    let mut state = firmware_core::FeatureState::default();
+    let (mut state, mut twin) = Default::default();
+    // Each channel's samples side by side, as a host replays them (`Unit::evaluate`).
+    let none = Prepared::inputs(&[], Conditions::at_hours(0.0));
+    let (mut one, mut prepared) = (vec![none; c], vec![Vec::new(); c]);
+    let mut expected = vec![Vec::new(); c];
     for (k, &t) in NASTY.iter().chain(&[-10.0, 20.0, 40.0]).enumerate() {
         let outputs: Vec<f32> = (0..c).map(|j| NASTY[(k + j) % NASTY.len()]).collect();
         let sample = firmware_core::UnitSample {
@@ -260,9 +266,33 @@ fn exercise_unit(unit: &RoomyUnit) -> usize {
         };
         unit.compensate(&sample, &mut state, &mut scratch, &mut out)
             .expect("buffers sized to the unit");
-        for p in &out {
+        unit.prepare(&sample, &mut twin, &mut one)
+            .expect("buffers sized to the unit");
+        for (j, p) in out.iter().enumerate() {
             assert!(p.mean.is_finite(), "{p:?} at {t}");
             assert!(p.variance().is_finite() && p.variance() >= 0.0, "{p:?}");
+            prepared[j].push(one[j]);
+            expected[j].push(*p);
+        }
+    }
+    let mut lanes = vec![0.0f32; unit.evaluate_scratch_len()];
+    for (j, (prepared, expected)) in prepared.iter().zip(&expected).enumerate() {
+        let mut evaluations = vec![Evaluation::NONE; prepared.len()];
+        unit.evaluate(j, prepared, &mut lanes, &mut evaluations)
+            .expect("a channel of the unit")
+            .expect("the scratch is sized for it");
+        for (e, p) in evaluations.iter().zip(expected) {
+            assert_eq!(
+                e.prediction.mean.to_bits(),
+                p.mean.to_bits(),
+                "{e:?} vs {p:?}"
+            );
+            assert_eq!(
+                e.prediction.bias_variance.to_bits(),
+                p.bias_variance.to_bits(),
+                "{e:?} vs {p:?}"
+            );
+            assert_eq!(e.prediction.status, p.status, "{e:?} vs {p:?}");
         }
     }
     (NASTY.len() + 3) * c

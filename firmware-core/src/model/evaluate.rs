@@ -25,6 +25,27 @@ pub struct Mean {
     pub status: Status,
 }
 
+impl Mean {
+    /// A `Fault`'s mean.
+    pub(crate) const FAULT: Self = Self {
+        mean: 0.0,
+        status: Status::Fault,
+    };
+
+    /// This mean with the feature pipeline's `health` folded in: the worse of the two statuses,
+    /// and a `Fault`'s mean 0.
+    pub(crate) fn with_health(self, health: Status) -> Self {
+        if self.status == Status::Fault {
+            Self::FAULT
+        } else {
+            Self {
+                mean: self.mean,
+                status: self.status.max(health),
+            }
+        }
+    }
+}
+
 /// Predictive mean, its two variances (output units², never negative) and status: the σ
 /// contract of the module doc.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -144,7 +165,7 @@ pub(crate) struct Evaluator<'a, const D: usize> {
 }
 
 impl<const D: usize> Evaluator<'_, D> {
-    fn section(&self, range: Range<usize>) -> &[f32] {
+    pub(crate) fn section(&self, range: Range<usize>) -> &[f32] {
         self.floats.get(range).unwrap_or(&[])
     }
 
@@ -459,10 +480,7 @@ impl<const D: usize> Evaluator<'_, D> {
         let mean = if mean.is_finite() {
             Mean { mean, status }
         } else {
-            Mean {
-                mean: 0.0,
-                status: Status::Fault,
-            }
+            Mean::FAULT
         };
         (mean, excess2)
     }
@@ -470,24 +488,11 @@ impl<const D: usize> Evaluator<'_, D> {
     /// The mean path at inputs `x` whose health the feature pipeline judged `health`: the mean,
     /// the worse of the two statuses, and e(x)² (a `Fault` anywhere: mean 0).
     pub(crate) fn mean_with(&self, x: &[f32], health: Status) -> (Mean, f32) {
-        let fault = Mean {
-            mean: 0.0,
-            status: Status::Fault,
-        };
         if health == Status::Fault {
-            return (fault, 0.0);
+            return (Mean::FAULT, 0.0);
         }
         let (m, excess2) = self.mean_into(x, None);
-        if m.status == Status::Fault {
-            return (fault, excess2);
-        }
-        (
-            Mean {
-                mean: m.mean,
-                status: m.status.max(health),
-            },
-            excess2,
-        )
+        (m.with_health(health), excess2)
     }
 
     /// A `Fault`'s prediction: mean 0, the prior's variance.

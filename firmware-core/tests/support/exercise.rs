@@ -9,7 +9,8 @@
     clippy::unwrap_used
 )]
 
-use firmware_core::{FeatureState, Model, Sample};
+use firmware_core::model::Conditions;
+use firmware_core::{Evaluation, FeatureState, Mean, Model, Prediction, Prepared, Sample};
 
 /// Capacities roomy enough that a mutated blob is refused for what it holds, not for its size.
 pub type Roomy = Model<8, 1320, 4096>;
@@ -50,26 +51,66 @@ pub fn exercise(model: &Roomy) -> usize {
         );
         checked += 1;
     };
+    // The same predictions side by side, as a host replays them (`Model::evaluate`).
+    let mut lanes = vec![0.0f32; model.evaluate_scratch_len()];
+    let mut evaluations = [Evaluation::NONE; PROBES.len()];
+    let mut prepared = Vec::new();
+    let mut expected = Vec::new();
     for (i, _) in PROBES.iter().enumerate() {
         let x: Vec<f32> = (0..d).map(|k| PROBES[(i + 3 * k) % PROBES.len()]).collect();
-        let mean = model.predict_mean(&x).mean;
+        let mean = model.predict_mean(&x);
         let p = model
             .predict(&x, &mut scratch)
             .expect("scratch holds every centre");
-        check(mean, 0.0, &x);
+        check(mean.mean, 0.0, &x);
         check(p.mean, p.variance(), &x);
+        prepared.push(Prepared::inputs(&x, Conditions::at_hours(0.0)));
+        expected.push((p, mean));
     }
-    let mut state = FeatureState::default();
+    model
+        .evaluate(&prepared, &mut lanes, &mut evaluations)
+        .expect("the scratch is sized for it");
+    same(&evaluations, &expected);
+    let (mut state, mut twin) = (FeatureState::default(), FeatureState::default());
+    let (mut prepared, mut expected) = (Vec::new(), Vec::new());
     for (k, &t) in PROBES.iter().enumerate() {
         let sample = Sample {
             time_s: k as f64 * 1.5,
             temp_c: t,
             output: PROBES[(k + 5) % PROBES.len()],
         };
+        let mean = model.compensate_mean(&sample, &mut state.clone()).0;
         let p = model
             .compensate(&sample, &mut state, &mut scratch)
             .expect("scratch holds every centre");
         check(p.mean, p.variance(), &sample);
+        prepared.push(model.prepare(&sample, &mut twin));
+        expected.push((p, mean));
     }
+    model
+        .evaluate(&prepared, &mut lanes, &mut evaluations)
+        .expect("the scratch is sized for it");
+    same(&evaluations, &expected);
     checked
+}
+
+/// Each evaluation side by side is, bit for bit, the prediction and mean path of its sample
+/// alone.
+fn same(evaluations: &[Evaluation], expected: &[(Prediction, Mean)]) {
+    let bits = |p: &Prediction| {
+        (
+            p.mean.to_bits(),
+            p.bias_variance.to_bits(),
+            p.noise_variance.to_bits(),
+            p.status,
+        )
+    };
+    for (e, (p, m)) in evaluations.iter().zip(expected) {
+        assert_eq!(bits(&e.prediction), bits(p), "{e:?} vs {p:?}");
+        assert_eq!(
+            (e.mean.mean.to_bits(), e.mean.status),
+            (m.mean.to_bits(), m.status),
+            "{e:?} vs {m:?}"
+        );
+    }
 }

@@ -9,7 +9,7 @@
 //! doc of firmware-core).
 
 use firmware_core::blob::{self, Beyond, Dims, ErrorModel, Feature, HEADER_LEN, Limits, Payload};
-use firmware_core::model::Conditions;
+use firmware_core::model::{Conditions, Evaluation, Prepared};
 use firmware_core::{MAX_CENTRES, MAX_INPUTS};
 use fog_data::replay::{self, HostModel};
 use serde::Serialize;
@@ -523,7 +523,6 @@ pub fn agreement(
     x: &nalgebra::DMatrix<f64>,
     extension: &Extension,
 ) -> Agreement {
-    let mut scratch = vec![0.0f32; firmware.dims().m];
     let held: Vec<f32> = extension
         .terms
         .iter()
@@ -544,10 +543,21 @@ pub fn agreement(
     };
     let features = firmware.features();
     let beyond = firmware.beyond();
-    for row in x.row_iter() {
-        let mut raw: Vec<f32> = row.iter().map(|&v| v as f32).collect();
-        let exact: Vec<f64> = raw.iter().map(|&v| f64::from(v)).collect();
-        raw.extend(&held);
+    let rows: Vec<Vec<f32>> = x
+        .row_iter()
+        .map(|row| row.iter().map(|&v| v as f32).chain(held.clone()).collect())
+        .collect();
+    let prepared: Vec<Prepared<MAX_INPUTS>> = rows
+        .iter()
+        .map(|raw| Prepared::inputs(raw, Conditions::at_hours(0.0)))
+        .collect();
+    let mut scratch = vec![0.0f32; firmware.evaluate_scratch_len()];
+    let mut evaluations = vec![Evaluation::NONE; rows.len()];
+    let evaluated = firmware
+        .evaluate(&prepared, &mut scratch, &mut evaluations)
+        .is_ok();
+    for (raw, evaluation) in rows.iter().zip(&evaluations) {
+        let exact: Vec<f64> = raw[..x.ncols()].iter().map(|&v| f64::from(v)).collect();
         // Beyond the trained range the firmware holds the inputs at its edge.
         let (at, past) = held_at_range(model, &exact, &features[..d0], beyond);
         let mut host = model.predict(&at);
@@ -563,10 +573,11 @@ pub fn agreement(
                 .zip(&held)
                 .map(|(t, &x)| t.value(f64::from(x), v))
                 .sum::<f64>();
-        let Ok(fw) = firmware.predict(&raw, &mut scratch) else {
+        if !evaluated {
             a.all_finite = false;
             continue;
-        };
+        }
+        let fw = evaluation.prediction;
         a.n += 1;
         a.all_finite &= fw.mean.is_finite() && fw.bias_variance.is_finite();
         a.n_extrapolating += usize::from(fw.status == firmware_core::Status::Extrapolating);
