@@ -439,18 +439,26 @@ pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Mea
         status: vec![Status::Fault; n],
         error: model.error_model(),
     };
-    // The marked samples wait to be evaluated side by side ([`HostModel::evaluate`]); the others
-    // take the mean path at once.
+    // The samples wait to be evaluated side by side, the marked ones in full
+    // ([`HostModel::evaluate`]), the others on the mean path ([`HostModel::means`]).
     let mut scratch = vec![0.0f32; model.evaluate_scratch_len()];
-    let (mut at, mut batch) = (Vec::with_capacity(BATCH), Vec::with_capacity(BATCH));
+    let mut pending: [(Vec<usize>, Vec<Prepared<MAX_INPUTS>>); 2] = Default::default();
     let mut evaluations = Vec::with_capacity(BATCH);
-    let mut flush = |at: &mut Vec<usize>,
-                     batch: &mut Vec<Prepared<MAX_INPUTS>>,
+    let mut mean_paths = Vec::with_capacity(BATCH);
+    let mut flush = |pending: &mut [(Vec<usize>, Vec<Prepared<MAX_INPUTS>>); 2],
                      means: &mut Means,
                      full: &mut Compensated| {
-        evaluations.resize(batch.len(), Evaluation::NONE);
-        let evaluated = model.evaluate(batch, &mut scratch, &mut evaluations);
-        for ((&i, p), e) in at.iter().zip(batch.iter()).zip(&evaluations) {
+        let [(mean_at, mean_batch), (full_at, full_batch)] = pending;
+        mean_paths.resize(mean_batch.len(), (Evaluation::NONE.mean, 0.0));
+        model.means(mean_batch, &mut mean_paths);
+        for (&i, &(m, excess2)) in mean_at.iter().zip(&mean_paths) {
+            full.rate_dps[i] = m.mean;
+            full.status[i] = m.status;
+            means.set(i, m, excess2);
+        }
+        evaluations.resize(full_batch.len(), Evaluation::NONE);
+        let evaluated = model.evaluate(full_batch, &mut scratch, &mut evaluations);
+        for ((&i, p), e) in full_at.iter().zip(full_batch.iter()).zip(&evaluations) {
             if evaluated.is_ok() {
                 full.set(i, &e.prediction);
                 means.set(i, e.mean, e.excess2);
@@ -460,25 +468,20 @@ pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Mea
                 means.set(i, m, excess2);
             }
         }
-        at.clear();
-        batch.clear();
+        for (at, batch) in pending.iter_mut() {
+            at.clear();
+            batch.clear();
+        }
     };
     walk(stream, |i, sample, state| {
-        let prepared = model.prepare(sample, state);
-        if wanted.get(i).copied().unwrap_or(false) {
-            at.push(i);
-            batch.push(prepared);
-            if batch.len() == BATCH {
-                flush(&mut at, &mut batch, &mut means, &mut full);
-            }
-        } else {
-            let (m, excess2) = model.mean_of(&prepared);
-            full.rate_dps[i] = m.mean;
-            full.status[i] = m.status;
-            means.set(i, m, excess2);
+        let (at, batch) = &mut pending[usize::from(wanted.get(i).copied().unwrap_or(false))];
+        at.push(i);
+        batch.push(model.prepare(sample, state));
+        if batch.len() == BATCH {
+            flush(&mut pending, &mut means, &mut full);
         }
     });
-    flush(&mut at, &mut batch, &mut means, &mut full);
+    flush(&mut pending, &mut means, &mut full);
     (means, full)
 }
 

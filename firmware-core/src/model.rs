@@ -463,6 +463,12 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
             .mean_with(prepared.read(self.dims.d), prepared.health)
     }
 
+    /// [`Self::mean_of`] of every `prepared` sample into `out` (as many as both hold), [`LANES`]
+    /// side by side as in [`Self::evaluate`]: bit for bit the same.
+    pub fn means(&self, prepared: &[Prepared<D>], out: &mut [(Mean, f32)]) {
+        self.evaluator().means(prepared, out);
+    }
+
     /// Scratch numbers [`Self::evaluate`] needs: 2 · [`LANES`] · m.
     pub fn evaluate_scratch_len(&self) -> usize {
         self.evaluator().lanes_scratch_len()

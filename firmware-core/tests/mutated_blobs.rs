@@ -127,30 +127,26 @@ fn mutated_blobs_are_refused_or_predict_finite_numbers() {
     let mut rng = ChaCha8Rng::seed_from_u64(9);
     let mut tally: BTreeMap<(&str, String), usize> = BTreeMap::new();
     let mut predictions = 0;
-    // One storage decoded into again and again, as the firmware's `static`: a refused blob
-    // leaves it holding no model, whatever it held before.
-    let mut storage = Roomy::new();
-    for _ in 0..CASES {
-        let (kind, blob) = mutate(BLOB, &mut rng);
-        storage.decode_into(BLOB).expect("the example blob decodes");
-        let decoded = storage.decode_into(&blob);
-        // The check an update runs before writing agrees with the decode, error for error.
-        assert_eq!(Roomy::check(&blob).map(|_| ()), decoded.clone(), "{kind}");
-        if decoded.is_err() {
-            assert_eq!(storage.dims().m, 0, "{kind}");
-            assert_eq!(
-                storage.predict_mean(&[25.0, 0.4]).status,
-                firmware_core::Status::Fault
-            );
-        }
-        let outcome = match Roomy::decode(&blob) {
-            Ok(model) => {
-                predictions += exercise(&model);
-                "decoded".to_owned()
+    // The mutations are drawn in order, a chunk at a time, and each chunk is checked on two
+    // threads: the same cases as one after the other, on both cores.
+    for start in (0..CASES).step_by(CHUNK) {
+        let chunk: Vec<_> = (start..CASES.min(start + CHUNK))
+            .map(|_| mutate(BLOB, &mut rng))
+            .collect();
+        let (a, b) = chunk.split_at(chunk.len() / 2);
+        let checked = std::thread::scope(|s| {
+            let other = s.spawn(|| check_cases(a));
+            [
+                check_cases(b),
+                other.join().expect("the other half's checks"),
+            ]
+        });
+        for (counts, n) in checked {
+            predictions += n;
+            for (key, count) in counts {
+                *tally.entry(key).or_default() += count;
             }
-            Err(e) => error_name(&e),
-        };
-        *tally.entry((kind, outcome)).or_default() += 1;
+        }
     }
     eprintln!("{CASES} mutated blobs, {predictions} predictions checked");
     check_tally(
@@ -164,6 +160,43 @@ fn mutated_blobs_are_refused_or_predict_finite_numbers() {
             "NonFinite",
         ],
     );
+}
+
+/// Mutated blobs drawn at a time ([`mutated_blobs_are_refused_or_predict_finite_numbers`]).
+const CHUNK: usize = 10_000;
+
+/// Tally of outcomes by mutation, and predictions checked.
+type Checked = (BTreeMap<(&'static str, String), usize>, usize);
+
+/// Decodes each mutated blob, checks what it predicts where it decodes, and tallies the
+/// outcomes.
+fn check_cases(cases: &[(&'static str, Vec<u8>)]) -> Checked {
+    let (mut tally, mut predictions) = (BTreeMap::new(), 0);
+    // One storage decoded into again and again, as the firmware's `static`: a refused blob
+    // leaves it holding no model, whatever it held before.
+    let mut storage = Roomy::new();
+    for (kind, blob) in cases {
+        storage.decode_into(BLOB).expect("the example blob decodes");
+        let decoded = storage.decode_into(blob);
+        // The check an update runs before writing agrees with the decode, error for error.
+        assert_eq!(Roomy::check(blob).map(|_| ()), decoded.clone(), "{kind}");
+        if decoded.is_err() {
+            assert_eq!(storage.dims().m, 0, "{kind}");
+            assert_eq!(
+                storage.predict_mean(&[25.0, 0.4]).status,
+                firmware_core::Status::Fault
+            );
+        }
+        let outcome = match Roomy::decode(blob) {
+            Ok(model) => {
+                predictions += exercise(&model);
+                "decoded".to_owned()
+            }
+            Err(e) => error_name(&e),
+        };
+        *tally.entry((*kind, outcome)).or_default() += 1;
+    }
+    (tally, predictions)
 }
 
 /// The error's name alone (`CrcMismatch`, not its fields), to tally outcomes by.

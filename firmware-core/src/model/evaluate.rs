@@ -107,9 +107,9 @@ impl Conditions {
 
 /// Neumaier-compensated sum: the running rounding error is carried and added once at the end.
 #[derive(Default)]
-struct Accumulator {
-    sum: f32,
-    carry: f32,
+pub(crate) struct Accumulator {
+    pub(crate) sum: f32,
+    pub(crate) carry: f32,
 }
 
 impl Accumulator {
@@ -195,7 +195,7 @@ impl<const D: usize> Evaluator<'_, D> {
     /// blob's rule says (module doc); returns the status of the inputs and e(x)², how far they lie
     /// beyond the trained range in its widths, squared ([`ErrorModel`]). A reading that cannot be
     /// true ([`Limits`]) is a `Fault`.
-    fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> (Status, f32) {
+    pub(crate) fn normalize(&self, x: &[f32], z: &mut [f32; D], s: &mut [f32; D]) -> (Status, f32) {
         let sec = self.dims.sections();
         let d = self.dims.d;
         // d = 0: storage that holds no model.
@@ -470,19 +470,32 @@ impl<const D: usize> Evaluator<'_, D> {
             // `decode` refuses more than MAX_INPUTS.
             _ => Self::add_kernel_terms::<MAX_INPUTS>(sd, centres, weights, k, &mut acc),
         }
-        self.add_prior_mean(zd, &mut acc);
+        (self.finish_mean(x, zd, status, &mut acc), excess2)
+    }
+
+    /// The mean of inputs `x` (normalized and held: `z`) of status `status`, whose kernel terms
+    /// are in `acc`: the prior mean and the raw linear terms (or the rule beyond the trained
+    /// range) added after them, in that order.
+    #[inline(always)]
+    pub(crate) fn finish_mean(
+        &self,
+        x: &[f32],
+        z: &[f32],
+        status: Status,
+        acc: &mut Accumulator,
+    ) -> Mean {
+        self.add_prior_mean(z, acc);
         if status == Status::Extrapolating {
-            self.add_beyond(x, zd, &mut acc);
+            self.add_beyond(x, z, acc);
         } else {
-            self.add_raw_linear(x, &mut acc);
+            self.add_raw_linear(x, acc);
         }
         let mean = acc.total();
-        let mean = if mean.is_finite() {
+        if mean.is_finite() {
             Mean { mean, status }
         } else {
             Mean::FAULT
-        };
-        (mean, excess2)
+        }
     }
 
     /// The mean path at inputs `x` whose health the feature pipeline judged `health`: the mean,

@@ -8,7 +8,8 @@
 //! compiler packs the lanes into vector registers. A gyro evaluates the one sample that has just
 //! arrived, so its firmware never calls this.
 
-use super::evaluate::{Conditions, Evaluator, Mean, Prediction};
+use super::evaluate::{Accumulator, Conditions, Evaluator, Mean, Prediction};
+use crate::blob::Dims;
 use crate::error::PredictError;
 use crate::status::Status;
 
@@ -117,6 +118,18 @@ impl Sums {
     }
 }
 
+/// `libm::expf` of each lane, vectorized where the processor has vector registers
+/// ([`super::exp`]).
+#[inline(always)]
+fn exp(x: &mut [f32; LANES]) {
+    #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
+    super::exp::expf_lanes(x);
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    for v in x {
+        *v = libm::expf(*v);
+    }
+}
+
 /// `f` of each lane of `a`.
 #[inline(always)]
 fn each(a: [f32; LANES], f: impl Fn(f32) -> f32) -> [f32; LANES] {
@@ -128,6 +141,102 @@ fn each(a: [f32; LANES], f: impl Fn(f32) -> f32) -> [f32; LANES] {
 }
 
 impl<const D: usize> Evaluator<'_, D> {
+    /// Every `prepared` sample's mean path into `out` (as many as both hold), [`LANES`] at a
+    /// time: its mean and status, and e(x)², as `mean_with` gives them.
+    pub(crate) fn means(&self, prepared: &[Prepared<D>], out: &mut [(Mean, f32)]) {
+        for (lanes, out) in prepared.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let means = self.means_lanes(lanes, &mut []);
+            for ((q, mean), slot) in lanes.iter().zip(means).zip(out) {
+                *slot = match mean {
+                    Some((mean, excess2)) => (mean.with_health(q.health), excess2),
+                    None => (Mean::FAULT, 0.0),
+                };
+            }
+        }
+    }
+
+    /// `mean_into` of up to [`LANES`] samples, their kernel terms side by side: each lane's
+    /// inputs normalized alone, then for each centre in turn every lane's distance, exponential
+    /// and compensated addition, then each lane's prior mean and raw linear terms alone, each
+    /// in `mean_into`'s order. Each lane's k̃ goes to its `m` numbers of `kernels` where that
+    /// holds them. `None` for a lane with no query or whose feature pipeline gave a `Fault`.
+    fn means_lanes(
+        &self,
+        queries: &[Prepared<D>],
+        kernels: &mut [f32],
+    ) -> [Option<(Mean, f32)>; LANES] {
+        let Dims { m, d, .. } = self.dims;
+        let mut out = [None; LANES];
+        let (mut z, mut s) = ([[0.0f32; D]; LANES], [[0.0f32; D]; LANES]);
+        let mut status = [Status::Fault; LANES];
+        for (q, (((z, s), status), out)) in queries
+            .iter()
+            .zip(z.iter_mut().zip(&mut s).zip(&mut status).zip(&mut out))
+        {
+            if q.health != Status::Fault {
+                let (normalized, excess2) = self.normalize(q.read(d), z, s);
+                *status = normalized;
+                *out = Some((Mean::FAULT, excess2));
+            }
+        }
+        // Input k of every lane side by side (zeros in a lane not evaluated).
+        let mut across = [[0.0f32; LANES]; D];
+        for (l, (s, status)) in s.iter().zip(&status).enumerate() {
+            if *status != Status::Fault {
+                for (row, v) in across.iter_mut().zip(s).take(d) {
+                    if let Some(slot) = row.get_mut(l) {
+                        *slot = *v;
+                    }
+                }
+            }
+        }
+        let sec = self.dims.sections();
+        let weights = self.section(sec.weights);
+        let mut sums = Sums::default();
+        for (i, (c, w)) in self
+            .section(sec.centres)
+            .chunks_exact(d.max(1))
+            .zip(weights)
+            .enumerate()
+        {
+            let mut r2 = [0.0f32; LANES];
+            for (inputs, ck) in across.iter().zip(c).take(d) {
+                for (r, a) in r2.iter_mut().zip(inputs) {
+                    *r += (a - ck) * (a - ck);
+                }
+            }
+            let mut kv = each(r2, |r| -0.5 * r);
+            exp(&mut kv);
+            for (l, v) in kv.iter().enumerate() {
+                if let Some(slot) = kernels.get_mut(l * m + i) {
+                    *slot = *v;
+                }
+            }
+            sums.add(each(kv, |v| w * v));
+        }
+        for (l, (q, out)) in queries.iter().zip(&mut out).enumerate() {
+            let (Some((_, excess2)), Some(status), Some(z), Some(sum), Some(carry)) = (
+                *out,
+                status.get(l),
+                z.get(l),
+                sums.sum.get(l),
+                sums.carry.get(l),
+            ) else {
+                continue;
+            };
+            if *status == Status::Fault {
+                continue;
+            }
+            let mut acc = Accumulator {
+                sum: *sum,
+                carry: *carry,
+            };
+            let z = z.get(..d).unwrap_or(&[]);
+            *out = Some((self.finish_mean(q.read(d), z, *status, &mut acc), excess2));
+        }
+        out
+    }
+
     /// Scratch numbers [`Self::evaluate_lanes`] needs: each lane's kernel values, then the lanes'
     /// forward substitution side by side.
     pub(crate) fn lanes_scratch_len(&self) -> usize {
@@ -165,13 +274,7 @@ impl<const D: usize> Evaluator<'_, D> {
         // Each lane's mean path, its kernel values k̃ into its own part of `kernels`, then laid
         // side by side in `v` (row j holds every lane's k̃_j); a lane with no query, or a fault,
         // substitutes zeros and is not read.
-        let mut means = [None; LANES];
-        for (l, (q, slot)) in queries.iter().zip(&mut means).enumerate() {
-            if q.health != Status::Fault {
-                let k = kernels.get_mut(l * m..(l + 1) * m);
-                *slot = Some(self.mean_into(q.read(self.dims.d), k));
-            }
-        }
+        let means = self.means_lanes(queries, kernels);
         for (j, row) in v.chunks_exact_mut(LANES).enumerate() {
             for (l, (x, mean)) in row.iter_mut().zip(&means).enumerate() {
                 *x = match mean {

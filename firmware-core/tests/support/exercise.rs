@@ -51,9 +51,7 @@ pub fn exercise(model: &Roomy) -> usize {
         );
         checked += 1;
     };
-    // The same predictions side by side, as a host replays them (`Model::evaluate`).
-    let mut lanes = vec![0.0f32; model.evaluate_scratch_len()];
-    let mut evaluations = [Evaluation::NONE; PROBES.len()];
+    // The same predictions side by side, as a host replays them ([`same`]).
     let mut prepared = Vec::new();
     let mut expected = Vec::new();
     for (i, _) in PROBES.iter().enumerate() {
@@ -67,10 +65,7 @@ pub fn exercise(model: &Roomy) -> usize {
         prepared.push(Prepared::inputs(&x, Conditions::at_hours(0.0)));
         expected.push((p, mean));
     }
-    model
-        .evaluate(&prepared, &mut lanes, &mut evaluations)
-        .expect("the scratch is sized for it");
-    same(&evaluations, &expected);
+    same(model, &prepared, &expected);
     let (mut state, mut twin) = (FeatureState::default(), FeatureState::default());
     let (mut prepared, mut expected) = (Vec::new(), Vec::new());
     for (k, &t) in PROBES.iter().enumerate() {
@@ -87,16 +82,20 @@ pub fn exercise(model: &Roomy) -> usize {
         prepared.push(model.prepare(&sample, &mut twin));
         expected.push((p, mean));
     }
-    model
-        .evaluate(&prepared, &mut lanes, &mut evaluations)
-        .expect("the scratch is sized for it");
-    same(&evaluations, &expected);
+    same(model, &prepared, &expected);
     checked
 }
 
-/// Each evaluation side by side is, bit for bit, the prediction and mean path of its sample
-/// alone.
-fn same(evaluations: &[Evaluation], expected: &[(Prediction, Mean)]) {
+/// Each evaluation side by side, and each mean path side by side (`Model::means`), is bit for
+/// bit the prediction and mean path of its sample alone.
+fn same(model: &Roomy, prepared: &[Prepared<8>], expected: &[(Prediction, Mean)]) {
+    let mut lanes = vec![0.0f32; model.evaluate_scratch_len()];
+    let mut evaluations = vec![Evaluation::NONE; prepared.len()];
+    model
+        .evaluate(prepared, &mut lanes, &mut evaluations)
+        .expect("the scratch is sized for it");
+    let mut means = vec![(Evaluation::NONE.mean, 0.0); prepared.len()];
+    model.means(prepared, &mut means);
     let bits = |p: &Prediction| {
         (
             p.mean.to_bits(),
@@ -105,12 +104,15 @@ fn same(evaluations: &[Evaluation], expected: &[(Prediction, Mean)]) {
             p.status,
         )
     };
-    for (e, (p, m)) in evaluations.iter().zip(expected) {
+    for ((e, (mean, excess2)), (p, m)) in evaluations.iter().zip(&means).zip(expected) {
         assert_eq!(bits(&e.prediction), bits(p), "{e:?} vs {p:?}");
-        assert_eq!(
-            (e.mean.mean.to_bits(), e.mean.status),
-            (m.mean.to_bits(), m.status),
-            "{e:?} vs {m:?}"
-        );
+        for (batched, what) in [(e.mean, "evaluate"), (*mean, "means")] {
+            assert_eq!(
+                (batched.mean.to_bits(), batched.status),
+                (m.mean.to_bits(), m.status),
+                "{what}: {batched:?} vs {m:?}"
+            );
+        }
+        assert_eq!(excess2.to_bits(), e.excess2.to_bits());
     }
 }

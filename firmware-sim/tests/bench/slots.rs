@@ -435,20 +435,30 @@ fn a_power_cut_at_every_byte_of_a_six_channel_units_update_boots_the_old_unit_or
         3 * 4096 + next.len(),
         "three sectors erased, the blob programmed"
     );
-    for cut in 0..=work {
-        let mut f = flash.clone();
-        f.cut_after(cut);
-        let written = update_unit(&mut f, &next);
-        f.power_on();
-        let (sequence, unit) =
-            boot_unit(&f).unwrap_or_else(|e| panic!("cut at {cut}: no unit ({e})"));
-        let committed = cut == work;
-        assert_eq!(written.is_ok(), committed, "cut at {cut}");
-        let expected = if committed { 3 } else { 2 };
-        assert_eq!(sequence, expected, "cut at {cut}");
-        assert_eq!(unit, decoded(expected), "cut at {cut}");
-        assert_eq!(unit.channels().len(), 6);
-    }
+    // The old unit and the new, decoded once; every cut on one of two threads.
+    let (old, new) = (decoded(2), decoded(3));
+    let cuts = |flash: Nor, cuts: std::ops::RangeInclusive<usize>| {
+        for cut in cuts {
+            let mut f = flash.clone();
+            f.cut_after(cut);
+            let written = update_unit(&mut f, &next);
+            f.power_on();
+            let (sequence, unit) =
+                boot_unit(&f).unwrap_or_else(|e| panic!("cut at {cut}: no unit ({e})"));
+            let committed = cut == work;
+            assert_eq!(written.is_ok(), committed, "cut at {cut}");
+            let (expected, booted) = if committed { (3, &new) } else { (2, &old) };
+            assert_eq!(sequence, expected, "cut at {cut}");
+            assert_eq!(&unit, booted, "cut at {cut}");
+            assert_eq!(unit.channels().len(), 6);
+        }
+    };
+    std::thread::scope(|s| {
+        let before = flash.clone();
+        let other = s.spawn(|| cuts(before, 0..=work / 2));
+        cuts(flash.clone(), work / 2 + 1..=work);
+        other.join().unwrap();
+    });
     // A model's storage refuses the unit blob of six channels before anything is erased (it
     // takes a unit blob of one).
     let mut f = flash.clone();

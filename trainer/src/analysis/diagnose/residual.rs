@@ -1,7 +1,8 @@
 //! The residual a diagnosis studies: a stream replayed through a static model, in 60 s blocks,
 //! and each candidate cause's input along it as the firmware would compute it.
 
-use firmware_core::{Feature, FeatureState, Status};
+use firmware_core::model::Conditions;
+use firmware_core::{Evaluation, Feature, FeatureState, Prepared, Status};
 use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay;
@@ -159,19 +160,27 @@ impl<'a> Residual<'a> {
         self.blocks.iter().flatten().for_each(|&i| wanted[i] = true);
         let mut state = FeatureState::default();
         let mut x = vec![0.0f32; features.len()];
-        (0..self.stream.len())
-            .map(|i| {
-                if self.restarts[i] {
-                    state.power_on();
-                }
-                let s = replay::sample(self.stream, i);
-                let health = firmware_core::features::compute(features, &s, &mut state, &mut x);
-                if health == Status::Fault || !wanted[i] {
-                    return f32::NAN;
-                }
-                self.model.predict_mean(&x).mean
-            })
-            .collect()
+        // The inputs along the stream first (the feature state runs through every sample), then
+        // the model's mean at all of them, side by side (`Model::means`).
+        let (mut at, mut inputs) = (Vec::new(), Vec::new());
+        for (i, &wanted) in wanted.iter().enumerate() {
+            if self.restarts[i] {
+                state.power_on();
+            }
+            let s = replay::sample(self.stream, i);
+            let health = firmware_core::features::compute(features, &s, &mut state, &mut x);
+            if health != Status::Fault && wanted {
+                at.push(i);
+                inputs.push(Prepared::inputs(&x, Conditions::at_hours(0.0)));
+            }
+        }
+        let mut means = vec![(Evaluation::NONE.mean, 0.0); inputs.len()];
+        self.model.means(&inputs, &mut means);
+        let mut out = vec![f32::NAN; self.stream.len()];
+        for (&i, (m, _)) in at.iter().zip(&means) {
+            out[i] = m.mean;
+        }
+        out
     }
 
     /// Range of a feature along the stream, widened by 10% of its span each side: the trained
