@@ -82,6 +82,10 @@ pub fn decode_unit(bytes: &[u8]) -> Result<Box<HostUnit>, BlobError> {
     Ok(unit)
 }
 
+/// Samples a replay prepares before it evaluates them, [`firmware_core::model::LANES`] side by
+/// side: a few batches of lanes, so that the prepared inputs stay in the processor's cache.
+const BATCH: usize = 64;
+
 /// The firmware's output for every sample.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Compensated {
@@ -222,29 +226,31 @@ pub fn replay_unit(
         state.calibration_run();
     }
     // Each channel's samples wait to be evaluated side by side ([`HostUnit::evaluate`]); a
-    // sample the unit refused (fewer outputs than channels) is `None`, and a `Fault` with mean 0
-    // and an infinite variance in every channel.
-    let none = Prepared::inputs(&[], Conditions::at_hours(0.0));
-    let mut one = vec![none; c];
-    let mut batch: Vec<Option<Vec<Prepared<MAX_INPUTS>>>> = Vec::with_capacity(BATCH);
+    // sample the unit refused (fewer outputs than channels) is a `Fault` with mean 0 and an
+    // infinite variance in every channel, as is one the evaluation refused (a scratch too short:
+    // never the one sized here).
+    let mut one = vec![Prepared::inputs(&[], Conditions::at_hours(0.0)); c];
+    let mut pending: Vec<Vec<Prepared<MAX_INPUTS>>> = vec![Vec::with_capacity(BATCH); c];
+    let mut refused = Vec::with_capacity(BATCH);
     let mut outputs = vec![0.0f32; streams.len()];
     let mut evaluations = vec![Evaluation::NONE; BATCH];
-    let mut flush = |batch: &mut Vec<Option<Vec<Prepared<MAX_INPUTS>>>>,
+    let mut flush = |pending: &mut Vec<Vec<Prepared<MAX_INPUTS>>>,
+                     refused: &mut Vec<bool>,
                      out: &mut Vec<Compensated>| {
-        for (k, o) in out.iter_mut().enumerate() {
-            let kept: Vec<Prepared<MAX_INPUTS>> = batch.iter().flatten().map(|p| p[k]).collect();
-            let evaluated = unit.evaluate(k, &kept, &mut scratch, &mut evaluations[..kept.len()]);
+        for (k, (o, prepared)) in out.iter_mut().zip(pending.iter_mut()).enumerate() {
+            let evaluations = &mut evaluations[..prepared.len()];
+            let evaluated = unit.evaluate(k, prepared, &mut scratch, evaluations);
             let mut done = evaluations.iter();
-            for p in batch.iter() {
-                let e = match (p, evaluated) {
-                    (Some(_), Some(Ok(()))) => done.next().copied(),
+            for &refused in refused.iter() {
+                let e = match (refused, evaluated) {
+                    (false, Some(Ok(()))) => done.next(),
                     _ => None,
-                }
-                .unwrap_or(Evaluation::NONE);
-                o.push(&e.prediction);
+                };
+                o.push(&e.unwrap_or(&Evaluation::NONE).prediction);
             }
+            prepared.clear();
         }
-        batch.clear();
+        refused.clear();
     };
     for (i, restart) in restarts(first).into_iter().enumerate() {
         if restart {
@@ -259,12 +265,17 @@ pub fn replay_unit(
             outputs: &outputs,
         };
         let prepared = unit.prepare(&sample, &mut state, &mut one).is_ok();
-        batch.push(prepared.then(|| one.clone()));
-        if batch.len() == BATCH {
-            flush(&mut batch, &mut out);
+        if prepared {
+            for (p, one) in pending.iter_mut().zip(&one) {
+                p.push(*one);
+            }
+        }
+        refused.push(!prepared);
+        if refused.len() == BATCH {
+            flush(&mut pending, &mut refused, &mut out);
         }
     }
-    flush(&mut batch, &mut out);
+    flush(&mut pending, &mut refused, &mut out);
     out
 }
 
@@ -411,9 +422,6 @@ impl Means {
     }
 }
 
-/// Samples [`replay_where`] evaluates at a time, [`firmware_core::model::LANES`] side by side.
-const BATCH: usize = 64;
-
 /// Every sample of `stream` through `model`'s mean alone: the rates and statuses of [`replay`]
 /// at a fraction of its cost (the variance is O(m²) per sample, the mean O(m·d)).
 pub fn means(model: &HostModel, stream: &Stream) -> Means {
@@ -449,7 +457,7 @@ pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Mea
                      means: &mut Means,
                      full: &mut Compensated| {
         let [(mean_at, mean_batch), (full_at, full_batch)] = pending;
-        mean_paths.resize(mean_batch.len(), (Evaluation::NONE.mean, 0.0));
+        mean_paths.resize(mean_batch.len(), (Mean::FAULT, 0.0));
         model.means(mean_batch, &mut mean_paths);
         for (&i, &(m, excess2)) in mean_at.iter().zip(&mean_paths) {
             full.rate_dps[i] = m.mean;
@@ -463,6 +471,7 @@ pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Mea
                 full.set(i, &e.prediction);
                 means.set(i, e.mean, e.excess2);
             } else {
+                // A scratch too short (never the one sized here): no prediction.
                 full.set(i, &Evaluation::NONE.prediction);
                 let (m, excess2) = model.mean_of(p);
                 means.set(i, m, excess2);
@@ -806,17 +815,25 @@ mod tests {
     #[test]
     fn samples_evaluated_side_by_side_are_those_of_one_at_a_time_bit_for_bit() {
         // Not a whole number of batches or lanes; inside the trained range and far beyond it,
-        // with one reading that cannot be true.
+        // with one reading that cannot be true and a power cycle (a 10-minute gap).
         let mut s = stream(&[0.0; 403], 1.0);
         for (i, (t, v)) in s.temp_c.iter_mut().zip(&mut s.voltage_v).enumerate() {
             *t = -60.0 + 0.5 * i as f64;
             *v = (0.1 * i as f64).sin();
         }
         s.temp_c[7] = f64::NAN;
+        for t in &mut s.time_s[150..] {
+            *t += 600.0;
+        }
+        s.time_issues.push(TimeIssue::Gap {
+            line: s.lines[150],
+            step_s: 601.0,
+        });
         let model = decode(GYRO).unwrap();
         let mut scratch = vec![0.0f32; model.dims().m];
-        let mut alone = Compensated::default();
+        let (mut alone, mut mean_path) = (Compensated::default(), Vec::new());
         walk(&s, |_, sample, state| {
+            mean_path.push(model.compensate_mean(sample, &mut state.clone()));
             alone.push(&model.compensate(sample, state, &mut scratch).unwrap());
         });
         let bits = |c: &Compensated, i: usize| {
@@ -833,13 +850,20 @@ mod tests {
         let (means, part) = replay_where(&model, &s, &wanted);
         assert!(alone.status.contains(&Status::Fault));
         assert!(alone.status.contains(&Status::Extrapolating));
-        for (i, &wanted) in wanted.iter().enumerate() {
+        assert_eq!(restarts(&s).iter().filter(|r| **r).count(), 1);
+        for (i, (&wanted, (m, excess2))) in wanted.iter().zip(&mean_path).enumerate() {
             assert_eq!(bits(&full, i), bits(&alone, i), "sample {i}");
             assert_eq!(bits(&unit[0], i), bits(&alone, i), "sample {i}");
-            assert_eq!(means.rate_dps[i].to_bits(), alone.rate_dps[i].to_bits());
+            let batched = (means.rate_dps[i], means.status[i], means.excess2[i]);
+            assert_eq!(
+                (batched.0.to_bits(), batched.1, batched.2.to_bits()),
+                (m.mean.to_bits(), m.status, excess2.to_bits()),
+                "sample {i}"
+            );
             if wanted {
                 assert_eq!(bits(&part, i), bits(&alone, i), "sample {i}");
             } else {
+                assert_eq!((part.rate_dps[i], part.status[i]), (m.mean, m.status));
                 assert!(part.bias_var[i].is_nan());
             }
         }

@@ -435,6 +435,8 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
         state: &mut FeatureState,
         scratch: &mut [f32],
     ) -> Result<Prediction, PredictError> {
+        // [`Self::prepare`]'s steps, written out: the Cortex-M4's code of this call stays as it
+        // was measured (docs/firmware.md, "Cost on the M4").
         let mut x = [0.0f32; D];
         // `decode` checked d ≤ D, so the inputs always fit.
         let health = features::compute(&self.features, sample, state, &mut x);
@@ -476,9 +478,10 @@ impl<const D: usize, const E: usize, const N: usize> Model<D, E, N> {
 
     /// Every `prepared` sample's [`Evaluation`] into `out` (as many as both hold), [`LANES`]
     /// side by side: bit for bit what [`Self::compensate`] and [`Self::compensate_mean`] give
-    /// each, for a host that replays a stream (the forward substitution of one sample waits on
-    /// its own additions, of several it fills the vector registers). `scratch` must hold
-    /// [`Self::evaluate_scratch_len`] numbers.
+    /// each, for a host that replays a stream (the sums of one sample wait on their own
+    /// additions, of several they fill the vector registers). `scratch` must hold
+    /// [`Self::evaluate_scratch_len`] numbers; a shorter one refuses the batch
+    /// ([`PredictError::ScratchTooSmall`]).
     pub fn evaluate(
         &self,
         prepared: &[Prepared<D>],

@@ -325,6 +325,11 @@ fn exercise_unit(unit: &RoomyUnit) -> usize {
                 p.bias_variance.to_bits(),
                 "{e:?} vs {p:?}"
             );
+            assert_eq!(
+                e.prediction.noise_variance.to_bits(),
+                p.noise_variance.to_bits(),
+                "{e:?} vs {p:?}"
+            );
             assert_eq!(e.prediction.status, p.status, "{e:?} vs {p:?}");
         }
     }

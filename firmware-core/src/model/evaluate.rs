@@ -27,7 +27,7 @@ pub struct Mean {
 
 impl Mean {
     /// A `Fault`'s mean.
-    pub(crate) const FAULT: Self = Self {
+    pub const FAULT: Self = Self {
         mean: 0.0,
         status: Status::Fault,
     };

@@ -81,10 +81,11 @@ fn truncate(t: f32) -> f32 {
     }
 }
 
-/// `libm::expf` of each of `x`, in place, bit for bit.
+/// `libm::expf` of each of `x`, in place, bit for bit (`N` arguments: [`LANES`] centres of one
+/// sample, or one centre of [`super::LANES`] samples).
 #[inline]
-pub(crate) fn expf_lanes(x: &mut [f32; LANES]) {
-    let mut y = [0.0f32; LANES];
+pub(crate) fn expf_lanes<const N: usize>(x: &mut [f32; N]) {
+    let mut y = [0.0f32; N];
     for (y, x) in y.iter_mut().zip(x.iter()) {
         *y = primary(*x);
     }

@@ -1,12 +1,15 @@
-//! Several samples' variances side by side, for a host that replays a stream.
+//! Several samples' means and variances side by side, for a host that replays a stream.
 //!
-//! The variance's forward substitution is a chain of dependent compensated additions, m(m+1)/2
-//! per sample: one sample at a time, a processor mostly waits for each addition's result (42 % of
-//! an investigation's time on the host, measured with `perf` on `trainer challenge --kind
-//! single`). [`LANES`] samples side by side take the same operations in the same order, each on
-//! its own numbers, so every one is bit for bit what [`Evaluator::predict_in`] gives, while the
-//! compiler packs the lanes into vector registers. A gyro evaluates the one sample that has just
-//! arrived, so its firmware never calls this.
+//! A sample's mean and variance are chains of dependent compensated additions, m for the kernel
+//! terms of the mean and m(m+1)/2 for the variance's forward substitution: one sample at a time, a
+//! processor mostly waits for each addition's result (the variance alone was 42 % of an
+//! investigation's time on the host, measured with `perf` on `trainer challenge --kind single`).
+//! [`LANES`] samples side by side take the same operations in the same order, each on its own
+//! numbers, so every one is bit for bit what `mean_into`, `mean_with` and
+//! [`Evaluator::predict_in`] give it, while the compiler packs the lanes into vector registers.
+//! Only a scratch too short differs: it refuses the whole batch, where a sample alone that the
+//! feature pipeline called a `Fault` needs none. A gyro evaluates the one sample that has just
+//! arrived, so its firmware never calls this (and its image does not contain it).
 
 use super::evaluate::{Accumulator, Conditions, Evaluator, Mean, Prediction};
 use crate::blob::Dims;
@@ -20,10 +23,13 @@ pub const LANES: usize = 8;
 /// reads; from the feature pipeline ([`crate::Model::prepare`]) or given ([`Prepared::inputs`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prepared<const D: usize> {
+    /// The inputs, in the order of the model's features.
     pub(crate) x: [f32; D],
     /// Inputs given, of `x`.
     pub(crate) len: usize,
+    /// The feature pipeline's status (`Valid` for inputs given).
     pub(crate) health: Status,
+    /// What the model error reads besides the inputs.
     pub(crate) at: Conditions,
 }
 

@@ -38,7 +38,9 @@ const PROBES: [f32; 14] = [
 ];
 
 /// Predicts at probe inputs and along a short sample stream; panics if a mean or variance is not
-/// finite or a variance is negative. Returns the number of predictions checked.
+/// finite or a variance is negative, or if the same samples evaluated side by side (the host's
+/// `Model::evaluate` and `Model::means`) differ from them by a bit. Returns the number of
+/// predictions checked.
 pub fn exercise(model: &Roomy) -> usize {
     let d = model.dims().d;
     let mut scratch = [0.0f32; 4096];
@@ -62,8 +64,9 @@ pub fn exercise(model: &Roomy) -> usize {
             .expect("scratch holds every centre");
         check(mean.mean, 0.0, &x);
         check(p.mean, p.variance(), &x);
-        prepared.push(Prepared::inputs(&x, Conditions::at_hours(0.0)));
-        expected.push((p, mean));
+        let inputs = Prepared::inputs(&x, Conditions::at_hours(0.0));
+        prepared.push(inputs);
+        expected.push((p, mean, model.mean_of(&inputs).1));
     }
     same(model, &prepared, &expected);
     let (mut state, mut twin) = (FeatureState::default(), FeatureState::default());
@@ -74,13 +77,13 @@ pub fn exercise(model: &Roomy) -> usize {
             temp_c: t,
             output: PROBES[(k + 5) % PROBES.len()],
         };
-        let mean = model.compensate_mean(&sample, &mut state.clone()).0;
+        let (mean, excess2) = model.compensate_mean(&sample, &mut state.clone());
         let p = model
             .compensate(&sample, &mut state, &mut scratch)
             .expect("scratch holds every centre");
         check(p.mean, p.variance(), &sample);
         prepared.push(model.prepare(&sample, &mut twin));
-        expected.push((p, mean));
+        expected.push((p, mean, excess2));
     }
     same(model, &prepared, &expected);
     checked
@@ -88,13 +91,17 @@ pub fn exercise(model: &Roomy) -> usize {
 
 /// Each evaluation side by side, and each mean path side by side (`Model::means`), is bit for
 /// bit the prediction and mean path of its sample alone.
-fn same(model: &Roomy, prepared: &[Prepared<8>], expected: &[(Prediction, Mean)]) {
+fn same<const D: usize, const E: usize, const N: usize>(
+    model: &Model<D, E, N>,
+    prepared: &[Prepared<D>],
+    expected: &[(Prediction, Mean, f32)],
+) {
     let mut lanes = vec![0.0f32; model.evaluate_scratch_len()];
     let mut evaluations = vec![Evaluation::NONE; prepared.len()];
     model
         .evaluate(prepared, &mut lanes, &mut evaluations)
         .expect("the scratch is sized for it");
-    let mut means = vec![(Evaluation::NONE.mean, 0.0); prepared.len()];
+    let mut means = vec![(Mean::FAULT, 0.0); prepared.len()];
     model.means(prepared, &mut means);
     let bits = |p: &Prediction| {
         (
@@ -104,7 +111,7 @@ fn same(model: &Roomy, prepared: &[Prepared<8>], expected: &[(Prediction, Mean)]
             p.status,
         )
     };
-    for ((e, (mean, excess2)), (p, m)) in evaluations.iter().zip(&means).zip(expected) {
+    for ((e, (mean, excess2)), (p, m, alone)) in evaluations.iter().zip(&means).zip(expected) {
         assert_eq!(bits(&e.prediction), bits(p), "{e:?} vs {p:?}");
         for (batched, what) in [(e.mean, "evaluate"), (*mean, "means")] {
             assert_eq!(
@@ -113,6 +120,8 @@ fn same(model: &Roomy, prepared: &[Prepared<8>], expected: &[(Prediction, Mean)]
                 "{what}: {batched:?} vs {m:?}"
             );
         }
-        assert_eq!(excess2.to_bits(), e.excess2.to_bits());
+        for batched in [*excess2, e.excess2] {
+            assert_eq!(batched.to_bits(), alone.to_bits(), "e(x)² of {m:?}");
+        }
     }
 }

@@ -437,8 +437,8 @@ fn a_power_cut_at_every_byte_of_a_six_channel_units_update_boots_the_old_unit_or
     );
     // The old unit and the new, decoded once; every cut on one of two threads.
     let (old, new) = (decoded(2), decoded(3));
-    let cuts = |flash: Nor, cuts: std::ops::RangeInclusive<usize>| {
-        for cut in cuts {
+    let cuts = |flash: Nor, range: std::ops::RangeInclusive<usize>| {
+        for cut in range {
             let mut f = flash.clone();
             f.cut_after(cut);
             let written = update_unit(&mut f, &next);

@@ -545,7 +545,12 @@ pub fn agreement(
     let beyond = firmware.beyond();
     let rows: Vec<Vec<f32>> = x
         .row_iter()
-        .map(|row| row.iter().map(|&v| v as f32).chain(held.clone()).collect())
+        .map(|row| {
+            row.iter()
+                .map(|&v| v as f32)
+                .chain(held.iter().copied())
+                .collect()
+        })
         .collect();
     let prepared: Vec<Prepared<MAX_INPUTS>> = rows
         .iter()

@@ -2,7 +2,7 @@
 //! and each candidate cause's input along it as the firmware would compute it.
 
 use firmware_core::model::Conditions;
-use firmware_core::{Evaluation, Feature, FeatureState, Prepared, Status};
+use firmware_core::{Feature, FeatureState, Mean, Prepared, Status};
 use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay;
@@ -174,7 +174,7 @@ impl<'a> Residual<'a> {
                 inputs.push(Prepared::inputs(&x, Conditions::at_hours(0.0)));
             }
         }
-        let mut means = vec![(Evaluation::NONE.mean, 0.0); inputs.len()];
+        let mut means = vec![(Mean::FAULT, 0.0); inputs.len()];
         self.model.means(&inputs, &mut means);
         let mut out = vec![f32::NAN; self.stream.len()];
         for (&i, (m, _)) in at.iter().zip(&means) {
