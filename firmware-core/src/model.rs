@@ -64,6 +64,7 @@ use crate::features::{self, FeatureState, MAX_INPUTS, Sample};
 use crate::status::Status;
 use evaluate::Evaluator;
 pub use evaluate::{Conditions, Mean, Prediction};
+pub(crate) use lanes::scratch_len as lanes_scratch_len;
 pub use lanes::{Evaluation, LANES, Prepared};
 
 pub(crate) mod evaluate;

@@ -30,7 +30,7 @@ use crate::error::{BlobError, PredictError, Storage};
 use crate::features::{self, FeatureState, MAX_FEATURES, MAX_INPUTS, Sample};
 use crate::model::evaluate::Evaluator;
 use crate::model::{
-    Conditions, Evaluation, LANES, Mean, Prediction, Prepared, capacity, read_numbers,
+    Conditions, Evaluation, Mean, Prediction, Prepared, capacity, lanes_scratch_len, read_numbers,
 };
 use crate::status::Status;
 use crate::units::Quantity;
@@ -525,13 +525,13 @@ impl<const C: usize, const D: usize, const E: usize, S: Numbers> Unit<C, D, E, S
         Ok(self.channels.len())
     }
 
-    /// Scratch numbers [`Self::evaluate`] needs: 2 · [`LANES`] · the most centres of any channel.
+    /// Scratch numbers [`Self::evaluate`] needs: 2 · [`crate::model::LANES`] · the most centres of any channel.
     pub fn evaluate_scratch_len(&self) -> usize {
-        2 * LANES * self.scratch_len()
+        lanes_scratch_len(self.scratch_len())
     }
 
     /// Channel `k`'s [`Evaluation`] of each of its `prepared` samples ([`Self::prepare`]) into
-    /// `out` (as many as both hold), [`LANES`] side by side ([`crate::Model::evaluate`]): bit for
+    /// `out` (as many as both hold), [`crate::model::LANES`] side by side ([`crate::Model::evaluate`]): bit for
     /// bit what [`Self::compensate`] and [`Self::compensate_mean`] give it. `None` for no such
     /// channel.
     pub fn evaluate(

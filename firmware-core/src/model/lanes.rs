@@ -124,6 +124,12 @@ impl Sums {
     }
 }
 
+/// Scratch numbers the side-by-side evaluation of a model of `m` centres needs: each lane's
+/// kernel values, then the lanes' forward substitution side by side.
+pub(crate) const fn scratch_len(m: usize) -> usize {
+    2 * LANES * m
+}
+
 /// `libm::expf` of each lane, vectorized where the processor has vector registers
 /// ([`super::exp`]).
 #[inline(always)]
@@ -246,7 +252,7 @@ impl<const D: usize> Evaluator<'_, D> {
     /// Scratch numbers [`Self::evaluate_lanes`] needs: each lane's kernel values, then the lanes'
     /// forward substitution side by side.
     pub(crate) fn lanes_scratch_len(&self) -> usize {
-        2 * LANES * self.dims.m
+        scratch_len(self.dims.m)
     }
 
     /// Every `prepared` sample's [`Evaluation`] into `out` (as many as both hold), [`LANES`] at a
