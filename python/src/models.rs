@@ -141,6 +141,12 @@ impl GaussianProcess {
                 x.ncols()
             )));
         }
+        if !return_std {
+            // The mean alone: the variance would cost O(n²) a row for nothing.
+            let mean: Vec<f64> =
+                py.detach(|| rows(&x).iter().map(|r| model.predict_mean(r)).collect());
+            return Ok(mean.into_pyarray(py).into_any().unbind());
+        }
         let (mean, std): (Vec<f64>, Vec<f64>) = py.detach(|| {
             rows(&x)
                 .iter()
@@ -151,12 +157,8 @@ impl GaussianProcess {
                 .unzip()
         });
         let mean = mean.into_pyarray(py).into_any().unbind();
-        if return_std {
-            let std = std.into_pyarray(py).into_any().unbind();
-            Ok((mean, std).into_pyobject(py)?.into_any().unbind())
-        } else {
-            Ok(mean)
-        }
+        let std = std.into_pyarray(py).into_any().unbind();
+        Ok((mean, std).into_pyobject(py)?.into_any().unbind())
     }
 
     /// The leave-one-out errors of the training samples (prediction − target), in closed form

@@ -228,7 +228,7 @@ pub fn sizes(
         let sq: f64 = (0..x.nrows())
             .map(|i| {
                 let row: Vec<f64> = x.row(i).iter().copied().collect();
-                (model.predict(&row).mean - target[i]).powi(2)
+                (model.predict_mean(&row) - target[i]).powi(2)
             })
             .sum();
         Ok((sq / x.nrows().max(1) as f64).sqrt())

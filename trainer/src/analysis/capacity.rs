@@ -157,7 +157,7 @@ impl Comparison {
         let sq: f64 = (0..x.nrows())
             .map(|i| {
                 let row: Vec<f64> = x.row(i).iter().copied().collect();
-                (model.predict(&row).mean - target[i]).powi(2)
+                (model.predict_mean(&row) - target[i]).powi(2)
             })
             .sum();
         Ok((

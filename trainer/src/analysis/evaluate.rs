@@ -167,7 +167,7 @@ impl MethodFit {
     /// Compensated rate at (T, V).
     pub fn predict(&self, temp_c: f64, voltage: f64) -> f64 {
         match self {
-            Self::Gpr(m) => m.predict(&[temp_c, voltage]).mean,
+            Self::Gpr(m) => m.predict_mean(&[temp_c, voltage]),
             Self::Lssvr(m) => m.predict(&[temp_c, voltage]),
             Self::TwoStep(m) => m.predict(temp_c, voltage),
             Self::Poly(m) => m.predict(temp_c, voltage),

@@ -276,7 +276,7 @@ impl TableModel {
             Some(_) => vec![points.temp_c[i]],
         };
         let bias_model = points.scale_factor.map_or(0.0, |k| points.voltage_v[i] / k);
-        self.gp.predict(&x).mean
+        self.gp.predict_mean(&x)
             + bias_model
             + self
                 .terms

@@ -319,9 +319,9 @@ impl Prior {
                     .map(|row| {
                         let mut at: Vec<f64> = row.iter().copied().collect();
                         at[k] += step;
-                        let up = model.predict(&at).mean;
+                        let up = model.predict_mean(&at);
                         at[k] -= 2.0 * step;
-                        let down = model.predict(&at).mean;
+                        let down = model.predict_mean(&at);
                         let change = (up - down) / 0.2;
                         change * change
                     })

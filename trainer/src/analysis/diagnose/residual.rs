@@ -208,7 +208,7 @@ impl<'a> Residual<'a> {
                         .enumerate()
                         .map(|(i, v)| {
                             let row: Vec<f64> = inputs.row(i).iter().copied().collect();
-                            v - smoothed.predict(&row).mean
+                            v - smoothed.predict_mean(&row)
                         })
                         .collect(),
                 )

@@ -316,6 +316,29 @@ fn fit_beats_every_start_and_predicts_the_function() {
     assert!(p.latent_var >= 0.0);
 }
 
+/// The mean alone is the full prediction's mean, bit for bit, for an exact GP and a sparse one,
+/// inside the data and beyond them.
+#[test]
+fn the_mean_alone_is_the_predictions_mean_bit_for_bit() {
+    let (x, y) = toy(80, 4);
+    let exact = GpModel::fit(&x, &y, &GpConfig::default()).unwrap();
+    let sparse = GpConfig {
+        inducing: Inducing::Count(12),
+        ..GpConfig::default()
+    };
+    let sparse = GpModel::fit(&x, &y, &sparse).unwrap();
+    assert!(sparse.sparse.is_some());
+    for m in [&exact, &sparse] {
+        for at in [[0.3, -0.4], [-0.9, 0.7], [3.0, -2.5]] {
+            assert_eq!(
+                m.predict_mean(&at).to_bits(),
+                m.predict(&at).mean.to_bits(),
+                "{at:?}"
+            );
+        }
+    }
+}
+
 #[test]
 fn inducing_parses_and_chooses_by_size() {
     assert_eq!("auto".parse(), Ok(Inducing::Auto));
