@@ -368,7 +368,7 @@ impl GpModel {
         let (m, v) = self.posterior.predict(&z);
         let s2 = self.output_scale.powi(2);
         Prediction {
-            mean: self.prior.eval(&z) + self.output_scale * m,
+            mean: self.output_mean(&z, m),
             latent_var: v * s2,
             noise_var: self.posterior.hyper.observation_var() * s2,
         }
@@ -378,7 +378,12 @@ impl GpModel {
     /// variance costs O(n²) a sample, the mean O(n).
     pub fn predict_mean(&self, x: &[f64]) -> f64 {
         let z = self.input_norm.apply_row(x);
-        self.prior.eval(&z) + self.output_scale * self.posterior.predict_mean(&z)
+        self.output_mean(&z, self.posterior.predict_mean(&z))
+    }
+
+    /// The mean in output units at the normalized sample `z`, from the posterior's part `m`.
+    fn output_mean(&self, z: &[f64], m: f64) -> f64 {
+        self.prior.eval(z) + self.output_scale * m
     }
 
     /// Closed-form LOO errors (prediction − target) in output units: of the exact GP, or of the
