@@ -89,13 +89,15 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
         assert!(gain >= 1.0, "{axis}: {gain}");
         // Issue 44: the shipped σ, calibrated on the training window alone, covers the held-out
         // part (two thirds of it beyond the trained temperatures, all of it later in time). x and
-        // y are covered entirely (their σ is wide: few training residuals), z at 97%.
+        // y are covered entirely, z at 90%. x's and y's σ are wide (1.6× and 2.3× their RMS
+        // error): few training residuals, and a growth beyond the trained temperatures that the
+        // residuals, a sixth of a width beyond them at most, cannot show, so it is assumed.
         let ext = &inv["extended_score"];
         for of in ["sigma_samples", "sigma_60s"] {
             let c = &ext[of];
             let within = c["within_2sigma"].as_f64().unwrap();
             assert!((0.85..=1.0).contains(&within), "{axis} {of}: {c}");
-            assert!(c["sharpness"].as_f64().unwrap() < 1.6, "{axis} {of}: {c}");
+            assert!(c["sharpness"].as_f64().unwrap() < 2.4, "{axis} {of}: {c}");
         }
         assert!(
             inv["calibration"]["residuals"].as_u64().unwrap() >= 20,

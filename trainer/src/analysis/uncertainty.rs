@@ -37,7 +37,8 @@
 //! measured zero: where the training data hold too few out-of-sample residuals for any term (a
 //! 30-minute warm-up has no forward split), the floor is the GP's own noise level on its points
 //! inflated by the small-sample factor at the fewest degrees of freedom; where no residual lies
-//! beyond the temperatures fitted, the extrapolation term is what the model itself changes over
+//! beyond the temperatures fitted, or those there cannot tell a growth of the prior's size from
+//! none (below two standard errors of its estimate), the extrapolation term is what the model itself changes over
 //! one trained width of its temperature (held at the range's edge beyond it, the firmware misses
 //! that change per width; continued, it misses what the curve does besides): its temperature slope at the points it
 //! was fitted on, as an RMS, times the width. (Where its data are: along the temperature at inputs
@@ -571,8 +572,17 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
             ),
         );
     }
-    let seen = seen(&all);
-    let c = maximum_likelihood(&all, &seen);
+    let mut seen = seen(&all);
+    let mut c = maximum_likelihood(&all, &seen);
+    // The extrapolation term is fitted where the residuals reach beyond the range; it is used
+    // wherever a sample does, often many widths further. Residuals that cannot tell a growth of
+    // the prior's size from none abstain (the prior, or the larger fit, is assumed).
+    let mut unseen_extrapolation = 0.0;
+    if seen[2] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
+        unseen_extrapolation = c[2];
+        seen[2] = false;
+        c = maximum_likelihood(&all, &seen);
+    }
     let fitted: Vec<usize> = (0..TERMS).filter(|&k| seen[k]).collect();
     let var = |r: &Residual, run: bool, c: &[f64; TERMS]| {
         r.base_var + r.terms(run).iter().zip(c).map(|(p, c)| p * c).sum::<f64>()
@@ -593,7 +603,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let mut c = c.map(|v| v * inflation);
     let mut assumed = Vec::new();
     if !seen[2] && prior.extrapolation_var > 0.0 {
-        c[2] = prior.extrapolation_var;
+        c[2] = prior.extrapolation_var.max(unseen_extrapolation);
         assumed.push(TERM_NAMES[2]);
     }
     let runs = all.iter().any(|(_, run)| *run);
@@ -693,6 +703,47 @@ fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
     }
     seen
 }
+
+/// Whether the residuals of `series` can tell an extrapolation term as large as the larger of the
+/// fitted one (`c`) and the `prior`'s from none: that size at least [`DETECTED`] standard errors of
+/// its estimate, from the Fisher information ½ Σ e⁴ / v² (v each residual's variance with that
+/// term), each series' share reduced by its lag-1 autocorrelation as the small-sample factor's
+/// count is. Residuals a tenth of a width beyond the range cannot show what two widths beyond
+/// costs; a fit on them alone would ship no growth at all. True where there is no prior (a rate
+/// table's points span the range they are used in): [`seen`] decides alone.
+fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f64) -> bool {
+    let size = c[2].max(prior);
+    if prior <= 0.0 || size <= 0.0 {
+        return true;
+    }
+    let info: f64 = series
+        .iter()
+        .map(|s| {
+            let run = s.source.is_run();
+            let (mut info, mut z) = (0.0, Vec::new());
+            for r in &s.residuals {
+                let phi = r.terms(run);
+                let v: f64 = r.base_var
+                    + (0..TERMS)
+                        .map(|k| phi[k] * if k == 2 { size } else { c[k] })
+                        .sum::<f64>();
+                if r.error.is_finite() && v > 0.0 {
+                    info += 0.5 * (phi[2] / v).powi(2);
+                    z.push(r.error / v.sqrt());
+                }
+            }
+            if z.is_empty() {
+                0.0
+            } else {
+                info * effective(&z) / z.len() as f64
+            }
+        })
+        .sum();
+    size * info.sqrt() >= DETECTED
+}
+
+/// Standard errors a term's size must reach to be seen ([`extrapolation_shows`]).
+const DETECTED: f64 = 2.0;
 
 /// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
 /// `seen` (the others 0). Each term is scaled to the residuals' size and its covariate's so the

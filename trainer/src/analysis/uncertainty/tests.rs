@@ -133,6 +133,41 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
 }
 
 #[test]
+fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
+    // A warm-up's temperature split: hundreds of residuals, all within a tenth of a width of the
+    // range, none larger there. A growth of the prior's size (0.03 per width) would add 1e-5 to
+    // their 2.5e-3 at most: they cannot tell it from none, so the prior is assumed, not a zero.
+    let prior = Prior {
+        floor_var: 0.0,
+        extrapolation_var: 9e-4,
+    };
+    let noise = SampleNoise {
+        var: 1.0,
+        interval_s: 1.0,
+    };
+    let near = |reach: f64| {
+        let mut r = residuals(400, 5, |_, _| 0.05);
+        for (i, x) in r.iter_mut().enumerate() {
+            x.excess2 = (reach * (i % 10) as f64 / 9.0).powi(2);
+        }
+        [Series {
+            source: ResidualSource::Temperature,
+            residuals: r,
+        }]
+    };
+    let c = calibrate(&near(0.1), noise, prior);
+    assert_eq!(c.error_model.extrapolation_var, 9e-4, "{c:?}");
+    assert_eq!(c.assumed, vec!["extrapolation"]);
+    assert!(!c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    // The same errors reaching two widths out do show that no such growth is there: the fit
+    // stands, below the prior.
+    let c = calibrate(&near(2.0), noise, prior);
+    assert!(c.error_model.extrapolation_var < 9e-5, "{c:?}");
+    assert!(c.assumed.is_empty(), "{c:?}");
+    assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+}
+
+#[test]
 fn the_sample_noise_is_the_white_part_of_the_errors() {
     let n = 20_000;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
