@@ -358,7 +358,7 @@ class Calibration(Record):
     """√c_x: model error one trained width beyond the range, output units."""
 
     fitted_terms: list[str]
-    """The terms fitted (the others' covariates did not reach where they would show: they abstain)."""
+    """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none."""
 
     floor_std: float
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""

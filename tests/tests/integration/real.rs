@@ -43,7 +43,11 @@ fn a_static_log_without_a_scale_factor_is_refused_with_the_reason() {
 fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
     let dir = tempfile::tempdir().unwrap();
     let imu = imu();
-    for (axis, static_in_range_dph) in [("x", 1901.0), ("y", 248.0), ("z", 1122.0)] {
+    // Each axis: its static model's held-out error inside the trained range, °/h, and the most
+    // its σ's sharpness may be (below).
+    for (axis, static_in_range_dph, widest) in
+        [("x", 1901.0, 1.7), ("y", 248.0, 2.4), ("z", 1122.0, 1.3)]
+    {
         let out = at(dir.path(), &format!("{axis}.json"));
         let map = format!("voltage_v=imu.gyro.{axis}*57.29577951");
         let args = [
@@ -91,13 +95,17 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
         // part (two thirds of it beyond the trained temperatures, all of it later in time). x and
         // y are covered entirely, z at 90%. x's and y's σ are wide (1.6× and 2.3× their RMS
         // error): few training residuals, and a growth beyond the trained temperatures that the
-        // residuals, a sixth of a width beyond them at most, cannot show, so it is assumed.
+        // residuals, a sixth of a width beyond them at most, cannot show, so it is assumed; z's is
+        // 0.97×.
         let ext = &inv["extended_score"];
         for of in ["sigma_samples", "sigma_60s"] {
             let c = &ext[of];
             let within = c["within_2sigma"].as_f64().unwrap();
             assert!((0.85..=1.0).contains(&within), "{axis} {of}: {c}");
-            assert!(c["sharpness"].as_f64().unwrap() < 2.4, "{axis} {of}: {c}");
+            assert!(
+                c["sharpness"].as_f64().unwrap() < widest,
+                "{axis} {of}: {c}"
+            );
         }
         assert!(
             inv["calibration"]["residuals"].as_u64().unwrap() >= 20,

@@ -404,9 +404,9 @@ fn turn_on_unit(dir: &std::path::Path) -> String {
 /// generated in `dir`: their paths.
 fn warm_up_then(dir: &std::path::Path, design: &str) -> (String, String) {
     let (cal, held) = (at(dir, "cal.csv"), at(dir, "held.csv"));
-    for (design, seed, out) in [("warm-up", "11", &cal), (design, "12", &held)] {
+    for (shape, seed, out) in [("warm-up", "11", &cal), (design, "12", &held)] {
         sim(&[
-            "generate", "stream", "--design", design, "--seed", seed, "--out", out,
+            "generate", "stream", "--design", shape, "--seed", seed, "--out", out,
         ])
         .unwrap();
     }

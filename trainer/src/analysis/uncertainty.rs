@@ -33,18 +33,19 @@
 //! by its lag-1 autocorrelation) less the terms fitted, at least 2. With hundreds of residuals
 //! that factor is 1.
 //!
-//! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a
-//! measured zero: where the training data hold too few out-of-sample residuals for any term (a
-//! 30-minute warm-up has no forward split), the floor is the GP's own noise level on its points
-//! inflated by the small-sample factor at the fewest degrees of freedom; where no residual lies
-//! beyond the temperatures fitted, or those there cannot tell a growth of the prior's size from
-//! none (below two standard errors of its estimate), the extrapolation term is what the model itself changes over
-//! one trained width of its temperature (held at the range's edge beyond it, the firmware misses
-//! that change per width; continued, it misses what the curve does besides): its temperature slope at the points it
-//! was fitted on, as an RMS, times the width. (Where its data are: along the temperature at inputs
-//! no point is near, a (T, V) model fitted on a warm-up's shuffled rates is unconstrained; and
-//! the kernel's own expected change is no measure either, its signal variance holding the whole
-//! rate response.) Each assumed term is named in the calibration (`assumed`) and in its one line.
+//! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
+//! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
+//! warm-up has no forward split), the floor is the GP's own noise level on its points inflated by
+//! the small-sample factor at the fewest degrees of freedom; where no residual lies beyond the
+//! temperatures fitted, or those there cannot tell a growth of the prior's size from none (under
+//! two standard errors of its estimate, the other terms held at their fit), the extrapolation term
+//! is what the model itself changes over one trained width of its temperature (held at the range's
+//! edge beyond it, the firmware misses that change per width; continued, it misses what the curve
+//! does besides): its temperature slope at the points it was fitted on, as an RMS, times the width.
+//! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
+//! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
+//! either, its signal variance holding the whole rate response.) Each assumed term is named in the
+//! calibration (`assumed`) and in its one line.
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;
@@ -75,6 +76,11 @@ const MIN_SEEN: usize = 3;
 const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
 /// Largest lag-1 autocorrelation taken: a series that drifts slowly still counts as one residual.
 const MAX_RHO: f64 = 0.95;
+/// The extrapolation term's index among [`TERMS`].
+const EXTRAPOLATION: usize = 2;
+/// Standard errors of its estimate the prior's growth beyond the range must reach for the residuals
+/// to show it ([`extrapolation_shows`]).
+const DETECTED: f64 = 2.0;
 /// A heating/cooling state the training data must reach on each side of 0 to hold both legs.
 const BOTH_LEGS: f32 = 0.5;
 
@@ -140,6 +146,22 @@ pub struct Residual {
 }
 
 impl Residual {
+    /// Whether its error and stated variance are numbers a fit can take.
+    fn usable(&self) -> bool {
+        self.error.is_finite() && self.base_var.is_finite() && self.base_var >= 0.0
+    }
+
+    /// Its variance with the model-error terms `c`, for a residual of a run or of a table.
+    fn var(&self, run: bool, c: &[f64; TERMS]) -> f64 {
+        self.base_var
+            + self
+                .terms(run)
+                .iter()
+                .zip(c)
+                .map(|(p, c)| p * c)
+                .sum::<f64>()
+    }
+
     /// The covariates of the model-error terms, for a residual of a run or of a table.
     fn terms(&self, run: bool) -> [f64; TERMS] {
         let (table, stream) = if run { (0.0, 1.0) } else { (1.0, 0.0) };
@@ -252,8 +274,8 @@ pub struct Calibration {
     pub effective: f64,
     /// The small-sample factor on the model-error variance.
     pub inflation: f64,
-    /// The terms fitted (the others' covariates did not reach where they would show: they
-    /// abstain).
+    /// The terms fitted. The others abstain: their covariates did not reach where they would show,
+    /// or, for the extrapolation, the residuals could not tell the prior's growth from none.
     pub fitted_terms: Vec<&'static str>,
     /// Each test.
     pub sources: Vec<SourceSummary>,
@@ -559,7 +581,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let all: Vec<(Residual, bool)> = series
         .iter()
         .flat_map(|s| s.residuals.iter().map(|r| (*r, s.source.is_run())))
-        .filter(|(r, _)| r.error.is_finite() && r.base_var.is_finite() && r.base_var >= 0.0)
+        .filter(|(r, _)| r.usable())
         .collect();
     if all.len() < 3 {
         return Calibration::assumed(
@@ -576,23 +598,18 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let mut c = maximum_likelihood(&all, &seen);
     // The extrapolation term is fitted where the residuals reach beyond the range; it is used
     // wherever a sample does, often many widths further. Residuals that cannot tell a growth of
-    // the prior's size from none abstain (the prior, or the larger fit, is assumed).
-    let mut unseen_extrapolation = 0.0;
-    if seen[2] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
-        unseen_extrapolation = c[2];
-        seen[2] = false;
+    // the prior's size from none abstain, and the prior is assumed.
+    if seen[EXTRAPOLATION] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
+        seen[EXTRAPOLATION] = false;
         c = maximum_likelihood(&all, &seen);
     }
     let fitted: Vec<usize> = (0..TERMS).filter(|&k| seen[k]).collect();
-    let var = |r: &Residual, run: bool, c: &[f64; TERMS]| {
-        r.base_var + r.terms(run).iter().zip(c).map(|(p, c)| p * c).sum::<f64>()
-    };
     let standardized: Vec<Vec<f64>> = series
         .iter()
         .map(|s| {
             s.residuals
                 .iter()
-                .map(|r| r.error / var(r, s.source.is_run(), &c).sqrt())
+                .map(|r| r.error / r.var(s.source.is_run(), &c).sqrt())
                 .filter(|z| z.is_finite())
                 .collect()
         })
@@ -602,16 +619,16 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let inflation = small_sample_factor(dof);
     let mut c = c.map(|v| v * inflation);
     let mut assumed = Vec::new();
-    if !seen[2] && prior.extrapolation_var > 0.0 {
-        c[2] = prior.extrapolation_var.max(unseen_extrapolation);
-        assumed.push(TERM_NAMES[2]);
+    if !seen[EXTRAPOLATION] && prior.extrapolation_var > 0.0 {
+        c[EXTRAPOLATION] = prior.extrapolation_var;
+        assumed.push(TERM_NAMES[EXTRAPOLATION]);
     }
     let runs = all.iter().any(|(_, run)| *run);
     // What the blob carries: the run's floor (the table's where there is no run), for every
     // residual alike.
     let floor = if runs { c[1] } else { c[0] };
     let shipped = [0.0, floor, c[2], c[3], c[4]];
-    let shipped_sigma = |r: &Residual| var(r, true, &shipped).sqrt();
+    let shipped_sigma = |r: &Residual| r.var(true, &shipped).sqrt();
     let sources = summaries(series, &standardized, &shipped_sigma);
     let scored: Vec<&Residual> = all
         .iter()
@@ -706,44 +723,42 @@ fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
 
 /// Whether the residuals of `series` can tell an extrapolation term as large as the larger of the
 /// fitted one (`c`) and the `prior`'s from none: that size at least [`DETECTED`] standard errors of
-/// its estimate, from the Fisher information ½ Σ e⁴ / v² (v each residual's variance with that
-/// term), each series' share reduced by its lag-1 autocorrelation as the small-sample factor's
-/// count is. Residuals a tenth of a width beyond the range cannot show what two widths beyond
-/// costs; a fit on them alone would ship no growth at all. True where there is no prior (a rate
-/// table's points span the range they are used in): [`seen`] decides alone.
+/// its estimate, the other terms held at their fit. The standard error is from the term's Fisher
+/// information, ½ Σ e⁴ / v² (v each residual's variance with the term at that size), each series'
+/// share reduced by its lag-1 autocorrelation as the small-sample factor's count is. Residuals a
+/// tenth of a width beyond the range cannot show what two widths beyond costs, whatever they fit
+/// there. (Counting the terms fitted beside it, a heating-only calibration's growth in time,
+/// which rises with the distance as a heating leg does, would make it abstain there too, and the
+/// prior, a clamp's error, is 14–20× too wide on the cooling leg its tangent or GP follows.) True
+/// where there is no prior ([`Prior::NONE`]): [`seen`] decides alone.
 fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f64) -> bool {
-    let size = c[2].max(prior);
+    let size = c[EXTRAPOLATION].max(prior);
     if prior <= 0.0 || size <= 0.0 {
         return true;
     }
-    let info: f64 = series
+    let mut at = *c;
+    at[EXTRAPOLATION] = size;
+    let information: f64 = series
         .iter()
         .map(|s| {
             let run = s.source.is_run();
-            let (mut info, mut z) = (0.0, Vec::new());
-            for r in &s.residuals {
-                let phi = r.terms(run);
-                let v: f64 = r.base_var
-                    + (0..TERMS)
-                        .map(|k| phi[k] * if k == 2 { size } else { c[k] })
-                        .sum::<f64>();
-                if r.error.is_finite() && v > 0.0 {
-                    info += 0.5 * (phi[2] / v).powi(2);
+            let (mut information, mut z) = (0.0, Vec::new());
+            for r in s.residuals.iter().filter(|r| r.usable()) {
+                let v = r.var(run, &at);
+                if v > 0.0 {
+                    information += 0.5 * (r.terms(run)[EXTRAPOLATION] / v).powi(2);
                     z.push(r.error / v.sqrt());
                 }
             }
             if z.is_empty() {
                 0.0
             } else {
-                info * effective(&z) / z.len() as f64
+                information * effective(&z) / z.len() as f64
             }
         })
         .sum();
-    size * info.sqrt() >= DETECTED
+    size * information.sqrt() >= DETECTED
 }
-
-/// Standard errors a term's size must reach to be seen ([`extrapolation_shows`]).
-const DETECTED: f64 = 2.0;
 
 /// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
 /// `seen` (the others 0). Each term is scaled to the residuals' size and its covariate's so the

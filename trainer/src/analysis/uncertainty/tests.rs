@@ -162,7 +162,7 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     // The same errors reaching two widths out do show that no such growth is there: the fit
     // stands, below the prior.
     let c = calibrate(&near(2.0), noise, prior);
-    assert!(c.error_model.extrapolation_var < 9e-5, "{c:?}");
+    assert!(c.error_model.extrapolation_var < 9e-4, "{c:?}");
     assert!(c.assumed.is_empty(), "{c:?}");
     assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
 }
