@@ -915,6 +915,9 @@ class Coverage(Record):
 class CrossRun(Record):
     """A model fitted on one run and tested on another, inside the range both cover."""
 
+    difference: RunDifference | None
+    """What differs between the runs, read off the test run's errors (null where its rates do not vary)."""
+
     max_abs_rate_dps: float
     """Largest |rate| both runs cover, °/s."""
 
@@ -1458,6 +1461,22 @@ class Reproduction(Record):
     """Two-step evaluation (none where it could not be fitted)."""
 
 
+class RunDifference(Record):
+    """The test run's errors (prediction − reference) fitted by least squares as `offset + scale · rate`: how the run differs from the one the model was fitted on. A description of the held-out errors, fitted on them: no model and no σ uses it."""
+
+    offset_dph: float
+    """The offset, °/h: a bias that differs between the runs."""
+
+    scale_ppm: float
+    """The share of the rate, ppm: a scale factor that differs between the runs."""
+
+    without_both_dph: float
+    """The RMSE left with both taken out, °/h."""
+
+    without_offset_dph: float
+    """The RMSE left with the offset alone taken out (the errors' mean), °/h."""
+
+
 class Schema(Record):
     """A JSON output's name and version."""
 
@@ -1881,7 +1900,7 @@ ChannelEntryTrainerInvestigate._nested = {"beyond": BeyondChoice, "calibration":
 ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
 ChannelSizes._nested = {"sizes": Size}
 Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize, "exact": TriedSize}
-CrossRun._nested = {"sigma": Coverage}
+CrossRun._nested = {"difference": RunDifference, "sigma": Coverage}
 CubicFigures._nested = {"ardupilot_script": CubicScore, "project": CubicScore, "px4_script": CubicScore}
 Diagnosis._nested = {"candidates": CauseFit, "steps": Step}
 Evaluation._nested = {"calibration": Calibration, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
@@ -1980,6 +1999,7 @@ __all__ = [
     "RateLineFit",
     "Report",
     "Reproduction",
+    "RunDifference",
     "Schema",
     "Score",
     "SensorCubics",

@@ -18,7 +18,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::gyro::effects::{EffectPlant, Hidden};
-use crate::gyro::plant::{GyroParams, Noise};
+use crate::gyro::plant::{GyroParams, Noise, TurnOn};
 
 /// Chamber setpoints of the paper, °C.
 pub const TEMPERATURES_C: [f64; 10] = [-30.0, -20.0, -10.0, -5.0, 0.0, 5.0, 10.0, 20.0, 40.0, 60.0];
@@ -58,7 +58,7 @@ pub fn run(
     let mut noise = Noise::new(params, seed);
     let mut points = Vec::new();
     let mut plant = EffectPlant::new(effect, AMBIENT_C);
-    let turn_on = params.turn_on_bias_dps(seed, 0);
+    let turn_on = params.turn_on(seed, 0);
     let mut previous = AMBIENT_C;
     for &setpoint in &TEMPERATURES_C {
         noise.advance(params, SOAK_S);
@@ -93,13 +93,13 @@ pub fn run(
 
 /// One point at a soaked `setpoint`: the mean of 2 min of samples with the table turning at
 /// `table_rate`, the gyro on for `t_on` s (advanced by the samples taken) with the power-on's
-/// constant bias `turn_on`, °/s.
+/// turn-on bias and scale `turn_on`.
 fn average(
     params: &GyroParams,
     noise: &mut Noise,
     plant: &EffectPlant,
     (setpoint, table_rate): (f64, f64),
-    turn_on: f64,
+    turn_on: TurnOn,
     t_on: &mut f64,
 ) -> Point {
     // Soaked: housing and coil sit at the chamber air plus the electronics' self-heating.
@@ -112,7 +112,7 @@ fn average(
             t_gyro,
             t_gyro,
             rate,
-            plant.bias_dps(*t_on) + turn_on,
+            plant.bias_dps(*t_on) + turn_on.dps(rate),
         );
         *t_on += 1.0;
         t += s.temp_c;
@@ -144,7 +144,7 @@ pub fn scattered(
     let mut noise = Noise::new(params, seed);
     let mut plant = EffectPlant::new(effect, AMBIENT_C);
     let mut previous = AMBIENT_C;
-    let turn_on = params.turn_on_bias_dps(seed, 0);
+    let turn_on = params.turn_on(seed, 0);
     let ([t_lo, t_hi], w_max) = SCATTER_RANGE;
     (0..n)
         .map(|_| {

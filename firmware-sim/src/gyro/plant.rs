@@ -70,6 +70,11 @@ pub struct GyroParams {
     /// their published figures hold; a unit file sets it (a tactical FOG: a few °/h).
     #[serde(default)]
     pub turn_on_bias_dph: f64,
+    /// Turn-on scale-factor repeatability, ppm (1σ): each power-on scales the rate by a factor
+    /// drawn anew, an error that grows with the rate (the real FOG runs differ by about 780 ppm,
+    /// docs/real-data.md). Zero in the nominal and random units; a unit file sets it.
+    #[serde(default)]
+    pub turn_on_scale_ppm: f64,
 }
 
 impl GyroParams {
@@ -96,6 +101,7 @@ impl GyroParams {
             self_heating_c: 4.0,
             latitude_deg: 45.0,
             turn_on_bias_dph: 0.0,
+            turn_on_scale_ppm: 0.0,
         }
     }
 
@@ -125,19 +131,31 @@ impl GyroParams {
             self_heating_c: draw(1.0, 8.0),
             latitude_deg: draw(30.0, 60.0),
             turn_on_bias_dph: 0.0,
+            turn_on_scale_ppm: 0.0,
         }
     }
 
-    /// The constant bias of power-on number `power_on` (from 0) of a run with noise `seed`, °/s:
-    /// [`Self::turn_on_bias_dph`] times a standard normal draw of its own, so that the rest of
-    /// the run's noise is the same whatever the repeatability.
-    pub fn turn_on_bias_dps(&self, seed: u64, power_on: u64) -> f64 {
-        if self.turn_on_bias_dph == 0.0 {
-            return 0.0;
+    /// What power-on number `power_on` (from 0) of a run with noise `seed` adds: a constant bias,
+    /// [`Self::turn_on_bias_dph`] times a standard normal draw of its own, and a scale,
+    /// [`Self::turn_on_scale_ppm`] times another, so that the rest of the run's noise is the same
+    /// whatever the repeatabilities.
+    pub fn turn_on(&self, seed: u64, power_on: u64) -> TurnOn {
+        let draw = |salt: u64| -> f64 {
+            let key = seed ^ salt ^ power_on.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            StandardNormal.sample(&mut ChaCha8Rng::seed_from_u64(key))
+        };
+        TurnOn {
+            bias_dps: if self.turn_on_bias_dph == 0.0 {
+                0.0
+            } else {
+                draw(0x7475_726e_5f6f_6e00) * self.turn_on_bias_dph / SECONDS_PER_HOUR
+            },
+            scale: if self.turn_on_scale_ppm == 0.0 {
+                0.0
+            } else {
+                draw(0x7363_616c_655f_6f6e) * self.turn_on_scale_ppm * 1e-6
+            },
         }
-        let key = seed ^ 0x7475_726e_5f6f_6e00 ^ power_on.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        let z: f64 = StandardNormal.sample(&mut ChaCha8Rng::seed_from_u64(key));
-        z * self.turn_on_bias_dph / SECONDS_PER_HOUR
     }
 
     /// Vertical earth rate at the site, °/s.
@@ -168,6 +186,22 @@ impl GyroParams {
 
     fn adc_lsb_v(&self) -> f64 {
         10.0 / f64::from(1u32 << self.adc_bits.min(30))
+    }
+}
+
+/// What one power-on adds to the rate the gyro senses ([`GyroParams::turn_on`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TurnOn {
+    /// A constant bias, °/s.
+    pub bias_dps: f64,
+    /// A share of the rate: the scale factor's change from its nominal.
+    pub scale: f64,
+}
+
+impl TurnOn {
+    /// What it adds at the true rate `rate_dps`, °/s.
+    pub fn dps(&self, rate_dps: f64) -> f64 {
+        self.bias_dps + self.scale * rate_dps
     }
 }
 

@@ -28,7 +28,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::gyro::effects::{EffectPlant, Hidden};
 use crate::gyro::paper::RATES_DPS;
-use crate::gyro::plant::{GyroParams, Noise};
+use crate::gyro::plant::{GyroParams, Noise, TurnOn};
 
 /// Housing time constant τ_h against the chamber air, s (PHYSICS.md: 5 min, range 2–10).
 pub const HOUSING_TAU_S: f64 = 300.0;
@@ -250,7 +250,7 @@ pub fn run(
     let mut housing = cfg.start_c + heat;
     let mut plant = EffectPlant::new(effect, housing);
     let mut t_on = 0.0;
-    let (mut power_ons, mut turn_on) = (0, 0.0);
+    let (mut power_ons, mut turn_on) = (0, TurnOn::default());
     let mut rows = Vec::with_capacity(n as usize + 1);
     for k in 0..=n {
         let t = k as f64;
@@ -266,12 +266,18 @@ pub fn run(
         let on = cfg.powered(t);
         if on {
             if t_on == 0.0 {
-                turn_on = params.turn_on_bias_dps(seed, power_ons);
+                turn_on = params.turn_on(seed, power_ons);
                 power_ons += 1;
             }
             let rate = table + earth;
             let coil = plant.coil_c();
-            let s = noise.sample(params, coil, housing, rate, plant.bias_dps(t_on) + turn_on);
+            let s = noise.sample(
+                params,
+                coil,
+                housing,
+                rate,
+                plant.bias_dps(t_on) + turn_on.dps(rate),
+            );
             rows.push(Row {
                 time_s: t,
                 temp_c: s.temp_c,

@@ -97,11 +97,16 @@ fn read(path: &Path) -> Result<String, UnitError> {
 
 /// A gyro's parameters and effects checked: numbers that some gyro has.
 fn check(path: &Path, p: &GyroParams, effects: &[Effect]) -> Result<(), UnitError> {
-    let checks: [(&'static str, f64, bool); 9] = [
+    let checks: [(&'static str, f64, bool); 10] = [
         (
             "turn_on_bias_dph",
             p.turn_on_bias_dph,
             p.turn_on_bias_dph.is_finite() && p.turn_on_bias_dph >= 0.0,
+        ),
+        (
+            "turn_on_scale_ppm",
+            p.turn_on_scale_ppm,
+            p.turn_on_scale_ppm.is_finite() && p.turn_on_scale_ppm >= 0.0,
         ),
         (
             "scale_factor_v_per_dps",

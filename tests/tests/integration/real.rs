@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use trainer::analysis::evaluate::{self, EvalConfig, Method};
+use trainer::analysis::evaluate::{self, EvalConfig, Method, across_runs};
 use trainer::analysis::table::{self, Transients};
 use trainer::data::points::Points;
 use trainer::models::gp::{GpConfig, GpModel};
@@ -161,7 +161,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     };
     assert_eq!((oct.len(), aug.len()), (773, 695));
     let cfg = EvalConfig::default();
-    let cross = |m| evaluate::cross_run(&aug, &oct, m, &cfg, &()).unwrap();
+    let cross = |m| across_runs::score(&aug, &oct, m, &cfg, &()).unwrap();
     let gp = cross(Method::Gpr);
     let poly = cross(Method::Poly);
     let two_step = cross(Method::TwoStep);
@@ -172,6 +172,16 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     let sigma = gp.sigma.unwrap();
     assert!((0.85..=0.99).contains(&sigma.within_2sigma), "{sigma:?}");
     assert!(sigma.sharpness < 1.5, "{sigma:?}");
+    // What differs is the scale factor, the same both ways (+792 and −765 ppm measured), not
+    // the bias (−4 and +28 °/h): a bias term in the σ cannot state it.
+    let back = across_runs::score(&oct, &aug, Method::Gpr, &cfg, &()).unwrap();
+    let (there, back) = (gp.difference.unwrap(), back.difference.unwrap());
+    assert!((600.0..1000.0).contains(&there.scale_ppm), "{there:?}");
+    assert!((-1000.0..-600.0).contains(&back.scale_ppm), "{back:?}");
+    for d in [there, back] {
+        assert!(d.offset_dph.abs() < 50.0, "{d:?}");
+        assert!(d.without_offset_dph > 1.3 * d.without_both_dph, "{d:?}");
+    }
     assert!(poly.sigma.is_none());
     for c in [&gp, &poly] {
         assert!(c.rmse_dph < 400.0, "{c:?}");

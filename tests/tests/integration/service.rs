@@ -388,16 +388,72 @@ fn a_fit_on_several_tables_leaves_each_power_on_out() {
 
 /// In `dir`, the nominal gyro with a turn-on repeatability of 80 °/h, as a unit file; its path.
 fn turn_on_unit(dir: &std::path::Path) -> String {
-    let unit = firmware_sim::gyro::unit::Unit {
-        params: firmware_sim::gyro::plant::GyroParams {
+    unit_file(
+        dir,
+        firmware_sim::gyro::plant::GyroParams {
             turn_on_bias_dph: 80.0,
             ..firmware_sim::gyro::plant::GyroParams::nominal()
         },
+    )
+}
+
+/// In `dir`, a gyro of `params` without effects, as a unit file; its path.
+fn unit_file(dir: &std::path::Path, params: firmware_sim::gyro::plant::GyroParams) -> String {
+    let unit = firmware_sim::gyro::unit::Unit {
+        params,
         effects: Vec::new(),
     };
     let path = at(dir, "unit.json");
     std::fs::write(&path, serde_json::to_string(&unit).unwrap()).unwrap();
     path
+}
+
+/// A gyro whose scale factor changes from one power-on to the next (800 ppm, 1σ), as the real
+/// FOG runs' does (docs/real-data.md): a table fitted on one power-on and scored on another says
+/// what differs, and it is the scale the simulator drew for each, to a few ppm, with no offset
+/// beside it; between the nominal gyro's runs it finds no scale.
+#[test]
+fn a_run_whose_scale_factor_differs_is_told_apart_from_one_whose_bias_does() {
+    use firmware_sim::gyro::plant::GyroParams;
+    let differs = |params: GyroParams| {
+        let dir = tempfile::tempdir().unwrap();
+        let unit = unit_file(dir.path(), params);
+        let tables = generated(dir.path(), &unit, &["paper"], 1..=2);
+        let out = at(dir.path(), "loo.json");
+        trainer(&[
+            "loo",
+            "--points",
+            &tables[0],
+            "--valid-points",
+            &tables[1],
+            "--method",
+            "gpr",
+            "--json",
+            &out,
+            "-q",
+        ])
+        .unwrap();
+        json(&out)["cross_run"]["difference"].clone()
+    };
+    let scaled = GyroParams {
+        turn_on_scale_ppm: 800.0,
+        ..GyroParams::nominal()
+    };
+    let drawn = (scaled.turn_on(2, 0).scale - scaled.turn_on(1, 0).scale) * 1e6;
+    assert!(drawn.abs() > 100.0, "{drawn} ppm: seeds that show nothing");
+    let found = differs(scaled);
+    let get = |d: &serde_json::Value, k: &str| d[k].as_f64().unwrap();
+    assert!(
+        (get(&found, "scale_ppm") - drawn).abs() < 20.0,
+        "{found} against {drawn} ppm"
+    );
+    assert!(get(&found, "offset_dph").abs() < 5.0, "{found}");
+    assert!(
+        get(&found, "without_offset_dph") > 5.0 * get(&found, "without_both_dph"),
+        "{found}"
+    );
+    let nominal = differs(GyroParams::nominal());
+    assert!(get(&nominal, "scale_ppm").abs() < 20.0, "{nominal}");
 }
 
 /// The simulated gyro's three-hour warm-up (seed 11) and a held-out stream of `design` (seed 12),

@@ -597,81 +597,6 @@ pub fn evaluate_table(
     })
 }
 
-/// A model fitted on one run and tested on another, inside the range both cover.
-#[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
-pub struct CrossRun {
-    /// Method name.
-    pub method: &'static str,
-    /// Test points inside the shared range.
-    pub n: usize,
-    /// Test points outside it (not scored).
-    pub n_outside: usize,
-    /// Shared temperature range, °C.
-    pub temp_range_c: (f64, f64),
-    /// Largest |rate| both runs cover, °/s.
-    pub max_abs_rate_dps: f64,
-    /// RMSE on the shared range, °/s.
-    pub rmse_dps: f64,
-    /// Same, °/h.
-    pub rmse_dph: f64,
-    /// The GP's σ there, its error model measured on the training run alone (null for the
-    /// methods that state no σ).
-    pub sigma: Option<Coverage>,
-}
-
-/// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
-/// and the |rate| range both runs cover (a model is not asked to extrapolate here).
-pub fn cross_run(
-    train: &Points,
-    test: &Points,
-    method: Method,
-    cfg: &EvalConfig,
-    bar: &dyn Progress,
-) -> Result<CrossRun, EvalError> {
-    let range = |p: &Points| {
-        let lo = p.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = p.temp_c.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let w = p.rate_dps.iter().fold(0.0f64, |m, r| m.max(r.abs()));
-        (lo, hi, w)
-    };
-    let (a, b) = (range(train), range(test));
-    let (lo, hi, w) = (a.0.max(b.0), a.1.min(b.1), a.2.min(b.2));
-    let inside: Vec<usize> = (0..test.len())
-        .filter(|&i| {
-            (lo..=hi).contains(&test.temp_c[i]) && test.rate_dps[i].abs() <= w * (1.0 + 1e-9)
-        })
-        .collect();
-    if inside.is_empty() {
-        return Err(EvalError::NoOverlap);
-    }
-    bar.expect(1);
-    bar.stage(&format!(
-        "{}: fit on one run, test on the other",
-        method.name()
-    ));
-    let m = MethodFit::fit(train, method, cfg)?;
-    let calibration = m.calibration(train, cfg)?;
-    bar.advance(1);
-    let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
-        .iter()
-        .map(|&i| {
-            let (p, sigma) = m.predict_with_sigma(test, i, calibration.as_ref());
-            (p - test.rate_dps[i], sigma)
-        })
-        .unzip();
-    let r = rms(&e);
-    Ok(CrossRun {
-        method: method.name(),
-        n: inside.len(),
-        n_outside: test.len() - inside.len(),
-        temp_range_c: (lo, hi),
-        max_abs_rate_dps: w,
-        rmse_dps: r,
-        rmse_dph: r * DPH_PER_DPS,
-        sigma: calibration.map(|_| Coverage::of(&e, &sigmas)),
-    })
-}
-
 /// The paper's Fig. 2 check at one rate.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct RateLineFit {
@@ -753,6 +678,8 @@ pub fn fig2(points: &Points) -> Fig2 {
         worst,
     }
 }
+
+pub mod across_runs;
 
 #[cfg(test)]
 mod tests;

@@ -293,6 +293,18 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         if let Some(sigma) = &c.sigma {
             console.result(&format!("  its σ there: {}", sigma_line(sigma)));
         }
+        if let Some(d) = &c.difference {
+            console.result(&format!(
+                "  what differs, read off these errors (nothing uses it): a scale of {:+.0} ppm \
+                 of the rate and an offset of {:+.1} °/h; without the offset {:.1} °/h remain, \
+                 without both {:.1} (the training run's own groups left out: {:.1})",
+                d.scale_ppm,
+                d.offset_dph,
+                d.without_offset_dph,
+                d.without_both_dph,
+                loo.evaluation.group_rmse_dph
+            ));
+        }
     }
     print_loo(&console, &loo.evaluation);
     if let Some(path) = json {

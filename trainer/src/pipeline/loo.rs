@@ -8,7 +8,8 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::analysis::capacity::{self, Choice};
-use crate::analysis::evaluate::{self, CrossRun, EvalConfig, EvalError, Evaluation, Method};
+use crate::analysis::evaluate::across_runs::{self, CrossRun};
+use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
 use crate::data::points::Points;
 use crate::progress::Messages;
 
@@ -74,7 +75,7 @@ impl LooPlan {
         let progress = messages.counted();
         let cross_run = match test {
             Some((path, test)) => {
-                match evaluate::cross_run(points, test, self.method, &cfg, &*progress) {
+                match across_runs::score(points, test, self.method, &cfg, &*progress) {
                     Err(e @ EvalError::NoOverlap) => {
                         messages.warn(&format!("skipped the test on {}: {e}", path.display()));
                         None
