@@ -230,7 +230,7 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
     // it, checking the limits only beyond the trained range (and at every reading of an input
     // only linear terms read, whose range, a bias model's output's, may be unbounded). A blob
     // before format 6 states no limits: its trained range is what it held, and is kept.
-    let within = version < blob::FORMAT_VERSION
+    let within = version < blob::V6
         || read
             .features
             .iter()

@@ -66,6 +66,7 @@ impl Reference {
                 leg_var: 4e-4,
                 leg_min: 0.5,
                 leg_max: 1.0,
+                scale_var: 4e-6,
             },
         }
     }
@@ -121,9 +122,9 @@ impl Reference {
         (mean, var)
     }
 
-    /// The model error in f64 at `x` and `hours` since power-on, on a heating/cooling state
-    /// trained (blob module doc).
-    pub fn model_error(&self, x: [f64; 2], hours: f64) -> f64 {
+    /// The model error in f64 at `x`, whose compensated output is `mean`, and `hours` since
+    /// another power-on than calibration's, on a heating/cooling state trained (blob module doc).
+    pub fn model_error(&self, x: [f64; 2], mean: f64, hours: f64) -> f64 {
         let e2: f64 = (0..2)
             .map(|k| {
                 let excess = (self.min[k] - x[k]).max(x[k] - self.max[k]).max(0.0);
@@ -133,6 +134,7 @@ impl Reference {
         let e = &self.error;
         f64::from(e.floor_var)
             + f64::from(e.turn_on_var)
+            + f64::from(e.scale_var) * mean * mean
             + f64::from(e.extrapolation_var) * e2
             + f64::from(e.walk_var_per_h) * hours
             + f64::from(e.trend_var_per_h2) * hours * hours
@@ -242,6 +244,16 @@ pub fn as_v4(blob: &[u8]) -> Vec<u8> {
     v4[4..6].copy_from_slice(&blob::V4.to_le_bytes());
     blob::reseal(&mut v4);
     v4
+}
+
+/// The same model as a version-6 blob: the error model without its last number, the scale term.
+pub fn as_v6(blob: &[u8]) -> Vec<u8> {
+    let at = blob.len() - 4 * (blob::Limits::NUMBERS + 1);
+    let mut v6 = blob[..at].to_vec();
+    v6.extend_from_slice(&blob[at + 4..]);
+    v6[4..6].copy_from_slice(&blob::V6.to_le_bytes());
+    blob::reseal(&mut v6);
+    v6
 }
 
 /// The same model as a version-5 blob: no rule beyond the range, the error model's first six

@@ -384,6 +384,9 @@ class Calibration(Record):
     sample_noise_std: float
     """σ_w: one sample's white noise, output units."""
 
+    scale_repeatability_ppm: float
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its variance, as for the bias."""
+
     sources: list[SourceSummary]
     """Each test."""
 
@@ -394,7 +397,7 @@ class Calibration(Record):
     """√c_d: drift of unknown rate, output units per h."""
 
     turn_on_std: float
-    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability` (0: not stated; where runs left out measured it, it is in the model error)."""
+    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability` (0: not stated; where runs left out measured it, it is in the model error). The blob carries twice its variance: the calibration's power-on was a draw too."""
 
     walk_std_per_sqrt_h: float
     """√c_w: random walk, output units per √h."""
@@ -937,7 +940,7 @@ class CrossRun(Record):
     """RMSE on the shared range, °/s."""
 
     sigma: Coverage | None
-    """The GP's σ there, its error model measured on the training run alone (null for the methods that state no σ)."""
+    """The GP's σ there, its error model measured on the training run alone, with the scale factor's repeatability where `--scale-repeatability` states it (null for the methods that state no σ)."""
 
     temp_range_c: list[float]
     """Shared temperature range, °C."""

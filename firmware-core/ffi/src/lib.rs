@@ -209,8 +209,9 @@ pub enum FogStatus {
 pub struct FogPrediction {
     /// The compensated rate, output units (°/s).
     pub mean: f32,
-    /// Variance of its slowly varying error (the GP's latent variance and the model error the
-    /// training data showed): a mean over any window keeps it. A Kalman filter's bias-state
+    /// Variance of its slowly varying error (the GP's latent variance, the model error the
+    /// training data showed, and another power-on's bias and scale factor where the blob states
+    /// them): a mean over any window keeps it. A Kalman filter's bias-state
     /// uncertainty.
     pub bias_variance: f32,
     /// White noise of this one sample: a mean of N samples has 1/N of it

@@ -9,16 +9,16 @@ use serde::{Deserialize, Serialize};
 use crate::error::BlobError;
 
 /// What the variance of a compensated sample holds besides the GP's latent variance (format
-/// version 5, the turn-on and leg terms version 6): the white noise of one sample, and the model
-/// error the trainer measured on its own training data, predicting it forward in time, beyond the
-/// temperatures fitted and across the groups left out, or, where those data could not show a
-/// term, the prior it stated instead (docs/design.md §4, "The σ contract"). All variances are in
-/// output units² (°/s²); the evaluator ([`crate::model`]) adds, at inputs x, t hours since
-/// power-on and heating/cooling state s,
+/// version 5, the turn-on and leg terms version 6, the scale term version 7): the white noise of
+/// one sample, and the model error the trainer measured on its own training data, predicting it
+/// forward in time, beyond the temperatures fitted and across the groups left out, or, where those
+/// data could not show a term, the prior it stated instead (docs/design.md §4, "The σ contract").
+/// All variances but the scale's are in output units² (°/s²); the evaluator ([`crate::model`])
+/// adds, at inputs x, compensated output y, t hours since power-on and heating/cooling state s,
 ///
 /// ```text
-/// bias variance  = latent(x) + floor + turn_on + extrapolation·e(x)² + walk·t + trend·t²
-///                  + leg·l(s)²
+/// bias variance  = latent(x) + floor + extrapolation·e(x)² + walk·t + trend·t² + leg·l(s)²
+///                  + turn_on + scale·y²          (the last two on another power-on only)
 /// noise variance = sample_noise (one sample of sample_interval_s)
 /// ```
 ///
@@ -54,11 +54,18 @@ pub struct ErrorModel {
     pub leg_min: f32,
     /// The highest heating/cooling state trained, in [`Self::leg_min`], 1].
     pub leg_max: f32,
+    /// The scale factor of another power-on than calibration's: run-to-run scale-factor
+    /// repeatability, relative, squared (a datasheet's 100 ppm is 1e-8). Its variance at the
+    /// compensated output y is `scale_var · y²`: an error that grows with the rate, which no
+    /// bias term states.
+    pub scale_var: f32,
 }
 
 impl ErrorModel {
     /// Numbers in its encoding.
-    pub const NUMBERS: usize = 10;
+    pub const NUMBERS: usize = 11;
+    /// Numbers in its encoding of format [`super::V6`]: the first ten.
+    pub const V6_NUMBERS: usize = 10;
     /// Numbers in its encoding of format [`super::V5`]: the first six.
     pub const V5_NUMBERS: usize = 6;
 
@@ -77,11 +84,17 @@ impl ErrorModel {
             leg_var: 0.0,
             leg_min: -1.0,
             leg_max: 1.0,
+            scale_var: 0.0,
         }
     }
 
-    /// A format-[`super::V5`] error model's six numbers, with no turn-on or leg term.
+    /// A format-[`super::V5`] error model's six numbers, with no turn-on, leg or scale term.
     pub const fn from_v5(v: [f32; Self::V5_NUMBERS]) -> Self {
+        Self::from_v6([v[0], v[1], v[2], v[3], v[4], v[5], 0.0, 0.0, -1.0, 1.0])
+    }
+
+    /// A format-[`super::V6`] error model's ten numbers, with no scale term.
+    pub const fn from_v6(v: [f32; Self::V6_NUMBERS]) -> Self {
         Self {
             sample_noise_var: v[0],
             sample_interval_s: v[1],
@@ -89,7 +102,11 @@ impl ErrorModel {
             extrapolation_var: v[3],
             walk_var_per_h: v[4],
             trend_var_per_h2: v[5],
-            ..Self::noise_only(0.0)
+            turn_on_var: v[6],
+            leg_var: v[7],
+            leg_min: v[8],
+            leg_max: v[9],
+            scale_var: 0.0,
         }
     }
 
@@ -106,6 +123,7 @@ impl ErrorModel {
             self.leg_var,
             self.leg_min,
             self.leg_max,
+            self.scale_var,
         ]
     }
 
@@ -117,7 +135,7 @@ impl ErrorModel {
             return Err(BlobError::NonFinite(i));
         }
         let legs = -1.0 <= self.leg_min && self.leg_min <= self.leg_max && self.leg_max <= 1.0;
-        if legs && numbers.iter().take(8).all(|v| *v >= 0.0) {
+        if legs && numbers.iter().take(8).all(|v| *v >= 0.0) && self.scale_var >= 0.0 {
             Ok(())
         } else {
             Err(BlobError::InvalidParameter)
@@ -140,14 +158,14 @@ impl ErrorModel {
         ((self.leg_min - leg).max(leg - self.leg_max).max(0.0) * 0.5).min(1.0)
     }
 
-    /// The model error at `excess2` (e(x)², trained widths²) in the conditions `at`: hours since
-    /// power-on, heating/cooling state (`None`: one the calibration held, no leg term), and
-    /// whether another power-on's bias applies.
-    pub fn model_error(&self, excess2: f32, at: crate::model::Conditions) -> f32 {
+    /// The model error at `excess2` (e(x)², trained widths²) and compensated output `output` in
+    /// the conditions `at`: hours since power-on, heating/cooling state (`None`: one the
+    /// calibration held, no leg term), and whether another power-on's bias and scale apply.
+    pub fn model_error(&self, excess2: f32, output: f32, at: crate::model::Conditions) -> f32 {
         let h = at.hours.max(0.0);
         let l = at.leg.map_or(0.0, |s| self.leg_excess(s));
         let turn_on = if at.another_power_on {
-            self.turn_on_var
+            self.turn_on_var + self.scale_var * output * output
         } else {
             0.0
         };

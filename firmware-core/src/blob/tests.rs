@@ -16,7 +16,7 @@ const GOLDEN: [f32; 13] = [
     0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
 ];
 
-/// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range.
+/// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range, scale.
 const GOLDEN_ERROR: ErrorModel = ErrorModel {
     sample_noise_var: 1e-4,
     sample_interval_s: 0.5,
@@ -28,6 +28,7 @@ const GOLDEN_ERROR: ErrorModel = ErrorModel {
     leg_var: 6e-6,
     leg_min: 0.25,
     leg_max: 1.0,
+    scale_var: 7e-8,
 };
 
 /// A rated range and a full scale.
@@ -51,8 +52,8 @@ fn golden_bytes_pin_the_encoding() {
     assert_eq!(dims.floats(), 13);
     let mut buf = [0u8; 160];
     let n = encode(dims, &payload, &mut buf).unwrap();
-    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 6, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-    expected.extend([114, 0, 0, 0]);
+    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 7, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+    expected.extend([118, 0, 0, 0]);
     let mut digest = CRC32.digest();
     digest.update(&expected[4..]);
     digest.update(&buf[HEADER_LEN..n]);
@@ -146,7 +147,7 @@ fn a_version_4_blob_still_decodes_with_its_noise_as_the_only_error() {
 }
 
 #[test]
-fn a_version_5_blob_still_decodes_without_turn_on_or_leg_terms_and_with_the_default_limits() {
+fn a_version_5_blob_still_decodes_without_turn_on_leg_or_scale_terms_and_with_the_default_limits() {
     let r = Reference::small();
     let good = r.blob_with_error(GOLDEN_ERROR);
     let old = crate::testing::as_v5(&good);
@@ -159,6 +160,7 @@ fn a_version_5_blob_still_decodes_without_turn_on_or_leg_terms_and_with_the_defa
             leg_var: 0.0,
             leg_min: -1.0,
             leg_max: 1.0,
+            scale_var: 0.0,
             ..GOLDEN_ERROR
         }
     );
@@ -166,6 +168,40 @@ fn a_version_5_blob_still_decodes_without_turn_on_or_leg_terms_and_with_the_defa
     assert_eq!(
         set_error_model(&mut old.clone(), &GOLDEN_ERROR),
         Err(BlobError::UnsupportedVersion(V5))
+    );
+}
+
+#[test]
+fn a_version_6_blob_still_decodes_without_a_scale_term() {
+    let r = Reference::small();
+    let mut good = r.blob_with_error(GOLDEN_ERROR);
+    set_limits(&mut good, &GOLDEN_LIMITS).unwrap();
+    set_beyond(&mut good, Beyond::Tangent).unwrap();
+    let old = crate::testing::as_v6(&good);
+    assert_eq!(read_header(&old).unwrap().version, V6);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(
+        model.error_model(),
+        ErrorModel {
+            scale_var: 0.0,
+            ..GOLDEN_ERROR
+        }
+    );
+    assert_eq!(model.limits(), GOLDEN_LIMITS);
+    assert_eq!(model.beyond(), Beyond::Tangent);
+    let new = Small::decode(&good).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let (a, b) = (
+        model.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+        new.predict(&[12.5, 0.4], &mut scratch).unwrap(),
+    );
+    assert_eq!(a.mean, b.mean);
+    let scale = GOLDEN_ERROR.scale_var * b.mean * b.mean;
+    assert!(scale > 0.0);
+    assert!((b.bias_variance - a.bias_variance - scale).abs() <= 1e-3 * scale);
+    assert_eq!(
+        set_error_model(&mut old.clone(), &GOLDEN_ERROR),
+        Err(BlobError::UnsupportedVersion(V6))
     );
 }
 
@@ -274,6 +310,11 @@ fn the_error_model_is_checked_like_the_other_numbers() {
         ..GOLDEN_ERROR
     };
     assert_eq!(bad(beyond), BlobError::InvalidParameter);
+    let scale = ErrorModel {
+        scale_var: -1e-8,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(scale), BlobError::InvalidParameter);
 }
 
 /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.

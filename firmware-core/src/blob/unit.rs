@@ -27,8 +27,8 @@
 //! name (at most [`NAME_BYTES`]), its [`Quantity`], its sizes m, d and p, and its model: the
 //! payload of a model blob of the current format ([`super::FORMAT_VERSION`], the layout of
 //! [`super`]) as a byte string. A channel's model is therefore exactly the model blob the trainer
-//! checked on its own, and decodes through the same code. Version 1, whose channels hold model
-//! payloads of format [`super::V5`], is still read.
+//! checked on its own, and decodes through the same code. Versions 2 and 1, whose channels hold
+//! model payloads of format [`super::V6`] and [`super::V5`], are still read.
 
 use serde::{Deserialize, Serialize};
 
@@ -38,9 +38,12 @@ use crate::units::Quantity;
 
 /// First four bytes of a unit blob.
 pub const MAGIC: [u8; 4] = *b"FOGU";
-/// The unit format version this crate writes (it also reads [`V1`]).
-pub const VERSION: u16 = 2;
+/// The unit format version this crate writes (it also reads [`V2`] and [`V1`]).
+pub const VERSION: u16 = 3;
 /// The previous unit format version, still read: its channels' models are of format
+/// [`super::V6`].
+pub const V2: u16 = 2;
+/// The unit format version before it, still read: its channels' models are of format
 /// [`super::V5`].
 pub const V1: u16 = 1;
 /// Longest channel name, bytes of UTF-8.
@@ -202,8 +205,8 @@ pub struct UnitHeader<'a> {
     pub most_centres: usize,
     /// Sequence number.
     pub sequence: u32,
-    /// The format of its channels' model payloads: [`FORMAT_VERSION`], or [`super::V5`] in a
-    /// unit blob of version [`V1`].
+    /// The format of its channels' model payloads: [`FORMAT_VERSION`], or [`super::V6`] and
+    /// [`super::V5`] in a unit blob of version [`V2`] and [`V1`].
     pub model_version: u16,
     /// The CRC-checked payload.
     pub payload: &'a [u8],
@@ -227,10 +230,10 @@ pub fn read_header(bytes: &[u8]) -> Result<UnitHeader<'_>, BlobError> {
         most_inputs: usize::from(byte(7)?),
         most_centres: usize::from(u16::from_le_bytes([byte(8)?, byte(9)?])),
         sequence: sealed.sequence,
-        model_version: if sealed.version == V1 {
-            super::V5
-        } else {
-            FORMAT_VERSION
+        model_version: match sealed.version {
+            V1 => super::V5,
+            V2 => super::V6,
+            _ => FORMAT_VERSION,
         },
         payload: sealed.payload,
     })

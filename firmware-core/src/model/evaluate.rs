@@ -569,7 +569,8 @@ impl<const D: usize> Evaluator<'_, D> {
             }
             rest.add(-(vi * vi));
         }
-        let bias_variance = signal * rest.total().max(0.0) + self.error.model_error(excess2, at);
+        let bias_variance =
+            signal * rest.total().max(0.0) + self.error.model_error(excess2, mean, at);
         if !bias_variance.is_finite() {
             // Absurd but finite numbers in a blob (the mutated-blob test), as a mean that is not
             // finite.

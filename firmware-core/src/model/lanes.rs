@@ -338,8 +338,8 @@ impl<const D: usize> Evaluator<'_, D> {
                     let mut prediction = if mean.status == Status::Fault {
                         self.fault()
                     } else {
-                        let bias_variance =
-                            signal * rest.max(0.0) + self.error.model_error(excess2, q.at);
+                        let bias_variance = signal * rest.max(0.0)
+                            + self.error.model_error(excess2, mean.mean, q.at);
                         if bias_variance.is_finite() {
                             Prediction {
                                 mean: mean.mean,

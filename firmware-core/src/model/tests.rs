@@ -26,7 +26,7 @@ fn f32_mean_and_variance_follow_the_f64_reference() {
                 p.mean
             );
             assert!(p.bias_variance >= 0.0);
-            let bias = var + r.model_error(x, f64::from(hours));
+            let bias = var + r.model_error(x, mean, f64::from(hours));
             assert!(
                 (f64::from(p.bias_variance) - bias).abs() < 1e-3 * r.signal_var,
                 "{t} {v}: {} vs {bias}",
@@ -61,7 +61,7 @@ fn compensate_runs_the_feature_pipeline() {
 }
 
 #[test]
-fn the_calibrations_own_power_on_leaves_out_another_ones_bias() {
+fn the_calibrations_own_power_on_leaves_out_another_ones_bias_and_scale() {
     let r = Reference::small();
     let m = Small::decode(&r.blob()).unwrap();
     let mut scratch = [0.0f32; 5];
@@ -76,7 +76,9 @@ fn the_calibrations_own_power_on_leaves_out_another_ones_bias() {
     let b = m.compensate(&sample, &mut own, &mut scratch).unwrap();
     assert_eq!(a.mean, b.mean);
     let gap = a.bias_variance - b.bias_variance;
-    let expected = r.error.turn_on_var;
+    // Its bias, and its scale at the output.
+    let expected = r.error.turn_on_var + r.error.scale_var * a.mean * a.mean;
+    assert!(r.error.scale_var * a.mean * a.mean > 1e-3 * expected);
     assert!((gap - expected).abs() < 1e-3 * expected, "{gap} {expected}");
     // After a power cycle every power-on is another.
     own.power_on();
@@ -102,8 +104,9 @@ fn variance_vanishes_at_a_centre_and_grows_with_the_distance_beyond_the_range() 
         (c[0] * r.scale[0] + r.offset[0]) as f32,
         (c[1] * r.scale[1] + r.offset[1]) as f32,
     ];
-    let floor = r.error.floor_var + r.error.turn_on_var;
-    let at_centre = m.predict(&x, &mut scratch).unwrap().bias_variance - floor;
+    let p = m.predict(&x, &mut scratch).unwrap();
+    let floor = r.error.floor_var + r.error.turn_on_var + r.error.scale_var * p.mean * p.mean;
+    let at_centre = p.bias_variance - floor;
     assert!(at_centre < 1e-3 * r.signal_var as f32, "{at_centre}");
     // 40 °C beyond a 90 °C range: the mean and latent variance of the edge, e² = (40/90)².
     let edge = m.predict(&[60.0, 0.0], &mut scratch).unwrap();

@@ -358,8 +358,8 @@ fn every_defect_of_a_unit_blob_has_its_error() {
 #[test]
 fn golden_bytes_pin_the_unit_header() {
     let (blob, models) = three();
-    // magic, version 2, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
-    assert_eq!(&blob[..14], b"FOGU\x02\x00\x03\x02\x05\x00\x00\x00\x00\x00");
+    // magic, version 3, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
+    assert_eq!(&blob[..14], b"FOGU\x03\x00\x03\x02\x05\x00\x00\x00\x00\x00");
     let len = u32::from_le_bytes(blob[14..18].try_into().unwrap()) as usize;
     assert_eq!(blob.len(), HEADER_LEN + len);
     // Payload: 3·49 numbers (varint 147 = 0x93 0x01), the ID, the range, 3 channels.
@@ -383,10 +383,14 @@ fn golden_bytes_pin_the_unit_header() {
     assert_eq!(crate::blob::declared_len(&stamped), Some(blob.len()));
 }
 
-/// The unit blob of version 1 the same channels made: each channel's model payload of format 5.
-fn as_v1(models: &[std::vec::Vec<u8>; 3]) -> std::vec::Vec<u8> {
-    let v5: std::vec::Vec<std::vec::Vec<u8>> =
-        models.iter().map(|m| crate::testing::as_v5(m)).collect();
+/// The unit blob of an earlier `version` the same channels made, each channel's model payload
+/// made older by `older` (version 1: format 5; version 2: format 6).
+fn as_old(
+    models: &[std::vec::Vec<u8>; 3],
+    version: u8,
+    older: fn(&[u8]) -> std::vec::Vec<u8>,
+) -> std::vec::Vec<u8> {
+    let made: std::vec::Vec<std::vec::Vec<u8>> = models.iter().map(|m| older(m)).collect();
     let names = [
         ("gyro.x", Quantity::AngularRate),
         ("gyro.y", Quantity::AngularRate),
@@ -394,7 +398,7 @@ fn as_v1(models: &[std::vec::Vec<u8>; 3]) -> std::vec::Vec<u8> {
     ];
     let entries: std::vec::Vec<format::ChannelEntry<'_>> = names
         .iter()
-        .zip(&v5)
+        .zip(&made)
         .map(|((name, quantity), m)| {
             let h = blob::read_header(m).unwrap();
             format::ChannelEntry {
@@ -417,6 +421,7 @@ fn as_v1(models: &[std::vec::Vec<u8>; 3]) -> std::vec::Vec<u8> {
     let mut buf = [0u8; 4096];
     let body = postcard::to_slice(&payload, &mut buf).unwrap();
     let mut b = b"FOGU\x01\x00\x03\x02\x05\x00\x00\x00\x00\x00".to_vec();
+    b[4] = version;
     b.extend([0u8; 8]);
     b.extend_from_slice(body);
     blob::reseal(&mut b);
@@ -426,7 +431,7 @@ fn as_v1(models: &[std::vec::Vec<u8>; 3]) -> std::vec::Vec<u8> {
 #[test]
 fn a_version_1_unit_blob_still_decodes_its_channels_of_format_5() {
     let (_, models) = three();
-    let old = as_v1(&models);
+    let old = as_old(&models, 1, crate::testing::as_v5);
     let mut unit = Three::new();
     unit.decode_into(&old).unwrap();
     for (ch, m) in unit.channels().iter().zip(&models) {
@@ -437,6 +442,26 @@ fn a_version_1_unit_blob_still_decodes_its_channels_of_format_5() {
     let mut scratch = [0.0f32; 5];
     let x = [12.5f32, 0.3];
     let alone = Small::decode(&crate::testing::as_v5(&models[0])).unwrap();
+    assert_eq!(
+        unit.predict_at(0, &x, 1.0, &mut scratch).unwrap().unwrap(),
+        alone.predict_at(&x, 1.0, &mut scratch).unwrap()
+    );
+}
+
+#[test]
+fn a_version_2_unit_blob_still_decodes_its_channels_of_format_6() {
+    let (_, models) = three();
+    let old = as_old(&models, 2, crate::testing::as_v6);
+    let mut unit = Three::new();
+    unit.decode_into(&old).unwrap();
+    for (ch, m) in unit.channels().iter().zip(&models) {
+        let alone = Small::decode(&crate::testing::as_v6(m)).unwrap();
+        assert_eq!(ch.error_model(), alone.error_model());
+        assert_eq!(ch.error_model().scale_var, 0.0);
+    }
+    let mut scratch = [0.0f32; 5];
+    let x = [12.5f32, 0.3];
+    let alone = Small::decode(&crate::testing::as_v6(&models[0])).unwrap();
     assert_eq!(
         unit.predict_at(0, &x, 1.0, &mut scratch).unwrap().unwrap(),
         alone.predict_at(&x, 1.0, &mut scratch).unwrap()

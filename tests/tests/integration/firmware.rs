@@ -86,8 +86,8 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
 
 /// A blob of format 4, written before blobs carried an error model, still loads and compensates
 /// as it did: its noise variance is its sample noise and it adds no model error (issue 44). The
-/// same model of format 5 (before blobs carried limits) and of format 6 gives the same means and
-/// variances.
+/// same model of format 5 (before blobs carried limits), of format 6 (before the scale term) and
+/// of format 7 gives the same means and variances.
 #[test]
 fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
     let old = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
@@ -101,7 +101,12 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
         a.error_model(),
         firmware_core::ErrorModel::noise_only(noise)
     );
-    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 6);
+    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 7);
+    let v6 = include_bytes!("../../../firmware-core/doc/gyro-v6.bin");
+    assert_eq!(firmware_core::blob::read_header(v6).unwrap().version, 6);
+    let d = fog_data::replay::decode(v6).unwrap();
+    assert_eq!(d.error_model(), b.error_model());
+    assert_eq!((d.beyond(), d.limits()), (b.beyond(), b.limits()));
     let v5 = include_bytes!("../../../firmware-core/doc/gyro-v5.bin");
     assert_eq!(firmware_core::blob::read_header(v5).unwrap().version, 5);
     let c = fog_data::replay::decode(v5).unwrap();
@@ -114,6 +119,7 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
             b.predict(&[t, v], &mut scratch).unwrap(),
         );
         assert_eq!(c.predict(&[t, v], &mut scratch).unwrap(), pb);
+        assert_eq!(d.predict(&[t, v], &mut scratch).unwrap(), pb);
         assert_eq!(pa.noise_variance, noise);
         assert!((pa.mean - pb.mean).abs() < 1e-3, "{t} {v}: {pa:?} {pb:?}");
         // No model error: the bias variance is the latent one at any time since power-on.

@@ -161,7 +161,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     };
     assert_eq!((oct.len(), aug.len()), (773, 695));
     let cfg = EvalConfig::default();
-    let cross = |m| across_runs::score(&aug, &oct, m, &cfg, &()).unwrap();
+    let cross = |m| across_runs::score(&aug, &oct, m, &cfg, None, &()).unwrap();
     let gp = cross(Method::Gpr);
     let poly = cross(Method::Poly);
     let two_step = cross(Method::TwoStep);
@@ -174,7 +174,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     assert!(sigma.sharpness < 1.5, "{sigma:?}");
     // What differs is the scale factor, the same both ways (+792 and −765 ppm measured), not
     // the bias (−4 and +28 °/h): a bias term in the σ cannot state it.
-    let back = across_runs::score(&oct, &aug, Method::Gpr, &cfg, &()).unwrap();
+    let back = across_runs::score(&oct, &aug, Method::Gpr, &cfg, None, &()).unwrap();
     let (there, back) = (gp.difference.unwrap(), back.difference.unwrap());
     assert!((600.0..1000.0).contains(&there.scale_ppm), "{there:?}");
     assert!((-1000.0..-600.0).contains(&back.scale_ppm), "{back:?}");

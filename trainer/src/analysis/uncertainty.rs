@@ -78,6 +78,10 @@ const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
 const MAX_RHO: f64 = 0.95;
 /// The extrapolation term's index among [`TERMS`].
 const EXTRAPOLATION: usize = 2;
+/// A datasheet's run-to-run repeatability σ is the spread of one power-on's bias (or scale) about
+/// the sensor's mean; the calibration's own power-on is one such draw, taken for the mean, and
+/// service another, so their difference, the error, has twice its variance.
+const OWN_DRAW: f64 = 2.0;
 /// Standard errors of its estimate the prior's growth beyond the range must reach for the residuals
 /// to show it ([`extrapolation_shows`]).
 const DETECTED: f64 = 2.0;
@@ -266,8 +270,12 @@ pub struct Calibration {
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
     /// `--repeatability` (0: not stated; where runs left out measured it, it is in the model
-    /// error).
+    /// error). The blob carries twice its variance: the calibration's power-on was a draw too.
     pub turn_on_std: f64,
+    /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
+    /// output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its
+    /// variance, as for the bias.
+    pub scale_repeatability_ppm: f64,
     /// Residuals the terms were fitted on.
     pub residuals: usize,
     /// Independent residuals they are worth.
@@ -400,6 +408,7 @@ impl Calibration {
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
+            scale_repeatability_ppm: 0.0,
             residuals: 0,
             effective: 0.0,
             inflation: 1.0,
@@ -415,10 +424,19 @@ impl Calibration {
     }
 
     /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
-    /// repeatability), added to every sample's bias variance.
+    /// repeatability), its variance twice over added to every sample's bias variance: the
+    /// calibration's own power-on was a draw too.
     pub fn set_turn_on(&mut self, sigma: f64) {
         self.turn_on_std = sigma;
-        self.error_model.turn_on_var = (sigma * sigma) as f32;
+        self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
+    }
+
+    /// States the scale factor of another power-on: `ppm` of the output (a datasheet's run-to-run
+    /// scale-factor repeatability, 1σ), its variance twice over (as for the bias) added to every
+    /// sample's bias variance in proportion to the output².
+    pub fn set_scale(&mut self, ppm: f64) {
+        self.scale_repeatability_ppm = ppm;
+        self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
     }
 
     /// Whether the residuals came from power-ons left out ([`ResidualSource::Runs`]): their model
@@ -491,7 +509,15 @@ impl Calibration {
         } else {
             String::new()
         };
-        self.describe_terms(units) + &leg + &turn_on
+        let scale = if self.scale_repeatability_ppm > 0.0 {
+            format!(
+                "; another power-on's scale {:.0} ppm of the output (--scale-repeatability)",
+                self.scale_repeatability_ppm
+            )
+        } else {
+            String::new()
+        };
+        self.describe_terms(units) + &leg + &turn_on + &scale
     }
 
     /// The residuals' sources, each kind counted once (several series of one kind together).
@@ -654,6 +680,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,
+        scale_repeatability_ppm: 0.0,
         residuals: all.len(),
         effective: eff,
         inflation,

@@ -102,6 +102,11 @@ pub(super) struct LooArgs {
     /// --valid-stream holds out a log).
     #[arg(long, alias = "test-points")]
     valid_points: Option<PathBuf>,
+    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: stated
+    /// in the GP's σ on the --valid-points run, as `fit --scale-repeatability` states it in a
+    /// blob.
+    #[arg(long, value_name = "PPM", requires = "valid_points")]
+    scale_repeatability: Option<f64>,
     #[command(flatten)]
     runs: Runs,
     /// Write the evaluation as JSON here (`-`: stdout, alone).
@@ -244,6 +249,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         offsets,
         features,
         valid_points,
+        scale_repeatability,
         runs: Runs { list: runs },
         json,
     } = args;
@@ -257,7 +263,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         offsets,
         ..EvalConfig::default()
     };
-    let plan = LooPlan::new(cfg, method.into(), features.is_some())?;
+    let plan = LooPlan::new(cfg, method.into(), features.is_some(), scale_repeatability)?;
     let console = Console::new(flags, json.as_deref());
     let points = load_runs(
         &input.points,

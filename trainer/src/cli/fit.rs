@@ -68,6 +68,12 @@ impl FitCommand {
             "--repeatability must be a σ: a number not below 0"
         );
         anyhow::ensure!(
+            service
+                .scale_repeatability
+                .is_none_or(|r| r.is_finite() && r >= 0.0),
+            "--scale-repeatability must be a σ in ppm: a number not below 0"
+        );
+        anyhow::ensure!(
             (service.full_scale.is_none() && service.repeatability.is_none())
                 || input.unit.channels.is_none(),
             "--full-scale and --repeatability are one channel's, in its units: a unit's channels \

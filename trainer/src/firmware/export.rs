@@ -596,11 +596,11 @@ pub fn agreement(
             .max((f64::from(fw.mean) - host.mean).abs());
         let e2 = excess2(&exact, &model.input_range);
         let host_bias = host.latent_var
-            + f64::from(
-                firmware
-                    .error_model()
-                    .model_error(e2 as f32, Conditions::at_hours(0.0)),
-            );
+            + f64::from(firmware.error_model().model_error(
+                e2 as f32,
+                host.mean as f32,
+                Conditions::at_hours(0.0),
+            ));
         if host_bias > threshold {
             a.n_var += 1;
             let rel = (f64::from(fw.bias_variance) - host_bias).abs() / host_bias;

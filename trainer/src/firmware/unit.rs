@@ -131,8 +131,8 @@ fn follows(
 
 /// Each channel of a unit blob (or a model blob, one channel named `rate`) as a model blob of its
 /// own: its name, its quantity and the blob its entry's payload makes under a model header, as
-/// the trainer's fit of that one channel writes it. What an analysis of one channel (a diagnosis,
-/// a replay of one channel alone) reads.
+/// the trainer's fit of that one channel writes it (an older unit's, of its channels' format).
+/// What an analysis of one channel (a diagnosis, a replay of one channel alone) reads.
 pub fn channel_blobs(bytes: &[u8]) -> Result<Vec<(String, Quantity, Vec<u8>)>, ExportError> {
     use firmware_core::blob::{self, HEADER_LEN};
     if bytes.get(..4) == Some(&blob::MAGIC[..]) {
@@ -157,6 +157,9 @@ pub fn channel_blobs(bytes: &[u8]) -> Result<Vec<(String, Quantity, Vec<u8>)>, E
                 p: entry.p.into(),
             };
             blob::seal(dims, entry.model.len(), &mut out).map_err(ExportError::Blob)?;
+            // The payload's own format: an older unit's channels are of an older one.
+            out[4..6].copy_from_slice(&header.model_version.to_le_bytes());
+            blob::reseal(&mut out);
             replay::decode(&out)?;
             Ok((entry.name.to_owned(), entry.quantity, out))
         })
@@ -277,5 +280,32 @@ mod tests {
             ("acc.z", Quantity::SpecificForce)
         );
         assert!(back.iter().all(|(_, _, b)| b == GYRO));
+    }
+
+    /// A unit blob of version 2 (channels of format 6) gives its channels back as blobs of that
+    /// format, which compute what the same fit's unit of the current version computes.
+    #[test]
+    fn an_older_units_channels_come_back_in_their_own_format() {
+        let old = include_bytes!("../../../firmware-core/doc/imu-v2.bin");
+        let new = include_bytes!("../../../firmware-core/doc/imu.bin");
+        let (old, new) = (channel_blobs(old).unwrap(), channel_blobs(new).unwrap());
+        assert_eq!(old.len(), 6);
+        let mut scratch = vec![0.0f32; 256];
+        for ((name, _, a), (_, _, b)) in old.iter().zip(&new) {
+            let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
+            assert_eq!(
+                (version(a), version(b)),
+                (firmware_core::blob::V6, 7),
+                "{name}"
+            );
+            let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
+            assert_eq!(a.error_model(), b.error_model(), "{name}");
+            let x = vec![20.0f32; a.dims().d];
+            assert_eq!(
+                a.predict(&x, &mut scratch).unwrap(),
+                b.predict(&x, &mut scratch).unwrap(),
+                "{name}"
+            );
+        }
     }
 }

@@ -23,6 +23,8 @@ pub struct LooPlan {
     /// A table recorded in time order diagnosed for transients, the GP extended by those that
     /// win inside each fold (the GP only, on one table).
     pub transients: bool,
+    /// A datasheet's scale-factor repeatability, ppm, stated in the σ scored on another run.
+    pub scale_repeatability: Option<f64>,
 }
 
 /// What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test
@@ -41,15 +43,25 @@ pub struct Loo {
 
 impl LooPlan {
     /// The plan, or why its settings do not make one.
-    pub fn new(cfg: EvalConfig, method: Method, transients: bool) -> anyhow::Result<Self> {
+    pub fn new(
+        cfg: EvalConfig,
+        method: Method,
+        transients: bool,
+        scale_repeatability: Option<f64>,
+    ) -> anyhow::Result<Self> {
         anyhow::ensure!(
             !transients || method == Method::Gpr,
             "--features auto evaluates the GP (--method gpr) on one table"
+        );
+        anyhow::ensure!(
+            scale_repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
+            "--scale-repeatability must be a σ in ppm: a number not below 0"
         );
         Ok(Self {
             cfg,
             method,
             transients,
+            scale_repeatability,
         })
     }
 
@@ -75,7 +87,8 @@ impl LooPlan {
         let progress = messages.counted();
         let cross_run = match test {
             Some((path, test)) => {
-                match across_runs::score(points, test, self.method, &cfg, &*progress) {
+                let scale = self.scale_repeatability;
+                match across_runs::score(points, test, self.method, &cfg, scale, &*progress) {
                     Err(e @ EvalError::NoOverlap) => {
                         messages.warn(&format!("skipped the test on {}: {e}", path.display()));
                         None

@@ -31,8 +31,9 @@ pub struct CrossRun {
     pub rmse_dps: f64,
     /// Same, °/h.
     pub rmse_dph: f64,
-    /// The GP's σ there, its error model measured on the training run alone (null for the
-    /// methods that state no σ).
+    /// The GP's σ there, its error model measured on the training run alone, with the scale
+    /// factor's repeatability where `--scale-repeatability` states it (null for the methods that
+    /// state no σ).
     pub sigma: Option<Coverage>,
     /// What differs between the runs, read off the test run's errors (null where its rates do
     /// not vary).
@@ -83,12 +84,15 @@ impl RunDifference {
 }
 
 /// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
-/// and the |rate| range both runs cover (a model is not asked to extrapolate here).
+/// and the |rate| range both runs cover (a model is not asked to extrapolate here). The GP's σ is
+/// its error model measured on `train`, with `scale_ppm`, a datasheet's scale-factor
+/// repeatability, stated beside it where given.
 pub fn score(
     train: &Points,
     test: &Points,
     method: Method,
     cfg: &EvalConfig,
+    scale_ppm: Option<f64>,
     bar: &dyn Progress,
 ) -> Result<CrossRun, EvalError> {
     let range = |p: &Points| {
@@ -113,7 +117,10 @@ pub fn score(
         method.name()
     ));
     let m = MethodFit::fit(train, method, cfg)?;
-    let calibration = m.calibration(train, cfg)?;
+    let mut calibration = m.calibration(train, cfg)?;
+    if let (Some(c), Some(ppm)) = (calibration.as_mut(), scale_ppm) {
+        c.set_scale(ppm);
+    }
     bar.advance(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
         .iter()

@@ -122,14 +122,15 @@ pub fn series_of(
 }
 
 /// The σ a blob with `calibration` states for a rate-table point `x` of `model` (f64; the
-/// firmware computes the same in f32): latent, noise and model error at power-on.
+/// firmware computes the same in f32): latent, noise and model error at power-on, another than
+/// calibration's.
 pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64 {
     let p = model.predict(x);
     let e2 = export::excess2(x, &model.input_range);
-    let error = f64::from(
-        calibration
-            .error_model
-            .model_error(e2 as f32, Conditions::at_hours(0.0)),
-    );
+    let error = f64::from(calibration.error_model.model_error(
+        e2 as f32,
+        p.mean as f32,
+        Conditions::at_hours(0.0),
+    ));
     (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
 }

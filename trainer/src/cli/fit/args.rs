@@ -101,10 +101,17 @@ pub(super) struct ServiceArgs {
     #[arg(long, value_name = "OUTPUT")]
     pub(super) full_scale: Option<f32>,
     /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
-    /// gives it: every power-on in service is another than the calibration's, so its variance is
-    /// added to every sample's σ (default: not assumed, said in one line).
+    /// gives it: every power-on in service is another than the calibration's, whose own bias was
+    /// a draw too, so twice its variance is added to every sample's σ (default: not assumed,
+    /// said in one line).
     #[arg(long, value_name = "SIGMA")]
     pub(super) repeatability: Option<f64>,
+    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
+    /// power-on in service is another than the calibration's, so twice its variance, in
+    /// proportion to the output², is added to every sample's σ; on a unit, to each channel's
+    /// (default: not assumed, said in one line).
+    #[arg(long, value_name = "PPM")]
+    pub(super) scale_repeatability: Option<f64>,
     /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
     /// ArduPilot's clip; its linear terms in the output still follow it), tangent (the prior mean
     /// continued along its tangent at the edge), follow (the GP's own prediction), or auto (the
@@ -161,6 +168,7 @@ impl ServiceArgs {
             rated_temp: self.rated_temp,
             full_scale: self.full_scale,
             repeatability: self.repeatability,
+            scale_repeatability: self.scale_repeatability,
             beyond: match self.beyond {
                 BeyondArg::Auto => None,
                 BeyondArg::Tangent => Some(Beyond::Tangent),

@@ -81,8 +81,8 @@ pub struct FitPlan {
     pub service: Service,
 }
 
-/// What the blob states for service: the sensor's rated range and full scale, the bias of
-/// another power-on, and the rule beyond the trained range.
+/// What the blob states for service: the sensor's rated range and full scale, the bias and scale
+/// of another power-on, and the rule beyond the trained range.
 #[derive(Clone, Debug, Default)]
 pub struct Service {
     /// The rated temperature range, °C (default: the blob's, [`firmware_core::blob::Limits::DEFAULT`]).
@@ -91,6 +91,8 @@ pub struct Service {
     pub full_scale: Option<f32>,
     /// A datasheet's run-to-run σ of the bias, in the output's units.
     pub repeatability: Option<f64>,
+    /// A datasheet's run-to-run σ of the scale factor, ppm.
+    pub scale_repeatability: Option<f64>,
     /// The mean's rule beyond the trained range; `None`: chosen on the data.
     pub beyond: Option<Beyond>,
 }
@@ -263,12 +265,23 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
-        if self.service.repeatability.is_none() && !calibration.runs_measured() {
-            messages.result(
+        let bias_unstated = self.service.repeatability.is_none() && !calibration.runs_measured();
+        match (bias_unstated, self.service.scale_repeatability.is_none()) {
+            (true, true) => messages.result(
+                "skipped: the bias and scale factor of another power-on (one power-on's data \
+                 cannot show them; --repeatability and --scale-repeatability state a datasheet's \
+                 run-to-run σ, several --stream logs of one sensor measure the bias)",
+            ),
+            (true, false) => messages.result(
                 "skipped: the bias of another power-on (one power-on's data cannot show it; \
                  --repeatability states a datasheet's run-to-run σ, several --stream logs of \
                  one sensor measure it)",
-            );
+            ),
+            (false, true) => messages.result(
+                "skipped: the scale factor of another power-on (no term is measured for it; \
+                 --scale-repeatability states a datasheet's run-to-run σ, in ppm)",
+            ),
+            (false, false) => {}
         }
         summary.calibration = Some(calibration);
         summary.handled = streams

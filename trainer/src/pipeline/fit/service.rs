@@ -42,7 +42,7 @@ impl Service {
         }
     }
 
-    /// `blob` (its σ `calibration`) with the limits, the repeatability and the rule beyond the
+    /// `blob` (its σ `calibration`) with the limits, the repeatabilities and the rule beyond the
     /// trained range written in.
     pub fn apply(
         &self,
@@ -52,6 +52,9 @@ impl Service {
     ) -> anyhow::Result<Vec<u8>> {
         if let Some(sigma) = self.repeatability {
             calibration.set_turn_on(sigma);
+        }
+        if let Some(ppm) = self.scale_repeatability {
+            calibration.set_scale(ppm);
         }
         let blob = calibration.apply(blob)?;
         let limits = self.limits();
