@@ -503,8 +503,8 @@ pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
 
 /// Writes `error` as the error model of a valid blob of this format and reseals it: what the
 /// trainer does once it has measured a model's errors. The error model and the limits are the
-/// payload's last fields, thirteen f32 that postcard writes as their little-endian bytes, so the
-/// error model is the ten before the blob's last three. A blob of an earlier format:
+/// payload's last fields, fourteen f32 that postcard writes as their little-endian bytes, so the
+/// error model is the eleven before the blob's last three. A blob of an earlier format:
 /// [`BlobError::UnsupportedVersion`].
 pub fn set_error_model(blob: &mut [u8], error: &ErrorModel) -> Result<(), BlobError> {
     error.check()?;
@@ -666,8 +666,8 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
 }
 
 /// Checks magic, version, payload length and CRC of a model blob; returns the dimensions, the
-/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V6`], [`V5`], [`V4`] and [`V3`]; a unit blob is not a
-/// model blob ([`BlobError::BadMagic`]: [`unit::read_header`] reads it).
+/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V6`], [`V5`], [`V4`] and [`V3`]; a
+/// unit blob is not a model blob ([`BlobError::BadMagic`]: [`unit::read_header`] reads it).
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
     let sealed = read_sealed(bytes)?;
     if sealed.magic != MAGIC {

@@ -143,9 +143,10 @@ impl FeatureState {
     }
 
     /// The samples to come are of the power-on the model was calibrated on (its held-out part,
-    /// on the rig): its turn-on bias is in the model, so the model error leaves out the term for
-    /// another power-on's ([`crate::blob::ErrorModel::turn_on_var`]) until the next power-on or
-    /// reset. In service every power-on is another, and nothing calls this.
+    /// on the rig): its turn-on bias and scale are in the model, so the model error leaves out the
+    /// terms for another power-on's ([`crate::blob::ErrorModel::turn_on_var`],
+    /// [`crate::blob::ErrorModel::scale_var`]) until the next power-on or reset. In service every
+    /// power-on is another, and nothing calls this.
     pub fn calibration_run(&mut self) {
         self.calibration_run = true;
     }

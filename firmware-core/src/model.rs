@@ -13,7 +13,7 @@
 //! k̃_i  = exp(−½ Σ_k (s_k − c_ik)²)
 //! mean = Σ_i w_i k̃_i + Σ_j prior_j Π_k z_k^e_jk + Σ_k (hi_k + lo_k) x_k
 //! var  = σ_f² · max(0, 1 − |v|²),  L v = k̃             (forward substitution, packed rows)
-//! bias variance  = var + model error(e(x)², t, s)       ([`ErrorModel`])
+//! bias variance  = var + model error(e(x)², mean, t, s) ([`ErrorModel`])
 //! noise variance = σ_w², one sample's white noise
 //! ```
 //!
@@ -223,9 +223,13 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
     if let Some(e) = &read.error {
         e.check().map_err(after(dims.floats()))?;
     }
+    let error_numbers = match version {
+        blob::V6 => ErrorModel::V6_NUMBERS,
+        _ => ErrorModel::NUMBERS,
+    };
     read.limits
         .check()
-        .map_err(after(dims.floats() + ErrorModel::NUMBERS))?;
+        .map_err(after(dims.floats() + error_numbers))?;
     // The trained range lies within the limits: the data were readings. The evaluator relies on
     // it, checking the limits only beyond the trained range (and at every reading of an input
     // only linear terms read, whose range, a bias model's output's, may be unbounded). A blob

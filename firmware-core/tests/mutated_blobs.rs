@@ -17,8 +17,9 @@ mod exercise;
 use std::collections::BTreeMap;
 
 use exercise::{Roomy, exercise, reseal};
+use firmware_core::blob::{HEADER_LEN, Limits};
 use firmware_core::model::Conditions;
-use firmware_core::{Evaluation, Prepared};
+use firmware_core::{ErrorModel, Evaluation, Prepared};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -44,7 +45,17 @@ const NASTY: [f32; 10] = [
 /// One mutation of `good`, named for the tally.
 fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
     let mut b = good.to_vec();
-    let floats_at = good.len() - 4 * 395;
+    // Where each f32 lives: the flat array's 395, then, after the rule beyond the range (one
+    // byte), the error model's and the limits', which end the blob.
+    let tail = ErrorModel::NUMBERS + Limits::NUMBERS;
+    let floats_at = good.len() - 4 * tail - 1 - 4 * 395;
+    let float_at = |i: usize| {
+        if i < 395 {
+            floats_at + 4 * i
+        } else {
+            good.len() - 4 * (tail + 395 - i)
+        }
+    };
     let kind = match rng.random_range(0..8) {
         0 => flip_bits(&mut b, rng),
         1 => {
@@ -63,9 +74,9 @@ fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
             let lie: u32 = if rng.random() {
                 rng.random()
             } else {
-                (good.len() - 18) as u32 ^ (1 << rng.random_range(0..32))
+                (good.len() - HEADER_LEN) as u32 ^ (1 << rng.random_range(0..32))
             };
-            b[10..14].copy_from_slice(&lie.to_le_bytes());
+            b[14..18].copy_from_slice(&lie.to_le_bytes());
             "lying length"
         }
         4 => {
@@ -76,20 +87,22 @@ fn mutate(good: &[u8], rng: &mut impl Rng) -> (&'static str, Vec<u8>) {
         5 => scramble_payload(&mut b, 18, rng),
         6 => {
             for _ in 0..rng.random_range(1..=3) {
-                let i = rng.random_range(0..395);
+                let at = float_at(rng.random_range(0..395 + tail));
                 let v = NASTY[rng.random_range(0..NASTY.len())];
-                b[floats_at + 4 * i..floats_at + 4 * i + 4].copy_from_slice(&v.to_le_bytes());
+                b[at..at + 4].copy_from_slice(&v.to_le_bytes());
             }
             reseal(&mut b);
             "NaN/Inf/extreme floats, CRC fixed"
         }
         _ => {
-            // Finite but wild numbers everywhere a float lives: scales, weights, the factor.
-            for i in 0..395 {
+            // Finite but wild numbers everywhere a float lives: scales, weights, the factor, the
+            // error model and the limits.
+            for i in 0..395 + tail {
                 if rng.random_bool(0.1) {
                     let v = f32::from_bits(rng.random::<u32>() & 0x7F7F_FFFF)
                         * if rng.random() { 1.0 } else { -1.0 };
-                    b[floats_at + 4 * i..floats_at + 4 * i + 4].copy_from_slice(&v.to_le_bytes());
+                    let at = float_at(i);
+                    b[at..at + 4].copy_from_slice(&v.to_le_bytes());
                 }
             }
             reseal(&mut b);

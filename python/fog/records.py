@@ -919,7 +919,7 @@ class CrossRun(Record):
     """A model fitted on one run and tested on another, inside the range both cover."""
 
     difference: RunDifference | None
-    """What differs between the runs, read off the test run's errors (null where its rates do not vary)."""
+    """What differs between the runs, read off the test run's errors (null where its rates do not vary or fewer than three points are scored)."""
 
     max_abs_rate_dps: float
     """Largest |rate| both runs cover, °/s."""
@@ -938,6 +938,9 @@ class CrossRun(Record):
 
     rmse_dps: float
     """RMSE on the shared range, °/s."""
+
+    scale_repeatability_ppm: float | None
+    """The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null: none)."""
 
     sigma: Coverage | None
     """The GP's σ there, its error model measured on the training run alone, with the scale factor's repeatability where `--scale-repeatability` states it (null for the methods that state no σ)."""

@@ -44,8 +44,10 @@ pub struct ErrorModel {
     pub walk_var_per_h: f32,
     /// Model error growing as a drift of unknown rate, output units² per hour².
     pub trend_var_per_h2: f32,
-    /// The bias of another power-on than calibration's: run-to-run repeatability, output units².
-    /// Every power-on in service is another one, so it holds at every sample.
+    /// The bias of another power-on than calibration's, output units²: what the trainer measured
+    /// on power-ons left out, or twice a datasheet's run-to-run repeatability squared (the
+    /// calibration's own power-on was a draw too). Every power-on in service is another one, so
+    /// it holds at every sample.
     pub turn_on_var: f32,
     /// Model error on a heating/cooling state the calibration did not hold, at a full swing
     /// (l = 1), output units².
@@ -54,10 +56,10 @@ pub struct ErrorModel {
     pub leg_min: f32,
     /// The highest heating/cooling state trained, in [`Self::leg_min`], 1].
     pub leg_max: f32,
-    /// The scale factor of another power-on than calibration's: run-to-run scale-factor
-    /// repeatability, relative, squared (a datasheet's 100 ppm is 1e-8). Its variance at the
-    /// compensated output y is `scale_var · y²`: an error that grows with the rate, which no
-    /// bias term states.
+    /// The scale factor of another power-on than calibration's, relative² (the trainer writes
+    /// twice a datasheet's repeatability squared, as for the bias: 100 ppm is 2e-8). Its variance
+    /// at the compensated output y is `scale_var · y²`: an error that grows with the rate, which
+    /// no bias term states.
     pub scale_var: f32,
 }
 

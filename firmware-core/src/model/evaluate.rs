@@ -80,8 +80,8 @@ pub struct Conditions {
     /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
     /// held (no leg term).
     pub leg: Option<f32>,
-    /// Whether another power-on's bias applies (the turn-on term): always in service; not on
-    /// the calibration's own power-on ([`FeatureState::calibration_run`]).
+    /// Whether another power-on's bias and scale apply (the turn-on and scale terms): always in
+    /// service; not on the calibration's own power-on ([`FeatureState::calibration_run`]).
     pub another_power_on: bool,
 }
 

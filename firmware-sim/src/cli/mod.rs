@@ -56,8 +56,9 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
         /// The stream is the power-on the model was calibrated on (its held-out part): the σ
-        /// leaves out another power-on's bias (the blob's turn-on term), up to the stream's first
-        /// power cycle. Without it, every sample is scored as in service, on another power-on.
+        /// leaves out another power-on's bias and scale (the blob's turn-on and scale terms), up
+        /// to the stream's first power cycle. Without it, every sample is scored as in service,
+        /// on another power-on.
         #[arg(long)]
         calibration_run: bool,
     },

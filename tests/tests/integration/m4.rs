@@ -95,6 +95,9 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         &p("s.csv"),
         "--features",
         "thermal-state",
+        // The scale term, in proportion to the output², then runs on the M4 too.
+        "--scale-repeatability",
+        "500",
         "--out",
         &p("ext.bin"),
         "--json",
@@ -117,6 +120,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
 
     let blob = std::fs::read(p("ext.bin")).unwrap();
     let firmware = fog_data::replay::decode(&blob).unwrap();
+    assert!(firmware.error_model().scale_var > 0.0);
     assert!(
         firmware
             .features()

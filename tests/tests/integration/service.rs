@@ -495,7 +495,21 @@ fn a_run_whose_scale_factor_differs_is_told_apart_and_a_stated_repeatability_cov
         (var / (2.0 * 800e-6f64.powi(2)) - 1.0).abs() < 1e-6,
         "{var}"
     );
-    assert!(fit(&["--scale-repeatability", "-1"]).is_err());
+    for bad in ["--scale-repeatability=-1", "--scale-repeatability=NaN"] {
+        let refused = fit(&[bad]).unwrap_err().to_string();
+        assert!(refused.contains("must be a σ in ppm"), "{refused}");
+        let loo = [
+            "loo",
+            "--points",
+            &tables[0],
+            "--valid-points",
+            &tables[1],
+            bad,
+            "-q",
+        ];
+        let refused = trainer(&loo).unwrap_err().to_string();
+        assert!(refused.contains("must be a σ in ppm"), "{refused}");
+    }
 }
 
 /// The simulated gyro's three-hour warm-up (seed 11) and a held-out stream of `design` (seed 12),

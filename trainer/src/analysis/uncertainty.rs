@@ -82,6 +82,9 @@ const EXTRAPOLATION: usize = 2;
 /// the sensor's mean; the calibration's own power-on is one such draw, taken for the mean, and
 /// service another, so their difference, the error, has twice its variance.
 const OWN_DRAW: f64 = 2.0;
+/// The largest scale-factor repeatability a σ states, ppm: a scale that varies by its whole size
+/// from one power-on to the next is no sensor's.
+pub const MAX_PPM: f64 = 1e6;
 /// Standard errors of its estimate the prior's growth beyond the range must reach for the residuals
 /// to show it ([`extrapolation_shows`]).
 const DETECTED: f64 = 2.0;

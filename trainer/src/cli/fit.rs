@@ -14,6 +14,7 @@ use fog_terminal::schema;
 
 use super::inputs::ModelInput;
 use crate::analysis::extend;
+use crate::analysis::uncertainty::MAX_PPM;
 use crate::firmware::autopilot::SensorCubics;
 use crate::pipeline::fit::{Extend, FitPlan, unit_table};
 
@@ -70,8 +71,8 @@ impl FitCommand {
         anyhow::ensure!(
             service
                 .scale_repeatability
-                .is_none_or(|r| r.is_finite() && r >= 0.0),
-            "--scale-repeatability must be a σ in ppm: a number not below 0"
+                .is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
+            "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
         );
         anyhow::ensure!(
             (service.full_scale.is_none() && service.repeatability.is_none())

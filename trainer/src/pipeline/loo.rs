@@ -10,6 +10,7 @@ use serde::Serialize;
 use crate::analysis::capacity::{self, Choice};
 use crate::analysis::evaluate::across_runs::{self, CrossRun};
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
+use crate::analysis::uncertainty::MAX_PPM;
 use crate::data::points::Points;
 use crate::progress::Messages;
 
@@ -54,8 +55,13 @@ impl LooPlan {
             "--features auto evaluates the GP (--method gpr) on one table"
         );
         anyhow::ensure!(
-            scale_repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
-            "--scale-repeatability must be a σ in ppm: a number not below 0"
+            scale_repeatability.is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
+            "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
+        );
+        anyhow::ensure!(
+            scale_repeatability.is_none() || method == Method::Gpr,
+            "--scale-repeatability is stated in a σ, and of the methods only the GP (--method gpr) \
+             states one"
         );
         Ok(Self {
             cfg,

@@ -35,8 +35,11 @@ pub struct CrossRun {
     /// factor's repeatability where `--scale-repeatability` states it (null for the methods that
     /// state no σ).
     pub sigma: Option<Coverage>,
+    /// The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null:
+    /// none).
+    pub scale_repeatability_ppm: Option<f64>,
     /// What differs between the runs, read off the test run's errors (null where its rates do
-    /// not vary).
+    /// not vary or fewer than three points are scored).
     pub difference: Option<RunDifference>,
 }
 
@@ -140,6 +143,7 @@ pub fn score(
         rmse_dps: r,
         rmse_dph: r * DPH_PER_DPS,
         sigma: calibration.map(|_| Coverage::of(&e, &sigmas)),
+        scale_repeatability_ppm: scale_ppm,
         difference: RunDifference::of(&e, &rates),
     })
 }

@@ -108,8 +108,9 @@ pub(super) struct ServiceArgs {
     pub(super) repeatability: Option<f64>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
     /// power-on in service is another than the calibration's, so twice its variance, in
-    /// proportion to the output², is added to every sample's σ; on a unit, to each channel's
-    /// (default: not assumed, said in one line).
+    /// proportion to the output², is added to every sample's σ; on a unit, the same figure to
+    /// each channel's (fit a channel alone to state its own; default: not assumed, said in one
+    /// line).
     #[arg(long, value_name = "PPM")]
     pub(super) scale_repeatability: Option<f64>,
     /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
