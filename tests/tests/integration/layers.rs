@@ -2,7 +2,7 @@
 //! other, none of the trainer's layers imports one listed after it (`trainer/src/lib.rs`), and the
 //! trainer uses the bench only in the commands about it. Read from the sources, as a newcomer
 //! would follow them: `crate::…`, `super::…` and a child module's `use child::…`, comments and
-//! tests left out.
+//! tests left out. And no source file is longer than a newcomer reads whole (800 lines).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -249,4 +249,34 @@ fn the_trainer_uses_the_bench_only_in_the_commands_about_it() {
         "trainer files using firmware-sim outside demo and challenge:\n{}",
         users.join("\n")
     );
+}
+
+/// No source file of the workspace is over 800 lines (its tests' files and the crates built for
+/// another target included): a newcomer reads a file whole.
+#[test]
+fn no_source_file_is_over_800_lines() {
+    fn all_files(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                all_files(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    for root in CRATES.iter().chain(&["python/src", "firmware-sim/m4/src"]) {
+        all_files(&workspace.join(root), &mut files);
+    }
+    assert!(files.len() > 100, "{} files", files.len());
+    let long: Vec<String> = files
+        .iter()
+        .filter_map(|f| {
+            let n = std::fs::read_to_string(f).unwrap().lines().count();
+            (n > 800).then(|| format!("{}: {n} lines", f.display()))
+        })
+        .collect();
+    assert!(long.is_empty(), "{long:#?}");
 }

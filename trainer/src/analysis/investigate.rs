@@ -170,7 +170,7 @@ pub fn calibrate(
         }
     }
     let mut calibration =
-        uncertainty::calibrate(&series, noise, uncertainty::Prior::of(static_model, points));
+        uncertainty::terms::calibrate(&series, noise, uncertainty::Prior::of(static_model, points));
     calibration.set_legs(&uncertainty::streams::legs(train));
     Ok(calibration)
 }

@@ -333,7 +333,7 @@ impl TableModel {
             })
             .collect();
         let series = uncertainty::tables::series_of(&train, source, &groups, &loo);
-        Ok(uncertainty::calibrate(
+        Ok(uncertainty::terms::calibrate(
             &[series],
             uncertainty::tables::table_noise(&train, &self.gp),
             uncertainty::Prior::of(&self.gp, &train),

@@ -3,7 +3,8 @@
 
 use firmware_core::model::Conditions;
 
-use super::{Calibration, Prior, Residual, ResidualSource, SampleNoise, Series, calibrate};
+use super::terms::calibrate;
+use super::{Calibration, Prior, Residual, ResidualSource, SampleNoise, Series};
 use crate::data::points::Points;
 use crate::firmware::export;
 use crate::models::gp::{GpConfig, GpError, GpModel};

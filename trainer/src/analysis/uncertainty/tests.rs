@@ -1,4 +1,5 @@
 use super::streams::{hours_from, hours_on};
+use super::terms::{calibrate, effective};
 use super::*;
 use firmware_core::model::Conditions;
 use rand::SeedableRng;

@@ -1,0 +1,180 @@
+use super::*;
+
+/// The firmware-integration example's model.
+const GYRO: &[u8] = include_bytes!("../../../firmware-core/doc/gyro.bin");
+
+fn stream(rate: &[f64], step: f64) -> Stream {
+    let n = rate.len();
+    Stream {
+        time_s: (0..n).map(|i| i as f64 * step).collect(),
+        temp_c: vec![20.0; n],
+        voltage_v: vec![0.0; n],
+        rate_dps: rate.to_vec(),
+        lines: (2..n as u64 + 2).collect(),
+        step_s: step,
+        time_issues: vec![],
+        handled: vec![],
+    }
+}
+
+#[test]
+fn scores_follow_their_definitions() {
+    // 120 samples at 1 Hz: error +1 in the first minute, −1 in the second, one unscored row.
+    let mut rate = vec![0.0; 120];
+    rate[5] = f64::NAN;
+    let s = stream(&rate, 1.0);
+    // σ 1 for the first 30 samples, 0.1 after: bias 0.75 + noise 0.25, and 0.0075 + 0.0025.
+    let comp = Compensated {
+        rate_dps: (0..120).map(|i| if i < 60 { 1.0 } else { -1.0 }).collect(),
+        bias_var: (0..120)
+            .map(|i| if i < 30 { 0.75 } else { 0.0075 })
+            .collect(),
+        noise_var: (0..120)
+            .map(|i| if i < 30 { 0.25 } else { 0.0025 })
+            .collect(),
+        status: vec![Status::Valid; 120],
+        error: ErrorModel {
+            sample_interval_s: 1.0,
+            ..ErrorModel::noise_only(0.25)
+        },
+    };
+    let sc = score(&s, &comp);
+    assert_eq!(sc.n, 119);
+    assert_eq!(sc.n_unscored, 1);
+    assert!((sc.rmse_dps - 1.0).abs() < 1e-12);
+    assert!((sc.rmse_60s_dps - 1.0).abs() < 1e-12);
+    assert_eq!(sc.n_blocks, 2);
+    assert!((sc.coverage_2sigma - 29.0 / 119.0).abs() < 1e-12);
+    assert_eq!(sc.sigma_samples.within_2sigma, sc.coverage_2sigma);
+    assert!((sc.sigma_samples.within_1sigma - 29.0 / 119.0).abs() < 1e-12);
+    // First block: mean bias (29·0.75 + 30·0.0075)/59 and 0.25/59 of noise: σ ≈ 0.61, error 1.
+    // Second: 0.0075 + 0.25/60: σ ≈ 0.108, error −1.
+    let first = ((29.0 * 0.75 + 30.0 * 0.0075) / 59.0 + 0.25 / 59.0f64).sqrt();
+    assert_eq!(sc.sigma_60s.n, 2);
+    assert_eq!(sc.sigma_60s.within_2sigma, 0.5);
+    assert_eq!(sc.sigma_60s.within_1sigma, 0.0);
+    assert!(sc.sigma_60s.median_sigma > 0.5 * first);
+    let one = decode_unit(GYRO).unwrap();
+    let csv = unit_csv(&one, &[&s], std::slice::from_ref(&comp));
+    assert!(
+        csv.starts_with("time_s,temp_c,voltage_v,rate_dps,comp_rate_dps,"),
+        "{csv}"
+    );
+    assert!(csv.lines().nth(6).unwrap().starts_with("5,20,0,,"), "{csv}");
+    // What the figures leave out, in one line: a fault is not scored, nor a row without a
+    // reference.
+    let mut faulty = comp.clone();
+    faulty.status[7] = Status::Fault;
+    faulty.status[8] = Status::Extrapolating;
+    assert_eq!(
+        score(&s, &faulty).counted(),
+        "(118 samples scored, 1 extrapolating; left out: 1 fault, 0 handled, 1 without a \
+         reference)"
+    );
+}
+
+#[test]
+fn a_clock_in_milliseconds_read_as_seconds_is_named_as_the_reason_for_degraded() {
+    // 1 Hz samples whose time column is in ms, mapped as s: every step is 1,000 "s".
+    let s = stream(&[0.0; 300], 1000.0);
+    let comp = replay(&decode(GYRO).unwrap(), &s);
+    let sc = score(&s, &comp);
+    assert!(sc.n_degraded > 250, "{}", sc.n_degraded);
+    let why = degraded_reason(&s, &sc).unwrap();
+    assert!(
+        why.contains("1000 s apart") && why.contains("milliseconds"),
+        "{why}"
+    );
+    assert!(degraded_reason(&stream(&[0.0; 300], 1.0), &sc).is_none());
+}
+
+#[test]
+fn the_mean_path_gives_the_replays_rates_statuses_and_score_bit_for_bit() {
+    // Temperatures from inside the trained range to far beyond it, across a power-on.
+    let mut s = stream(&[0.0; 400], 1.0);
+    for (i, t) in s.temp_c.iter_mut().enumerate() {
+        *t = -60.0 + 0.5 * i as f64;
+    }
+    let model = decode(GYRO).unwrap();
+    let (full, means) = (replay(&model, &s), means(&model, &s));
+    assert_eq!(full.rate_dps, means.rate_dps);
+    assert_eq!(full.status, means.status);
+    assert_eq!(means.rmse_60s_dps(&s), score(&s, &full).rmse_60s_dps);
+    assert!(means.excess2.iter().any(|&e| e > 0.0));
+    assert!(means.excess2.contains(&0.0));
+}
+
+#[test]
+fn samples_evaluated_side_by_side_are_those_of_one_at_a_time_bit_for_bit() {
+    // Not a whole number of batches or lanes; inside the trained range and far beyond it,
+    // with one reading that cannot be true and a power cycle (a 10-minute gap).
+    let mut s = stream(&[0.0; 403], 1.0);
+    for (i, (t, v)) in s.temp_c.iter_mut().zip(&mut s.voltage_v).enumerate() {
+        *t = -60.0 + 0.5 * i as f64;
+        *v = (0.1 * i as f64).sin();
+    }
+    s.temp_c[7] = f64::NAN;
+    for t in &mut s.time_s[150..] {
+        *t += 600.0;
+    }
+    s.time_issues.push(TimeIssue::Gap {
+        line: s.lines[150],
+        step_s: 601.0,
+    });
+    let model = decode(GYRO).unwrap();
+    let mut scratch = vec![0.0f32; model.dims().m];
+    let (mut alone, mut mean_path) = (Compensated::default(), Vec::new());
+    walk(&s, |_, sample, state| {
+        mean_path.push(model.compensate_mean(sample, &mut state.clone()));
+        alone.push(&model.compensate(sample, state, &mut scratch).unwrap());
+    });
+    let bits = |c: &Compensated, i: usize| {
+        (
+            c.rate_dps[i].to_bits(),
+            c.bias_var[i].to_bits(),
+            c.noise_var[i].to_bits(),
+            c.status[i],
+        )
+    };
+    let full = replay(&model, &s);
+    let unit = replay_unit(&decode_unit(GYRO).unwrap(), &[&s], false);
+    let wanted: Vec<bool> = (0..s.len()).map(|i| i % 3 != 0).collect();
+    let (means, part) = replay_where(&model, &s, &wanted);
+    assert!(alone.status.contains(&Status::Fault));
+    assert!(alone.status.contains(&Status::Extrapolating));
+    assert_eq!(restarts(&s).iter().filter(|r| **r).count(), 1);
+    for (i, (&wanted, (m, excess2))) in wanted.iter().zip(&mean_path).enumerate() {
+        assert_eq!(bits(&full, i), bits(&alone, i), "sample {i}");
+        assert_eq!(bits(&unit[0], i), bits(&alone, i), "sample {i}");
+        let batched = (means.rate_dps[i], means.status[i], means.excess2[i]);
+        assert_eq!(
+            (batched.0.to_bits(), batched.1, batched.2.to_bits()),
+            (m.mean.to_bits(), m.status, excess2.to_bits()),
+            "sample {i}"
+        );
+        if wanted {
+            assert_eq!(bits(&part, i), bits(&alone, i), "sample {i}");
+        } else {
+            assert_eq!((part.rate_dps[i], part.status[i]), (m.mean, m.status));
+            assert!(part.bias_var[i].is_nan());
+        }
+    }
+}
+
+#[test]
+fn block_means_cancel_white_errors() {
+    let rate = vec![0.0; 600];
+    let s = stream(&rate, 1.0);
+    let comp = Compensated {
+        rate_dps: (0..600)
+            .map(|i| if i % 2 == 0 { 0.5 } else { -0.5 })
+            .collect(),
+        bias_var: vec![0.0; 600],
+        noise_var: vec![1.0; 600],
+        status: vec![Status::Valid; 600],
+        error: ErrorModel::noise_only(1.0),
+    };
+    let sc = score(&s, &comp);
+    assert!((sc.rmse_dps - 0.5).abs() < 1e-12);
+    assert!(sc.rmse_60s_dps < 1e-12);
+}

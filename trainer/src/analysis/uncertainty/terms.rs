@@ -1,0 +1,282 @@
+//! The error model's terms fitted to out-of-sample residuals (the parent module's doc): which
+//! terms the residuals can show at all, the likelihood's maximum over those, the small-sample
+//! factor on what it finds, and the prior where they cannot show a term.
+
+use fog_data::sigma::Coverage;
+use fog_data::stats::rms;
+use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
+
+use super::{
+    Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior, Residual,
+    SEEN_AT, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
+};
+
+/// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
+/// its standardized residuals (clamped to 0 … [`MAX_RHO`]).
+pub(super) fn effective(z: &[f64]) -> f64 {
+    let n = z.len() as f64;
+    if z.len() < 3 {
+        return n;
+    }
+    let mean = z.iter().sum::<f64>() / n;
+    let c0: f64 = z.iter().map(|v| (v - mean).powi(2)).sum();
+    let c1: f64 = z.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
+    let rho = if c0 > 0.0 {
+        (c1 / c0).clamp(0.0, MAX_RHO)
+    } else {
+        0.0
+    };
+    n * (1.0 - rho) / (1.0 + rho)
+}
+
+/// Fits the error model to `series` (module doc); `noise` is one sample's white noise. A table's
+/// residuals and a run's each get their floor; the blob carries the run's where there are runs
+/// (a gyro in service is in one, with every group of the table trained), the table's otherwise.
+/// A term the residuals cannot show is `prior`'s (module doc).
+pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibration {
+    let all: Vec<(Residual, bool)> = series
+        .iter()
+        .flat_map(|s| s.residuals.iter().map(|r| (*r, s.source.is_run())))
+        .filter(|(r, _)| r.usable())
+        .collect();
+    if all.len() < 3 {
+        return Calibration::assumed(
+            noise,
+            prior,
+            format!(
+                "{} out-of-sample residuals in the training data: too few to measure the model \
+                 error",
+                all.len()
+            ),
+        );
+    }
+    let mut seen = seen(&all);
+    let mut c = maximum_likelihood(&all, &seen);
+    // The extrapolation term is fitted where the residuals reach beyond the range; it is used
+    // wherever a sample does, often many widths further. Residuals that cannot tell a growth of
+    // the prior's size from none abstain, and the prior is assumed.
+    if seen[EXTRAPOLATION] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
+        seen[EXTRAPOLATION] = false;
+        c = maximum_likelihood(&all, &seen);
+    }
+    let fitted: Vec<usize> = (0..TERMS).filter(|&k| seen[k]).collect();
+    let standardized: Vec<Vec<f64>> = series
+        .iter()
+        .map(|s| {
+            s.residuals
+                .iter()
+                .map(|r| r.error / r.var(s.source.is_run(), &c).sqrt())
+                .filter(|z| z.is_finite())
+                .collect()
+        })
+        .collect();
+    let eff: f64 = standardized.iter().map(|z| effective(z)).sum();
+    let dof = (eff - fitted.len() as f64).max(MIN_DOF);
+    let inflation = small_sample_factor(dof);
+    let mut c = c.map(|v| v * inflation);
+    let mut assumed = Vec::new();
+    if !seen[EXTRAPOLATION] && prior.extrapolation_var > 0.0 {
+        c[EXTRAPOLATION] = prior.extrapolation_var;
+        assumed.push(TERM_NAMES[EXTRAPOLATION]);
+    }
+    let runs = all.iter().any(|(_, run)| *run);
+    // What the blob carries: the run's floor (the table's where there is no run), for every
+    // residual alike.
+    let floor = if runs { c[1] } else { c[0] };
+    let shipped = [0.0, floor, c[2], c[3], c[4]];
+    let shipped_sigma = |r: &Residual| r.var(true, &shipped).sqrt();
+    let sources = summaries(series, &standardized, &shipped_sigma);
+    let scored: Vec<&Residual> = all
+        .iter()
+        .filter(|(_, run)| *run || !runs)
+        .map(|(r, _)| r)
+        .collect();
+    let error_model = ErrorModel {
+        sample_noise_var: noise.var as f32,
+        sample_interval_s: noise.interval_s as f32,
+        floor_var: floor as f32,
+        extrapolation_var: c[2] as f32,
+        walk_var_per_h: c[3] as f32,
+        trend_var_per_h2: c[4] as f32,
+        ..ErrorModel::noise_only(0.0)
+    };
+    Calibration {
+        error_model,
+        sample_noise_std: noise.var.sqrt(),
+        sample_interval_s: noise.interval_s,
+        floor_std: floor.sqrt(),
+        table_floor_std: (runs && seen[0]).then(|| c[0].sqrt()),
+        extrapolation_std: c[2].sqrt(),
+        walk_std_per_sqrt_h: c[3].sqrt(),
+        trend_std_per_h: c[4].sqrt(),
+        turn_on_std: 0.0,
+        scale_repeatability_ppm: 0.0,
+        residuals: all.len(),
+        effective: eff,
+        inflation,
+        fitted_terms: fitted.iter().map(|&k| TERM_NAMES[k]).collect(),
+        sources,
+        before: Some(coverage(&scored, &|r| r.base_var.sqrt())),
+        coverage: Some(coverage(&scored, &shipped_sigma)),
+        note: None,
+        assumed,
+        legs_trained: None,
+        leg_std: 0.0,
+    }
+}
+
+/// How `sigma` covers the residuals `rs`.
+fn coverage(rs: &[&Residual], sigma: &dyn Fn(&Residual) -> f64) -> Coverage {
+    let errors: Vec<f64> = rs.iter().map(|r| r.error).collect();
+    let sigmas: Vec<f64> = rs.iter().map(|r| sigma(r)).collect();
+    Coverage::of(&errors, &sigmas)
+}
+
+/// Each series' residuals summed up: their count, independent count (from their `standardized`
+/// values), RMS and how the shipped `sigma` covers them.
+fn summaries(
+    series: &[Series],
+    standardized: &[Vec<f64>],
+    sigma: &dyn Fn(&Residual) -> f64,
+) -> Vec<SourceSummary> {
+    series
+        .iter()
+        .zip(standardized)
+        .filter(|(s, _)| !s.residuals.is_empty())
+        .map(|(s, z)| {
+            let rs: Vec<&Residual> = s.residuals.iter().collect();
+            SourceSummary {
+                source: s.source,
+                n: rs.len(),
+                effective: effective(z),
+                rmse: rms(&rs.iter().map(|r| r.error).collect::<Vec<_>>()),
+                coverage: coverage(&rs, sigma),
+            }
+        })
+        .collect()
+}
+
+/// Which terms the residuals can show: a floor where there are residuals of its kind; a growth
+/// term where at least [`MIN_SEEN`] residuals reach [`SEEN_AT`] of its covariate (5% of a trained
+/// width beyond the range, 3 minutes). A term fitted on covariates that barely move would be
+/// extrapolated from nothing: residuals 0.01% of a width beyond the range say nothing about one
+/// width beyond.
+fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
+    let mut seen = [false; TERMS];
+    let mut reached = [0usize; TERMS];
+    for (r, run) in all {
+        let t = r.terms(*run);
+        seen[0] |= !run;
+        seen[1] |= *run;
+        for k in 2..TERMS {
+            reached[k] += usize::from(t[k] >= SEEN_AT[k]);
+        }
+    }
+    for k in 2..TERMS {
+        seen[k] = reached[k] >= MIN_SEEN;
+    }
+    seen
+}
+
+/// Whether the residuals of `series` can tell an extrapolation term as large as the larger of the
+/// fitted one (`c`) and the `prior`'s from none: that size at least [`DETECTED`] standard errors of
+/// its estimate, the other terms held at their fit. The standard error is from the term's Fisher
+/// information, ½ Σ e⁴ / v² (v each residual's variance with the term at that size), each series'
+/// share reduced by its lag-1 autocorrelation as the small-sample factor's count is. Residuals a
+/// tenth of a width beyond the range cannot show what two widths beyond costs, whatever they fit
+/// there. (Counting the terms fitted beside it, a heating-only calibration's growth in time,
+/// which rises with the distance as a heating leg does, would make it abstain there too, and the
+/// prior, a clamp's error, is 14–20× too wide on the cooling leg its tangent or GP follows.) True
+/// where there is no prior ([`Prior::NONE`]): [`seen`] decides alone.
+fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f64) -> bool {
+    let size = c[EXTRAPOLATION].max(prior);
+    if prior <= 0.0 || size <= 0.0 {
+        return true;
+    }
+    let mut at = *c;
+    at[EXTRAPOLATION] = size;
+    let information: f64 = series
+        .iter()
+        .map(|s| {
+            let run = s.source.is_run();
+            let (mut information, mut z) = (0.0, Vec::new());
+            for r in s.residuals.iter().filter(|r| r.usable()) {
+                let v = r.var(run, &at);
+                if v > 0.0 {
+                    information += 0.5 * (r.terms(run)[EXTRAPOLATION] / v).powi(2);
+                    z.push(r.error / v.sqrt());
+                }
+            }
+            if z.is_empty() {
+                0.0
+            } else {
+                information * effective(&z) / z.len() as f64
+            }
+        })
+        .sum();
+    size * information.sqrt() >= DETECTED
+}
+
+/// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
+/// `seen` (the others 0). Each term is scaled to the residuals' size and its covariate's so the
+/// search sees numbers of order one.
+fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; TERMS] {
+    let scale = all.iter().map(|(r, _)| r.error * r.error).sum::<f64>() / all.len() as f64;
+    if scale.is_nan() || scale <= 0.0 {
+        return [0.0; TERMS];
+    }
+    let spread: Vec<f64> = (0..TERMS)
+        .map(|k| {
+            all.iter()
+                .map(|(r, run)| r.terms(*run)[k])
+                .fold(0.0f64, f64::max)
+        })
+        .collect();
+    // u_k = c_k · spread_k / scale: the share of the residuals' variance term k explains at its
+    // largest covariate.
+    let unit = |k: usize| {
+        if seen[k] && spread[k] > 0.0 {
+            scale / spread[k]
+        } else {
+            0.0
+        }
+    };
+    let nll = |u: &[f64]| -> (f64, Vec<f64>) {
+        let mut f = 0.0;
+        let mut g = vec![0.0; TERMS];
+        for (r, run) in all {
+            let phi = r.terms(*run);
+            let v = r.base_var + (0..TERMS).map(|k| u[k] * unit(k) * phi[k]).sum::<f64>();
+            let v = v.max(f64::MIN_POSITIVE);
+            f += 0.5 * (v.ln() + r.error * r.error / v);
+            let dv = 0.5 * (1.0 / v - r.error * r.error / (v * v));
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk += dv * unit(k) * phi[k];
+            }
+        }
+        (f, g)
+    };
+    let upper: Vec<f64> = seen.iter().map(|&s| if s { 1e6 } else { 0.0 }).collect();
+    let start: Vec<f64> = seen.iter().map(|&s| if s { 0.1 } else { 0.0 }).collect();
+    let best = Bounds::new(vec![0.0; TERMS], upper)
+        .ok()
+        .and_then(|bounds| {
+            optim_lbfgsb_with_gradient(
+                start.clone(),
+                bounds,
+                |u: &[f64]| nll(u).0,
+                |u: &[f64]| nll(u).1,
+                OptimControl {
+                    maxit: 500,
+                    ..OptimControl::default_for_dimension(TERMS)
+                },
+            )
+            .ok()
+        })
+        .map_or(start, |r| r.par);
+    let mut c = [0.0; TERMS];
+    for (k, ck) in c.iter_mut().enumerate() {
+        *ck = best[k].max(0.0) * unit(k);
+    }
+    c
+}
