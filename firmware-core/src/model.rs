@@ -53,8 +53,9 @@
 //!
 //! so a temperature 10 °C below the coldest trained gives, held, the model's value at the
 //! coldest trained temperature, and a rate beyond the table's keeps its scale factor. The σ grows
-//! with the distance: the model error's extrapolation term e(x)², which the trainer fits where its
-//! training data show it and otherwise sets from a stated prior ([`ErrorModel`]).
+//! with the distance: the model error's extrapolation term e(x)² (and, assumed, its part in
+//! proportion to the output, e(x)²·y²), which the trainer fits where its training data show it and
+//! otherwise sets from a stated prior ([`ErrorModel`]).
 
 use heapless::Vec;
 
@@ -225,6 +226,7 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
     }
     let error_numbers = match version {
         blob::V6 => ErrorModel::V6_NUMBERS,
+        blob::V7 => ErrorModel::V7_NUMBERS,
         _ => ErrorModel::NUMBERS,
     };
     read.limits

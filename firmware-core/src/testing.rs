@@ -67,6 +67,7 @@ impl Reference {
                 leg_min: 0.5,
                 leg_max: 1.0,
                 scale_var: 4e-6,
+                extrapolation_scale_var: 5e-5,
             },
         }
     }
@@ -135,7 +136,8 @@ impl Reference {
         f64::from(e.floor_var)
             + f64::from(e.turn_on_var)
             + f64::from(e.scale_var) * mean * mean
-            + f64::from(e.extrapolation_var) * e2
+            + (f64::from(e.extrapolation_var) + f64::from(e.extrapolation_scale_var) * mean * mean)
+                * e2
             + f64::from(e.walk_var_per_h) * hours
             + f64::from(e.trend_var_per_h2) * hours * hours
     }
@@ -246,14 +248,28 @@ pub fn as_v4(blob: &[u8]) -> Vec<u8> {
     v4
 }
 
-/// The same model as a version-6 blob: the error model without its last number, the scale term.
+/// The same model as a blob of `version`, 6 or 7: the error model without its last numbers (the
+/// extrapolation's scale part; at 6 the scale term too).
+fn without_last(blob: &[u8], version: u16, numbers: usize) -> Vec<u8> {
+    let dropped = 4 * (ErrorModel::NUMBERS - numbers);
+    let at = blob.len() - 4 * blob::Limits::NUMBERS - dropped;
+    let mut old = blob[..at].to_vec();
+    old.extend_from_slice(&blob[at + dropped..]);
+    old[4..6].copy_from_slice(&version.to_le_bytes());
+    blob::reseal(&mut old);
+    old
+}
+
+/// The same model as a version-7 blob: the error model without its last number, the
+/// extrapolation's scale part.
+pub fn as_v7(blob: &[u8]) -> Vec<u8> {
+    without_last(blob, blob::V7, ErrorModel::V7_NUMBERS)
+}
+
+/// The same model as a version-6 blob: the error model without its last two numbers, the scale
+/// term and the extrapolation's scale part.
 pub fn as_v6(blob: &[u8]) -> Vec<u8> {
-    let at = blob.len() - 4 * (blob::Limits::NUMBERS + 1);
-    let mut v6 = blob[..at].to_vec();
-    v6.extend_from_slice(&blob[at + 4..]);
-    v6[4..6].copy_from_slice(&blob::V6.to_le_bytes());
-    blob::reseal(&mut v6);
-    v6
+    without_last(blob, blob::V6, ErrorModel::V6_NUMBERS)
 }
 
 /// The same model as a version-5 blob: no rule beyond the range, the error model's first six

@@ -354,8 +354,11 @@ class Calibration(Record):
     effective: float
     """Independent residuals they are worth."""
 
+    extrapolation_scale_ppm: float
+    """The assumed prior's part in proportion to the output: ppm of the output one trained width beyond the range (0 where the extrapolation term is fitted, or the training outputs barely move)."""
+
     extrapolation_std: float
-    """√c_x: model error one trained width beyond the range, output units."""
+    """√c_x: model error one trained width beyond the range, output units (where the prior is assumed, its part alike at every output)."""
 
     fitted_terms: list[str]
     """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none."""

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::BlobError;
 
 /// What the variance of a compensated sample holds besides the GP's latent variance (format
-/// version 5, the turn-on and leg terms version 6, the scale term version 7): the white noise of
+/// version 5, the turn-on and leg terms version 6, the scale term version 7, the extrapolation's
+/// scale part version 8): the white noise of
 /// one sample, and the model error the trainer measured on its own training data, predicting it
 /// forward in time, beyond the temperatures fitted and across the groups left out, or, where those
 /// data could not show a term, the prior it stated instead (docs/design.md §4, "The σ contract").
@@ -17,7 +18,8 @@ use crate::error::BlobError;
 /// adds, at inputs x, compensated output y, t hours since power-on and heating/cooling state s,
 ///
 /// ```text
-/// bias variance  = latent(x) + floor + extrapolation·e(x)² + walk·t + trend·t² + leg·l(s)²
+/// bias variance  = latent(x) + floor + (extrapolation + extrapolation_scale·y²)·e(x)²
+///                  + walk·t + trend·t² + leg·l(s)²
 ///                  + turn_on + scale·y²          (the last two on another power-on only)
 /// noise variance = sample_noise (one sample of sample_interval_s)
 /// ```
@@ -61,11 +63,18 @@ pub struct ErrorModel {
     /// at the compensated output y is `scale_var · y²`: an error that grows with the rate, which
     /// no bias term states.
     pub scale_var: f32,
+    /// The part of the model error beyond the trained range that grows with the output: relative²
+    /// per trained width² (at output y and e(x) widths beyond, `extrapolation_scale · y² · e²`).
+    /// A gyro's scale factor changes with temperature as its bias does, so beyond the range
+    /// its error grows with the rate as well as with the distance.
+    pub extrapolation_scale_var: f32,
 }
 
 impl ErrorModel {
     /// Numbers in its encoding.
-    pub const NUMBERS: usize = 11;
+    pub const NUMBERS: usize = 12;
+    /// Numbers in its encoding of format [`super::V7`]: the first eleven.
+    pub const V7_NUMBERS: usize = 11;
     /// Numbers in its encoding of format [`super::V6`]: the first ten.
     pub const V6_NUMBERS: usize = 10;
     /// Numbers in its encoding of format [`super::V5`]: the first six.
@@ -87,6 +96,7 @@ impl ErrorModel {
             leg_min: -1.0,
             leg_max: 1.0,
             scale_var: 0.0,
+            extrapolation_scale_var: 0.0,
         }
     }
 
@@ -97,6 +107,14 @@ impl ErrorModel {
 
     /// A format-[`super::V6`] error model's ten numbers, with no scale term.
     pub const fn from_v6(v: [f32; Self::V6_NUMBERS]) -> Self {
+        Self::from_v7([
+            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], 0.0,
+        ])
+    }
+
+    /// A format-[`super::V7`] error model's eleven numbers, with no scale part of the
+    /// extrapolation.
+    pub const fn from_v7(v: [f32; Self::V7_NUMBERS]) -> Self {
         Self {
             sample_noise_var: v[0],
             sample_interval_s: v[1],
@@ -108,7 +126,8 @@ impl ErrorModel {
             leg_var: v[7],
             leg_min: v[8],
             leg_max: v[9],
-            scale_var: 0.0,
+            scale_var: v[10],
+            extrapolation_scale_var: 0.0,
         }
     }
 
@@ -126,6 +145,7 @@ impl ErrorModel {
             self.leg_min,
             self.leg_max,
             self.scale_var,
+            self.extrapolation_scale_var,
         ]
     }
 
@@ -137,7 +157,11 @@ impl ErrorModel {
             return Err(BlobError::NonFinite(i));
         }
         let legs = -1.0 <= self.leg_min && self.leg_min <= self.leg_max && self.leg_max <= 1.0;
-        if legs && numbers.iter().take(8).all(|v| *v >= 0.0) && self.scale_var >= 0.0 {
+        if legs
+            && numbers.iter().take(8).all(|v| *v >= 0.0)
+            && self.scale_var >= 0.0
+            && self.extrapolation_scale_var >= 0.0
+        {
             Ok(())
         } else {
             Err(BlobError::InvalidParameter)
@@ -173,7 +197,7 @@ impl ErrorModel {
         };
         self.floor_var
             + turn_on
-            + self.extrapolation_var * excess2
+            + (self.extrapolation_var + self.extrapolation_scale_var * output * output) * excess2
             + self.walk_var_per_h * h
             + self.trend_var_per_h2 * h * h
             + self.leg_var * l * l

@@ -16,7 +16,8 @@ const GOLDEN: [f32; 13] = [
     0.0, 1.0, -1.0, 1.0, 2.0, 0.5, 0.25, 1e-9, 0.01, 0.0, 3.0, 1.0, 1.0,
 ];
 
-/// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range, scale.
+/// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range, scale,
+/// the extrapolation's scale part.
 const GOLDEN_ERROR: ErrorModel = ErrorModel {
     sample_noise_var: 1e-4,
     sample_interval_s: 0.5,
@@ -29,6 +30,7 @@ const GOLDEN_ERROR: ErrorModel = ErrorModel {
     leg_min: 0.25,
     leg_max: 1.0,
     scale_var: 7e-8,
+    extrapolation_scale_var: 8e-7,
 };
 
 /// A rated range and a full scale.
@@ -52,8 +54,8 @@ fn golden_bytes_pin_the_encoding() {
     assert_eq!(dims.floats(), 13);
     let mut buf = [0u8; 160];
     let n = encode(dims, &payload, &mut buf).unwrap();
-    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 7, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-    expected.extend([118, 0, 0, 0]);
+    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 8, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+    expected.extend([122, 0, 0, 0]);
     let mut digest = CRC32.digest();
     digest.update(&expected[4..]);
     digest.update(&buf[HEADER_LEN..n]);
@@ -161,6 +163,7 @@ fn a_version_5_blob_still_decodes_without_turn_on_leg_or_scale_terms_and_with_th
             leg_min: -1.0,
             leg_max: 1.0,
             scale_var: 0.0,
+            extrapolation_scale_var: 0.0,
             ..GOLDEN_ERROR
         }
     );
@@ -171,24 +174,33 @@ fn a_version_5_blob_still_decodes_without_turn_on_leg_or_scale_terms_and_with_th
     );
 }
 
-#[test]
-fn a_version_6_blob_still_decodes_without_a_scale_term() {
+/// The reference model with the golden error model, limits and rule beyond the range, and the
+/// same as a blob of an older `version` (made by `older`), whose limits and rule read back.
+fn golden_and_older(older: fn(&[u8]) -> Vec<u8>, version: u16) -> (Reference, Vec<u8>, Vec<u8>) {
     let r = Reference::small();
     let mut good = r.blob_with_error(GOLDEN_ERROR);
     set_limits(&mut good, &GOLDEN_LIMITS).unwrap();
     set_beyond(&mut good, Beyond::Tangent).unwrap();
-    let old = crate::testing::as_v6(&good);
-    assert_eq!(read_header(&old).unwrap().version, V6);
+    let old = older(&good);
+    assert_eq!(read_header(&old).unwrap().version, version);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(model.limits(), GOLDEN_LIMITS);
+    assert_eq!(model.beyond(), Beyond::Tangent);
+    (r, good, old)
+}
+
+#[test]
+fn a_version_6_blob_still_decodes_without_a_scale_term() {
+    let (_, good, old) = golden_and_older(crate::testing::as_v6, V6);
     let model = Small::decode(&old).unwrap();
     assert_eq!(
         model.error_model(),
         ErrorModel {
             scale_var: 0.0,
+            extrapolation_scale_var: 0.0,
             ..GOLDEN_ERROR
         }
     );
-    assert_eq!(model.limits(), GOLDEN_LIMITS);
-    assert_eq!(model.beyond(), Beyond::Tangent);
     let new = Small::decode(&good).unwrap();
     let mut scratch = [0.0f32; 5];
     let (a, b) = (
@@ -202,6 +214,45 @@ fn a_version_6_blob_still_decodes_without_a_scale_term() {
     assert_eq!(
         set_error_model(&mut old.clone(), &GOLDEN_ERROR),
         Err(BlobError::UnsupportedVersion(V6))
+    );
+}
+
+#[test]
+fn a_version_7_blob_still_decodes_without_the_extrapolations_scale_part() {
+    let (r, good, old) = golden_and_older(crate::testing::as_v7, V7);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(
+        model.error_model(),
+        ErrorModel {
+            extrapolation_scale_var: 0.0,
+            ..GOLDEN_ERROR
+        }
+    );
+    let new = Small::decode(&good).unwrap();
+    let mut scratch = [0.0f32; 5];
+    // Inside the trained range the two agree to the bit; beyond it the new blob adds
+    // extrapolation_scale · y² · e².
+    let inside = [12.5, 0.4];
+    assert_eq!(
+        model.predict(&inside, &mut scratch).unwrap(),
+        new.predict(&inside, &mut scratch).unwrap()
+    );
+    // A quarter of the width beyond, inside the rated temperatures.
+    let beyond = [(r.max[0] + 0.25 * (r.max[0] - r.min[0])) as f32, 0.4];
+    let (a, b) = (
+        model.predict(&beyond, &mut scratch).unwrap(),
+        new.predict(&beyond, &mut scratch).unwrap(),
+    );
+    assert_eq!(a.mean, b.mean);
+    let part = GOLDEN_ERROR.extrapolation_scale_var * b.mean * b.mean * 0.0625;
+    assert!(part > 0.0);
+    assert!(
+        (b.bias_variance - a.bias_variance - part).abs() <= 1e-3 * part,
+        "{a:?} {b:?} {part}"
+    );
+    assert_eq!(
+        set_error_model(&mut old.clone(), &GOLDEN_ERROR),
+        Err(BlobError::UnsupportedVersion(V7))
     );
 }
 
@@ -315,6 +366,11 @@ fn the_error_model_is_checked_like_the_other_numbers() {
         ..GOLDEN_ERROR
     };
     assert_eq!(bad(scale), BlobError::InvalidParameter);
+    let extrapolation_scale = ErrorModel {
+        extrapolation_scale_var: -1e-8,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(extrapolation_scale), BlobError::InvalidParameter);
 }
 
 /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.

@@ -571,7 +571,8 @@ impl<const D: usize> Evaluator<'_, D> {
         }
         let bias_variance =
             signal * rest.total().max(0.0) + self.error.model_error(excess2, mean, at);
-        if !bias_variance.is_finite() {
+        // With the noise, so that the sum a caller forms (`Prediction::variance`) is finite too.
+        if !(bias_variance + self.error.sample_noise_var).is_finite() {
             // Absurd but finite numbers in a blob (the mutated-blob test), as a mean that is not
             // finite.
             return Ok(self.fault());

@@ -340,7 +340,7 @@ impl<const D: usize> Evaluator<'_, D> {
                     } else {
                         let bias_variance = signal * rest.max(0.0)
                             + self.error.model_error(excess2, mean.mean, q.at);
-                        if bias_variance.is_finite() {
+                        if (bias_variance + self.error.sample_noise_var).is_finite() {
                             Prediction {
                                 mean: mean.mean,
                                 bias_variance,

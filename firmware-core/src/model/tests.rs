@@ -114,7 +114,9 @@ fn variance_vanishes_at_a_centre_and_grows_with_the_distance_beyond_the_range() 
     assert_eq!(beyond.status, Status::Extrapolating);
     assert_eq!(beyond.mean, edge.mean);
     let grown = beyond.bias_variance - edge.bias_variance;
-    let expected = r.error.extrapolation_var * (40.0f32 / 90.0).powi(2);
+    let expected = (r.error.extrapolation_var
+        + r.error.extrapolation_scale_var * edge.mean * edge.mean)
+        * (40.0f32 / 90.0).powi(2);
     assert!(
         (grown - expected).abs() < 1e-3 * expected,
         "{grown} {expected}"

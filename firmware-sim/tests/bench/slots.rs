@@ -30,9 +30,10 @@ const V4: &[u8] = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
 /// Another calibration of the same gyro: the same blob with one kernel weight 0.1% larger.
 fn recalibrated() -> Vec<u8> {
     let mut b = OLD.to_vec();
-    // Floats end the blob before the error model's six; the weights start after
-    // 7d + p + 2 + m·d = 71 of them.
-    let at = b.len() - 4 * (395 + 6) + 4 * 71;
+    // The floats end before the rule beyond the range (one byte), the error model and the
+    // limits; the weights start after 7d + p + 2 + m·d = 71 of them.
+    let tail = 1 + 4 * (firmware_core::ErrorModel::NUMBERS + blob::Limits::NUMBERS);
+    let at = b.len() - tail - 4 * 395 + 4 * 71;
     let w = f32::from_le_bytes(b[at..at + 4].try_into().unwrap()) * 1.001;
     b[at..at + 4].copy_from_slice(&w.to_le_bytes());
     blob::reseal(&mut b);

@@ -7,7 +7,8 @@ use crate::{at, imu, json, model_blob, one, sim, trainer};
 /// A gyro calibrated on a 30-minute warm-up (24.9…28.3 °C) and replayed as it cools to 6.4 °C,
 /// 18 °C colder than its coldest training point: every sample is compensated, the shipped model
 /// is no worse than the static one held at the range's edge (the PX4-style clamp), and the σ,
-/// with no out-of-sample residual to fit it on, is assumed and covers the held-out means.
+/// with no out-of-sample residual to fit it on, is assumed and covers the held-out means, no
+/// more than 1.5× wider than their RMS error.
 #[test]
 fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     let dir = tempfile::tempdir().unwrap();
@@ -63,6 +64,14 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     );
     let coverage = s["sigma_60s"]["within_2sigma"].as_f64().unwrap();
     assert!(coverage >= 0.85, "{s}");
+    // The growth assumed beyond the range is told apart by the rate (the warm-up's rates span
+    // ±80 °/s): one number for every rate made the σ 3.25× its RMS error here, most of the
+    // cool-down's means being at low rates; told apart, 1.47.
+    assert!(
+        calibration["extrapolation_scale_ppm"].as_f64().unwrap() > 0.0,
+        "{calibration}"
+    );
+    assert!(s["sigma_60s"]["sharpness"].as_f64().unwrap() <= 1.5, "{s}");
 }
 
 /// The same gyro calibrated on its whole three-hour warm-up (24.8…29.2 °C) and replayed on a
@@ -112,6 +121,9 @@ fn residuals_just_beyond_the_range_leave_the_growth_far_beyond_it_assumed() {
     assert!(r["n_extrapolating"].as_u64().unwrap() > r["n"].as_u64().unwrap() / 2);
     let coverage = r["sigma_60s"]["within_2sigma"].as_f64().unwrap();
     assert!(coverage >= 0.85, "{r}");
+    // Assumed, and in proportion to the rate where the rate moves: 2.09 with one number for
+    // every rate, 1.30 told apart.
+    assert!(r["sigma_60s"]["sharpness"].as_f64().unwrap() <= 1.5, "{r}");
 }
 
 /// The MEMS log trained on ten minutes near its coldest (−17.3…−7.7 °C) and replayed over the

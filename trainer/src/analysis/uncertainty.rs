@@ -41,7 +41,9 @@
 //! two standard errors of its estimate, the other terms held at their fit), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
 //! edge beyond it, the firmware misses that change per width; continued, it misses what the curve
-//! does besides): its temperature slope at the points it was fitted on, as an RMS, times the width.
+//! does besides): its temperature slope at the points it was fitted on, as an RMS, times the width,
+//! told apart by the points' reference rates into a part alike at every output and one in
+//! proportion to it ([`split_by_output`]): a gyro's scale factor drifts with temperature too.
 //! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
 //! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Each assumed term is named in the
@@ -265,8 +267,13 @@ pub struct Calibration {
     /// The floor the table's left-out groups or points showed, where they were used beside a
     /// run's (not shipped: a gyro in service is in a run, with the whole table trained).
     pub table_floor_std: Option<f64>,
-    /// √c_x: model error one trained width beyond the range, output units.
+    /// √c_x: model error one trained width beyond the range, output units (where the prior is
+    /// assumed, its part alike at every output).
     pub extrapolation_std: f64,
+    /// The assumed prior's part in proportion to the output: ppm of the output one trained width
+    /// beyond the range (0 where the extrapolation term is fitted, or the training outputs
+    /// barely move).
+    pub extrapolation_scale_ppm: f64,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,
     /// √c_d: drift of unknown rate, output units per h.
@@ -316,6 +323,11 @@ pub struct Prior {
     /// Model error per trained width beyond the range, squared: the model's change over one width
     /// of a temperature input, at its temperature slope where its points are (RMS), squared.
     pub extrapolation_var: f64,
+    /// The same change told apart into a part alike at every output (`.0`, output units²) and one
+    /// in proportion to it (`.1`, relative²): at output y the prior's growth per width² is
+    /// `.0 + .1 · y²`, fitted to each point's own change at its output ([`split_by_output`]);
+    /// `(extrapolation_var, 0)` where the points' outputs barely move.
+    pub extrapolation_parts: (f64, f64),
 }
 
 impl Prior {
@@ -324,16 +336,19 @@ impl Prior {
     pub const NONE: Self = Self {
         floor_var: 0.0,
         extrapolation_var: 0.0,
+        extrapolation_parts: (0.0, 0.0),
     };
 
     /// The prior of `model` fitted on `points` (module doc): its temperature slope at each
     /// point it was fitted on (over a tenth of the range either side), as an RMS over the points,
-    /// times the range's width, is what it changes over one width where its data are.
+    /// times the range's width, is what it changes over one width where its data are; told
+    /// apart by the points' outputs (the reference rate) into a bias and a scale part.
     pub fn of(model: &GpModel, points: &Points) -> Self {
         let h = &model.posterior.hyper;
         let sy2 = model.output_scale.powi(2);
+        let floor_var = h.observation_var() * sy2 * small_sample_factor(MIN_DOF);
         let x = points.inputs();
-        let extrapolation_var = points
+        let changes = points
             .features()
             .iter()
             .enumerate()
@@ -345,11 +360,10 @@ impl Prior {
                 let (lo, hi) = model.input_range[k];
                 let width = hi - lo;
                 if width <= 0.0 || x.nrows() == 0 {
-                    return 0.0;
+                    return Vec::new();
                 }
                 let step = 0.1 * width;
-                let sum: f64 = x
-                    .row_iter()
+                x.row_iter()
                     .map(|row| {
                         let mut at: Vec<f64> = row.iter().copied().collect();
                         at[k] += step;
@@ -359,16 +373,77 @@ impl Prior {
                         let change = (up - down) / 0.2;
                         change * change
                     })
-                    .sum();
-                sum / x.nrows() as f64
+                    .collect::<Vec<f64>>()
             })
-            .fold(0.0, f64::max);
+            .map(|c2| {
+                let mean = if c2.is_empty() {
+                    0.0
+                } else {
+                    c2.iter().sum::<f64>() / c2.len() as f64
+                };
+                (mean, c2)
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((extrapolation_var, c2)) = changes else {
+            return Self {
+                floor_var,
+                ..Self::NONE
+            };
+        };
         Self {
-            floor_var: h.observation_var() * sy2 * small_sample_factor(MIN_DOF),
+            floor_var,
             extrapolation_var,
+            extrapolation_parts: split_by_output(&c2, &points.rate_dps, floor_var.sqrt()),
         }
     }
 }
+
+/// Each point's squared change `c2` over one width, as a draw of variance `a + b · y²` at its
+/// output `y` (a, b ≥ 0, maximum likelihood): a gyro's scale factor changes with temperature as
+/// its bias does, so its model's slope grows with the rate, and a variance fitted to every point
+/// alike would be too wide at low rates and too narrow at high ones. Where the outputs barely
+/// move (their spread under ten times `noise_std`, as on a log at rest, whose reference is one
+/// value), the points cannot tell a scale part from a bias one and the bias part takes it all:
+/// `(mean c2, 0)`.
+pub fn split_by_output(c2: &[f64], y: &[f64], noise_std: f64) -> (f64, f64) {
+    let n = c2.len().min(y.len());
+    if n == 0 {
+        return (0.0, 0.0);
+    }
+    let (c2, y) = (&c2[..n], &y[..n]);
+    let nf = n as f64;
+    let mean_c2 = c2.iter().sum::<f64>() / nf;
+    let mean_y = y.iter().sum::<f64>() / nf;
+    let spread = (y.iter().map(|v| (v - mean_y).powi(2)).sum::<f64>() / nf).sqrt();
+    let mean_u = y.iter().map(|v| v * v).sum::<f64>() / nf;
+    // False for a NaN spread or noise as well.
+    let moves = spread > 10.0 * noise_std;
+    if !moves || mean_c2 <= 0.0 || mean_u <= 0.0 {
+        return (mean_c2, 0.0);
+    }
+    // The profile likelihood over the bias part's share r of the variance at the mean output²
+    // (the variance at u = y² is s·(r + (1 − r)·u/ū), s at its maximum for each r): one
+    // dimension, searched on a grid fine enough for a prior.
+    let shares = (0..=SPLIT_STEPS).map(|k| (k as f64 / SPLIT_STEPS as f64).max(1e-4));
+    let mut best: Option<(f64, f64, f64)> = None;
+    for r in shares {
+        let shape = |v: f64| r + (1.0 - r) * v * v / mean_u;
+        let scale = y.iter().zip(c2).map(|(v, c)| c / shape(*v)).sum::<f64>() / nf;
+        if scale <= 0.0 {
+            continue;
+        }
+        let log_l = -y.iter().map(|v| (scale * shape(*v)).ln()).sum::<f64>();
+        if best.is_none_or(|(l, _, _)| log_l > l) {
+            best = Some((log_l, r, scale));
+        }
+    }
+    best.map_or((mean_c2, 0.0), |(_, r, scale)| {
+        (scale * r, scale * (1.0 - r) / mean_u)
+    })
+}
+
+/// Steps of [`split_by_output`]'s search over the bias part's share.
+const SPLIT_STEPS: usize = 1000;
 
 /// (t₀.₉₇₅(ν)/1.96)²: how much wider a variance estimated on ν degrees of freedom must be for
 /// its 95% interval (module doc).
@@ -390,7 +465,8 @@ impl Calibration {
             sample_noise_var: noise.var as f32,
             sample_interval_s: noise.interval_s as f32,
             floor_var: prior.floor_var as f32,
-            extrapolation_var: prior.extrapolation_var as f32,
+            extrapolation_var: prior.extrapolation_parts.0 as f32,
+            extrapolation_scale_var: prior.extrapolation_parts.1 as f32,
             ..ErrorModel::noise_only(0.0)
         };
         let assumed = [
@@ -407,7 +483,8 @@ impl Calibration {
             sample_interval_s: noise.interval_s,
             floor_std: prior.floor_var.sqrt(),
             table_floor_std: None,
-            extrapolation_std: prior.extrapolation_var.sqrt(),
+            extrapolation_std: prior.extrapolation_parts.0.sqrt(),
+            extrapolation_scale_ppm: prior.extrapolation_parts.1.sqrt() * 1e6,
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
@@ -540,14 +617,24 @@ impl Calibration {
     }
 
     fn describe_terms(&self, units: &str) -> String {
+        let beyond = if self.extrapolation_scale_ppm > 0.0 {
+            format!(
+                "{:.3e} and {:.0} ppm of the output per trained width beyond the range",
+                self.extrapolation_std, self.extrapolation_scale_ppm
+            )
+        } else {
+            format!(
+                "{:.3e} per trained width beyond the range",
+                self.extrapolation_std
+            )
+        };
         let Some(c) = &self.coverage else {
             return format!(
                 "σ: the GP's own, with one sample's noise {:.3e} {units} and an assumed model \
-                 error {:.3e} {units}, {:.3e} per trained width beyond the range ({}; module \
-                 doc of trainer::analysis::uncertainty)",
+                 error {:.3e} {units}, {beyond} ({}; module doc of \
+                 trainer::analysis::uncertainty)",
                 self.sample_noise_std,
                 self.floor_std,
-                self.extrapolation_std,
                 self.note.as_deref().unwrap_or("no error model")
             );
         };
@@ -565,15 +652,14 @@ impl Calibration {
             .unwrap_or_default();
         format!(
             "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
-             {}): model error {:.3e} {units}, {:.3e} per trained width beyond the range, {:.3e} \
-             per √h, {:.3e} per h (× {:.2} for the few residuals), one sample's noise {:.3e}; \
+             {}): model error {:.3e} {units}, {beyond}, {:.3e} per √h, {:.3e} per h (× {:.2} \
+             for the few residuals), one sample's noise {:.3e}; \
              ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
              RMS{assumed}",
             self.residuals,
             self.effective,
             self.sources_in_words(),
             self.floor_std,
-            self.extrapolation_std,
             self.walk_std_per_sqrt_h,
             self.trend_std_per_h,
             self.inflation.sqrt(),

@@ -295,7 +295,7 @@ mod tests {
             let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
             assert_eq!(
                 (version(a), version(b)),
-                (firmware_core::blob::V6, 7),
+                (firmware_core::blob::V6, firmware_core::blob::FORMAT_VERSION),
                 "{name}"
             );
             let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());

@@ -75,8 +75,9 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let inflation = small_sample_factor(dof);
     let mut c = c.map(|v| v * inflation);
     let mut assumed = Vec::new();
+    let mut extrapolation_scale = 0.0;
     if !seen[EXTRAPOLATION] && prior.extrapolation_var > 0.0 {
-        c[EXTRAPOLATION] = prior.extrapolation_var;
+        (c[EXTRAPOLATION], extrapolation_scale) = prior.extrapolation_parts;
         assumed.push(TERM_NAMES[EXTRAPOLATION]);
     }
     let runs = all.iter().any(|(_, run)| *run);
@@ -98,6 +99,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         extrapolation_var: c[2] as f32,
         walk_var_per_h: c[3] as f32,
         trend_var_per_h2: c[4] as f32,
+        extrapolation_scale_var: extrapolation_scale as f32,
         ..ErrorModel::noise_only(0.0)
     };
     Calibration {
@@ -107,6 +109,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         floor_std: floor.sqrt(),
         table_floor_std: (runs && seen[0]).then(|| c[0].sqrt()),
         extrapolation_std: c[2].sqrt(),
+        extrapolation_scale_ppm: extrapolation_scale.sqrt() * 1e6,
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,

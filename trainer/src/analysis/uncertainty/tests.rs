@@ -102,6 +102,7 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
     let prior = Prior {
         floor_var: 4e-6,
         extrapolation_var: 9e-4,
+        extrapolation_parts: (5e-4, 2e-7),
     };
     let noise = SampleNoise {
         var: 1.0,
@@ -111,7 +112,9 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
     let c = calibrate(&[], noise, prior);
     assert!(c.note.is_some());
     assert_eq!(c.error_model.floor_var, 4e-6);
-    assert_eq!(c.error_model.extrapolation_var, 9e-4);
+    // The prior's growth, told apart into its bias and scale parts.
+    assert_eq!(c.error_model.extrapolation_var, 5e-4);
+    assert_eq!(c.error_model.extrapolation_scale_var, 2e-7);
     assert_eq!(c.assumed, vec!["floor", "extrapolation"]);
     assert!(c.describe("°/s").contains("assumed model error"));
     // Residuals that never leave the range: the floor is measured, the extrapolation assumed.
@@ -125,7 +128,8 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
     }];
     let c = calibrate(&series, noise, prior);
     assert!((c.floor_std - 0.049).abs() < 0.005, "{c:?}");
-    assert_eq!(c.error_model.extrapolation_var, 9e-4);
+    assert_eq!(c.error_model.extrapolation_var, 5e-4);
+    assert_eq!(c.error_model.extrapolation_scale_var, 2e-7);
     assert_eq!(c.assumed, vec!["extrapolation"]);
     assert!(
         c.describe("°/s")
@@ -141,6 +145,7 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     let prior = Prior {
         floor_var: 0.0,
         extrapolation_var: 9e-4,
+        extrapolation_parts: (9e-4, 0.0),
     };
     let noise = SampleNoise {
         var: 1.0,
@@ -272,4 +277,29 @@ fn runs_left_out_measure_another_power_ons_bias_and_a_datasheet_states_it() {
         runs.describe("°/s")
             .contains("measured on the runs left out")
     );
+}
+
+#[test]
+fn the_priors_growth_is_told_apart_by_the_output_where_the_outputs_move() {
+    // Changes drawn with variance a + b·y² at rates from −80 to 80 °/s: the split finds both
+    // parts, the bias part near a, not the mean over every rate (ten times a).
+    let (a, b) = (1e-3, 4e-6);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let y: Vec<f64> = (0..2000).map(|i| f64::from(i % 161) - 80.0).collect();
+    let c2: Vec<f64> = y
+        .iter()
+        .map(|v| (a + b * v * v) * f64::powi(unit.sample(&mut rng), 2))
+        .collect();
+    let (fa, fb) = split_by_output(&c2, &y, 1e-3);
+    assert!((fa / a - 1.0).abs() < 0.3, "{fa} against {a}");
+    assert!((fb / b - 1.0).abs() < 0.2, "{fb} against {b}");
+    let mean = c2.iter().sum::<f64>() / c2.len() as f64;
+    assert!(fa < 0.2 * mean, "{fa} {mean}");
+    // A log at rest: one reference value (gravity on an accelerometer's axis), or outputs that
+    // move no more than the noise; the bias part takes it all.
+    let at_rest = vec![9.81; 2000];
+    assert_eq!(split_by_output(&c2, &at_rest, 1e-3), (mean, 0.0));
+    let noise: Vec<f64> = y.iter().map(|v| 1e-3 * v / 80.0).collect();
+    assert_eq!(split_by_output(&c2, &noise, 1e-3), (mean, 0.0));
 }
