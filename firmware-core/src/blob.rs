@@ -515,8 +515,8 @@ pub fn set_sequence(blob: &mut [u8], sequence: u32) -> Result<(), BlobError> {
 
 /// Writes `error` as the error model of a valid blob of this format and reseals it: what the
 /// trainer does once it has measured a model's errors. The error model and the limits are the
-/// payload's last fields, fourteen f32 that postcard writes as their little-endian bytes, so the
-/// error model is the eleven before the blob's last three. A blob of an earlier format:
+/// payload's last fields, fifteen f32 that postcard writes as their little-endian bytes, so the
+/// error model is the twelve before the blob's last three. A blob of an earlier format:
 /// [`BlobError::UnsupportedVersion`].
 pub fn set_error_model(blob: &mut [u8], error: &ErrorModel) -> Result<(), BlobError> {
     error.check()?;

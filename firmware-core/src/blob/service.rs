@@ -14,8 +14,9 @@ use crate::error::BlobError;
 /// one sample, and the model error the trainer measured on its own training data, predicting it
 /// forward in time, beyond the temperatures fitted and across the groups left out, or, where those
 /// data could not show a term, the prior it stated instead (docs/design.md §4, "The σ contract").
-/// All variances but the scale's are in output units² (°/s²); the evaluator ([`crate::model`])
-/// adds, at inputs x, compensated output y, t hours since power-on and heating/cooling state s,
+/// All variances but the two scale terms' (relative²) are in output units² (°/s²); the evaluator
+/// ([`crate::model`]) adds, at inputs x, compensated output y, t hours since power-on and
+/// heating/cooling state s,
 ///
 /// ```text
 /// bias variance  = latent(x) + floor + (extrapolation + extrapolation_scale·y²)·e(x)²
@@ -66,7 +67,9 @@ pub struct ErrorModel {
     /// The part of the model error beyond the trained range that grows with the output: relative²
     /// per trained width² (at output y and e(x) widths beyond, `extrapolation_scale · y² · e²`).
     /// A gyro's scale factor changes with temperature as its bias does, so beyond the range
-    /// its error grows with the rate as well as with the distance.
+    /// its error grows with the rate as well as with the distance. The trainer measures it per
+    /// width of temperature; e(x)² counts every input's distance, so beyond the trained rates
+    /// (the output's own input) it grows as y²·e² there too, as y⁴: wide, never narrow.
     pub extrapolation_scale_var: f32,
 }
 

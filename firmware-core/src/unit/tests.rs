@@ -384,7 +384,7 @@ fn golden_bytes_pin_the_unit_header() {
 }
 
 /// The unit blob of an earlier `version` the same channels made, each channel's model payload
-/// made older by `older` (version 1: format 5; version 2: format 6).
+/// made older by `older` (version 1: format 5; version 2: format 6; version 3: format 7).
 fn as_old(
     models: &[std::vec::Vec<u8>; 3],
     version: u8,

@@ -149,6 +149,9 @@ pub struct Residual {
     pub base_var: f64,
     /// e(x)²: how far beyond the predicting model's trained range, in widths, squared.
     pub excess2: f64,
+    /// The reference output squared (its mean over a 60 s mean's samples), output units²: where
+    /// the shipped σ's extrapolation has a part in proportion to the output, what it multiplies.
+    pub output2: f64,
     /// Hours since the data the predicting model was fitted on (time since power-on, for a run it
     /// never saw).
     pub hours: f64,
@@ -346,7 +349,9 @@ impl Prior {
     pub fn of(model: &GpModel, points: &Points) -> Self {
         let h = &model.posterior.hyper;
         let sy2 = model.output_scale.powi(2);
-        let floor_var = h.observation_var() * sy2 * small_sample_factor(MIN_DOF);
+        let noise_var = h.observation_var() * sy2;
+        let floor_var = noise_var * small_sample_factor(MIN_DOF);
+        let noise_std = noise_var.sqrt();
         let x = points.inputs();
         let changes = points
             .features()
@@ -383,6 +388,7 @@ impl Prior {
                 };
                 (mean, c2)
             })
+            .filter(|(mean, _)| mean.is_finite())
             .max_by(|a, b| a.0.total_cmp(&b.0));
         let Some((extrapolation_var, c2)) = changes else {
             return Self {
@@ -390,10 +396,17 @@ impl Prior {
                 ..Self::NONE
             };
         };
+        // A bias model's GP reads no output (its scale factor is given): its change cannot grow
+        // with the rate, whatever the rates the points happen to hold.
+        let extrapolation_parts = if points.scale_factor.is_some() {
+            (extrapolation_var, 0.0)
+        } else {
+            split_by_output(&c2, &points.rate_dps, noise_std)
+        };
         Self {
             floor_var,
             extrapolation_var,
-            extrapolation_parts: split_by_output(&c2, &points.rate_dps, floor_var.sqrt()),
+            extrapolation_parts,
         }
     }
 }
@@ -401,49 +414,68 @@ impl Prior {
 /// Each point's squared change `c2` over one width, as a draw of variance `a + b · y²` at its
 /// output `y` (a, b ≥ 0, maximum likelihood): a gyro's scale factor changes with temperature as
 /// its bias does, so its model's slope grows with the rate, and a variance fitted to every point
-/// alike would be too wide at low rates and too narrow at high ones. Where the outputs barely
-/// move (their spread under ten times `noise_std`, as on a log at rest, whose reference is one
-/// value), the points cannot tell a scale part from a bias one and the bias part takes it all:
-/// `(mean c2, 0)`.
+/// alike would be too wide at low rates and too narrow at high ones. The points must show the
+/// split: where the outputs barely move (their spread under ten times `noise_std`, as on a log at
+/// rest, whose reference is one value), or where the split's likelihood does not beat one
+/// variance for every point by the χ²(1) 95 % margin (outputs of one magnitude, as a table at ±R
+/// alone, or changes that do not grow with it), the bias part takes it all: `(mean c2, 0)`.
+/// Pairs that are not finite are left out.
 pub fn split_by_output(c2: &[f64], y: &[f64], noise_std: f64) -> (f64, f64) {
-    let n = c2.len().min(y.len());
-    if n == 0 {
+    let (c2, y): (Vec<f64>, Vec<f64>) = c2
+        .iter()
+        .zip(y)
+        .filter(|(c, v)| c.is_finite() && v.is_finite())
+        .map(|(c, v)| (*c, *v))
+        .unzip();
+    if c2.is_empty() {
         return (0.0, 0.0);
     }
-    let (c2, y) = (&c2[..n], &y[..n]);
-    let nf = n as f64;
+    let nf = c2.len() as f64;
     let mean_c2 = c2.iter().sum::<f64>() / nf;
     let mean_y = y.iter().sum::<f64>() / nf;
     let spread = (y.iter().map(|v| (v - mean_y).powi(2)).sum::<f64>() / nf).sqrt();
     let mean_u = y.iter().map(|v| v * v).sum::<f64>() / nf;
-    // False for a NaN spread or noise as well.
+    // False for a NaN noise as well.
     let moves = spread > 10.0 * noise_std;
     if !moves || mean_c2 <= 0.0 || mean_u <= 0.0 {
         return (mean_c2, 0.0);
     }
     // The profile likelihood over the bias part's share r of the variance at the mean output²
-    // (the variance at u = y² is s·(r + (1 − r)·u/ū), s at its maximum for each r): one
-    // dimension, searched on a grid fine enough for a prior.
-    let shares = (0..=SPLIT_STEPS).map(|k| (k as f64 / SPLIT_STEPS as f64).max(1e-4));
-    let mut best: Option<(f64, f64, f64)> = None;
-    for r in shares {
+    // (the variance at u = y² is s·(r + (1 − r)·u/ū), s at its maximum for each r), as
+    // −Σ ln(variance), twice the log-likelihood less a constant: one dimension, searched on a
+    // grid fine enough for a prior, from r = 1 (one variance for every point) down, so that a
+    // flat likelihood keeps the bias part.
+    let log_l = |r: f64| {
         let shape = |v: f64| r + (1.0 - r) * v * v / mean_u;
-        let scale = y.iter().zip(c2).map(|(v, c)| c / shape(*v)).sum::<f64>() / nf;
-        if scale <= 0.0 {
-            continue;
-        }
-        let log_l = -y.iter().map(|v| (scale * shape(*v)).ln()).sum::<f64>();
-        if best.is_none_or(|(l, _, _)| log_l > l) {
-            best = Some((log_l, r, scale));
+        let scale = y.iter().zip(&c2).map(|(v, c)| c / shape(*v)).sum::<f64>() / nf;
+        let l = -y.iter().map(|v| (scale * shape(*v)).ln()).sum::<f64>();
+        (l.is_finite() && scale > 0.0).then_some((l, scale))
+    };
+    let Some((alike, _)) = log_l(1.0) else {
+        return (mean_c2, 0.0);
+    };
+    let mut best = (alike, 1.0, mean_c2);
+    for k in (0..SPLIT_STEPS).rev() {
+        let r = (k as f64 / SPLIT_STEPS as f64).max(1e-4);
+        if let Some((l, scale)) = log_l(r)
+            && l > best.0
+        {
+            best = (l, r, scale);
         }
     }
-    best.map_or((mean_c2, 0.0), |(_, r, scale)| {
-        (scale * r, scale * (1.0 - r) / mean_u)
-    })
+    let (l, r, scale) = best;
+    if l - alike < SPLIT_MARGIN {
+        return (mean_c2, 0.0);
+    }
+    (scale * r, scale * (1.0 - r) / mean_u)
 }
 
 /// Steps of [`split_by_output`]'s search over the bias part's share.
 const SPLIT_STEPS: usize = 1000;
+
+/// How much more likely the split must make the points than one variance for all: twice the
+/// log-likelihood ratio at the χ²(1) 95 % point (one parameter more).
+const SPLIT_MARGIN: f64 = 3.84;
 
 /// (t₀.₉₇₅(ν)/1.96)²: how much wider a variance estimated on ν degrees of freedom must be for
 /// its 95% interval (module doc).

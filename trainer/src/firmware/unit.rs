@@ -177,9 +177,12 @@ pub fn instructions(m: usize, d: usize) -> f64 {
 }
 
 /// Bytes of RAM one channel's bookkeeping takes in a `StaticUnit` on a 32-bit target, besides its
-/// numbers: its name, quantity, sizes, features, exponents, error model and input map.
+/// numbers: its name, quantity, sizes, features, exponents, error model, limits, rule beyond the
+/// range, first number and input map, with their padding.
 pub fn channel_bytes(d: usize, p: usize) -> usize {
-    17 + 1 + 12 + (8 * d + 4) + (p * d + 4) + 24 + 4 + 2 * d + 8
+    let error = 4 * firmware_core::ErrorModel::NUMBERS;
+    let limits = 4 * firmware_core::blob::Limits::NUMBERS;
+    17 + 1 + 12 + (8 * d + 4) + (p * d + 4) + error + limits + 1 + 4 + 2 * d + 8
 }
 
 /// What a unit blob costs the firmware (`trainer inspect`, `fit --json`).
@@ -282,30 +285,38 @@ mod tests {
         assert!(back.iter().all(|(_, _, b)| b == GYRO));
     }
 
-    /// A unit blob of version 2 (channels of format 6) gives its channels back as blobs of that
-    /// format, which compute what the same fit's unit of the current version computes.
+    /// A unit blob of version 2 or 3 (channels of format 6 or 7) gives its channels back as blobs
+    /// of that format, which compute what the same fit's unit of the current version computes.
     #[test]
     fn an_older_units_channels_come_back_in_their_own_format() {
-        let old = include_bytes!("../../../firmware-core/doc/imu-v2.bin");
+        use firmware_core::blob::{FORMAT_VERSION, V6, V7};
         let new = include_bytes!("../../../firmware-core/doc/imu.bin");
-        let (old, new) = (channel_blobs(old).unwrap(), channel_blobs(new).unwrap());
-        assert_eq!(old.len(), 6);
+        let new = channel_blobs(new).unwrap();
         let mut scratch = vec![0.0f32; 256];
-        for ((name, _, a), (_, _, b)) in old.iter().zip(&new) {
-            let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
-            assert_eq!(
-                (version(a), version(b)),
-                (firmware_core::blob::V6, firmware_core::blob::FORMAT_VERSION),
-                "{name}"
-            );
-            let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
-            assert_eq!(a.error_model(), b.error_model(), "{name}");
-            let x = vec![20.0f32; a.dims().d];
-            assert_eq!(
-                a.predict(&x, &mut scratch).unwrap(),
-                b.predict(&x, &mut scratch).unwrap(),
-                "{name}"
-            );
+        for (old, format) in [
+            (
+                &include_bytes!("../../../firmware-core/doc/imu-v2.bin")[..],
+                V6,
+            ),
+            (
+                &include_bytes!("../../../firmware-core/doc/imu-v3.bin")[..],
+                V7,
+            ),
+        ] {
+            let old = channel_blobs(old).unwrap();
+            assert_eq!(old.len(), 6);
+            for ((name, _, a), (_, _, b)) in old.iter().zip(&new) {
+                let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
+                assert_eq!((version(a), version(b)), (format, FORMAT_VERSION), "{name}");
+                let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
+                assert_eq!(a.error_model(), b.error_model(), "{name}");
+                let x = vec![20.0f32; a.dims().d];
+                assert_eq!(
+                    a.predict(&x, &mut scratch).unwrap(),
+                    b.predict(&x, &mut scratch).unwrap(),
+                    "{name}"
+                );
+            }
         }
     }
 }

@@ -52,6 +52,7 @@ pub fn stream_series(
                     f64::from(latent.bias_var[i] + excess2[i]) - f64::from(latent.bias_var[i])
                 })
                 .max(0.0),
+                output2: mean(b, &|i| stream.rate_dps[i].powi(2)),
                 hours: mean(b, &|i| hours[i]),
             }
         })

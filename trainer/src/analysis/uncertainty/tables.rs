@@ -112,6 +112,7 @@ pub fn series_of(
                 error,
                 base_var,
                 excess2: export::excess2(&row, &range),
+                output2: points.rate_dps[i].powi(2),
                 hours: 0.0,
             });
         }

@@ -54,7 +54,8 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let mut c = maximum_likelihood(&all, &seen);
     // The extrapolation term is fitted where the residuals reach beyond the range; it is used
     // wherever a sample does, often many widths further. Residuals that cannot tell a growth of
-    // the prior's size from none abstain, and the prior is assumed.
+    // the prior's size (its mean over the training points, whatever its split by the output)
+    // from none abstain, and the prior is assumed.
     if seen[EXTRAPOLATION] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
         seen[EXTRAPOLATION] = false;
         c = maximum_likelihood(&all, &seen);
@@ -85,7 +86,8 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // residual alike.
     let floor = if runs { c[1] } else { c[0] };
     let shipped = [0.0, floor, c[2], c[3], c[4]];
-    let shipped_sigma = |r: &Residual| r.var(true, &shipped).sqrt();
+    let shipped_sigma =
+        |r: &Residual| (r.var(true, &shipped) + extrapolation_scale * r.output2 * r.excess2).sqrt();
     let sources = summaries(series, &standardized, &shipped_sigma);
     let scored: Vec<&Residual> = all
         .iter()

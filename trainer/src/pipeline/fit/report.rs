@@ -266,12 +266,13 @@ pub fn unit_table(
         ));
     }
     s.push_str(&format!(
-        "wrote {} ({} bytes: {} channels, sensor '{}', trained {:.1} … {:.1} °C); on the \
+        "wrote {} ({} bytes: {} channel{}, sensor '{}', trained {:.1} … {:.1} °C); on the \
          firmware {} numbers, {} bytes of RAM in a StaticUnit sized to it and {} of scratch, \
          about {:.0} instructions per sample on the Cortex-M4F",
         out.display(),
         f.blob_bytes,
         f.channels.len(),
+        if f.channels.len() == 1 { "" } else { "s" },
         f.sensor_id,
         f.temperature_c[0],
         f.temperature_c[1],
