@@ -316,6 +316,22 @@ where
     }
 }
 
+/// The fields after the numbers in a blob of format 6 or 7: the rule beyond the range, an error
+/// model of `N` numbers (`from` fills in the terms that format lacks) and the limits.
+fn older_tail<'de, A: SeqAccess<'de>, const N: usize>(
+    seq: &mut A,
+    from: fn([f32; N]) -> ErrorModel,
+) -> Result<(Beyond, Option<ErrorModel>, Limits), A::Error>
+where
+    [f32; N]: Deserialize<'de>,
+{
+    let missing = |i| de::Error::invalid_length(i, &"the payload's fields");
+    let beyond = seq.next_element()?.ok_or_else(|| missing(3))?;
+    let v: [f32; N] = seq.next_element()?.ok_or_else(|| missing(4))?;
+    let limits = seq.next_element()?.ok_or_else(|| missing(5))?;
+    Ok((beyond, Some(from(v)), limits))
+}
+
 /// [`read_payload`]'s visitor: features and exponents by value, numbers one at a time, then the
 /// error model and the limits where the format has them.
 struct PayloadFields<'a, Fe, Ex, F> {
@@ -348,20 +364,8 @@ where
                 Some(seq.next_element()?.ok_or_else(|| missing(4))?),
                 seq.next_element()?.ok_or_else(|| missing(5))?,
             ),
-            V7 => {
-                let beyond = seq.next_element()?.ok_or_else(|| missing(3))?;
-                let v: [f32; ErrorModel::V7_NUMBERS] =
-                    seq.next_element()?.ok_or_else(|| missing(4))?;
-                let limits = seq.next_element()?.ok_or_else(|| missing(5))?;
-                (beyond, Some(ErrorModel::from_v7(v)), limits)
-            }
-            V6 => {
-                let beyond = seq.next_element()?.ok_or_else(|| missing(3))?;
-                let v: [f32; ErrorModel::V6_NUMBERS] =
-                    seq.next_element()?.ok_or_else(|| missing(4))?;
-                let limits = seq.next_element()?.ok_or_else(|| missing(5))?;
-                (beyond, Some(ErrorModel::from_v6(v)), limits)
-            }
+            V7 => older_tail(&mut seq, ErrorModel::from_v7)?,
+            V6 => older_tail(&mut seq, ErrorModel::from_v6)?,
             V5 => {
                 let v: [f32; ErrorModel::V5_NUMBERS] =
                     seq.next_element()?.ok_or_else(|| missing(3))?;
