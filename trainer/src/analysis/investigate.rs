@@ -116,15 +116,18 @@ pub struct Choice {
 /// and the stream's splits scored by the model of the kind shipped, fitted without them. Where
 /// the static model never saw the stream (a table's), the whole training stream is out of sample
 /// for it, in hours since power-on. The sample noise is the white part of `shipped_blob`'s errors
-/// on the training stream.
+/// on the training stream. What the data cannot show beyond the range is assumed for the rule
+/// `beyond` ships ([`uncertainty::Prior::for_rule`]). The splits are scored as their blobs
+/// export, the GP followed beyond the range: scored held, a simulated warm-up's temperature split
+/// showed holding's miss at ±80 °/s, and the term fitted there, one number for every rate, made
+/// the σ 8× too wide at low rates on a colder day.
 pub fn calibrate(
-    points: &Points,
-    static_model: &GpModel,
-    static_blob: &[u8],
+    (points, static_model, static_blob): (&Points, &GpModel, &[u8]),
     shipped_blob: &[u8],
     kind: Shipped,
     train: &Stream,
     splits: &[Split],
+    beyond: &BeyondChoice,
 ) -> anyhow::Result<Calibration> {
     let fw = fog_data::replay::decode(shipped_blob)?;
     let comp = replay::means(&fw, train);
@@ -169,8 +172,11 @@ pub fn calibrate(
             }
         }
     }
-    let mut calibration =
-        uncertainty::terms::calibrate(&series, noise, uncertainty::Prior::of(static_model, points));
+    let mut calibration = uncertainty::terms::calibrate(
+        &series,
+        noise,
+        uncertainty::Prior::of(static_model, points).for_rule(beyond),
+    );
     calibration.set_legs(&uncertainty::streams::legs(train));
     Ok(calibration)
 }
@@ -456,15 +462,15 @@ pub fn investigate(
     if choice.check.as_ref().is_some_and(|c| !c.extension_helps()) {
         warnings.push(choice.verdict.clone());
     }
+    let beyond = beyond::choose(points, cfg);
     let calibrated = |blob: &[u8], kind| {
         calibrate(
-            points,
-            &model,
-            &static_blob,
+            (points, &model, &static_blob),
             blob,
             kind,
             train,
             &choice.splits,
+            &beyond,
         )
     };
     // Where the static model ships, the shipped model is the static one: calibrated and scored
@@ -476,7 +482,6 @@ pub fn investigate(
     } else {
         calibrated(&extended_blob, choice.shipped)?
     };
-    let beyond = beyond::choose(points, cfg);
     let static_blob = export::with_beyond(&static_calibration.apply(&static_blob)?, beyond.rule)?;
     let extended_blob = export::with_beyond(&calibration.apply(&extended_blob)?, beyond.rule)?;
     let fw = fog_data::replay::decode(&static_blob)?;

@@ -56,10 +56,12 @@ use fog_data::stream::Stream;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
+use crate::analysis::beyond::BeyondChoice;
 use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::GpModel;
 use firmware_core::Feature;
+use firmware_core::blob::Beyond;
 
 pub mod streams;
 pub mod tables;
@@ -277,6 +279,10 @@ pub struct Calibration {
     /// beyond the range (0 where the extrapolation term is fitted, or the training outputs
     /// barely move).
     pub extrapolation_scale_ppm: f64,
+    /// Where the extrapolation term is assumed: the share of holding's miss that the rule shipped
+    /// beyond the range missed on the training points beyond an inner fit, which scaled it
+    /// ([`Prior::for_rule`]); 1 where it is fitted, or the points could not test the rule.
+    pub extrapolation_share: f64,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,
     /// √c_d: drift of unknown rate, output units per h.
@@ -331,6 +337,10 @@ pub struct Prior {
     /// `.0 + .1 · y²`, fitted to each point's own change at its output ([`split_by_output`]);
     /// `(extrapolation_var, 0)` where the points' outputs barely move.
     pub extrapolation_parts: (f64, f64),
+    /// The share of holding's miss the rule shipped beyond the range missed where the training
+    /// points could test it ([`Prior::for_rule`]), 1 where they could not: the extrapolation
+    /// parts are scaled by its square.
+    pub rule_share: f64,
 }
 
 impl Prior {
@@ -340,6 +350,7 @@ impl Prior {
         floor_var: 0.0,
         extrapolation_var: 0.0,
         extrapolation_parts: (0.0, 0.0),
+        rule_share: 1.0,
     };
 
     /// The prior of `model` fitted on `points` (module doc): its temperature slope at each
@@ -407,6 +418,38 @@ impl Prior {
             floor_var,
             extrapolation_var,
             extrapolation_parts,
+            rule_share: 1.0,
+        }
+    }
+
+    /// The prior of a blob whose mean follows `beyond`'s rule past the range. What [`Prior::of`]
+    /// measures is what holding the inputs at the edge misses; where the rule was tested on the
+    /// training points beyond a fit on their inner temperatures (`analysis::beyond`) and the rule
+    /// shipped missed a share k of what holding missed there, the extrapolation parts are scaled
+    /// by k² (never up: a rule that missed more would not ship). The test reaches a third of a
+    /// width beyond its fit; a tangent's or the GP's miss grows faster with the distance than
+    /// holding's, so far beyond, the share is a measurement taken nearer in.
+    pub fn for_rule(self, beyond: &BeyondChoice) -> Self {
+        let held = |rmse: [f64; 3]| rmse[0];
+        let shipped = |rmse: [f64; 3]| match beyond.rule {
+            Beyond::Hold => rmse[0],
+            Beyond::Tangent => rmse[1],
+            Beyond::Follow => rmse[2],
+        };
+        let share = beyond
+            .rmse
+            .map(|r| shipped(r) / held(r))
+            .filter(|k| k.is_finite())
+            .map_or(1.0, |k| k.clamp(0.0, 1.0));
+        let k2 = share * share;
+        Self {
+            extrapolation_var: self.extrapolation_var * k2,
+            extrapolation_parts: (
+                self.extrapolation_parts.0 * k2,
+                self.extrapolation_parts.1 * k2,
+            ),
+            rule_share: share,
+            ..self
         }
     }
 }
@@ -517,6 +560,7 @@ impl Calibration {
             table_floor_std: None,
             extrapolation_std: prior.extrapolation_parts.0.sqrt(),
             extrapolation_scale_ppm: prior.extrapolation_parts.1.sqrt() * 1e6,
+            extrapolation_share: prior.rule_share,
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
@@ -649,14 +693,23 @@ impl Calibration {
     }
 
     fn describe_terms(&self, units: &str) -> String {
+        let share = if self.extrapolation_share < 1.0 {
+            format!(
+                " (× {:.2}: the rule shipped missed that share of holding's miss beyond an inner \
+                 fit)",
+                self.extrapolation_share
+            )
+        } else {
+            String::new()
+        };
         let beyond = if self.extrapolation_scale_ppm > 0.0 {
             format!(
-                "{:.3e} and {:.0} ppm of the output per trained width beyond the range",
+                "{:.3e} and {:.0} ppm of the output per trained width beyond the range{share}",
                 self.extrapolation_std, self.extrapolation_scale_ppm
             )
         } else {
             format!(
-                "{:.3e} per trained width beyond the range",
+                "{:.3e} per trained width beyond the range{share}",
                 self.extrapolation_std
             )
         };

@@ -5,6 +5,7 @@ use firmware_core::model::Conditions;
 
 use super::terms::calibrate;
 use super::{Calibration, Prior, Residual, ResidualSource, SampleNoise, Series};
+use crate::analysis::beyond::BeyondChoice;
 use crate::data::points::Points;
 use crate::firmware::export;
 use crate::models::gp::{GpConfig, GpError, GpModel};
@@ -12,13 +13,25 @@ use crate::models::normalize::Sorted;
 
 /// The σ of a model fitted on a rate table alone: its groups (or points) left out
 /// ([`table_series`]), and the points' own noise as a point's; what they cannot show, the
-/// model's [`Prior`].
-pub fn table_calibration(points: &Points, model: &GpModel) -> Result<Calibration, GpError> {
+/// model's [`Prior`], for the rule its blob ships beyond the range where `beyond` gives it
+/// ([`Prior::for_rule`]; `None`: holding's miss, as a model asked beyond its range with no blob
+/// is assumed to).
+pub fn table_calibration(
+    points: &Points,
+    model: &GpModel,
+    beyond: Option<&BeyondChoice>,
+) -> Result<Calibration, GpError> {
     Ok(calibrate(
         &[table_series(model, points)?],
         table_noise(points, model),
-        Prior::of(model, points),
+        prior(model, points, beyond),
     ))
+}
+
+/// The [`Prior`] of `model` fitted on `points`, for `beyond`'s rule where it is given.
+fn prior(model: &GpModel, points: &Points, beyond: Option<&BeyondChoice>) -> Prior {
+    let prior = Prior::of(model, points);
+    beyond.map_or(prior, |b| prior.for_rule(b))
 }
 
 /// The σ of a model fitted with `cfg` on `points` of several power-ons pooled: as
@@ -29,10 +42,11 @@ pub fn pooled_calibration(
     points: &Points,
     model: &GpModel,
     cfg: &GpConfig,
+    beyond: Option<&BeyondChoice>,
 ) -> Result<Calibration, GpError> {
     let runs = points.run_members();
     if runs.len() < 2 || model.sparse.is_none() {
-        return table_calibration(points, model);
+        return table_calibration(points, model, beyond);
     }
     let target = points.target();
     let mut loo = vec![(0.0, 0.0); points.len()];
@@ -51,7 +65,7 @@ pub fn pooled_calibration(
     Ok(calibrate(
         &[series_of(points, ResidualSource::Runs, &runs, &loo)],
         table_noise(points, model),
-        Prior::of(model, points),
+        prior(model, points, beyond),
     ))
 }
 

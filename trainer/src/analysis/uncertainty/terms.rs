@@ -77,8 +77,10 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let mut c = c.map(|v| v * inflation);
     let mut assumed = Vec::new();
     let mut extrapolation_scale = 0.0;
+    let mut extrapolation_share = 1.0;
     if !seen[EXTRAPOLATION] && prior.extrapolation_var > 0.0 {
         (c[EXTRAPOLATION], extrapolation_scale) = prior.extrapolation_parts;
+        extrapolation_share = prior.rule_share;
         assumed.push(TERM_NAMES[EXTRAPOLATION]);
     }
     let runs = all.iter().any(|(_, run)| *run);
@@ -112,6 +114,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         table_floor_std: (runs && seen[0]).then(|| c[0].sqrt()),
         extrapolation_std: c[2].sqrt(),
         extrapolation_scale_ppm: extrapolation_scale.sqrt() * 1e6,
+        extrapolation_share,
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,

@@ -99,13 +99,17 @@ fn few_correlated_residuals_widen_the_sigma() {
     assert!(c.inflation > 2.0, "{c:?}");
 }
 
+/// An assumed floor, and a growth beyond the range with a part in proportion to the output.
+const PRIOR: Prior = Prior {
+    floor_var: 4e-6,
+    extrapolation_var: 9e-4,
+    extrapolation_parts: (5e-4, 2e-7),
+    rule_share: 1.0,
+};
+
 #[test]
 fn what_the_residuals_cannot_show_is_assumed_never_zero() {
-    let prior = Prior {
-        floor_var: 4e-6,
-        extrapolation_var: 9e-4,
-        extrapolation_parts: (5e-4, 2e-7),
-    };
+    let prior = PRIOR;
     let noise = SampleNoise {
         var: 1.0,
         interval_s: 1.0,
@@ -140,6 +144,48 @@ fn what_the_residuals_cannot_show_is_assumed_never_zero() {
 }
 
 #[test]
+fn the_assumed_growth_is_the_share_of_holdings_miss_the_rule_shipped_missed() {
+    use crate::analysis::beyond::BeyondChoice;
+    use firmware_core::blob::Beyond;
+    let prior = PRIOR;
+    let tested = |rule, rmse| BeyondChoice {
+        rule,
+        inside_c: Some((10.0, 30.0)),
+        scored: 8,
+        rmse,
+        verdict: String::new(),
+    };
+    // The tangent missed a quarter of what holding missed beyond the inner fit: a sixteenth of
+    // the variance, both parts.
+    let p = prior.for_rule(&tested(Beyond::Tangent, Some([0.4, 0.1, 0.2])));
+    assert_eq!(p.rule_share, 0.25);
+    assert_eq!(p.extrapolation_var, 9e-4 / 16.0);
+    assert_eq!(p.extrapolation_parts, (5e-4 / 16.0, 2e-7 / 16.0));
+    assert_eq!(p.floor_var, 4e-6);
+    let c = calibrate(
+        &[],
+        SampleNoise {
+            var: 1.0,
+            interval_s: 1.0,
+        },
+        p,
+    );
+    assert_eq!(c.extrapolation_share, 0.25);
+    assert_eq!(c.error_model.extrapolation_var, 5e-4 / 16.0);
+    assert!(c.describe("°/s").contains("× 0.25: the rule shipped"));
+    // Held; a rule not tested (asked for, or too few points); a rule that missed more (asked for
+    // against the test); a test that gave no number: holding's miss as it is, never wider.
+    for choice in [
+        tested(Beyond::Hold, Some([0.4, 0.1, 0.2])),
+        tested(Beyond::Follow, None),
+        tested(Beyond::Follow, Some([0.4, 0.1, 0.8])),
+        tested(Beyond::Tangent, Some([0.0, 0.0, 0.2])),
+    ] {
+        assert_eq!(prior.for_rule(&choice), prior, "{:?}", choice.rmse);
+    }
+}
+
+#[test]
 fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     // A warm-up's temperature split: hundreds of residuals, all within a tenth of a width of the
     // range, none larger there. A growth of the prior's size (0.03 per width) would add 1e-5 to
@@ -148,6 +194,7 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
         floor_var: 0.0,
         extrapolation_var: 9e-4,
         extrapolation_parts: (9e-4, 0.0),
+        rule_share: 1.0,
     };
     let noise = SampleNoise {
         var: 1.0,

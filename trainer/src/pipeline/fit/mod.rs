@@ -20,6 +20,7 @@ use fog_data::channels::Channels;
 use fog_data::replay::HostModel;
 use fog_data::stream::Stream;
 
+use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget::{self, Budget};
 use crate::analysis::capacity;
 use crate::analysis::diagnose::causes_text;
@@ -234,11 +235,14 @@ impl FitPlan {
             summary.extension = Some(ExtensionReport::Table(extension.clone()));
             summary.features = Inputs::Firmware(firmware.features().to_vec());
         }
+        // Chosen first: the σ assumed beyond the range is what the rule misses there.
+        let beyond = self.service.beyond(&points, &gp);
         let shipped = match streams {
             [(path, data)] => self.on_stream(
                 (path, data),
                 (&points, &model, &firmware, &gp),
                 &static_blob,
+                &beyond,
                 &mut summary,
                 messages,
             )?,
@@ -248,11 +252,10 @@ impl FitPlan {
             Some(s) => s,
             None => (
                 static_blob.clone(),
-                uncertainty::tables::pooled_calibration(&points, &model, &gp)?,
+                uncertainty::tables::pooled_calibration(&points, &model, &gp, Some(&beyond))?,
                 None,
             ),
         };
-        let beyond = self.service.beyond(&points, &gp);
         messages.result(&format!("beyond the trained range: {}", beyond.verdict));
         blob = self.service.apply(&blob, &mut calibration, beyond.rule)?;
         summary.beyond = Some(beyond);
@@ -417,14 +420,16 @@ impl FitPlan {
 
     /// With one stream: the extension it calls for (or was asked for) where it wins its forward
     /// check, and the σ of what ships, calibrated on the stream's own splits. The blob, its
-    /// agreement and its calibration; `None` where the stream gives no splits to calibrate on (a
-    /// pooled fit not extended), so the table's calibration stands.
+    /// agreement and its calibration (its σ beyond the range for the rule `beyond`); `None` where
+    /// the stream gives no splits to calibrate on (a pooled fit not extended), so the table's
+    /// calibration stands.
     #[allow(clippy::type_complexity)]
     fn on_stream(
         &self,
         (path, data): (&Path, &Stream),
         (points, model, firmware, gp): (&Points, &GpModel, &HostModel, &GpConfig),
         static_blob: &[u8],
+        beyond: &BeyondChoice,
         summary: &mut FitReport,
         messages: &dyn Messages,
     ) -> anyhow::Result<Option<(Vec<u8>, Calibration, Option<(GpModel, Extension)>)>> {
@@ -501,8 +506,14 @@ impl FitPlan {
         let Some(splits) = choice.as_ref().map(|c| &c.splits).or(splits.as_ref()) else {
             return Ok(None);
         };
-        let calibration =
-            investigate::calibrate(points, model, static_blob, &blob, kind, data, splits)?;
+        let calibration = investigate::calibrate(
+            (points, model, static_blob),
+            &blob,
+            kind,
+            data,
+            splits,
+            beyond,
+        )?;
         Ok(Some((blob, calibration, exported_from)))
     }
 }
