@@ -358,7 +358,7 @@ class Calibration(Record):
     """The assumed prior's part in proportion to the output: ppm of the output one trained width beyond the range (0 where the extrapolation term is fitted, or the training outputs barely move)."""
 
     extrapolation_share: float
-    """Where the extrapolation term is assumed: the share of holding's miss that the rule shipped beyond the range missed on the training points beyond an inner fit, which scaled it ([`Prior::for_rule`]); 1 where it is fitted, or the points could not test the rule."""
+    """Where the extrapolation term is assumed: the share of holding's miss that the rule shipped beyond the range missed on the training points beyond an inner fit, widened for their number, which scaled it ([`Prior::for_rule`]); 1 where the term is fitted or zero, or the rule is `hold`, was asked for or could not be tested."""
 
     extrapolation_std: float
     """√c_x: model error one trained width beyond the range, output units (where the prior is assumed, its part alike at every output)."""

@@ -60,6 +60,16 @@ pub fn name(rule: Beyond) -> &'static str {
 }
 
 impl BeyondChoice {
+    /// The share of holding's miss the rule chosen missed on the points beyond the inner fit:
+    /// `None` where the rule was not tested (asked for, or too few or too many points) or the
+    /// test gave no positive, finite ratio.
+    pub fn share(&self) -> Option<f64> {
+        let rmse = self.rmse?;
+        let k = RULES.iter().position(|r| *r == self.rule)?;
+        let share = rmse[k] / rmse[0];
+        (share.is_finite() && share > 0.0).then(|| share.min(1.0))
+    }
+
     fn hold(verdict: String) -> Self {
         Self {
             rule: Beyond::Hold,

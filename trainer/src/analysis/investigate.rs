@@ -118,9 +118,10 @@ pub struct Choice {
 /// for it, in hours since power-on. The sample noise is the white part of `shipped_blob`'s errors
 /// on the training stream. What the data cannot show beyond the range is assumed for the rule
 /// `beyond` ships ([`uncertainty::Prior::for_rule`]). The splits are scored as their blobs
-/// export, the GP followed beyond the range: scored held, a simulated warm-up's temperature split
-/// showed holding's miss at ±80 °/s, and the term fitted there, one number for every rate, made
-/// the σ 8× too wide at low rates on a colder day.
+/// export, the GP followed beyond the range, whatever rule ships: scored held, the simulated
+/// warm-up of docs/uncertainty.md ("The mean beyond the trained range") showed holding's miss at
+/// ±80 °/s in its temperature split, and the term fitted there, one number for every rate, made
+/// its σ 8.4× its RMS error on the colder day (1.23 so).
 pub fn calibrate(
     (points, static_model, static_blob): (&Points, &GpModel, &[u8]),
     shipped_blob: &[u8],

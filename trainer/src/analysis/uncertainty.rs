@@ -40,10 +40,13 @@
 //! temperatures fitted, or those there cannot tell a growth of the prior's size from none (under
 //! two standard errors of its estimate, the other terms held at their fit), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
-//! edge beyond it, the firmware misses that change per width; continued, it misses what the curve
-//! does besides): its temperature slope at the points it was fitted on, as an RMS, times the width,
-//! told apart by the points' reference rates into a part alike at every output and one in
-//! proportion to it ([`split_by_output`]): a gyro's scale factor drifts with temperature too.
+//! edge beyond it, the firmware misses that change per width): its temperature slope at the points
+//! it was fitted on, as an RMS, times the width, told apart by the points' reference rates into a
+//! part alike at every output and one in proportion to it ([`split_by_output`]): a gyro's scale
+//! factor drifts with temperature too. Where the mean follows a tangent or the GP beyond the range
+//! instead, chosen because it missed less than holding on the training points beyond an inner
+//! fit, the term is scaled by the share it missed there ([`Prior::for_rule`]); the residuals'
+//! test of it then asks about that smaller growth.
 //! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
 //! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Each assumed term is named in the
@@ -61,7 +64,6 @@ use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::GpModel;
 use firmware_core::Feature;
-use firmware_core::blob::Beyond;
 
 pub mod streams;
 pub mod tables;
@@ -280,8 +282,9 @@ pub struct Calibration {
     /// barely move).
     pub extrapolation_scale_ppm: f64,
     /// Where the extrapolation term is assumed: the share of holding's miss that the rule shipped
-    /// beyond the range missed on the training points beyond an inner fit, which scaled it
-    /// ([`Prior::for_rule`]); 1 where it is fitted, or the points could not test the rule.
+    /// beyond the range missed on the training points beyond an inner fit, widened for their
+    /// number, which scaled it ([`Prior::for_rule`]); 1 where the term is fitted or zero, or the
+    /// rule is `hold`, was asked for or could not be tested.
     pub extrapolation_share: f64,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,
@@ -330,7 +333,8 @@ pub struct Prior {
     /// the fewest degrees of freedom.
     pub floor_var: f64,
     /// Model error per trained width beyond the range, squared: the model's change over one width
-    /// of a temperature input, at its temperature slope where its points are (RMS), squared.
+    /// of a temperature input, at its temperature slope where its points are (RMS), squared
+    /// (holding's miss; × `rule_share`² for another rule, [`Prior::for_rule`]).
     pub extrapolation_var: f64,
     /// The same change told apart into a part alike at every output (`.0`, output units²) and one
     /// in proportion to it (`.1`, relative²): at output y the prior's growth per width² is
@@ -338,8 +342,9 @@ pub struct Prior {
     /// `(extrapolation_var, 0)` where the points' outputs barely move.
     pub extrapolation_parts: (f64, f64),
     /// The share of holding's miss the rule shipped beyond the range missed where the training
-    /// points could test it ([`Prior::for_rule`]), 1 where they could not: the extrapolation
-    /// parts are scaled by its square.
+    /// points could test it, widened for their number ([`Prior::for_rule`]); 1 where the rule is
+    /// `hold`, was asked for, or could not be tested: the extrapolation parts are scaled by its
+    /// square.
     pub rule_share: f64,
 }
 
@@ -425,30 +430,24 @@ impl Prior {
     /// The prior of a blob whose mean follows `beyond`'s rule past the range. What [`Prior::of`]
     /// measures is what holding the inputs at the edge misses; where the rule was tested on the
     /// training points beyond a fit on their inner temperatures (`analysis::beyond`) and the rule
-    /// shipped missed a share k of what holding missed there, the extrapolation parts are scaled
-    /// by k² (never up: a rule that missed more would not ship). The test reaches a third of a
-    /// width beyond its fit; a tangent's or the GP's miss grows faster with the distance than
-    /// holding's, so far beyond, the share is a measurement taken nearer in.
+    /// shipped missed a share k of what holding missed there ([`BeyondChoice::share`]), the
+    /// extrapolation parts are scaled by k², widened by the small-sample factor of the points
+    /// that measured it (module doc), never up: a rule that missed more would not ship. The test
+    /// reaches a third of a width beyond its fit; a tangent's or the GP's miss grows faster with
+    /// the distance than holding's, so far beyond, the share is a measurement taken nearer in.
     pub fn for_rule(self, beyond: &BeyondChoice) -> Self {
-        let held = |rmse: [f64; 3]| rmse[0];
-        let shipped = |rmse: [f64; 3]| match beyond.rule {
-            Beyond::Hold => rmse[0],
-            Beyond::Tangent => rmse[1],
-            Beyond::Follow => rmse[2],
+        let Some(share) = beyond.share() else {
+            return self;
         };
-        let share = beyond
-            .rmse
-            .map(|r| shipped(r) / held(r))
-            .filter(|k| k.is_finite())
-            .map_or(1.0, |k| k.clamp(0.0, 1.0));
-        let k2 = share * share;
+        let dof = (beyond.scored as f64 - 1.0).max(MIN_DOF);
+        let k2 = (share * share * small_sample_factor(dof)).min(1.0);
         Self {
             extrapolation_var: self.extrapolation_var * k2,
             extrapolation_parts: (
                 self.extrapolation_parts.0 * k2,
                 self.extrapolation_parts.1 * k2,
             ),
-            rule_share: share,
+            rule_share: k2.sqrt(),
             ..self
         }
     }
@@ -560,7 +559,11 @@ impl Calibration {
             table_floor_std: None,
             extrapolation_std: prior.extrapolation_parts.0.sqrt(),
             extrapolation_scale_ppm: prior.extrapolation_parts.1.sqrt() * 1e6,
-            extrapolation_share: prior.rule_share,
+            extrapolation_share: if prior.extrapolation_var > 0.0 {
+                prior.rule_share
+            } else {
+                1.0
+            },
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
@@ -695,8 +698,8 @@ impl Calibration {
     fn describe_terms(&self, units: &str) -> String {
         let share = if self.extrapolation_share < 1.0 {
             format!(
-                " (× {:.2}: the rule shipped missed that share of holding's miss beyond an inner \
-                 fit)",
+                " (× {:.2}: the share of holding's miss the rule shipped missed beyond an inner \
+                 fit, widened for its points)",
                 self.extrapolation_share
             )
         } else {

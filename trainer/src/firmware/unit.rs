@@ -294,6 +294,7 @@ mod tests {
         let new = include_bytes!("../../../firmware-core/doc/imu.bin");
         let new = channel_blobs(new).unwrap();
         let mut scratch = vec![0.0f32; 256];
+        let mut v6_terms = Vec::new();
         for (old, format) in [
             (
                 &include_bytes!("../../../firmware-core/doc/imu-v2.bin")[..],
@@ -306,16 +307,23 @@ mod tests {
         ] {
             let old = channel_blobs(old).unwrap();
             assert_eq!(old.len(), 6);
-            for ((name, _, a), (_, _, b)) in old.iter().zip(&new) {
+            for (i, ((name, _, a), (_, _, b))) in old.iter().zip(&new).enumerate() {
                 let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
                 assert_eq!((version(a), version(b)), (format, FORMAT_VERSION), "{name}");
                 let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
                 // The same fit's error model, but for the extrapolation term assumed: since
-                // scaled for the rule shipped beyond the range (`Prior::for_rule`), never up.
+                // scaled for the rule shipped beyond the range (`Prior::for_rule`), never up. The
+                // older formats read it alike.
                 let (ea, eb) = (a.error_model(), b.error_model());
+                if format == V6 {
+                    v6_terms.push(ea.extrapolation_var);
+                } else {
+                    assert_eq!(ea.extrapolation_var, v6_terms[i], "{name}");
+                }
                 assert!(eb.extrapolation_var <= ea.extrapolation_var, "{name}");
                 let ea = firmware_core::ErrorModel {
                     extrapolation_var: eb.extrapolation_var,
+                    extrapolation_scale_var: eb.extrapolation_scale_var,
                     ..ea
                 };
                 assert_eq!(ea, eb, "{name}");

@@ -14,8 +14,7 @@ use crate::models::normalize::Sorted;
 /// The σ of a model fitted on a rate table alone: its groups (or points) left out
 /// ([`table_series`]), and the points' own noise as a point's; what they cannot show, the
 /// model's [`Prior`], for the rule its blob ships beyond the range where `beyond` gives it
-/// ([`Prior::for_rule`]; `None`: holding's miss, as a model asked beyond its range with no blob
-/// is assumed to).
+/// ([`Prior::for_rule`]; `None`, for `loo`, which ships no blob: holding's miss, unscaled).
 pub fn table_calibration(
     points: &Points,
     model: &GpModel,

@@ -148,20 +148,26 @@ fn the_assumed_growth_is_the_share_of_holdings_miss_the_rule_shipped_missed() {
     use crate::analysis::beyond::BeyondChoice;
     use firmware_core::blob::Beyond;
     let prior = PRIOR;
-    let tested = |rule, rmse| BeyondChoice {
+    let tested = |rule, scored, rmse| BeyondChoice {
         rule,
         inside_c: Some((10.0, 30.0)),
-        scored: 8,
+        scored,
         rmse,
         verdict: String::new(),
     };
-    // The tangent missed a quarter of what holding missed beyond the inner fit: a sixteenth of
-    // the variance, both parts.
-    let p = prior.for_rule(&tested(Beyond::Tangent, Some([0.4, 0.1, 0.2])));
-    assert_eq!(p.rule_share, 0.25);
-    assert_eq!(p.extrapolation_var, 9e-4 / 16.0);
-    assert_eq!(p.extrapolation_parts, (5e-4 / 16.0, 2e-7 / 16.0));
+    // The tangent missed a quarter of what holding missed on 8 points beyond the inner fit: a
+    // sixteenth of the variance, widened for 7 degrees of freedom; both parts alike.
+    let p = prior.for_rule(&tested(Beyond::Tangent, 8, Some([0.4, 0.1, 0.2])));
+    let k2 = 0.0625 * small_sample_factor(7.0);
+    assert!((p.rule_share - k2.sqrt()).abs() < 1e-12, "{p:?}");
+    assert!(p.rule_share > 0.25 && p.rule_share < 0.35, "{p:?}");
+    assert!((p.extrapolation_var - 9e-4 * k2).abs() < 1e-15, "{p:?}");
+    assert!((p.extrapolation_parts.0 - 5e-4 * k2).abs() < 1e-15, "{p:?}");
+    assert!((p.extrapolation_parts.1 - 2e-7 * k2).abs() < 1e-18, "{p:?}");
     assert_eq!(p.floor_var, 4e-6);
+    // Fewer points, less narrowing.
+    let few = prior.for_rule(&tested(Beyond::Tangent, 4, Some([0.4, 0.1, 0.2])));
+    assert!(few.rule_share > p.rule_share, "{few:?}");
     let c = calibrate(
         &[],
         SampleNoise {
@@ -170,16 +176,21 @@ fn the_assumed_growth_is_the_share_of_holdings_miss_the_rule_shipped_missed() {
         },
         p,
     );
-    assert_eq!(c.extrapolation_share, 0.25);
-    assert_eq!(c.error_model.extrapolation_var, 5e-4 / 16.0);
-    assert!(c.describe("°/s").contains("× 0.25: the rule shipped"));
+    assert_eq!(c.extrapolation_share, p.rule_share);
+    assert_eq!(c.error_model.extrapolation_var, (5e-4 * k2) as f32);
+    assert!(
+        c.describe("°/s")
+            .contains("the share of holding's miss the rule shipped missed")
+    );
     // Held; a rule not tested (asked for, or too few points); a rule that missed more (asked for
-    // against the test); a test that gave no number: holding's miss as it is, never wider.
+    // against the test); a test that gave no number; a share the few points widen past 1:
+    // holding's miss as it is, never wider.
     for choice in [
-        tested(Beyond::Hold, Some([0.4, 0.1, 0.2])),
-        tested(Beyond::Follow, None),
-        tested(Beyond::Follow, Some([0.4, 0.1, 0.8])),
-        tested(Beyond::Tangent, Some([0.0, 0.0, 0.2])),
+        tested(Beyond::Hold, 8, Some([0.4, 0.1, 0.2])),
+        tested(Beyond::Follow, 0, None),
+        tested(Beyond::Follow, 8, Some([0.4, 0.1, 0.8])),
+        tested(Beyond::Tangent, 8, Some([0.0, 0.0, 0.2])),
+        tested(Beyond::Follow, 4, Some([0.4, 0.1, 0.36])),
     ] {
         assert_eq!(prior.for_rule(&choice), prior, "{:?}", choice.rmse);
     }
