@@ -64,6 +64,7 @@ use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::GpModel;
 use firmware_core::Feature;
+use firmware_core::blob::Beyond;
 
 pub mod streams;
 pub mod tables;
@@ -346,6 +347,10 @@ pub struct Prior {
     /// `hold`, was asked for, or could not be tested: the extrapolation parts are scaled by its
     /// square.
     pub rule_share: f64,
+    /// Whether the blob's mean follows the GP beyond the range, as every residual is scored
+    /// (a split's blob as exported, a table's left-out point by the GP): only then is an
+    /// extrapolation term fitted on them a measure of its miss there ([`Prior::for_rule`]).
+    pub follows: bool,
 }
 
 impl Prior {
@@ -356,6 +361,7 @@ impl Prior {
         extrapolation_var: 0.0,
         extrapolation_parts: (0.0, 0.0),
         rule_share: 1.0,
+        follows: true,
     };
 
     /// The prior of `model` fitted on `points` (module doc): its temperature slope at each
@@ -424,6 +430,7 @@ impl Prior {
             extrapolation_var,
             extrapolation_parts,
             rule_share: 1.0,
+            follows: true,
         }
     }
 
@@ -435,9 +442,12 @@ impl Prior {
     /// that measured it (module doc), never up: a rule that missed more would not ship. The test
     /// reaches a third of a width beyond its fit; a tangent's or the GP's miss grows faster with
     /// the distance than holding's, so far beyond, the share is a measurement taken nearer in.
+    /// Under another rule than `follow`, the residuals, scored as the GP follows, do not measure
+    /// the rule's miss beyond the range: the term is this prior ([`Prior::follows`]).
     pub fn for_rule(self, beyond: &BeyondChoice) -> Self {
+        let follows = beyond.rule == Beyond::Follow;
         let Some(share) = beyond.share() else {
-            return self;
+            return Self { follows, ..self };
         };
         let dof = (beyond.scored as f64 - 1.0).max(MIN_DOF);
         let k2 = (share * share * small_sample_factor(dof)).min(1.0);
@@ -448,6 +458,7 @@ impl Prior {
                 self.extrapolation_parts.1 * k2,
             ),
             rule_share: k2.sqrt(),
+            follows,
             ..self
         }
     }

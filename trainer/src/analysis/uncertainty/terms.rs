@@ -55,8 +55,12 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // The extrapolation term is fitted where the residuals reach beyond the range; it is used
     // wherever a sample does, often many widths further. Residuals that cannot tell a growth of
     // the prior's size (its mean over the training points, whatever its split by the output)
-    // from none abstain, and the prior is assumed.
-    if seen[EXTRAPOLATION] && !extrapolation_shows(series, &c, prior.extrapolation_var) {
+    // from none abstain, and the prior is assumed; so do residuals scored under another rule
+    // beyond the range than the blob's (they follow the GP there).
+    let other_rule = !prior.follows && prior.extrapolation_var > 0.0;
+    if seen[EXTRAPOLATION]
+        && (other_rule || !extrapolation_shows(series, &c, prior.extrapolation_var))
+    {
         seen[EXTRAPOLATION] = false;
         c = maximum_likelihood(&all, &seen);
     }

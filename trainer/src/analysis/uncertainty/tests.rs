@@ -105,6 +105,7 @@ const PRIOR: Prior = Prior {
     extrapolation_var: 9e-4,
     extrapolation_parts: (5e-4, 2e-7),
     rule_share: 1.0,
+    follows: true,
 };
 
 #[test]
@@ -192,8 +193,15 @@ fn the_assumed_growth_is_the_share_of_holdings_miss_the_rule_shipped_missed() {
         tested(Beyond::Tangent, 8, Some([0.0, 0.0, 0.2])),
         tested(Beyond::Follow, 4, Some([0.4, 0.1, 0.36])),
     ] {
-        assert_eq!(prior.for_rule(&choice), prior, "{:?}", choice.rmse);
+        let follows = choice.rule == Beyond::Follow;
+        assert_eq!(
+            prior.for_rule(&choice),
+            Prior { follows, ..prior },
+            "{:?}",
+            choice.rmse
+        );
     }
+    assert!(!p.follows && !prior.for_rule(&tested(Beyond::Hold, 0, None)).follows);
 }
 
 #[test]
@@ -206,6 +214,7 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
         extrapolation_var: 9e-4,
         extrapolation_parts: (9e-4, 0.0),
         rule_share: 1.0,
+        follows: true,
     };
     let noise = SampleNoise {
         var: 1.0,
@@ -231,6 +240,15 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     assert!(c.error_model.extrapolation_var < 9e-4, "{c:?}");
     assert!(c.assumed.is_empty(), "{c:?}");
     assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    // But they were scored as the GP follows beyond the range: for a blob that holds there they
+    // say nothing of its miss, and the prior is assumed.
+    let held = Prior {
+        follows: false,
+        ..prior
+    };
+    let c = calibrate(&near(2.0), noise, held);
+    assert_eq!(c.error_model.extrapolation_var, 9e-4, "{c:?}");
+    assert_eq!(c.assumed, vec!["extrapolation"]);
 }
 
 #[test]
