@@ -38,7 +38,8 @@
 //! warm-up has no forward split), the floor is the GP's own noise level on its points inflated by
 //! the small-sample factor at the fewest degrees of freedom; where no residual lies beyond the
 //! temperatures fitted, or those there cannot tell a growth of the prior's size from none (under
-//! two standard errors of its estimate, the other terms held at their fit), the extrapolation term
+//! two standard errors of its estimate, the other terms held at their fit), or the blob does not
+//! follow the GP beyond the range as they were scored ([`Prior::follows`]), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
 //! edge beyond it, the firmware misses that change per width): its temperature slope at the points
 //! it was fitted on, as an RMS, times the width, told apart by the points' reference rates into a
