@@ -46,8 +46,8 @@
 //! part alike at every output and one in proportion to it ([`split_by_output`]): a gyro's scale
 //! factor drifts with temperature too. Where the mean follows a tangent or the GP beyond the range
 //! instead, chosen because it missed less than holding on the training points beyond an inner
-//! fit, the term is scaled by the share it missed there ([`Prior::for_rule`]); the residuals'
-//! test of it then asks about that smaller growth.
+//! fit, the term is scaled by the share it missed there ([`Prior::for_rule`]); under `follow`,
+//! the residuals' test of it then asks about that smaller growth.
 //! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
 //! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Each assumed term is named in the
@@ -444,7 +444,8 @@ impl Prior {
     /// reaches a third of a width beyond its fit; a tangent's or the GP's miss grows faster with
     /// the distance than holding's, so far beyond, the share is a measurement taken nearer in.
     /// Under another rule than `follow`, the residuals, scored as the GP follows, do not measure
-    /// the rule's miss beyond the range: the term is this prior ([`Prior::follows`]).
+    /// the rule's miss beyond the range: the term is this prior, where there is one
+    /// ([`Prior::follows`]).
     pub fn for_rule(self, beyond: &BeyondChoice) -> Self {
         let follows = beyond.rule == Beyond::Follow;
         let Some(share) = beyond.share() else {

@@ -249,6 +249,15 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     let c = calibrate(&near(2.0), noise, held);
     assert_eq!(c.error_model.extrapolation_var, 9e-4, "{c:?}");
     assert_eq!(c.assumed, vec!["extrapolation"]);
+    assert!(!c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    // With no prior to assume (a model without a temperature input), the term fitted stands.
+    let none = Prior {
+        follows: false,
+        ..Prior::NONE
+    };
+    let c = calibrate(&near(2.0), noise, none);
+    assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    assert!(c.assumed.is_empty(), "{c:?}");
 }
 
 #[test]
