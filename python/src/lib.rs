@@ -10,6 +10,8 @@ mod models;
 
 use pyo3::prelude::*;
 
+/// The trainer's own allocator (`trainer/src/main.rs`), so that a fit from Python runs as
+/// `trainer fit` does.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

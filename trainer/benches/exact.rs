@@ -16,6 +16,11 @@ use trainer::models::gp::exact::lml_and_gradient;
 use trainer::models::gp::{GpConfig, GpModel, Inducing, Prepared};
 use trainer::models::prior::MeanBasis;
 
+/// The trainer's own allocator (`trainer/src/main.rs`), so that the fits timed here are the ones
+/// `trainer fit` runs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The table at size `n`, as the model's inputs (T, V) and target (rate).
 fn table(n: usize) -> (DMatrix<f64>, DVector<f64>) {
     let params = GyroParams::nominal();

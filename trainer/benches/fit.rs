@@ -10,6 +10,11 @@ use trainer::models::gp::exact::lml_and_gradient;
 use trainer::models::gp::{GpConfig, GpModel, Prepared};
 use trainer::models::lssvr::LssvrModel;
 
+/// The trainer's own allocator (`trainer/src/main.rs`), so that the fits timed here are the ones
+/// `trainer fit` runs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn paper_like() -> (DMatrix<f64>, DVector<f64>) {
     let temps = [-30.0, -20.0, -10.0, -5.0, 0.0, 5.0, 10.0, 20.0, 40.0, 60.0];
     let rates = [

@@ -13,6 +13,11 @@ use trainer::models::gp::exact::lml_and_gradient;
 use trainer::models::gp::sparse;
 use trainer::models::gp::{GpConfig, GpModel, Inducing, Prepared};
 
+/// The trainer's own allocator (`trainer/src/main.rs`), so that the fits timed here are the ones
+/// `trainer fit` runs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// n samples of a 2-D function with structure at a length scale of about 0.3 (normalized), so
 /// that every inducing point up to 128 is used.
 fn data(n: usize, seed: u64) -> (DMatrix<f64>, DVector<f64>) {

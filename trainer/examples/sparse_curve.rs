@@ -23,6 +23,11 @@ use trainer::data::points::Points;
 use trainer::firmware::export::{self, Extension};
 use trainer::models::gp::{GpConfig, GpModel, Inducing};
 
+/// The trainer's own allocator (`trainer/src/main.rs`), so that the fits timed here are the ones
+/// `trainer fit` runs.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Inducing points tried.
 const INDUCING: [usize; 7] = [8, 12, 16, 20, 24, 32, 64];
 /// Subset sizes of the exact GP: up to 2,000, past a comfortable fit (minutes), the size the

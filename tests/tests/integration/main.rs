@@ -19,10 +19,8 @@ mod unit;
 
 use std::path::{Path, PathBuf};
 
-/// The trainer's own allocator (its `main.rs` says why), so that the commands run here in process
-/// allocate as its binary does: with glibc's, the exact GP's n × n buffers went back to the kernel
-/// at every likelihood, and this binary spent 7 % more CPU (377 s against 353, one after the
-/// other).
+/// The trainer's own allocator (`trainer/src/main.rs`), so that the commands run here in process
+/// allocate as its binary does.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
