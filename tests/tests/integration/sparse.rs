@@ -273,3 +273,35 @@ fn a_constant_mean_that_no_sparse_size_holds_gives_way_to_the_default() {
         (&choice["mean"], &choice["chosen"])
     );
 }
+
+/// A stream too short to cut forward in time cannot check a pooled model: `fit` refuses it
+/// before fitting anything, with how many blocks it holds and how many the check needs.
+#[test]
+fn a_pooled_fit_that_cannot_be_checked_is_refused_before_fitting() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name| at(dir.path(), name);
+    sim(&["generate", "paper", "--seed", "7", "--out", &p("p.csv")]).unwrap();
+    let short = ["--design", "short", "--out", &p("s.csv")];
+    sim(&[&["generate", "stream", "--seed", "8"][..], &short].concat()).unwrap();
+    let e = run_trainer(&[
+        "fit",
+        "--points",
+        &p("p.csv"),
+        "--stream",
+        &p("s.csv"),
+        "--window",
+        "0:1200",
+        "--pool-stream",
+        "--out",
+        &p("x.bin"),
+        "-q",
+    ])
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(
+        e.contains("too short to check the pooled model forward in time: 20 blocks of 60 s")
+            && e.contains("38 needed (checked before fitting)"),
+        "{e}"
+    );
+    assert!(!dir.path().join("x.bin").exists());
+}

@@ -26,7 +26,7 @@ mod split;
 use check::forward_check;
 pub use check::{ForwardCheck, LegCheck, TemperatureCheck, vote};
 use split::{EARLIER_MIN_BLOCKS, LATER_MIN_BLOCKS};
-pub(crate) use split::{Forward, forward};
+pub(crate) use split::{FORWARD_MIN_BLOCKS, Forward, forward};
 pub use split::{Rebuild, Sight, Split, splits};
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.

@@ -16,7 +16,7 @@ use fog_data::stats::rms;
 use fog_data::stream::Stream;
 use serde::Serialize;
 
-use crate::analysis::investigate::{Forward, forward};
+use crate::analysis::investigate::{FORWARD_MIN_BLOCKS, Forward, forward};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpError, GpModel, Hyperparameters};
@@ -58,8 +58,16 @@ pub struct PoolCheck {
 #[derive(Debug, thiserror::Error)]
 pub enum PoolError {
     /// A stream too short to cut forward in time.
-    #[error("{0}: too short to check the pooled model forward in time")]
-    TooShort(String),
+    #[error(
+        "{path}: too short to check the pooled model forward in time: {blocks} blocks of 60 s \
+         with a reference rate, {FORWARD_MIN_BLOCKS} needed (checked before fitting)"
+    )]
+    TooShort {
+        /// The stream's file.
+        path: String,
+        /// Its 60 s blocks with a reference rate.
+        blocks: usize,
+    },
     /// Building the pooled points.
     #[error(transparent)]
     Points(#[from] crate::data::points::PointsError),
@@ -74,24 +82,36 @@ pub enum PoolError {
     Blob(#[from] firmware_core::BlobError),
 }
 
-/// Checks pooling `streams` with `table` forward in time. `fit` fits a static model as the
-/// caller ships one; `table_model` is its fit on `table` alone.
-pub fn check(
+/// Every stream of `streams` cut forward in time, or the error of the first too short to cut:
+/// `fit` cuts them before fitting anything, so that a pooled fit it could not check is refused
+/// at once, and [`check`] scores on these cuts.
+pub(crate) fn forward_cuts(streams: &[(&Path, Stream)]) -> Result<Vec<Forward>, PoolError> {
+    streams
+        .iter()
+        .map(|(path, stream)| {
+            forward(stream).ok_or_else(|| PoolError::TooShort {
+                path: path.display().to_string(),
+                blocks: stream.half_filled_blocks(&stream.referenced()).len(),
+            })
+        })
+        .collect()
+}
+
+/// Checks pooling `streams` with `table` forward in time, on their `cuts` ([`forward_cuts`]).
+/// `fit` fits a static model as the caller ships one; `table_model` is its fit on `table` alone.
+pub(crate) fn check(
     table: &Points,
     table_model: &GpModel,
-    streams: &[(&Path, Stream)],
+    (streams, cuts): (&[(&Path, Stream)], &[Forward]),
     fit: &dyn Fn(&Points) -> Result<GpModel, GpError>,
 ) -> Result<PoolCheck, PoolError> {
-    let mut cuts: Vec<Forward> = Vec::new();
     let mut pooled = table.clone();
-    for (path, stream) in streams {
-        let cut = forward(stream).ok_or_else(|| PoolError::TooShort(path.display().to_string()))?;
+    for ((path, _), cut) in streams.iter().zip(cuts) {
         pooled = pooled.pooled(Points::from_stream_samples(
             path,
             &cut.early,
             table.scale_factor,
         )?)?;
-        cuts.push(cut);
     }
     let pooled_model = fit(&pooled)?;
     let score = |model: &GpModel, points: &Points| -> Result<f64, PoolError> {
@@ -99,7 +119,7 @@ pub fn check(
         let fw = replay::decode(&blob)?;
         // Blocks of every stream together: the squared block errors pool by their counts.
         let (mut sum, mut blocks) = (0.0, 0usize);
-        for cut in &cuts {
+        for cut in cuts {
             let e = replay::means(&fw, &cut.later).block_errors(&cut.later);
             sum += rms(&e).powi(2) * e.len() as f64;
             blocks += e.len();

@@ -27,6 +27,10 @@ pub(super) const LATER_MIN_BLOCKS: usize = 8;
 /// Share of the training stream's blocks the earlier part holds, when it is long enough.
 const EARLIER_SHARE: f64 = 2.0 / 3.0;
 
+/// Fewest 60 s blocks a stream cut forward in time holds: [`forward`] cuts every stream this
+/// long (its later part then holds at least [`LATER_MIN_BLOCKS`]) and no shorter one.
+pub(crate) const FORWARD_MIN_BLOCKS: usize = EARLIER_MIN_BLOCKS + LATER_MIN_BLOCKS;
+
 /// Share of the training stream's temperature span left out at each end by the temperature check
 /// ([`super::TemperatureCheck`]): a fifth of the span in all, as a wider cut leaves a 40-minute log fewer
 /// than the 30 blocks an extension needs inside.

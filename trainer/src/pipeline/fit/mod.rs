@@ -24,7 +24,7 @@ use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget::{self, Budget};
 use crate::analysis::capacity;
 use crate::analysis::diagnose::causes_text;
-use crate::analysis::investigate;
+use crate::analysis::investigate::{self, Forward};
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::{self, Calibration};
@@ -208,10 +208,17 @@ impl FitPlan {
         streams: &[(&Path, Stream)],
         messages: &dyn Messages,
     ) -> anyhow::Result<ChannelFit> {
+        // A pooled fit beside a table is checked on the streams cut forward in time: cut first,
+        // so that a stream too short to check is refused before anything is fitted.
+        let cuts = if self.pool && self.source.points.is_some() {
+            Some(pool::forward_cuts(streams)?)
+        } else {
+            None
+        };
         let points = self.source.static_points(streams, self.pool, messages)?;
         let (gp, centres_choice) = self.size(&points, messages)?;
         let (points, model, table, pool_check) =
-            self.static_model(points, &gp, streams, messages)?;
+            self.static_model(points, &gp, (streams, cuts), messages)?;
         log_starts(messages, &model);
         // Before the f32 check: a warning may explain why it refuses the blob.
         for w in model.warnings() {
@@ -350,14 +357,15 @@ impl FitPlan {
     }
 
     /// The static model on `points` (with a time-ordered table's transient terms where asked),
-    /// and, for a pooled fit beside a rate table, the check that decides which of the two ships:
-    /// the points and model that ship, the table's fit, and the check.
+    /// and, for a pooled fit beside a rate table (`cuts`: its streams cut forward in time), the
+    /// check that decides which of the two ships: the points and model that ship, the table's
+    /// fit, and the check.
     #[allow(clippy::type_complexity)]
     fn static_model(
         &self,
         points: Points,
         gp: &GpConfig,
-        streams: &[(&Path, Stream)],
+        (streams, cuts): (&[(&Path, Stream)], Option<Vec<Forward>>),
         messages: &dyn Messages,
     ) -> anyhow::Result<(Points, GpModel, Option<TableModel>, Option<PoolCheck>)> {
         let spinner = messages.busy(&match gp.inducing.count(points.len()) {
@@ -386,9 +394,9 @@ impl FitPlan {
             )?,
         };
         drop(spinner);
-        if !(self.pool && self.source.points.is_some()) {
+        let Some(cuts) = cuts else {
             return Ok((points, model, table, None));
-        }
+        };
         let spinner =
             messages.busy("checking the pooled model against the table's alone, forward in time");
         let table_points = self.source.static_points(&[], false, messages)?;
@@ -404,7 +412,7 @@ impl FitPlan {
             GpModel::fit_grouped(p.inputs(), &p.target(), &p.offset_groups(offsets), cfg)
         };
         let table_model = fit_static(&table_points)?;
-        let check = pool::check(&table_points, &table_model, streams, &fit_static)?;
+        let check = pool::check(&table_points, &table_model, (streams, &cuts), &fit_static)?;
         drop(spinner);
         Ok(match check.shipped {
             Pooling::Pooled => {
