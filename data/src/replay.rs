@@ -181,9 +181,17 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
 
 /// Walks `stream` sample by sample with one feature state, powered on again at each of its
 /// [`restarts`] as a gyro that stores the state at power-down would (`firmware_core::features`):
-/// the loop every replay of one model shares.
-fn walk(stream: &Stream, mut each: impl FnMut(usize, &Sample, &mut FeatureState)) {
+/// the loop every replay of one model shares. With `calibration_run`, the samples up to the first
+/// power cycle are of the power-on the model was calibrated on ([`FeatureState::calibration_run`]).
+fn walk(
+    stream: &Stream,
+    calibration_run: bool,
+    mut each: impl FnMut(usize, &Sample, &mut FeatureState),
+) {
     let mut state = FeatureState::default();
+    if calibration_run {
+        state.calibration_run();
+    }
     for (i, restart) in restarts(stream).into_iter().enumerate() {
         if restart {
             state.power_on();
@@ -193,9 +201,17 @@ fn walk(stream: &Stream, mut each: impl FnMut(usize, &Sample, &mut FeatureState)
 }
 
 /// Runs every sample through the firmware, its feature state kept through the power cycles at
-/// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`).
+/// [`restarts`] as a gyro that stores it at power-down would (`firmware_core::features`): as in
+/// service, every sample of another power-on than the calibration's.
 pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
-    replay_where(model, stream, &vec![true; stream.len()]).1
+    replay_run(model, stream, false)
+}
+
+/// [`replay`], where with `calibration_run` the stream is the power-on the model was calibrated on
+/// (the held-out part of its own log): up to its first power cycle the σ leaves out another
+/// power-on's bias and scale, as [`replay_unit`]'s `calibration_run` does.
+pub fn replay_run(model: &HostModel, stream: &Stream, calibration_run: bool) -> Compensated {
+    evaluate_where(model, stream, &vec![true; stream.len()], calibration_run).1
 }
 
 /// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
@@ -434,6 +450,17 @@ pub fn means(model: &HostModel, stream: &Stream) -> Means {
 /// prediction is the one [`replay`] gives; elsewhere the returned replay holds the mean path's
 /// rate and status with NaN variances.
 pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Means, Compensated) {
+    evaluate_where(model, stream, wanted, false)
+}
+
+/// [`replay_where`], the stream of the calibration's own power-on with `calibration_run`
+/// ([`replay_run`]).
+fn evaluate_where(
+    model: &HostModel,
+    stream: &Stream,
+    wanted: &[bool],
+    calibration_run: bool,
+) -> (Means, Compensated) {
     let n = stream.len();
     let mut means = Means {
         rate_dps: vec![0.0; n],
@@ -482,7 +509,7 @@ pub fn replay_where(model: &HostModel, stream: &Stream, wanted: &[bool]) -> (Mea
             batch.clear();
         }
     };
-    walk(stream, |i, sample, state| {
+    walk(stream, calibration_run, |i, sample, state| {
         let (at, batch) = &mut pending[usize::from(wanted.get(i).copied().unwrap_or(false))];
         at.push(i);
         batch.push(model.prepare(sample, state));

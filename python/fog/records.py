@@ -403,7 +403,7 @@ class Calibration(Record):
     """√c_d: drift of unknown rate, output units per h."""
 
     turn_on_std: float
-    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability` (0: not stated; where runs left out measured it, it is in the model error). The blob carries twice its variance: the calibration's power-on was a draw too."""
+    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
 
     walk_std_per_sqrt_h: float
     """√c_w: random walk, output units per √h."""
@@ -949,10 +949,16 @@ class CrossRun(Record):
     """The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null: none)."""
 
     sigma: Coverage | None
-    """The GP's σ there, its error model measured on the training run alone, with the scale factor's repeatability where `--scale-repeatability` states it (null for the methods that state no σ)."""
+    """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`, or assumed as `fit` assumes it) and the scale factor's repeatability where `--scale-repeatability` states it (null for the methods that state no σ)."""
 
     temp_range_c: list[float]
     """Shared temperature range, °C."""
+
+    turn_on_assumed: bool
+    """Whether `turn_on_std` is assumed (the difference of two power-ons as large as the model error's floor) rather than stated."""
+
+    turn_on_std: float | None
+    """Another power-on's bias stated in `sigma`, output units (`--repeatability`, or assumed: `turn_on_assumed`; 0 where the training runs left out measured it; null without a σ)."""
 
 
 class CubicFigures(Record):

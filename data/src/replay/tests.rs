@@ -124,7 +124,7 @@ fn samples_evaluated_side_by_side_are_those_of_one_at_a_time_bit_for_bit() {
     let model = decode(GYRO).unwrap();
     let mut scratch = vec![0.0f32; model.dims().m];
     let (mut alone, mut mean_path) = (Compensated::default(), Vec::new());
-    walk(&s, |_, sample, state| {
+    walk(&s, false, |_, sample, state| {
         mean_path.push(model.compensate_mean(sample, &mut state.clone()));
         alone.push(&model.compensate(sample, state, &mut scratch).unwrap());
     });

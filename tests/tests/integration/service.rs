@@ -36,11 +36,11 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     .unwrap();
     let calibration = &one(&fit)["calibration"];
     assert_eq!(calibration["residuals"], 0, "{calibration}");
-    // No residual to fit on, and a warm-up heats only: the floor, the growth beyond the range
-    // and the cooling leg are all assumed, and said.
+    // No residual to fit on, a warm-up heats only and it is one power-on: the floor, the growth
+    // beyond the range, the cooling leg and another power-on's bias are all assumed, and said.
     assert_eq!(
         calibration["assumed"],
-        serde_json::json!(["floor", "extrapolation", "leg"]),
+        serde_json::json!(["floor", "extrapolation", "leg", "turn-on"]),
         "{calibration}"
     );
     let replay = |model: &str, name: &str| {
@@ -251,11 +251,14 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     };
     let with_leg = cooling(&blob, "r.json");
     assert!((0.85..=0.99).contains(&with_leg), "{with_leg}");
-    // Its one channel's model, as a model blob of its own (still read), without the leg's term.
+    // Its one channel's model, as a model blob of its own (still read), without the leg's term
+    // and without another power-on's assumed bias: what the run's residuals alone state.
     let mut bytes = model_blob(&std::fs::read(&blob).unwrap());
     let fw = fog_data::replay::decode(&bytes).unwrap();
+    assert!(fw.error_model().turn_on_var > 0.0);
     let without = firmware_core::ErrorModel {
         leg_var: 0.0,
+        turn_on_var: 0.0,
         ..fw.error_model()
     };
     firmware_core::blob::set_error_model(&mut bytes, &without).unwrap();
@@ -301,6 +304,23 @@ fn a_calibration_on_several_power_ons_covers_another() {
         one(&out)["sigma_60s"].clone()
     };
     let within = |s: serde_json::Value| s["within_2sigma"].as_f64().unwrap();
+
+    // One power-on and nothing stated: the bias of another is assumed (the difference of two
+    // power-ons as large as the model error's floor), said, and it covers the fourth.
+    let (assumed, calibration) = fit(&runs[..1], &[], "assumed");
+    assert!(
+        calibration["assumed"]
+            .as_array()
+            .unwrap()
+            .contains(&serde_json::json!("turn-on")),
+        "{calibration}"
+    );
+    let another = replay(&assumed, &runs[3], &[]);
+    assert!(
+        (0.85..=0.99).contains(&within(another.clone())),
+        "{another}"
+    );
+    assert!(another["sharpness"].as_f64().unwrap() <= 1.5, "{another}");
 
     let (pooled, calibration) = fit(&runs[..3], &[], "three");
     let sources: Vec<&str> = calibration["sources"]

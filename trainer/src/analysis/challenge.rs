@@ -198,7 +198,7 @@ pub fn run_hidden(
         investigate::investigate(
             &points,
             &train,
-            &valid,
+            (&valid, false),
             &GpConfig::default(),
             asked,
             &|_: &Stream| Ok(points.clone()),
@@ -274,7 +274,7 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
             let (inv, _) = investigate::investigate(
                 &points,
                 &train[k],
-                &valid[k],
+                (&valid[k], false),
                 &GpConfig::default(),
                 None,
                 &|_: &Stream| Ok(points.clone()),

@@ -427,11 +427,13 @@ fn decide(
 }
 
 /// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes
-/// the static points from part of the training stream ([`choose`]). `bar` counts its [`STEPS`].
+/// the static points from part of the training stream ([`choose`]). `valid` is scored as the
+/// calibration's own power-on where `calibration_run` says it is (the later part of the training
+/// log: [`replay::replay_run`]), else as another, as in service. `bar` counts its [`STEPS`].
 pub fn investigate(
     points: &Points,
     train: &Stream,
-    valid: &Stream,
+    (valid, calibration_run): (&Stream, bool),
     cfg: &GpConfig,
     asked: Option<&[Cause]>,
     rebuild: &Rebuild<'_>,
@@ -465,6 +467,7 @@ pub fn investigate(
         warnings.push(choice.verdict.clone());
     }
     let beyond = beyond::choose(points, cfg);
+    // The blobs ship as `fit`'s do without a datasheet: another power-on's bias assumed.
     let calibrated = |blob: &[u8], kind| {
         calibrate(
             (points, &model, &static_blob),
@@ -474,6 +477,10 @@ pub fn investigate(
             &choice.splits,
             &beyond,
         )
+        .map(|mut c| {
+            c.assume_turn_on();
+            c
+        })
     };
     // Where the static model ships, the shipped model is the static one: calibrated and scored
     // once.
@@ -487,12 +494,12 @@ pub fn investigate(
     let static_blob = export::with_beyond(&static_calibration.apply(&static_blob)?, beyond.rule)?;
     let extended_blob = export::with_beyond(&calibration.apply(&extended_blob)?, beyond.rule)?;
     let fw = fog_data::replay::decode(&static_blob)?;
-    let static_score = replay::score(valid, &replay::replay(&fw, valid));
+    let static_score = replay::score(valid, &replay::replay_run(&fw, valid, calibration_run));
     let extended_score = if same {
         static_score.clone()
     } else {
         let shipped = fog_data::replay::decode(&extended_blob)?;
-        replay::score(valid, &replay::replay(&shipped, valid))
+        replay::score(valid, &replay::replay_run(&shipped, valid, calibration_run))
     };
     let gain = static_score.rmse_60s_dps / extended_score.rmse_60s_dps;
     bar.advance(1);

@@ -70,6 +70,7 @@ use firmware_core::blob::Beyond;
 pub mod streams;
 pub mod tables;
 pub mod terms;
+mod words;
 
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
@@ -293,8 +294,10 @@ pub struct Calibration {
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
-    /// `--repeatability` (0: not stated; where runs left out measured it, it is in the model
-    /// error). The blob carries twice its variance: the calibration's power-on was a draw too.
+    /// `--repeatability`, or, where nothing states or measures it, assumed (`turn-on` in
+    /// `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out measured it (it is in
+    /// the model error) or a datasheet states 0. The blob carries twice its variance: the
+    /// calibration's power-on was a draw too.
     pub turn_on_std: f64,
     /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
     /// output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its
@@ -603,6 +606,36 @@ impl Calibration {
         self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
     }
 
+    /// Assumes the bias of another power-on where no datasheet states it (`--repeatability`) and
+    /// no power-on left out measured it ([`Self::runs_measured`]): one power-on's data cannot
+    /// show it, and a σ that left it out would be certain of what it never saw. The difference
+    /// of two power-ons' biases is taken as large as the model error's floor (twice the
+    /// repeatability's variance is the floor's once; where the floor was fitted to 0, the other
+    /// terms taking the residuals up, the smallest RMS of a residual series stands in), said in
+    /// `assumed` as `turn-on`. On the simulated gyro with a turn-on repeatability of 80 °/h
+    /// beside a thermal swing of 60 °/h this covered another power-on's 60 s means 87–95 %
+    /// (docs/uncertainty.md).
+    pub fn assume_turn_on(&mut self) {
+        if self.runs_measured() || self.turn_on_std > 0.0 {
+            return;
+        }
+        let seen = self
+            .sources
+            .iter()
+            .map(|s| s.rmse)
+            .filter(|r| *r > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let size = if self.floor_std > 0.0 || !seen.is_finite() {
+            self.floor_std
+        } else {
+            seen
+        };
+        self.set_turn_on(size / OWN_DRAW.sqrt());
+        if self.turn_on_std > 0.0 && !self.assumed.contains(&"turn-on") {
+            self.assumed.push("turn-on");
+        }
+    }
+
     /// States the scale factor of another power-on: `ppm` of the output (a datasheet's run-to-run
     /// scale-factor repeatability, 1σ), its variance twice over (as for the bias) added to every
     /// sample's bias variance in proportion to the output².
@@ -657,117 +690,6 @@ impl Calibration {
     /// `blob` with this error model.
     pub fn apply(&self, blob: &[u8]) -> Result<Vec<u8>, ExportError> {
         export::with_error_model(blob, &self.error_model)
-    }
-
-    /// One line for a person.
-    pub fn describe(&self, units: &str) -> String {
-        let leg = if self.leg_std > 0.0 {
-            format!(
-                "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
-                 (assumed)",
-                self.leg_std
-            )
-        } else {
-            String::new()
-        };
-        let turn_on = if self.turn_on_std > 0.0 {
-            format!(
-                "; another power-on's bias {:.3e} {units} (--repeatability)",
-                self.turn_on_std
-            )
-        } else if self.runs_measured() {
-            "; another power-on's bias is in the model error (measured on the runs left out)"
-                .to_owned()
-        } else {
-            String::new()
-        };
-        let scale = if self.scale_repeatability_ppm > 0.0 {
-            format!(
-                "; another power-on's scale {:.0} ppm of the output (--scale-repeatability)",
-                self.scale_repeatability_ppm
-            )
-        } else {
-            String::new()
-        };
-        self.describe_terms(units) + &leg + &turn_on + &scale
-    }
-
-    /// The residuals' sources, each kind counted once (several series of one kind together).
-    fn sources_in_words(&self) -> String {
-        let mut counted: Vec<(ResidualSource, usize)> = Vec::new();
-        for s in &self.sources {
-            match counted.iter_mut().find(|(source, _)| *source == s.source) {
-                Some((_, n)) => *n += s.n,
-                None => counted.push((s.source, s.n)),
-            }
-        }
-        counted
-            .iter()
-            .map(|(source, n)| format!("{n} {}", source.describe()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-
-    fn describe_terms(&self, units: &str) -> String {
-        let share = if self.extrapolation_share < 1.0 {
-            format!(
-                " (× {:.2}: the share of holding's miss the rule shipped missed beyond an inner \
-                 fit, widened for its points)",
-                self.extrapolation_share
-            )
-        } else {
-            String::new()
-        };
-        let beyond = if self.extrapolation_scale_ppm > 0.0 {
-            format!(
-                "{:.3e} and {:.0} ppm of the output per trained width beyond the range{share}",
-                self.extrapolation_std, self.extrapolation_scale_ppm
-            )
-        } else {
-            format!(
-                "{:.3e} per trained width beyond the range{share}",
-                self.extrapolation_std
-            )
-        };
-        let Some(c) = &self.coverage else {
-            return format!(
-                "σ: the GP's own, with one sample's noise {:.3e} {units} and an assumed model \
-                 error {:.3e} {units}, {beyond} ({}; module doc of \
-                 trainer::analysis::uncertainty)",
-                self.sample_noise_std,
-                self.floor_std,
-                self.note.as_deref().unwrap_or("no error model")
-            );
-        };
-        let assumed = if self.assumed.is_empty() {
-            String::new()
-        } else {
-            format!(
-                "; assumed, the data could not show it: {}",
-                self.assumed.join(", ")
-            )
-        };
-        let before = self
-            .before
-            .map(|b| format!("{:.0}%", 100.0 * b.within_2sigma))
-            .unwrap_or_default();
-        format!(
-            "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
-             {}): model error {:.3e} {units}, {beyond}, {:.3e} per √h, {:.3e} per h (× {:.2} \
-             for the few residuals), one sample's noise {:.3e}; \
-             ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
-             RMS{assumed}",
-            self.residuals,
-            self.effective,
-            self.sources_in_words(),
-            self.floor_std,
-            self.walk_std_per_sqrt_h,
-            self.trend_std_per_h,
-            self.inflation.sqrt(),
-            self.sample_noise_std,
-            100.0 * c.within_2sigma,
-            c.sharpness
-        )
     }
 }
 

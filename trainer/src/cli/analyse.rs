@@ -107,6 +107,11 @@ pub(super) struct LooArgs {
     /// blob.
     #[arg(long, value_name = "PPM", requires = "valid_points")]
     scale_repeatability: Option<f64>,
+    /// The bias's run-to-run repeatability, 1σ in the table's units, as a datasheet gives it:
+    /// stated in the GP's σ on the --valid-points run, as `fit --repeatability` states it in a
+    /// blob (default: assumed as `fit` assumes it, where the --run tables do not measure it).
+    #[arg(long, value_name = "SIGMA", requires = "valid_points")]
+    repeatability: Option<f64>,
     #[command(flatten)]
     runs: Runs,
     /// Write the evaluation as JSON here (`-`: stdout, alone).
@@ -194,6 +199,7 @@ pub(super) fn investigate_command(
             "auto" => None,
             list => Some(extend::parse_features(list)?),
         },
+        calibration_run: held_out.valid_stream.is_none(),
     };
     let units = input.unit.units(Some(&stream), &console)?;
     let each = Each::new(units.len(), &stream, json.as_deref())?;
@@ -250,6 +256,7 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         features,
         valid_points,
         scale_repeatability,
+        repeatability,
         runs: Runs { list: runs },
         json,
     } = args;
@@ -263,7 +270,12 @@ pub(super) fn loo_command(args: LooArgs, flags: ConsoleFlags) -> anyhow::Result<
         offsets,
         ..EvalConfig::default()
     };
-    let plan = LooPlan::new(cfg, method.into(), features.is_some(), scale_repeatability)?;
+    let plan = LooPlan::new(
+        cfg,
+        method.into(),
+        features.is_some(),
+        (repeatability, scale_repeatability),
+    )?;
     let console = Console::new(flags, json.as_deref());
     let points = load_runs(
         &input.points,

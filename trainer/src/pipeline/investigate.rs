@@ -32,6 +32,10 @@ pub struct InvestigatePlan {
     pub gp: GpConfig,
     /// The causes to extend by; `None`: those the diagnosis names.
     pub asked: Option<Vec<Cause>>,
+    /// The held-out part is the training log's later part: the calibration's own power-on, its
+    /// σ scored without another power-on's bias and scale up to its first power cycle. Else it
+    /// is a log of its own, another power-on, scored as in service.
+    pub calibration_run: bool,
 }
 
 /// A unit investigated: each channel's investigation and blobs, in the unit's order.
@@ -68,7 +72,7 @@ impl InvestigatePlan {
         let (inv, blobs) = investigate::investigate(
             &points,
             &train,
-            &valid,
+            (&valid, self.calibration_run),
             &self.gp,
             self.asked.as_deref(),
             &rebuild,

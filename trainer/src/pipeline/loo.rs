@@ -24,6 +24,9 @@ pub struct LooPlan {
     /// A table recorded in time order diagnosed for transients, the GP extended by those that
     /// win inside each fold (the GP only, on one table).
     pub transients: bool,
+    /// A datasheet's bias repeatability, output units, stated in the σ scored on another run
+    /// (`None`: assumed where the runs do not measure it, as `fit` assumes it).
+    pub repeatability: Option<f64>,
     /// A datasheet's scale-factor repeatability, ppm, stated in the σ scored on another run.
     pub scale_repeatability: Option<f64>,
 }
@@ -48,7 +51,7 @@ impl LooPlan {
         cfg: EvalConfig,
         method: Method,
         transients: bool,
-        scale_repeatability: Option<f64>,
+        (repeatability, scale_repeatability): (Option<f64>, Option<f64>),
     ) -> anyhow::Result<Self> {
         anyhow::ensure!(
             !transients || method == Method::Gpr,
@@ -59,14 +62,19 @@ impl LooPlan {
             "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
         );
         anyhow::ensure!(
-            scale_repeatability.is_none() || method == Method::Gpr,
-            "--scale-repeatability is stated in a σ, and of the methods only the GP (--method gpr) \
-             states one"
+            repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
+            "--repeatability must be a σ: a number not below 0"
+        );
+        anyhow::ensure!(
+            (repeatability.is_none() && scale_repeatability.is_none()) || method == Method::Gpr,
+            "--repeatability and --scale-repeatability are stated in a σ, and of the methods only \
+             the GP (--method gpr) states one"
         );
         Ok(Self {
             cfg,
             method,
             transients,
+            repeatability,
             scale_repeatability,
         })
     }
@@ -93,8 +101,8 @@ impl LooPlan {
         let progress = messages.counted();
         let cross_run = match test {
             Some((path, test)) => {
-                let scale = self.scale_repeatability;
-                match across_runs::score(points, test, self.method, &cfg, scale, &*progress) {
+                let stated = (self.repeatability, self.scale_repeatability);
+                match across_runs::score(points, test, self.method, &cfg, stated, &*progress) {
                     Err(e @ EvalError::NoOverlap) => {
                         messages.warn(&format!("skipped the test on {}: {e}", path.display()));
                         None

@@ -50,22 +50,30 @@ fn reproduce(points: &Points, cfg: &GpConfig, bar: &dyn Progress) -> anyhow::Res
     Ok(crate::analysis::reproduce::reproduce(points, &eval, bar)?)
 }
 
-/// The investigation on `train`, scored on `valid`, with what the figures need.
+/// The investigation on `train`, scored on `valid` (the calibration's own power-on where
+/// `calibration_run`: [`investigate::investigate`]), with what the figures need.
 fn held_out(
     points: &Points,
     train: &Stream,
-    valid: Stream,
+    (valid, calibration_run): (Stream, bool),
     split: String,
     (cfg, rebuild): (&GpConfig, &Rebuild<'_>),
     bar: &dyn Progress,
 ) -> anyhow::Result<HeldOut> {
-    let (investigation, blobs) =
-        investigate::investigate(points, train, &valid, cfg, None, rebuild, bar)?;
+    let (investigation, blobs) = investigate::investigate(
+        points,
+        train,
+        (&valid, calibration_run),
+        cfg,
+        None,
+        rebuild,
+        bar,
+    )?;
     let fw_static = fog_data::replay::decode(&blobs.static_blob)?;
     let fw_ext = fog_data::replay::decode(&blobs.extended_blob)?;
     let replays = [
-        replay::replay(&fw_static, &valid),
-        replay::replay(&fw_ext, &valid),
+        replay::replay_run(&fw_static, &valid, calibration_run),
+        replay::replay_run(&fw_ext, &valid, calibration_run),
     ];
     let res = Residual::from_replay(
         &fw_static,
@@ -226,7 +234,16 @@ pub fn with_streams(
         }
         (t, b)
     });
-    let held = held_out(&points, train, valid, split.clone(), fitting, bar)?;
+    // A held-out log of its own is another power-on; the training log's later part is its own.
+    let own_run = kind != ReportKind::Full;
+    let held = held_out(
+        &points,
+        train,
+        (valid, own_run),
+        split.clone(),
+        fitting,
+        bar,
+    )?;
     let mut could = Vec::new();
     let mut could_not = Vec::new();
     if on_table {

@@ -31,10 +31,17 @@ pub struct CrossRun {
     pub rmse_dps: f64,
     /// Same, °/h.
     pub rmse_dph: f64,
-    /// The GP's σ there, its error model measured on the training run alone, with the scale
-    /// factor's repeatability where `--scale-repeatability` states it (null for the methods that
-    /// state no σ).
+    /// The GP's σ there, its error model measured on the training run alone, with another
+    /// power-on's bias (`--repeatability`, or assumed as `fit` assumes it) and the scale factor's
+    /// repeatability where `--scale-repeatability` states it (null for the methods that state no
+    /// σ).
     pub sigma: Option<Coverage>,
+    /// Another power-on's bias stated in `sigma`, output units (`--repeatability`, or assumed:
+    /// `turn_on_assumed`; 0 where the training runs left out measured it; null without a σ).
+    pub turn_on_std: Option<f64>,
+    /// Whether `turn_on_std` is assumed (the difference of two power-ons as large as the model
+    /// error's floor) rather than stated.
+    pub turn_on_assumed: bool,
     /// The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null:
     /// none).
     pub scale_repeatability_ppm: Option<f64>,
@@ -88,16 +95,18 @@ impl RunDifference {
 
 /// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
 /// and the |rate| range both runs cover (a model is not asked to extrapolate here). The GP's σ is
-/// its error model measured on `train`, with `scale_ppm`, a datasheet's scale-factor
-/// repeatability, stated beside it where given.
+/// its error model measured on `train`, with another power-on's bias (`stated.0`, a datasheet's
+/// bias repeatability, or assumed where `train`'s runs do not measure it) and `stated.1`, a
+/// datasheet's scale-factor repeatability in ppm, stated beside it where given.
 pub fn score(
     train: &Points,
     test: &Points,
     method: Method,
     cfg: &EvalConfig,
-    scale_ppm: Option<f64>,
+    stated: (Option<f64>, Option<f64>),
     bar: &dyn Progress,
 ) -> Result<CrossRun, EvalError> {
+    let (bias, scale_ppm) = stated;
     let range = |p: &Points| {
         let lo = p.temp_c.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = p.temp_c.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -121,8 +130,14 @@ pub fn score(
     ));
     let m = MethodFit::fit(train, method, cfg)?;
     let mut calibration = m.calibration(train, cfg)?;
-    if let (Some(c), Some(ppm)) = (calibration.as_mut(), scale_ppm) {
-        c.set_scale(ppm);
+    if let Some(c) = calibration.as_mut() {
+        match bias {
+            Some(sigma) => c.set_turn_on(sigma),
+            None => c.assume_turn_on(),
+        }
+        if let Some(ppm) = scale_ppm {
+            c.set_scale(ppm);
+        }
     }
     bar.advance(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
@@ -142,7 +157,11 @@ pub fn score(
         max_abs_rate_dps: w,
         rmse_dps: r,
         rmse_dph: r * DPH_PER_DPS,
-        sigma: calibration.map(|_| Coverage::of(&e, &sigmas)),
+        sigma: calibration.as_ref().map(|_| Coverage::of(&e, &sigmas)),
+        turn_on_std: calibration.as_ref().map(|c| c.turn_on_std),
+        turn_on_assumed: calibration
+            .as_ref()
+            .is_some_and(|c| c.assumed.contains(&"turn-on")),
         scale_repeatability_ppm: scale_ppm,
         difference: RunDifference::of(&e, &rates),
     })

@@ -102,8 +102,9 @@ pub(super) struct ServiceArgs {
     pub(super) full_scale: Option<f32>,
     /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
     /// gives it: every power-on in service is another than the calibration's, whose own bias was
-    /// a draw too, so twice its variance is added to every sample's σ (default: not assumed,
-    /// said in one line).
+    /// a draw too, so twice its variance is added to every sample's σ (default: where several
+    /// power-ons do not measure it, the difference of two power-ons assumed as large as the
+    /// model error's floor, said in the σ line).
     #[arg(long, value_name = "SIGMA")]
     pub(super) repeatability: Option<f64>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every

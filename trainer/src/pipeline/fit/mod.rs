@@ -275,23 +275,11 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
-        let bias_unstated = self.service.repeatability.is_none() && !calibration.runs_measured();
-        match (bias_unstated, self.service.scale_repeatability.is_none()) {
-            (true, true) => messages.result(
-                "skipped: the bias and scale factor of another power-on (one power-on's data \
-                 cannot show them; --repeatability and --scale-repeatability state a datasheet's \
-                 run-to-run σ, several --stream logs of one sensor measure the bias)",
-            ),
-            (true, false) => messages.result(
-                "skipped: the bias of another power-on (one power-on's data cannot show it; \
-                 --repeatability states a datasheet's run-to-run σ, several --stream logs of \
-                 one sensor measure it)",
-            ),
-            (false, true) => messages.result(
+        if self.service.scale_repeatability.is_none() {
+            messages.result(
                 "skipped: the scale factor of another power-on (no term is measured for it; \
                  --scale-repeatability states a datasheet's run-to-run σ, in ppm)",
-            ),
-            (false, false) => {}
+            );
         }
         summary.calibration = Some(calibration);
         summary.handled = streams

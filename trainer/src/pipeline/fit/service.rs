@@ -1,6 +1,7 @@
 //! What a fitted blob states for service, written into it last: the sensor's limits (beyond
-//! which a reading is a fault), the bias of another power-on where a datasheet gives it, and the
-//! mean's rule beyond the trained range (chosen on the training data unless asked).
+//! which a reading is a fault), the bias of another power-on (a datasheet's, or assumed where
+//! nothing states or measures it), and the mean's rule beyond the trained range (chosen on the
+//! training data unless asked).
 
 use firmware_core::blob::{Beyond, Limits};
 use fog_data::replay;
@@ -50,8 +51,9 @@ impl Service {
         calibration: &mut Calibration,
         beyond: Beyond,
     ) -> anyhow::Result<Vec<u8>> {
-        if let Some(sigma) = self.repeatability {
-            calibration.set_turn_on(sigma);
+        match self.repeatability {
+            Some(sigma) => calibration.set_turn_on(sigma),
+            None => calibration.assume_turn_on(),
         }
         if let Some(ppm) = self.scale_repeatability {
             calibration.set_scale(ppm);

@@ -1,0 +1,124 @@
+//! A calibration in words: the σ line `fit` and `investigate` print, each term with where it
+//! came from (fitted, stated, assumed).
+
+use super::{Calibration, ResidualSource};
+
+impl Calibration {
+    /// One line for a person.
+    pub fn describe(&self, units: &str) -> String {
+        let leg = if self.leg_std > 0.0 {
+            format!(
+                "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
+                 (assumed)",
+                self.leg_std
+            )
+        } else {
+            String::new()
+        };
+        let turn_on = if self.assumed.contains(&"turn-on") {
+            format!(
+                "; another power-on's bias {:.3e} {units} (assumed: the difference of two \
+                 power-ons as large as the model error's floor; --repeatability states a \
+                 datasheet's)",
+                self.turn_on_std
+            )
+        } else if self.turn_on_std > 0.0 {
+            format!(
+                "; another power-on's bias {:.3e} {units} (--repeatability)",
+                self.turn_on_std
+            )
+        } else if self.runs_measured() {
+            "; another power-on's bias is in the model error (measured on the runs left out)"
+                .to_owned()
+        } else {
+            String::new()
+        };
+        let scale = if self.scale_repeatability_ppm > 0.0 {
+            format!(
+                "; another power-on's scale {:.0} ppm of the output (--scale-repeatability)",
+                self.scale_repeatability_ppm
+            )
+        } else {
+            String::new()
+        };
+        self.describe_terms(units) + &leg + &turn_on + &scale
+    }
+
+    /// The residuals' sources, each kind counted once (several series of one kind together).
+    fn sources_in_words(&self) -> String {
+        let mut counted: Vec<(ResidualSource, usize)> = Vec::new();
+        for s in &self.sources {
+            match counted.iter_mut().find(|(source, _)| *source == s.source) {
+                Some((_, n)) => *n += s.n,
+                None => counted.push((s.source, s.n)),
+            }
+        }
+        counted
+            .iter()
+            .map(|(source, n)| format!("{n} {}", source.describe()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    fn describe_terms(&self, units: &str) -> String {
+        let share = if self.extrapolation_share < 1.0 {
+            format!(
+                " (× {:.2}: the share of holding's miss the rule shipped missed beyond an inner \
+                 fit, widened for its points)",
+                self.extrapolation_share
+            )
+        } else {
+            String::new()
+        };
+        let beyond = if self.extrapolation_scale_ppm > 0.0 {
+            format!(
+                "{:.3e} and {:.0} ppm of the output per trained width beyond the range{share}",
+                self.extrapolation_std, self.extrapolation_scale_ppm
+            )
+        } else {
+            format!(
+                "{:.3e} per trained width beyond the range{share}",
+                self.extrapolation_std
+            )
+        };
+        let Some(c) = &self.coverage else {
+            return format!(
+                "σ: the GP's own, with one sample's noise {:.3e} {units} and an assumed model \
+                 error {:.3e} {units}, {beyond} ({}; module doc of \
+                 trainer::analysis::uncertainty)",
+                self.sample_noise_std,
+                self.floor_std,
+                self.note.as_deref().unwrap_or("no error model")
+            );
+        };
+        let assumed = if self.assumed.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; assumed, the data could not show it: {}",
+                self.assumed.join(", ")
+            )
+        };
+        let before = self
+            .before
+            .map(|b| format!("{:.0}%", 100.0 * b.within_2sigma))
+            .unwrap_or_default();
+        format!(
+            "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
+             {}): model error {:.3e} {units}, {beyond}, {:.3e} per √h, {:.3e} per h (× {:.2} \
+             for the few residuals), one sample's noise {:.3e}; \
+             ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
+             RMS{assumed}",
+            self.residuals,
+            self.effective,
+            self.sources_in_words(),
+            self.floor_std,
+            self.walk_std_per_sqrt_h,
+            self.trend_std_per_h,
+            self.inflation.sqrt(),
+            self.sample_noise_std,
+            100.0 * c.within_2sigma,
+            c.sharpness
+        )
+    }
+}
