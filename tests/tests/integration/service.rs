@@ -499,8 +499,15 @@ fn a_run_whose_scale_factor_differs_is_told_apart_and_a_stated_repeatability_cov
         "{found}"
     );
     assert!(get(&found["sigma"], "within_2sigma") < 0.5, "{found}");
+    // One table cannot show another power-on's bias: it is assumed, and said; a datasheet's
+    // figure stands in its place.
+    assert_eq!(found["turn_on_assumed"], true, "{found}");
+    assert!(get(&found, "turn_on_std") > 0.0, "{found}");
     let stated = across(&tables, &["--scale-repeatability", "800"]);
     assert!(get(&stated["sigma"], "within_2sigma") > 0.95, "{stated}");
+    let bias = across(&tables, &["--repeatability", "0.001"]);
+    assert_eq!(bias["turn_on_assumed"], false, "{bias}");
+    assert_eq!(get(&bias, "turn_on_std"), 0.001, "{bias}");
     let none = across(&nominal, &[]);
     assert!(get(&none["difference"], "scale_ppm").abs() < 20.0, "{none}");
 
@@ -542,6 +549,16 @@ fn a_run_whose_scale_factor_differs_is_told_apart_and_a_stated_repeatability_cov
         let refused = trainer(&loo).unwrap_err().to_string();
         assert!(refused.contains("must be a σ in ppm"), "{refused}");
     }
+    let loo = |extra: &[&str]| {
+        let mut args = vec!["loo", "--points", &tables[0], "--valid-points", &tables[1]];
+        args.extend(extra);
+        args.push("-q");
+        trainer(&args).unwrap_err().to_string()
+    };
+    let refused = loo(&["--repeatability=-1"]);
+    assert!(refused.contains("must be a σ"), "{refused}");
+    let refused = loo(&["--repeatability", "0.001", "--method", "poly"]);
+    assert!(refused.contains("only the GP"), "{refused}");
 }
 
 /// The simulated gyro's three-hour warm-up (seed 11) and a held-out stream of `design` (seed 12),

@@ -50,8 +50,10 @@
 //! the residuals' test of it then asks about that smaller growth.
 //! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
 //! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
-//! either, its signal variance holding the whole rate response.) Each assumed term is named in the
-//! calibration (`assumed`) and in its one line.
+//! either, its signal variance holding the whole rate response.) Another power-on's bias, which
+//! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
+//! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
+//! named in the calibration (`assumed`) and in its one line.
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;

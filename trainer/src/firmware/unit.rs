@@ -287,7 +287,8 @@ mod tests {
 
     /// A unit blob of version 2 or 3 (channels of format 6 or 7) gives its channels back as blobs
     /// of that format, which compute what the same fit's unit of the current version computes (the
-    /// assumed extrapolation term aside, narrowed since for the rule shipped).
+    /// assumed extrapolation term aside, narrowed since for the rule shipped, and another
+    /// power-on's bias, assumed since).
     #[test]
     fn an_older_units_channels_come_back_in_their_own_format() {
         use firmware_core::blob::{FORMAT_VERSION, V6, V7};
@@ -321,14 +322,17 @@ mod tests {
                     assert_eq!(ea.extrapolation_var, v6_terms[i], "{name}");
                 }
                 assert!(eb.extrapolation_var <= ea.extrapolation_var, "{name}");
+                assert_eq!(ea.turn_on_var, 0.0, "{name}");
+                assert!(eb.turn_on_var > 0.0, "{name}");
                 let ea = firmware_core::ErrorModel {
                     extrapolation_var: eb.extrapolation_var,
                     extrapolation_scale_var: eb.extrapolation_scale_var,
+                    turn_on_var: eb.turn_on_var,
                     ..ea
                 };
                 assert_eq!(ea, eb, "{name}");
                 // Beyond the range (every input at 20): the same mean, noise and status, and a
-                // bias variance no wider.
+                // bias variance no wider but for the turn-on term (to f32 rounding).
                 let x = vec![20.0f32; a.dims().d];
                 let (pa, pb) = (
                     a.predict(&x, &mut scratch).unwrap(),
@@ -339,7 +343,9 @@ mod tests {
                     (pb.mean, pb.noise_variance, pb.status),
                     "{name}"
                 );
-                assert!(pb.bias_variance <= pa.bias_variance, "{name}");
+                let (va, vb) = (f64::from(pa.bias_variance), f64::from(pb.bias_variance));
+                let turn_on = f64::from(eb.turn_on_var);
+                assert!(vb <= (va + turn_on) * (1.0 + 1e-6), "{name}");
             }
         }
     }
