@@ -18,7 +18,7 @@ class SummarizeRecord(Record):
 
 
 class FitRecord(Record):
-    """`trainer.fit` (version 2), as `trainer fit --json` writes it. What `trainer fit --json` writes: the sensor, its trained temperature range, each channel's fit, and what the unit's blob costs (one channel's data: a unit of one)."""
+    """`trainer.fit` (version 3), as `trainer fit --json` writes it. What `trainer fit --json` writes: the sensor, its trained temperature range, each channel's fit, and what the unit's blob costs (one channel's data: a unit of one)."""
 
     autopilot: SensorCubics | None
     """The cubic per channel the autopilots' parameters were written from (`--px4-params`, `--ardupilot-params`), in the channel's units."""
@@ -78,7 +78,7 @@ class DiagnoseRecord(Record):
 
 
 class InvestigateRecord(Record):
-    """`trainer.investigate` (version 2), as `trainer investigate --json` writes it. What `investigate --json` writes for a unit: each channel's investigation, its figures in `units` (the `_dps` fields too)."""
+    """`trainer.investigate` (version 3), as `trainer investigate --json` writes it. What `investigate --json` writes for a unit: each channel's investigation, its figures in `units` (the `_dps` fields too)."""
 
     channels: list[ChannelEntryTrainerInvestigate]
     """Each channel's investigation."""
@@ -88,7 +88,7 @@ class InvestigateRecord(Record):
 
 
 class LooRecord(Record):
-    """`trainer.loo` (version 1), as `trainer loo --json` writes it. What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test where one was asked for and could be made (`null` otherwise), and how the size `fit` would ship was chosen (more points than the firmware holds)."""
+    """`trainer.loo` (version 2), as `trainer loo --json` writes it. What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test where one was asked for and could be made (`null` otherwise), and how the size `fit` would ship was chosen (more points than the firmware holds)."""
 
     calibration: Calibration | None
     """The σ of the model fitted on all points ([`Calibration`]), with its coverage of the point (or group) residuals it was measured on (null for the methods that state no σ)."""
@@ -188,7 +188,7 @@ class ChallengeRecord(Record):
 
 
 class ReportRecord(Record):
-    """`trainer.report` (version 2), as `trainer report (report.json)` writes it. A unit's page as data (`report.json` beside `report.html`): each channel's held-out investigation, and the autopilots' cubics against it with the verdict."""
+    """`trainer.report` (version 3), as `trainer report (report.json)` writes it. A unit's page as data (`report.json` beside `report.html`): each channel's held-out investigation, and the autopilots' cubics against it with the verdict."""
 
     channels: list[ChannelFigures]
     """Each channel, in the unit's order."""
@@ -343,7 +343,7 @@ class Calibration(Record):
     """The error model of a shipped model and the evidence behind it (`calibration` in the JSON)."""
 
     assumed: list[str]
-    """The terms the data could not show, set from the [`Prior`] instead."""
+    """The terms the data could not show, assumed instead: from the [`Prior`] (`floor`, `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]), another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`])."""
 
     before: Coverage | None
     """The GP's σ alone on those residuals."""

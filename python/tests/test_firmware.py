@@ -59,7 +59,10 @@ def test_compensate_is_the_replay_bit_for_bit(stream, tmp_path):
     first = fog.load_model(BLOBS / "gyro.bin").compensate(
         col("time_s"), col("temp_c"), col("voltage_v"), calibration_run=True
     )
-    np.testing.assert_array_equal(first.mean.view(np.uint32), f32(read_csv(cal)["comp_rate_dps"]))
+    own = read_csv(cal)
+    np.testing.assert_array_equal(first.mean.view(np.uint32), f32(own["comp_rate_dps"]))
+    first_std = np.sqrt(first.bias_variance.astype(np.float64) + first.noise_variance)
+    np.testing.assert_array_equal(first_std.astype(np.float32).view(np.uint32), f32(own["comp_std_dps"]))
     pd = pytest.importorskip("pandas")
     frame = c.to_frame()
     assert isinstance(frame, pd.DataFrame) and len(frame) == len(c.mean)

@@ -117,7 +117,7 @@ mod tests {
         let text = std::fs::read_to_string(&one).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(v["schema"]["name"], "trainer.fit");
-        assert_eq!(v["schema"]["version"], 2);
+        assert_eq!(v["schema"]["version"], 3);
         assert_eq!(v["rmse"], 1.5);
         assert!(text.find("schema") < text.find("rmse"), "{text}");
         let files = crate::schema::PerFile { files: &[1, 2] };

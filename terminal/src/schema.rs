@@ -37,6 +37,18 @@ const fn v2(name: &'static str, written_by: &'static str) -> Schema {
     }
 }
 
+/// Version 3 of a unit's σ (version 2 of `trainer.loo`, whose version 1 was already one table's):
+/// another power-on's bias assumed where nothing states or measures it (`turn_on_std` no longer 0
+/// for "not stated": `turn-on` in `assumed` says it is assumed), and a log's own later part
+/// scored as the calibration's power-on.
+const fn turn_on_assumed(name: &'static str, version: u32, written_by: &'static str) -> Schema {
+    Schema {
+        name,
+        version,
+        written_by,
+    }
+}
+
 /// `firmware-sim generate board --json`: the simulated flight controller's truth.
 pub const BOARD: Schema = v1("sim.board", "firmware-sim generate board --json");
 
@@ -44,21 +56,22 @@ pub const BOARD: Schema = v1("sim.board", "firmware-sim generate board --json");
 /// each channel's).
 pub const SUMMARIZE: Schema = v1("trainer.summarize", "trainer summarize --json");
 /// `trainer fit --json`: the unit and each channel's fit (one channel's data: a unit of one).
-pub const FIT: Schema = v2("trainer.fit", "trainer fit --json");
+pub const FIT: Schema = turn_on_assumed("trainer.fit", 3, "trainer fit --json");
 /// `trainer inspect --json`: the blob's footprint, each channel's (a model blob: a unit of one).
 pub const INSPECT: Schema = v2("trainer.inspect", "trainer inspect --json");
 /// `trainer diagnose --json`: each channel's diagnosis (`channels`).
 pub const DIAGNOSE: Schema = v2("trainer.diagnose", "trainer diagnose --json");
 /// `trainer investigate --json`: each channel's investigation.
-pub const INVESTIGATE: Schema = v2("trainer.investigate", "trainer investigate --json");
+pub const INVESTIGATE: Schema =
+    turn_on_assumed("trainer.investigate", 3, "trainer investigate --json");
 /// `trainer loo --json`.
-pub const LOO: Schema = v1("trainer.loo", "trainer loo --json");
+pub const LOO: Schema = turn_on_assumed("trainer.loo", 2, "trainer loo --json");
 /// `trainer reproduce --json`.
 pub const REPRODUCE: Schema = v1("trainer.reproduce", "trainer reproduce --json");
 /// `trainer challenge --json`.
 pub const CHALLENGE: Schema = v1("trainer.challenge", "trainer challenge --json");
 /// `trainer report`'s `report.json` beside its page: each channel's figures and cubics.
-pub const REPORT: Schema = v2("trainer.report", "trainer report (report.json)");
+pub const REPORT: Schema = turn_on_assumed("trainer.report", 3, "trainer report (report.json)");
 /// `trainer allan --json`: each channel's (`channels`).
 pub const ALLAN: Schema = v2("trainer.allan", "trainer allan --json");
 /// `fog.allan` in Python: one rate's Allan analysis, as each channel of `trainer.allan` holds it.

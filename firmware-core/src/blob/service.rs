@@ -47,10 +47,11 @@ pub struct ErrorModel {
     pub walk_var_per_h: f32,
     /// Model error growing as a drift of unknown rate, output units² per hour².
     pub trend_var_per_h2: f32,
-    /// The bias of another power-on than calibration's, output units²: what the trainer measured
-    /// on power-ons left out, or twice a datasheet's run-to-run repeatability squared (the
-    /// calibration's own power-on was a draw too). Every power-on in service is another one, so
-    /// it holds at every sample.
+    /// The bias of another power-on than calibration's, output units²: twice a datasheet's
+    /// run-to-run repeatability squared (the calibration's own power-on was a draw too), or,
+    /// where nothing states it, as the trainer assumes it (the model error's floor); 0 where
+    /// power-ons left out measured it (it is then in the floor). Every power-on in service is
+    /// another one, so it holds at every sample.
     pub turn_on_var: f32,
     /// Model error on a heating/cooling state the calibration did not hold, at a full swing
     /// (l = 1), output units².

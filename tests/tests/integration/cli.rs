@@ -29,7 +29,7 @@ fn generate_fit_loo_reproduce_end_to_end() {
     // Every JSON names its contract first (fog_terminal::schema).
     assert_eq!(
         whole["schema"],
-        serde_json::json!({"name": "trainer.fit", "version": 2})
+        serde_json::json!({"name": "trainer.fit", "version": 3})
     );
     let f = one(&fit);
     assert_eq!(f["name"], "rate");

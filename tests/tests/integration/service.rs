@@ -315,6 +315,11 @@ fn a_calibration_on_several_power_ons_covers_another() {
             .contains(&serde_json::json!("turn-on")),
         "{calibration}"
     );
+    let std = |key: &str| calibration[key].as_f64().unwrap();
+    assert!(
+        (std("turn_on_std") * 2f64.sqrt() / std("floor_std") - 1.0).abs() < 1e-9,
+        "{calibration}"
+    );
     let another = replay(&assumed, &runs[3], &[]);
     assert!(
         (0.85..=0.99).contains(&within(another.clone())),

@@ -82,6 +82,43 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
     ])
     .unwrap();
     let fit = json(p("fit.json"));
+    // One power-on: every channel's σ assumes another power-on's bias, unless stated. A unit
+    // takes one figure for every channel only where it means the same in every unit: 0.
+    for ch in fit["channels"].as_array().unwrap() {
+        let assumed = ch["calibration"]["assumed"].as_array().unwrap();
+        assert!(assumed.contains(&serde_json::json!("turn-on")), "{ch}");
+    }
+    let stated = |sigma: &str| {
+        trainer(&[
+            "fit",
+            "--stream",
+            &imu,
+            "--channels",
+            &channels,
+            "--window",
+            ":2400",
+            "--repeatability",
+            sigma,
+            "--out",
+            &p("stated.bin"),
+            "--json",
+            &p("stated.json"),
+            "-q",
+        ])
+    };
+    let refused = stated("0.01").unwrap_err().to_string();
+    assert!(refused.contains("one channel's, in its units"), "{refused}");
+    stated("0").unwrap();
+    for ch in json(p("stated.json"))["channels"].as_array().unwrap() {
+        let c = &ch["calibration"];
+        assert_eq!(c["turn_on_std"], 0.0, "{ch}");
+        assert!(
+            !c["assumed"]
+                .as_array()
+                .unwrap()
+                .contains(&serde_json::json!("turn-on"))
+        );
+    }
     assert_eq!(fit["sensor_id"], "tofupilot-example-imu");
     assert_eq!(fit["channels"].as_array().unwrap().len(), 6);
     assert_eq!(fit["channels"][3]["units"], "m/s²");

@@ -323,7 +323,9 @@ pub struct Calibration {
     pub coverage: Option<Coverage>,
     /// Why there is no error model measured, when there is none.
     pub note: Option<String>,
-    /// The terms the data could not show, set from the [`Prior`] instead.
+    /// The terms the data could not show, assumed instead: from the [`Prior`] (`floor`,
+    /// `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]),
+    /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]).
     pub assumed: Vec<&'static str>,
     /// The heating/cooling states the training stream held (0.5 % quantiles; `None`: not known,
     /// as for a rate table's soaks, and no leg term).
@@ -604,6 +606,7 @@ impl Calibration {
     /// repeatability), its variance twice over added to every sample's bias variance: the
     /// calibration's own power-on was a draw too.
     pub fn set_turn_on(&mut self, sigma: f64) {
+        self.assumed.retain(|name| *name != "turn-on");
         self.turn_on_std = sigma;
         self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
     }
@@ -633,7 +636,7 @@ impl Calibration {
             seen
         };
         self.set_turn_on(size / OWN_DRAW.sqrt());
-        if self.turn_on_std > 0.0 && !self.assumed.contains(&"turn-on") {
+        if self.turn_on_std > 0.0 {
             self.assumed.push("turn-on");
         }
     }

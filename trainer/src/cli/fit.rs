@@ -74,11 +74,13 @@ impl FitCommand {
                 .is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
             "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
         );
+        // 0 is every unit's: no channel's bias moves from one power-on to the next.
         anyhow::ensure!(
-            (service.full_scale.is_none() && service.repeatability.is_none())
+            (service.full_scale.is_none() && service.repeatability.is_none_or(|r| r == 0.0))
                 || input.unit.channels.is_none(),
             "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
-             each have their own (fit them one at a time to state them)"
+             each have their own (fit them one at a time to state them; --repeatability 0 states \
+             for every channel that its bias repeats exactly)"
         );
         anyhow::ensure!(
             input.runs.is_empty() || features.is_none() || !stream.is_empty(),

@@ -110,8 +110,13 @@ impl InvestigatePlan {
             "shipped model's {}",
             inv.calibration.describe(unit)
         ));
+        let scored_as = if self.calibration_run {
+            "scored as the calibration's own power-on"
+        } else {
+            "scored as another power-on"
+        };
         messages.result(&format!(
-            "on the held-out stream, the shipped model's σ: {}",
+            "on the held-out stream ({scored_as}), the shipped model's σ: {}",
             sigma::describe(
                 &inv.extended_score.sigma_samples,
                 &inv.extended_score.sigma_60s

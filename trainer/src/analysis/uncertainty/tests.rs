@@ -367,6 +367,57 @@ fn runs_left_out_measure_another_power_ons_bias_and_a_datasheet_states_it() {
 }
 
 #[test]
+fn one_power_on_assumes_another_ones_bias_as_large_as_the_floor() {
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let series = |source, error: f64| {
+        [Series {
+            source,
+            residuals: residuals(400, 7, move |_, _| error),
+        }]
+    };
+    let mut one = calibrate(&series(ResidualSource::Forward, 0.05), noise, Prior::NONE);
+    assert!(one.floor_std > 0.0, "{one:?}");
+    one.assume_turn_on();
+    // The blob carries the floor's variance once: twice that of a repeatability of floor/√2.
+    let e = one.error_model;
+    assert!((f64::from(e.turn_on_var) / f64::from(e.floor_var) - 1.0).abs() < 1e-6);
+    assert_eq!(one.assumed, ["turn-on"]);
+    assert!(
+        one.describe("°/s")
+            .contains("as large as the model error's floor")
+    );
+    // Once: asked again, nothing changes.
+    let again = one.clone();
+    one.assume_turn_on();
+    assert_eq!(
+        (one.turn_on_std, &one.assumed),
+        (again.turn_on_std, &again.assumed)
+    );
+    // A datasheet's figure replaces the assumption, and the σ line says which.
+    one.set_turn_on(0.02);
+    assert!(one.assumed.is_empty(), "{one:?}");
+    assert!(one.describe("°/s").contains("(--repeatability)"));
+    // Measured by runs left out, nothing is assumed.
+    let mut runs = calibrate(&series(ResidualSource::Runs, 0.05), noise, Prior::NONE);
+    runs.assume_turn_on();
+    assert_eq!((runs.turn_on_std, runs.assumed.len()), (0.0, 0));
+    // A floor fitted to 0 (residuals the model's own σ already explains): the smallest RMS of a
+    // residual series stands in, and the line says so.
+    let mut bare = calibrate(&series(ResidualSource::Forward, 0.003), noise, Prior::NONE);
+    assert_eq!(bare.floor_std, 0.0, "{bare:?}");
+    bare.assume_turn_on();
+    let rmse = bare.sources[0].rmse;
+    assert!(
+        (bare.turn_on_std * 2f64.sqrt() / rmse - 1.0).abs() < 1e-9,
+        "{bare:?}"
+    );
+    assert!(bare.describe("°/s").contains("the floor fitted 0"));
+}
+
+#[test]
 fn the_priors_growth_is_told_apart_by_the_output_where_the_outputs_move() {
     // Changes drawn with variance a + b·y² at rates from −80 to 80 °/s: the split finds both
     // parts, the bias part near a, not the mean over every rate (ten times a).

@@ -16,10 +16,14 @@ impl Calibration {
             String::new()
         };
         let turn_on = if self.assumed.contains(&"turn-on") {
+            let size = if self.floor_std > 0.0 {
+                "the model error's floor"
+            } else {
+                "the smallest RMS of a residual series, the floor fitted 0"
+            };
             format!(
                 "; another power-on's bias {:.3e} {units} (assumed: the difference of two \
-                 power-ons as large as the model error's floor; --repeatability states a \
-                 datasheet's)",
+                 power-ons as large as {size}; --repeatability states a datasheet's)",
                 self.turn_on_std
             )
         } else if self.turn_on_std > 0.0 {

@@ -104,7 +104,8 @@ pub(super) struct ServiceArgs {
     /// gives it: every power-on in service is another than the calibration's, whose own bias was
     /// a draw too, so twice its variance is added to every sample's σ (default: where several
     /// power-ons do not measure it, the difference of two power-ons assumed as large as the
-    /// model error's floor, said in the σ line).
+    /// model error's floor, said in the σ line). One channel only, but 0 (a bias that repeats
+    /// exactly), which a unit takes for every channel.
     #[arg(long, value_name = "SIGMA")]
     pub(super) repeatability: Option<f64>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
