@@ -51,14 +51,11 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| at(dir.path(), name);
     let (imu, channels) = (imu(), channels());
-    trainer(&[
-        "fit",
-        "--stream",
-        &imu,
-        "--channels",
-        &channels,
-        "--window",
-        ":2400",
+    let fit_unit = |extra: &[&str]| {
+        let args = ["fit", "--stream", &imu, "--channels", &channels];
+        trainer(&[&args[..], &["--window", ":2400"], extra].concat())
+    };
+    fit_unit(&[
         "--features",
         "auto",
         "--out",
@@ -89,20 +86,14 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
         assert!(assumed.contains(&serde_json::json!("turn-on")), "{ch}");
     }
     let stated = |sigma: &str| {
-        trainer(&[
-            "fit",
-            "--stream",
-            &imu,
-            "--channels",
-            &channels,
-            "--window",
-            ":2400",
+        let (out, json) = (p("stated.bin"), p("stated.json"));
+        fit_unit(&[
             "--repeatability",
             sigma,
             "--out",
-            &p("stated.bin"),
+            &out,
             "--json",
-            &p("stated.json"),
+            &json,
             "-q",
         ])
     };
