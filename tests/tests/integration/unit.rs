@@ -99,6 +99,10 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
     };
     let refused = stated("0.01").unwrap_err().to_string();
     assert!(refused.contains("one channel's, in its units"), "{refused}");
+    let args = ["investigate", "--stream", &imu, "--channels", &channels];
+    let refused = trainer(&[&args[..], &["--repeatability", "0.01", "-q"]].concat());
+    let refused = refused.unwrap_err().to_string();
+    assert!(refused.contains("one channel's, in its units"), "{refused}");
     stated("0").unwrap();
     for ch in json(p("stated.json"))["channels"].as_array().unwrap() {
         let c = &ch["calibration"];

@@ -200,7 +200,10 @@ pub fn run_hidden(
             &train,
             (&valid, false),
             &GpConfig::default(),
-            asked,
+            investigate::Told {
+                asked,
+                ..Default::default()
+            },
             &|_: &Stream| Ok(points.clone()),
             &(),
         )
@@ -276,7 +279,7 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
                 &train[k],
                 (&valid[k], false),
                 &GpConfig::default(),
-                None,
+                investigate::Told::default(),
                 &|_: &Stream| Ok(points.clone()),
                 &(),
             )?;

@@ -426,8 +426,19 @@ fn decide(
     }
 }
 
-/// Runs the investigation; `asked` overrides the inputs the diagnosis calls for. `rebuild` makes
-/// the static points from part of the training stream ([`choose`]). `valid` is scored as the
+/// What an investigation is told beside its data.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Told<'a> {
+    /// The causes to extend by; `None`: those the diagnosis names.
+    pub asked: Option<&'a [Cause]>,
+    /// Another power-on's bias, a datasheet's run-to-run repeatability (1σ, output units), in
+    /// both blobs' σ as `fit --repeatability` states it; `None`: assumed, as `fit` assumes it
+    /// ([`Calibration::assume_turn_on`]).
+    pub repeatability: Option<f64>,
+}
+
+/// Runs the investigation; `told.asked` overrides the inputs the diagnosis calls for. `rebuild`
+/// makes the static points from part of the training stream ([`choose`]). `valid` is scored as the
 /// calibration's own power-on where `calibration_run` says it is (the later part of the training
 /// log: [`replay::replay_run`]), else as another, as in service. `bar` counts its [`STEPS`].
 pub fn investigate(
@@ -435,10 +446,11 @@ pub fn investigate(
     train: &Stream,
     (valid, calibration_run): (&Stream, bool),
     cfg: &GpConfig,
-    asked: Option<&[Cause]>,
+    told: Told<'_>,
     rebuild: &Rebuild<'_>,
     bar: &dyn Progress,
 ) -> anyhow::Result<(Investigation, Blobs)> {
+    let asked = told.asked;
     bar.expect(STEPS);
     bar.stage(&format!("static fit on {} points", points.len()));
     let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
@@ -467,7 +479,7 @@ pub fn investigate(
         warnings.push(choice.verdict.clone());
     }
     let beyond = beyond::choose(points, cfg);
-    // The blobs ship as `fit`'s do without a datasheet: another power-on's bias assumed.
+    // The blobs state another power-on's bias as `fit`'s do: a datasheet's, or assumed.
     let calibrated = |blob: &[u8], kind| {
         calibrate(
             (points, &model, &static_blob),
@@ -478,7 +490,10 @@ pub fn investigate(
             &beyond,
         )
         .map(|mut c| {
-            c.assume_turn_on();
+            match told.repeatability {
+                Some(sigma) => c.set_turn_on(sigma),
+                None => c.assume_turn_on(),
+            }
             c
         })
     };

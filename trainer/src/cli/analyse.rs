@@ -61,6 +61,12 @@ pub(super) struct InvestigateArgs {
     /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
     #[arg(long, default_value = "auto")]
     features: String,
+    /// The bias's run-to-run repeatability, 1σ in the channel's units, as a datasheet gives it:
+    /// stated in both blobs' σ as `fit --repeatability` states it, and in the score of a
+    /// held-out log of its own (default: assumed as `fit` assumes it). One channel only, but 0,
+    /// which a unit takes for every channel.
+    #[arg(long, value_name = "SIGMA")]
+    repeatability: Option<f64>,
     /// Write the extended model's blob here: a unit blob, every channel's (one entry for one
     /// channel's data); one per sensor beside this name where a flight controller's log holds
     /// several.
@@ -174,10 +180,21 @@ pub(super) fn investigate_command(
         window,
         held_out,
         features,
+        repeatability,
         out,
         out_static,
         json,
     } = args;
+    anyhow::ensure!(
+        repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
+        "--repeatability must be a σ: a number not below 0"
+    );
+    anyhow::ensure!(
+        repeatability.is_none_or(|r| r == 0.0) || input.unit.channels.is_none(),
+        "--repeatability is one channel's, in its units: a unit's channels each have their own \
+         (investigate them one at a time to state them; 0 states for every channel that its \
+         bias repeats exactly)"
+    );
     let input = input.with_runs(runs);
     let console = Console::new(flags, json.as_deref());
     let mut inputs: Vec<&Path> = input
@@ -200,6 +217,7 @@ pub(super) fn investigate_command(
             list => Some(extend::parse_features(list)?),
         },
         calibration_run: held_out.valid_stream.is_none(),
+        repeatability,
     };
     let units = input.unit.units(Some(&stream), &console)?;
     let each = Each::new(units.len(), &stream, json.as_deref())?;

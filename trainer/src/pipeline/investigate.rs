@@ -36,6 +36,9 @@ pub struct InvestigatePlan {
     /// σ scored without another power-on's bias and scale up to its first power cycle. Else it
     /// is a log of its own, another power-on, scored as in service.
     pub calibration_run: bool,
+    /// Another power-on's bias, a datasheet's (1σ, each channel's units; a unit takes 0 alone);
+    /// `None`: assumed, as `fit` assumes it.
+    pub repeatability: Option<f64>,
 }
 
 /// A unit investigated: each channel's investigation and blobs, in the unit's order.
@@ -74,7 +77,10 @@ impl InvestigatePlan {
             &train,
             (&valid, self.calibration_run),
             &self.gp,
-            self.asked.as_deref(),
+            investigate::Told {
+                asked: self.asked.as_deref(),
+                repeatability: self.repeatability,
+            },
             &rebuild,
             &*progress,
         )?;

@@ -65,7 +65,7 @@ fn held_out(
         train,
         (&valid, calibration_run),
         cfg,
-        None,
+        investigate::Told::default(),
         rebuild,
         bar,
     )?;
