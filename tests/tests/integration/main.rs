@@ -52,6 +52,14 @@ pub fn one(path: impl Into<PathBuf>) -> serde_json::Value {
     list[0].clone()
 }
 
+/// Whether a channel's `calibration` (its JSON) names `term` among those it assumed.
+pub fn assumes(calibration: &serde_json::Value, term: &str) -> bool {
+    let assumed = calibration["assumed"]
+        .as_array()
+        .expect("calibration.assumed");
+    assumed.iter().any(|t| t == term)
+}
+
 /// The model blob of a blob of one channel (`fit` writes one channel's model in a unit blob of one
 /// entry; a model blob of one channel is still read everywhere).
 pub fn model_blob(blob: &[u8]) -> Vec<u8> {

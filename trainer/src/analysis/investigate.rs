@@ -490,10 +490,7 @@ pub fn investigate(
             &beyond,
         )
         .map(|mut c| {
-            match told.repeatability {
-                Some(sigma) => c.set_turn_on(sigma),
-                None => c.assume_turn_on(),
-            }
+            c.turn_on(told.repeatability);
             c
         })
     };

@@ -611,6 +611,15 @@ impl Calibration {
         self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
     }
 
+    /// States another power-on's bias as the commands take it: `repeatability`, a datasheet's
+    /// ([`Self::set_turn_on`]), or, with none, assumed ([`Self::assume_turn_on`]).
+    pub fn turn_on(&mut self, repeatability: Option<f64>) {
+        match repeatability {
+            Some(sigma) => self.set_turn_on(sigma),
+            None => self.assume_turn_on(),
+        }
+    }
+
     /// Assumes the bias of another power-on where no datasheet states it (`--repeatability`) and
     /// no power-on left out measured it ([`Self::runs_measured`]): one power-on's data cannot
     /// show it, and a σ that left it out would be certain of what it never saw. The difference

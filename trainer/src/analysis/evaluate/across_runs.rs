@@ -131,10 +131,7 @@ pub fn score(
     let m = MethodFit::fit(train, method, cfg)?;
     let mut calibration = m.calibration(train, cfg)?;
     if let Some(c) = calibration.as_mut() {
-        match bias {
-            Some(sigma) => c.set_turn_on(sigma),
-            None => c.assume_turn_on(),
-        }
+        c.turn_on(bias);
         if let Some(ppm) = scale_ppm {
             c.set_scale(ppm);
         }

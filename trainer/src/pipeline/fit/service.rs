@@ -51,10 +51,7 @@ impl Service {
         calibration: &mut Calibration,
         beyond: Beyond,
     ) -> anyhow::Result<Vec<u8>> {
-        match self.repeatability {
-            Some(sigma) => calibration.set_turn_on(sigma),
-            None => calibration.assume_turn_on(),
-        }
+        calibration.turn_on(self.repeatability);
         if let Some(ppm) = self.scale_repeatability {
             calibration.set_scale(ppm);
         }
