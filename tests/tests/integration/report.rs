@@ -201,6 +201,32 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
             && figure("one", "allan.svg")
             && figure("one", "rate_table.svg")
     );
+    // The stream's own last third is the calibration's power-on: the page scores it as
+    // `investigate` does (which `real.rs` pins to `replay --calibration-run`), field for field.
+    run_trainer(&[
+        "investigate",
+        "--points",
+        &p("points.csv"),
+        "--stream",
+        &p("s.csv"),
+        "--json",
+        &p("inv.json"),
+        "-q",
+    ])
+    .unwrap();
+    let investigated = crate::cli::without_timings(crate::one(p("inv.json")));
+    let held_out = &json(dir.path().join("one").join("report.json"))["channels"][0]["held_out"];
+    let split = held_out["split"].as_str().unwrap();
+    assert!(split.contains("last third in time"), "{split}");
+    let paged = crate::cli::without_timings(held_out["investigation"].clone());
+    let fields = paged.as_object().unwrap();
+    assert!(fields.contains_key("extended_score"), "{paged}");
+    for (field, value) in fields {
+        assert_eq!(
+            value, &investigated[field],
+            "report vs investigate: {field}"
+        );
+    }
 
     let imu = imu();
     run_trainer(
