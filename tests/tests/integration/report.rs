@@ -36,6 +36,11 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
         replay["rmse_60s_dps"],
         investigation["extended_score"]["rmse_60s_dps"]
     );
+    // A held-out log of its own is another power-on: its σ too is the replay's as in service.
+    assert_eq!(
+        replay["sigma_60s"]["median_sigma"],
+        investigation["extended_score"]["sigma_60s"]["median_sigma"]
+    );
 
     let out = dir.path().join("report");
     let report = |points: &str| {
@@ -95,7 +100,8 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
         inv["diagnosis"].to_string().contains("thermal-rate"),
         "{inv}"
     );
-    assert!(inv["extended_score"]["rmse_60s_dps"].as_f64().unwrap() > 0.0);
+    // The page's held-out figures are the investigation's, field for field.
+    same_as_investigated(inv, investigation);
     assert!(figures["reproduction"].is_object());
     // An output never replaces an input: a rate table that happens to sit where a figure goes.
     let table = out.join("qq.svg");
@@ -106,6 +112,23 @@ fn the_demo_leaves_every_file_and_its_report_every_promised_figure() {
         std::fs::read(&table).unwrap(),
         std::fs::read(dir.path().join("points.csv")).unwrap()
     );
+}
+
+/// Asserts that a report's held-out investigation (`paged`, from report.json) holds the same
+/// figures as `investigate`'s JSON on the same data (`investigated`, one channel), timings aside.
+fn same_as_investigated(paged: &serde_json::Value, investigated: serde_json::Value) {
+    let (paged, investigated) = (
+        crate::cli::without_timings(paged.clone()),
+        crate::cli::without_timings(investigated),
+    );
+    let fields = paged.as_object().expect("an investigation");
+    assert!(fields.contains_key("extended_score"), "{paged}");
+    for (field, value) in fields {
+        assert_eq!(
+            value, &investigated[field],
+            "report vs investigate: {field}"
+        );
+    }
 }
 
 /// A report for every kind of data a user brings: a rate table alone, a table with one stream
@@ -214,19 +237,10 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
         "-q",
     ])
     .unwrap();
-    let investigated = crate::cli::without_timings(crate::one(p("inv.json")));
     let held_out = &json(dir.path().join("one").join("report.json"))["channels"][0]["held_out"];
     let split = held_out["split"].as_str().unwrap();
     assert!(split.contains("last third in time"), "{split}");
-    let paged = crate::cli::without_timings(held_out["investigation"].clone());
-    let fields = paged.as_object().unwrap();
-    assert!(fields.contains_key("extended_score"), "{paged}");
-    for (field, value) in fields {
-        assert_eq!(
-            value, &investigated[field],
-            "report vs investigate: {field}"
-        );
-    }
+    same_as_investigated(&held_out["investigation"], crate::one(p("inv.json")));
 
     let imu = imu();
     run_trainer(
