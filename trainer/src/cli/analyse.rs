@@ -185,10 +185,7 @@ pub(super) fn investigate_command(
         out_static,
         json,
     } = args;
-    anyhow::ensure!(
-        repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
-        "--repeatability must be a σ: a number not below 0"
-    );
+    crate::pipeline::check_repeatability(repeatability, None)?;
     anyhow::ensure!(
         repeatability.is_none_or(|r| r == 0.0) || input.unit.channels.is_none(),
         "--repeatability is one channel's, in its units: a unit's channels each have their own \

@@ -14,8 +14,8 @@ use fog_terminal::schema;
 
 use super::inputs::ModelInput;
 use crate::analysis::extend;
-use crate::analysis::uncertainty::MAX_PPM;
 use crate::firmware::autopilot::SensorCubics;
+use crate::pipeline::check_repeatability;
 use crate::pipeline::fit::{Extend, FitPlan, unit_table};
 
 mod args;
@@ -62,18 +62,7 @@ impl FitCommand {
             service.full_scale.is_none_or(|f| f.is_finite() && f > 0.0),
             "--full-scale must be a positive number"
         );
-        anyhow::ensure!(
-            service
-                .repeatability
-                .is_none_or(|r| r.is_finite() && r >= 0.0),
-            "--repeatability must be a σ: a number not below 0"
-        );
-        anyhow::ensure!(
-            service
-                .scale_repeatability
-                .is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
-            "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
-        );
+        check_repeatability(service.repeatability, service.scale_repeatability)?;
         // 0 is every unit's: no channel's bias moves from one power-on to the next.
         anyhow::ensure!(
             (service.full_scale.is_none() && service.repeatability.is_none_or(|r| r == 0.0))

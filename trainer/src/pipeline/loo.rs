@@ -10,7 +10,6 @@ use serde::Serialize;
 use crate::analysis::capacity::{self, Choice};
 use crate::analysis::evaluate::across_runs::{self, CrossRun};
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
-use crate::analysis::uncertainty::MAX_PPM;
 use crate::data::points::Points;
 use crate::progress::Messages;
 
@@ -57,14 +56,7 @@ impl LooPlan {
             !transients || method == Method::Gpr,
             "--features auto evaluates the GP (--method gpr) on one table"
         );
-        anyhow::ensure!(
-            scale_repeatability.is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
-            "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
-        );
-        anyhow::ensure!(
-            repeatability.is_none_or(|r| r.is_finite() && r >= 0.0),
-            "--repeatability must be a σ: a number not below 0"
-        );
+        super::check_repeatability(repeatability, scale_repeatability)?;
         anyhow::ensure!(
             (repeatability.is_none() && scale_repeatability.is_none()) || method == Method::Gpr,
             "--repeatability and --scale-repeatability are stated in a σ, and of the methods only \

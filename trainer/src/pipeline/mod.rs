@@ -18,6 +18,23 @@ use firmware_core::Quantity;
 use fog_data::channels::Channel;
 use serde::Serialize;
 
+use crate::analysis::uncertainty::MAX_PPM;
+
+/// Checks a datasheet's run-to-run figures as `fit`, `loo` and `investigate` take them: the
+/// bias's repeatability (`--repeatability`) a σ, the scale factor's (`--scale-repeatability`) a
+/// σ in ppm up to 100 %.
+pub fn check_repeatability(bias: Option<f64>, scale_ppm: Option<f64>) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        bias.is_none_or(|r| r.is_finite() && r >= 0.0),
+        "--repeatability must be a σ: a number not below 0"
+    );
+    anyhow::ensure!(
+        scale_ppm.is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
+        "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
+    );
+    Ok(())
+}
+
 /// One channel in a unit's JSON: its name, what it measures and its output's unit, then its
 /// fields, its figures in that unit (the `_dps` fields too).
 #[derive(Serialize, schemars::JsonSchema)]
