@@ -315,7 +315,22 @@ fn a_calibration_on_several_power_ons_covers_another() {
     );
     assert!(another["sharpness"].as_f64().unwrap() <= 1.5, "{another}");
 
+    let noise = |c: &serde_json::Value| {
+        (
+            c["sample_noise_std"].as_f64().unwrap(),
+            c["sample_interval_s"].as_f64().unwrap(),
+        )
+    };
+    let (one_noise, one_interval) = noise(&calibration);
     let (pooled, calibration) = fit(&runs[..3], &[], "three");
+    // The pooled points are the streams' 60 s means, whose GP noise holds what the GP cannot
+    // follow at a point; one sample's noise is the streams' own, as on one power-on.
+    let (pooled_noise, pooled_interval) = noise(&calibration);
+    assert_eq!(pooled_interval, one_interval, "{calibration}");
+    assert!(
+        (0.8..1.25).contains(&(pooled_noise / one_noise)),
+        "{pooled_noise} against {one_noise}"
+    );
     let sources: Vec<&str> = calibration["sources"]
         .as_array()
         .unwrap()

@@ -184,7 +184,7 @@ impl MethodFit {
     ) -> Result<Option<Calibration>, EvalError> {
         match self {
             Self::Gpr(m) => Ok(Some(uncertainty::tables::pooled_calibration(
-                points, m, &cfg.gp, None,
+                points, m, &cfg.gp, None, None,
             )?)),
             _ => Ok(None),
         }

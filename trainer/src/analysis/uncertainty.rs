@@ -229,11 +229,33 @@ impl SampleNoise {
     /// deviation), which a drift slower than a sample leaves out. `None` with fewer than 10
     /// differences.
     pub fn from_errors(stream: &Stream, error: &[f64]) -> Option<Self> {
-        let gap = 1.5 * stream.step_s;
-        let d: Vec<f64> = (1..stream.len())
-            .filter(|&i| stream.time_s[i] - stream.time_s[i - 1] <= gap)
-            .map(|i| error[i] - error[i - 1])
-            .filter(|v| v.is_finite())
+        Self::from_streams(&[(stream, error)])
+    }
+
+    /// As [`Self::from_errors`], over several streams (`(stream, error)` each) of one sensor: at
+    /// the sample interval of the stream with the most differences, each stream's differences
+    /// scaled to it as white noise scales (a sample's variance inversely in proportion to its
+    /// interval: one noise density), so that a log recorded at another rate counts alike.
+    pub fn from_streams(streams: &[(&Stream, &[f64])]) -> Option<Self> {
+        let differences = |stream: &Stream, error: &[f64]| -> Vec<f64> {
+            let gap = 1.5 * stream.step_s;
+            (1..stream.len())
+                .filter(|&i| stream.time_s[i] - stream.time_s[i - 1] <= gap)
+                .map(|i| error[i] - error[i - 1])
+                .filter(|v| v.is_finite())
+                .collect()
+        };
+        let each: Vec<(f64, Vec<f64>)> = streams
+            .iter()
+            .map(|(s, e)| (s.step_s, differences(s, e)))
+            .collect();
+        let interval_s = each.iter().max_by_key(|(_, d)| d.len())?.0;
+        let d: Vec<f64> = each
+            .iter()
+            .flat_map(|(step, d)| {
+                let scale = (step / interval_s).sqrt();
+                d.iter().map(move |v| v * scale)
+            })
             .collect();
         if d.len() < 10 {
             return None;
@@ -243,7 +265,7 @@ impl SampleNoise {
         let sd = 1.4826 * mad / std::f64::consts::SQRT_2;
         Some(Self {
             var: sd * sd,
-            interval_s: stream.step_s,
+            interval_s,
         })
     }
 }

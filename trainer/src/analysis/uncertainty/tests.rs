@@ -290,6 +290,43 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
 }
 
 #[test]
+fn streams_at_other_rates_pool_their_noise_as_a_density() {
+    // One sensor's white noise, 0.02 a sample at 1 s: 0.02·√2 at 0.5 s, each in its own log.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let log = |n: usize, step_s: f64, sd: f64, rng: &mut rand_chacha::ChaCha8Rng| {
+        let stream = Stream {
+            time_s: (0..n).map(|i| i as f64 * step_s).collect(),
+            temp_c: vec![20.0; n],
+            voltage_v: vec![0.0; n],
+            rate_dps: vec![0.0; n],
+            lines: (2..n as u64 + 2).collect(),
+            step_s,
+            time_issues: vec![],
+            handled: vec![],
+        };
+        let error: Vec<f64> = (0..n).map(|_| sd * unit.sample(rng)).collect();
+        (stream, error)
+    };
+    let slow = log(5_000, 1.0, 0.02, &mut rng);
+    let fast = log(20_000, 0.5, 0.02 * 2f64.sqrt(), &mut rng);
+    let noise = SampleNoise::from_streams(&[(&slow.0, &slow.1), (&fast.0, &fast.1)]).unwrap();
+    // At the interval of the log with the most samples, whatever order they come in.
+    assert_eq!(noise.interval_s, 0.5);
+    assert!(
+        (noise.var.sqrt() / (0.02 * 2f64.sqrt()) - 1.0).abs() < 0.03,
+        "{noise:?}"
+    );
+    let reversed = SampleNoise::from_streams(&[(&fast.0, &fast.1), (&slow.0, &slow.1)]).unwrap();
+    assert!((reversed.var / noise.var - 1.0).abs() < 1e-12);
+    // One log alone is what `from_errors` measures, to the bit.
+    assert_eq!(
+        SampleNoise::from_streams(&[(&slow.0, &slow.1)]),
+        SampleNoise::from_errors(&slow.0, &slow.1)
+    );
+}
+
+#[test]
 fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     let r = residuals(400, 5, |_, _| 0.05);
     let series = [Series {

@@ -15,9 +15,10 @@ use std::path::Path;
 use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Beyond;
 use fog_data::autopilot::Mounting;
+use fog_data::blocks::BLOCK_S;
 use fog_data::cause::Cause;
 use fog_data::channels::Channels;
-use fog_data::replay::HostModel;
+use fog_data::replay::{self, HostModel};
 use fog_data::stream::Stream;
 
 use crate::analysis::beyond::BeyondChoice;
@@ -27,7 +28,8 @@ use crate::analysis::diagnose::causes_text;
 use crate::analysis::investigate::{self, Forward};
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
-use crate::analysis::uncertainty::{self, Calibration};
+use crate::analysis::uncertainty::tables::StreamPoints;
+use crate::analysis::uncertainty::{self, Calibration, SampleNoise};
 use crate::data::points::Points;
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
@@ -259,7 +261,13 @@ impl FitPlan {
             Some(s) => s,
             None => (
                 static_blob.clone(),
-                uncertainty::tables::pooled_calibration(&points, &model, &gp, Some(&beyond))?,
+                uncertainty::tables::pooled_calibration(
+                    &points,
+                    &model,
+                    &gp,
+                    Some(&beyond),
+                    self.stream_points(streams, &firmware),
+                )?,
                 None,
             ),
         };
@@ -511,6 +519,37 @@ impl FitPlan {
             beyond,
         )?;
         Ok(Some((blob, calibration, exported_from)))
+    }
+
+    /// The white noise of the static model's points where they are the streams' own (no rate
+    /// table): one sample's, measured on the static model's errors over every stream; a point
+    /// averages a 60 s block, or is one sample with `--pool-stream`.
+    fn stream_points(
+        &self,
+        streams: &[(&Path, Stream)],
+        firmware: &HostModel,
+    ) -> Option<StreamPoints> {
+        if self.source.points.is_some() {
+            return None;
+        }
+        let errors: Vec<Vec<f64>> = streams
+            .iter()
+            .map(|(_, s)| {
+                let c = replay::means(firmware, s);
+                (0..s.len())
+                    .map(|i| f64::from(c.rate_dps[i]) - s.rate_dps[i])
+                    .collect()
+            })
+            .collect();
+        let parts: Vec<(&Stream, &[f64])> = streams
+            .iter()
+            .zip(&errors)
+            .map(|((_, s), e)| (s, e.as_slice()))
+            .collect();
+        SampleNoise::from_streams(&parts).map(|noise| StreamPoints {
+            noise,
+            point_s: if self.pool { 0.0 } else { BLOCK_S },
+        })
     }
 }
 
