@@ -451,7 +451,7 @@ fn held_out_the_gp_beats_the_cubic_where_the_board_hides_an_effect_and_matches_i
 
 /// Two warm-ups of a board pooled (`fit --stream A --stream B`, each a power-on left out in turn):
 /// the static model's points are the logs' 60 s means, and the GP's noise level on them is no
-/// sample's (at 200 Hz, a fifteenth of one). The blob states one sample's noise as the logs show
+/// sample's (at 5 Hz, a sixteenth of one). The blob states one sample's noise as the logs show
 /// it, so its σ covers another warm-up's samples, not only their 60 s means.
 #[test]
 fn a_fit_on_two_warm_ups_states_the_noise_of_one_sample() {
@@ -486,8 +486,8 @@ fn a_fit_on_two_warm_ups_states_the_noise_of_one_sample() {
         "-q", "replay", "--model", &blob, "--stream", &held, "--json", &replay,
     ])
     .unwrap();
-    // (The 60 s means are covered too, if widely: two power-ons, each left out, are few to
-    // measure another's bias by.)
+    // Its 60 s means are covered too (on x widely: two power-ons, each left out, are few to
+    // measure another's bias by).
     for c in json(&replay)["channels"].as_array().unwrap() {
         let (samples, means) = (&c["sigma_samples"], &c["sigma_60s"]);
         let within = |s: &serde_json::Value| s["within_2sigma"].as_f64().unwrap();

@@ -86,6 +86,10 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     assert!((20..=DEFAULT_INDUCING as u64).contains(&centres), "{fit}");
     assert_eq!(fit["n_train"], 50 + 28_621, "{fit}");
     assert_eq!(fit["pool_check"]["shipped"], "pooled", "{fit}");
+    // Its points are mostly the stream's samples: one sample's noise is the stream's own, at its
+    // interval, not the GP's level on the points (undivided over a mean).
+    let calibration = &fit["calibration"];
+    assert_eq!(calibration["sample_interval_s"], 1.0, "{calibration}");
     // The f32 firmware follows the f64 host as closely as for exact models (issue 3: 1e-5 °/s,
     // 1e-3 relative variance). This model reaches 8.7e-6 and 7.3e-6 (docs/performance.md: how
     // close to f32's limit a sparse model sits).

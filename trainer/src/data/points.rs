@@ -391,8 +391,7 @@ impl Points {
         stream: &Stream,
         scale_factor: Option<f64>,
     ) -> Result<Self, PointsError> {
-        let scored = scored(stream);
-        let blocks = stream.half_filled_blocks(&scored);
+        let blocks = stream_blocks(stream);
         if blocks.len() < 10 {
             return Err(PointsError::TooFewBlocks {
                 path: path.display().to_string(),
@@ -605,8 +604,13 @@ impl Points {
     }
 }
 
-/// Indices of a stream's samples with a reference rate.
-fn scored(stream: &Stream) -> Vec<usize> {
+/// The 60 s blocks of a stream's samples that [`Points::from_stream`] makes its points of.
+pub(crate) fn stream_blocks(stream: &Stream) -> Vec<Vec<usize>> {
+    stream.half_filled_blocks(&scored(stream))
+}
+
+/// Indices of a stream's samples that make points: with a reference rate, taken by the firmware.
+pub(crate) fn scored(stream: &Stream) -> Vec<usize> {
     (0..stream.len())
         .filter(|&i| stream.rate_dps[i].is_finite() && accepted(&replay::sample(stream, i)))
         .collect()

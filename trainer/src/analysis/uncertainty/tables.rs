@@ -12,50 +12,53 @@ use crate::models::gp::{GpConfig, GpError, GpModel};
 use crate::models::normalize::Sorted;
 
 /// The σ of a model fitted on a rate table alone: its groups (or points) left out
-/// ([`table_series`]), and the points' own noise as a point's (a stream's sample noise, where the
-/// points are a stream's: [`StreamPoints`]); what they cannot show, the model's [`Prior`], for
-/// the rule its blob ships beyond the range where `beyond` gives it ([`Prior::for_rule`]; `None`,
-/// for `loo`, which ships no blob: holding's miss, unscaled).
+/// ([`table_series`]), and the points' own noise as a point's (where some are streams', theirs:
+/// [`StreamPoints`]); what they cannot show, the model's [`Prior`], for the rule its blob ships
+/// beyond the range where `beyond` gives it ([`Prior::for_rule`]; `None`, for `loo`, which ships
+/// no blob: holding's miss, unscaled).
 pub fn table_calibration(
     points: &Points,
     model: &GpModel,
     beyond: Option<&BeyondChoice>,
-    streams: Option<StreamPoints>,
+    streams: Option<&StreamPoints>,
 ) -> Result<Calibration, GpError> {
-    let mut series = table_series(model, points)?;
+    let (source, groups) = table_groups(model, points);
+    let mut loo = model.group_loo_predictive(points.inputs(), &groups)?;
     let gp_noise = table_noise(points, model);
     if let Some(s) = streams {
-        for r in &mut series.residuals {
-            r.base_var = (r.base_var - gp_noise.var).max(0.0) + s.point_var();
+        for (i, (_, var)) in loo.iter_mut().enumerate() {
+            *var = (*var - gp_noise.var).max(0.0) + s.white(i, gp_noise.var);
         }
     }
     Ok(calibrate(
-        &[series],
+        &[series_of(points, source, &groups, &loo)],
         streams.map_or(gp_noise, |s| s.noise),
         prior(model, points, beyond),
     ))
 }
 
-/// The white noise of points that are streams' (their 60 s block means, or their samples): one
-/// sample's, measured on the streams ([`SampleNoise::from_streams`]), and the time a point
-/// averages. A GP fitted on such points takes as its noise whatever it cannot follow at a point
-/// (several power-ons' offsets; rates that change within a block), and that is no sample's
-/// white noise: at one sample of a fast log it is less (a simulated board at 200 Hz: a σ 15×
-/// too narrow, 11 % of the held-out samples within ±2σ), and over a 60 s mean it is not divided.
-/// The σ takes the sample's own noise instead, and what the GP called noise beyond it is model
-/// error, which the terms fitted on the residuals take up.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The white noise of points that are streams' (their 60 s block means, or their samples pooled
+/// with `--pool-stream`): one sample's, measured on the streams
+/// ([`SampleNoise::from_streams`]), and each point's over the samples it averages. A GP fitted on
+/// such points takes as its noise whatever it cannot follow at a point (several power-ons'
+/// offsets; rates that change within a block), and that is no sample's white noise: at one
+/// sample of a 5 Hz log it was a sixteenth of it (the simulated board's warm-ups pooled: 9–11 %
+/// of another warm-up's samples within ±2σ), and over a 60 s mean it was not divided. The σ
+/// takes the samples' own noise instead, and what the GP called noise beyond it is model error,
+/// which the terms fitted on the residuals take up.
+#[derive(Debug, Clone, PartialEq)]
 pub struct StreamPoints {
-    /// One sample's white noise.
+    /// One sample's white noise: what the blob states.
     pub noise: SampleNoise,
-    /// How long a point averages, s (0: a sample).
-    pub point_s: f64,
+    /// Each point's white-noise variance where it is a stream's (its samples' noise over their
+    /// number), `None` for a rate table's row, whose noise is the GP's level.
+    pub point_var: Vec<Option<f64>>,
 }
 
 impl StreamPoints {
-    /// The white-noise variance of one point.
-    fn point_var(&self) -> f64 {
-        self.noise.of_mean(self.point_s)
+    /// Point `i`'s white-noise variance (`gp_var`, the GP's level, for a table's row).
+    fn white(&self, i: usize, gp_var: f64) -> f64 {
+        self.point_var.get(i).copied().flatten().unwrap_or(gp_var)
     }
 }
 
@@ -74,7 +77,7 @@ pub fn pooled_calibration(
     model: &GpModel,
     cfg: &GpConfig,
     beyond: Option<&BeyondChoice>,
-    streams: Option<StreamPoints>,
+    streams: Option<&StreamPoints>,
 ) -> Result<Calibration, GpError> {
     let runs = points.run_members();
     if runs.len() < 2 || model.sparse.is_none() {
@@ -91,7 +94,7 @@ pub fn pooled_calibration(
         for &i in run {
             let row: Vec<f64> = points.inputs().row(i).iter().copied().collect();
             let p = refit.predict(&row);
-            let white = streams.map_or(p.noise_var, |s| s.point_var());
+            let white = streams.map_or(p.noise_var, |s| s.white(i, p.noise_var));
             loo[i] = (p.mean - target[i], p.latent_var + white);
         }
     }

@@ -310,19 +310,77 @@ fn streams_at_other_rates_pool_their_noise_as_a_density() {
     };
     let slow = log(5_000, 1.0, 0.02, &mut rng);
     let fast = log(20_000, 0.5, 0.02 * 2f64.sqrt(), &mut rng);
-    let noise = SampleNoise::from_streams(&[(&slow.0, &slow.1), (&fast.0, &fast.1)]).unwrap();
-    // At the interval of the log with the most samples, whatever order they come in.
-    assert_eq!(noise.interval_s, 0.5);
-    assert!(
-        (noise.var.sqrt() / (0.02 * 2f64.sqrt()) - 1.0).abs() < 0.03,
-        "{noise:?}"
-    );
-    let reversed = SampleNoise::from_streams(&[(&fast.0, &fast.1), (&slow.0, &slow.1)]).unwrap();
-    assert!((reversed.var / noise.var - 1.0).abs() < 1e-12);
+    // At the interval of the log with the most samples, whatever order they come in, and the
+    // same density whichever that is: each log alone would be off by √2 in σ.
+    for (parts, interval_s, sd) in [
+        ([&slow, &fast], 0.5, 0.02 * 2f64.sqrt()),
+        ([&fast, &slow], 0.5, 0.02 * 2f64.sqrt()),
+        ([&slow, &slow], 1.0, 0.02),
+    ] {
+        let parts: Vec<(&Stream, &[f64])> = parts.iter().map(|(s, e)| (s, e.as_slice())).collect();
+        let noise = SampleNoise::from_streams(&parts).unwrap();
+        assert_eq!(noise.interval_s, interval_s);
+        assert!((noise.var.sqrt() / sd - 1.0).abs() < 0.03, "{noise:?}");
+    }
+    let more_slow = log(40_000, 1.0, 0.02, &mut rng);
+    let noise =
+        SampleNoise::from_streams(&[(&more_slow.0, &more_slow.1), (&fast.0, &fast.1)]).unwrap();
+    assert_eq!(noise.interval_s, 1.0);
+    assert!((noise.var.sqrt() / 0.02 - 1.0).abs() < 0.03, "{noise:?}");
     // One log alone is what `from_errors` measures, to the bit.
     assert_eq!(
         SampleNoise::from_streams(&[(&slow.0, &slow.1)]),
         SampleNoise::from_errors(&slow.0, &slow.1)
+    );
+}
+
+#[test]
+fn points_of_streams_take_their_samples_noise_and_leave_the_rest_to_the_model_error() {
+    use super::tables::{StreamPoints, table_calibration, table_noise};
+    use crate::data::points::Points;
+    use crate::models::gp::{GpConfig, GpModel};
+    // A table whose rows scatter about a smooth curve by 0.01, in ten groups.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let (mut t, mut v, mut w, mut g) = (vec![], vec![], vec![], vec![]);
+    for k in 0..40 {
+        let temp = -20.0 + 2.0 * k as f64;
+        for rate in [-10.0, 10.0] {
+            t.push(temp);
+            w.push(rate);
+            v.push(0.05 * rate + 1e-3 * temp + 0.01 * 0.05 * unit.sample(&mut rng));
+            g.push((k / 4).to_string());
+        }
+    }
+    let points = Points::new(t, v, w, g, None, true, None);
+    let model = GpModel::fit(points.inputs(), &points.target(), &GpConfig::default()).unwrap();
+    let gp_var = table_noise(&points, &model).var;
+    let noise = SampleNoise {
+        var: 1.0,
+        interval_s: 0.1,
+    };
+    let with = |point_var: Option<f64>| {
+        let s = StreamPoints {
+            noise,
+            point_var: vec![point_var; points.len()],
+        };
+        table_calibration(&points, &model, None, Some(&s)).unwrap()
+    };
+    let table = table_calibration(&points, &model, None, None).unwrap();
+    // Rows at the GP's level, or a table's rows (None): the table's own calibration, but for
+    // the sample noise the blob states.
+    for same in [with(Some(gp_var)), with(None)] {
+        assert_eq!(same.floor_std, table.floor_std);
+        assert_eq!(same.error_model.sample_noise_var, 1.0);
+        assert_eq!(same.error_model.sample_interval_s, 0.1);
+    }
+    // Points whose own noise is a hundredth of what the GP took: the rest is model error.
+    let less = with(Some(gp_var / 100.0));
+    assert!(
+        less.floor_std.powi(2) > 0.5 * gp_var,
+        "{} against the GP's noise {}",
+        less.floor_std,
+        gp_var.sqrt()
     );
 }
 

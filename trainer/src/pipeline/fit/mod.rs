@@ -15,7 +15,6 @@ use std::path::Path;
 use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Beyond;
 use fog_data::autopilot::Mounting;
-use fog_data::blocks::BLOCK_S;
 use fog_data::cause::Cause;
 use fog_data::channels::Channels;
 use fog_data::replay::{self, HostModel};
@@ -30,7 +29,7 @@ use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::tables::StreamPoints;
 use crate::analysis::uncertainty::{self, Calibration, SampleNoise};
-use crate::data::points::Points;
+use crate::data::points::{self, Points};
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
 use crate::firmware::unit;
@@ -233,6 +232,10 @@ impl FitPlan {
         let static_blob = export::points_blob(&model, &points, &extension)?;
         let (firmware, agreement) = export::verify(&model, &static_blob, &points, &extension)?;
         let mut summary = FitReport::new(&model, &points, agreement, static_blob.len());
+        // Whether the shipped points hold the streams' samples beside a table's rows.
+        let pooled = pool_check
+            .as_ref()
+            .is_some_and(|c| matches!(c.shipped, Pooling::Pooled));
         summary.pool_check = pool_check;
         summary.centres_choice = centres_choice;
         if let Some(t) = &table {
@@ -266,7 +269,8 @@ impl FitPlan {
                     &model,
                     &gp,
                     Some(&beyond),
-                    self.stream_points(streams, &firmware),
+                    self.stream_points(streams, (&points, &firmware, pooled), messages)?
+                        .as_ref(),
                 )?,
                 None,
             ),
@@ -521,16 +525,20 @@ impl FitPlan {
         Ok(Some((blob, calibration, exported_from)))
     }
 
-    /// The white noise of the static model's points where they are the streams' own (no rate
-    /// table): one sample's, measured on the static model's errors over every stream; a point
-    /// averages a 60 s block, or is one sample with `--pool-stream`.
+    /// The white noise of the static model's points where some are the streams' own (no rate
+    /// table, or one pooled with the stream's samples and shipped so): one sample's, measured on
+    /// the static model's errors over every stream, and each stream point's over the samples it
+    /// averages (a 60 s block's, or one with `--pool-stream`). `None` where the points are a
+    /// table's alone, or the streams are too short to measure it (said).
     fn stream_points(
         &self,
         streams: &[(&Path, Stream)],
-        firmware: &HostModel,
-    ) -> Option<StreamPoints> {
-        if self.source.points.is_some() {
-            return None;
+        (points, firmware, pooled): (&Points, &HostModel, bool),
+        messages: &dyn Messages,
+    ) -> anyhow::Result<Option<StreamPoints>> {
+        let table = self.source.points.is_some();
+        if table && !pooled {
+            return Ok(None);
         }
         let errors: Vec<Vec<f64>> = streams
             .iter()
@@ -546,10 +554,35 @@ impl FitPlan {
             .zip(&errors)
             .map(|((_, s), e)| (s, e.as_slice()))
             .collect();
-        SampleNoise::from_streams(&parts).map(|noise| StreamPoints {
-            noise,
-            point_s: if self.pool { 0.0 } else { BLOCK_S },
-        })
+        let Some(noise) = SampleNoise::from_streams(&parts) else {
+            messages.warn(
+                "skipped: one sample's noise (the streams hold too few consecutive samples to \
+                 measure it): the GP's noise level on the points stands in, undivided over a mean",
+            );
+            return Ok(None);
+        };
+        // Noise density over the samples a point averages, at each stream's own interval.
+        let density = noise.var * noise.interval_s;
+        let mut stream_vars = Vec::new();
+        for (_, s) in streams {
+            let of = |n: usize| Some(density / (n as f64 * s.step_s));
+            if self.pool {
+                stream_vars.extend(points::scored(s).iter().map(|_| of(1)));
+            } else {
+                stream_vars.extend(points::stream_blocks(s).iter().map(|b| of(b.len())));
+            }
+        }
+        // A rate table's rows come first ([`PointFiles::static_points`]), with the GP's level.
+        let rows = points.len().checked_sub(stream_vars.len());
+        anyhow::ensure!(
+            rows.is_some_and(|r| table || r == 0),
+            "internal: {} points, of which {} from the streams",
+            points.len(),
+            stream_vars.len()
+        );
+        let mut point_var = vec![None; rows.unwrap_or(0)];
+        point_var.extend(stream_vars);
+        Ok(Some(StreamPoints { noise, point_var }))
     }
 }
 
