@@ -64,6 +64,19 @@ impl Calibration {
             .join(", ")
     }
 
+    /// The white noise it states: one sample's where a stream showed it, else a rate table's
+    /// point's, whose interval the table does not give.
+    fn noise_in_words(&self) -> String {
+        if self.sample_interval_s > 0.0 {
+            format!("one sample's noise {:.3e}", self.sample_noise_std)
+        } else {
+            format!(
+                "a point's noise {:.3e} (a rate table's: no sample's is known)",
+                self.sample_noise_std
+            )
+        }
+    }
+
     fn describe_terms(&self, units: &str) -> String {
         let share = if self.extrapolation_share < 1.0 {
             format!(
@@ -85,12 +98,11 @@ impl Calibration {
                 self.extrapolation_std
             )
         };
+        let noise = self.noise_in_words();
         let Some(c) = &self.coverage else {
             return format!(
-                "σ: the GP's own, with one sample's noise {:.3e} {units} and an assumed model \
-                 error {:.3e} {units}, {beyond} ({}; module doc of \
-                 trainer::analysis::uncertainty)",
-                self.sample_noise_std,
+                "σ: the GP's own, with {noise} and an assumed model error {:.3e} {units}, \
+                 {beyond} ({}; module doc of trainer::analysis::uncertainty)",
                 self.floor_std,
                 self.note.as_deref().unwrap_or("no error model")
             );
@@ -110,7 +122,7 @@ impl Calibration {
         format!(
             "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
              {}): model error {:.3e} {units}, {beyond}, {:.3e} per √h, {:.3e} per h (× {:.2} \
-             for the few residuals), one sample's noise {:.3e}; \
+             for the few residuals), {noise}; \
              ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
              RMS{assumed}",
             self.residuals,
@@ -120,7 +132,6 @@ impl Calibration {
             self.walk_std_per_sqrt_h,
             self.trend_std_per_h,
             self.inflation.sqrt(),
-            self.sample_noise_std,
             100.0 * c.within_2sigma,
             c.sharpness
         )

@@ -287,6 +287,14 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
+        if calibration.sample_interval_s <= 0.0 {
+            messages.result(
+                "skipped: one sample's noise (a rate table's points are means over an interval \
+                 the file does not give: the blob states their noise, undivided over a mean, and \
+                 a single sample's σ is too narrow; a training stream or a log at rest measures \
+                 it)",
+            );
+        }
         if self.service.scale_repeatability.is_none() {
             messages.result(
                 "skipped: the scale factor of another power-on (no term is measured for it; \
