@@ -388,7 +388,7 @@ class Calibration(Record):
     """The sample interval σ_w describes, s (0: not known)."""
 
     sample_noise_std: float
-    """σ_w: one sample's white noise, output units."""
+    """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
     """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its variance, as for the bias."""

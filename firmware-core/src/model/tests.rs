@@ -129,6 +129,39 @@ fn variance_vanishes_at_a_centre_and_grows_with_the_distance_beyond_the_range() 
 }
 
 #[test]
+fn beyond_the_trained_rates_the_variance_grows_with_the_output_and_the_distance_under_every_rule() {
+    // The output's own input beyond its trained ±3 V (a width of 6): e² counts its distance, so
+    // the extrapolation's scale part grows as y²·e², y the compensated output (held or along the
+    // tangent alike), one width out and ten.
+    let r = Reference::small();
+    let e = r.error;
+    let mut scratch = [0.0f32; 5];
+    for rule in [Beyond::Hold, Beyond::Tangent] {
+        let mut b = r.blob();
+        blob::set_beyond(&mut b, rule).unwrap();
+        let m = Small::decode(&b).unwrap();
+        let edge = m.predict(&[20.0, 3.0], &mut scratch).unwrap();
+        // What every power-on adds at the edge, less the latent variance the kernel reads there.
+        let at = |y: f32| e.floor_var + e.turn_on_var + e.scale_var * y * y;
+        let latent = edge.bias_variance - at(edge.mean);
+        for widths in [1.0f32, 10.0] {
+            let p = m
+                .predict(&[20.0, 3.0 + 6.0 * widths], &mut scratch)
+                .unwrap();
+            assert_eq!(p.status, Status::Extrapolating, "{rule:?} {widths}");
+            let grown = p.bias_variance - latent - at(p.mean);
+            let expected = (e.extrapolation_var + e.extrapolation_scale_var * p.mean * p.mean)
+                * widths
+                * widths;
+            assert!(
+                (grown - expected).abs() < 1e-3 * expected,
+                "{rule:?} {widths}: {grown} {expected}"
+            );
+        }
+    }
+}
+
+#[test]
 fn beyond_the_range_the_output_keeps_its_scale_factor_and_the_temperature_is_held() {
     let r = Reference::small();
     let m = Small::decode(&r.blob()).unwrap();

@@ -291,7 +291,8 @@ pub struct Calibration {
     /// What the blob carries.
     #[serde(skip)]
     pub error_model: ErrorModel,
-    /// σ_w: one sample's white noise, output units.
+    /// σ_w: one sample's white noise, output units (a point's, the GP's level, where
+    /// `sample_interval_s` is 0: no log showed a sample's).
     pub sample_noise_std: f64,
     /// The sample interval σ_w describes, s (0: not known).
     pub sample_interval_s: f64,

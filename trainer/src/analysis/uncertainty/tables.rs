@@ -1,5 +1,6 @@
-//! The residuals of a rate table: its runs, groups or points left out, closed form where the GP
-//! is exact and fitted again where it is sparse, and the σ a blob states at a table's point.
+//! The residuals of a rate table, or of points made from logs (their 60 s means or samples): its
+//! runs, groups or points left out, closed form where the GP is exact and fitted again where it is
+//! sparse, and the σ a blob states at a table's point.
 
 use firmware_core::model::Conditions;
 
@@ -22,8 +23,7 @@ pub fn table_calibration(
     beyond: Option<&BeyondChoice>,
     streams: Option<&StreamPoints>,
 ) -> Result<Calibration, GpError> {
-    let (source, groups) = table_groups(model, points);
-    let mut loo = model.group_loo_predictive(points.inputs(), &groups)?;
+    let (source, groups, mut loo) = left_out(model, points)?;
     let gp_noise = table_noise(points, model);
     if let Some(s) = streams {
         for (i, (_, var)) in loo.iter_mut().enumerate() {
@@ -51,14 +51,14 @@ pub struct StreamPoints {
     /// One sample's white noise: what the blob states.
     pub noise: SampleNoise,
     /// Each point's white-noise variance where it is a stream's (its samples' noise over their
-    /// number), `None` for a rate table's row, whose noise is the GP's level.
+    /// number), `None` for a rate table's row, whose noise is the GP's level: one per point.
     pub point_var: Vec<Option<f64>>,
 }
 
 impl StreamPoints {
     /// Point `i`'s white-noise variance (`gp_var`, the GP's level, for a table's row).
     fn white(&self, i: usize, gp_var: f64) -> f64 {
-        self.point_var.get(i).copied().flatten().unwrap_or(gp_var)
+        self.point_var[i].unwrap_or(gp_var)
     }
 }
 
@@ -134,9 +134,18 @@ pub fn table_groups(model: &GpModel, points: &Points) -> (ResidualSource, Vec<Ve
 /// The residuals of a rate table ([`table_groups`]), closed form with `model`'s hyperparameters
 /// held; e(x) against the trained range of the rows left in.
 pub fn table_series(model: &GpModel, points: &Points) -> Result<Series, GpError> {
+    let (source, groups, loo) = left_out(model, points)?;
+    Ok(series_of(points, source, &groups, &loo))
+}
+
+/// How the table is left out ([`table_groups`]) and each point's left-out prediction (error,
+/// predictive variance with noise), closed form.
+type LeftOut = (ResidualSource, Vec<Vec<usize>>, Vec<(f64, f64)>);
+
+fn left_out(model: &GpModel, points: &Points) -> Result<LeftOut, GpError> {
     let (source, groups) = table_groups(model, points);
     let loo = model.group_loo_predictive(points.inputs(), &groups)?;
-    Ok(series_of(points, source, &groups, &loo))
+    Ok((source, groups, loo))
 }
 
 /// A table's residuals from its left-out predictions `loo` (error, predictive variance with

@@ -370,7 +370,12 @@ fn points_of_streams_take_their_samples_noise_and_leave_the_rest_to_the_model_er
     // Rows at the GP's level, or a table's rows (None): the table's own calibration, but for
     // the sample noise the blob states.
     for same in [with(Some(gp_var)), with(None)] {
-        assert_eq!(same.floor_std, table.floor_std);
+        assert!(
+            (same.floor_std - table.floor_std).abs() <= 1e-9 * gp_var.sqrt(),
+            "{} {}",
+            same.floor_std,
+            table.floor_std
+        );
         assert_eq!(same.error_model.sample_noise_var, 1.0);
         assert_eq!(same.error_model.sample_interval_s, 0.1);
     }
@@ -551,4 +556,17 @@ fn the_priors_growth_is_told_apart_by_the_output_where_the_outputs_move() {
     holed[7] = f64::NAN;
     let (ha, hb) = split_by_output(&holed, &y, 1e-3);
     assert!(ha.is_finite() && hb.is_finite() && hb > 0.0, "{ha} {hb}");
+}
+
+#[test]
+fn the_sigma_line_says_whose_noise_it_states() {
+    let line = |interval_s: f64| {
+        let noise = SampleNoise {
+            var: 1e-4,
+            interval_s,
+        };
+        Calibration::assumed(noise, Prior::NONE, String::new()).noise_in_words()
+    };
+    assert_eq!(line(1.0), "one sample's noise 1.000e-2");
+    assert_eq!(line(0.0), "a point's noise 1.000e-2 (no sample's is known)");
 }

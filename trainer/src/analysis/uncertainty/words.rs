@@ -64,14 +64,14 @@ impl Calibration {
             .join(", ")
     }
 
-    /// The white noise it states: one sample's where a stream showed it, else a rate table's
-    /// point's, whose interval the table does not give.
-    fn noise_in_words(&self) -> String {
+    /// The white noise it states: one sample's where a log showed it, else the GP's level at a
+    /// point, whose interval is not known.
+    pub(super) fn noise_in_words(&self) -> String {
         if self.sample_interval_s > 0.0 {
             format!("one sample's noise {:.3e}", self.sample_noise_std)
         } else {
             format!(
-                "a point's noise {:.3e} (a rate table's: no sample's is known)",
+                "a point's noise {:.3e} (no sample's is known)",
                 self.sample_noise_std
             )
         }

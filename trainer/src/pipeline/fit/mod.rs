@@ -287,12 +287,12 @@ impl FitPlan {
             "the blob's {}",
             calibration.describe(points.quantity.unit())
         ));
-        if calibration.sample_interval_s <= 0.0 {
+        if streams.is_empty() {
             messages.result(
                 "skipped: one sample's noise (a rate table's points are means over an interval \
                  the file does not give: the blob states their noise, undivided over a mean, and \
-                 a single sample's σ is too narrow; a training stream or a log at rest measures \
-                 it)",
+                 a single sample's σ is too narrow; a log of the sensor measures it: --stream, \
+                 beside a table with --features or --pool-stream)",
             );
         }
         if self.service.scale_repeatability.is_none() {
@@ -533,19 +533,18 @@ impl FitPlan {
         Ok(Some((blob, calibration, exported_from)))
     }
 
-    /// The white noise of the static model's points where some are the streams' own (no rate
-    /// table, or one pooled with the stream's samples and shipped so): one sample's, measured on
-    /// the static model's errors over every stream, and each stream point's over the samples it
-    /// averages (a 60 s block's, or one with `--pool-stream`). `None` where the points are a
-    /// table's alone, or the streams are too short to measure it (said).
+    /// One sample's white noise, measured on the static model's errors over every stream, and
+    /// each point's where the points are the streams' own (no rate table, or one pooled with
+    /// their samples and shipped so): over the samples it averages (a 60 s block's, or one with
+    /// `--pool-stream`). A table's rows, and a table shipped alone, keep the GP's level at their
+    /// points. `None` without streams, or where they are too short to show it (said).
     fn stream_points(
         &self,
         streams: &[(&Path, Stream)],
         (points, firmware, pooled): (&Points, &HostModel, bool),
         messages: &dyn Messages,
     ) -> anyhow::Result<Option<StreamPoints>> {
-        let table = self.source.points.is_some();
-        if table && !pooled {
+        if streams.is_empty() {
             return Ok(None);
         }
         let errors: Vec<Vec<f64>> = streams
@@ -569,27 +568,31 @@ impl FitPlan {
             );
             return Ok(None);
         };
-        // Noise density over the samples a point averages, at each stream's own interval.
-        let density = noise.var * noise.interval_s;
-        let mut stream_vars = Vec::new();
-        for (_, s) in streams {
-            let of = |n: usize| Some(density / (n as f64 * s.step_s));
-            if self.pool {
-                stream_vars.extend(points::scored(s).iter().map(|_| of(1)));
-            } else {
-                stream_vars.extend(points::stream_blocks(s).iter().map(|b| of(b.len())));
+        let mut point_var = vec![None; points.len()];
+        if self.source.points.is_none() || pooled {
+            // Noise density over the samples a point averages, at each stream's own interval.
+            let density = noise.var * noise.interval_s;
+            let mut stream_vars = Vec::new();
+            for (_, s) in streams {
+                let of = |n: usize| Some(density / (n as f64 * s.step_s));
+                if self.pool {
+                    stream_vars.extend(std::iter::repeat_n(of(1), points::scored(s).len()));
+                } else {
+                    stream_vars.extend(points::stream_blocks(s).iter().map(|b| of(b.len())));
+                }
             }
+            // The streams' points are the last runs ([`PointFiles::static_points`]), after a
+            // rate table's rows.
+            let first = points.runs() - streams.len();
+            let rows = points.run.iter().filter(|&&r| r < first).count();
+            anyhow::ensure!(
+                rows + stream_vars.len() == points.len(),
+                "{} points, {rows} of a table and {} from the streams: they do not add up",
+                points.len(),
+                stream_vars.len()
+            );
+            point_var[rows..].copy_from_slice(&stream_vars);
         }
-        // A rate table's rows come first ([`PointFiles::static_points`]), with the GP's level.
-        let rows = points.len().checked_sub(stream_vars.len());
-        anyhow::ensure!(
-            rows.is_some_and(|r| table || r == 0),
-            "internal: {} points, of which {} from the streams",
-            points.len(),
-            stream_vars.len()
-        );
-        let mut point_var = vec![None; rows.unwrap_or(0)];
-        point_var.extend(stream_vars);
         Ok(Some(StreamPoints { noise, point_var }))
     }
 }
