@@ -132,11 +132,7 @@ pub fn calibrate(
     beyond: &BeyondChoice,
 ) -> anyhow::Result<Calibration> {
     let fw = fog_data::replay::decode(shipped_blob)?;
-    let comp = replay::means(&fw, train);
-    let errors: Vec<f64> = (0..train.len())
-        .map(|i| f64::from(comp.rate_dps[i]) - train.rate_dps[i])
-        .collect();
-    let noise = SampleNoise::from_errors(train, &errors).unwrap_or(SampleNoise {
+    let noise = uncertainty::streams::sample_noise(&fw, &[train]).unwrap_or(SampleNoise {
         var: f64::from(fw.variances()[1]),
         interval_s: 0.0,
     });

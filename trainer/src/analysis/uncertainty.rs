@@ -224,18 +224,13 @@ impl SampleNoise {
         }
     }
 
-    /// From a stream's per-sample errors (`error[i]`, NaN where not scored): half the variance of
-    /// the differences of consecutive scored samples, robustly (1.4826 × their median absolute
-    /// deviation), which a drift slower than a sample leaves out. `None` with fewer than 10
-    /// differences.
-    pub fn from_errors(stream: &Stream, error: &[f64]) -> Option<Self> {
-        Self::from_streams(&[(stream, error)])
-    }
-
-    /// As [`Self::from_errors`], over several streams (`(stream, error)` each) of one sensor: at
-    /// the sample interval of the stream with the most differences, each stream's differences
-    /// scaled to it as white noise scales (a sample's variance inversely in proportion to its
-    /// interval: one noise density), so that a log recorded at another rate counts alike.
+    /// From the per-sample errors of one sensor's streams (`(stream, error)` each, `error[i]` NaN
+    /// where not scored): half the variance of the differences of consecutive scored samples,
+    /// robustly (1.4826 × their median absolute deviation), which a drift slower than a sample
+    /// leaves out. At the sample interval of the stream with the most differences, each stream's
+    /// differences scaled to it as white noise scales (a sample's variance inversely in
+    /// proportion to its interval: one noise density), so that a log recorded at another rate
+    /// counts alike. `None` with fewer than 10 differences.
     pub fn from_streams(streams: &[(&Stream, &[f64])]) -> Option<Self> {
         let differences = |stream: &Stream, error: &[f64]| -> Vec<f64> {
             let gap = 1.5 * stream.step_s;

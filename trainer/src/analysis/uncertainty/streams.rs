@@ -4,7 +4,7 @@
 
 use firmware_core::ErrorModel;
 use firmware_core::units::SECONDS_PER_HOUR;
-use fog_data::replay;
+use fog_data::replay::{self, HostModel};
 use fog_data::stream::Stream;
 
 use super::{Residual, ResidualSource, SampleNoise, Series};
@@ -58,6 +58,27 @@ pub fn stream_series(
         })
         .collect();
     Ok(Series { source, residuals })
+}
+
+/// One sample's white noise in `model`'s errors over `streams`, each replayed whole through the
+/// firmware's evaluation ([`SampleNoise::from_streams`]); `None` where they hold too few
+/// consecutive samples.
+pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNoise> {
+    let errors: Vec<Vec<f64>> = streams
+        .iter()
+        .map(|s| {
+            let c = replay::means(model, s);
+            (0..s.len())
+                .map(|i| f64::from(c.rate_dps[i]) - s.rate_dps[i])
+                .collect()
+        })
+        .collect();
+    let parts: Vec<(&Stream, &[f64])> = streams
+        .iter()
+        .zip(&errors)
+        .map(|(s, e)| (*s, e.as_slice()))
+        .collect();
+    SampleNoise::from_streams(&parts)
 }
 
 /// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks

@@ -17,7 +17,7 @@ use firmware_core::blob::Beyond;
 use fog_data::autopilot::Mounting;
 use fog_data::cause::Cause;
 use fog_data::channels::Channels;
-use fog_data::replay::{self, HostModel};
+use fog_data::replay::HostModel;
 use fog_data::stream::Stream;
 
 use crate::analysis::beyond::BeyondChoice;
@@ -28,7 +28,7 @@ use crate::analysis::investigate::{self, Forward};
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::tables::StreamPoints;
-use crate::analysis::uncertainty::{self, Calibration, SampleNoise};
+use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::{self, Points};
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
@@ -547,21 +547,8 @@ impl FitPlan {
         if streams.is_empty() {
             return Ok(None);
         }
-        let errors: Vec<Vec<f64>> = streams
-            .iter()
-            .map(|(_, s)| {
-                let c = replay::means(firmware, s);
-                (0..s.len())
-                    .map(|i| f64::from(c.rate_dps[i]) - s.rate_dps[i])
-                    .collect()
-            })
-            .collect();
-        let parts: Vec<(&Stream, &[f64])> = streams
-            .iter()
-            .zip(&errors)
-            .map(|((_, s), e)| (s, e.as_slice()))
-            .collect();
-        let Some(noise) = SampleNoise::from_streams(&parts) else {
+        let logs: Vec<&Stream> = streams.iter().map(|(_, s)| s).collect();
+        let Some(noise) = uncertainty::streams::sample_noise(firmware, &logs) else {
             messages.warn(
                 "skipped: one sample's noise (the streams hold too few consecutive samples to \
                  measure it): the GP's noise level on the points stands in, undivided over a mean",
