@@ -162,6 +162,48 @@ fn beyond_the_trained_rates_the_variance_grows_with_the_output_and_the_distance_
 }
 
 #[test]
+fn following_the_gp_ten_widths_colder_the_variance_is_its_own_and_the_assumed_growth() {
+    // A calibration on a narrow band (20…25 °C, a width of 5) replayed one and ten widths
+    // colder under `follow`: the mean is the GP's own there, finite, and the bias variance its
+    // latent variance plus every power-on's terms and (extrapolation + scale·y²)·e², e the
+    // distance in widths: the growth the trainer assumed, scaled by its rule's share.
+    let mut r = Reference::small();
+    (r.min[0], r.max[0]) = (20.0, 25.0);
+    let mut b = r.blob();
+    blob::set_beyond(&mut b, Beyond::Follow).unwrap();
+    let m = Small::decode(&b).unwrap();
+    let mut scratch = [0.0f32; 5];
+    for widths in [1.0f64, 10.0] {
+        let x = [20.0 - 5.0 * widths, 0.4];
+        let p = m
+            .predict(&[x[0] as f32, x[1] as f32], &mut scratch)
+            .unwrap();
+        assert_eq!(p.status, Status::Extrapolating, "{widths}");
+        let (mean, latent) = r.predict(x);
+        assert!(
+            (f64::from(p.mean) - mean).abs() < 1e-5,
+            "{widths}: {} {mean}",
+            p.mean
+        );
+        let expected = latent + r.model_error(x, mean, 0.0);
+        let grown = (f64::from(r.error.extrapolation_var)
+            + f64::from(r.error.extrapolation_scale_var) * mean * mean)
+            * widths
+            * widths;
+        // Ten widths out, the growth is most of it.
+        assert!(
+            widths < 10.0 || grown > 0.9 * expected,
+            "{widths}: {grown} {expected}"
+        );
+        assert!(
+            (f64::from(p.bias_variance) - expected).abs() < 1e-3 * expected,
+            "{widths}: {} {expected}",
+            p.bias_variance
+        );
+    }
+}
+
+#[test]
 fn beyond_the_range_the_output_keeps_its_scale_factor_and_the_temperature_is_held() {
     let r = Reference::small();
     let m = Small::decode(&r.blob()).unwrap();

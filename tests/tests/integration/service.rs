@@ -265,7 +265,8 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
 /// 80 °/h, beside a thermal swing of 60 °/h). Calibrated on three power-ons pooled, the σ is
 /// measured on each run left out in turn and covers the 60 s means of a fourth; calibrated on one,
 /// a datasheet's repeatability covers it too, and on the calibration's own power-on the replay
-/// leaves that term out.
+/// leaves that term out. Pooled logs recorded at different rates state one sample's noise at one
+/// interval, as logs at one rate do.
 #[test]
 fn a_calibration_on_several_power_ons_covers_another() {
     let dir = tempfile::tempdir().unwrap();
@@ -339,6 +340,24 @@ fn a_calibration_on_several_power_ons_covers_another() {
         .collect();
     assert_eq!(sources, ["runs"], "{calibration}");
     let another = within(replay(&pooled, &runs[3], &[]));
+    assert!((0.85..=1.0).contains(&another), "{another}");
+
+    // The same power-ons, the first and the third logged at a fifth of the rate (each sample the
+    // mean of five): one sample's noise is stated at the interval of the log with the most
+    // consecutive samples, the second's, as the 1 Hz logs state it, not at the first log's.
+    let slow = [0, 2].map(|k| averaged(&runs[k], 5));
+    let (mixed, calibration) = fit(
+        &[slow[0].clone(), runs[1].clone(), slow[1].clone()],
+        &[],
+        "mixed",
+    );
+    let (mixed_noise, mixed_interval) = noise(&calibration);
+    assert_eq!(mixed_interval, one_interval, "{calibration}");
+    assert!(
+        (0.9..1.1).contains(&(mixed_noise / pooled_noise)),
+        "{mixed_noise} against {pooled_noise}"
+    );
+    let another = within(replay(&mixed, &runs[3], &[]));
     assert!((0.85..=1.0).contains(&another), "{another}");
 
     // One power-on and the datasheet's 80 °/h (1σ, in °/s).
@@ -580,6 +599,26 @@ fn warm_up_then(dir: &std::path::Path, design: &str) -> (String, String) {
         .unwrap();
     }
     (cal, held)
+}
+
+/// The stream CSV at `path` as a sensor `k` times slower logs it, each sample the mean of `k`
+/// (a slower output data rate's samples average the faster ones): the path of the copy beside it.
+fn averaged(path: &str, k: usize) -> String {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let mut out = vec![lines.next().unwrap().to_owned()];
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    for block in rows.chunks_exact(k) {
+        let mean = (0..block[0].len())
+            .map(|j| (block.iter().map(|r| r[j]).sum::<f64>() / k as f64).to_string())
+            .collect::<Vec<_>>();
+        out.push(mean.join(","));
+    }
+    let slow = path.replace(".csv", &format!("-every-{k}.csv"));
+    std::fs::write(&slow, out.join("\n") + "\n").unwrap();
+    slow
 }
 
 /// `firmware-sim generate KIND…` of `unit_file`, one file in `dir` per seed: their paths.
