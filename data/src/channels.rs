@@ -14,6 +14,14 @@
 //! reference = "0"                   # a column, COLUMN*FACTOR or a constant, in °/s (m/s²)
 //! # kind = "gyro"                   # gyro or accelerometer: what a raw output measures
 //! # scale_factor = 26592.6          # raw output per °/s (m/s²), for a log without a rate table
+//! # The channel's datasheet ([`Datasheet`]), each optional, as the `fit` flag of its name
+//! # takes it for one channel: in °/s (m/s²), the output converted as below (a raw output's
+//! # full_scale in its raw unit):
+//! # full_scale = 2000               # a reading beyond ± it is a fault
+//! # repeatability = 0.05            # the bias's run-to-run σ
+//! # scale_repeatability = 300       # the scale factor's, ppm
+//! # tempco = 0.005                  # the bias's change per °C, beyond the trained range
+//! # hysteresis = 0.02               # the gap between heating and cooling at one temperature
 //! ```
 //!
 //! An output in a physical unit is converted to the channel's quantity's unit (°/s for a gyro,
@@ -37,6 +45,9 @@ use serde::Deserialize;
 use crate::autopilot::{Recorded, RecordedError, Sensor, gravity_reference};
 use crate::columns::{self, ColumnMap, ColumnSource, DataError};
 use crate::stream::{self, Stream};
+
+mod datasheet;
+pub use datasheet::Datasheet;
 
 /// What kind of file the channels are read from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -136,6 +147,11 @@ pub struct Channel {
     pub reference: ColumnSource,
     /// A raw output's scale factor, for a log without a rate table.
     pub scale_factor: Option<f64>,
+    /// The output's full scale, in the unit its output is read in (°/s or m/s² where its unit
+    /// is physical, else the raw unit): a reading beyond ± it is a fault.
+    pub full_scale: Option<f64>,
+    /// What its datasheet states for its σ.
+    pub datasheet: Datasheet,
 }
 
 impl Channel {
@@ -219,6 +235,11 @@ struct Entry {
     reference: String,
     kind: Option<SensorKind>,
     scale_factor: Option<f64>,
+    full_scale: Option<f64>,
+    repeatability: Option<f64>,
+    scale_repeatability: Option<f64>,
+    tempco: Option<f64>,
+    hysteresis: Option<f64>,
 }
 
 /// What a raw output measures.
@@ -319,6 +340,22 @@ impl Channels {
             }
             let output = output.scaled(unit.factor().unwrap_or(1.0));
             let reference = source(&format!("channel '{name}': reference"), &e.reference)?;
+            if let Some(f) = e.full_scale
+                && !(f.is_finite() && f > 0.0)
+            {
+                return Err(invalid(format!(
+                    "channel '{name}': full_scale {f} is not a positive number"
+                )));
+            }
+            let datasheet = Datasheet {
+                repeatability: e.repeatability,
+                scale_repeatability: e.scale_repeatability,
+                tempco: e.tempco,
+                hysteresis: e.hysteresis,
+            };
+            if let Some((field, why)) = datasheet.invalid() {
+                return Err(invalid(format!("channel '{name}': {field} {why}")));
+            }
             list.push(Channel {
                 name,
                 quantity,
@@ -326,6 +363,8 @@ impl Channels {
                 output,
                 reference,
                 scale_factor: e.scale_factor,
+                full_scale: e.full_scale,
+                datasheet,
             });
         }
         let time = file.time.map(|t| source("time", &t)).transpose()?;
@@ -366,6 +405,8 @@ impl Channels {
                 output: column("voltage_v"),
                 reference: column("rate_dps"),
                 scale_factor: None,
+                full_scale: None,
+                datasheet: Datasheet::default(),
             }],
             recorded: None,
             renamed: None,
@@ -397,6 +438,8 @@ impl Channels {
                     Quantity::SpecificForce => gravity_reference(&sensor.time_s, &a.values),
                 }),
                 scale_factor: None,
+                full_scale: None,
+                datasheet: Datasheet::default(),
             })
             .collect();
         Self {

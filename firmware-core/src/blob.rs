@@ -142,6 +142,12 @@ pub enum Feature {
 }
 
 impl Feature {
+    /// Whether it is a temperature, °C: the sensor's reading, or a coil's estimate from it (a
+    /// rated range bounds both).
+    pub fn is_temperature(&self) -> bool {
+        matches!(self, Feature::Temperature | Feature::CoilTemperature { .. })
+    }
+
     /// Whether its parameter is usable (finite and positive).
     pub fn is_valid(&self) -> bool {
         match *self {

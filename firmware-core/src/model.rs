@@ -244,7 +244,7 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
             .zip(&domains.linear)
             .filter(|(_, linear)| !**linear)
             .all(|((f, (&lo, &hi)), _)| match f {
-                Feature::Temperature | Feature::CoilTemperature { .. } => {
+                f if f.is_temperature() => {
                     read.limits.temperature_ok(lo) && read.limits.temperature_ok(hi)
                 }
                 Feature::Voltage => read.limits.output_ok(lo) && read.limits.output_ok(hi),

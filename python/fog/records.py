@@ -358,7 +358,7 @@ class Calibration(Record):
     """The assumed prior's part in proportion to the output: ppm of the output one trained width beyond the range (0 where the extrapolation term is fitted, or the training outputs barely move)."""
 
     extrapolation_share: float
-    """Where the extrapolation term is assumed: the share of holding's miss that the rule shipped beyond the range missed on the training points beyond an inner fit, widened for their number, which scaled it ([`Prior::for_rule`]); 1 where the term is fitted or zero, or the rule is `hold`, was asked for or could not be tested."""
+    """Where the extrapolation term is assumed: the share of holding's miss that the rule shipped beyond the range missed on the training points beyond an inner fit, widened for their number, which scaled it ([`Prior::for_rule`]); 1 where the term is fitted or zero, or the rule is `hold`, was asked for or could not be tested. Where `--tempco` states the part alike at every output, it scales the part in proportion to the output alone."""
 
     extrapolation_std: float
     """√c_x: model error one trained width beyond the range, output units (where the prior is assumed, its part alike at every output)."""
@@ -369,11 +369,14 @@ class Calibration(Record):
     floor_std: float
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""
 
+    hysteresis: float | None
+    """The gap between the heating and the cooling leg at one temperature, output units, as stated by `--hysteresis` (a datasheet's thermal hysteresis; null: not stated): the error of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`])."""
+
     inflation: float
     """The small-sample factor on the model-error variance."""
 
     leg_std: float
-    """The model error of a full swing of the heating/cooling state beyond those trained, output units (0 where the training stream held both legs)."""
+    """The model error of a full swing of the heating/cooling state beyond those trained, output units (0 where the training stream held both legs, or its states are not known): stated by `--hysteresis`, else assumed (`leg` in `assumed`)."""
 
     legs_trained: list[float] | None
     """The heating/cooling states the training stream held (0.5 % quantiles; `None`: not known, as for a rate table's soaks, and no leg term)."""
@@ -398,6 +401,12 @@ class Calibration(Record):
 
     table_floor_std: float | None
     """The floor the table's left-out groups or points showed, where they were used beside a run's (not shipped: a gyro in service is in a run, with the whole table trained)."""
+
+    tempco_per_c: float | None
+    """The bias's temperature coefficient beyond the trained range, output units per °C, as stated by `--tempco` (a datasheet's; null: not stated). Over `trained_width_c` it sets the extrapolation term's part alike at every output, unless the residuals fitted a larger one ([`Calibration::set_tempco`])."""
+
+    trained_width_c: float | None
+    """The trained width of the shipped blob's temperature input, °C: the width the extrapolation term is counted in (null: no temperature input, or no blob stated yet)."""
 
     trend_std_per_h: float
     """√c_d: drift of unknown rate, output units per h."""

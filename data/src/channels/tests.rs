@@ -105,6 +105,37 @@ fn a_bad_channels_file_says_what_is_wrong() {
         "name = \"x\"\noutput = \"a\"\nunit = \"V\"\nreference = \"0\"\nscale_factor = 0",
     ));
     assert!(e.contains("not a finite non-zero"), "{e}");
+    let base = "name = \"x\"\noutput = \"a\"\nunit = \"deg/s\"\nreference = \"0\"";
+    let e = bad(&one(&format!("{base}\nfull_scale = -2000")));
+    assert!(
+        e.contains("channel 'x': full_scale -2000 is not a positive"),
+        "{e}"
+    );
+    let e = bad(&one(&format!("{base}\nscale_repeatability = 2e6")));
+    assert!(
+        e.contains("channel 'x': scale_repeatability must be a σ in ppm"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_channel_states_its_own_datasheet() {
+    let text = IMU.replace(
+        "reference = \"-9.80665\"",
+        "reference = \"-9.80665\"\nfull_scale = 160\ntempco = 0.001\nhysteresis = 0.002",
+    );
+    let c = Channels::parse(Path::new("imu.toml"), &text).unwrap();
+    let [gx, az, _] = &c.list[..] else { panic!() };
+    assert_eq!((gx.full_scale, gx.datasheet), (None, Datasheet::default()));
+    assert_eq!(az.full_scale, Some(160.0));
+    assert_eq!(
+        az.datasheet,
+        Datasheet {
+            tempco: Some(0.001),
+            hysteresis: Some(0.002),
+            ..Datasheet::default()
+        }
+    );
 }
 
 #[test]

@@ -258,9 +258,7 @@ impl<const D: usize> Evaluator<'_, D> {
         length: f32,
     ) -> Option<(f32, f32)> {
         let possible = match self.features.get(k) {
-            Some(Feature::Temperature | Feature::CoilTemperature { .. }) => {
-                self.limits.temperature_ok(xk)
-            }
+            Some(f) if f.is_temperature() => self.limits.temperature_ok(xk),
             Some(Feature::Voltage) => self.limits.output_ok(xk),
             _ => true,
         };

@@ -738,11 +738,24 @@ fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let log = short_board(d);
+    // A sensor's three axes are a unit: a figure in one channel's units is refused for it.
+    let out = at(d, "refused.bin");
+    let refused = trainer(&[
+        "fit", "--stream", &log, "--tempco", "0.001", "--out", &out, "-q",
+    ]);
+    let refused = refused.unwrap_err().to_string();
+    assert!(refused.contains("one channel's, in its units"), "{refused}");
+    assert!(refused.contains("°/s, m/s²"), "{refused}");
     let fit = |extra: &[&str]| {
         let base = ["-q", "fit", "--stream", &log, "--out", &at(d, "imu.bin")];
         let json = at(d, "fit.json");
         trainer(&[&base[..], extra, &["--json", json.as_str()]].concat())
     };
+    // One sensor's axes read in one unit: its datasheet's figure is every axis's.
+    fit(&["--sensor", "gyro0", "--repeatability", "0.001"]).unwrap();
+    for ch in json(d.join("fit.json"))["channels"].as_array().unwrap() {
+        assert_eq!(ch["calibration"]["turn_on_std"], 0.001, "{ch}");
+    }
     fit(&["--sensor", "gyro0=front", "--sensor", "gyro1=back"]).unwrap();
     for name in ["front", "back"] {
         assert!(d.join(format!("imu.{name}.bin")).exists(), "{name}");

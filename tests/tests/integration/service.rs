@@ -8,32 +8,20 @@ use crate::{at, imu, json, model_blob, one, sim, trainer};
 /// 18 °C colder than its coldest training point: every sample is compensated, the shipped model
 /// is no worse than the static one held at the range's edge (the PX4-style clamp), and the σ,
 /// with no out-of-sample residual to fit it on, is assumed and covers the held-out means, no
-/// more than 1.5× wider than their RMS error.
+/// more than 1.5× wider than their RMS error. A datasheet's bias temperature coefficient
+/// (`--tempco`) states the growth instead, narrower, and covers them as well.
 #[test]
 fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     let dir = tempfile::tempdir().unwrap();
     let (cal, held) = warm_up_then(dir.path(), "short");
     let (shipped, clamp) = (at(dir.path(), "ship.bin"), at(dir.path(), "static.bin"));
     let fit = at(dir.path(), "fit.json");
-    trainer(&[
-        "fit",
-        "--stream",
-        &cal,
-        "--window",
-        ":1800",
-        "--features",
-        "auto",
-        "--out",
-        &shipped,
-        "--json",
-        &fit,
-        "-q",
-    ])
-    .unwrap();
-    trainer(&[
-        "fit", "--stream", &cal, "--window", ":1800", "--out", &clamp, "-q",
-    ])
-    .unwrap();
+    let on_warm_up = |extra: &[&str], out: &str| {
+        let base = ["fit", "--stream", &cal, "--window", ":1800"];
+        trainer(&[&base[..], extra, &["--out", out, "-q"]].concat()).unwrap();
+    };
+    on_warm_up(&["--features", "auto", "--json", &fit], &shipped);
+    on_warm_up(&[], &clamp);
     let calibration = &one(&fit)["calibration"];
     assert_eq!(calibration["residuals"], 0, "{calibration}");
     // No residual to fit on, a warm-up heats only and it is one power-on: the floor, the growth
@@ -72,6 +60,81 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
         "{calibration}"
     );
     assert!(s["sigma_60s"]["sharpness"].as_f64().unwrap() <= 1.5, "{s}");
+
+    // A datasheet's bias temperature coefficient stated (the simulated gyro's largest bias
+    // slope over its −30…60 °C, in °/s per °C) takes the place of the bias part assumed from the
+    // model's own slope: the σ at low rates, where the bias is all the error, narrows, and the
+    // held-out means stay covered (the scale factor's part, still assumed, holds the rest).
+    let poly = firmware_sim::gyro::plant::GyroParams::nominal().bias_poly_dph;
+    let tempco = (-30..=60)
+        .map(|t| {
+            let u = (f64::from(t) - 25.0) / 45.0;
+            (poly[1] + 2.0 * poly[2] * u + 3.0 * poly[3] * u * u).abs() / 45.0 / 3600.0
+        })
+        .fold(0.0, f64::max);
+    let (stated, stated_fit) = (at(dir.path(), "tempco.bin"), at(dir.path(), "tempco.json"));
+    let told = ["--features", "auto", "--tempco", &tempco.to_string()];
+    on_warm_up(&[&told[..], &["--json", &stated_fit]].concat(), &stated);
+    let told = &one(&stated_fit)["calibration"];
+    let told_tempco = told["tempco_per_c"].as_f64().unwrap();
+    assert!((told_tempco / tempco - 1.0).abs() < 1e-12, "{told}");
+    // Per trained width: the coefficient times the width of the blob's temperature input.
+    let fw = fog_data::replay::decode(&model_blob(&std::fs::read(&stated).unwrap())).unwrap();
+    let [lo, hi] = fw.trained_range(0).unwrap();
+    let width = f64::from(hi - lo);
+    assert_eq!(told["trained_width_c"].as_f64().unwrap(), width, "{told}");
+    let part = |c: &serde_json::Value| c["extrapolation_std"].as_f64().unwrap();
+    assert!((part(told) / (tempco * width) - 1.0).abs() < 1e-9, "{told}");
+    assert!(
+        part(told) < part(calibration) / 10.0,
+        "{told} {calibration}"
+    );
+    assert_eq!(
+        told["extrapolation_scale_ppm"], calibration["extrapolation_scale_ppm"],
+        "{told}"
+    );
+    let t = replay(&stated, "t.json");
+    let (sigma, within) = (&t["sigma_60s"], &s["sigma_60s"]["within_2sigma"]);
+    assert!(sigma["within_2sigma"].as_f64().unwrap() >= 0.85, "{t}");
+    assert!(
+        sigma["within_2sigma"].as_f64().unwrap() >= within.as_f64().unwrap() - 0.02,
+        "{t} {s}"
+    );
+    let median = |r: &serde_json::Value| r["sigma_60s"]["median_sigma"].as_f64().unwrap();
+    assert!(median(&t) < 0.5 * median(&s), "{t} {s}");
+    // `investigate` states it in its blobs' σ alike.
+    let report = at(dir.path(), "i.json");
+    trainer(&[
+        "investigate",
+        "--stream",
+        &cal,
+        "--window",
+        ":1800",
+        "--tempco",
+        &tempco.to_string(),
+        "--json",
+        &report,
+        "-q",
+    ])
+    .unwrap();
+    let investigated = &one(&report)["calibration"];
+    let width = investigated["trained_width_c"].as_f64().unwrap();
+    assert!(
+        (part(investigated) / (tempco * width) - 1.0).abs() < 1e-9,
+        "{investigated}"
+    );
+    for (bad, flag) in [
+        ("--tempco=-1", "--tempco"),
+        ("--tempco=NaN", "--tempco"),
+        ("--hysteresis=-1", "--hysteresis"),
+    ] {
+        let refused = trainer(&["fit", "--stream", &cal, bad, "--out", &stated, "-q"]);
+        let refused = refused.unwrap_err().to_string();
+        assert!(
+            refused.contains(&format!("{flag} must be a number")),
+            "{refused}"
+        );
+    }
 }
 
 /// The same gyro calibrated on its whole three-hour warm-up (24.8…29.2 °C) and replayed on a
@@ -127,45 +190,57 @@ fn residuals_just_beyond_the_range_leave_the_growth_far_beyond_it_assumed() {
 }
 
 /// The MEMS log trained on ten minutes near its coldest (−17.3…−7.7 °C) and replayed over the
-/// rest of its cycle, up to 74 °C: no channel's sample is a fault.
+/// rest of its cycle, up to 74 °C: no channel's sample is a fault. Gyro y's bias turns over above
+/// the band, which the model's own slope there cannot show: its σ covers under 85 % of the
+/// held-out means. A datasheet's figures in the channels file, each channel's own, state what
+/// the band cannot: a bias temperature coefficient on gyro y covers them, and the other channels
+/// keep what they would have had.
 #[test]
 fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
     let dir = tempfile::tempdir().unwrap();
     let channels = imu().replace("imu_raw_data.tsv", "imu.toml");
-    let blob = at(dir.path(), "band.bin");
     let log = imu();
-    trainer(&[
-        "fit",
-        "--stream",
-        &log,
-        "--channels",
-        &channels,
-        "--window",
-        "1000:1660",
-        "--features",
-        "auto",
-        "--out",
-        &blob,
-        "-q",
-    ])
-    .unwrap();
-    let out = at(dir.path(), "r.json");
-    sim(&[
-        "replay",
-        "--model",
-        &blob,
-        "--stream",
-        &log,
-        "--channels",
-        &channels,
-        "--exclude",
-        "1000:1660",
-        "--json",
-        &out,
-        "-q",
-    ])
-    .unwrap();
-    let r = json(&out);
+    let calibrated = |channels: &str, name: &str| {
+        let (blob, fit, out) = (
+            at(dir.path(), &format!("{name}.bin")),
+            at(dir.path(), &format!("{name}.json")),
+            at(dir.path(), &format!("{name}-replay.json")),
+        );
+        trainer(&[
+            "fit",
+            "--stream",
+            &log,
+            "--channels",
+            channels,
+            "--window",
+            "1000:1660",
+            "--features",
+            "auto",
+            "--out",
+            &blob,
+            "--json",
+            &fit,
+            "-q",
+        ])
+        .unwrap();
+        sim(&[
+            "replay",
+            "--model",
+            &blob,
+            "--stream",
+            &log,
+            "--channels",
+            channels,
+            "--exclude",
+            "1000:1660",
+            "--json",
+            &out,
+            "-q",
+        ])
+        .unwrap();
+        (blob, json(&fit), json(&out))
+    };
+    let (_, _, r) = calibrated(&channels, "band");
     let list = r["channels"].as_array().unwrap();
     assert_eq!(list.len(), 6);
     for ch in list {
@@ -177,16 +252,95 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
             "{ch}"
         );
     }
+    let covered = |r: &serde_json::Value, k: usize| {
+        r["channels"][k]["sigma_60s"]["within_2sigma"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(covered(&r, 1) < 0.85, "{r}");
+
+    // Gyro y's datasheet states 0.03 °/s per °C, gyro x a full scale of 500 °/s.
+    let text = std::fs::read_to_string(&channels).unwrap();
+    let stated = text
+        .replace(
+            "output = \"imu.gyro.y\"",
+            "output = \"imu.gyro.y\"\ntempco = 0.03",
+        )
+        .replace(
+            "output = \"imu.gyro.x\"",
+            "output = \"imu.gyro.x\"\nfull_scale = 500",
+        );
+    assert_ne!(stated, text);
+    let sheet = at(dir.path(), "imu.toml");
+    std::fs::write(&sheet, &stated).unwrap();
+    let (blob, fit, told) = calibrated(&sheet, "stated");
+    let tempco = |k: usize| fit["channels"][k]["calibration"]["tempco_per_c"].clone();
+    assert_eq!(tempco(1), 0.03, "{fit}");
+    for k in [0, 2, 3, 4, 5] {
+        assert!(tempco(k).is_null(), "{fit}");
+        assert_eq!(covered(&told, k), covered(&r, k), "{k}: {told}");
+    }
+    assert!(covered(&told, 1) >= 0.85, "{told}");
+    let unit = fog_data::replay::decode_unit(&std::fs::read(&blob).unwrap()).unwrap();
+    let full_scales: Vec<f32> = unit
+        .channels()
+        .iter()
+        .map(|c| c.limits().full_scale)
+        .collect();
+    assert_eq!(full_scales, [500.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    // `investigate` takes each channel's alike (on half an hour: a forward split needs more
+    // than the band's 11 blocks).
+    let report = at(dir.path(), "i.json");
+    trainer(&[
+        "investigate",
+        "--stream",
+        &log,
+        "--channels",
+        &sheet,
+        "--window",
+        "1000:2800",
+        "--json",
+        &report,
+        "-q",
+    ])
+    .unwrap();
+    let investigated = json(&report);
+    let tempco = |k: usize| investigated["channels"][k]["calibration"]["tempco_per_c"].clone();
+    assert_eq!(tempco(1), 0.03, "{investigated}");
+    assert!(tempco(0).is_null(), "{investigated}");
+    // A figure that cannot be one is refused, naming its channel.
+    std::fs::write(
+        &sheet,
+        text.replace("reference = \"0\"", "reference = \"0\"\ntempco = -1"),
+    )
+    .unwrap();
+    let refused = trainer(&[
+        "fit",
+        "--stream",
+        &log,
+        "--channels",
+        &sheet,
+        "--out",
+        &blob,
+        "-q",
+    ]);
+    let refused = refused.unwrap_err().to_string();
+    assert!(
+        refused.contains("channel 'gyro.x': tempco must be a number not below 0"),
+        "{refused}"
+    );
 }
 
 /// A calibration on a heating leg alone (−26 → 62 °C) and a cool-down held out of another run of
 /// the same gyro, which hides a hysteresis: the σ carries the leg the training did not hold,
 /// assumed as large as the training data's own out-of-sample error, and covers the cooling leg's
-/// 60 s means; without that term it covers under half of them.
+/// 60 s means; without that term it covers under half of them. A datasheet's gap stated
+/// (`--hysteresis`) takes the assumed term's place and covers them too.
 #[test]
 fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     let dir = tempfile::tempdir().unwrap();
     let (cal, held) = (at(dir.path(), "r1.csv"), at(dir.path(), "r2.csv"));
+    let truth = at(dir.path(), "truth.json");
     for (seed, out) in [("21", &cal), ("22", &held)] {
         sim(&[
             "generate",
@@ -199,26 +353,32 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
             "hysteresis",
             "--out",
             out,
+            "--json",
+            &truth,
         ])
         .unwrap();
     }
-    let (blob, fit) = (at(dir.path(), "leg.bin"), at(dir.path(), "fit.json"));
-    trainer(&[
-        "fit",
-        "--stream",
-        &cal,
-        "--window",
-        "15900:26700",
-        "--features",
-        "auto",
-        "--out",
-        &blob,
-        "--json",
-        &fit,
-        "-q",
-    ])
-    .unwrap();
-    let calibration = &one(&fit)["calibration"];
+    let fit_with = |name: &str, extra: &[&str]| {
+        let (blob, fit) = (at(dir.path(), &format!("{name}.bin")), at(dir.path(), name));
+        let args = [
+            "fit",
+            "--stream",
+            &cal,
+            "--window",
+            "15900:26700",
+            "--features",
+            "auto",
+            "--out",
+            &blob,
+            "--json",
+            &fit,
+            "-q",
+        ];
+        trainer(&[&args[..], extra].concat()).unwrap();
+        (blob, one(&fit)["calibration"].clone())
+    };
+    let (blob, calibration) = fit_with("leg", &[]);
+    let calibration = &calibration;
     assert!(
         calibration["legs_trained"][0].as_f64().unwrap() > 0.0,
         "{calibration}"
@@ -245,6 +405,18 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     };
     let with_leg = cooling(&blob, "r.json");
     assert!((0.85..=0.99).contains(&with_leg), "{with_leg}");
+    // The datasheet's gap stated instead (twice the hidden offset, from one leg's to the
+    // other's): the leg's term is that, no longer assumed, and it covers the cooling leg too.
+    let offset_dph = json(&truth)["effect"]["offset_dph"].as_f64().unwrap();
+    let band = 2.0 * offset_dph / 3600.0;
+    let (stated, told) = fit_with("band", &["--hysteresis", &band.to_string()]);
+    assert!(
+        (told["leg_std"].as_f64().unwrap() / band - 1.0).abs() < 1e-9,
+        "{told}"
+    );
+    assert!(!crate::assumes(&told, "leg"), "{told}");
+    let covered = cooling(&stated, "s.json");
+    assert!((0.85..=0.99).contains(&covered), "{covered}");
     // Its one channel's model, as a model blob of its own (still read), without the leg's term
     // and without another power-on's assumed bias: what the run's residuals alone state.
     let mut bytes = model_blob(&std::fs::read(&blob).unwrap());

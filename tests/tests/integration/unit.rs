@@ -102,6 +102,16 @@ fn the_mems_imu_is_calibrated_in_one_fit_and_replayed_in_one_replay() {
     let refused = trainer(&[&args[..], &["--repeatability", "0.01", "-q"]].concat());
     let refused = refused.unwrap_err().to_string();
     assert!(refused.contains("one channel's, in its units"), "{refused}");
+    // A datasheet's temperature coefficient and heating/cooling gap are in one channel's units
+    // too.
+    for flag in ["--tempco", "--hysteresis"] {
+        let refused = trainer(&[&args[..], &[flag, "0.01", "-q"]].concat());
+        let refused = refused.unwrap_err().to_string();
+        assert!(refused.contains("one channel's, in its units"), "{refused}");
+        let refused = fit_unit(&[flag, "0.01", "--out", &p("t.bin"), "-q"]);
+        let refused = refused.unwrap_err().to_string();
+        assert!(refused.contains("one channel's, in its units"), "{refused}");
+    }
     stated("0").unwrap();
     for ch in json(p("stated.json"))["channels"].as_array().unwrap() {
         let c = &ch["calibration"];

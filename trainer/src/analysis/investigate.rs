@@ -15,7 +15,7 @@ use serde::Serialize;
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
-use crate::analysis::uncertainty::{self, Calibration, ResidualSource, SampleNoise};
+use crate::analysis::uncertainty::{self, Calibration, Datasheet, ResidualSource, SampleNoise};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
@@ -427,10 +427,9 @@ fn decide(
 pub struct Told<'a> {
     /// The causes to extend by; `None`: those the diagnosis names.
     pub asked: Option<&'a [Cause]>,
-    /// Another power-on's bias, a datasheet's run-to-run repeatability (1σ, output units), in
-    /// both blobs' σ as `fit --repeatability` states it; `None`: assumed, as `fit` assumes it
-    /// ([`Calibration::assume_turn_on`]).
-    pub repeatability: Option<f64>,
+    /// A datasheet's figures, in both blobs' σ as `fit` states them ([`Calibration::state`]):
+    /// where one is not stated, assumed as `fit` assumes it.
+    pub sheet: Datasheet,
 }
 
 /// Runs the investigation; `told.asked` overrides the inputs the diagnosis calls for. `rebuild`
@@ -475,7 +474,7 @@ pub fn investigate(
         warnings.push(choice.verdict.clone());
     }
     let beyond = beyond::choose(points, cfg);
-    // The blobs state another power-on's bias as `fit`'s do: a datasheet's, or assumed.
+    // The blobs state a datasheet's figures as `fit`'s do, or assume them.
     let calibrated = |blob: &[u8], kind| {
         calibrate(
             (points, &model, &static_blob),
@@ -485,9 +484,9 @@ pub fn investigate(
             &choice.splits,
             &beyond,
         )
-        .map(|mut c| {
-            c.turn_on(told.repeatability);
-            c
+        .and_then(|mut c| {
+            c.state(&told.sheet, blob)?;
+            Ok(c)
         })
     };
     // Where the static model ships, the shipped model is the static one: calibrated and scored

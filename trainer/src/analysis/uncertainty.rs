@@ -54,6 +54,12 @@
 //! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
 //! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
+//!
+//! **A datasheet states what it knows better** ([`Datasheet`], [`Calibration::state`]): the
+//! bias's and the scale factor's run-to-run repeatability, the bias's temperature coefficient
+//! (the growth beyond the range: a part's bound, where the model's own slope over a narrow band
+//! says nothing of a bias that turns over beyond it), and the gap between the heating and the
+//! cooling leg. Each takes the place of the term assumed, which `assumed` then no longer names.
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;
@@ -66,13 +72,15 @@ use crate::analysis::beyond::BeyondChoice;
 use crate::data::points::Points;
 use crate::firmware::export::{self, ExportError};
 use crate::models::gp::GpModel;
-use firmware_core::Feature;
 use firmware_core::blob::Beyond;
 
+mod stated;
 pub mod streams;
 pub mod tables;
 pub mod terms;
 mod words;
+
+pub use fog_data::channels::Datasheet;
 
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
@@ -93,9 +101,6 @@ const EXTRAPOLATION: usize = 2;
 /// the sensor's mean; the calibration's own power-on is one such draw, taken for the mean, and
 /// service another, so their difference, the error, has twice its variance.
 const OWN_DRAW: f64 = 2.0;
-/// The largest scale-factor repeatability a σ states, ppm: a scale that varies by its whole size
-/// from one power-on to the next is no sensor's.
-pub const MAX_PPM: f64 = 1e6;
 /// Standard errors of its estimate the prior's growth beyond the range must reach for the residuals
 /// to show it ([`extrapolation_shows`]).
 const DETECTED: f64 = 2.0;
@@ -307,7 +312,8 @@ pub struct Calibration {
     /// Where the extrapolation term is assumed: the share of holding's miss that the rule shipped
     /// beyond the range missed on the training points beyond an inner fit, widened for their
     /// number, which scaled it ([`Prior::for_rule`]); 1 where the term is fitted or zero, or the
-    /// rule is `hold`, was asked for or could not be tested.
+    /// rule is `hold`, was asked for or could not be tested. Where `--tempco` states the part
+    /// alike at every output, it scales the part in proportion to the output alone.
     pub extrapolation_share: f64,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,
@@ -323,6 +329,14 @@ pub struct Calibration {
     /// output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its
     /// variance, as for the bias.
     pub scale_repeatability_ppm: f64,
+    /// The bias's temperature coefficient beyond the trained range, output units per °C, as
+    /// stated by `--tempco` (a datasheet's; null: not stated). Over `trained_width_c` it sets the
+    /// extrapolation term's part alike at every output, unless the residuals fitted a larger one
+    /// ([`Calibration::set_tempco`]).
+    pub tempco_per_c: Option<f64>,
+    /// The trained width of the shipped blob's temperature input, °C: the width the
+    /// extrapolation term is counted in (null: no temperature input, or no blob stated yet).
+    pub trained_width_c: Option<f64>,
     /// Residuals the terms were fitted on.
     pub residuals: usize,
     /// Independent residuals they are worth.
@@ -349,8 +363,13 @@ pub struct Calibration {
     /// as for a rate table's soaks, and no leg term).
     pub legs_trained: Option<(f32, f32)>,
     /// The model error of a full swing of the heating/cooling state beyond those trained, output
-    /// units (0 where the training stream held both legs).
+    /// units (0 where the training stream held both legs, or its states are not known): stated
+    /// by `--hysteresis`, else assumed (`leg` in `assumed`).
     pub leg_std: f64,
+    /// The gap between the heating and the cooling leg at one temperature, output units, as
+    /// stated by `--hysteresis` (a datasheet's thermal hysteresis; null: not stated): the error
+    /// of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`]).
+    pub hysteresis: Option<f64>,
 }
 
 /// What the σ assumes where the training data cannot show a term (module doc), output units².
@@ -405,10 +424,7 @@ impl Prior {
             .features()
             .iter()
             .enumerate()
-            .filter(|(k, f)| {
-                *k < model.input_range.len()
-                    && matches!(f, Feature::Temperature | Feature::CoilTemperature { .. })
-            })
+            .filter(|(k, f)| *k < model.input_range.len() && f.is_temperature())
             .map(|(k, _)| {
                 let (lo, hi) = model.input_range[k];
                 let width = hi - lo;
@@ -606,6 +622,8 @@ impl Calibration {
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             scale_repeatability_ppm: 0.0,
+            tempco_per_c: None,
+            trained_width_c: None,
             residuals: 0,
             effective: 0.0,
             inflation: 1.0,
@@ -617,105 +635,7 @@ impl Calibration {
             assumed,
             legs_trained: None,
             leg_std: 0.0,
-        }
-    }
-
-    /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
-    /// repeatability), its variance twice over added to every sample's bias variance: the
-    /// calibration's own power-on was a draw too.
-    pub fn set_turn_on(&mut self, sigma: f64) {
-        self.assumed.retain(|name| *name != "turn-on");
-        self.turn_on_std = sigma;
-        self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
-    }
-
-    /// States another power-on's bias as the commands take it: `repeatability`, a datasheet's
-    /// ([`Self::set_turn_on`]), or, with none, assumed ([`Self::assume_turn_on`]).
-    pub fn turn_on(&mut self, repeatability: Option<f64>) {
-        match repeatability {
-            Some(sigma) => self.set_turn_on(sigma),
-            None => self.assume_turn_on(),
-        }
-    }
-
-    /// Assumes the bias of another power-on where no datasheet states it (`--repeatability`) and
-    /// no power-on left out measured it ([`Self::runs_measured`]): one power-on's data cannot
-    /// show it, and a σ that left it out would be certain of what it never saw. The difference
-    /// of two power-ons' biases is taken as large as the model error's floor (twice the
-    /// repeatability's variance is the floor's once; where the floor was fitted to 0, the other
-    /// terms taking the residuals up, the smallest RMS of a residual series stands in), said in
-    /// `assumed` as `turn-on`. On the simulated gyro with a turn-on repeatability of 80 °/h
-    /// beside a thermal swing of 60 °/h this covered another power-on's 60 s means 87–95 %
-    /// (docs/uncertainty.md).
-    pub fn assume_turn_on(&mut self) {
-        if self.runs_measured() || self.turn_on_std > 0.0 {
-            return;
-        }
-        let seen = self
-            .sources
-            .iter()
-            .map(|s| s.rmse)
-            .filter(|r| *r > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let size = if self.floor_std > 0.0 || !seen.is_finite() {
-            self.floor_std
-        } else {
-            seen
-        };
-        self.set_turn_on(size / OWN_DRAW.sqrt());
-        if self.turn_on_std > 0.0 {
-            self.assumed.push("turn-on");
-        }
-    }
-
-    /// States the scale factor of another power-on: `ppm` of the output (a datasheet's run-to-run
-    /// scale-factor repeatability, 1σ), its variance twice over (as for the bias) added to every
-    /// sample's bias variance in proportion to the output².
-    pub fn set_scale(&mut self, ppm: f64) {
-        self.scale_repeatability_ppm = ppm;
-        self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
-    }
-
-    /// Whether the residuals came from power-ons left out ([`ResidualSource::Runs`]): their model
-    /// error then holds another power-on's bias, measured.
-    pub fn runs_measured(&self) -> bool {
-        self.sources
-            .iter()
-            .any(|s| s.source == ResidualSource::Runs)
-    }
-
-    /// States the heating/cooling states the training stream held (`states`, each sample's, as
-    /// the firmware tracks them: [`streams::legs`]). Where they are one leg's only, the error of a full
-    /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
-    /// saw (the RMS of the residuals of the training data, or the floor where there are none),
-    /// said in `assumed`; the firmware adds it in proportion to how far a state lies beyond the
-    /// trained ones (half of it at a full cooling state after a heating that started at rest).
-    pub fn set_legs(&mut self, states: &[f32]) {
-        if states.is_empty() {
-            return;
-        }
-        let mut sorted = states.to_vec();
-        sorted.sort_by(f32::total_cmp);
-        let at = |q: f64| {
-            sorted[((q * (sorted.len() - 1) as f64).round() as usize).min(sorted.len() - 1)]
-        };
-        let (lo, hi) = (at(0.005), at(0.995));
-        self.legs_trained = Some((lo, hi));
-        self.error_model.leg_min = lo;
-        self.error_model.leg_max = hi;
-        if lo <= -BOTH_LEGS && hi >= BOTH_LEGS {
-            self.error_model.leg_var = 0.0;
-            self.leg_std = 0.0;
-            return;
-        }
-        let seen = self.sources.iter().map(|s| s.rmse).fold(0.0, f64::max);
-        self.leg_std = seen.max(self.floor_std);
-        // The firmware adds leg_var·l², l the distance beyond the trained states over the full
-        // swing of 2: the error of a whole swing, in proportion to the part of it not trained
-        // (from a training that turned half-way, a full turn misses half as much again).
-        self.error_model.leg_var = (self.leg_std * self.leg_std) as f32;
-        if !self.assumed.contains(&"leg") {
-            self.assumed.push("leg");
+            hysteresis: None,
         }
     }
 

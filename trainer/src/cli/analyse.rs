@@ -18,6 +18,7 @@ use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
+use crate::analysis::uncertainty::Datasheet;
 use crate::data::points::Points;
 use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;
@@ -63,10 +64,27 @@ pub(super) struct InvestigateArgs {
     features: String,
     /// The bias's run-to-run repeatability, 1σ in the channel's units, as a datasheet gives it:
     /// stated in both blobs' σ as `fit --repeatability` states it, and in the score of a
-    /// held-out log of its own (default: assumed as `fit` assumes it). One channel only, but 0,
-    /// which a unit takes for every channel.
+    /// held-out log of its own (default: assumed as `fit` assumes it). For channels that read in
+    /// one unit, as for `fit` (a channels file's `[[channel]]` states each its own), but 0.
     #[arg(long, value_name = "SIGMA")]
     repeatability: Option<f64>,
+    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: stated
+    /// in both blobs' σ as `fit --scale-repeatability` states it (default: left out, said in
+    /// `fit`'s σ line); the same figure for each channel of a unit, but where its `[[channel]]`
+    /// states its own.
+    #[arg(long, value_name = "PPM")]
+    scale_repeatability: Option<f64>,
+    /// The bias's temperature coefficient, in the channel's units per °C, as a datasheet gives
+    /// it: stated in both blobs' σ beyond the trained range as `fit --tempco` states it (default:
+    /// assumed as `fit` assumes it). For channels that read in one unit, as for `fit`.
+    #[arg(long, value_name = "PER_C")]
+    tempco: Option<f64>,
+    /// The gap between the heating and the cooling leg, in the channel's units, as a datasheet
+    /// gives it: stated in both blobs' σ on a leg the training did not hold, as `fit
+    /// --hysteresis` states it (default: assumed as `fit` assumes it). For channels that read in
+    /// one unit, as for `fit`.
+    #[arg(long, value_name = "BAND")]
+    hysteresis: Option<f64>,
     /// Write the extended model's blob here: a unit blob, every channel's (one entry for one
     /// channel's data); one per sensor beside this name where a flight controller's log holds
     /// several.
@@ -181,17 +199,20 @@ pub(super) fn investigate_command(
         held_out,
         features,
         repeatability,
+        scale_repeatability,
+        tempco,
+        hysteresis,
         out,
         out_static,
         json,
     } = args;
-    crate::pipeline::check_repeatability(repeatability, None)?;
-    anyhow::ensure!(
-        repeatability.is_none_or(|r| r == 0.0) || input.unit.channels.is_none(),
-        "--repeatability is one channel's, in its units: a unit's channels each have their own \
-         (investigate them one at a time to state them; 0 states for every channel that its \
-         bias repeats exactly)"
-    );
+    let sheet = Datasheet {
+        repeatability,
+        scale_repeatability,
+        tempco,
+        hysteresis,
+    };
+    crate::pipeline::check_datasheet(&sheet)?;
     let input = input.with_runs(runs);
     let console = Console::new(flags, json.as_deref());
     let mut inputs: Vec<&Path> = input
@@ -214,9 +235,10 @@ pub(super) fn investigate_command(
             list => Some(extend::parse_features(list)?),
         },
         calibration_run: held_out.valid_stream.is_none(),
-        repeatability,
+        sheet,
     };
     let units = input.unit.units(Some(&stream), &console)?;
+    crate::pipeline::check_one_channel(&sheet, false, &units, "investigate")?;
     let each = Each::new(units.len(), &stream, json.as_deref())?;
     for channels in &units {
         each.heading(channels, &console);

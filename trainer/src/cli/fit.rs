@@ -15,8 +15,8 @@ use fog_terminal::schema;
 use super::inputs::ModelInput;
 use crate::analysis::extend;
 use crate::firmware::autopilot::SensorCubics;
-use crate::pipeline::check_repeatability;
 use crate::pipeline::fit::{Extend, FitPlan, unit_table};
+use crate::pipeline::{check_datasheet, check_one_channel};
 
 mod args;
 pub(super) mod params;
@@ -58,19 +58,12 @@ impl FitCommand {
             json,
         } = args;
         let input = input.with_runs(runs);
+        let service = service.service();
         anyhow::ensure!(
             service.full_scale.is_none_or(|f| f.is_finite() && f > 0.0),
             "--full-scale must be a positive number"
         );
-        check_repeatability(service.repeatability, service.scale_repeatability)?;
-        // 0 is every unit's: no channel's bias moves from one power-on to the next.
-        anyhow::ensure!(
-            (service.full_scale.is_none() && service.repeatability.is_none_or(|r| r == 0.0))
-                || input.unit.channels.is_none(),
-            "--full-scale and --repeatability are one channel's, in its units: a unit's channels \
-             each have their own (fit them one at a time to state them; --repeatability 0 states \
-             for every channel that its bias repeats exactly)"
-        );
+        check_datasheet(&service.sheet)?;
         anyhow::ensure!(
             input.runs.is_empty() || features.is_none() || !stream.is_empty(),
             "--features auto on a rate table diagnoses one recorded in time order; tables of \
@@ -105,7 +98,7 @@ impl FitCommand {
             pool: pool_stream,
             extend,
             budget: budget.budget(),
-            service: service.service(),
+            service,
         };
         Ok(Self {
             plan,
@@ -143,6 +136,8 @@ impl FitCommand {
                 .context("give --points (a rate table) or --stream to fit on")?;
             units.push(Channels::single(table));
         }
+        let service = &self.plan.service;
+        check_one_channel(&service.sheet, service.full_scale.is_some(), &units, "fit")?;
         let params: Vec<&PathBuf> = self.params.files().collect();
         anyhow::ensure!(
             params.is_empty() || units.iter().all(|u| !u.single),

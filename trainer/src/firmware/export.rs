@@ -381,6 +381,15 @@ fn numbers(
     floats.into_iter().map(|v| v as f32).collect()
 }
 
+/// Which of `features` is the model's temperature: the sensor's reading, or where a model reads
+/// a coil's estimate instead, that; `None` without either.
+pub fn temperature_input(features: &[Feature]) -> Option<usize> {
+    features
+        .iter()
+        .position(|f| *f == Feature::Temperature)
+        .or_else(|| features.iter().position(Feature::is_temperature))
+}
+
 /// `blob` with `error` as its error model (the variance besides the latent one): what the
 /// trainer writes once it has measured the model's errors on its own training data
 /// ([`crate::analysis::uncertainty`]). Exported blobs start with their noise variance alone.

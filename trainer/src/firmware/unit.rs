@@ -13,7 +13,7 @@ use firmware_core::{Feature, FeatureState, Quantity, Sample, UnitSample};
 use fog_data::replay::{self, HostModel};
 use serde::Serialize;
 
-use super::export::{ExportError, Footprint, footprint};
+use super::export::{ExportError, Footprint, footprint, temperature_input};
 
 /// The trained range of each channel's temperature input (the sensor's reading, or where a
 /// channel's model reads the coil's estimate instead, that), and the unit's: where every channel
@@ -21,18 +21,9 @@ use super::export::{ExportError, Footprint, footprint};
 fn temperature_range(models: &[Box<HostModel>]) -> Result<[f32; 2], ExportError> {
     let mut range = [f32::NEG_INFINITY, f32::INFINITY];
     for m in models {
-        let features = m.features();
-        let k = features
-            .iter()
-            .position(|f| *f == Feature::Temperature)
-            .or_else(|| {
-                features
-                    .iter()
-                    .position(|f| matches!(f, Feature::CoilTemperature { .. }))
-            })
-            .ok_or_else(|| {
-                ExportError::Unit("a unit's channel has no temperature input".to_owned())
-            })?;
+        let k = temperature_input(m.features()).ok_or_else(|| {
+            ExportError::Unit("a unit's channel has no temperature input".to_owned())
+        })?;
         let [lo, hi] = m.trained_range(k).unwrap_or([f32::MIN, f32::MAX]);
         range = [range[0].max(lo), range[1].min(hi)];
     }

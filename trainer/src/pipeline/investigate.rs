@@ -14,6 +14,7 @@ use serde::Serialize;
 
 use crate::analysis::diagnose::causes_text;
 use crate::analysis::investigate::{self, Blobs, Investigation};
+use crate::analysis::uncertainty::Datasheet;
 use crate::firmware::export::ExportError;
 use crate::firmware::unit;
 use crate::models::gp::GpConfig;
@@ -36,9 +37,9 @@ pub struct InvestigatePlan {
     /// σ scored without another power-on's bias and scale up to its first power cycle. Else it
     /// is a log of its own, another power-on, scored as in service.
     pub calibration_run: bool,
-    /// Another power-on's bias, a datasheet's (1σ, each channel's units; a unit takes 0 alone);
-    /// `None`: assumed, as `fit` assumes it.
-    pub repeatability: Option<f64>,
+    /// A datasheet's figures, the command's (each channel's own in its `[[channel]]` before
+    /// them); each `None`: measured, assumed or left out, as `fit` does.
+    pub sheet: Datasheet,
 }
 
 /// A unit investigated: each channel's investigation and blobs, in the unit's order.
@@ -79,7 +80,7 @@ impl InvestigatePlan {
             &self.gp,
             investigate::Told {
                 asked: self.asked.as_deref(),
-                repeatability: self.repeatability,
+                sheet: self.sheet,
             },
             &rebuild,
             &*progress,
@@ -146,6 +147,7 @@ impl InvestigatePlan {
             let said = messages.channel(channels.label(k), &heading);
             let plan = Self {
                 source: self.source.for_channel(channels, k)?,
+                sheet: ch.datasheet.or(self.sheet),
                 ..self.clone()
             };
             let one = channels.in_channel(

@@ -10,6 +10,7 @@ use serde::Serialize;
 use crate::analysis::capacity::{self, Choice};
 use crate::analysis::evaluate::across_runs::{self, CrossRun};
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
+use crate::analysis::uncertainty::Datasheet;
 use crate::data::points::Points;
 use crate::progress::Messages;
 
@@ -56,7 +57,11 @@ impl LooPlan {
             !transients || method == Method::Gpr,
             "--features auto evaluates the GP (--method gpr) on one table"
         );
-        super::check_repeatability(repeatability, scale_repeatability)?;
+        super::check_datasheet(&Datasheet {
+            repeatability,
+            scale_repeatability,
+            ..Datasheet::default()
+        })?;
         anyhow::ensure!(
             (repeatability.is_none() && scale_repeatability.is_none()) || method == Method::Gpr,
             "--repeatability and --scale-repeatability are stated in a σ, and of the methods only \

@@ -15,22 +15,48 @@ pub mod summarize;
 pub mod text;
 
 use firmware_core::Quantity;
-use fog_data::channels::Channel;
+use fog_data::channels::{Channel, Channels};
 use serde::Serialize;
 
-use crate::analysis::uncertainty::MAX_PPM;
+use crate::analysis::uncertainty::Datasheet;
 
-/// Checks a datasheet's run-to-run figures as `fit`, `loo` and `investigate` take them: the
-/// bias's repeatability (`--repeatability`) a σ, the scale factor's (`--scale-repeatability`) a
-/// σ in ppm up to 100 %.
-pub fn check_repeatability(bias: Option<f64>, scale_ppm: Option<f64>) -> anyhow::Result<()> {
+/// Checks a datasheet's figures as `fit`, `loo` and `investigate` take them
+/// ([`Datasheet::invalid`]), naming the flag.
+pub fn check_datasheet(sheet: &Datasheet) -> anyhow::Result<()> {
+    match sheet.invalid() {
+        Some((field, why)) => anyhow::bail!("--{} {why}", field.replace('_', "-")),
+        None => Ok(()),
+    }
+}
+
+/// Checks that figures in one channel's units (`full_scale`, and those of `sheet`:
+/// [`Datasheet::in_one_channels_units`]) go to channels that all read in that unit: every channel
+/// of `units`, as read, of one quantity and one output unit (a 3-axis gyro, a flight controller's
+/// gyro sensor), not an IMU's gyros and accelerometers at once (`verb`: the command).
+pub fn check_one_channel(
+    sheet: &Datasheet,
+    full_scale: bool,
+    units: &[Channels],
+    verb: &str,
+) -> anyhow::Result<()> {
+    let channels: Vec<(Quantity, String)> = units
+        .iter()
+        .flat_map(|u| &u.list)
+        .map(|ch| (ch.quantity, ch.unit.to_string()))
+        .collect();
+    let mut read_in: Vec<&str> = Vec::new();
+    for (_, unit) in &channels {
+        if !read_in.contains(&unit.as_str()) {
+            read_in.push(unit);
+        }
+    }
     anyhow::ensure!(
-        bias.is_none_or(|r| r.is_finite() && r >= 0.0),
-        "--repeatability must be a σ: a number not below 0"
-    );
-    anyhow::ensure!(
-        scale_ppm.is_none_or(|r| (0.0..=MAX_PPM).contains(&r)),
-        "--scale-repeatability must be a σ in ppm: a number from 0 to 1e6 (100 %)"
+        !(full_scale || sheet.in_one_channels_units()) || channels.windows(2).all(|w| w[0] == w[1]),
+        "--full-scale, --repeatability, --tempco and --hysteresis are one channel's, in its \
+         units, and these channels read in {}: state each channel's in its [[channel]] of a \
+         channels file, or {verb} one kind at a time (one sensor: --sensor); 0 means the same in \
+         every unit",
+        read_in.join(", ")
     );
     Ok(())
 }

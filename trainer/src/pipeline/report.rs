@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use fog_data::channels::Channels;
+use fog_data::channels::{Channels, Datasheet};
 use fog_data::stream::Stream;
 
 use crate::analysis::autopilot;
@@ -67,7 +67,8 @@ impl ReportPlan {
                 Some(h) => {
                     let (kind, named) = kind_and_source(own.points.as_deref(), h.path, h.own_log);
                     let parts = (h.path, &h.train[k], h.valid[k].clone(), h.said.clone());
-                    logs(&own, (named, kind), files, parts, &self.gp, &*messages)?
+                    let fitting = (&self.gp, &ch.datasheet);
+                    logs(&own, (named, kind), files, parts, fitting, &*messages)?
                 }
             };
             let cubic = match held {
@@ -111,13 +112,13 @@ fn table(
 }
 
 /// The report on a log's parts, the static points from `source` (its rate table, or the
-/// training part's block means).
+/// training part's block means), its blobs' σ stating what the channel's `sheet` states.
 fn logs(
     source: &PointFiles,
     (named, kind): (std::path::PathBuf, ReportKind),
     summaries: Vec<Summary>,
     (path, train, valid, said): (&Path, &Stream, Stream, String),
-    gp: &GpConfig,
+    (gp, sheet): (&GpConfig, &Datasheet),
     messages: &dyn Messages,
 ) -> anyhow::Result<Report> {
     let points = source.static_points(&[(path, train.clone())], false, messages)?;
@@ -131,7 +132,7 @@ fn logs(
         train,
         valid,
         said,
-        (gp, &rebuild),
+        (gp, &rebuild, sheet),
         &*progress,
     )
 }

@@ -8,6 +8,7 @@ pub mod plots;
 
 use firmware_core::units::{DPH_PER_DPS, SECONDS_PER_HOUR};
 use fog_data::cause::Cause;
+use fog_data::channels::Datasheet;
 use fog_data::replay::{self, Compensated};
 use fog_data::stats::Line;
 use fog_data::stream::Stream;
@@ -51,21 +52,26 @@ fn reproduce(points: &Points, cfg: &GpConfig, bar: &dyn Progress) -> anyhow::Res
 }
 
 /// The investigation on `train`, scored on `valid` (the calibration's own power-on where
-/// `calibration_run`: [`investigate::investigate`]), with what the figures need.
+/// `calibration_run`: [`investigate::investigate`]), its blobs' σ stating what `sheet` states
+/// (a channels file's `[[channel]]`), with what the figures need.
 fn held_out(
     points: &Points,
     train: &Stream,
     (valid, calibration_run): (Stream, bool),
     split: String,
-    (cfg, rebuild): (&GpConfig, &Rebuild<'_>),
+    (cfg, rebuild, sheet): (&GpConfig, &Rebuild<'_>, &Datasheet),
     bar: &dyn Progress,
 ) -> anyhow::Result<HeldOut> {
+    let told = investigate::Told {
+        asked: None,
+        sheet: *sheet,
+    };
     let (investigation, blobs) = investigate::investigate(
         points,
         train,
         (&valid, calibration_run),
         cfg,
-        investigate::Told::default(),
+        told,
         rebuild,
         bar,
     )?;
@@ -204,7 +210,7 @@ pub fn with_streams(
     train: &Stream,
     valid: Stream,
     split: String,
-    fitting: (&GpConfig, &Rebuild<'_>),
+    fitting: (&GpConfig, &Rebuild<'_>, &Datasheet),
     bar: &dyn Progress,
 ) -> anyhow::Result<Report> {
     let on_table = points.soaked;

@@ -127,6 +127,8 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,
         scale_repeatability_ppm: 0.0,
+        tempco_per_c: None,
+        trained_width_c: None,
         residuals: all.len(),
         effective: eff,
         inflation,
@@ -138,6 +140,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         assumed,
         legs_trained: None,
         leg_std: 0.0,
+        hysteresis: None,
     }
 }
 

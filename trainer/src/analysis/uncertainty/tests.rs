@@ -425,6 +425,28 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     both.set_legs(&states);
     assert_eq!(both.error_model.leg_var, 0.0);
     assert!(both.assumed.is_empty(), "{both:?}");
+    // A datasheet's heating/cooling gap takes the assumed term's place on one leg, and on both
+    // there is still none to take.
+    let mut stated = heating.clone();
+    stated.set_hysteresis(0.01);
+    assert_eq!(stated.leg_std, 0.01);
+    assert!((f64::from(stated.error_model.leg_var) - 1e-4).abs() < 1e-10);
+    assert!(!stated.assumed.contains(&"leg"), "{stated:?}");
+    assert!(stated.describe("°/s").contains("(--hysteresis)"));
+    both.set_hysteresis(0.01);
+    assert_eq!(both.error_model.leg_var, 0.0);
+    assert_eq!(both.leg_std, 0.0);
+    assert!(
+        both.describe("°/s")
+            .contains("held both heating and cooling")
+    );
+    // Where the training's states are not known (a table's soaks, logs pooled), no leg term
+    // either, and the σ line says the figure went unused.
+    let mut unknown = calibrate(&series, noise, Prior::NONE);
+    unknown.set_hysteresis(0.01);
+    assert_eq!(unknown.error_model.leg_var, 0.0);
+    assert_eq!(unknown.hysteresis, Some(0.01));
+    assert!(unknown.describe("°/s").contains("not known"), "{unknown:?}");
 }
 
 #[test]
@@ -564,4 +586,67 @@ fn the_sigma_line_says_whose_noise_it_states() {
     };
     assert_eq!(line(1.0), "one sample's noise 1.000e-2");
     assert_eq!(line(0.0), "a point's noise 1.000e-2 (no sample's is known)");
+}
+
+#[test]
+fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one() {
+    let noise = SampleNoise {
+        var: 1.0,
+        interval_s: 1.0,
+    };
+    // Assumed (no residual), with a part in proportion to the output: the bias part becomes the
+    // datasheet's slope over the trained width (0.002 per °C over 5 °C: 0.01 per width), the
+    // scale part stays, assumed, and the σ line names the flag.
+    let mut c = calibrate(&[], noise, PRIOR);
+    c.set_tempco(0.002, 5.0);
+    assert!((c.extrapolation_std - 0.01).abs() < 1e-12, "{c:?}");
+    assert!((f64::from(c.error_model.extrapolation_var) - 1e-4).abs() < 1e-10);
+    assert_eq!(c.error_model.extrapolation_scale_var, 2e-7);
+    assert_eq!(c.assumed, vec!["floor", "extrapolation"]);
+    assert!(
+        c.describe("°/s").contains("--tempco"),
+        "{}",
+        c.describe("°/s")
+    );
+    // Without a scale part, nothing of the growth is assumed any more.
+    let bias_only = Prior {
+        extrapolation_parts: (5e-4, 0.0),
+        ..PRIOR
+    };
+    let mut c = calibrate(&[], noise, bias_only);
+    c.set_tempco(0.002, 5.0);
+    assert_eq!(c.assumed, vec!["floor"]);
+    // A datasheet's 0 is stated, not left out: no growth of the bias beyond the range.
+    let mut c = calibrate(&[], noise, bias_only);
+    c.set_tempco(0.0, 5.0);
+    assert_eq!(c.tempco_per_c, Some(0.0));
+    assert_eq!(c.error_model.extrapolation_var, 0.0);
+    assert!(c.describe("°/s").contains("--tempco: the bias at 0.000e0"));
+    // Fitted on residuals that grow to 0.5 one width out: the larger of the fit and the
+    // datasheet.
+    let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
+    let series = [Series {
+        source: ResidualSource::Temperature,
+        residuals: r,
+    }];
+    let fitted = calibrate(&series, noise, PRIOR);
+    assert!(fitted.fitted_terms.contains(&"extrapolation"), "{fitted:?}");
+    assert!(fitted.extrapolation_std > 0.4, "{fitted:?}");
+    let mut small = fitted.clone();
+    small.set_tempco(0.0, 5.0);
+    assert_eq!(small.extrapolation_std, fitted.extrapolation_std);
+    assert!(
+        small
+            .describe("°/s")
+            .contains("fitted, larger than --tempco's")
+    );
+    let mut large = fitted.clone();
+    large.set_tempco(1.0, 5.0);
+    assert_eq!(large.extrapolation_std, 5.0);
+    assert_eq!(large.error_model.extrapolation_var, 25.0);
+    assert!(
+        large
+            .describe("°/s")
+            .contains("(--tempco: the bias at 1.000e0")
+    );
 }

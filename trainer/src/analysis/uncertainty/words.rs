@@ -6,14 +6,29 @@ use super::{Calibration, ResidualSource};
 impl Calibration {
     /// One line for a person.
     pub fn describe(&self, units: &str) -> String {
-        let leg = if self.leg_std > 0.0 {
-            format!(
-                "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
-                 (assumed)",
-                self.leg_std
-            )
-        } else {
-            String::new()
+        let leg = match (self.one_leg(), self.hysteresis) {
+            (true, _) => {
+                let source = if self.assumed.contains(&"leg") {
+                    "assumed; --hysteresis states a datasheet's"
+                } else {
+                    "--hysteresis"
+                };
+                format!(
+                    "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
+                     ({source})",
+                    self.leg_std
+                )
+            }
+            (false, Some(_)) if self.legs_trained.is_some() => {
+                "; no leg term: the training held both heating and cooling, their gap is in the \
+                 model error (--hysteresis not used)"
+                    .to_owned()
+            }
+            (false, Some(_)) => "; no leg term: the training's heating/cooling states are not \
+                                 known (a rate table's soaks, or logs pooled; --hysteresis not \
+                                 used)"
+                .to_owned(),
+            (false, None) => String::new(),
         };
         let turn_on = if self.assumed.contains(&"turn-on") {
             let size = if self.floor_std > 0.0 {
@@ -87,7 +102,26 @@ impl Calibration {
         } else {
             String::new()
         };
-        let beyond = if self.extrapolation_scale_ppm > 0.0 {
+        let beyond = if let Some(per_c) = self.tempco_per_c {
+            let scale = if self.extrapolation_scale_ppm > 0.0 {
+                format!(
+                    " and {:.0} ppm of the output{share}",
+                    self.extrapolation_scale_ppm
+                )
+            } else {
+                String::new()
+            };
+            let width = self.trained_width_c.unwrap_or(0.0);
+            let source = if self.extrapolation_std > per_c * width {
+                format!("fitted, larger than --tempco's {per_c:.3e} {units} per °C")
+            } else {
+                format!("--tempco: the bias at {per_c:.3e} {units} per °C")
+            };
+            format!(
+                "{:.3e}{scale} per trained width of {width:.1} °C beyond the range ({source})",
+                self.extrapolation_std
+            )
+        } else if self.extrapolation_scale_ppm > 0.0 {
             format!(
                 "{:.3e} and {:.0} ppm of the output per trained width beyond the range{share}",
                 self.extrapolation_std, self.extrapolation_scale_ppm

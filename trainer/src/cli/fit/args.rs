@@ -9,6 +9,7 @@ use firmware_core::blob::Beyond;
 use fog_data::stream::Window;
 
 use crate::analysis::budget::{Budget, Bytes};
+use crate::analysis::uncertainty::Datasheet;
 use crate::cli::inputs::{FitOptions, ModelInput, Runs};
 use crate::pipeline::fit::Service;
 
@@ -97,24 +98,42 @@ pub(super) struct ServiceArgs {
     #[arg(long, value_name = "LO:HI", value_parser = parse_rated, allow_hyphen_values = true)]
     pub(super) rated_temp: Option<(f32, f32)>,
     /// The output's full scale, in the output's own units (volts, counts, °/s): an output beyond
-    /// ± it is a fault (default: none, any finite output is a reading). One channel only.
+    /// ± it is a fault (default: none, any finite output is a reading). For channels that read
+    /// in one unit (else each channel's `full_scale` in the channels file).
     #[arg(long, value_name = "OUTPUT")]
     pub(super) full_scale: Option<f32>,
     /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
     /// gives it: every power-on in service is another than the calibration's, whose own bias was
     /// a draw too, so twice its variance is added to every sample's σ (default: where several
     /// power-ons do not measure it, the difference of two power-ons assumed as large as the
-    /// model error's floor, said in the σ line). One channel only, but 0 (a bias that repeats
-    /// exactly), which a unit takes for every channel.
+    /// model error's floor, said in the σ line). For channels that read in one unit (else each
+    /// channel's `repeatability` in the channels file), but 0 (a bias that repeats exactly),
+    /// which every channel takes.
     #[arg(long, value_name = "SIGMA")]
     pub(super) repeatability: Option<f64>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
     /// power-on in service is another than the calibration's, so twice its variance, in
     /// proportion to the output², is added to every sample's σ; on a unit, the same figure to
-    /// each channel's (fit a channel alone to state its own; default: not assumed, said in one
-    /// line).
+    /// each channel's (a channel's `scale_repeatability` in the channels file states its own;
+    /// default: not assumed, said in one line).
     #[arg(long, value_name = "PPM")]
     pub(super) scale_repeatability: Option<f64>,
+    /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
+    /// a datasheet gives it (its zero-rate output, or offset, change over temperature): beyond
+    /// the trained range the σ grows by that much per °C, in place of the growth assumed from the
+    /// model's own slope inside the range (a larger one the residuals fitted stands; the scale
+    /// factor's part stays). For channels that read in one unit (else each channel's `tempco` in
+    /// the channels file).
+    #[arg(long, value_name = "PER_C")]
+    pub(super) tempco: Option<f64>,
+    /// The gap between the heating and the cooling leg at one temperature, in the channel's
+    /// units, as a datasheet gives it (its thermal hysteresis): on a leg the training did not
+    /// hold, the σ carries it (default: assumed as large as the training data's own
+    /// out-of-sample error, said in the σ line; no term where the training held both legs, or
+    /// where its states are not known: a rate table's soaks, logs pooled). For channels that read
+    /// in one unit (else each channel's `hysteresis` in the channels file).
+    #[arg(long, value_name = "BAND")]
+    pub(super) hysteresis: Option<f64>,
     /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
     /// ArduPilot's clip; its linear terms in the output still follow it), tangent (the prior mean
     /// continued along its tangent at the edge), follow (the GP's own prediction), or auto (the
@@ -170,8 +189,12 @@ impl ServiceArgs {
         Service {
             rated_temp: self.rated_temp,
             full_scale: self.full_scale,
-            repeatability: self.repeatability,
-            scale_repeatability: self.scale_repeatability,
+            sheet: Datasheet {
+                repeatability: self.repeatability,
+                scale_repeatability: self.scale_repeatability,
+                tempco: self.tempco,
+                hysteresis: self.hysteresis,
+            },
             beyond: match self.beyond {
                 BeyondArg::Auto => None,
                 BeyondArg::Tangent => Some(Beyond::Tangent),

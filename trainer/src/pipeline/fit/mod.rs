@@ -28,7 +28,7 @@ use crate::analysis::investigate::{self, Forward};
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::tables::StreamPoints;
-use crate::analysis::uncertainty::{self, Calibration};
+use crate::analysis::uncertainty::{self, Calibration, Datasheet};
 use crate::data::points::{self, Points};
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};
@@ -83,18 +83,18 @@ pub struct FitPlan {
     pub service: Service,
 }
 
-/// What the blob states for service: the sensor's rated range and full scale, the bias and scale
-/// of another power-on, and the rule beyond the trained range.
+/// What the blob states for service: the sensor's rated range and full scale, a datasheet's
+/// figures (the bias and scale of another power-on, the growth beyond the trained range, the
+/// leg not trained), and the rule beyond the trained range.
 #[derive(Clone, Debug, Default)]
 pub struct Service {
     /// The rated temperature range, °C (default: the blob's, [`firmware_core::blob::Limits::DEFAULT`]).
     pub rated_temp: Option<(f32, f32)>,
     /// The output's full scale, in its units (default: none stated).
     pub full_scale: Option<f32>,
-    /// A datasheet's run-to-run σ of the bias, in the output's units.
-    pub repeatability: Option<f64>,
-    /// A datasheet's run-to-run σ of the scale factor, ppm.
-    pub scale_repeatability: Option<f64>,
+    /// What a datasheet states of the bias and scale of another power-on, the growth beyond the
+    /// trained range and the leg not trained.
+    pub sheet: Datasheet,
     /// The mean's rule beyond the trained range; `None`: chosen on the data.
     pub beyond: Option<Beyond>,
 }
@@ -149,6 +149,7 @@ impl FitPlan {
             .map(|k| {
                 let plan = Self {
                     source: self.source.for_channel(channels, k)?,
+                    service: self.service.for_channel(&channels.list[k]),
                     ..self.clone()
                 };
                 let streams: Vec<(&Path, Stream)> =
@@ -295,7 +296,7 @@ impl FitPlan {
                  beside a table with --features or --pool-stream)",
             );
         }
-        if self.service.scale_repeatability.is_none() {
+        if self.service.sheet.scale_repeatability.is_none() {
             messages.result(
                 "skipped: the scale factor of another power-on (no term is measured for it; \
                  --scale-repeatability states a datasheet's run-to-run σ, in ppm)",

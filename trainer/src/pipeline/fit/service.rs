@@ -1,9 +1,11 @@
 //! What a fitted blob states for service, written into it last: the sensor's limits (beyond
-//! which a reading is a fault), the bias of another power-on (a datasheet's, or assumed where
-//! nothing states or measures it), and the mean's rule beyond the trained range (chosen on the
-//! training data unless asked).
+//! which a reading is a fault), a datasheet's figures (the bias and scale of another power-on,
+//! the growth beyond the trained range, the leg not trained; each assumed where nothing states
+//! or measures it: [`Calibration::state`]), and the mean's rule beyond the trained range (chosen
+//! on the training data unless asked).
 
 use firmware_core::blob::{Beyond, Limits};
+use fog_data::channels::Channel;
 use fog_data::replay;
 
 use super::Service;
@@ -14,6 +16,16 @@ use crate::firmware::export;
 use crate::models::gp::GpConfig;
 
 impl Service {
+    /// This service for `channel`: its own datasheet's figures and full scale (a channels file's
+    /// `[[channel]]`), each where it states one, else the command's.
+    pub fn for_channel(&self, channel: &Channel) -> Self {
+        Self {
+            full_scale: channel.full_scale.map(|f| f as f32).or(self.full_scale),
+            sheet: channel.datasheet.or(self.sheet),
+            ..self.clone()
+        }
+    }
+
     /// The blob's limits.
     pub fn limits(&self) -> Limits {
         let (temp_min_c, temp_max_c) = self
@@ -43,18 +55,15 @@ impl Service {
         }
     }
 
-    /// `blob` (its σ `calibration`) with the limits, the repeatabilities and the rule beyond the
-    /// trained range written in.
+    /// `blob` (its σ `calibration`) with the limits, the datasheet's figures and the rule beyond
+    /// the trained range written in.
     pub fn apply(
         &self,
         blob: &[u8],
         calibration: &mut Calibration,
         beyond: Beyond,
     ) -> anyhow::Result<Vec<u8>> {
-        calibration.turn_on(self.repeatability);
-        if let Some(ppm) = self.scale_repeatability {
-            calibration.set_scale(ppm);
-        }
+        calibration.state(&self.sheet, blob)?;
         let blob = calibration.apply(blob)?;
         let limits = self.limits();
         let blob = export::with_limits(&blob, &limits)?;

@@ -1,0 +1,187 @@
+//! What a datasheet states that one power-on's calibration data cannot show, and what the σ
+//! assumes where nothing states or measures it (module doc of [`super`]): another power-on's
+//! bias and scale factor, the growth beyond the trained range, the heating/cooling leg the
+//! training did not hold. One place, [`Calibration::state`], takes every figure for every blob
+//! `fit` and `investigate` ship.
+
+use fog_data::channels::Datasheet;
+
+use super::{BOTH_LEGS, Calibration, OWN_DRAW, ResidualSource};
+use crate::firmware::export;
+
+impl Calibration {
+    /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
+    /// repeatability), its variance twice over added to every sample's bias variance: the
+    /// calibration's own power-on was a draw too.
+    pub fn set_turn_on(&mut self, sigma: f64) {
+        self.assumed.retain(|name| *name != "turn-on");
+        self.turn_on_std = sigma;
+        self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
+    }
+
+    /// States another power-on's bias as the commands take it: `repeatability`, a datasheet's
+    /// ([`Self::set_turn_on`]), or, with none, assumed ([`Self::assume_turn_on`]).
+    pub fn turn_on(&mut self, repeatability: Option<f64>) {
+        match repeatability {
+            Some(sigma) => self.set_turn_on(sigma),
+            None => self.assume_turn_on(),
+        }
+    }
+
+    /// Assumes the bias of another power-on where no datasheet states it (`--repeatability`) and
+    /// no power-on left out measured it ([`Self::runs_measured`]): one power-on's data cannot
+    /// show it, and a σ that left it out would be certain of what it never saw. The difference
+    /// of two power-ons' biases is taken as large as the model error's floor (twice the
+    /// repeatability's variance is the floor's once; where the floor was fitted to 0, the other
+    /// terms taking the residuals up, the smallest RMS of a residual series stands in), said in
+    /// `assumed` as `turn-on`. On the simulated gyro with a turn-on repeatability of 80 °/h
+    /// beside a thermal swing of 60 °/h this covered another power-on's 60 s means 87–95 %
+    /// (docs/uncertainty.md).
+    pub fn assume_turn_on(&mut self) {
+        if self.runs_measured() || self.turn_on_std > 0.0 {
+            return;
+        }
+        let seen = self
+            .sources
+            .iter()
+            .map(|s| s.rmse)
+            .filter(|r| *r > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let size = if self.floor_std > 0.0 || !seen.is_finite() {
+            self.floor_std
+        } else {
+            seen
+        };
+        self.set_turn_on(size / OWN_DRAW.sqrt());
+        if self.turn_on_std > 0.0 {
+            self.assumed.push("turn-on");
+        }
+    }
+
+    /// States the scale factor of another power-on: `ppm` of the output (a datasheet's run-to-run
+    /// scale-factor repeatability, 1σ), its variance twice over (as for the bias) added to every
+    /// sample's bias variance in proportion to the output².
+    pub fn set_scale(&mut self, ppm: f64) {
+        self.scale_repeatability_ppm = ppm;
+        self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
+    }
+
+    /// States what `sheet` states for the blob this calibration is for, `blob`, and assumes
+    /// another power-on's bias where nothing states or measures it ([`Self::turn_on`]): the one
+    /// place every shipped σ takes a datasheet's figures.
+    pub fn state(&mut self, sheet: &Datasheet, blob: &[u8]) -> anyhow::Result<()> {
+        let model = fog_data::replay::decode(blob)?;
+        self.trained_width_c = export::temperature_input(model.features())
+            .and_then(|k| model.trained_range(k))
+            .map(|[lo, hi]| f64::from(hi - lo))
+            .filter(|w| *w > 0.0);
+        self.turn_on(sheet.repeatability);
+        if let Some(ppm) = sheet.scale_repeatability {
+            self.set_scale(ppm);
+        }
+        if let Some(per_c) = sheet.tempco {
+            let width = self.trained_width_c.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--tempco states how the bias moves with temperature beyond the trained \
+                     range, and this model has no temperature input with a trained range"
+                )
+            })?;
+            self.set_tempco(per_c, width);
+        }
+        if let Some(band) = sheet.hysteresis {
+            self.set_hysteresis(band);
+        }
+        Ok(())
+    }
+
+    /// States the bias's temperature coefficient beyond the trained range: `per_c`, output units
+    /// per °C (a datasheet's), over the temperature input's trained width `width_c` °C. Held at
+    /// the range's edge, a model misses a bias that moves on at that rate by `per_c` per °C
+    /// beyond it: `per_c · width_c` per trained width, the extrapolation term's part alike at
+    /// every output. It replaces the part assumed from the model's own slope inside the range,
+    /// whatever rule the mean follows beyond it (the share k of that rule scales the part in
+    /// proportion to the output alone, which stays as it was: a datasheet's bias figure says
+    /// nothing of the scale factor). Where the residuals fitted the term, the larger of the two
+    /// stands: they reach a fraction of a width beyond the range, the datasheet all of it.
+    pub fn set_tempco(&mut self, per_c: f64, width_c: f64) {
+        self.tempco_per_c = Some(per_c);
+        self.trained_width_c = Some(width_c);
+        let stated = per_c * width_c;
+        let fitted = self.fitted_terms.contains(&"extrapolation");
+        let bias = if fitted {
+            self.extrapolation_std.max(stated)
+        } else {
+            stated
+        };
+        self.extrapolation_std = bias;
+        self.error_model.extrapolation_var = (bias * bias) as f32;
+        if !fitted && self.extrapolation_scale_ppm == 0.0 {
+            self.extrapolation_share = 1.0;
+            self.assumed.retain(|name| *name != "extrapolation");
+        }
+    }
+
+    /// Whether the residuals came from power-ons left out ([`ResidualSource::Runs`]): their model
+    /// error then holds another power-on's bias, measured.
+    pub fn runs_measured(&self) -> bool {
+        self.sources
+            .iter()
+            .any(|s| s.source == ResidualSource::Runs)
+    }
+
+    /// States the heating/cooling states the training stream held (`states`, each sample's, as
+    /// the firmware tracks them: [`super::streams::legs`]). Where they are one leg's only, the error of a full
+    /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
+    /// saw (the RMS of the residuals of the training data, or the floor where there are none),
+    /// said in `assumed`; the firmware adds it in proportion to how far a state lies beyond the
+    /// trained ones (half of it at a full cooling state after a heating that started at rest).
+    pub fn set_legs(&mut self, states: &[f32]) {
+        if states.is_empty() {
+            return;
+        }
+        let mut sorted = states.to_vec();
+        sorted.sort_by(f32::total_cmp);
+        let at = |q: f64| {
+            sorted[((q * (sorted.len() - 1) as f64).round() as usize).min(sorted.len() - 1)]
+        };
+        let (lo, hi) = (at(0.005), at(0.995));
+        self.legs_trained = Some((lo, hi));
+        self.error_model.leg_min = lo;
+        self.error_model.leg_max = hi;
+        if lo <= -BOTH_LEGS && hi >= BOTH_LEGS {
+            self.error_model.leg_var = 0.0;
+            self.leg_std = 0.0;
+            return;
+        }
+        let seen = self.sources.iter().map(|s| s.rmse).fold(0.0, f64::max);
+        self.leg_std = seen.max(self.floor_std);
+        // The firmware adds leg_var·l², l the distance beyond the trained states over the full
+        // swing of 2: the error of a whole swing, in proportion to the part of it not trained
+        // (from a training that turned half-way, a full turn misses half as much again).
+        self.error_model.leg_var = (self.leg_std * self.leg_std) as f32;
+        if !self.assumed.contains(&"leg") {
+            self.assumed.push("leg");
+        }
+    }
+
+    /// Whether the training held one heating/cooling leg only ([`Self::set_legs`]); false
+    /// where it held both, or its states are not known (a rate table's soaks, logs pooled).
+    pub fn one_leg(&self) -> bool {
+        self.legs_trained
+            .is_some_and(|(lo, hi)| !(lo <= -BOTH_LEGS && hi >= BOTH_LEGS))
+    }
+
+    /// States the heating/cooling gap: `band`, output units (a datasheet's thermal hysteresis),
+    /// the error of a full swing of the state onto a leg the training did not hold, in place of
+    /// the one [`Self::set_legs`] assumed. Where the training held both legs there is no leg
+    /// term, stated or not (the model has seen both); where its states are not known, none
+    /// either: the σ line says so.
+    pub fn set_hysteresis(&mut self, band: f64) {
+        self.hysteresis = Some(band);
+        if self.one_leg() {
+            self.leg_std = band;
+            self.error_model.leg_var = (band * band) as f32;
+            self.assumed.retain(|name| *name != "leg");
+        }
+    }
+}
