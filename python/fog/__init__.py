@@ -155,8 +155,9 @@ def _window(w: Any) -> str:
 
 
 def _arguments(**options: Any) -> list[str]:
-    """Keywords as the command's flags: `hold_out_from=2400` is `--hold-out-from 2400`, True a
-    bare flag, None and False none, a list a repeated flag, `map` a dict of `--map NAME=SOURCE`."""
+    """Keywords as the command's flags: `hold_out_from=2400` is `--hold-out-from=2400`, True a
+    bare flag, None and False none, a list a repeated flag, `map` a dict of `--map=NAME=SOURCE`.
+    Each value joins its flag with `=`, so that a negative number is read as one."""
     args: list[str] = []
     for key, value in options.items():
         if value is None or value is False:
@@ -165,17 +166,14 @@ def _arguments(**options: Any) -> list[str]:
         if value is True:
             args.append(flag)
         elif key == "map":
-            for name, source in dict(value).items():
-                args += [flag, f"{name}={source}"]
+            args += [f"{flag}={name}={source}" for name, source in dict(value).items()]
         elif key in ("window", "exclude"):
             windows = value if isinstance(value, list) else [value]
-            for w in windows:
-                args += [flag, _window(w)]
+            args += [f"{flag}={_window(w)}" for w in windows]
         elif isinstance(value, (list, tuple)):
-            for v in value:
-                args += [flag, str(v)]
+            args += [f"{flag}={v}" for v in value]
         else:
-            args += [flag, str(value)]
+            args.append(f"{flag}={value}")
     return args
 
 

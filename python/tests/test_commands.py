@@ -73,6 +73,25 @@ def test_investigate_is_trainer_investigate(tmp_path):
     assert ours.channels[0].static_score.rmse_60s_dps > 0
 
 
+def test_a_datasheets_figures_are_keywords_and_reach_the_sigma(tmp_path):
+    # Gyro y of the MEMS log on ten minutes at its cold end, a datasheet's bias temperature
+    # coefficient stated as `trainer fit --tempco` takes it.
+    maps = {"time_s": "timestamp*1e-6", "temp_c": "imu.temperature", "rate_dps": "0",
+            "voltage_v": "imu.gyro.y*57.29577951"}
+    flags = sum((["--map", f"{k}={v}"] for k, v in maps.items()), [])
+    out = tmp_path / "fit.json"
+    run("trainer", "fit", "--stream", LOG, "--window", "1000:1660", "--scale-factor", "1", *flags,
+        "--tempco", "0.03", "--out", tmp_path / "g.bin", "--json", out, "-q")
+    c = fog.calibrate(LOG, map=maps, window=(1000, 1660), scale_factor=1, features=None,
+                      tempco=0.03)
+    calibration = c.report.channels[0].calibration
+    assert calibration.tempco_per_c == 0.03
+    assert calibration.extrapolation_std == pytest.approx(0.03 * calibration.trained_width_c)
+    assert without_timings(c.report.to_dict()) == without_timings(json.loads(out.read_text()))
+    with pytest.raises(fog.FogError, match="--tempco must be a number"):
+        fog.calibrate(LOG, map=maps, scale_factor=1, tempco=-1)
+
+
 def test_investigate_takes_each_sensor_of_a_boards_log(tmp_path):
     board = tmp_path / "cal.ulg"
     run("firmware-sim", "generate", "board", "--seed", "7", "--minutes", "30", "--out", board, "-q")
