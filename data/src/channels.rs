@@ -14,15 +14,18 @@
 //! reference = "0"                   # a column, COLUMN*FACTOR or a constant, in °/s (m/s²)
 //! # kind = "gyro"                   # gyro or accelerometer: what a raw output measures
 //! # scale_factor = 26592.6          # raw output per °/s (m/s²), for a log without a rate table
-//! # The channel's datasheet ([`Datasheet`]), each optional, as the `fit` flag of its name
-//! # takes it for one channel: in °/s (m/s²), the output converted as below (a raw output's
-//! # full_scale in its raw unit):
+//! # The channel's datasheet, each optional, in place of the `fit` flag of its name for this
+//! # channel: in °/s (m/s²), the output converted as below (a raw output's full_scale in its
+//! # raw unit):
 //! # full_scale = 2000               # a reading beyond ± it is a fault
 //! # repeatability = 0.05            # the bias's run-to-run σ
 //! # scale_repeatability = 300       # the scale factor's, ppm
 //! # tempco = 0.005                  # the bias's change per °C, beyond the trained range
 //! # hysteresis = 0.02               # the gap between heating and cooling at one temperature
 //! ```
+//!
+//! A channel's datasheet ([`Datasheet`]) is what the σ of its blob takes where one power-on's
+//! data cannot show it (docs/uncertainty.md), and its full scale where a reading is a fault.
 //!
 //! An output in a physical unit is converted to the channel's quantity's unit (°/s for a gyro,
 //! m/s² for an accelerometer) as it is read; on a log without a rate table it then needs no scale
@@ -47,7 +50,7 @@ use crate::columns::{self, ColumnMap, ColumnSource, DataError};
 use crate::stream::{self, Stream};
 
 mod datasheet;
-pub use datasheet::Datasheet;
+pub use datasheet::{Datasheet, InvalidFigure};
 
 /// What kind of file the channels are read from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -341,7 +344,7 @@ impl Channels {
             let output = output.scaled(unit.factor().unwrap_or(1.0));
             let reference = source(&format!("channel '{name}': reference"), &e.reference)?;
             if let Some(f) = e.full_scale
-                && !(f.is_finite() && f > 0.0)
+                && !(f > 0.0 && (f as f32).is_finite())
             {
                 return Err(invalid(format!(
                     "channel '{name}': full_scale {f} is not a positive number"
@@ -353,8 +356,8 @@ impl Channels {
                 tempco: e.tempco,
                 hysteresis: e.hysteresis,
             };
-            if let Some((field, why)) = datasheet.invalid() {
-                return Err(invalid(format!("channel '{name}': {field} {why}")));
+            if let Err(e) = datasheet.check() {
+                return Err(invalid(format!("channel '{name}': {e}")));
             }
             list.push(Channel {
                 name,

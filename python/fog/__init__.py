@@ -170,6 +170,9 @@ def _arguments(**options: Any) -> list[str]:
         elif key in ("window", "exclude"):
             windows = value if isinstance(value, list) else [value]
             args += [f"{flag}={_window(w)}" for w in windows]
+        elif key == "rated_temp" and isinstance(value, (list, tuple)):
+            low, high = value
+            args.append(f"{flag}={low}:{high}")
         elif isinstance(value, (list, tuple)):
             args += [f"{flag}={v}" for v in value]
         else:

@@ -370,7 +370,7 @@ class Calibration(Record):
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""
 
     hysteresis: float | None
-    """The gap between the heating and the cooling leg at one temperature, output units, as stated by `--hysteresis` (a datasheet's thermal hysteresis; null: not stated): the error of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`])."""
+    """The gap between the heating and the cooling leg at one temperature, output units, as stated by `--hysteresis` or the channel's `hysteresis` in a channels file (a datasheet's thermal hysteresis; null: not stated): the error of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`])."""
 
     inflation: float
     """The small-sample factor on the model-error variance."""
@@ -403,7 +403,7 @@ class Calibration(Record):
     """The floor the table's left-out groups or points showed, where they were used beside a run's (not shipped: a gyro in service is in a run, with the whole table trained)."""
 
     tempco_per_c: float | None
-    """The bias's temperature coefficient beyond the trained range, output units per °C, as stated by `--tempco` (a datasheet's; null: not stated). Over `trained_width_c` it sets the extrapolation term's part alike at every output, unless the residuals fitted a larger one ([`Calibration::set_tempco`])."""
+    """The bias's temperature coefficient beyond the trained range, output units per °C, as stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not stated). Over `trained_width_c` it sets the extrapolation term's part alike at every output, unless the residuals fitted a larger one ([`Calibration::set_tempco`])."""
 
     trained_width_c: float | None
     """The trained width of the shipped blob's temperature input, °C: the width the extrapolation term is counted in (null: no temperature input, or no blob stated yet)."""

@@ -92,6 +92,11 @@ def test_a_datasheets_figures_are_keywords_and_reach_the_sigma(tmp_path):
         fog.calibrate(LOG, map=maps, scale_factor=1, tempco=-1)
 
 
+def test_keywords_are_flags_whose_values_may_begin_with_a_minus():
+    assert fog._arguments(rated_temp=(-40, 85), exclude=[(-5, 10)], tempco=-1, quiet=False) == [
+        "--rated-temp=-40:85", "--exclude=-5:10", "--tempco=-1"]
+
+
 def test_investigate_takes_each_sensor_of_a_boards_log(tmp_path):
     board = tmp_path / "cal.ulg"
     run("firmware-sim", "generate", "board", "--seed", "7", "--minutes", "30", "--out", board, "-q")

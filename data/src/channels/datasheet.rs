@@ -2,6 +2,24 @@
 //! user states for the σ of every blob (`fit`'s and `investigate`'s flags, or a channels file's
 //! `[[channel]]`), one definition for both.
 
+/// A datasheet's figure that cannot be one: its field (a channels file's key; the flag's name
+/// with `-` for `_`), and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{field} {why}")]
+pub struct InvalidFigure {
+    /// The field.
+    pub field: &'static str,
+    /// Why not.
+    pub why: &'static str,
+}
+
+impl InvalidFigure {
+    /// The command-line flag that states the field.
+    pub fn flag(&self) -> String {
+        format!("--{}", self.field.replace('_', "-"))
+    }
+}
+
 /// The largest scale-factor repeatability a σ states, ppm: a scale that varies by its whole size
 /// from one power-on to the next is no sensor's.
 const MAX_PPM: f64 = 1e6;
@@ -42,32 +60,33 @@ impl Datasheet {
         }
     }
 
-    /// The first figure that cannot be one, by its field's name, and why: each is a number not
-    /// below 0, the scale factor's at most 10⁶ ppm (100 %); `None` where all can.
-    pub fn invalid(&self) -> Option<(&'static str, &'static str)> {
+    /// The first figure that cannot be one: each is a number not below 0, the scale factor's at
+    /// most 10⁶ ppm (100 %).
+    pub fn check(&self) -> Result<(), InvalidFigure> {
         let plain = |v: Option<f64>| v.is_none_or(|t| t.is_finite() && t >= 0.0);
+        let invalid = |field, why| Err(InvalidFigure { field, why });
         if !plain(self.repeatability) {
-            Some(("repeatability", "must be a σ: a number not below 0"))
+            invalid("repeatability", "must be a σ: a number not below 0")
         } else if !self
             .scale_repeatability
             .is_none_or(|r| (0.0..=MAX_PPM).contains(&r))
         {
-            Some((
+            invalid(
                 "scale_repeatability",
                 "must be a σ in ppm: a number from 0 to 1e6 (100 %)",
-            ))
+            )
         } else if !plain(self.tempco) {
-            Some((
+            invalid(
                 "tempco",
                 "must be a number not below 0, in the channel's units per °C",
-            ))
+            )
         } else if !plain(self.hysteresis) {
-            Some((
+            invalid(
                 "hysteresis",
                 "must be a number not below 0, in the channel's units",
-            ))
+            )
         } else {
-            None
+            Ok(())
         }
     }
 }
@@ -107,8 +126,8 @@ mod tests {
         };
         assert!(!alike.in_one_channels_units());
         assert!(channel.in_one_channels_units());
-        assert_eq!(command.invalid(), None);
-        let bad = |sheet: Datasheet| sheet.invalid().map(|(field, _)| field);
+        assert_eq!(command.check(), Ok(()));
+        let bad = |sheet: Datasheet| sheet.check().err().map(|e| e.field);
         let nan = Datasheet {
             tempco: Some(f64::NAN),
             ..Datasheet::default()
@@ -119,6 +138,10 @@ mod tests {
             ..Datasheet::default()
         };
         assert_eq!(bad(too_large), Some("scale_repeatability"));
+        assert_eq!(
+            too_large.check().unwrap_err().flag(),
+            "--scale-repeatability"
+        );
         let negative = Datasheet {
             hysteresis: Some(-1.0),
             ..Datasheet::default()

@@ -738,7 +738,8 @@ fn a_logs_sensors_are_chosen_and_renamed_and_their_files_named_after_them() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let log = short_board(d);
-    // A sensor's three axes are a unit: a figure in one channel's units is refused for it.
+    // The log's gyro and accelerometer sensors read in °/s and m/s²: a figure in one channel's
+    // units is refused for all of them at once.
     let out = at(d, "refused.bin");
     let refused = trainer(&[
         "fit", "--stream", &log, "--tempco", "0.001", "--out", &out, "-q",

@@ -112,15 +112,28 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
         ":1800",
         "--tempco",
         &tempco.to_string(),
+        "--scale-repeatability",
+        "800",
         "--json",
         &report,
         "-q",
     ])
     .unwrap();
     let investigated = &one(&report)["calibration"];
+    assert_eq!(
+        investigated["scale_repeatability_ppm"], 800.0,
+        "{investigated}"
+    );
+    // Its blob follows a tangent or the GP beyond its range (the rule's share under 1), which
+    // moves on by the model's own slope too: that part adds to the datasheet's, still assumed.
     let width = investigated["trained_width_c"].as_f64().unwrap();
     assert!(
-        (part(investigated) / (tempco * width) - 1.0).abs() < 1e-9,
+        investigated["extrapolation_share"].as_f64().unwrap() < 1.0,
+        "{investigated}"
+    );
+    assert!(part(investigated) > tempco * width, "{investigated}");
+    assert!(
+        crate::assumes(investigated, "extrapolation"),
         "{investigated}"
     );
     for (bad, flag) in [
@@ -200,13 +213,13 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
     let dir = tempfile::tempdir().unwrap();
     let channels = imu().replace("imu_raw_data.tsv", "imu.toml");
     let log = imu();
-    let calibrated = |channels: &str, name: &str| {
+    let calibrated = |channels: &str, name: &str, extra: &[&str]| {
         let (blob, fit, out) = (
             at(dir.path(), &format!("{name}.bin")),
             at(dir.path(), &format!("{name}.json")),
             at(dir.path(), &format!("{name}-replay.json")),
         );
-        trainer(&[
+        let args = [
             "fit",
             "--stream",
             &log,
@@ -221,8 +234,8 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
             "--json",
             &fit,
             "-q",
-        ])
-        .unwrap();
+        ];
+        trainer(&[&args[..], extra].concat()).unwrap();
         sim(&[
             "replay",
             "--model",
@@ -240,7 +253,7 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
         .unwrap();
         (blob, json(&fit), json(&out))
     };
-    let (_, _, r) = calibrated(&channels, "band");
+    let (_, _, r) = calibrated(&channels, "band", &[]);
     let list = r["channels"].as_array().unwrap();
     assert_eq!(list.len(), 6);
     for ch in list {
@@ -273,7 +286,7 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
     assert_ne!(stated, text);
     let sheet = at(dir.path(), "imu.toml");
     std::fs::write(&sheet, &stated).unwrap();
-    let (blob, fit, told) = calibrated(&sheet, "stated");
+    let (blob, fit, told) = calibrated(&sheet, "stated", &[]);
     let tempco = |k: usize| fit["channels"][k]["calibration"]["tempco_per_c"].clone();
     assert_eq!(tempco(1), 0.03, "{fit}");
     for k in [0, 2, 3, 4, 5] {
@@ -308,6 +321,17 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
     let tempco = |k: usize| investigated["channels"][k]["calibration"]["tempco_per_c"].clone();
     assert_eq!(tempco(1), 0.03, "{investigated}");
     assert!(tempco(0).is_null(), "{investigated}");
+    // The three gyros alone read in one unit: a figure on the command line is each one's.
+    let gyros = text[..text.find("name = \"acc.x\"").unwrap()]
+        .trim_end()
+        .trim_end_matches("[[channel]]");
+    std::fs::write(&sheet, gyros).unwrap();
+    let (_, fit, _) = calibrated(&sheet, "gyros", &["--tempco", "0.02"]);
+    let list = fit["channels"].as_array().unwrap();
+    assert_eq!(list.len(), 3, "{fit}");
+    for ch in list {
+        assert_eq!(ch["calibration"]["tempco_per_c"], 0.02, "{ch}");
+    }
     // A figure that cannot be one is refused, naming its channel.
     std::fs::write(
         &sheet,

@@ -8,6 +8,7 @@
 
 use crate::progress::Progress;
 use fog_data::cause::Cause;
+use fog_data::channels::Datasheet;
 use fog_data::replay::{self, HostModel, Score};
 use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
@@ -15,7 +16,7 @@ use serde::Serialize;
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
-use crate::analysis::uncertainty::{self, Calibration, Datasheet, ResidualSource, SampleNoise};
+use crate::analysis::uncertainty::{self, Calibration, ResidualSource, SampleNoise};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
 use crate::models::gp::{GpConfig, GpModel};
@@ -485,7 +486,7 @@ pub fn investigate(
             &beyond,
         )
         .and_then(|mut c| {
-            c.state(&told.sheet, blob)?;
+            c.state(&told.sheet, blob, beyond.rule)?;
             Ok(c)
         })
     };

@@ -55,11 +55,13 @@
 //! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
 //!
-//! **A datasheet states what it knows better** ([`Datasheet`], [`Calibration::state`]): the
-//! bias's and the scale factor's run-to-run repeatability, the bias's temperature coefficient
-//! (the growth beyond the range: a part's bound, where the model's own slope over a narrow band
-//! says nothing of a bias that turns over beyond it), and the gap between the heating and the
-//! cooling leg. Each takes the place of the term assumed, which `assumed` then no longer names.
+//! **A datasheet states what it knows better** ([`fog_data::channels::Datasheet`],
+//! [`Calibration::state`]): the bias's and the scale factor's run-to-run repeatability, the
+//! bias's temperature coefficient (the growth beyond the range: a part's bound, where the
+//! model's own slope over a narrow band says nothing of a bias that turns over beyond it), and
+//! the gap between the heating and the cooling leg. Each takes the place of the term assumed
+//! (beyond a range the mean is not held at, the growth its rule assumes stays beside the
+//! datasheet's: [`Calibration::set_tempco`]).
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;
@@ -79,8 +81,6 @@ pub mod streams;
 pub mod tables;
 pub mod terms;
 mod words;
-
-pub use fog_data::channels::Datasheet;
 
 /// The model-error terms fitted: a floor for a table's residuals and one for a run's, then
 /// e(x)², t and t² ([`Residual::terms`]).
@@ -330,9 +330,9 @@ pub struct Calibration {
     /// variance, as for the bias.
     pub scale_repeatability_ppm: f64,
     /// The bias's temperature coefficient beyond the trained range, output units per °C, as
-    /// stated by `--tempco` (a datasheet's; null: not stated). Over `trained_width_c` it sets the
-    /// extrapolation term's part alike at every output, unless the residuals fitted a larger one
-    /// ([`Calibration::set_tempco`]).
+    /// stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not
+    /// stated). Over `trained_width_c` it sets the extrapolation term's part alike at every
+    /// output, unless the residuals fitted a larger one ([`Calibration::set_tempco`]).
     pub tempco_per_c: Option<f64>,
     /// The trained width of the shipped blob's temperature input, °C: the width the
     /// extrapolation term is counted in (null: no temperature input, or no blob stated yet).
@@ -367,8 +367,9 @@ pub struct Calibration {
     /// by `--hysteresis`, else assumed (`leg` in `assumed`).
     pub leg_std: f64,
     /// The gap between the heating and the cooling leg at one temperature, output units, as
-    /// stated by `--hysteresis` (a datasheet's thermal hysteresis; null: not stated): the error
-    /// of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`]).
+    /// stated by `--hysteresis` or the channel's `hysteresis` in a channels file (a datasheet's
+    /// thermal hysteresis; null: not stated): the error of a full swing onto a leg the training
+    /// did not hold ([`Calibration::set_hysteresis`]).
     pub hysteresis: Option<f64>,
 }
 

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
+use fog_data::channels::Datasheet;
 use fog_data::sigma::Coverage;
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
@@ -18,7 +19,6 @@ use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
-use crate::analysis::uncertainty::Datasheet;
 use crate::data::points::Points;
 use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;

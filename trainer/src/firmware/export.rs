@@ -47,6 +47,13 @@ pub enum ExportError {
         /// How.
         mismatch: Mismatch,
     },
+    /// A bias temperature coefficient stated for a model without a temperature input.
+    #[error(
+        "a bias temperature coefficient (--tempco, or a channel's tempco) says how the bias moves \
+         beyond the trained temperatures, and this model has no temperature input with a \
+         trained range"
+    )]
+    NoTemperature,
 }
 
 /// How a blob's f32 evaluation failed to follow its host model ([`verify`]).

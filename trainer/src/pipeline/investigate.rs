@@ -7,14 +7,13 @@
 use std::path::Path;
 
 use fog_data::cause::Cause;
-use fog_data::channels::Channels;
+use fog_data::channels::{Channels, Datasheet};
 use fog_data::sigma;
 use fog_data::stream::Stream;
 use serde::Serialize;
 
 use crate::analysis::diagnose::causes_text;
 use crate::analysis::investigate::{self, Blobs, Investigation};
-use crate::analysis::uncertainty::Datasheet;
 use crate::firmware::export::ExportError;
 use crate::firmware::unit;
 use crate::models::gp::GpConfig;

@@ -5,12 +5,12 @@
 
 use std::path::Path;
 
+use fog_data::channels::Datasheet;
 use serde::Serialize;
 
 use crate::analysis::capacity::{self, Choice};
 use crate::analysis::evaluate::across_runs::{self, CrossRun};
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
-use crate::analysis::uncertainty::Datasheet;
 use crate::data::points::Points;
 use crate::progress::Messages;
 

@@ -15,50 +15,57 @@ pub mod summarize;
 pub mod text;
 
 use firmware_core::Quantity;
-use fog_data::channels::{Channel, Channels};
+use fog_data::channels::{Channel, Channels, Datasheet};
 use serde::Serialize;
 
-use crate::analysis::uncertainty::Datasheet;
-
 /// Checks a datasheet's figures as `fit`, `loo` and `investigate` take them
-/// ([`Datasheet::invalid`]), naming the flag.
+/// ([`Datasheet::check`]), naming the flag.
 pub fn check_datasheet(sheet: &Datasheet) -> anyhow::Result<()> {
-    match sheet.invalid() {
-        Some((field, why)) => anyhow::bail!("--{} {why}", field.replace('_', "-")),
-        None => Ok(()),
-    }
+    sheet
+        .check()
+        .map_err(|e| anyhow::anyhow!("{} {}", e.flag(), e.why))
 }
 
-/// Checks that figures in one channel's units (`full_scale`, and those of `sheet`:
-/// [`Datasheet::in_one_channels_units`]) go to channels that all read in that unit: every channel
-/// of `units`, as read, of one quantity and one output unit (a 3-axis gyro, a flight controller's
-/// gyro sensor), not an IMU's gyros and accelerometers at once (`verb`: the command).
+/// Checks that figures in one channel's units go to channels that share them (`verb`: the
+/// command): those of `sheet` ([`Datasheet::in_one_channels_units`]), in the quantity's unit
+/// (°/s, m/s²), to channels of one quantity (a 3-axis gyro, a flight controller's gyro sensor),
+/// not an IMU's gyros and accelerometers at once; a `full_scale`, in the unit the output is read
+/// in (the quantity's where it is physical, else its raw unit), to channels read in one.
 pub fn check_one_channel(
     sheet: &Datasheet,
     full_scale: bool,
     units: &[Channels],
     verb: &str,
 ) -> anyhow::Result<()> {
-    let channels: Vec<(Quantity, String)> = units
-        .iter()
-        .flat_map(|u| &u.list)
-        .map(|ch| (ch.quantity, ch.unit.to_string()))
-        .collect();
-    let mut read_in: Vec<&str> = Vec::new();
-    for (_, unit) in &channels {
-        if !read_in.contains(&unit.as_str()) {
-            read_in.push(unit);
+    let read_in = |ch: &Channel| match ch.unit.factor() {
+        Some(_) => ch.quantity.unit().to_string(),
+        None => ch.unit.to_string(),
+    };
+    let kinds = |of: &dyn Fn(&Channel) -> String| {
+        let mut seen: Vec<String> = Vec::new();
+        for ch in units.iter().flat_map(|u| &u.list) {
+            let kind = of(ch);
+            if !seen.contains(&kind) {
+                seen.push(kind);
+            }
         }
-    }
-    anyhow::ensure!(
-        !(full_scale || sheet.in_one_channels_units()) || channels.windows(2).all(|w| w[0] == w[1]),
-        "--full-scale, --repeatability, --tempco and --hysteresis are one channel's, in its \
-         units, and these channels read in {}: state each channel's in its [[channel]] of a \
-         channels file, or {verb} one kind at a time (one sensor: --sensor); 0 means the same in \
-         every unit",
-        read_in.join(", ")
-    );
-    Ok(())
+        seen
+    };
+    let quantities = kinds(&|ch| ch.quantity.unit().to_string());
+    let outputs = kinds(&read_in);
+    let (flags, differ) = if sheet.in_one_channels_units() && quantities.len() > 1 {
+        ("--repeatability, --tempco and --hysteresis are", quantities)
+    } else if full_scale && outputs.len() > 1 {
+        ("--full-scale is", outputs)
+    } else {
+        return Ok(());
+    };
+    anyhow::bail!(
+        "{flags} one channel's, in its units, and these channels' are {}: state each channel's \
+         in its [[channel]] of a channels file, or {verb} one kind at a time (one sensor: \
+         --sensor); 0 means the same in every unit",
+        differ.join(", ")
+    )
 }
 
 /// One channel in a unit's JSON: its name, what it measures and its output's unit, then its

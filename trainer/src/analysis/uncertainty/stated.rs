@@ -4,10 +4,11 @@
 //! training did not hold. One place, [`Calibration::state`], takes every figure for every blob
 //! `fit` and `investigate` ship.
 
+use firmware_core::blob::Beyond;
 use fog_data::channels::Datasheet;
 
 use super::{BOTH_LEGS, Calibration, OWN_DRAW, ResidualSource};
-use crate::firmware::export;
+use crate::firmware::export::{self, ExportError};
 
 impl Calibration {
     /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
@@ -66,10 +67,16 @@ impl Calibration {
         self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
     }
 
-    /// States what `sheet` states for the blob this calibration is for, `blob`, and assumes
-    /// another power-on's bias where nothing states or measures it ([`Self::turn_on`]): the one
-    /// place every shipped σ takes a datasheet's figures.
-    pub fn state(&mut self, sheet: &Datasheet, blob: &[u8]) -> anyhow::Result<()> {
+    /// States what `sheet` states for the blob this calibration is for, `blob`, whose mean
+    /// follows `rule` beyond the trained range, and assumes another power-on's bias where nothing
+    /// states or measures it ([`Self::turn_on`]): the one place every shipped σ takes a
+    /// datasheet's figures.
+    pub fn state(
+        &mut self,
+        sheet: &Datasheet,
+        blob: &[u8],
+        rule: Beyond,
+    ) -> Result<(), ExportError> {
         let model = fog_data::replay::decode(blob)?;
         self.trained_width_c = export::temperature_input(model.features())
             .and_then(|k| model.trained_range(k))
@@ -80,13 +87,8 @@ impl Calibration {
             self.set_scale(ppm);
         }
         if let Some(per_c) = sheet.tempco {
-            let width = self.trained_width_c.ok_or_else(|| {
-                anyhow::anyhow!(
-                    "--tempco states how the bias moves with temperature beyond the trained \
-                     range, and this model has no temperature input with a trained range"
-                )
-            })?;
-            self.set_tempco(per_c, width);
+            let width = self.trained_width_c.ok_or(ExportError::NoTemperature)?;
+            self.set_tempco(per_c, width, rule == Beyond::Hold);
         }
         if let Some(band) = sheet.hysteresis {
             self.set_hysteresis(band);
@@ -95,27 +97,31 @@ impl Calibration {
     }
 
     /// States the bias's temperature coefficient beyond the trained range: `per_c`, output units
-    /// per °C (a datasheet's), over the temperature input's trained width `width_c` °C. Held at
-    /// the range's edge, a model misses a bias that moves on at that rate by `per_c` per °C
-    /// beyond it: `per_c · width_c` per trained width, the extrapolation term's part alike at
-    /// every output. It replaces the part assumed from the model's own slope inside the range,
-    /// whatever rule the mean follows beyond it (the share k of that rule scales the part in
-    /// proportion to the output alone, which stays as it was: a datasheet's bias figure says
-    /// nothing of the scale factor). Where the residuals fitted the term, the larger of the two
-    /// stands: they reach a fraction of a width beyond the range, the datasheet all of it.
-    pub fn set_tempco(&mut self, per_c: f64, width_c: f64) {
+    /// per °C (a datasheet's), over the temperature input's trained width `width_c` °C. `held`:
+    /// the blob's mean is held at the range's edge beyond it, and misses a bias that moves on at
+    /// that rate by `per_c` per °C: `per_c · width_c` per trained width, the extrapolation term's
+    /// part alike at every output, in place of the part assumed from the model's own slope inside
+    /// the range. A mean that follows a tangent or the GP there moves on by its own slope too,
+    /// which may run against the bias's (a bias that turns over): the part assumed for that rule
+    /// (its share k of holding's miss) is added to the datasheet's, in quadrature. The part in
+    /// proportion to the output stays as it was: a bias figure says nothing of the scale factor.
+    /// Where the residuals fitted the term, the larger of the fit and the datasheet's stands: they
+    /// reach a fraction of a width beyond the range, the datasheet all of it.
+    pub fn set_tempco(&mut self, per_c: f64, width_c: f64, held: bool) {
         self.tempco_per_c = Some(per_c);
         self.trained_width_c = Some(width_c);
         let stated = per_c * width_c;
         let fitted = self.fitted_terms.contains(&"extrapolation");
         let bias = if fitted {
             self.extrapolation_std.max(stated)
-        } else {
+        } else if held {
             stated
+        } else {
+            stated.hypot(self.extrapolation_std)
         };
         self.extrapolation_std = bias;
         self.error_model.extrapolation_var = (bias * bias) as f32;
-        if !fitted && self.extrapolation_scale_ppm == 0.0 {
+        if !fitted && held && self.extrapolation_scale_ppm == 0.0 {
             self.extrapolation_share = 1.0;
             self.assumed.retain(|name| *name != "extrapolation");
         }

@@ -432,7 +432,11 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     assert_eq!(stated.leg_std, 0.01);
     assert!((f64::from(stated.error_model.leg_var) - 1e-4).abs() < 1e-10);
     assert!(!stated.assumed.contains(&"leg"), "{stated:?}");
-    assert!(stated.describe("°/s").contains("(--hysteresis)"));
+    assert!(
+        stated
+            .describe("°/s")
+            .contains("(the datasheet's heating/cooling gap)")
+    );
     both.set_hysteresis(0.01);
     assert_eq!(both.error_model.leg_var, 0.0);
     assert_eq!(both.leg_std, 0.0);
@@ -598,13 +602,14 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
     // datasheet's slope over the trained width (0.002 per °C over 5 °C: 0.01 per width), the
     // scale part stays, assumed, and the σ line names the flag.
     let mut c = calibrate(&[], noise, PRIOR);
-    c.set_tempco(0.002, 5.0);
+    c.set_tempco(0.002, 5.0, true);
     assert!((c.extrapolation_std - 0.01).abs() < 1e-12, "{c:?}");
     assert!((f64::from(c.error_model.extrapolation_var) - 1e-4).abs() < 1e-10);
     assert_eq!(c.error_model.extrapolation_scale_var, 2e-7);
     assert_eq!(c.assumed, vec!["floor", "extrapolation"]);
     assert!(
-        c.describe("°/s").contains("--tempco"),
+        c.describe("°/s")
+            .contains("datasheet: the bias at 2.000e-3"),
         "{}",
         c.describe("°/s")
     );
@@ -614,14 +619,29 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
         ..PRIOR
     };
     let mut c = calibrate(&[], noise, bias_only);
-    c.set_tempco(0.002, 5.0);
+    c.set_tempco(0.002, 5.0, true);
     assert_eq!(c.assumed, vec!["floor"]);
+    // A mean that follows the GP beyond the range moves on by the model's own slope as well: the
+    // part assumed for its rule adds to the datasheet's, in quadrature, and stays said.
+    let mut followed = calibrate(&[], noise, bias_only);
+    followed.set_tempco(0.002, 5.0, false);
+    let both = (0.01f64 * 0.01 + 5e-4).sqrt();
+    assert!(
+        (followed.extrapolation_std - both).abs() < 1e-12,
+        "{followed:?}"
+    );
+    assert_eq!(followed.assumed, vec!["floor", "extrapolation"]);
+    assert!(
+        followed
+            .describe("°/s")
+            .contains("and the model's own change")
+    );
     // A datasheet's 0 is stated, not left out: no growth of the bias beyond the range.
     let mut c = calibrate(&[], noise, bias_only);
-    c.set_tempco(0.0, 5.0);
+    c.set_tempco(0.0, 5.0, true);
     assert_eq!(c.tempco_per_c, Some(0.0));
     assert_eq!(c.error_model.extrapolation_var, 0.0);
-    assert!(c.describe("°/s").contains("--tempco: the bias at 0.000e0"));
+    assert!(c.describe("°/s").contains("datasheet: the bias at 0.000e0"));
     // Fitted on residuals that grow to 0.5 one width out: the larger of the fit and the
     // datasheet.
     let r = residuals(4000, 1, |e2, _| (0.01 + 0.25 * e2 + 1e-4f64).sqrt());
@@ -633,20 +653,20 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
     assert!(fitted.fitted_terms.contains(&"extrapolation"), "{fitted:?}");
     assert!(fitted.extrapolation_std > 0.4, "{fitted:?}");
     let mut small = fitted.clone();
-    small.set_tempco(0.0, 5.0);
+    small.set_tempco(0.0, 5.0, true);
     assert_eq!(small.extrapolation_std, fitted.extrapolation_std);
     assert!(
         small
             .describe("°/s")
-            .contains("fitted, larger than --tempco's")
+            .contains("fitted, larger than the datasheet's")
     );
     let mut large = fitted.clone();
-    large.set_tempco(1.0, 5.0);
+    large.set_tempco(1.0, 5.0, true);
     assert_eq!(large.extrapolation_std, 5.0);
     assert_eq!(large.error_model.extrapolation_var, 25.0);
     assert!(
         large
             .describe("°/s")
-            .contains("(--tempco: the bias at 1.000e0")
+            .contains("(datasheet: the bias at 1.000e0")
     );
 }

@@ -9,9 +9,9 @@ impl Calibration {
         let leg = match (self.one_leg(), self.hysteresis) {
             (true, _) => {
                 let source = if self.assumed.contains(&"leg") {
-                    "assumed; --hysteresis states a datasheet's"
+                    "assumed; a datasheet's heating/cooling gap states it: --hysteresis"
                 } else {
-                    "--hysteresis"
+                    "the datasheet's heating/cooling gap"
                 };
                 format!(
                     "; on the heating/cooling leg the training did not hold, {:.3e} {units} more \
@@ -21,12 +21,12 @@ impl Calibration {
             }
             (false, Some(_)) if self.legs_trained.is_some() => {
                 "; no leg term: the training held both heating and cooling, their gap is in the \
-                 model error (--hysteresis not used)"
+                 model error (the datasheet's heating/cooling gap not used)"
                     .to_owned()
             }
             (false, Some(_)) => "; no leg term: the training's heating/cooling states are not \
-                                 known (a rate table's soaks, or logs pooled; --hysteresis not \
-                                 used)"
+                                 known (a rate table's soaks, or logs pooled; the datasheet's \
+                                 heating/cooling gap not used)"
                 .to_owned(),
             (false, None) => String::new(),
         };
@@ -112,10 +112,18 @@ impl Calibration {
                 String::new()
             };
             let width = self.trained_width_c.unwrap_or(0.0);
-            let source = if self.extrapolation_std > per_c * width {
-                format!("fitted, larger than --tempco's {per_c:.3e} {units} per °C")
+            let stated = per_c * width;
+            let source = if self.fitted_terms.contains(&"extrapolation")
+                && self.extrapolation_std > stated
+            {
+                format!("fitted, larger than the datasheet's {per_c:.3e} {units} per °C")
+            } else if self.extrapolation_std > stated * (1.0 + 1e-9) {
+                format!(
+                    "the datasheet's bias at {per_c:.3e} {units} per °C, and the model's own \
+                     change under the rule it follows beyond the range"
+                )
             } else {
-                format!("--tempco: the bias at {per_c:.3e} {units} per °C")
+                format!("datasheet: the bias at {per_c:.3e} {units} per °C")
             };
             format!(
                 "{:.3e}{scale} per trained width of {width:.1} °C beyond the range ({source})",

@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use clap::Args;
 use firmware_core::blob::Beyond;
+use fog_data::channels::Datasheet;
 use fog_data::stream::Window;
 
 use crate::analysis::budget::{Budget, Bytes};
-use crate::analysis::uncertainty::Datasheet;
 use crate::cli::inputs::{FitOptions, ModelInput, Runs};
 use crate::pipeline::fit::Service;
 
@@ -121,8 +121,9 @@ pub(super) struct ServiceArgs {
     /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
     /// a datasheet gives it (its zero-rate output, or offset, change over temperature): beyond
     /// the trained range the σ grows by that much per °C, in place of the growth assumed from the
-    /// model's own slope inside the range (a larger one the residuals fitted stands; the scale
-    /// factor's part stays). For channels that read in one unit (else each channel's `tempco` in
+    /// model's own slope inside the range where the mean is held there (under `--beyond` tangent
+    /// or follow, added to what that rule assumes; a larger one the residuals fitted stands; the
+    /// scale factor's part stays). For channels that read in one unit (else each channel's `tempco` in
     /// the channels file).
     #[arg(long, value_name = "PER_C")]
     pub(super) tempco: Option<f64>,

@@ -16,7 +16,7 @@ use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Beyond;
 use fog_data::autopilot::Mounting;
 use fog_data::cause::Cause;
-use fog_data::channels::Channels;
+use fog_data::channels::{Channels, Datasheet};
 use fog_data::replay::HostModel;
 use fog_data::stream::Stream;
 
@@ -28,7 +28,7 @@ use crate::analysis::investigate::{self, Forward};
 use crate::analysis::pool::{self, PoolCheck, Pooling};
 use crate::analysis::table::{self, TableModel, Transients};
 use crate::analysis::uncertainty::tables::StreamPoints;
-use crate::analysis::uncertainty::{self, Calibration, Datasheet};
+use crate::analysis::uncertainty::{self, Calibration};
 use crate::data::points::{self, Points};
 use crate::firmware::autopilot::{AxisCubic, Cubic, SensorCubics};
 use crate::firmware::export::{self, Extension};

@@ -63,7 +63,7 @@ impl Service {
         calibration: &mut Calibration,
         beyond: Beyond,
     ) -> anyhow::Result<Vec<u8>> {
-        calibration.state(&self.sheet, blob)?;
+        calibration.state(&self.sheet, blob, beyond)?;
         let blob = calibration.apply(blob)?;
         let limits = self.limits();
         let blob = export::with_limits(&blob, &limits)?;
