@@ -138,7 +138,7 @@ fn same_as_investigated(paged: serde_json::Value, investigated: serde_json::Valu
 }
 
 /// A report for every kind of data a user brings: a rate table alone, a table with one stream
-/// (held out in time), and a static log alone. Each page starts with the data as loaded and
+/// (held out in time), and a static log alone (with a datasheet's figure). Each page starts with the data as loaded and
 /// says what the data could and could not show, and draws only the figures its data support.
 #[test]
 fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
@@ -260,11 +260,16 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
                 "voltage_v=imu.gyro.y*57.29577951",
             ][..],
             &IMU_MAPS,
-            &["--scale-factor", "1", "--out", &p("log"), "--quiet"],
+            &["--scale-factor", "1", "--tempco", "0.001"],
+            &["--out", &p("log"), "--quiet"],
         ]
         .concat(),
     )
     .unwrap();
+    // The page's blobs state the datasheet's figure as `fit` and `investigate` do.
+    let report = json(dir.path().join("log").join("report.json"));
+    let calibration = &report["channels"][0]["held_out"]["investigation"]["calibration"];
+    assert_eq!(calibration["tempco_per_c"], 0.001, "{calibration}");
     let log = page("log");
     for text in [
         "one log alone",

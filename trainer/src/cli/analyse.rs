@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use fog_data::channels::Datasheet;
 use fog_data::sigma::Coverage;
 use fog_data::stream::Window;
 use fog_terminal::console::{Console, ConsoleFlags};
@@ -13,7 +12,7 @@ use fog_terminal::io::{ensure_not_input, write_atomically, write_json};
 use fog_terminal::log::LogArgs;
 use fog_terminal::schema::{self, PerChannel};
 
-use super::inputs::{FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs};
+use super::inputs::{DatasheetArgs, FitOptions, HeldOut, Input, MethodArg, ModelInput, Runs};
 use super::sensors::{Blob, units_of_blobs};
 use crate::analysis::evaluate::{EvalConfig, Evaluation};
 use crate::analysis::extend;
@@ -62,29 +61,8 @@ pub(super) struct InvestigateArgs {
     /// Inputs to add: auto (what the diagnosis calls for) or a list, as for fit.
     #[arg(long, default_value = "auto")]
     features: String,
-    /// The bias's run-to-run repeatability, 1σ in the channel's units, as a datasheet gives it:
-    /// stated in both blobs' σ as `fit --repeatability` states it, and in the score of a
-    /// held-out log of its own (default: assumed as `fit` assumes it). For channels that read in
-    /// one unit, as for `fit` (a channels file's `[[channel]]` states each its own), but 0.
-    #[arg(long, value_name = "SIGMA")]
-    repeatability: Option<f64>,
-    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: stated
-    /// in both blobs' σ as `fit --scale-repeatability` states it (default: left out, said in
-    /// `fit`'s σ line); the same figure for each channel of a unit, but where its `[[channel]]`
-    /// states its own.
-    #[arg(long, value_name = "PPM")]
-    scale_repeatability: Option<f64>,
-    /// The bias's temperature coefficient, in the channel's units per °C, as a datasheet gives
-    /// it: stated in both blobs' σ beyond the trained range as `fit --tempco` states it (default:
-    /// assumed as `fit` assumes it). For channels that read in one unit, as for `fit`.
-    #[arg(long, value_name = "PER_C")]
-    tempco: Option<f64>,
-    /// The gap between the heating and the cooling leg, in the channel's units, as a datasheet
-    /// gives it: stated in both blobs' σ on a leg the training did not hold, as `fit
-    /// --hysteresis` states it (default: assumed as `fit` assumes it). For channels that read in
-    /// one unit, as for `fit`.
-    #[arg(long, value_name = "BAND")]
-    hysteresis: Option<f64>,
+    #[command(flatten)]
+    datasheet: DatasheetArgs,
     /// Write the extended model's blob here: a unit blob, every channel's (one entry for one
     /// channel's data); one per sensor beside this name where a flight controller's log holds
     /// several.
@@ -198,20 +176,12 @@ pub(super) fn investigate_command(
         window,
         held_out,
         features,
-        repeatability,
-        scale_repeatability,
-        tempco,
-        hysteresis,
+        datasheet,
         out,
         out_static,
         json,
     } = args;
-    let sheet = Datasheet {
-        repeatability,
-        scale_repeatability,
-        tempco,
-        hysteresis,
-    };
+    let sheet = datasheet.sheet();
     crate::pipeline::check_datasheet(&sheet)?;
     let input = input.with_runs(runs);
     let console = Console::new(flags, json.as_deref());

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use firmware_core::Quantity;
+use fog_data::channels::Datasheet;
 use fog_data::stream::{Stream, Window};
 use fog_terminal::console::Console;
 use fog_terminal::log::{Excludes, Maps, UnitArgs};
@@ -281,6 +282,59 @@ mod tests {
         for from in [0.0, 300.0, 1e4] {
             let e = held(Some(from)).split(&s).unwrap_err().to_string();
             assert!(e.contains("runs from 0 to 300 s"), "{e}");
+        }
+    }
+}
+
+/// A datasheet's figures for the σ of every blob a command ships, where one power-on's
+/// calibration data cannot show them (docs/uncertainty.md, "What the data cannot show"): `fit`,
+/// `investigate` and `report` take them alike. A channels file's `[[channel]]` states a
+/// channel's own, before these.
+#[derive(Args, Clone, Default)]
+pub(super) struct DatasheetArgs {
+    /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
+    /// gives it: every power-on in service is another than the calibration's, whose own bias was
+    /// a draw too, so twice its variance is added to every sample's σ (default: where several
+    /// power-ons do not measure it, the difference of two power-ons assumed as large as the
+    /// model error's floor, said in the σ line). For channels of one quantity (else each
+    /// channel's `repeatability` in the channels file), but 0 (a bias that repeats exactly),
+    /// which every channel takes.
+    #[arg(long, value_name = "SIGMA")]
+    repeatability: Option<f64>,
+    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
+    /// power-on in service is another than the calibration's, so twice its variance, in
+    /// proportion to the output², is added to every sample's σ; on a unit, the same figure to
+    /// each channel's (a channel's `scale_repeatability` in the channels file states its own;
+    /// default: not assumed, said in one line).
+    #[arg(long, value_name = "PPM")]
+    scale_repeatability: Option<f64>,
+    /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
+    /// a datasheet gives it (its zero-rate output, or offset, change over temperature): beyond
+    /// the trained range the σ grows by that much per °C, in place of the growth assumed from the
+    /// model's own slope inside the range where the mean is held there (under `--beyond` tangent
+    /// or follow, added to what that rule assumes; a larger one the residuals fitted stands; the
+    /// scale factor's part stays). For channels of one quantity (else each channel's `tempco`
+    /// in the channels file).
+    #[arg(long, value_name = "PER_C")]
+    tempco: Option<f64>,
+    /// The gap between the heating and the cooling leg at one temperature, in the channel's
+    /// units, as a datasheet gives it (its thermal hysteresis): on a leg the training did not
+    /// hold, the σ carries it (default: assumed as large as the training data's own
+    /// out-of-sample error, said in the σ line; no term where the training held both legs, or
+    /// where its states are not known: a rate table's soaks, logs pooled). For channels of one
+    /// quantity (else each channel's `hysteresis` in the channels file).
+    #[arg(long, value_name = "BAND")]
+    hysteresis: Option<f64>,
+}
+
+impl DatasheetArgs {
+    /// The figures as the pipeline takes them.
+    pub(super) fn sheet(&self) -> Datasheet {
+        Datasheet {
+            repeatability: self.repeatability,
+            scale_repeatability: self.scale_repeatability,
+            tempco: self.tempco,
+            hysteresis: self.hysteresis,
         }
     }
 }

@@ -9,13 +9,13 @@ use fog_terminal::io::ensure_not_input;
 
 use super::demo;
 use super::fit::params::ParamsArgs;
-use super::inputs::{FitOptions, HeldOut, ModelInput};
+use super::inputs::{DatasheetArgs, FitOptions, HeldOut, ModelInput};
 use crate::data::summary::Summary;
 use crate::firmware::autopilot::SensorCubics;
 use crate::pipeline::report::{Held, ReportPlan};
 use crate::pipeline::summarize::{unit_summaries, unit_text};
 use crate::report;
-use fog_data::channels::{Channels, Read};
+use fog_data::channels::{Channels, Datasheet, Read};
 use fog_terminal::log::load_unit_log;
 
 /// The arguments of `trainer report`.
@@ -37,6 +37,8 @@ pub(super) struct ReportArgs {
     held_out: HeldOut,
     #[command(flatten)]
     params: ParamsArgs,
+    #[command(flatten)]
+    datasheet: DatasheetArgs,
     /// Directory for report.html and the figures (created if missing).
     #[arg(long, visible_alias = "out-dir")]
     out: PathBuf,
@@ -51,8 +53,11 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
         window,
         held_out,
         params,
+        datasheet,
         out: out_dir,
     } = args;
+    let sheet = datasheet.sheet();
+    crate::pipeline::check_datasheet(&sheet)?;
     let console = Console::new(flags, None);
     let (input, stream, held_out) = match stream {
         None if input.points.is_none() && input.unit.channels.is_none() => {
@@ -74,6 +79,7 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
     if let (true, Some(table)) = (units.is_empty(), &input.points) {
         units.push(Channels::single(table));
     }
+    crate::pipeline::check_one_channel(&sheet, false, &units, "report")?;
     anyhow::ensure!(
         !params.asked() || (units.iter().all(|u| !u.single) && stream.is_some()),
         "--px4-params and --ardupilot-params take a sensor's three axes, fitted on a log: a \
@@ -102,7 +108,8 @@ pub(super) fn report_command(args: ReportArgs, flags: ConsoleFlags) -> anyhow::R
             None => out_dir.clone(),
         };
         let unit = (&input, &*channels, params.asked());
-        cubics.extend(report_unit(unit, (&fit, files, window), &dir, &console)?);
+        let fitting = (&fit, &sheet, files, window);
+        cubics.extend(report_unit(unit, fitting, &dir, &console)?);
     }
     params.write(&cubics, &console)
 }
@@ -119,7 +126,7 @@ enum Files {
 /// read once), on one page (`report::unit`).
 fn report_unit(
     (input, channels, params): (&ModelInput, &Channels, bool),
-    (fit, files, window): (&FitOptions, Files, Option<Window>),
+    (fit, sheet, files, window): (&FitOptions, &Datasheet, Files, Option<Window>),
     out_dir: &Path,
     console: &Console,
 ) -> anyhow::Result<Option<SensorCubics>> {
@@ -171,6 +178,7 @@ fn report_unit(
     let plan = ReportPlan {
         source: input.source(),
         gp: fit.gp(),
+        sheet: *sheet,
     };
     let (pages, cubics) = plan.unit((channels, per_channel), held.as_ref(), params, console)?;
     let source = inputs

@@ -26,6 +26,9 @@ pub struct ReportPlan {
     pub source: PointFiles,
     /// The GP's settings.
     pub gp: GpConfig,
+    /// A datasheet's figures for the blobs' σ, the command's (each channel's own in its
+    /// `[[channel]]` before them).
+    pub sheet: Datasheet,
 }
 
 /// A log's parts as the caller read them: the training log's file, whether the held-out part is
@@ -67,7 +70,7 @@ impl ReportPlan {
                 Some(h) => {
                     let (kind, named) = kind_and_source(own.points.as_deref(), h.path, h.own_log);
                     let parts = (h.path, &h.train[k], h.valid[k].clone(), h.said.clone());
-                    let fitting = (&self.gp, &ch.datasheet);
+                    let fitting = (&self.gp, &ch.datasheet.or(self.sheet));
                     logs(&own, (named, kind), files, parts, fitting, &*messages)?
                 }
             };

@@ -6,11 +6,10 @@ use std::path::PathBuf;
 
 use clap::Args;
 use firmware_core::blob::Beyond;
-use fog_data::channels::Datasheet;
 use fog_data::stream::Window;
 
 use crate::analysis::budget::{Budget, Bytes};
-use crate::cli::inputs::{FitOptions, ModelInput, Runs};
+use crate::cli::inputs::{DatasheetArgs, FitOptions, ModelInput, Runs};
 use crate::pipeline::fit::Service;
 
 /// The arguments of `trainer fit`.
@@ -102,39 +101,8 @@ pub(super) struct ServiceArgs {
     /// in one unit (else each channel's `full_scale` in the channels file).
     #[arg(long, value_name = "OUTPUT")]
     pub(super) full_scale: Option<f32>,
-    /// The bias's run-to-run repeatability, 1σ in the channel's units (°/s, m/s²), as a datasheet
-    /// gives it: every power-on in service is another than the calibration's, whose own bias was
-    /// a draw too, so twice its variance is added to every sample's σ (default: where several
-    /// power-ons do not measure it, the difference of two power-ons assumed as large as the
-    /// model error's floor, said in the σ line). For channels that read in one unit (else each
-    /// channel's `repeatability` in the channels file), but 0 (a bias that repeats exactly),
-    /// which every channel takes.
-    #[arg(long, value_name = "SIGMA")]
-    pub(super) repeatability: Option<f64>,
-    /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
-    /// power-on in service is another than the calibration's, so twice its variance, in
-    /// proportion to the output², is added to every sample's σ; on a unit, the same figure to
-    /// each channel's (a channel's `scale_repeatability` in the channels file states its own;
-    /// default: not assumed, said in one line).
-    #[arg(long, value_name = "PPM")]
-    pub(super) scale_repeatability: Option<f64>,
-    /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
-    /// a datasheet gives it (its zero-rate output, or offset, change over temperature): beyond
-    /// the trained range the σ grows by that much per °C, in place of the growth assumed from the
-    /// model's own slope inside the range where the mean is held there (under `--beyond` tangent
-    /// or follow, added to what that rule assumes; a larger one the residuals fitted stands; the
-    /// scale factor's part stays). For channels that read in one unit (else each channel's `tempco` in
-    /// the channels file).
-    #[arg(long, value_name = "PER_C")]
-    pub(super) tempco: Option<f64>,
-    /// The gap between the heating and the cooling leg at one temperature, in the channel's
-    /// units, as a datasheet gives it (its thermal hysteresis): on a leg the training did not
-    /// hold, the σ carries it (default: assumed as large as the training data's own
-    /// out-of-sample error, said in the σ line; no term where the training held both legs, or
-    /// where its states are not known: a rate table's soaks, logs pooled). For channels that read
-    /// in one unit (else each channel's `hysteresis` in the channels file).
-    #[arg(long, value_name = "BAND")]
-    pub(super) hysteresis: Option<f64>,
+    #[command(flatten)]
+    pub(super) datasheet: DatasheetArgs,
     /// What the mean does beyond the trained range: hold (held at the edge, as PX4's and
     /// ArduPilot's clip; its linear terms in the output still follow it), tangent (the prior mean
     /// continued along its tangent at the edge), follow (the GP's own prediction), or auto (the
@@ -190,12 +158,7 @@ impl ServiceArgs {
         Service {
             rated_temp: self.rated_temp,
             full_scale: self.full_scale,
-            sheet: Datasheet {
-                repeatability: self.repeatability,
-                scale_repeatability: self.scale_repeatability,
-                tempco: self.tempco,
-                hysteresis: self.hysteresis,
-            },
+            sheet: self.datasheet.sheet(),
             beyond: match self.beyond {
                 BeyondArg::Auto => None,
                 BeyondArg::Tangent => Some(Beyond::Tangent),
