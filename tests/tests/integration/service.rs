@@ -219,23 +219,8 @@ fn the_mems_log_trained_on_a_cold_band_compensates_its_whole_cycle() {
             at(dir.path(), &format!("{name}.json")),
             at(dir.path(), &format!("{name}-replay.json")),
         );
-        let args = [
-            "fit",
-            "--stream",
-            &log,
-            "--channels",
-            channels,
-            "--window",
-            "1000:1660",
-            "--features",
-            "auto",
-            "--out",
-            &blob,
-            "--json",
-            &fit,
-            "-q",
-        ];
-        trainer(&[&args[..], extra].concat()).unwrap();
+        let data = ["--stream", &log, "--channels", channels];
+        fit_auto(&data, "1000:1660", (&blob, &fit), extra);
         sim(&[
             "replay",
             "--model",
@@ -384,21 +369,7 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     }
     let fit_with = |name: &str, extra: &[&str]| {
         let (blob, fit) = (at(dir.path(), &format!("{name}.bin")), at(dir.path(), name));
-        let args = [
-            "fit",
-            "--stream",
-            &cal,
-            "--window",
-            "15900:26700",
-            "--features",
-            "auto",
-            "--out",
-            &blob,
-            "--json",
-            &fit,
-            "-q",
-        ];
-        trainer(&[&args[..], extra].concat()).unwrap();
+        fit_auto(&["--stream", &cal], "15900:26700", (&blob, &fit), extra);
         (blob, one(&fit)["calibration"].clone())
     };
     let (blob, calibration) = fit_with("leg", &[]);
@@ -815,6 +786,14 @@ fn averaged(path: &str, k: usize) -> String {
     let slow = path.replace(".csv", &format!("-every-{k}.csv"));
     std::fs::write(&slow, out.join("\n") + "\n").unwrap();
     slow
+}
+
+/// `trainer fit --features auto` on `data` (its `--stream`, and `--channels` where a unit's) in
+/// `window`, the blob and the JSON written to `out`, with `extra` flags.
+fn fit_auto(data: &[&str], window: &str, (blob, json): (&str, &str), extra: &[&str]) {
+    let fixed = ["--window", window, "--features", "auto"];
+    let written = ["--out", blob, "--json", json, "-q"];
+    trainer(&[&["fit"][..], data, &fixed, &written, extra].concat()).unwrap();
 }
 
 /// `firmware-sim generate KIND…` of `unit_file`, one file in `dir` per seed: their paths.
