@@ -90,6 +90,9 @@ class InvestigateRecord(Record):
 class LooRecord(Record):
     """`trainer.loo` (version 2), as `trainer loo --json` writes it. What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test where one was asked for and could be made (`null` otherwise), and how the size `fit` would ship was chosen (more points than the firmware holds)."""
 
+    basis_choice: BasisChoice | None
+    """How `--mean auto` (the default) chose the prior mean's basis `fit` would ship, on temperature bands left out: once, on every point, as the hyperparameters are."""
+
     calibration: Calibration | None
     """The σ of the model fitted on all points ([`Calibration`]), with its coverage of the point (or group) residuals it was measured on (null for the methods that state no σ)."""
 
@@ -305,6 +308,29 @@ class AxisCubic(Record):
 
     tref_c: float
     """The expansion point, °C: mid-range, as PX4's script takes it."""
+
+
+class BasisChoice(Record):
+    """The basis chosen and the evidence (`basis_choice` in `fit --json`)."""
+
+    basis: str | Record
+    """The basis the model is fitted with."""
+
+    scores: list[BasisScore]
+    """Each basis tried and its RMS error on the bands left out, output units (`null`: its test could not be fitted, the verdict says why); empty where the points could not be banded."""
+
+    verdict: str
+    """Why, in one line."""
+
+
+class BasisScore(Record):
+    """One basis tried."""
+
+    basis: str | Record
+    """The basis."""
+
+    rmse: float | None
+    """Its RMS error on the temperature bands left out, output units."""
 
 
 class BeyondChoice(Record):
@@ -536,6 +562,9 @@ class ChallengeSummary(Record):
 class ChannelEntry(Record):
     """One channel in a unit's JSON: its name, what it measures and its output's unit, then its fields, its figures in that unit (the `_dps` fields too)."""
 
+    basis_choice: BasisChoice | None
+    """How `--mean auto` (the default) chose it, on temperature bands left out."""
+
     beyond: BeyondChoice | None
     """What the mean does beyond the trained range, and why."""
 
@@ -706,6 +735,9 @@ class ChannelEntryTrainerInvestigate(Record):
 
     added_inputs: list[str]
     """Inputs the shipped model adds (`--features` names)."""
+
+    basis_choice: BasisChoice | None
+    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out."""
 
     beyond: BeyondChoice
     """What both models' means do beyond the trained range, chosen on the training points."""
@@ -1300,6 +1332,9 @@ class Investigation(Record):
 
     added_inputs: list[str]
     """Inputs the shipped model adds (`--features` names)."""
+
+    basis_choice: BasisChoice | None
+    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out."""
 
     beyond: BeyondChoice
     """What both models' means do beyond the trained range, chosen on the training points."""
@@ -1914,16 +1949,17 @@ SummarizeRecord._nested = {"files": ChannelSummary}
 FitRecord._nested = {"autopilot": SensorCubics, "budget": Report, "channels": ChannelEntry, "footprint": UnitFootprint}
 DiagnoseRecord._nested = {"channels": ChannelEntryTrainerDiagnose}
 InvestigateRecord._nested = {"channels": ChannelEntryTrainerInvestigate}
-LooRecord._nested = {"calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
+LooRecord._nested = {"basis_choice": BasisChoice, "calibration": Calibration, "centres_choice": Choice, "cross_run": CrossRun, "diagnosis": TableReport, "parameters": (Hyperparameters, LssvrHyper, TwoStepModel, PolyModel), "per_temperature": GroupRmse, "sigma_groups": Coverage}
 ReproduceRecord._nested = {"fig2": Fig2, "gpr": Evaluation, "lssvr": Evaluation, "two_step": Evaluation}
 ChallengeRecord._nested = {"cases": Case, "summary": ChallengeSummary}
 ReportRecord._nested = {"channels": ChannelFigures}
 AllanRecord._nested = {"channels": ChannelEntryTrainerAllan}
 AgreementReport._nested = {"grid_beyond": Agreement, "grid_inside": Agreement, "training": Agreement}
+BasisChoice._nested = {"scores": BasisScore}
 Calibration._nested = {"before": Coverage, "coverage": Coverage, "sources": SourceSummary}
-ChannelEntry._nested = {"beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
+ChannelEntry._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
 ChannelEntryTrainerDiagnose._nested = {"diagnosis": Diagnosis}
-ChannelEntryTrainerInvestigate._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
+ChannelEntryTrainerInvestigate._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
 ChannelSizes._nested = {"sizes": Size}
 Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize, "exact": TriedSize}
@@ -1937,7 +1973,7 @@ Fig2._nested = {"per_rate": RateLineFit, "worst": RateLineFit}
 FittedTerm._nested = {"candidate": Candidate}
 ForwardCheck._nested = {"legs": LegCheck, "sight": Sight, "temperature": TemperatureCheck}
 HeldOutFigures._nested = {"investigation": Investigation}
-Investigation._nested = {"beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
+Investigation._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 LegCheck._nested = {"sight": Sight}
 PolyPrior._nested = {"dropped": Dropped}
 PoolCheck._nested = {"pooled_hyperparameters": Hyperparameters}
@@ -1982,6 +2018,8 @@ __all__ = [
     "Agreement",
     "AgreementReport",
     "AxisCubic",
+    "BasisChoice",
+    "BasisScore",
     "BeyondChoice",
     "Budget",
     "Calibration",

@@ -28,7 +28,7 @@ const OUTER_SHARE: f64 = 0.2;
 const MIN_INSIDE: usize = 10;
 const MIN_OUTSIDE: usize = 4;
 /// Most points the test fits an exact GP on.
-const MAX_POINTS: usize = 256;
+pub const MAX_POINTS: usize = firmware_core::MAX_CENTRES;
 
 /// The rule chosen and the evidence (`beyond` in `fit --json`).
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
@@ -149,8 +149,9 @@ pub fn choose(points: &Points, cfg: &GpConfig) -> BeyondChoice {
 /// The rules, in order of safety: a rule later in it ships only where it beats those before.
 const RULES: [Beyond; 3] = [Beyond::Hold, Beyond::Tangent, Beyond::Follow];
 
-/// The RMS errors of the [`RULES`] on the `outside` points, the model fitted on `inside`.
-fn score(
+/// The RMS errors of the rules (hold, tangent, follow) on the `outside` points, the model
+/// fitted on `inside` with `cfg`'s settings (an exact GP), as the firmware predicts them.
+pub fn score(
     points: &Points,
     inside: &[usize],
     outside: &[usize],

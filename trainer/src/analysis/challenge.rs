@@ -199,7 +199,7 @@ pub fn run_hidden(
             &points,
             &train,
             (&valid, false),
-            &GpConfig::default(),
+            &shipped_config(),
             investigate::Told {
                 asked,
                 ..Default::default()
@@ -278,7 +278,7 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
                 &points,
                 &train[k],
                 (&valid[k], false),
-                &GpConfig::default(),
+                &shipped_config(),
                 investigate::Told::default(),
                 &|_: &Stream| Ok(points.clone()),
                 &(),
@@ -490,4 +490,13 @@ pub fn confusion(cases: &[Case]) -> ([[usize; 6]; 6], String) {
         s.push('\n');
     }
     (m, s)
+}
+
+/// The GP's settings the commands' defaults fit with: the prior mean's basis chosen on the
+/// training points (`--mean auto`), as `fit` ships.
+fn shipped_config() -> GpConfig {
+    GpConfig {
+        mean: crate::analysis::basis::DEFAULT,
+        ..GpConfig::default()
+    }
 }

@@ -13,6 +13,7 @@ use fog_data::replay::{self, HostModel, Score};
 use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
 
+use crate::analysis::basis::{self, BasisChoice};
 use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
@@ -65,6 +66,10 @@ pub struct Investigation {
     pub static_calibration: Calibration,
     /// What both models' means do beyond the trained range, chosen on the training points.
     pub beyond: BeyondChoice,
+    /// How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left
+    /// out.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub basis_choice: Option<BasisChoice>,
 }
 
 impl Investigation {
@@ -448,6 +453,9 @@ pub fn investigate(
 ) -> anyhow::Result<(Investigation, Blobs)> {
     let asked = told.asked;
     bar.expect(STEPS);
+    bar.stage("the prior mean's basis, on temperature bands");
+    let (cfg, basis_choice) = basis::resolve(points, cfg);
+    let cfg = &cfg;
     bar.stage(&format!("static fit on {} points", points.len()));
     let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
     let static_blob = export::points_blob(&model, points, &Extension::default())?;
@@ -534,6 +542,7 @@ pub fn investigate(
             calibration,
             static_calibration,
             beyond,
+            basis_choice,
         },
         Blobs {
             static_blob,

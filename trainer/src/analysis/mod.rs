@@ -1,4 +1,5 @@
-//! What the models get right and wrong: the paper's evaluation ([`evaluate`], [`reproduce`]),
+//! What the models get right and wrong, and the choices made on them: the prior mean's basis
+//! ([`basis`]); the paper's evaluation ([`evaluate`], [`reproduce`]),
 //! transients on a rate table ([`table`]), the residual diagnosis of a stream ([`diagnose`]), the
 //! extension that answers it ([`extend`]), the forward-in-time investigation that decides whether
 //! to ship it ([`investigate`]), the same check for a rate table pooled with a stream's samples
@@ -9,6 +10,7 @@
 //! against them, held out ([`autopilot`]).
 
 pub mod autopilot;
+pub mod basis;
 pub mod beyond;
 pub mod budget;
 pub mod capacity;

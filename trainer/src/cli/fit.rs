@@ -99,6 +99,7 @@ impl FitCommand {
             extend,
             budget: budget.budget(),
             service,
+            basis_choice: None,
         };
         Ok(Self {
             plan,

@@ -43,6 +43,9 @@ pub enum LssvrError {
     /// Tuning failed from every start.
     #[error("LS-SVR tuning failed from every start")]
     TuningFailed,
+    /// The basis the commands choose (`auto`) was asked for before it was chosen.
+    #[error(transparent)]
+    Unchosen(#[from] GpError),
 }
 
 /// The LS-SVR solved at fixed hyperparameters (normalized units).
@@ -368,6 +371,7 @@ impl LssvrModel {
         target: &DVector<f64>,
         basis: MeanBasis,
     ) -> Result<Self, LssvrError> {
+        crate::models::gp::chosen(basis)?;
         let Prepared {
             norm: input_norm,
             prior,

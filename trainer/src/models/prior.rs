@@ -27,9 +27,12 @@ use serde::Serialize;
 pub enum MeanBasis {
     /// A constant, the data's mean, fixed rather than marginalized: exactly the paper's model.
     Constant,
-    /// {1, t, t²} × {1, v, v³} over temperature t and output v (the default).
+    /// {1, t, t²} × {1, v, v³} over temperature t and output v (a model's default).
     #[default]
     Physics,
+    /// One of physics, poly1 and poly2, chosen on the training points by a command before it
+    /// fits ([`crate::analysis::basis`]; the commands' default). A fit refuses it unchosen.
+    Auto,
     /// All monomials of total degree ≤ N over every input.
     Poly(u8),
 }
@@ -39,6 +42,7 @@ impl fmt::Display for MeanBasis {
         match self {
             Self::Constant => write!(f, "constant"),
             Self::Physics => write!(f, "physics"),
+            Self::Auto => write!(f, "auto"),
             Self::Poly(n) => write!(f, "poly{n}"),
         }
     }
@@ -56,26 +60,37 @@ impl FromStr for MeanBasis {
         match s {
             "constant" => Ok(Self::Constant),
             "physics" => Ok(Self::Physics),
+            "auto" => Ok(Self::Auto),
             _ => s
                 .strip_prefix("poly")
                 .and_then(|n| n.parse::<u8>().ok())
                 .filter(|n| *n <= 5)
                 .map(Self::Poly)
                 .ok_or_else(|| {
-                    format!("'{s}': expected constant, physics or polyN with N in 0..=5")
+                    format!("'{s}': expected auto, constant, physics or polyN with N in 0..=5")
                 }),
         }
     }
 }
 
 impl MeanBasis {
+    /// This basis, or physics where it is [`Self::Auto`]: what a command that compares methods
+    /// on one basis (`reproduce`, `loo` of a method other than the GP) fits.
+    pub fn or_physics(self) -> Self {
+        if self == Self::Auto {
+            Self::Physics
+        } else {
+            self
+        }
+    }
+
     /// Exponent vectors over `d` inputs, constant first, then in increasing degree. With fewer
     /// than two inputs the physics basis reduces to {1, t, t²}.
     pub fn exponents(self, d: usize) -> Vec<Vec<u8>> {
         match self {
             Self::Constant => vec![vec![0; d]],
             Self::Poly(n) => monomials(d, n),
-            Self::Physics => {
+            Self::Physics | Self::Auto => {
                 let v_powers: &[u8] = if d >= 2 { &[0, 1, 3] } else { &[0] };
                 let mut out = Vec::new();
                 for &j in v_powers {

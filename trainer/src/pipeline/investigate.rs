@@ -93,6 +93,9 @@ impl InvestigatePlan {
             points.quantity.bias_unit(),
             points.quantity.unit(),
         );
+        if let Some(c) = &inv.basis_choice {
+            messages.result(&format!("prior mean: {}", c.verdict));
+        }
         messages.result(render_diagnosis(&inv.diagnosis).trim_end());
         messages.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
         messages.result(&format!(

@@ -8,6 +8,7 @@ use std::path::Path;
 use fog_data::channels::Datasheet;
 use serde::Serialize;
 
+use crate::analysis::basis::{self, BasisChoice};
 use crate::analysis::capacity::{self, Choice};
 use crate::analysis::evaluate::across_runs::{self, CrossRun};
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Method};
@@ -43,6 +44,10 @@ pub struct Loo {
     pub cross_run: Option<CrossRun>,
     /// How the default chose the size `fit` would ship.
     pub centres_choice: Option<Choice>,
+    /// How `--mean auto` (the default) chose the prior mean's basis `fit` would ship, on
+    /// temperature bands left out: once, on every point, as the hyperparameters are.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub basis_choice: Option<BasisChoice>,
 }
 
 impl LooPlan {
@@ -89,11 +94,24 @@ impl LooPlan {
             "--features auto evaluates the GP on one table; --valid-points is not supported with it"
         );
         let mut cfg = self.cfg.clone();
-        // What `fit` would ship: its size resolved as the default fit resolves it, where it can be.
-        let centres_choice = if self.method == Method::Gpr {
-            resolve_size(points, &mut cfg, self.transients, messages)?
+        // What `fit` would ship: its basis chosen as `fit` chooses it (on every point: the
+        // leave-one-out holds it, as it holds the hyperparameters, fitted on all of them), its
+        // size resolved as the default fit resolves it, where it can be.
+        let (basis_choice, centres_choice) = if self.method == Method::Gpr {
+            let busy = messages.busy("choosing the prior mean's basis on temperature bands");
+            let (gp, basis_choice) = basis::resolve(points, &cfg.gp);
+            drop(busy);
+            if let Some(c) = &basis_choice {
+                messages.result(&format!("prior mean: {}", c.verdict));
+            }
+            cfg.gp = gp;
+            (
+                basis_choice,
+                resolve_size(points, &mut cfg, self.transients, messages)?,
+            )
         } else {
-            None
+            cfg.gp.mean = cfg.gp.mean.or_physics();
+            (None, None)
         };
         let progress = messages.counted();
         let cross_run = match test {
@@ -118,6 +136,7 @@ impl LooPlan {
             evaluation,
             cross_run,
             centres_choice,
+            basis_choice,
         })
     }
 }

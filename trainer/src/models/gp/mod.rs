@@ -64,6 +64,16 @@ pub struct Prediction {
     pub noise_var: f64,
 }
 
+/// `basis` unless it is [`MeanBasis::Auto`], which a command chooses before it fits
+/// ([`crate::analysis::basis`]): a fit never guesses it.
+pub(crate) fn chosen(basis: MeanBasis) -> Result<(), GpError> {
+    if basis == MeanBasis::Auto {
+        Err(GpError::UnchosenBasis)
+    } else {
+        Ok(())
+    }
+}
+
 impl GpModel {
     /// Fits the GP to raw inputs `x` (rows are samples) and targets.
     pub fn fit(x: &DMatrix<f64>, target: &DVector<f64>, cfg: &GpConfig) -> Result<Self, GpError> {
@@ -82,6 +92,7 @@ impl GpModel {
         offsets: &[usize],
         cfg: &GpConfig,
     ) -> Result<Self, GpError> {
+        chosen(cfg.mean)?;
         let n = x.nrows();
         let t0 = Instant::now();
         let Some(m) = cfg.inducing.count(n).filter(|_| n >= 3) else {
@@ -114,6 +125,7 @@ impl GpModel {
         offsets: &[usize],
         cfg: &GpConfig,
     ) -> Result<Prepared, GpError> {
+        chosen(cfg.mean)?;
         let n = x.nrows();
         if n < 3 {
             return Err(GpError::TooFewSamples(n));

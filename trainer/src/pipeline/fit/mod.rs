@@ -20,6 +20,7 @@ use fog_data::channels::{Channels, Datasheet};
 use fog_data::replay::HostModel;
 use fog_data::stream::Stream;
 
+use crate::analysis::basis::{self, BasisChoice};
 use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget::{self, Budget};
 use crate::analysis::capacity;
@@ -81,6 +82,9 @@ pub struct FitPlan {
     pub budget: Budget,
     /// What the blob states for service.
     pub service: Service,
+    /// The prior mean's basis as chosen on the channel's points before its fit (to size its
+    /// model within a budget), `gp` then holding it; `None`: the fit chooses it where `gp` asks.
+    pub basis_choice: Option<BasisChoice>,
 }
 
 /// What the blob states for service: the sensor's rated range and full scale, a datasheet's
@@ -218,6 +222,26 @@ impl FitPlan {
             None
         };
         let points = self.source.static_points(streams, self.pool, messages)?;
+        let spinner = messages.busy("choosing the prior mean's basis on temperature bands");
+        let (gp, chosen) = basis::resolve(&points, &self.gp);
+        drop(spinner);
+        if let Some(c) = &chosen {
+            messages.result(&format!("prior mean: {}", c.verdict));
+        }
+        let plan = Self { gp, ..self.clone() };
+        let basis_choice = chosen.or_else(|| self.basis_choice.clone());
+        plan.fit_points(streams, (points, cuts), basis_choice, messages)
+    }
+
+    /// [`Self::fit`] on the static `points` (and the streams' forward `cuts`, for a pooled fit
+    /// beside a table), with the basis chosen (`basis_choice`, for the report).
+    fn fit_points(
+        &self,
+        streams: &[(&Path, Stream)],
+        (points, cuts): (Points, Option<Vec<Forward>>),
+        basis_choice: Option<BasisChoice>,
+        messages: &dyn Messages,
+    ) -> anyhow::Result<ChannelFit> {
         let (gp, centres_choice) = self.size(&points, messages)?;
         let (points, model, table, pool_check) =
             self.static_model(points, &gp, (streams, cuts), messages)?;
@@ -239,6 +263,7 @@ impl FitPlan {
             .is_some_and(|c| matches!(c.shipped, Pooling::Pooled));
         summary.pool_check = pool_check;
         summary.centres_choice = centres_choice;
+        summary.basis_choice = basis_choice;
         if let Some(t) = &table {
             messages.result(&format!(
                 "diagnosis of the table (time order): {}",

@@ -9,6 +9,7 @@ use fog_data::cause::Cause;
 use fog_data::stream::Handled;
 use serde::Serialize;
 
+use crate::analysis::basis::BasisChoice;
 use crate::analysis::beyond::BeyondChoice;
 use crate::analysis::budget;
 use crate::analysis::capacity;
@@ -58,6 +59,9 @@ pub struct FitReport {
     pub features: Inputs,
     /// The prior mean's basis (`physics`, `constant`, `polyN`).
     pub mean_basis: MeanBasis,
+    /// How `--mean auto` (the default) chose it, on temperature bands left out.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub basis_choice: Option<BasisChoice>,
     /// The prior mean's terms and their GLS coefficients.
     pub prior_mean: PolyPrior,
     /// The output's normalization scale, its units.
@@ -167,6 +171,7 @@ impl FitReport {
             n_train: m.y.len(),
             features: Inputs::Columns(columns),
             mean_basis: m.basis,
+            basis_choice: None,
             prior_mean: m.prior.clone(),
             output_scale: m.output_scale,
             jitter: m.posterior.jitter,

@@ -6,7 +6,7 @@ use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Dims;
 
 use super::{FitPlan, Named};
-use crate::analysis::budget;
+use crate::analysis::{basis, budget};
 use crate::data::points::Points;
 use crate::firmware::unit;
 use crate::models::gp::Inducing;
@@ -33,12 +33,32 @@ impl FitPlan {
             .iter()
             .map(|(_, plan, streams)| plan.source.static_points(streams, plan.pool, messages))
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let basis = self.gp.clone().mean;
-        let dims = |p: &Points, m: usize| budget::static_dims(p, basis, m);
+        // Each channel's basis is chosen first: its sizes are the sizes of its model.
+        let spinner = messages.busy("choosing each channel's prior mean on temperature bands");
+        let plans: Vec<FitPlan> = plans
+            .into_iter()
+            .zip(&points)
+            .map(|(plan, p)| {
+                let (gp, chosen) = basis::resolve(p, &plan.gp);
+                FitPlan {
+                    gp,
+                    basis_choice: chosen,
+                    ..plan
+                }
+            })
+            .collect();
+        drop(spinner);
+        for ((name, _, _), plan) in named.iter().zip(&plans) {
+            if let Some(c) = &plan.basis_choice {
+                messages.result(&format!("{name}: prior mean: {}", c.verdict));
+            }
+        }
+        let dims = |k: usize, m: usize| budget::static_dims(&points[k], plans[k].gp.mean, m);
         let smallest: Vec<(&str, Dims)> = named
             .iter()
             .zip(&points)
-            .map(|((name, _, _), p)| (*name, dims(p, p.len())))
+            .enumerate()
+            .map(|(k, ((name, _, _), p))| (*name, dims(k, p.len())))
             .collect();
         budget::check_smallest(&self.budget, &smallest)?;
         let default_cost = default_cost(&points, &dims);
@@ -67,8 +87,9 @@ impl FitPlan {
         let sizes = named
             .iter()
             .zip(&points)
-            .map(|((name, _, _), p)| {
-                budget::sizes(p, &self.gp.clone(), |step| {
+            .zip(&plans)
+            .map(|(((name, _, _), p), plan)| {
+                budget::sizes(p, &plan.gp, |step| {
                     spinner.stage(&format!("sizing {name}: {step}"));
                 })
             })
@@ -137,10 +158,11 @@ impl FitPlan {
 
 /// What the models the default fit ships would cost together: each channel's exact GP on its
 /// points, up to the firmware's centres, with the unit's scratch sized for the largest.
-fn default_cost(points: &[Points], dims: &dyn Fn(&Points, usize) -> Dims) -> budget::Cost {
+fn default_cost(points: &[Points], dims: &dyn Fn(usize, usize) -> Dims) -> budget::Cost {
     let default: Vec<Dims> = points
         .iter()
-        .map(|p| dims(p, p.len().min(MAX_CENTRES)))
+        .enumerate()
+        .map(|(k, p)| dims(k, p.len().min(MAX_CENTRES)))
         .collect();
     let most_m = default.iter().map(|d| d.m).max().unwrap_or(0);
     default.iter().fold(budget::Cost::unit(most_m), |acc, d| {

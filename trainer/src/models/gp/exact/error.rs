@@ -35,6 +35,12 @@ pub enum GpError {
          fit on fewer samples (--inducing exact)"
     )]
     ExactOnly(usize),
+    /// A fit asked for the basis the commands choose (`auto`) before it was chosen.
+    #[error(
+        "the prior mean's basis 'auto' is chosen on a sensor's points before a fit \
+         (trainer::analysis::basis), not by the fit: give physics, constant or polyN"
+    )]
+    UnchosenBasis,
     /// An objective other than the likelihood (LS-SVR's LOO error) cannot be evaluated here.
     #[error("{0}")]
     Unevaluable(&'static str),
