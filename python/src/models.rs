@@ -74,6 +74,18 @@ impl GaussianProcess {
     }
 }
 
+/// The prior mean's basis a model of this module is fitted with: one of its own, as a fit takes
+/// it (`auto`, chosen on a sensor's temperature bands, is `fog.fit`'s, on the sensor's points).
+fn basis(mean: &str) -> PyResult<MeanBasis> {
+    match mean.parse() {
+        Ok(MeanBasis::Auto) | Err(_) => Err(PyValueError::new_err(format!(
+            "mean '{mean}': expected constant, physics or polyN with N in 0..=5 (auto, the basis \
+             chosen on a sensor's temperature bands, is fog.fit's)"
+        ))),
+        Ok(basis) => Ok(basis),
+    }
+}
+
 #[pymethods]
 impl GaussianProcess {
     #[new]
@@ -85,9 +97,7 @@ impl GaussianProcess {
         inducing: &str,
         max_iters: u64,
     ) -> PyResult<Self> {
-        let mean: MeanBasis = mean
-            .parse()
-            .map_err(|e: String| PyValueError::new_err(format!("mean {e}")))?;
+        let mean = basis(mean)?;
         let inducing: Inducing = inducing
             .parse()
             .map_err(|e: String| PyValueError::new_err(format!("inducing {e}")))?;
@@ -245,10 +255,10 @@ impl Lssvr {
     #[new]
     #[pyo3(signature = (mean = "physics"))]
     fn new(mean: &str) -> PyResult<Self> {
-        let mean = mean
-            .parse()
-            .map_err(|e: String| PyValueError::new_err(format!("mean {e}")))?;
-        Ok(Self { mean, fitted: None })
+        Ok(Self {
+            mean: basis(mean)?,
+            fitted: None,
+        })
     }
 
     /// Fits to `X` (samples × inputs) and `y`; returns itself.

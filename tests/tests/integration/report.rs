@@ -222,6 +222,7 @@ fn a_report_for_a_table_alone_a_table_with_one_stream_and_a_static_log_alone() {
         "last third in time",
         "Held out:",
         "Noise of the held-out stream",
+        "Its prior mean: physics: each of 3 temperature bands",
     ] {
         assert!(one.contains(text), "table + stream report: missing {text}");
     }

@@ -86,6 +86,9 @@ pub(super) fn sigma_table(inv: &Investigation) -> String {
          error. The shipped model's {}.</p>",
         escape(&inv.calibration.describe("°/s"))
     );
+    if let Some(c) = &inv.basis_choice {
+        let _ = writeln!(s, "<p>Its prior mean: {}.</p>", escape(&c.verdict));
+    }
     s
 }
 
