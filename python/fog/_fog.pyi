@@ -25,8 +25,9 @@ class GaussianProcess:
     standardized inputs, a prior mean of `mean`, its hyperparameters by L-BFGS-B from the
     paper's start, a data-informed one and `random_starts` seeded random ones.
 
-    mean: "constant" (the paper's, scikit-learn's `normalize_y=True`), "physics" (the trainer's
-    default: {1, t, t²} × {1, v, v³} over the first two inputs) or "polyN" (N ≤ 5).
+    mean: "constant" (the paper's, scikit-learn's `normalize_y=True`), "physics" (the
+    trainer's form: {1, t, t²} × {1, v, v³} over the first two inputs; `fog.calibrate` chooses
+    among physics, poly1 and poly2 on a sensor's points) or "polyN" (N ≤ 5).
     inducing: "auto" (exact up to 1,000 samples, 24 inducing points above), "exact" or a number
     of inducing points."""
 

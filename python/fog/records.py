@@ -91,7 +91,7 @@ class LooRecord(Record):
     """`trainer.loo` (version 2), as `trainer loo --json` writes it. What `loo` measured, as `loo --json` writes it: the evaluation's fields, the cross-run test where one was asked for and could be made (`null` otherwise), and how the size `fit` would ship was chosen (more points than the firmware holds)."""
 
     basis_choice: BasisChoice | None
-    """How `--mean auto` (the default) chose the prior mean's basis `fit` would ship, on temperature bands left out: once, on every point, as the hyperparameters are."""
+    """How `--mean auto` (the default) chose the prior mean's basis `fit` would ship, on temperature bands left out: once, on every point, as the hyperparameters are (`null`: a basis asked for, or another method than the GP)."""
 
     calibration: Calibration | None
     """The σ of the model fitted on all points ([`Calibration`]), with its coverage of the point (or group) residuals it was measured on (null for the methods that state no σ)."""
@@ -317,7 +317,7 @@ class BasisChoice(Record):
     """The basis the model is fitted with."""
 
     scores: list[BasisScore]
-    """Each basis tried and its RMS error on the bands left out, output units (`null`: its test could not be fitted, the verdict says why); empty where the points could not be banded."""
+    """Each basis tried and its RMS error on the bands left out, output units (`null`: its test could not be fitted, the verdict says why); empty where none was tried (too many points, or too few to band)."""
 
     verdict: str
     """Why, in one line."""
@@ -737,7 +737,7 @@ class ChannelEntryTrainerInvestigate(Record):
     """Inputs the shipped model adds (`--features` names)."""
 
     basis_choice: BasisChoice | None
-    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out."""
+    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out (`null`: a basis asked for)."""
 
     beyond: BeyondChoice
     """What both models' means do beyond the trained range, chosen on the training points."""
@@ -1334,7 +1334,7 @@ class Investigation(Record):
     """Inputs the shipped model adds (`--features` names)."""
 
     basis_choice: BasisChoice | None
-    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out."""
+    """How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left out (`null`: a basis asked for)."""
 
     beyond: BeyondChoice
     """What both models' means do beyond the trained range, chosen on the training points."""

@@ -75,12 +75,12 @@ impl GaussianProcess {
 }
 
 /// The prior mean's basis a model of this module is fitted with: one of its own, as a fit takes
-/// it (`auto`, chosen on a sensor's temperature bands, is `fog.fit`'s, on the sensor's points).
+/// it (`auto`, chosen on a sensor's temperature bands, is `fog.calibrate`'s, on the sensor's points).
 fn basis(mean: &str) -> PyResult<MeanBasis> {
     match mean.parse() {
         Ok(MeanBasis::Auto) | Err(_) => Err(PyValueError::new_err(format!(
             "mean '{mean}': expected constant, physics or polyN with N in 0..=5 (auto, the basis \
-             chosen on a sensor's temperature bands, is fog.fit's)"
+             chosen on a sensor's temperature bands, is fog.calibrate's)"
         ))),
         Ok(basis) => Ok(basis),
     }

@@ -59,7 +59,7 @@ def test_bad_input_raises_not_crashes():
         fog.GaussianProcess().fit([[0.0, np.nan], [1.0, 2.0]], [1.0, 2.0])
     with pytest.raises(ValueError, match="expected constant, physics"):
         fog.GaussianProcess(mean="cubic")
-    with pytest.raises(ValueError, match="fog.fit's"):
+    with pytest.raises(ValueError, match="fog.calibrate's"):
         fog.LSSVR(mean="auto")
     with pytest.raises(ValueError, match="two"):
         fog.Polynomial().fit(np.zeros((50, 3)), np.zeros(50))

@@ -11,7 +11,7 @@
 //! nominal one and three random units) calibrated on such a warm-up and replayed on a cool-down,
 //! the physics basis missed by 505 / 1,950 / 1,577 / 1,503 °/h and {1, t, v} by 283 / 293 / 221 /
 //! 115 °/h; the GP's σ does not know (its variance leaves out the coefficients' uncertainty), and
-//! stated 0.2–0.3× the physics basis's error. On the whole 3-hour warm-up physics was the better,
+//! stated 0.18–0.31× the physics basis's error on the three random units. On the whole 3-hour warm-up physics was the better,
 //! 203 against 349 °/h.
 //!
 //! So each basis is tested as service meets it, on temperatures its model did not see: the
@@ -56,7 +56,8 @@ pub struct BasisChoice {
     /// The basis the model is fitted with.
     pub basis: MeanBasis,
     /// Each basis tried and its RMS error on the bands left out, output units (`null`: its test
-    /// could not be fitted, the verdict says why); empty where the points could not be banded.
+    /// could not be fitted, the verdict says why); empty where none was tried (too many points,
+    /// or too few to band).
     pub scores: Vec<BasisScore>,
     /// Why, in one line.
     pub verdict: String,
@@ -166,13 +167,13 @@ pub fn choose(points: &Points, cfg: &GpConfig) -> Option<BasisChoice> {
          edge beyond them, as the firmware holds) misses by {} (RMS){}{}",
         missed.join(", "),
         refused.concat(),
-        if basis == MeanBasis::Physics && refused.is_empty() {
-            format!(
+        match (basis, scores[0].rmse) {
+            (MeanBasis::Physics, None) => "; physics kept, its own test not run".to_owned(),
+            (MeanBasis::Physics, Some(_)) if refused.is_empty() => format!(
                 "; another basis ships only under {:.0} % of physics's",
                 MARGIN * 100.0
-            )
-        } else {
-            String::new()
+            ),
+            _ => String::new(),
         }
     );
     Some(BasisChoice {
@@ -216,10 +217,16 @@ fn bands(temps: &[f64]) -> Option<Vec<Vec<usize>>> {
             return Some(out);
         }
     }
-    // Soaks too uneven to share out whole, or none: by rank, a soak cut where a band ends.
+    // Soaks too uneven to share out whole, or none: by rank, each band ending where the
+    // temperature next changes, so that no temperature lies in two bands.
     let mut out = vec![Vec::new(); BANDS];
+    let mut band = 0;
     for (rank, &i) in order.iter().enumerate() {
-        out[rank * BANDS / n].push(i);
+        let changes = rank == 0 || temps[i] > temps[order[rank - 1]];
+        if changes && band + 1 < BANDS && rank >= (band + 1) * n / BANDS {
+            band += 1;
+        }
+        out[band].push(i);
     }
     enough(&out).then_some(out)
 }
@@ -280,16 +287,30 @@ mod tests {
         let b = bands(&ramp).unwrap();
         assert_eq!(b.iter().map(Vec::len).collect::<Vec<_>>(), [10, 10, 10]);
         assert!(b[0].iter().all(|&i| ramp[i] < 21.0), "{b:?}");
-        // Soaks too uneven to share out whole (30, 3 and 3 points) are cut by rank.
+        // Uneven soaks (12, 15, 3 and 6 points) are shared out whole; one soak of 30 of 36
+        // points cannot be, and is not banded.
         let uneven: Vec<f64> = (0..36)
             .map(|i| match i {
-                0..30 => 0.0,
-                30..33 => 10.0,
-                _ => 20.0,
+                0..12 => 0.0,
+                12..27 => 10.0,
+                27..30 => 20.0,
+                _ => 30.0,
             })
             .collect();
         let b = bands(&uneven).unwrap();
-        assert_eq!(b.iter().map(Vec::len).collect::<Vec<_>>(), [12, 12, 12]);
+        assert_eq!(b.iter().map(Vec::len).collect::<Vec<_>>(), [12, 15, 9]);
+        let one_soak: Vec<f64> = (0..36).map(|i| if i < 30 { 0.0 } else { 10.0 }).collect();
+        assert!(bands(&one_soak).is_none());
+        // A stream read in 0.5 °C steps, five samples a step: cut by rank where the reading
+        // changes, no temperature in two bands.
+        let stepped: Vec<f64> = (0..36).map(|i| 20.0 + 0.5 * f64::from(i / 5)).collect();
+        let b = bands(&stepped).unwrap();
+        assert_eq!(b.iter().map(Vec::len).collect::<Vec<_>>(), [15, 10, 11]);
+        for w in b.windows(2) {
+            let below = w[0].iter().map(|&i| stepped[i]).fold(f64::MIN, f64::max);
+            let above = w[1].iter().map(|&i| stepped[i]).fold(f64::MAX, f64::min);
+            assert!(below < above, "{b:?}");
+        }
         // Too few points, or no span, cannot be banded.
         assert!(bands(&ramp[..26]).is_none());
         assert!(bands(&[25.0; 30]).is_none());
@@ -300,8 +321,12 @@ mod tests {
         let t: Vec<f64> = (0..30).map(|i| 20.0 + 0.3 * f64::from(i)).collect();
         let v: Vec<f64> = t.iter().map(|x| (x * 7.0).sin()).collect();
         let rate: Vec<f64> = t.iter().zip(&v).map(|(t, v)| 2.0 * v + 1e-3 * t).collect();
-        let group = vec![String::new(); t.len()];
-        let points = Points::new(t, v, rate, group, None, false, None);
+        let make = |scale_factor| {
+            let group = vec![String::new(); t.len()];
+            let (t, v, rate) = (t.clone(), v.clone(), rate.clone());
+            Points::new(t, v, rate, group, scale_factor, false, None)
+        };
+        let points = make(None);
         let own = GpConfig {
             mean: MeanBasis::Physics,
             ..GpConfig::default()
@@ -319,7 +344,16 @@ mod tests {
         let (cfg, choice) = resolve(&points, &auto);
         let choice = choice.unwrap();
         assert_eq!(cfg.mean, choice.basis);
-        assert_ne!(cfg.mean, MeanBasis::Auto);
         assert_eq!(choice.scores.len(), 3, "{choice:?}");
+        assert!(choice.scores.iter().all(|s| s.rmse.is_some()), "{choice:?}");
+        // A bias model's temperature alone: physics is poly2 there, tried once.
+        let bias = make(Some(0.5));
+        let choice = choose(&bias, &auto).unwrap();
+        let tried: Vec<MeanBasis> = choice.scores.iter().map(|s| s.basis).collect();
+        assert_eq!(
+            tried,
+            [MeanBasis::Physics, MeanBasis::Poly(1)],
+            "{choice:?}"
+        );
     }
 }

@@ -67,8 +67,7 @@ pub struct Investigation {
     /// What both models' means do beyond the trained range, chosen on the training points.
     pub beyond: BeyondChoice,
     /// How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left
-    /// out.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// out (`null`: a basis asked for).
     pub basis_choice: Option<BasisChoice>,
 }
 

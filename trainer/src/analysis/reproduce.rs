@@ -6,6 +6,7 @@ use serde::Serialize;
 
 use crate::analysis::evaluate::{self, EvalConfig, EvalError, Evaluation, Fig2, Method};
 use crate::data::points::Points;
+use crate::models::gp::GpConfig;
 
 /// The paper's leave-one-temperature-out table: (°C, LS-SVR RMSE, GPR RMSE), °/s.
 pub const PAPER_LOTO: [(f64, f64, f64); 10] = [
@@ -44,12 +45,20 @@ pub struct Reproduction {
 
 /// The paper's evaluations of `points`: the GP's (an error where it fails), and each rival's
 /// where it can be fitted (a two-step model needs soaked plateaus), skipped with the reason where
-/// not. `bar` counts the fits.
+/// not; on the physics basis where `cfg` asks for one chosen. `bar` counts the fits.
 pub fn reproduce(
     points: &Points,
     cfg: &EvalConfig,
     bar: &dyn Progress,
 ) -> Result<Reproduction, EvalError> {
+    // The methods are compared on one basis, the sensor's form, unless one is asked for.
+    let cfg = &EvalConfig {
+        gp: GpConfig {
+            mean: cfg.gp.mean.or_physics(),
+            ..cfg.gp.clone()
+        },
+        ..cfg.clone()
+    };
     let gpr = evaluate::evaluate(points, Method::Gpr, cfg, bar)?;
     let mut skipped = Vec::new();
     let mut rival = |method: Method| match evaluate::evaluate(points, method, cfg, bar) {

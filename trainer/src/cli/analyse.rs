@@ -19,7 +19,6 @@ use crate::analysis::extend;
 use crate::analysis::investigate;
 use crate::analysis::reproduce;
 use crate::data::points::Points;
-use crate::models::gp::GpConfig;
 use crate::pipeline::diagnose;
 use crate::pipeline::investigate::InvestigatePlan;
 use crate::pipeline::loo::LooPlan;
@@ -432,12 +431,8 @@ pub(super) fn reproduce_command(args: ReproduceArgs, flags: ConsoleFlags) -> any
         input.exclude_implausible,
         &console,
     )?;
-    let gp = fit.gp();
     let cfg = EvalConfig {
-        gp: GpConfig {
-            mean: gp.mean.or_physics(),
-            ..gp
-        },
+        gp: fit.gp(),
         ..EvalConfig::default()
     };
     let progress = crate::progress::Messages::counted(&console);

@@ -99,7 +99,6 @@ impl FitCommand {
             extend,
             budget: budget.budget(),
             service,
-            basis_choice: None,
         };
         Ok(Self {
             plan,

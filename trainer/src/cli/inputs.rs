@@ -191,9 +191,10 @@ pub(super) struct FitOptions {
     #[arg(long, default_value_t = GpConfig::default().max_iters, value_parser = clap::value_parser!(u64).range(1..))]
     pub(super) max_iters: u64,
     /// Prior-mean basis: auto (physics, poly1 or poly2, whichever predicts temperature bands
-    /// left out best; physics unless another misses by under 90 % of its error; `reproduce`:
-    /// physics), physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all monomials
-    /// of degree ≤ N). Its coefficients are estimated with the GP (GLS).
+    /// left out best, on 27–256 points spanning more than 1 °C; physics unless another misses by
+    /// under 90 % of its error; `reproduce`, a report's table page and `loo` of another method
+    /// than the GP: physics), physics ({1,T,T²}×{1,V,V³}), constant (the paper's), or polyN (all
+    /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = crate::analysis::basis::DEFAULT)]
     pub(super) mean: MeanBasis,
     /// Exact GP or sparse (variational, this many inducing points). auto: for `fit` and `loo`,

@@ -44,8 +44,8 @@ pub enum LssvrError {
     #[error("LS-SVR tuning failed from every start")]
     TuningFailed,
     /// The basis the commands choose (`auto`) was asked for before it was chosen.
-    #[error(transparent)]
-    Unchosen(#[from] GpError),
+    #[error("{}", GpError::UnchosenBasis)]
+    Unchosen,
 }
 
 /// The LS-SVR solved at fixed hyperparameters (normalized units).
@@ -371,7 +371,7 @@ impl LssvrModel {
         target: &DVector<f64>,
         basis: MeanBasis,
     ) -> Result<Self, LssvrError> {
-        crate::models::gp::chosen(basis)?;
+        crate::models::gp::chosen(basis).map_err(|_| LssvrError::Unchosen)?;
         let Prepared {
             norm: input_norm,
             prior,

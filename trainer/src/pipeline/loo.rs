@@ -45,8 +45,8 @@ pub struct Loo {
     /// How the default chose the size `fit` would ship.
     pub centres_choice: Option<Choice>,
     /// How `--mean auto` (the default) chose the prior mean's basis `fit` would ship, on
-    /// temperature bands left out: once, on every point, as the hyperparameters are.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// temperature bands left out: once, on every point, as the hyperparameters are (`null`:
+    /// a basis asked for, or another method than the GP).
     pub basis_choice: Option<BasisChoice>,
 }
 

@@ -45,10 +45,7 @@ fn allan_of(what: &str, valid: &Stream, rate_dps: impl Iterator<Item = f64>) -> 
 /// The paper's evaluations of a rate table; `bar` counts their fits.
 fn reproduce(points: &Points, cfg: &GpConfig, bar: &dyn Progress) -> anyhow::Result<Reproduction> {
     let eval = EvalConfig {
-        gp: GpConfig {
-            mean: cfg.mean.or_physics(),
-            ..cfg.clone()
-        },
+        gp: cfg.clone(),
         ..EvalConfig::default()
     };
     Ok(crate::analysis::reproduce::reproduce(points, &eval, bar)?)

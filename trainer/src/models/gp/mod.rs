@@ -64,7 +64,7 @@ pub struct Prediction {
     pub noise_var: f64,
 }
 
-/// `basis` unless it is [`MeanBasis::Auto`], which a command chooses before it fits
+/// Refuses [`MeanBasis::Auto`], which a command chooses before it fits
 /// ([`crate::analysis::basis`]): a fit never guesses it.
 pub(crate) fn chosen(basis: MeanBasis) -> Result<(), GpError> {
     if basis == MeanBasis::Auto {
@@ -92,7 +92,6 @@ impl GpModel {
         offsets: &[usize],
         cfg: &GpConfig,
     ) -> Result<Self, GpError> {
-        chosen(cfg.mean)?;
         let n = x.nrows();
         let t0 = Instant::now();
         let Some(m) = cfg.inducing.count(n).filter(|_| n >= 3) else {
@@ -104,6 +103,7 @@ impl GpModel {
         if !offsets.is_empty() {
             return Err(GpError::ExactOnly(n));
         }
+        chosen(cfg.mean)?;
         let data = Prepared::grouped(x, target, cfg.mean, offsets);
         let s = sparse::fit(&data, m, cfg)?;
         Ok(Self::assemble(

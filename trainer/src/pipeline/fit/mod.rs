@@ -82,9 +82,6 @@ pub struct FitPlan {
     pub budget: Budget,
     /// What the blob states for service.
     pub service: Service,
-    /// The prior mean's basis as chosen on the channel's points before its fit (to size its
-    /// model within a budget), `gp` then holding it; `None`: the fit chooses it where `gp` asks.
-    pub basis_choice: Option<BasisChoice>,
 }
 
 /// What the blob states for service: the sensor's rated range and full scale, a datasheet's
@@ -175,7 +172,8 @@ impl FitPlan {
                 &format!("{} in {}", quantity_words(ch.quantity), ch.quantity.unit()),
             );
             let said = messages.channel(channels.label(k), &heading);
-            let one = channels.in_channel(k, plans[k].fit(&per_channel[k].1, &*said))?;
+            let (plan, chosen) = &plans[k];
+            let one = channels.in_channel(k, plan.fit(&per_channel[k].1, chosen, &*said))?;
             say_fit(&*said, &one, (None, one.blob.len()), ch.quantity);
             fitted.push(one);
         }
@@ -209,9 +207,12 @@ impl FitPlan {
 
     /// The static model on the loaded `streams` (with `--points`, the table), its extension and
     /// its σ: the blob, checked against the firmware, and what `fit` reports of it.
+    /// `chosen`: the prior mean's basis as chosen before (to size the model within a budget),
+    /// `self.gp` then holding it; `None`: chosen here where `self.gp` asks.
     fn fit(
         &self,
         streams: &[(&Path, Stream)],
+        chosen: &Option<BasisChoice>,
         messages: &dyn Messages,
     ) -> anyhow::Result<ChannelFit> {
         // A pooled fit beside a table is checked on the streams cut forward in time: cut first,
@@ -223,13 +224,13 @@ impl FitPlan {
         };
         let points = self.source.static_points(streams, self.pool, messages)?;
         let spinner = messages.busy("choosing the prior mean's basis on temperature bands");
-        let (gp, chosen) = basis::resolve(&points, &self.gp);
+        let (gp, now) = basis::resolve(&points, &self.gp);
         drop(spinner);
-        if let Some(c) = &chosen {
+        if let Some(c) = &now {
             messages.result(&format!("prior mean: {}", c.verdict));
         }
         let plan = Self { gp, ..self.clone() };
-        let basis_choice = chosen.or_else(|| self.basis_choice.clone());
+        let basis_choice = now.or_else(|| chosen.clone());
         plan.fit_points(streams, (points, cuts), basis_choice, messages)
     }
 

@@ -6,24 +6,28 @@ use firmware_core::MAX_CENTRES;
 use firmware_core::blob::Dims;
 
 use super::{FitPlan, Named};
+use crate::analysis::basis::BasisChoice;
 use crate::analysis::{basis, budget};
 use crate::data::points::Points;
 use crate::firmware::unit;
 use crate::models::gp::Inducing;
 use crate::progress::Messages;
 
+/// A channel's plan, and its prior mean's basis where chosen before its fit.
+pub(super) type Planned = (FitPlan, Option<BasisChoice>);
+
 impl FitPlan {
     /// The plans of the channels `named` (each with its loaded streams), their models' sizes chosen
     /// within the budget where one is given (`analysis::budget`): this plan for each, with the
-    /// size chosen for its channel.
+    /// size chosen for its channel, and its prior mean's basis where chosen first (to size it).
     pub(super) fn within_budget(
         &self,
         named: &[Named<'_>],
         messages: &dyn Messages,
-    ) -> anyhow::Result<(Vec<FitPlan>, Option<budget::Report>)> {
+    ) -> anyhow::Result<(Vec<Planned>, Option<budget::Report>)> {
         let plans: Vec<FitPlan> = named.iter().map(|(_, p, _)| (*p).clone()).collect();
         if !self.budget.is_set() {
-            return Ok((plans, None));
+            return Ok((plans.into_iter().map(|p| (p, None)).collect(), None));
         }
         anyhow::ensure!(
             self.gp.inducing == Inducing::Auto,
@@ -35,25 +39,21 @@ impl FitPlan {
             .collect::<anyhow::Result<Vec<_>>>()?;
         // Each channel's basis is chosen first: its sizes are the sizes of its model.
         let spinner = messages.busy("choosing each channel's prior mean on temperature bands");
-        let plans: Vec<FitPlan> = plans
+        let plans: Vec<Planned> = plans
             .into_iter()
             .zip(&points)
             .map(|(plan, p)| {
                 let (gp, chosen) = basis::resolve(p, &plan.gp);
-                FitPlan {
-                    gp,
-                    basis_choice: chosen,
-                    ..plan
-                }
+                (FitPlan { gp, ..plan }, chosen)
             })
             .collect();
         drop(spinner);
-        for ((name, _, _), plan) in named.iter().zip(&plans) {
-            if let Some(c) = &plan.basis_choice {
+        for ((name, _, _), (_, chosen)) in named.iter().zip(&plans) {
+            if let Some(c) = chosen {
                 messages.result(&format!("{name}: prior mean: {}", c.verdict));
             }
         }
-        let dims = |k: usize, m: usize| budget::static_dims(&points[k], plans[k].gp.mean, m);
+        let dims = |k: usize, m: usize| budget::static_dims(&points[k], plans[k].0.gp.mean, m);
         let smallest: Vec<(&str, Dims)> = named
             .iter()
             .zip(&points)
@@ -88,7 +88,7 @@ impl FitPlan {
             .iter()
             .zip(&points)
             .zip(&plans)
-            .map(|(((name, _, _), p), plan)| {
+            .map(|(((name, _, _), p), (plan, _))| {
                 budget::sizes(p, &plan.gp, |step| {
                     spinner.stage(&format!("sizing {name}: {step}"));
                 })
@@ -121,11 +121,11 @@ impl FitPlan {
         let out = plans
             .into_iter()
             .zip(&channels)
-            .map(|(mut plan, c)| {
+            .map(|((mut plan, chosen), c)| {
                 if let Some(i) = c.chosen {
                     plan.gp.inducing = c.sizes[i].inducing();
                 }
-                plan
+                (plan, chosen)
             })
             .collect();
         let report = budget::Report {
