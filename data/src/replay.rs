@@ -600,6 +600,13 @@ pub struct Score {
     pub rmse_60s_in_range_dps: f64,
     /// 60 s blocks inside the trained range.
     pub n_blocks_in_range: usize,
+    /// The σ of each 60 s mean of the samples inside the trained range (status valid) against
+    /// its error, over the blocks at least half filled with them (a block that crosses the
+    /// range's edge half-way counts in both parts): a σ right on the whole can be too narrow here
+    /// and too wide beyond, where the model error it assumes grows.
+    pub sigma_60s_in_range: Coverage,
+    /// The same of the samples beyond the trained range (status extrapolating).
+    pub sigma_60s_beyond: Coverage,
     /// Samples without a reference (compensated, not scored).
     pub n_unscored: usize,
     /// Samples flagged extrapolating.
@@ -678,12 +685,21 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         .iter()
         .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
         .collect();
-    let valid: Vec<usize> = scored
-        .iter()
-        .copied()
-        .filter(|&i| comp.status[i] == Status::Valid)
-        .collect();
-    let means_in_range = block_errors(stream, &comp.rate_dps, &stream.half_filled_blocks(&valid));
+    let part = |status: Status| {
+        let samples: Vec<usize> = scored
+            .iter()
+            .copied()
+            .filter(|&i| comp.status[i] == status)
+            .collect();
+        let blocks = stream.half_filled_blocks(&samples);
+        let sigmas: Vec<f64> = blocks
+            .iter()
+            .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
+            .collect();
+        (block_errors(stream, &comp.rate_dps, &blocks), sigmas)
+    };
+    let (means_in_range, sigmas_in_range) = part(Status::Valid);
+    let (means_beyond, sigmas_beyond) = part(Status::Extrapolating);
     Score {
         n,
         rmse_dps: rms(&errors),
@@ -695,6 +711,8 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         n_blocks: means.len(),
         rmse_60s_in_range_dps: rms(&means_in_range),
         n_blocks_in_range: means_in_range.len(),
+        sigma_60s_in_range: Coverage::of(&means_in_range, &sigmas_in_range),
+        sigma_60s_beyond: Coverage::of(&means_beyond, &sigmas_beyond),
         n_unscored: stream.len() - stream.rate_dps.iter().filter(|r| r.is_finite()).count(),
         n_extrapolating: comp
             .status

@@ -1597,6 +1597,12 @@ class Score(Record):
     sigma_60s: Coverage
     """The σ of each 60 s mean against its error."""
 
+    sigma_60s_beyond: Coverage
+    """The same of the samples beyond the trained range (status extrapolating)."""
+
+    sigma_60s_in_range: Coverage
+    """The σ of each 60 s mean of the samples inside the trained range (status valid) against its error, over the blocks at least half filled with them (a block that crosses the range's edge half-way counts in both parts): a σ right on the whole can be too narrow here and too wide beyond, where the model error it assumes grows."""
+
     sigma_samples: Coverage
     """The firmware's σ against the errors of the scored samples."""
 
@@ -1979,7 +1985,7 @@ PolyPrior._nested = {"dropped": Dropped}
 PoolCheck._nested = {"pooled_hyperparameters": Hyperparameters}
 Report._nested = {"budget": Budget, "channels": ChannelSizes, "chosen_cost": Cost, "default_cost": Cost}
 Reproduction._nested = {"fig2": Fig2, "gpr": Evaluation, "lssvr": Evaluation, "two_step": Evaluation}
-Score._nested = {"handled": Handled, "sigma_60s": Coverage, "sigma_samples": Coverage}
+Score._nested = {"handled": Handled, "sigma_60s": Coverage, "sigma_60s_beyond": Coverage, "sigma_60s_in_range": Coverage, "sigma_samples": Coverage}
 SensorCubics._nested = {"axes": AxisCubic}
 Size._nested = {"cost": Cost}
 SourceSummary._nested = {"coverage": Coverage}

@@ -54,6 +54,35 @@ fn scores_follow_their_definitions() {
     assert_eq!(sc.sigma_60s.within_2sigma, 0.5);
     assert_eq!(sc.sigma_60s.within_1sigma, 0.0);
     assert!(sc.sigma_60s.median_sigma > 0.5 * first);
+    // Every sample inside the trained range: the split holds both blocks, nothing beyond.
+    assert_eq!(sc.sigma_60s_in_range, sc.sigma_60s);
+    assert_eq!(sc.sigma_60s_beyond.n, 0);
+    // The second minute beyond it: each part scores its own block.
+    let beyond = Compensated {
+        status: (0..120)
+            .map(|i| {
+                if i < 60 {
+                    Status::Valid
+                } else {
+                    Status::Extrapolating
+                }
+            })
+            .collect(),
+        ..comp.clone()
+    };
+    let split = score(&s, &beyond);
+    assert_eq!(split.sigma_60s, sc.sigma_60s);
+    assert_eq!(split.sigma_60s_in_range.n, 1);
+    assert_eq!(split.sigma_60s_in_range.within_2sigma, 1.0);
+    assert!((split.sigma_60s_in_range.rmse - 1.0).abs() < 1e-12);
+    assert_eq!(split.sigma_60s_beyond.n, 1);
+    assert_eq!(split.sigma_60s_beyond.within_2sigma, 0.0);
+    assert_eq!(split.n_extrapolating, 60);
+    let line = crate::sigma::describe_by_range(&split.sigma_60s_in_range, &sc.sigma_60s_beyond);
+    assert!(
+        line.contains("inside the trained range 1 at 100% within 2σ") && line.ends_with("none"),
+        "{line}"
+    );
     let one = decode_unit(GYRO).unwrap();
     let csv = unit_csv(&one, &[&s], std::slice::from_ref(&comp));
     assert!(

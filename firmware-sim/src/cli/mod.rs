@@ -156,14 +156,15 @@ fn channel_lines(scores: &[replay::ChannelScore]) -> String {
             let u = c.quantity.bias_unit();
             format!(
                 "  {:<16} rmse_60s {:>10.3} {u:<4} ({} scored, {} extrapolating, {} degraded, {} \
-                 fault); σ: {}",
+                 fault); σ: {}; {}",
                 c.name,
                 c.score.rmse_60s_dps * k,
                 c.score.n,
                 c.score.n_extrapolating,
                 c.score.n_degraded,
                 c.score.n_fault,
-                sigma::describe(&c.score.sigma_samples, &c.score.sigma_60s)
+                sigma::describe(&c.score.sigma_samples, &c.score.sigma_60s),
+                sigma::describe_by_range(&c.score.sigma_60s_in_range, &c.score.sigma_60s_beyond)
             )
         })
         .collect::<Vec<_>>()

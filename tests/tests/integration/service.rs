@@ -281,6 +281,19 @@ fn a_warm_up_too_narrow_for_the_physics_prior_mean_chooses_a_simpler_one() {
         coverage(&chosen_replay) > coverage(&physics_replay),
         "{chosen_replay} {physics_replay}"
     );
+    // The replay scores the means inside the trained range and beyond it apart: the cool-down
+    // starts inside the warm-up's temperatures and ends far below them; the part inside is the
+    // one `rmse_60s_in_range_dps` counts.
+    let (inside, beyond) = (
+        &chosen_replay["sigma_60s_in_range"],
+        &chosen_replay["sigma_60s_beyond"],
+    );
+    let n = |c: &serde_json::Value| c["n"].as_u64().unwrap();
+    assert!(n(inside) > 0 && n(beyond) > n(inside), "{inside} {beyond}");
+    assert_eq!(
+        inside["rmse"], chosen_replay["rmse_60s_in_range_dps"],
+        "{chosen_replay}"
+    );
 
     // The whole warm-up: no other basis predicts the bands under 90 % of physics's miss, and the
     // sensor's form ships.

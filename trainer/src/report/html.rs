@@ -52,7 +52,8 @@ pub(super) fn allan_sentence(allan: &[Allan; 3]) -> String {
 }
 
 /// The σ each model states on the held-out stream, scored: coverage at 1, 2 and 3σ of samples and
-/// of 60 s means, and the median σ over the RMS error; then how the shipped σ was calibrated.
+/// of 60 s means (all, then those inside the trained range and those beyond it apart, where there
+/// are any), and the median σ over the RMS error; then how the shipped σ was calibrated.
 pub(super) fn sigma_table(inv: &Investigation) -> String {
     let mut s = String::from(
         "<h3>The firmware's σ on the held-out stream</h3>\n<table><tr><th>model</th><th>of</th>\
@@ -66,7 +67,15 @@ pub(super) fn sigma_table(inv: &Investigation) -> String {
         for (of, c) in [
             ("samples", &score.sigma_samples),
             ("60 s means", &score.sigma_60s),
+            (
+                "60 s means inside the trained range",
+                &score.sigma_60s_in_range,
+            ),
+            ("60 s means beyond it", &score.sigma_60s_beyond),
         ] {
+            if c.n == 0 {
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "<tr><td>{name}</td><td>{of}</td><td>{:.2}</td><td>{:.2}</td><td>{:.0}%</td>\
