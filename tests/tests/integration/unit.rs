@@ -345,3 +345,66 @@ fn a_unit_on_the_command_line_says_what_is_wrong_before_fitting() {
     .to_string();
     assert!(e.contains("2 --effect entries for 3 axes"), "{e}");
 }
+
+/// A budget sizes each channel's model after its prior mean's basis is chosen, so the size
+/// chosen is that of the model that ships: a simulated unit of three axes whose default models
+/// take 25 KB of RAM, fitted within 7 KiB. One axis's bands show the physics prior mean running
+/// away beyond its range (degree 2 ships), one keeps physics.
+#[test]
+fn a_budget_sizes_the_model_of_the_basis_each_channel_ships() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| at(dir.path(), name);
+    sim(&[
+        "generate",
+        "stream",
+        "--design",
+        "short",
+        "--axes",
+        "3",
+        "--effect",
+        "none,thermal-rate,none",
+        "--out",
+        &p("s.csv"),
+        "-q",
+    ])
+    .unwrap();
+    trainer(&[
+        "fit",
+        "--stream",
+        &p("s.csv"),
+        "--channels",
+        &p("s.channels.toml"),
+        "--budget-ram",
+        "7K",
+        "--out",
+        &p("u.bin"),
+        "--json",
+        &p("f.json"),
+        "-q",
+    ])
+    .unwrap();
+    let f = json(p("f.json"));
+    let budget = &f["budget"];
+    let ram = |cost: &serde_json::Value| cost["ram_bytes"].as_u64().unwrap();
+    assert_eq!(budget["budget"]["ram_bytes"], 7168);
+    assert!(ram(&budget["default_cost"]) > 7168, "{budget}");
+    assert!(ram(&budget["chosen_cost"]) <= 7168, "{budget}");
+    assert!(f["footprint"]["unit_bytes"].as_u64().unwrap() <= 7168);
+    let mut bases = Vec::new();
+    for (channel, sized) in f["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(budget["channels"].as_array().unwrap())
+    {
+        assert_eq!(channel["name"], sized["name"]);
+        let chosen = &sized["sizes"][sized["chosen"].as_u64().unwrap() as usize];
+        assert_eq!(channel["centres"], chosen["asked"], "{sized}");
+        let choice = &channel["basis_choice"];
+        assert_eq!(channel["mean_basis"], choice["basis"], "{choice}");
+        assert_eq!(choice["scores"].as_array().unwrap().len(), 3, "{choice}");
+        bases.push(channel["mean_basis"].as_str().unwrap().to_owned());
+    }
+    assert!(bases.iter().any(|b| b == "physics"), "{bases:?}");
+    assert!(bases.iter().any(|b| b != "physics"), "{bases:?}");
+}
