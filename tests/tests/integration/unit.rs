@@ -314,35 +314,12 @@ fn a_unit_on_the_command_line_says_what_is_wrong_before_fitting() {
     );
     assert!(!dir.path().join("u.bin").exists());
     // A unit's three axes from the simulator, with the channels file beside them.
-    sim(&[
-        "generate",
-        "stream",
-        "--design",
-        "short",
-        "--axes",
-        "3",
-        "--effect",
-        "thermal-rate,none,hysteresis",
-        "--out",
-        &p("s.csv"),
-    ])
-    .unwrap();
+    three_axes("thermal-rate,none,hysteresis", &p("s.csv")).unwrap();
     let c = Channels::load(&dir.path().join("s.channels.toml")).unwrap();
     assert_eq!(c.len(), 3);
-    let e = sim(&[
-        "generate",
-        "stream",
-        "--design",
-        "short",
-        "--axes",
-        "3",
-        "--effect",
-        "none,none",
-        "--out",
-        &p("t.csv"),
-    ])
-    .unwrap_err()
-    .to_string();
+    let e = three_axes("none,none", &p("t.csv"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("2 --effect entries for 3 axes"), "{e}");
 }
 
@@ -354,20 +331,7 @@ fn a_unit_on_the_command_line_says_what_is_wrong_before_fitting() {
 fn a_budget_sizes_the_model_of_the_basis_each_channel_ships() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| at(dir.path(), name);
-    sim(&[
-        "generate",
-        "stream",
-        "--design",
-        "short",
-        "--axes",
-        "3",
-        "--effect",
-        "none,thermal-rate,none",
-        "--out",
-        &p("s.csv"),
-        "-q",
-    ])
-    .unwrap();
+    three_axes("none,thermal-rate,none", &p("s.csv")).unwrap();
     trainer(&[
         "fit",
         "--stream",
@@ -407,4 +371,13 @@ fn a_budget_sizes_the_model_of_the_basis_each_channel_ships() {
     }
     assert!(bases.iter().any(|b| b == "physics"), "{bases:?}");
     assert!(bases.iter().any(|b| b != "physics"), "{bases:?}");
+}
+
+/// A simulated unit of three axes on the short design, each with its `effects` entry, written to
+/// `out` with its channels file beside it.
+fn three_axes(effects: &str, out: &str) -> anyhow::Result<()> {
+    sim(&[
+        "generate", "stream", "--design", "short", "--axes", "3", "--effect", effects, "--out",
+        out, "-q",
+    ])
 }
