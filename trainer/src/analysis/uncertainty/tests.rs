@@ -538,6 +538,47 @@ fn one_power_on_assumes_another_ones_bias_as_large_as_the_floor() {
     assert!(bare.describe("°/s").contains("the floor fitted 0"));
 }
 
+/// The prior's growth is the model's trend next to the range's edges: a bias model fitted on 60
+/// points over 20 °C, the trend over each half of the range per width (`Prior::of`).
+#[test]
+fn the_priors_growth_is_the_models_trend_next_to_the_edges() {
+    use crate::models::gp::GpConfig;
+    use crate::models::prior::MeanBasis;
+    let t: Vec<f64> = (0..60).map(|i| 10.0 + f64::from(i) / 59.0 * 20.0).collect();
+    let prior = |bias: &dyn Fn(f64) -> f64| {
+        let rate: Vec<f64> = t.iter().map(|t| bias(*t)).collect();
+        let points = Points::new(
+            t.clone(),
+            vec![0.0; t.len()],
+            rate,
+            vec![String::new(); t.len()],
+            Some(1.0),
+            false,
+            None,
+        );
+        let cfg = GpConfig {
+            mean: MeanBasis::Poly(1),
+            ..GpConfig::default()
+        };
+        let model = GpModel::fit(points.inputs(), &points.target(), &cfg).unwrap();
+        Prior::of(&model, &points).extrapolation_var.sqrt()
+    };
+    // A straight bias: its change over the width, 1e-3 per °C over 20 °C.
+    let straight = prior(&|t| 1e-3 * t);
+    assert!((straight / 2e-2 - 1.0).abs() < 0.05, "{straight}");
+    // The same trend with four wiggles across the range, ten times as steep as the trend where
+    // they cross it: holding at the edge misses the trend, not the wiggles, which no bias
+    // continues beyond the range; a slope taken at the points would be several times larger.
+    let period = 5.0;
+    let wiggles = prior(&|t| 1e-3 * t + 8e-3 * (std::f64::consts::TAU * t / period).sin());
+    assert!((wiggles / 2e-2 - 1.0).abs() < 0.15, "{wiggles}");
+    // A bias that turns over in the middle of the range: no change from end to end, but each
+    // half holds it, and beyond either edge it goes on rising: 1e-4 (t − 20)² changes by 1e-2
+    // over each half, 2e-2 per width.
+    let turning = prior(&|t| 1e-4 * (t - 20.0).powi(2));
+    assert!((turning / 2e-2 - 1.0).abs() < 0.05, "{turning}");
+}
+
 #[test]
 fn the_priors_growth_is_told_apart_by_the_output_where_the_outputs_move() {
     // Changes drawn with variance a + b·y² at rates from −80 to 80 °/s: the split finds both
