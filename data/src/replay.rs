@@ -601,12 +601,16 @@ pub struct Score {
     /// 60 s blocks inside the trained range.
     pub n_blocks_in_range: usize,
     /// The σ of each 60 s mean of the samples inside the trained range (status valid) against
-    /// its error, over the blocks at least half filled with them (a block that crosses the
-    /// range's edge half-way counts in both parts): a σ right on the whole can be too narrow here
-    /// and too wide beyond, where the model error it assumes grows.
-    pub sigma_60s_in_range: Coverage,
-    /// The same of the samples beyond the trained range (status extrapolating).
-    pub sigma_60s_beyond: Coverage,
+    /// its error, over the 60 s blocks at least half of whose samples are such (null where none
+    /// is): a σ right on the whole can be too narrow here and too wide beyond, where the model
+    /// error it assumes grows. A block counts where most of its samples lie, in both parts if
+    /// they split evenly, in neither if most are degraded; the parts need not add up to
+    /// `sigma_60s`.
+    pub sigma_60s_in_range: Option<Coverage>,
+    /// The σ of each 60 s mean of the samples beyond the trained range (status extrapolating)
+    /// against its error, over the 60 s blocks at least half of whose samples are such (null
+    /// where none is), as `sigma_60s_in_range` is counted.
+    pub sigma_60s_beyond: Option<Coverage>,
     /// Samples without a reference (compensated, not scored).
     pub n_unscored: usize,
     /// Samples flagged extrapolating.
@@ -696,10 +700,12 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             .iter()
             .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
             .collect();
-        (block_errors(stream, &comp.rate_dps, &blocks), sigmas)
+        let means = block_errors(stream, &comp.rate_dps, &blocks);
+        let coverage = (!means.is_empty()).then(|| Coverage::of(&means, &sigmas));
+        (means, coverage)
     };
-    let (means_in_range, sigmas_in_range) = part(Status::Valid);
-    let (means_beyond, sigmas_beyond) = part(Status::Extrapolating);
+    let (means_in_range, sigma_60s_in_range) = part(Status::Valid);
+    let (_, sigma_60s_beyond) = part(Status::Extrapolating);
     Score {
         n,
         rmse_dps: rms(&errors),
@@ -711,8 +717,8 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         n_blocks: means.len(),
         rmse_60s_in_range_dps: rms(&means_in_range),
         n_blocks_in_range: means_in_range.len(),
-        sigma_60s_in_range: Coverage::of(&means_in_range, &sigmas_in_range),
-        sigma_60s_beyond: Coverage::of(&means_beyond, &sigmas_beyond),
+        sigma_60s_in_range,
+        sigma_60s_beyond,
         n_unscored: stream.len() - stream.rate_dps.iter().filter(|r| r.is_finite()).count(),
         n_extrapolating: comp
             .status

@@ -83,19 +83,16 @@ pub fn describe(samples: &Coverage, means: &Coverage) -> String {
 }
 
 /// One line for a person: the coverage at 2 σ and the sharpness of the 60 s means inside the
-/// trained range and beyond it, apart.
-pub fn describe_by_range(inside: &Coverage, beyond: &Coverage) -> String {
-    let part = |c: &Coverage| {
-        if c.n == 0 {
-            "none".to_string()
-        } else {
-            format!(
-                "{} at {:.0}% within 2σ, median σ {:.2}× the RMS error",
-                c.n,
-                100.0 * c.within_2sigma,
-                c.sharpness
-            )
-        }
+/// trained range and beyond it, apart (`None`: no 60 s mean there).
+pub fn describe_by_range(inside: Option<&Coverage>, beyond: Option<&Coverage>) -> String {
+    let part = |c: Option<&Coverage>| match c {
+        None => "none".to_string(),
+        Some(c) => format!(
+            "{} at {:.0}% within 2σ, median σ {:.2}× the RMS error",
+            c.n,
+            100.0 * c.within_2sigma,
+            c.sharpness
+        ),
     };
     format!(
         "60 s means inside the trained range {}; beyond it {}",

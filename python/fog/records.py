@@ -1597,11 +1597,11 @@ class Score(Record):
     sigma_60s: Coverage
     """The σ of each 60 s mean against its error."""
 
-    sigma_60s_beyond: Coverage
-    """The same of the samples beyond the trained range (status extrapolating)."""
+    sigma_60s_beyond: Coverage | None
+    """The σ of each 60 s mean of the samples beyond the trained range (status extrapolating) against its error, over the 60 s blocks at least half of whose samples are such (null where none is), as `sigma_60s_in_range` is counted."""
 
-    sigma_60s_in_range: Coverage
-    """The σ of each 60 s mean of the samples inside the trained range (status valid) against its error, over the blocks at least half filled with them (a block that crosses the range's edge half-way counts in both parts): a σ right on the whole can be too narrow here and too wide beyond, where the model error it assumes grows."""
+    sigma_60s_in_range: Coverage | None
+    """The σ of each 60 s mean of the samples inside the trained range (status valid) against its error, over the 60 s blocks at least half of whose samples are such (null where none is): a σ right on the whole can be too narrow here and too wide beyond, where the model error it assumes grows. A block counts where most of its samples lie, in both parts if they split evenly, in neither if most are degraded; the parts need not add up to `sigma_60s`."""
 
     sigma_samples: Coverage
     """The firmware's σ against the errors of the scored samples."""

@@ -55,8 +55,13 @@ fn scores_follow_their_definitions() {
     assert_eq!(sc.sigma_60s.within_1sigma, 0.0);
     assert!(sc.sigma_60s.median_sigma > 0.5 * first);
     // Every sample inside the trained range: the split holds both blocks, nothing beyond.
-    assert_eq!(sc.sigma_60s_in_range, sc.sigma_60s);
-    assert_eq!(sc.sigma_60s_beyond.n, 0);
+    assert_eq!(sc.sigma_60s_in_range, Some(sc.sigma_60s));
+    assert_eq!(sc.sigma_60s_beyond, None);
+    let line = crate::sigma::describe_by_range(sc.sigma_60s_in_range.as_ref(), None);
+    assert!(
+        line.contains("inside the trained range 2 at 50% within 2σ") && line.ends_with("none"),
+        "{line}"
+    );
     // The second minute beyond it: each part scores its own block.
     let beyond = Compensated {
         status: (0..120)
@@ -72,15 +77,19 @@ fn scores_follow_their_definitions() {
     };
     let split = score(&s, &beyond);
     assert_eq!(split.sigma_60s, sc.sigma_60s);
-    assert_eq!(split.sigma_60s_in_range.n, 1);
-    assert_eq!(split.sigma_60s_in_range.within_2sigma, 1.0);
-    assert!((split.sigma_60s_in_range.rmse - 1.0).abs() < 1e-12);
-    assert_eq!(split.sigma_60s_beyond.n, 1);
-    assert_eq!(split.sigma_60s_beyond.within_2sigma, 0.0);
+    let (inside, beyond) = (
+        split.sigma_60s_in_range.unwrap(),
+        split.sigma_60s_beyond.unwrap(),
+    );
+    assert_eq!((inside.n, inside.within_2sigma), (1, 1.0));
+    assert!((inside.rmse - 1.0).abs() < 1e-12);
+    assert_eq!((beyond.n, beyond.within_2sigma), (1, 0.0));
+    assert!((beyond.rmse - 1.0).abs() < 1e-12);
     assert_eq!(split.n_extrapolating, 60);
-    let line = crate::sigma::describe_by_range(&split.sigma_60s_in_range, &sc.sigma_60s_beyond);
+    let line = crate::sigma::describe_by_range(Some(&inside), Some(&beyond));
     assert!(
-        line.contains("inside the trained range 1 at 100% within 2σ") && line.ends_with("none"),
+        line.contains("inside the trained range 1 at 100% within 2σ")
+            && line.ends_with("beyond it 1 at 0% within 2σ, median σ 0.11× the RMS error"),
         "{line}"
     );
     let one = decode_unit(GYRO).unwrap();

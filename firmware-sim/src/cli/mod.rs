@@ -164,7 +164,10 @@ fn channel_lines(scores: &[replay::ChannelScore]) -> String {
                 c.score.n_degraded,
                 c.score.n_fault,
                 sigma::describe(&c.score.sigma_samples, &c.score.sigma_60s),
-                sigma::describe_by_range(&c.score.sigma_60s_in_range, &c.score.sigma_60s_beyond)
+                sigma::describe_by_range(
+                    c.score.sigma_60s_in_range.as_ref(),
+                    c.score.sigma_60s_beyond.as_ref()
+                )
             )
         })
         .collect::<Vec<_>>()

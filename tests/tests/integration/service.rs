@@ -57,8 +57,8 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     // ±80 °/s): one number for every rate made the σ 3.25× its RMS error here, most of the
     // cool-down's means being at low rates. It is the model's trend over each half of its
     // range: its slope at the points, which follows the GP's wiggles between them, made the σ
-    // 2.51× its error (1.47 now; the basis chosen, {1, t, v}: `basis`, misses 1.8× less than
-    // physics, 0.87 with physics).
+    // 2.51× its error (1.23 now; the basis chosen, {1, t, v}: `basis`, misses 1.8× less than
+    // physics, 0.70 with physics).
     assert!(
         calibration["extrapolation_scale_ppm"].as_f64().unwrap() > 0.0,
         "{calibration}"
@@ -76,7 +76,7 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
 
     // A datasheet's bias temperature coefficient stated (the simulated gyro's largest bias
     // slope over its −30…60 °C, in °/s per °C) takes the place of the bias part assumed from the
-    // model's own slope: the σ at low rates, where the bias is all the error, narrows, and the
+    // model's own trend: the σ at low rates, where the bias is all the error, narrows, and the
     // held-out means stay covered (the scale factor's part, still assumed, holds the rest).
     let poly = firmware_sim::gyro::plant::GyroParams::nominal().bias_poly_dph;
     let tempco = (-30..=60)
@@ -211,7 +211,7 @@ fn residuals_just_beyond_the_range_leave_the_growth_far_beyond_it_assumed() {
     let coverage = r["sigma_60s"]["within_2sigma"].as_f64().unwrap();
     assert!(coverage >= 0.85, "{r}");
     // Assumed, and in proportion to the rate where the rate moves: 2.09 with one number for
-    // every rate, 1.12 told apart (1.30 with the model's slope at the points for its trend).
+    // every rate, 1.06 told apart (1.30 with the model's slope at the points for its trend).
     assert!(r["sigma_60s"]["sharpness"].as_f64().unwrap() <= 1.5, "{r}");
 }
 
@@ -317,7 +317,7 @@ fn a_warm_up_too_narrow_for_the_physics_prior_mean_chooses_a_simpler_one() {
 
 /// The MEMS log trained on ten minutes near its coldest (−17.3…−7.7 °C) and replayed over the
 /// rest of its cycle, up to 74 °C: no channel's sample is a fault. Gyro y's bias turns over above
-/// the band, which the model's own slope there cannot show: its σ covers under 85 % of the
+/// the band, which the model's own trend there cannot show: its σ covers under 85 % of the
 /// held-out means. A datasheet's figures in the channels file, each channel's own, state what
 /// the band cannot: a bias temperature coefficient on gyro y covers them, and the other channels
 /// keep what they would have had.

@@ -362,15 +362,18 @@ fn a_budget_sizes_the_model_of_the_basis_each_channel_ships() {
         .zip(budget["channels"].as_array().unwrap())
     {
         assert_eq!(channel["name"], sized["name"]);
-        let chosen = &sized["sizes"][sized["chosen"].as_u64().unwrap() as usize];
-        assert_eq!(channel["centres"], chosen["asked"], "{sized}");
+        // A size was chosen for every channel (the default did not fit), and the model kept
+        // no more centres than it asked for (a sparse fit may drop some).
+        let chosen = sized["chosen"].as_u64().expect("a size chosen") as usize;
+        let asked = sized["sizes"][chosen]["asked"].as_u64().unwrap();
+        assert!(channel["centres"].as_u64().unwrap() <= asked, "{sized}");
         let choice = &channel["basis_choice"];
         assert_eq!(channel["mean_basis"], choice["basis"], "{choice}");
         assert_eq!(choice["scores"].as_array().unwrap().len(), 3, "{choice}");
         bases.push(channel["mean_basis"].as_str().unwrap().to_owned());
     }
     assert!(bases.iter().any(|b| b == "physics"), "{bases:?}");
-    assert!(bases.iter().any(|b| b != "physics"), "{bases:?}");
+    assert!(bases.iter().any(|b| b == "poly2"), "{bases:?}");
 }
 
 /// A simulated unit of three axes on the short design, each with its `effects` entry, written to

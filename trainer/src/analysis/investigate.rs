@@ -126,7 +126,7 @@ pub struct Choice {
 /// export, the GP followed beyond the range, whatever rule ships: scored held, the simulated
 /// warm-up of docs/uncertainty.md ("The mean beyond the trained range") showed holding's miss at
 /// ±80 °/s in its temperature split, and the term fitted there, one number for every rate, made
-/// its σ 8.4× its RMS error on the colder day (1.23 so). Their extrapolation term is then the
+/// its σ 8.4× its RMS error on the colder day (1.03 so). Their extrapolation term is then the
 /// GP's miss, not the shipped rule's: under another rule it is assumed (`Prior::follows`).
 pub fn calibrate(
     (points, static_model, static_blob): (&Points, &GpModel, &[u8]),

@@ -42,17 +42,16 @@
 //! follow the GP beyond the range as they were scored ([`Prior::follows`]), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
 //! edge beyond it, the firmware misses that change per width): its trend next to the range's
-//! edges (its change over the lower and over the upper half of the range, per width, at the other
-//! inputs of the points it was fitted on, as an RMS; [`Prior::of`]), told apart by the points'
-//! reference rates into a
-//! part alike at every output and one in proportion to it ([`split_by_output`]): a gyro's scale
-//! factor drifts with temperature too. Where the mean follows a tangent or the GP beyond the range
+//! edges (over the lower and over the upper half of the range, per width, at the other inputs of
+//! the points it was fitted on, as an RMS; [`Prior::of`]), told apart by the points' reference
+//! rates into a part alike at every output and one in proportion to it ([`split_by_output`]): a
+//! gyro's scale factor drifts with temperature too. Where the mean follows a tangent or the GP beyond the range
 //! instead, chosen because it missed less than holding on the training points beyond an inner
 //! fit, the term is scaled by the share it missed there ([`Prior::for_rule`]); under `follow`,
 //! the residuals' test of it then asks about that smaller growth.
-//! (Where its data are: along the temperature at inputs no point is near, a (T, V) model fitted on
-//! a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
-//! either, its signal variance holding the whole rate response.) Another power-on's bias, which
+//! (At the points' other inputs: along the temperature at inputs no point is near, a (T, V) model
+//! fitted on a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is
+//! no measure either, its signal variance holding the whole rate response.) Another power-on's bias, which
 //! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
 //! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
@@ -60,14 +59,14 @@
 //! **A datasheet states what it knows better** ([`fog_data::channels::Datasheet`],
 //! [`Calibration::state`]): the bias's and the scale factor's run-to-run repeatability, the
 //! bias's temperature coefficient (the growth beyond the range: a part's bound, where the
-//! model's own slope over a narrow band says nothing of a bias that turns over beyond it), and
+//! model's own trend over a narrow band says nothing of a bias that turns over beyond it), and
 //! the gap between the heating and the cooling leg. Each takes the place of the term assumed
 //! (beyond a range the mean is not held at, the growth its rule assumes stays beside the
 //! datasheet's: [`Calibration::set_tempco`]).
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;
-use fog_data::stats::median;
+use fog_data::stats::{Line, median};
 use fog_data::stream::Stream;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
@@ -415,14 +414,17 @@ impl Prior {
 
     /// The prior of `model` fitted on `points` (module doc): what it changes over one width of
     /// its temperature input next to the range's edges, where holding it there starts to miss,
-    /// at the other inputs of each point it was fitted on: its change over the lower half of the
-    /// range and over the upper half, each per width, as an RMS over both halves and the points;
-    /// told apart by the points' outputs (the reference rate) into a bias and a scale part. The
-    /// halves are the model's trend there: a slope taken at each point over a tenth of the range
-    /// follows the GP's wiggles between its points too, which holding at the edge does not miss
-    /// and no bias continues (on four simulated 30-minute warm-ups it made the growth 2–3× the
-    /// halves', and the σ on a cool-down 1.7–2.5× the error); one chord over the whole range
-    /// would not see a bias that turns over inside it.
+    /// at the other inputs of each point it was fitted on: its trend over the lower half of the
+    /// range and over the upper half (the least-squares slope through it at `HALF_STEPS`
+    /// temperatures of each, times the width), as an RMS over both halves and the points; told
+    /// apart by the points' outputs (the reference rate) into a bias and a scale part. The halves
+    /// are the model's trend there: a slope taken at each point over a tenth of the range follows
+    /// the GP's wiggles between its points too, which holding at the edge does not miss and no
+    /// bias continues (on four simulated 30-minute warm-ups it made the σ on a cool-down
+    /// 1.7–2.5× the error, against 1.02–1.25); one chord over the whole range would not see a
+    /// bias that turns over inside it, and a chord per half would follow a wiggle's phase where it
+    /// reads the model. The blob holds one term for both edges: the RMS over the halves states
+    /// the steeper side up to √2 too narrow there, the other as much too wide.
     pub fn of(model: &GpModel, points: &Points) -> Self {
         let h = &model.posterior.hyper;
         let sy2 = model.output_scale.powi(2);
@@ -441,18 +443,22 @@ impl Prior {
                 if width <= 0.0 || x.nrows() == 0 {
                     return Vec::new();
                 }
-                // At each point's other inputs: the model's change over the lower half of the
-                // range and over the upper half, each per width; its mean square is the point's.
-                let mid = 0.5 * (lo + hi);
+                // At each point's other inputs: the model's trend over the lower half of the
+                // range and over the upper half (the least-squares slope through it at
+                // `HALF_STEPS` temperatures), each times the width; its mean square is the
+                // point's.
                 x.row_iter()
                     .map(|row| {
                         let mut at: Vec<f64> = row.iter().copied().collect();
-                        let mut f = |t: f64| {
-                            at[k] = t;
-                            model.predict_mean(&at)
+                        let mut trend = |from: f64| {
+                            let line = Line::fit((0..HALF_STEPS).map(|j| {
+                                at[k] = from + 0.5 * width * j as f64 / (HALF_STEPS - 1) as f64;
+                                (at[k], model.predict_mean(&at))
+                            }));
+                            line.map_or(0.0, |l| l.slope * width)
                         };
-                        let (low, middle, high) = (f(lo), f(mid), f(hi));
-                        2.0 * ((middle - low).powi(2) + (high - middle).powi(2))
+                        let (lower, upper) = (trend(lo), trend(lo + 0.5 * width));
+                        0.5 * (lower * lower + upper * upper)
                     })
                     .collect::<Vec<f64>>()
             })
@@ -518,6 +524,9 @@ impl Prior {
         }
     }
 }
+
+/// Temperatures at which [`Prior::of`] reads the model over each half of its range.
+const HALF_STEPS: usize = 11;
 
 /// Each point's squared change `c2` over one width, as a draw of variance `a + b · y²` at its
 /// output `y` (a, b ≥ 0, maximum likelihood): a gyro's scale factor changes with temperature as

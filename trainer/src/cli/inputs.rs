@@ -314,7 +314,7 @@ pub(super) struct DatasheetArgs {
     /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
     /// a datasheet gives it (its zero-rate output, or offset, change over temperature): beyond
     /// the trained range the σ grows by that much per °C, in place of the growth assumed from the
-    /// model's own slope inside the range where the mean is held there (under `--beyond` tangent
+    /// model's own trend inside the range where the mean is held there (under `--beyond` tangent
     /// or follow, added to what that rule assumes; a larger one the residuals fitted stands; the
     /// scale factor's part stays). For channels of one quantity (else each channel's `tempco`
     /// in the channels file).

@@ -5,6 +5,8 @@ use firmware_core::units::DPH_PER_DPS;
 use std::fmt::Write as _;
 
 use fog_data::allan::Analysis as Allan;
+use fog_data::replay::Score;
+use fog_data::sigma::Coverage;
 
 use crate::analysis::investigate::Investigation;
 use crate::analysis::reproduce::{PAPER_LOO_GPR, PAPER_LOO_LSSVR, PAPER_LOTO};
@@ -67,15 +69,10 @@ pub(super) fn sigma_table(inv: &Investigation) -> String {
         for (of, c) in [
             ("samples", &score.sigma_samples),
             ("60 s means", &score.sigma_60s),
-            (
-                "60 s means inside the trained range",
-                &score.sigma_60s_in_range,
-            ),
-            ("60 s means beyond it", &score.sigma_60s_beyond),
-        ] {
-            if c.n == 0 {
-                continue;
-            }
+        ]
+        .into_iter()
+        .chain(split_by_range(score))
+        {
             let _ = writeln!(
                 s,
                 "<tr><td>{name}</td><td>{of}</td><td>{:.2}</td><td>{:.2}</td><td>{:.0}%</td>\
@@ -99,6 +96,17 @@ pub(super) fn sigma_table(inv: &Investigation) -> String {
         let _ = writeln!(s, "<p>Its prior mean: {}.</p>", escape(&c.verdict));
     }
     s
+}
+
+/// The 60 s means inside the trained range and beyond it, apart, where there are both.
+fn split_by_range(score: &Score) -> Vec<(&'static str, &Coverage)> {
+    match (&score.sigma_60s_in_range, &score.sigma_60s_beyond) {
+        (Some(inside), Some(beyond)) => vec![
+            ("60 s means inside the trained range", inside),
+            ("60 s means beyond it", beyond),
+        ],
+        _ => Vec::new(),
+    }
 }
 
 pub(super) fn escape(s: &str) -> String {

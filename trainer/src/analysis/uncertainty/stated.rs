@@ -100,7 +100,7 @@ impl Calibration {
     /// per °C (a datasheet's), over the temperature input's trained width `width_c` °C. `held`:
     /// the blob's mean is held at the range's edge beyond it, and misses a bias that moves on at
     /// that rate by `per_c` per °C: `per_c · width_c` per trained width, the extrapolation term's
-    /// part alike at every output, in place of the part assumed from the model's own slope inside
+    /// part alike at every output, in place of the part assumed from the model's own trend inside
     /// the range. A mean that follows a tangent or the GP there moves on by its own slope too,
     /// which may run against the bias's (a bias that turns over): the part assumed for that rule
     /// (its share k of holding's miss) is added to the datasheet's, in quadrature. The part in

@@ -59,7 +59,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // beyond the range than the blob's (they follow the GP there), where there is a prior to
     // assume: with none (no temperature input) the term fitted stands. The other terms are then
     // fitted without it. (Kept in their fit beside them, as the GP's miss, it left acc x of the
-    // MEMS log 5.64× too wide held out, against 4.56×; the simulated cool-down calibrated on
+    // MEMS log 5.64× too wide held out, against 4.55×; the simulated cool-down calibrated on
     // 60 → 43 °C 0.29, against 4.19.)
     let other_rule = !prior.follows && prior.extrapolation_var > 0.0;
     if seen[EXTRAPOLATION]

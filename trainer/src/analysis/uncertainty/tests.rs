@@ -566,12 +566,20 @@ fn the_priors_growth_is_the_models_trend_next_to_the_edges() {
     // A straight bias: its change over the width, 1e-3 per °C over 20 °C.
     let straight = prior(&|t| 1e-3 * t);
     assert!((straight / 2e-2 - 1.0).abs() < 0.05, "{straight}");
-    // The same trend with four wiggles across the range, ten times as steep as the trend where
-    // they cross it: holding at the edge misses the trend, not the wiggles, which no bias
-    // continues beyond the range; a slope taken at the points would be several times larger.
-    let period = 5.0;
-    let wiggles = prior(&|t| 1e-3 * t + 8e-3 * (std::f64::consts::TAU * t / period).sin());
-    assert!((wiggles / 2e-2 - 1.0).abs() < 0.15, "{wiggles}");
+    // The same trend with wiggles across the range, two and a half times as steep as the trend
+    // where they cross it: holding at the edge misses the trend, not the wiggles, which no bias
+    // continues beyond the range; a slope taken at the points would be 2.0× larger. A chord
+    // through each half's ends would read their phase there (up to ±40 % with these); the
+    // half's least-squares slope reads it about half as much, the less the more periods the
+    // half holds.
+    for (period, phase) in [(5.0, 0.0), (4.4, 0.0), (4.4, 1.3), (6.1, 2.9)] {
+        let wiggles =
+            prior(&|t| 1e-3 * t + 2e-3 * (std::f64::consts::TAU * t / period + phase).sin());
+        assert!(
+            (wiggles / 2e-2 - 1.0).abs() < 0.25,
+            "{wiggles} at a period of {period} °C"
+        );
+    }
     // A bias that turns over in the middle of the range: no change from end to end, but each
     // half holds it, and beyond either edge it goes on rising: 1e-4 (t − 20)² changes by 1e-2
     // over each half, 2e-2 per width.
