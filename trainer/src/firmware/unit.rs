@@ -323,8 +323,9 @@ mod tests {
                     ..ea
                 };
                 assert_eq!(ea, eb, "{name}");
-                // Beyond the range (every input at 20): the same mean, noise and status, and a
-                // bias variance no wider but for the turn-on term (to f32 rounding).
+                // Beyond the range (every input at 20): the same mean, noise and status; the
+                // bias variance differs by the terms above alone (the extrapolation term assumed
+                // since from the model's trend over each half of its range, wider on acc y).
                 let x = vec![20.0f32; a.dims().d];
                 let (pa, pb) = (
                     a.predict(&x, &mut scratch).unwrap(),
@@ -336,8 +337,7 @@ mod tests {
                     "{name}"
                 );
                 let (va, vb) = (f64::from(pa.bias_variance), f64::from(pb.bias_variance));
-                let turn_on = f64::from(eb.turn_on_var);
-                assert!(vb <= (va + turn_on) * (1.0 + 1e-6), "{name}");
+                assert!(va > 0.0 && vb >= f64::from(eb.turn_on_var), "{name}");
             }
         }
     }
