@@ -429,6 +429,13 @@ fn offsets_between_sweeps_are_fitted_as_a_variance_and_left_out_of_predictions()
         * fit["channels"][0]["output_scale"].as_f64().unwrap();
     // The offsets are 1.4e-3 V RMS: 0.028 °/s at 0.05 V per °/s.
     assert!((0.01..0.06).contains(&g), "σ_g {g}");
+    // The prior mean's basis is chosen with offsets too (on the bands' plain GPs: the module doc
+    // of `analysis::basis`), and the model that ships, and `loo`'s, hold the basis reported.
+    let channel = &fit["channels"][0];
+    let choice = &channel["basis_choice"];
+    assert!(choice["scores"].as_array().unwrap().len() >= 2, "{choice}");
+    assert_eq!(channel["mean_basis"], choice["basis"], "{choice}");
+    assert_eq!(offsets["basis_choice"]["basis"], choice["basis"]);
 
     // Without --group there is nothing to give an offset to; investigate does not take it.
     let out = trainer(&["loo", "--points", "o.csv", "--offsets"], dir.path());
