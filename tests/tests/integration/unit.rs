@@ -366,7 +366,8 @@ fn a_budget_sizes_the_model_of_the_basis_each_channel_ships() {
         // no more centres than it asked for (a sparse fit may drop some).
         let chosen = sized["chosen"].as_u64().expect("a size chosen") as usize;
         let asked = sized["sizes"][chosen]["asked"].as_u64().unwrap();
-        assert!(channel["centres"].as_u64().unwrap() <= asked, "{sized}");
+        let centres = channel["centres"].as_u64().unwrap();
+        assert!(centres > 0 && centres <= asked, "{sized}");
         let choice = &channel["basis_choice"];
         assert_eq!(channel["mean_basis"], choice["basis"], "{choice}");
         assert_eq!(choice["scores"].as_array().unwrap().len(), 3, "{choice}");

@@ -424,7 +424,8 @@ impl Prior {
     /// 1.7–2.5× the error, against 1.02–1.25); one chord over the whole range would not see a
     /// bias that turns over inside it, and a chord per half would follow a wiggle's phase where it
     /// reads the model. The blob holds one term for both edges: the RMS over the halves states
-    /// the steeper side up to √2 too narrow there, the other as much too wide.
+    /// the steeper side up to √2 too narrow there, and the flatter one at least as much too wide
+    /// (without bound where it is flat).
     pub fn of(model: &GpModel, points: &Points) -> Self {
         let h = &model.posterior.hyper;
         let sy2 = model.output_scale.powi(2);

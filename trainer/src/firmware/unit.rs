@@ -278,8 +278,8 @@ mod tests {
 
     /// A unit blob of version 2 or 3 (channels of format 6 or 7) gives its channels back as blobs
     /// of that format, which compute what the same fit's unit of the current version computes (the
-    /// assumed extrapolation term aside, narrowed since for the rule shipped, and another
-    /// power-on's bias, assumed since).
+    /// assumed extrapolation term aside, changed since, and another power-on's bias, assumed
+    /// since).
     #[test]
     fn an_older_units_channels_come_back_in_their_own_format() {
         use firmware_core::blob::{FORMAT_VERSION, V6, V7};
@@ -302,12 +302,14 @@ mod tests {
             for (i, ((name, _, a), (_, _, b))) in old.iter().zip(&new).enumerate() {
                 let version = |blob: &[u8]| firmware_core::blob::read_header(blob).unwrap().version;
                 assert_eq!((version(a), version(b)), (format, FORMAT_VERSION), "{name}");
+                let b_bytes = b.clone();
                 let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
                 // The same fit's error model, but for the extrapolation term assumed: since
                 // scaled for the rule shipped beyond the range (`Prior::for_rule`) and taken as the
                 // model's trend over each half of its range (`Prior::of`). The older formats read
                 // it alike.
                 let (ea, eb) = (a.error_model(), b.error_model());
+                let older = ea;
                 if format == V6 {
                     v6_terms.push(ea.extrapolation_var);
                 } else {
@@ -324,8 +326,8 @@ mod tests {
                 };
                 assert_eq!(ea, eb, "{name}");
                 // Beyond the range (every input at 20): the same mean, noise and status; the
-                // bias variance differs by the terms above alone (the extrapolation term assumed
-                // since from the model's trend over each half of its range, wider on acc y).
+                // bias variance differs by the error model alone: the current blob with the older
+                // one's error model written in states the older one's (to f32 rounding).
                 let x = vec![20.0f32; a.dims().d];
                 let (pa, pb) = (
                     a.predict(&x, &mut scratch).unwrap(),
@@ -336,8 +338,17 @@ mod tests {
                     (pb.mean, pb.noise_variance, pb.status),
                     "{name}"
                 );
-                let (va, vb) = (f64::from(pa.bias_variance), f64::from(pb.bias_variance));
-                assert!(va > 0.0 && vb >= f64::from(eb.turn_on_var), "{name}");
+                let mut rewritten = b_bytes;
+                firmware_core::blob::set_error_model(&mut rewritten, &older).unwrap();
+                let pr = replay::decode(&rewritten)
+                    .unwrap()
+                    .predict(&x, &mut scratch)
+                    .unwrap();
+                let (va, vr) = (f64::from(pa.bias_variance), f64::from(pr.bias_variance));
+                assert!(
+                    va > 0.0 && (vr / va - 1.0).abs() < 1e-5,
+                    "{name}: {vr} {va}"
+                );
             }
         }
     }

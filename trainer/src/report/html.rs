@@ -54,8 +54,8 @@ pub(super) fn allan_sentence(allan: &[Allan; 3]) -> String {
 }
 
 /// The σ each model states on the held-out stream, scored: coverage at 1, 2 and 3σ of samples and
-/// of 60 s means (all, then those inside the trained range and those beyond it apart, where there
-/// are any), and the median σ over the RMS error; then how the shipped σ was calibrated.
+/// of 60 s means (all, then those inside the trained range and those beyond it apart, where both
+/// hold some), and the median σ over the RMS error; then how the shipped σ was calibrated.
 pub(super) fn sigma_table(inv: &Investigation) -> String {
     let mut s = String::from(
         "<h3>The firmware's σ on the held-out stream</h3>\n<table><tr><th>model</th><th>of</th>\

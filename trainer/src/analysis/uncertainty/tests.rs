@@ -566,18 +566,25 @@ fn the_priors_growth_is_the_models_trend_next_to_the_edges() {
     // A straight bias: its change over the width, 1e-3 per °C over 20 °C.
     let straight = prior(&|t| 1e-3 * t);
     assert!((straight / 2e-2 - 1.0).abs() < 0.05, "{straight}");
-    // The same trend with wiggles across the range, two and a half times as steep as the trend
-    // where they cross it: holding at the edge misses the trend, not the wiggles, which no bias
-    // continues beyond the range; a slope taken at the points would be 2.0× larger. A chord
-    // through each half's ends would read their phase there (up to ±40 % with these); the
-    // half's least-squares slope reads it about half as much, the less the more periods the
-    // half holds.
-    for (period, phase) in [(5.0, 0.0), (4.4, 0.0), (4.4, 1.3), (6.1, 2.9)] {
+    // The same trend with wiggles across the range: holding at the edge misses the trend, not
+    // the wiggles, which no bias continues beyond the range. A chord through each half's ends
+    // would read their phase there (up to ±40 % with those two and a half times as steep as the
+    // trend); the half's least-squares slope reads it far less. With wiggles ten times as steep
+    // as the trend, at a period that does not divide the halves, it stays within 15 %, where a
+    // chord per half gives about a third of the trend and the former slope at the points over
+    // a tenth of the range more than 1.2× it.
+    for (amplitude, period, phase, within) in [
+        (2e-3, 5.0, 0.0, 0.25),
+        (2e-3, 4.4, 0.0, 0.25),
+        (2e-3, 4.4, 1.3, 0.25),
+        (2e-3, 6.1, 2.9, 0.25),
+        (8e-3, 4.4, 0.0, 0.15),
+    ] {
         let wiggles =
-            prior(&|t| 1e-3 * t + 2e-3 * (std::f64::consts::TAU * t / period + phase).sin());
+            prior(&|t| 1e-3 * t + amplitude * (std::f64::consts::TAU * t / period + phase).sin());
         assert!(
-            (wiggles / 2e-2 - 1.0).abs() < 0.25,
-            "{wiggles} at a period of {period} °C"
+            (wiggles / 2e-2 - 1.0).abs() < within,
+            "{wiggles} at {amplitude} and a period of {period} °C"
         );
     }
     // A bias that turns over in the middle of the range: no change from end to end, but each
