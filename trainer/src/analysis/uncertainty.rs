@@ -45,13 +45,13 @@
 //! edges (over the lower and over the upper half of the range, per width, at the other inputs of
 //! the points it was fitted on, as an RMS; [`Prior::of`]), told apart by the points' reference
 //! rates into a part alike at every output and one in proportion to it ([`split_by_output`]): a
-//! gyro's scale factor drifts with temperature too. Where the mean follows a tangent or the GP beyond the range
-//! instead, chosen because it missed less than holding on the training points beyond an inner
-//! fit, the term is scaled by the share it missed there ([`Prior::for_rule`]); under `follow`,
-//! the residuals' test of it then asks about that smaller growth.
-//! (At the points' other inputs: along the temperature at inputs no point is near, a (T, V) model
-//! fitted on a warm-up's shuffled rates is unconstrained; and the kernel's own expected change is
-//! no measure either, its signal variance holding the whole rate response.) Another power-on's bias, which
+//! gyro's scale factor drifts with temperature too. Where the mean follows a tangent or the GP
+//! beyond the range instead, chosen because it missed less than holding on the training points
+//! beyond an inner fit, the term is scaled by the share it missed there ([`Prior::for_rule`]);
+//! under `follow`, the residuals' test of it then asks about that smaller growth. (At the points'
+//! other inputs: along the temperature at inputs no point is near, a (T, V) model fitted on a
+//! warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
+//! either, its signal variance holding the whole rate response.) Another power-on's bias, which
 //! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
 //! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
