@@ -683,24 +683,24 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
-    let scored_blocks = stream.half_filled_blocks(&scored);
-    let means = block_errors(stream, &comp.rate_dps, &scored_blocks);
-    let mean_sigmas: Vec<f64> = scored_blocks
-        .iter()
-        .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
-        .collect();
+    // Each 60 s block's mean error and the σ the firmware states for that mean, over the blocks
+    // at least half filled with `samples`.
+    let block_means = |samples: &[usize]| {
+        let blocks = stream.half_filled_blocks(samples);
+        let sigmas: Vec<f64> = blocks
+            .iter()
+            .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
+            .collect();
+        (block_errors(stream, &comp.rate_dps, &blocks), sigmas)
+    };
+    let (means, mean_sigmas) = block_means(&scored);
     let part = |status: Status| {
         let samples: Vec<usize> = scored
             .iter()
             .copied()
             .filter(|&i| comp.status[i] == status)
             .collect();
-        let blocks = stream.half_filled_blocks(&samples);
-        let sigmas: Vec<f64> = blocks
-            .iter()
-            .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
-            .collect();
-        let means = block_errors(stream, &comp.rate_dps, &blocks);
+        let (means, sigmas) = block_means(&samples);
         let coverage = (!means.is_empty()).then(|| Coverage::of(&means, &sigmas));
         (means, coverage)
     };
