@@ -317,7 +317,7 @@ class BasisChoice(Record):
     """The basis the model is fitted with."""
 
     scores: list[BasisScore]
-    """Each basis tried and its RMS error on the bands left out, output units (`null`: its test could not be fitted, the verdict says why); empty where none was tried (too many points, or too few to band)."""
+    """Each basis tried and its RMS error on the bands left out, output units (`null`: its test could not be fitted, the verdict says why); empty where none was tried (too many points, too few to band, or a band too far beyond the others for the test to see a basis)."""
 
     verdict: str
     """Why, in one line."""
