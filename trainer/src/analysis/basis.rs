@@ -392,9 +392,26 @@ mod tests {
         assert_eq!(band, "coldest");
         assert!((0.1..0.3).contains(&span), "{span}");
         assert!((5.0..5.5).contains(&reach), "{reach}");
+        // Mirrored, a cool-down onto a plateau: the warmest band is the one left to reach.
+        let cool_down: Vec<f64> = warm_up.iter().map(|t| 55.0 - t).collect();
+        let (band, _, reach) = blind_fold(&cool_down, &bands(&cool_down).unwrap()).unwrap();
+        assert_eq!(band, "warmest");
+        assert!((5.0..5.5).contains(&reach), "{reach}");
         // The ramp alone: each outer band reaches half a width beyond the other two.
         let ramp = &warm_up[..30];
         assert_eq!(blind_fold(ramp, &bands(ramp).unwrap()), None);
+        // The bound: a band 3.9 of its fold's widths beyond it is seen, 4.1 is not.
+        let reaching = |widths: f64| {
+            let t: Vec<f64> = (0..30)
+                .map(|i| match i {
+                    0..10 => -widths + 0.01 * f64::from(i),
+                    _ => f64::from(i - 10) / 19.0,
+                })
+                .collect();
+            blind_fold(&t, &bands(&t).unwrap())
+        };
+        assert_eq!(reaching(3.9), None);
+        assert!(reaching(4.1).is_some());
         // The choice abstains before fitting anything, and says why.
         let v: Vec<f64> = (0..90).map(|i| (f64::from(i) * 0.7).sin()).collect();
         let points = Points::new(
