@@ -1,6 +1,7 @@
 //! The summary statistics every layer uses, defined once, and the step of a quantized record.
 //! Each is NaN for no values: an RMS of nothing is not zero error, and a NaN shows in a report
-//! where a zero would pass for a result.
+//! where a zero would pass for a result. The extent of nothing is (∞, −∞), the identities of min
+//! and max, inside which no value lies.
 
 /// Arithmetic mean; NaN for no values.
 pub fn mean(v: &[f64]) -> f64 {
@@ -17,6 +18,15 @@ pub fn rms(v: &[f64]) -> f64 {
 pub fn spread(v: &[f64]) -> f64 {
     let m = mean(v);
     (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// The lowest and the highest value (NaN skipped, as `f64::min` and `f64::max` skip it); (∞, −∞)
+/// for no values.
+pub fn extent(v: impl IntoIterator<Item = f64>) -> (f64, f64) {
+    v.into_iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        })
 }
 
 /// Median; NaN for no values.

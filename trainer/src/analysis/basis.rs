@@ -264,17 +264,13 @@ fn bands(temps: &[f64]) -> Option<Vec<Vec<usize>>> {
 /// fold's temperatures, and never reaches beyond them.)
 fn blind_fold(temps: &[f64], bands: &[Vec<usize>]) -> Option<(&'static str, f64, f64)> {
     (0..bands.len()).find_map(|b| {
-        let others: Vec<f64> = bands
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != b)
-            .flat_map(|(_, band)| band.iter().map(|&i| temps[i]))
-            .collect();
-        let (lo, hi) = others
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
-                (lo.min(t), hi.max(t))
-            });
+        let (lo, hi) = fog_data::stats::extent(
+            bands
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k != b)
+                .flat_map(|(_, band)| band.iter().map(|&i| temps[i])),
+        );
         let reach = bands[b]
             .iter()
             .map(|&i| (lo - temps[i]).max(temps[i] - hi))

@@ -90,12 +90,7 @@ pub fn choose(points: &Points, cfg: &GpConfig) -> BeyondChoice {
     {
         return BeyondChoice::hold("held at the edge: the model has no temperature input".into());
     }
-    let (lo, hi) = points
-        .temp_c
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| {
-            (a.min(t), b.max(t))
-        });
+    let (lo, hi) = fog_data::stats::extent(points.temp_c.iter().copied());
     let margin = OUTER_SHARE * (hi - lo);
     let inside_c = (lo + margin, hi - margin);
     let (inside, outside): (Vec<usize>, Vec<usize>) =

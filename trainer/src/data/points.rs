@@ -234,8 +234,8 @@ pub fn implausible(
 /// Span of the temperatures (max − min), °C: it must exceed [`PLATEAU_GAP_C`] for a temperature
 /// dependence to be learnt.
 pub fn span(temps: &[f64]) -> f64 {
-    temps.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        - temps.iter().copied().fold(f64::INFINITY, f64::min)
+    let (lo, hi) = fog_data::stats::extent(temps.iter().copied());
+    hi - lo
 }
 
 /// Plateau index of each temperature: sorted temperatures split where the gap exceeds

@@ -352,10 +352,7 @@ fn split_blobs_on(
 /// each end), and the 60 s blocks inside and outside them. A sample counts by its own
 /// temperature.
 pub(super) fn inside(train: &Stream) -> ((f64, f64), usize, usize) {
-    let temps = train.referenced().into_iter().map(|i| train.temp_c[i]);
-    let (lo, hi) = temps.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
-        (lo.min(t), hi.max(t))
-    });
+    let (lo, hi) = fog_data::stats::extent(train.referenced().into_iter().map(|i| train.temp_c[i]));
     let margin = OUTER_SHARE * (hi - lo);
     let inside_c = (lo + margin, hi - margin);
     let (mut inside, mut outside) = (train.clone(), train.clone());
