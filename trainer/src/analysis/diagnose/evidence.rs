@@ -2,7 +2,6 @@
 //! a design on them, and whether a test can see a candidate at all.
 
 use super::regression::{Candidates, Constant, ols, predict};
-use fog_data::selection::share;
 use fog_data::stats::spread;
 
 /// Blocks per chunk of the cross-validation (10 minutes of 60 s blocks).
@@ -15,7 +14,8 @@ pub(super) const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
 /// scores for the test to see it (module doc: below, the test abstains).
 pub const VISIBLE: f64 = 0.2;
 /// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
-/// as harm (module doc; [`crate::analysis::investigate`] keeps the same rule).
+/// as harm (module doc: the diagnosis weighs it against the whole stream's residual, the
+/// extension's check in [`crate::analysis::investigate`] against the scored blocks' own).
 pub const HARM: f64 = 0.02;
 /// Fewest training blocks a split needs to be scored.
 pub(super) const MIN_TRAIN_BLOCKS: usize = 5;
@@ -147,12 +147,19 @@ pub(super) fn harms(share: f64) -> bool {
 }
 
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
-/// worse on the later ones than the intercept alone by more than [`HARM`], each with its mean
-/// over the later blocks taken out (the design's intercept, fitted beside a transient on the
-/// earlier blocks alone, is not the one fitted on the whole stream; module doc).
+/// it leaves the later ones more error than the intercept alone, each with its mean over them
+/// taken out (the design's intercept, fitted beside a transient on the earlier blocks alone, is
+/// not the one fitted on the whole stream), by more than [`HARM`] of the residual over the whole
+/// stream, its mean taken out, on as many blocks (module doc: not of the later blocks' own).
 pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
-    let (sse, none) = split_sse(y, constant, design, &forward_splits(y.len()), true);
-    harms(share(sse, none))
+    let splits: Vec<Split> = forward_splits(y.len())
+        .into_iter()
+        .filter(|(train, test)| train.len() >= MIN_TRAIN_BLOCKS && !test.is_empty())
+        .collect();
+    let (sse, none) = split_sse(y, constant, design, &splits, true);
+    let tested = splits.iter().map(|(_, test)| test.len()).sum::<usize>() as f64;
+    let whole = tested * spread(y).powi(2);
+    whole > 0.0 && harms((none - sse) / whole)
 }
 
 /// Whether the forward test sees `design`: some cause's regressor, at its parameter chosen on all

@@ -138,3 +138,46 @@ fn forward_splits_train_on_the_past_only() {
     let tested: usize = forward_splits(80).iter().map(|(_, t)| t.len()).sum();
     assert_eq!(tested, 40);
 }
+
+#[test]
+fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
+    let n = 80;
+    let e = noise(n, 5);
+    let blocks: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let decay = |tau: f64| -> Vec<f64> { blocks.iter().map(|i| (-i / tau).exp()).collect() };
+    // Relative to the later blocks' own error: the ratio of the centred SSEs, as RMS.
+    let later_worsening = |y: &[f64], design: &[&Candidates]| {
+        let (sse, none) = split_sse(y, Constant::Intercept, design, &forward_splits(n), true);
+        (sse / none).sqrt() - 1.0
+    };
+    // A decay gone by the first origin; the candidate's is slower, so its tail, fitted on the
+    // earlier blocks, lies a little off the quiet later ones.
+    let quiet: Vec<f64> = decay(4.0)
+        .iter()
+        .zip(&e)
+        .map(|(d, e)| d + 0.002 * e)
+        .collect();
+    let slower: Candidates = vec![(8.0, Some(decay(8.0)))];
+    assert!(!forward_sees(&quiet, Constant::Intercept, &[&slower]));
+    assert!(later_worsening(&quiet, &[&slower]) > 0.1);
+    assert!(!blind_harm(&quiet, Constant::Intercept, &[&slower]));
+    // A decline that turns into a rise at the first origin: on all blocks a decay fits it, which
+    // has died out in the later blocks; on the earlier blocks alone a line does, whose tail
+    // falls where the stream rises.
+    let turning: Vec<f64> = blocks
+        .iter()
+        .zip(&e)
+        .map(|(&i, e)| {
+            let v = if i < 40.0 {
+                1.0 - i / 40.0
+            } else {
+                0.5 * (i - 40.0) / 40.0
+            };
+            v + 0.002 * e
+        })
+        .collect();
+    let line: Vec<f64> = blocks.iter().map(|i| 1.0 - i / 80.0).collect();
+    let either: Candidates = vec![(12.0, Some(decay(12.0))), (0.0, Some(line))];
+    assert!(!forward_sees(&turning, Constant::Intercept, &[&either]));
+    assert!(blind_harm(&turning, Constant::Intercept, &[&either]));
+}
