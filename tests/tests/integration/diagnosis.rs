@@ -10,7 +10,7 @@ use firmware_sim::gyro::effects::Strength;
 use firmware_sim::gyro::stream::StreamConfig;
 use fog_data::cause::Cause;
 use rand::{RngExt, SeedableRng};
-use trainer::analysis::challenge::run_case;
+use trainer::analysis::challenge::{run_case, run_lab};
 
 fn check(cause: Cause, seed: u64) {
     let case = run_case(&[cause], seed, Strength::Documented, false).unwrap();
@@ -117,46 +117,32 @@ fn weak_effects_are_never_misnamed_and_never_made_worse() {
     }
 }
 
-/// One of `challenge --kind lab`'s logs (its shape's name and stream), with its warm-up hidden or
-/// none, investigated as the challenge does (with its oracle where one is hidden).
-fn lab_case(
-    log: (&'static str, fn() -> StreamConfig),
-    seed: u64,
-    warm_up: bool,
-) -> trainer::analysis::challenge::Case {
-    use trainer::analysis::challenge::{lab_warm_up, run_hidden};
-    let hidden = if warm_up {
-        lab_warm_up(seed)
-    } else {
-        firmware_sim::gyro::effects::Hidden(Vec::new())
-    };
-    run_hidden(hidden, (log.0, log.1()), seed, warm_up).unwrap()
-}
-
 /// Issue 45: the commonest calibration log, one power-on at its start, with a warm-up hidden
 /// (τ 22 min here). The forward tests predict the later part of the log, where the warm-up is
 /// over: they cannot see it and abstain, so the warm-up is named and shipped, and gains what an
 /// investigation told the truth gains. With no effect the same log names nothing.
 #[test]
 fn a_warm_up_after_the_one_power_on_of_a_log_is_named_and_shipped() {
-    let case = lab_case(("power-on", StreamConfig::power_on), 1020, true);
+    let case = run_lab(("power-on", StreamConfig::power_on), 1020, true).unwrap();
     assert_eq!(case.named, vec![Cause::WarmUp], "{case:?}");
     assert!(case.shipped_extension, "{}", case.verdict);
     assert!(case.gain > 3.0, "{case:?}");
     assert!(case.gain >= 0.95 * case.oracle_gain.unwrap(), "{case:?}");
-    let none = lab_case(("power-on", StreamConfig::power_on), 1020, false);
+    let none = run_lab(("power-on", StreamConfig::power_on), 1020, false).unwrap();
     assert!(none.named.is_empty(), "{none:?}");
 }
 
-/// A 60-minute log of a soak and a ramp (seed 1060: 38 °/h, τ 13.5 min). Its later half is the
-/// ramp, where the warm-up has died out and its residual is the noise of a 60 s mean: the tail,
-/// fitted on the earlier blocks, misses those quiet blocks by 1.21× their own error, 0.3 % of the
-/// stream's. Weighed against the later blocks alone that refused the warm-up and shipped the
-/// static model (gain 1.00×); weighed against the stream, it is named and shipped.
+/// Issue 54: a 60-minute log of a soak and a ramp (seed 1060: 38 °/h, τ 13.5 min). Its later
+/// half is the ramp, where the warm-up's decay barely moves (4 → 0.4 °/h) and the static model
+/// leaves 0.5–1.7 °/h: the warm-up's tail, fitted on the earlier blocks, leaves those blocks 1.21×
+/// that, +0.3 % on the stream's residual. Weighed against the later blocks alone that refused
+/// the warm-up and shipped the static model (gain 1.00×); weighed against the stream, it is
+/// named and shipped, near what the investigation told the cause gains.
 #[test]
 fn a_warm_up_whose_tail_misses_a_quiet_later_half_is_still_named() {
-    let case = lab_case(("short", StreamConfig::short), 1060, true);
+    let case = run_lab(("short", StreamConfig::short), 1060, true).unwrap();
     assert_eq!(case.named.first(), Some(&Cause::WarmUp), "{case:?}");
     assert!(case.shipped_extension, "{}", case.verdict);
     assert!(case.gain > 3.0, "{case:?}");
+    assert!(case.gain >= 0.85 * case.oracle_gain.unwrap(), "{case:?}");
 }

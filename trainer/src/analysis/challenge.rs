@@ -94,6 +94,17 @@ pub fn lab_warm_up(seed: u64) -> Hidden {
     }])
 }
 
+/// A log of a [`LAB`] shape, from seed `seed`, with its warm-up ([`lab_warm_up`]) hidden or
+/// none, investigated beside its oracle.
+pub fn run_lab(design: Design, seed: u64, warm_up: bool) -> anyhow::Result<Case> {
+    let hidden = if warm_up {
+        lab_warm_up(seed)
+    } else {
+        Hidden(Vec::new())
+    };
+    run_hidden(hidden, (design.0, design.1()), seed, true)
+}
+
 /// One case and what the investigation made of it.
 #[derive(Debug, Clone, Serialize, schemars::JsonSchema)]
 pub struct Case {
@@ -349,14 +360,7 @@ pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow:
             .map(|(i, (c, shape, s))| {
                 let cases = match (kind, shape) {
                     (CaseSet::Unit, _) => run_unit_case(i, s),
-                    (_, Some(k)) => {
-                        let hidden = if c.contains(&Cause::WarmUp) {
-                            lab_warm_up(s)
-                        } else {
-                            Hidden(Vec::new())
-                        };
-                        run_hidden(hidden, (LAB[k].0, LAB[k].1()), s, true).map(|c| vec![c])
-                    }
+                    (_, Some(k)) => run_lab(LAB[k], s, c.contains(&Cause::WarmUp)).map(|c| vec![c]),
                     (_, None) => run_case(&c, s, strength, kind == CaseSet::Pairs).map(|c| vec![c]),
                 };
                 bar.advance(1);

@@ -40,13 +40,15 @@
 //! forward test abstains: it neither names the design nor refuses it, and the design is ranked by
 //! the interleaved test alone. It still refuses what it can measure: a design whose tail, fitted
 //! on the earlier blocks, leaves the later ones more error than the intercept alone (each with its
-//! mean there taken out) is not named where that worsening exceeds [`HARM`] of the residual over
-//! the whole stream (RMS). The whole stream, not the later blocks' own error: where a test cannot
-//! see a design the later blocks are often quiet, their residual the noise of a 60 s mean, and a
-//! tail a few tenths of °/h off there refused a warm-up of 38 °/h (the lab challenge's `short`
-//! log, seed 1060: 1.21× the later blocks' own error, 0.3 % of the stream's). The regressor moves
-//! there by under [`VISIBLE`] of its spread, so what its tail can add is small beside what the
-//! design explains where it moves. The extension's own check, which decides what ships
+//! mean there taken out) is not named where that extra error would raise the RMS residual over the
+//! whole stream by more than [`HARM`]: a tail off by more than about a fifth of the residual's
+//! spread. The whole stream, not the later blocks' own error: where a test cannot see a design the
+//! later blocks are often quiet, their residual the noise of a 60 s mean, and a tail a few tenths
+//! of °/h off there refused a warm-up of 38 °/h (the lab challenge's `short` log, seed 1060: 1.21×
+//! the later blocks' own error, +0.3 % on the stream's). At the parameter chosen on all blocks the
+//! regressor moves there by under [`VISIBLE`] of its spread, so its tail is small beside what the
+//! design explains where it moves; the rule refuses tails whose fit on the earlier blocks chose
+//! another parameter and goes wrong there. The extension's own check, which decides what ships
 //! ([`crate::analysis::investigate`]), keeps the scored blocks' own error as its measure.
 //!
 //! **A static model fitted on the stream itself** (no rate table) has already absorbed the part of

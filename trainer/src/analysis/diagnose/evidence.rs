@@ -50,6 +50,11 @@ pub(super) fn forward_splits(n: usize) -> Vec<Split> {
         .collect()
 }
 
+/// Whether a split is scored: enough training blocks, and some to test.
+fn scorable((train, test): &Split) -> bool {
+    train.len() >= MIN_TRAIN_BLOCKS && !test.is_empty()
+}
+
 /// Test-set SSE of a design (the causes' candidate regressors, in order) and of the intercept
 /// alone, summed over `splits`. On each split's training blocks alone, each cause's parameter is
 /// chosen by grid in turn, given those chosen before it, and the coefficients by least squares.
@@ -72,10 +77,7 @@ pub(super) fn split_sse(
     };
     let mut sse = 0.0;
     let mut sse_none = 0.0;
-    for (train, test) in splits {
-        if train.len() < MIN_TRAIN_BLOCKS || test.is_empty() {
-            continue;
-        }
+    for (train, test) in splits.iter().filter(|s| scorable(s)) {
         let xs = choose(y, constant, design, train);
         let (beta, _) = ols(constant, &xs, y, train);
         let (mean, _) = ols(Constant::Intercept, &[], y, train);
@@ -149,15 +151,17 @@ pub(super) fn harms(share: f64) -> bool {
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
 /// it leaves the later ones more error than the intercept alone, each with its mean over them
 /// taken out (the design's intercept, fitted beside a transient on the earlier blocks alone, is
-/// not the one fitted on the whole stream), by more than [`HARM`] of the residual over the whole
-/// stream, its mean taken out, on as many blocks (module doc: not of the later blocks' own).
+/// not the one fitted on the whole stream), and that extra error, added to the whole stream's
+/// residual about its mean on as many blocks, raises its RMS by more than [`HARM`] (module doc:
+/// not the later blocks' own).
 pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
-    let splits: Vec<Split> = forward_splits(y.len())
-        .into_iter()
-        .filter(|(train, test)| train.len() >= MIN_TRAIN_BLOCKS && !test.is_empty())
-        .collect();
+    let splits = forward_splits(y.len());
     let (sse, none) = split_sse(y, constant, design, &splits, true);
-    let tested = splits.iter().map(|(_, test)| test.len()).sum::<usize>() as f64;
+    let tested = splits
+        .iter()
+        .filter(|s| scorable(s))
+        .map(|(_, test)| test.len())
+        .sum::<usize>() as f64;
     let whole = tested * spread(y).powi(2);
     whole > 0.0 && harms((none - sse) / whole)
 }
