@@ -1250,6 +1250,9 @@ class ForwardCheck(Record):
     legs: list[LegCheck]
     """The same test across the heating/cooling legs, each way the stream holds enough of both."""
 
+    residual_60s_dps: float
+    """The static model's residual over the whole training stream, its 60 s means about their mean (RMS): what the harm a test that cannot see the extension measures is weighed against ([`vote`]), as the diagnosis weighs it."""
+
     sight: Sight
     """What the later part could see of the extension ([`Sight`])."""
 

@@ -48,8 +48,8 @@
 //! the later blocks' own error, +0.3 % on the stream's). At the parameter chosen on all blocks the
 //! regressor moves there by under [`VISIBLE`] of its spread, so its tail is small beside what the
 //! design explains where it moves; the rule refuses tails whose fit on the earlier blocks chose
-//! another parameter and goes wrong there. The extension's own check, which decides what ships
-//! ([`crate::analysis::investigate`]), keeps the scored blocks' own error as its measure.
+//! another parameter and goes wrong there. The extension's own checks, which decide what ships
+//! ([`crate::analysis::investigate`]), weigh the harm they cannot see past by the same rule.
 //!
 //! **A static model fitted on the stream itself** (no rate table) has already absorbed the part of
 //! an effect that its temperature input can follow: a thermal-rate bias on a one-way ramp looks
@@ -114,7 +114,7 @@ use evidence::{
     FOLDS, Split, blind_harm, choose, chosen_parameter, forward_sees, forward_splits,
     interleaved_splits, split_sse,
 };
-pub use evidence::{HARM, VISIBLE, sees};
+pub use evidence::{HARM, VISIBLE, raises, sees};
 use fog_data::selection::{self, share};
 pub use fog_data::selection::{MAX_CAUSES, MIN_NEXT_SCORE, MIN_SCORE};
 pub use regression::{Candidates, Constant, Plateaus};

@@ -10,6 +10,7 @@ use crate::progress::Progress;
 use fog_data::cause::Cause;
 use fog_data::channels::Datasheet;
 use fog_data::replay::{self, HostModel, Score};
+use fog_data::stats::spread;
 use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
 
@@ -224,7 +225,7 @@ pub fn choose(
         return Ok(static_choice(diagnosis, causes, None, verdict, splits));
     }
     let names = joined(&causes);
-    let fitted = forward_check(points, model, train, cfg, &causes, rebuild)
+    let fitted = forward_check(points, model, train, cfg, &causes, rebuild, spread(&res.r))
         .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
     let ((check, splits), extended) = match (fitted, asked) {
         (Ok(both), _) => both,
@@ -299,7 +300,9 @@ fn nested(
 ) -> anyhow::Result<Option<Nested>> {
     for &cause in causes {
         let one = [cause];
-        let Ok((check, splits)) = forward_check(points, model, train, cfg, &one, rebuild) else {
+        let Ok((check, splits)) =
+            forward_check(points, model, train, cfg, &one, rebuild, spread(&res.r))
+        else {
             continue;
         };
         let Ok(extended) = extend::fit(model, points, res, &one) else {
@@ -328,7 +331,9 @@ fn check_figures(c: &ForwardCheck, names: &str, unit: &str) -> String {
             let [s, e] = sight.centred_rmse_60s_dps;
             format!(
                 " (its input barely moves there: that test cannot see it, and judges only harm, \
-                 {e:.3e} against {s:.3e} with each model's mean taken out)"
+                 {e:.3e} against {s:.3e} with each model's mean taken out, beside the training \
+                 residual's {:.3e})",
+                c.residual_60s_dps
             )
         }
     };
@@ -388,9 +393,16 @@ fn decide(
         ),
         (Some(c), asked) => {
             let figures = check_figures(c, names, unit);
-            let forward_fails = !vote(c.static_rmse_60s_dps, c.extended_rmse_60s_dps, &c.sight);
+            let forward_fails = !vote(
+                c.static_rmse_60s_dps,
+                c.extended_rmse_60s_dps,
+                &c.sight,
+                c.residual_60s_dps,
+            );
             let elsewhere = match (
-                c.temperature.as_ref().is_none_or(|t| t.extension_helps()),
+                c.temperature
+                    .as_ref()
+                    .is_none_or(|t| t.extension_helps(c.residual_60s_dps)),
                 c.legs_pass(),
             ) {
                 (false, true) => "outside the temperatures it was fitted on",

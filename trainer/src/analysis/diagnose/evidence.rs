@@ -14,8 +14,8 @@ pub(super) const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
 /// scores for the test to see it (module doc: below, the test abstains).
 pub const VISIBLE: f64 = 0.2;
 /// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
-/// as harm (module doc: the diagnosis weighs it against the whole stream's residual, the
-/// extension's check in [`crate::analysis::investigate`] against the scored blocks' own).
+/// as harm, weighed against the training stream's residual ([`raises`]; module doc), by the
+/// diagnosis and the extension's checks in [`crate::analysis::investigate`] alike.
 pub const HARM: f64 = 0.02;
 /// Fewest training blocks a split needs to be scored.
 pub(super) const MIN_TRAIN_BLOCKS: usize = 5;
@@ -143,17 +143,11 @@ pub fn sees(values: &[f64], scored: &[usize]) -> bool {
     all > 0.0 && part >= VISIBLE * all
 }
 
-/// Whether a share of the SSE (1 − SSE/SSE_ref) is a worsening of the RMS error beyond [`HARM`].
-pub(super) fn harms(share: f64) -> bool {
-    (1.0 - share).sqrt() - 1.0 > HARM
-}
-
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
 /// it leaves the later ones more error than the intercept alone, each with its mean over them
 /// taken out (the design's intercept, fitted beside a transient on the earlier blocks alone, is
-/// not the one fitted on the whole stream), and that extra error, added to the whole stream's
-/// residual about its mean on as many blocks, raises its RMS by more than [`HARM`] (module doc:
-/// not the later blocks' own).
+/// not the one fitted on the whole stream), by enough to raise the whole stream's residual
+/// ([`raises`]; module doc: not the later blocks' own).
 pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
     let splits = forward_splits(y.len());
     let (sse, none) = split_sse(y, constant, design, &splits, true);
@@ -162,8 +156,14 @@ pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidate
         .filter(|s| scorable(s))
         .map(|(_, test)| test.len())
         .sum::<usize>() as f64;
-    let whole = tested * spread(y).powi(2);
-    whole > 0.0 && harms((none - sse) / whole)
+    raises((sse - none) / tested, spread(y).powi(2))
+}
+
+/// Whether `extra`, a mean square added to a residual of mean square `reference`, raises its RMS
+/// by more than [`HARM`]: the harm a test that cannot see a design counts, `reference` the
+/// training stream's residual about its mean (module doc). False where there is no reference.
+pub fn raises(extra: f64, reference: f64) -> bool {
+    reference > 0.0 && (1.0 + extra / reference).sqrt() - 1.0 > HARM
 }
 
 /// Whether the forward test sees `design`: some cause's regressor, at its parameter chosen on all

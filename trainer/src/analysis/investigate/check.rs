@@ -33,6 +33,10 @@ pub struct ForwardCheck {
     pub extended_rmse_60s_dps: f64,
     /// What the later part could see of the extension ([`Sight`]).
     pub sight: Sight,
+    /// The static model's residual over the whole training stream, its 60 s means about their
+    /// mean (RMS): what the harm a test that cannot see the extension measures is weighed against
+    /// ([`vote`]), as the diagnosis weighs it.
+    pub residual_60s_dps: f64,
     /// The same test across temperature, where the static model is fitted on the stream itself
     /// (absent with a rate table, or where either side is too short).
     pub temperature: Option<TemperatureCheck>,
@@ -51,18 +55,23 @@ impl ForwardCheck {
                 self.static_rmse_60s_dps,
                 self.extended_rmse_60s_dps,
                 &self.sight,
+                self.residual_60s_dps,
             )
             && self
                 .temperature
                 .as_ref()
-                .is_none_or(|t| t.extension_helps())
+                .is_none_or(|t| t.extension_helps(self.residual_60s_dps))
             && self.legs_pass()
     }
 
     /// Whether the leg checks pass: none could be made, or the extension wins on at least one
     /// leg it was not fitted on ([`LegCheck`]).
     pub fn legs_pass(&self) -> bool {
-        self.legs.is_empty() || self.legs.iter().any(LegCheck::extension_helps)
+        self.legs.is_empty()
+            || self
+                .legs
+                .iter()
+                .any(|l| l.extension_helps(self.residual_60s_dps))
     }
 }
 
@@ -93,25 +102,31 @@ pub struct LegCheck {
 }
 
 impl LegCheck {
-    /// Whether the extension passes on the other leg ([`vote`]).
-    pub fn extension_helps(&self) -> bool {
+    /// Whether the extension passes on the other leg ([`vote`]; `residual`:
+    /// [`ForwardCheck::residual_60s_dps`]).
+    pub fn extension_helps(&self, residual: f64) -> bool {
         vote(
             self.static_rmse_60s_dps,
             self.extended_rmse_60s_dps,
             &self.sight,
+            residual,
         )
     }
 }
 
 /// One test's vote on an extension: where it sees the extension, a gain; where it cannot, no
-/// harm beyond [`diagnose::HARM`] in what it can measure ([`Sight`]): it abstains, and the
-/// decision rests on the tests that could see (the diagnosis' interleaved test always does).
-pub fn vote(static_rmse: f64, extended_rmse: f64, sight: &Sight) -> bool {
+/// harm in what it can measure ([`Sight`]): the mean square it adds there must not raise the
+/// training stream's `residual` (RMS of its 60 s means) by more than [`diagnose::HARM`]
+/// ([`diagnose::raises`]). It abstains, and the decision rests on the tests that could see (the
+/// diagnosis' interleaved test always does). Weighed against the scored part's own error, a part
+/// at the noise of a 60 s mean refused warm-ups of 30–48 °/h for tails a few tenths of °/h off
+/// there (docs/diagnosis.md).
+pub fn vote(static_rmse: f64, extended_rmse: f64, sight: &Sight, residual: f64) -> bool {
     if sight.sees {
         extended_rmse < static_rmse
     } else {
         let [s, e] = sight.centred_rmse_60s_dps;
-        e <= s * (1.0 + diagnose::HARM)
+        !diagnose::raises(e * e - s * s, residual * residual)
     }
 }
 
@@ -139,18 +154,21 @@ pub struct TemperatureCheck {
 }
 
 impl TemperatureCheck {
-    /// Whether the extension passes outside ([`vote`]).
-    pub fn extension_helps(&self) -> bool {
+    /// Whether the extension passes outside ([`vote`]; `residual`:
+    /// [`ForwardCheck::residual_60s_dps`]).
+    pub fn extension_helps(&self, residual: f64) -> bool {
         vote(
             self.static_rmse_60s_dps,
             self.extended_rmse_60s_dps,
             &self.sight,
+            residual,
         )
     }
 }
 
 /// The forward check of [`super::choose`] (`None` where the stream is too short for one), and the splits
-/// it fitted. Blocks are counted as the diagnosis counts them (samples with a reference).
+/// it fitted; `residual_60s_dps` is [`ForwardCheck::residual_60s_dps`]. Blocks are counted as the
+/// diagnosis counts them (samples with a reference).
 pub(super) fn forward_check(
     points: &Points,
     model: &GpModel,
@@ -158,6 +176,7 @@ pub(super) fn forward_check(
     cfg: &GpConfig,
     causes: &[Cause],
     rebuild: &Rebuild<'_>,
+    residual_60s_dps: f64,
 ) -> anyhow::Result<(Option<ForwardCheck>, Vec<Split>)> {
     let splits = splits(points, model, train, cfg, causes, rebuild)?;
     let Some(Forward {
@@ -212,6 +231,7 @@ pub(super) fn forward_check(
         static_rmse_60s_dps: static_rmse,
         extended_rmse_60s_dps: extended_rmse,
         sight,
+        residual_60s_dps,
         temperature,
         legs,
     };
