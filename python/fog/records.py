@@ -1251,7 +1251,7 @@ class ForwardCheck(Record):
     """The same test across the heating/cooling legs, each way the stream holds enough of both."""
 
     residual_60s_dps: float
-    """The static model's residual over the whole training stream, its 60 s means about their mean (RMS): what the harm a test that cannot see the extension measures is weighed against ([`vote`]), as the diagnosis weighs it."""
+    """The static model's residual over the whole training stream, its 60 s means about their mean (RMS): what the harm a test that cannot see the extension measures is weighed against where the part it scores is quieter ([`vote`]), as the diagnosis weighs it."""
 
     sight: Sight
     """What the later part could see of the extension ([`Sight`])."""
@@ -1740,7 +1740,7 @@ class Step(Record):
     """The same on the forward test."""
 
     forward_sees: bool
-    """Whether the forward test could see the design (module doc): where it could not, it abstained, and only harm beyond [`HARM`] counted."""
+    """Whether the forward test could see the design (module doc): where it could not, it abstained, and only harm counted ([`raises`])."""
 
     parameters: list[float]
     """Their parameters, chosen on all blocks (filter, lag or decay time constant, s; play half-width, °C; 0 where there is none)."""

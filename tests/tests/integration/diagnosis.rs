@@ -132,17 +132,21 @@ fn a_warm_up_after_the_one_power_on_of_a_log_is_named_and_shipped() {
     assert!(none.named.is_empty(), "{none:?}");
 }
 
-/// Issue 54: a 60-minute log of a soak and a ramp (seed 1060: 38 °/h, τ 13.5 min). Its later
-/// half is the ramp, where the warm-up's decay barely moves (4 → 0.4 °/h) and the static model
-/// leaves 0.5–1.7 °/h: the warm-up's tail, fitted on the earlier blocks, leaves those blocks 1.21×
-/// that, +0.3 % on the stream's residual. Weighed against the later blocks alone that refused
-/// the warm-up and shipped the static model (gain 1.00×); weighed against the stream, it is
-/// named and shipped, near what the investigation told the cause gains.
+/// Issue 54: 60-minute logs of a soak and a ramp, each a warm-up hidden. Their later half is the
+/// ramp, where the decay barely moves and the static model leaves the noise of a 60 s mean, so
+/// the tests that score it cannot see the warm-up and judge only harm. Seed 1060 (38 °/h, τ 13.5
+/// min): the warm-up's tail, fitted on the earlier blocks, leaves those blocks 1.21× the static
+/// model's error, +0.3 % on the stream's residual; weighed against the later blocks alone the
+/// diagnosis named nothing (1.00×). Seed 2010 (30 °/h, τ 17 min): named, the investigation's
+/// forward check found 1.20× there and shipped the static model (1.00×, its oracle 8.80×).
+/// Weighed against the stream, each is named and shipped, near what its oracle gains.
 #[test]
-fn a_warm_up_whose_tail_misses_a_quiet_later_half_is_still_named() {
-    let case = run_lab(("short", StreamConfig::short), 1060, true).unwrap();
-    assert_eq!(case.named.first(), Some(&Cause::WarmUp), "{case:?}");
-    assert!(case.shipped_extension, "{}", case.verdict);
-    assert!(case.gain > 3.0, "{case:?}");
-    assert!(case.gain >= 0.85 * case.oracle_gain.unwrap(), "{case:?}");
+fn a_warm_up_whose_tail_misses_a_quiet_later_half_is_still_named_and_shipped() {
+    for seed in [1060, 2010] {
+        let case = run_lab(("short", StreamConfig::short), seed, true).unwrap();
+        assert_eq!(case.named.first(), Some(&Cause::WarmUp), "{case:?}");
+        assert!(case.shipped_extension, "{}", case.verdict);
+        assert!(case.gain > 3.0, "{case:?}");
+        assert!(case.gain >= 0.85 * case.oracle_gain.unwrap(), "{case:?}");
+    }
 }

@@ -40,15 +40,16 @@
 //! forward test abstains: it neither names the design nor refuses it, and the design is ranked by
 //! the interleaved test alone. It still refuses what it can measure: a design whose tail, fitted
 //! on the earlier blocks, leaves the later ones more error than the intercept alone (each with its
-//! mean there taken out) is not named where that extra error would raise the RMS residual over the
-//! whole stream by more than [`HARM`]: a tail off by more than about a fifth of the residual's
-//! spread. The whole stream, not the later blocks' own error: where a test cannot see a design the
-//! later blocks are often quiet, their residual the noise of a 60 s mean, and a tail a few tenths
-//! of °/h off there refused a warm-up of 38 °/h (the lab challenge's `short` log, seed 1060: 1.21×
-//! the later blocks' own error, +0.3 % on the stream's). At the parameter chosen on all blocks the
-//! regressor moves there by under [`VISIBLE`] of its spread, so its tail is small beside what the
-//! design explains where it moves; the rule refuses tails whose fit on the earlier blocks chose
-//! another parameter and goes wrong there. The extension's own checks, which decide what ships
+//! mean there taken out) is not named where that extra error, per block, would raise by more than
+//! [`HARM`] (RMS) the larger of the later blocks' own error and the residual over the whole
+//! stream (per block, about its mean): on quiet later blocks, a tail off by more than about a
+//! fifth of the stream's residual ([`raises`]). Against the later blocks' own error alone, a
+//! quiet part at the noise of a 60 s mean refused a tail a few tenths of °/h off there, and with
+//! it a warm-up of 38 °/h (the lab challenge's `short` log, seed 1060: 1.21× the later blocks'
+//! own error, +0.3 % on the stream's). At the parameter chosen on all blocks the regressor moves
+//! there by under [`VISIBLE`] of its spread, so its tail is small beside what the design explains
+//! where it moves; the rule refuses tails whose fit on the earlier blocks chose another parameter
+//! and goes wrong there. The extension's own checks, which decide what ships
 //! ([`crate::analysis::investigate`]), weigh the harm they cannot see past by the same rule.
 //!
 //! **A static model fitted on the stream itself** (no rate table) has already absorbed the part of
@@ -257,7 +258,7 @@ pub struct Step {
     /// The same on the forward test.
     pub forward_score: f64,
     /// Whether the forward test could see the design (module doc): where it could not, it
-    /// abstained, and only harm beyond [`HARM`] counted.
+    /// abstained, and only harm counted ([`raises`]).
     pub forward_sees: bool,
     /// With a heating/cooling state over a soaked table: the share of what the design's other
     /// causes and the table's plateau constants alone leave that the state predicts, on

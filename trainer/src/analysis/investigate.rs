@@ -10,7 +10,6 @@ use crate::progress::Progress;
 use fog_data::cause::Cause;
 use fog_data::channels::Datasheet;
 use fog_data::replay::{self, HostModel, Score};
-use fog_data::stats::spread;
 use fog_data::stream::{Handled, Stream};
 use serde::Serialize;
 
@@ -225,8 +224,16 @@ pub fn choose(
         return Ok(static_choice(diagnosis, causes, None, verdict, splits));
     }
     let names = joined(&causes);
-    let fitted = forward_check(points, model, train, cfg, &causes, rebuild, spread(&res.r))
-        .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
+    let fitted = forward_check(
+        points,
+        model,
+        train,
+        cfg,
+        &causes,
+        rebuild,
+        res.spread_60s(),
+    )
+    .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
     let ((check, splits), extended) = match (fitted, asked) {
         (Ok(both), _) => both,
         (Err(e), Some(_)) => return Err(e),
@@ -301,7 +308,7 @@ fn nested(
     for &cause in causes {
         let one = [cause];
         let Ok((check, splits)) =
-            forward_check(points, model, train, cfg, &one, rebuild, spread(&res.r))
+            forward_check(points, model, train, cfg, &one, rebuild, res.spread_60s())
         else {
             continue;
         };
@@ -332,7 +339,7 @@ fn check_figures(c: &ForwardCheck, names: &str, unit: &str) -> String {
             format!(
                 " (its input barely moves there: that test cannot see it, and judges only harm, \
                  {e:.3e} against {s:.3e} with each model's mean taken out, beside the training \
-                 residual's {:.3e})",
+                 stream's residual of {:.3e} about its mean)",
                 c.residual_60s_dps
             )
         }

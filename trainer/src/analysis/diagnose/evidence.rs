@@ -13,9 +13,9 @@ pub(super) const FORWARD_ORIGINS: [f64; 4] = [0.5, 0.625, 0.75, 0.875];
 /// Share of a regressor's spread over the whole stream that it must show in the blocks a test
 /// scores for the test to see it (module doc: below, the test abstains).
 pub const VISIBLE: f64 = 0.2;
-/// Worsening of the RMS error, as a fraction, that a test which cannot see a cause still counts
-/// as harm, weighed against the training stream's residual ([`raises`]; module doc), by the
-/// diagnosis and the extension's checks in [`crate::analysis::investigate`] alike.
+/// Worsening of an RMS error, as a fraction, counted as harm: by a test that cannot see a cause
+/// ([`raises`]; module doc), in the diagnosis and the extension's checks in
+/// [`crate::analysis::investigate`] alike, and by the challenge on the held-out stream.
 pub const HARM: f64 = 0.02;
 /// Fewest training blocks a split needs to be scored.
 pub(super) const MIN_TRAIN_BLOCKS: usize = 5;
@@ -146,8 +146,8 @@ pub fn sees(values: &[f64], scored: &[usize]) -> bool {
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
 /// it leaves the later ones more error than the intercept alone, each with its mean over them
 /// taken out (the design's intercept, fitted beside a transient on the earlier blocks alone, is
-/// not the one fitted on the whole stream), by enough to raise the whole stream's residual
-/// ([`raises`]; module doc: not the later blocks' own).
+/// not the one fitted on the whole stream), by enough to count as harm ([`raises`]: weighed
+/// against the whole stream's residual where the later blocks are quieter; module doc).
 pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
     let splits = forward_splits(y.len());
     let (sse, none) = split_sse(y, constant, design, &splits, true);
@@ -156,14 +156,23 @@ pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidate
         .filter(|s| scorable(s))
         .map(|(_, test)| test.len())
         .sum::<usize>() as f64;
-    raises((sse - none) / tested, spread(y).powi(2))
+    raises((sse - none) / tested, none / tested, spread(y).powi(2))
 }
 
-/// Whether `extra`, a mean square added to a residual of mean square `reference`, raises its RMS
-/// by more than [`HARM`]: the harm a test that cannot see a design counts, `reference` the
-/// training stream's residual about its mean (module doc). False where there is no reference.
-pub fn raises(extra: f64, reference: f64) -> bool {
-    reference > 0.0 && (1.0 + extra / reference).sqrt() - 1.0 > HARM
+/// Whether `extra`, a mean square a design adds per block to the part a test scores, is harm:
+/// whether it raises the larger of that part's own error (mean square `own`) and the training
+/// stream's residual about its mean (`stream`, per 60 s block) by more than [`HARM`] in RMS
+/// (module doc). Never stricter than the part's own error, and a quiet part is not held to the
+/// noise of a 60 s mean. Harm where the figures are not numbers, or added to no error at all.
+pub fn raises(extra: f64, own: f64, stream: f64) -> bool {
+    if extra.is_nan() {
+        return true;
+    }
+    if extra <= 0.0 {
+        return false;
+    }
+    let reference = own.max(stream);
+    reference.is_nan() || reference <= 0.0 || (1.0 + extra / reference).sqrt() - 1.0 > HARM
 }
 
 /// Whether the forward test sees `design`: some cause's regressor, at its parameter chosen on all

@@ -7,7 +7,7 @@ use fog_data::blocks;
 use fog_data::cause::Cause;
 use fog_data::replay;
 use fog_data::replay::HostModel;
-use fog_data::stats::rms;
+use fog_data::stats::{rms, spread};
 use fog_data::stream::Stream;
 use nalgebra::{DMatrix, DVector};
 use std::collections::HashMap;
@@ -42,6 +42,12 @@ pub struct Residual<'a> {
 }
 
 impl<'a> Residual<'a> {
+    /// The RMS of its 60 s means about their mean: what the harm a test that cannot see a design
+    /// counts is weighed against ([`super::raises`]).
+    pub fn spread_60s(&self) -> f64 {
+        spread(&self.r)
+    }
+
     /// Replays `stream` through `model` and keeps the blocks of scored, non-fault samples.
     pub fn new(model: &'a HostModel, stream: &'a Stream) -> Self {
         let m = replay::means(model, stream);

@@ -35,7 +35,7 @@ pub struct ForwardCheck {
     pub sight: Sight,
     /// The static model's residual over the whole training stream, its 60 s means about their
     /// mean (RMS): what the harm a test that cannot see the extension measures is weighed against
-    /// ([`vote`]), as the diagnosis weighs it.
+    /// where the part it scores is quieter ([`vote`]), as the diagnosis weighs it.
     pub residual_60s_dps: f64,
     /// The same test across temperature, where the static model is fitted on the stream itself
     /// (absent with a rate table, or where either side is too short).
@@ -46,8 +46,8 @@ pub struct ForwardCheck {
 
 impl ForwardCheck {
     /// Whether the extension passes: better than the static model on the later part and outside
-    /// the temperatures it was fitted on, each where that test could see it; no worse by more
-    /// than [`diagnose::HARM`] where it could not ([`vote`]). The diagnosis' interleaved test,
+    /// the temperatures it was fitted on, each where that test could see it; no harm where it
+    /// could not ([`vote`]). The diagnosis' interleaved test,
     /// which named the causes, always sees them.
     pub fn extension_helps(&self) -> bool {
         !self.causes.is_empty()
@@ -116,17 +116,17 @@ impl LegCheck {
 
 /// One test's vote on an extension: where it sees the extension, a gain; where it cannot, no
 /// harm in what it can measure ([`Sight`]): the mean square it adds there must not raise the
-/// training stream's `residual` (RMS of its 60 s means) by more than [`diagnose::HARM`]
-/// ([`diagnose::raises`]). It abstains, and the decision rests on the tests that could see (the
-/// diagnosis' interleaved test always does). Weighed against the scored part's own error, a part
-/// at the noise of a 60 s mean refused warm-ups of 30–48 °/h for tails a few tenths of °/h off
-/// there (docs/diagnosis.md).
+/// larger of the scored part's own error and the training stream's `residual` (its 60 s means'
+/// RMS about their mean) by more than [`diagnose::HARM`] ([`diagnose::raises`]). It abstains,
+/// and the decision rests on the tests that could see (the diagnosis' interleaved test always
+/// does). Weighed against the scored part's own error alone, a part at the noise of a 60 s mean
+/// refused warm-ups of 30–48 °/h for tails a few tenths of °/h off there (docs/diagnosis.md).
 pub fn vote(static_rmse: f64, extended_rmse: f64, sight: &Sight, residual: f64) -> bool {
     if sight.sees {
         extended_rmse < static_rmse
     } else {
         let [s, e] = sight.centred_rmse_60s_dps;
-        !diagnose::raises(e * e - s * s, residual * residual)
+        !diagnose::raises(e * e - s * s, s * s, residual * residual)
     }
 }
 

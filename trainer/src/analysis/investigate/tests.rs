@@ -23,4 +23,9 @@ fn a_test_that_cannot_see_the_extension_abstains_but_still_refuses_harm() {
         &sight(false, [0.1, (0.1f64.powi(2) + 0.1).sqrt()]),
         1.0
     ));
+    // Never stricter than the part's own error: twice the residual, 1% worse passes, 5% is harm.
+    assert!(vote(1.0, 1.0, &sight(false, [2.0, 2.02]), 1.0));
+    assert!(!vote(1.0, 1.0, &sight(false, [2.0, 2.1]), 1.0));
+    // Figures that are not numbers are harm.
+    assert!(!vote(1.0, 1.0, &sight(false, [1.0, f64::NAN]), 1.0));
 }
