@@ -144,19 +144,41 @@ pub fn sees(values: &[f64], scored: &[usize]) -> bool {
 }
 
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
-/// it leaves the later ones more error than the intercept alone, each with its mean over them
-/// taken out (the design's intercept, fitted beside a transient on the earlier blocks alone, is
-/// not the one fitted on the whole stream), by enough to count as harm ([`raises`]: weighed
-/// against the whole stream's residual where the later blocks are quieter; module doc).
-pub(super) fn blind_harm(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> bool {
+/// it leaves the later ones more error than `before`, the design taken before it (the intercept
+/// alone before the first cause), each with its mean over them taken out (the design's
+/// intercept, fitted beside a transient on the earlier blocks alone, is not the one fitted on
+/// the whole stream), by enough to count as harm ([`raises`]: weighed against what `before`
+/// leaves of the whole stream where the later blocks are quieter; module doc). A further cause
+/// is judged beside the causes taken, as the interleaved test judges it: weighed against the
+/// static residual, a wrong second cause could hide behind the first cause's size.
+pub(super) fn blind_harm(
+    y: &[f64],
+    (constant, design): (Constant<'_>, &[&Candidates]),
+    (before_constant, before): (Constant<'_>, &[&Candidates]),
+) -> bool {
     let splits = forward_splits(y.len());
-    let (sse, none) = split_sse(y, constant, design, &splits, true);
+    let (sse, _) = split_sse(y, constant, design, &splits, true);
+    let (reference, _) = split_sse(y, before_constant, before, &splits, true);
     let tested = splits
         .iter()
         .filter(|s| scorable(s))
         .map(|(_, test)| test.len())
         .sum::<usize>() as f64;
-    raises((sse - none) / tested, none / tested, spread(y).powi(2))
+    raises(
+        (sse - reference) / tested,
+        reference / tested,
+        spread(&residual(y, before_constant, before)).powi(2),
+    )
+}
+
+/// What `design`, its parameters and coefficients fitted on every block, leaves of `y`.
+fn residual(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Vec<f64> {
+    let all: Vec<usize> = (0..y.len()).collect();
+    let xs = choose(y, constant, design, &all);
+    let (beta, _) = ols(constant, &xs, y, &all);
+    all.iter()
+        .map(|&i| y[i] - predict(constant, &beta, &xs, i))
+        .collect()
 }
 
 /// Whether `extra`, a mean square a design adds per block to the part a test scores, is harm:

@@ -161,7 +161,11 @@ fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
     let slower: Candidates = vec![(8.0, Some(decay(8.0)))];
     assert!(!forward_sees(&quiet, Constant::Intercept, &[&slower]));
     assert!(later_worsening(&quiet, &[&slower]) > 0.1);
-    assert!(!blind_harm(&quiet, Constant::Intercept, &[&slower]));
+    assert!(!blind_harm(
+        &quiet,
+        (Constant::Intercept, &[&slower]),
+        (Constant::Intercept, &[])
+    ));
     // A decline that turns into a rise at the first origin: on all blocks a decay fits it, which
     // has died out in the later blocks; on the earlier blocks alone a line does, whose tail
     // falls where the stream rises.
@@ -180,5 +184,30 @@ fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
     let line: Vec<f64> = blocks.iter().map(|i| 1.0 - i / 80.0).collect();
     let either: Candidates = vec![(12.0, Some(decay(12.0))), (0.0, Some(line))];
     assert!(!forward_sees(&turning, Constant::Intercept, &[&either]));
-    assert!(blind_harm(&turning, Constant::Intercept, &[&either]));
+    assert!(blind_harm(
+        &turning,
+        (Constant::Intercept, &[&either]),
+        (Constant::Intercept, &[])
+    ));
+    // The same turn beside a warm-up fifty times its size, which the first cause explains: the
+    // second cause's tail is small beside the static residual, but not beside what the warm-up
+    // leaves, which the design before it is judged on.
+    let warm: Candidates = vec![(4.0, Some(decay(4.0)))];
+    let beside: Vec<f64> = decay(4.0)
+        .iter()
+        .zip(&turning)
+        .map(|(d, t)| 50.0 * d + t)
+        .collect();
+    let pair: [&Candidates; 2] = [&warm, &either];
+    assert!(!forward_sees(&beside, Constant::Intercept, &pair));
+    assert!(!blind_harm(
+        &beside,
+        (Constant::Intercept, &pair),
+        (Constant::Intercept, &[])
+    ));
+    assert!(blind_harm(
+        &beside,
+        (Constant::Intercept, &pair),
+        (Constant::Intercept, &[&warm])
+    ));
 }
