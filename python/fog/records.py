@@ -513,7 +513,7 @@ class CauseFit(Record):
     """The cause."""
 
     intercept_dps: float
-    """Intercept a, °/s (the plateau constants' mean over the blocks, where they replace it: [`Constant`])."""
+    """Intercept a, °/s (the plateau constants' mean over the blocks, where they replace it)."""
 
     parameter: float
     """Its parameter fitted on all blocks: filter or lag or decay time constant (s), play half-width (°C); 0 where there is none."""
@@ -1251,7 +1251,7 @@ class ForwardCheck(Record):
     """The same test across the heating/cooling legs, each way the stream holds enough of both."""
 
     residual_60s_dps: float
-    """The static model's residual over the whole training stream, its 60 s means about their mean (RMS): what the harm a test that cannot see the extension measures is weighed against where the part it scores is quieter ([`vote`]), as the diagnosis weighs it."""
+    """The static model's residual over the whole training stream, its 60 s means about their mean (RMS): what the harm a test that cannot see the extension measures is weighed against where the part it scores is quieter ([`vote`]), as the diagnosis weighs a first cause."""
 
     sight: Sight
     """What the later part could see of the extension ([`Sight`])."""

@@ -143,47 +143,65 @@ pub fn sees(values: &[f64], scored: &[usize]) -> bool {
     all > 0.0 && part >= VISIBLE * all
 }
 
+/// What blind harm ([`blind_harm`]) is weighed against: the design taken before (the intercept
+/// alone before the first cause), its centred error on the forward test's later blocks and what
+/// it leaves of the whole stream.
+pub(super) struct Before {
+    /// Its forward test-set SSE, each split's mean taken out ([`split_sse`], centred).
+    sse: f64,
+    /// The spread (RMS about the mean) of what it leaves of `y`, fitted on every block.
+    left: f64,
+}
+
+impl Before {
+    /// The design `design` over `constant`, taken before the designs it will judge.
+    pub(super) fn new(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Self {
+        let all: Vec<usize> = (0..y.len()).collect();
+        let xs = choose(y, constant, design, &all);
+        let (beta, _) = ols(constant, &xs, y, &all);
+        let left: Vec<f64> = all
+            .iter()
+            .map(|&i| y[i] - predict(constant, &beta, &xs, i))
+            .collect();
+        Self {
+            sse: split_sse(y, constant, design, &forward_splits(y.len()), true).0,
+            left: spread(&left),
+        }
+    }
+}
+
 /// Whether a design the forward test cannot see still harms there: fitted on the earlier blocks,
-/// it leaves the later ones more error than `before`, the design taken before it (the intercept
-/// alone before the first cause), each with its mean over them taken out (the design's
-/// intercept, fitted beside a transient on the earlier blocks alone, is not the one fitted on
-/// the whole stream), by enough to count as harm ([`raises`]: weighed against what `before`
-/// leaves of the whole stream where the later blocks are quieter; module doc). A further cause
-/// is judged beside the causes taken, as the interleaved test judges it: weighed against the
-/// static residual, a wrong second cause could hide behind the first cause's size.
+/// it leaves the later ones more error than `before`, the design taken before it, each with its
+/// mean over them taken out (the design's intercept, fitted beside a transient on the earlier
+/// blocks alone, is not the one fitted on the whole stream), by enough to count as harm
+/// ([`raises`]: weighed against what `before` leaves of the whole stream where the later blocks
+/// are quieter; module doc). A design of further causes is judged against the design taken, as
+/// the interleaved test judges it: weighed against the static residual, a wrong second cause
+/// could hide behind the first cause's size.
 pub(super) fn blind_harm(
     y: &[f64],
-    (constant, design): (Constant<'_>, &[&Candidates]),
-    (before_constant, before): (Constant<'_>, &[&Candidates]),
+    constant: Constant<'_>,
+    design: &[&Candidates],
+    before: &Before,
 ) -> bool {
     let splits = forward_splits(y.len());
     let (sse, _) = split_sse(y, constant, design, &splits, true);
-    let (reference, _) = split_sse(y, before_constant, before, &splits, true);
     let tested = splits
         .iter()
         .filter(|s| scorable(s))
         .map(|(_, test)| test.len())
         .sum::<usize>() as f64;
     raises(
-        (sse - reference) / tested,
-        reference / tested,
-        spread(&residual(y, before_constant, before)).powi(2),
+        (sse - before.sse) / tested,
+        before.sse / tested,
+        before.left.powi(2),
     )
-}
-
-/// What `design`, its parameters and coefficients fitted on every block, leaves of `y`.
-fn residual(y: &[f64], constant: Constant<'_>, design: &[&Candidates]) -> Vec<f64> {
-    let all: Vec<usize> = (0..y.len()).collect();
-    let xs = choose(y, constant, design, &all);
-    let (beta, _) = ols(constant, &xs, y, &all);
-    all.iter()
-        .map(|&i| y[i] - predict(constant, &beta, &xs, i))
-        .collect()
 }
 
 /// Whether `extra`, a mean square a design adds per block to the part a test scores, is harm:
 /// whether it raises the larger of that part's own error (mean square `own`) and the training
-/// stream's residual about its mean (`stream`, per 60 s block) by more than [`HARM`] in RMS
+/// stream's residual about its mean (`stream`, per 60 s block: the static model's, or in the
+/// diagnosis what the design taken before leaves) by more than [`HARM`] in RMS
 /// (module doc). Never stricter than the part's own error, and a quiet part is not held to the
 /// noise of a 60 s mean. Harm where the figures are not numbers, or added to no error at all.
 pub fn raises(extra: f64, own: f64, stream: f64) -> bool {

@@ -140,7 +140,7 @@ fn forward_splits_train_on_the_past_only() {
 }
 
 #[test]
-fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
+fn a_tail_the_forward_test_cannot_see_is_weighed_against_what_the_design_before_it_leaves() {
     let n = 80;
     let e = noise(n, 5);
     let blocks: Vec<f64> = (0..n).map(|i| i as f64).collect();
@@ -161,10 +161,12 @@ fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
     let slower: Candidates = vec![(8.0, Some(decay(8.0)))];
     assert!(!forward_sees(&quiet, Constant::Intercept, &[&slower]));
     assert!(later_worsening(&quiet, &[&slower]) > 0.1);
+    let none = |y: &[f64]| Before::new(y, Constant::Intercept, &[]);
     assert!(!blind_harm(
         &quiet,
-        (Constant::Intercept, &[&slower]),
-        (Constant::Intercept, &[])
+        Constant::Intercept,
+        &[&slower],
+        &none(&quiet)
     ));
     // A decline that turns into a rise at the first origin: on all blocks a decay fits it, which
     // has died out in the later blocks; on the earlier blocks alone a line does, whose tail
@@ -186,8 +188,9 @@ fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
     assert!(!forward_sees(&turning, Constant::Intercept, &[&either]));
     assert!(blind_harm(
         &turning,
-        (Constant::Intercept, &[&either]),
-        (Constant::Intercept, &[])
+        Constant::Intercept,
+        &[&either],
+        &none(&turning)
     ));
     // The same turn beside a warm-up fifty times its size, which the first cause explains: the
     // second cause's tail is small beside the static residual, but not beside what the warm-up
@@ -202,12 +205,10 @@ fn a_tail_the_forward_test_cannot_see_is_weighed_against_the_whole_stream() {
     assert!(!forward_sees(&beside, Constant::Intercept, &pair));
     assert!(!blind_harm(
         &beside,
-        (Constant::Intercept, &pair),
-        (Constant::Intercept, &[])
+        Constant::Intercept,
+        &pair,
+        &none(&beside)
     ));
-    assert!(blind_harm(
-        &beside,
-        (Constant::Intercept, &pair),
-        (Constant::Intercept, &[&warm])
-    ));
+    let after_warm = Before::new(&beside, Constant::Intercept, &[&warm]);
+    assert!(blind_harm(&beside, Constant::Intercept, &pair, &after_warm));
 }

@@ -35,7 +35,7 @@ pub struct ForwardCheck {
     pub sight: Sight,
     /// The static model's residual over the whole training stream, its 60 s means about their
     /// mean (RMS): what the harm a test that cannot see the extension measures is weighed against
-    /// where the part it scores is quieter ([`vote`]), as the diagnosis weighs it.
+    /// where the part it scores is quieter ([`vote`]), as the diagnosis weighs a first cause.
     pub residual_60s_dps: f64,
     /// The same test across temperature, where the static model is fitted on the stream itself
     /// (absent with a rate table, or where either side is too short).
