@@ -86,6 +86,17 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     assert!((20..=DEFAULT_INDUCING as u64).contains(&centres), "{fit}");
     assert_eq!(fit["n_train"], 50 + 28_621, "{fit}");
     assert_eq!(fit["pool_check"]["shipped"], "pooled", "{fit}");
+    // The basis test fits exact GPs: on this many points it does not run, keeps physics and
+    // says why.
+    let basis = &fit["basis_choice"];
+    assert_eq!(basis["basis"], "physics", "{basis}");
+    assert!(
+        basis["verdict"]
+            .as_str()
+            .unwrap()
+            .contains("28671 points are more than the 256 the test fits an exact GP on"),
+        "{basis}"
+    );
     // Its points are mostly the stream's samples: one sample's noise is the stream's own, at its
     // interval, not the GP's level on the points (undivided over a mean).
     let calibration = &fit["calibration"];
