@@ -507,7 +507,7 @@ class CauseFit(Record):
     """The same on the forward test: fitted on earlier blocks, predicting later ones."""
 
     forward_sees: bool
-    """Whether its regressor moves in the blocks the forward test predicts; where it does not, the forward test abstains (module doc)."""
+    """Whether its regressor moves in the blocks the forward test predicts; where it does not, the forward test abstains (the diagnosis' module doc)."""
 
     id: str
     """The cause."""
@@ -519,7 +519,7 @@ class CauseFit(Record):
     """Its parameter fitted on all blocks: filter or lag or decay time constant (s), play half-width (°C); 0 where there is none."""
 
     score: float
-    """Out-of-sample fraction of the residual variance it predicts on interleaved chunks (module doc)."""
+    """Out-of-sample fraction of the residual variance it predicts on interleaved chunks (the diagnosis' module doc)."""
 
     slope: float
     """Slope b, °/s per unit of the regressor."""

@@ -1,6 +1,8 @@
 //! Each cause fitted to a residual alone ([`fit_cause`]): its regressor over a grid of its
 //! parameter ([`candidates`]), and what it predicts out of sample on both tests. The selection of
-//! several causes together ([`super::diagnose_residual`]) starts from these grids.
+//! several causes together ([`super::diagnose_residual`]) starts from these grids. Apart from the
+//! selection because each candidate alone is reported whatever the selection takes (the
+//! diagnosis' `candidates`), and the extension fits a cause's grid again on its own data.
 
 use firmware_core::units::SECONDS_PER_HOUR;
 use fog_data::cause::Cause;
@@ -46,13 +48,13 @@ fn grid(cause: Cause) -> &'static [f32] {
 pub struct CauseFit {
     /// The cause.
     pub id: Cause,
-    /// Out-of-sample fraction of the residual variance it predicts on interleaved chunks (module
-    /// doc).
+    /// Out-of-sample fraction of the residual variance it predicts on interleaved chunks (the
+    /// diagnosis' module doc).
     pub score: f64,
     /// The same on the forward test: fitted on earlier blocks, predicting later ones.
     pub forward_score: f64,
     /// Whether its regressor moves in the blocks the forward test predicts; where it does not,
-    /// the forward test abstains (module doc).
+    /// the forward test abstains (the diagnosis' module doc).
     pub forward_sees: bool,
     /// Its parameter fitted on all blocks: filter or lag or decay time constant (s), play
     /// half-width (°C); 0 where there is none.
