@@ -151,6 +151,8 @@ pub(super) struct Before {
     sse: f64,
     /// The spread (RMS about the mean) of what it leaves of `y`, fitted on every block.
     left: f64,
+    /// Blocks the forward test scores: what `sse`, and a design's beside it, is per block.
+    tested: f64,
 }
 
 impl Before {
@@ -163,9 +165,15 @@ impl Before {
             .iter()
             .map(|&i| y[i] - predict(constant, &beta, &xs, i))
             .collect();
+        let splits = forward_splits(y.len());
         Self {
-            sse: split_sse(y, constant, design, &forward_splits(y.len()), true).0,
+            sse: split_sse(y, constant, design, &splits, true).0,
             left: spread(&left),
+            tested: splits
+                .iter()
+                .filter(|s| scorable(s))
+                .map(|(_, test)| test.len())
+                .sum::<usize>() as f64,
         }
     }
 }
@@ -184,16 +192,10 @@ pub(super) fn blind_harm(
     design: &[&Candidates],
     before: &Before,
 ) -> bool {
-    let splits = forward_splits(y.len());
-    let (sse, _) = split_sse(y, constant, design, &splits, true);
-    let tested = splits
-        .iter()
-        .filter(|s| scorable(s))
-        .map(|(_, test)| test.len())
-        .sum::<usize>() as f64;
+    let (sse, _) = split_sse(y, constant, design, &forward_splits(y.len()), true);
     raises(
-        (sse - before.sse) / tested,
-        before.sse / tested,
+        (sse - before.sse) / before.tested,
+        before.sse / before.tested,
         before.left.powi(2),
     )
 }
