@@ -390,7 +390,7 @@ class Calibration(Record):
     """√c_x: model error one trained width beyond the range, output units (where the prior is assumed, its part alike at every output)."""
 
     fitted_terms: list[str]
-    """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none."""
+    """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none, or fitted less than it without reaching a whole width beyond the range (the prior ships)."""
 
     floor_std: float
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""

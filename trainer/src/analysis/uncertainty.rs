@@ -38,7 +38,8 @@
 //! warm-up has no forward split), the floor is the GP's own noise level on its points inflated by
 //! the small-sample factor at the fewest degrees of freedom; where no residual lies beyond the
 //! temperatures fitted, or those there cannot tell a growth of the prior's size from none (under
-//! two standard errors of its estimate, the other terms held at their fit), or the blob does not
+//! two standard errors of its estimate, the other terms held at their fit), or fit less than it
+//! without reaching a whole width beyond the range, where it is stated, or the blob does not
 //! follow the GP beyond the range as they were scored ([`Prior::follows`]), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
 //! edge beyond it, the firmware misses that change per width): its trend next to the range's
@@ -345,7 +346,8 @@ pub struct Calibration {
     /// The small-sample factor on the model-error variance.
     pub inflation: f64,
     /// The terms fitted. The others abstain: their covariates did not reach where they would show,
-    /// or, for the extrapolation, the residuals could not tell the prior's growth from none.
+    /// or, for the extrapolation, the residuals could not tell the prior's growth from none, or
+    /// fitted less than it without reaching a whole width beyond the range (the prior ships).
     pub fitted_terms: Vec<&'static str>,
     /// Each test.
     pub sources: Vec<SourceSummary>,

@@ -1,5 +1,5 @@
 use super::streams::{hours_from, hours_on};
-use super::terms::{calibrate, effective};
+use super::terms::{calibrate, effective, extrapolation_shows};
 use super::*;
 use firmware_core::model::Conditions;
 use rand::SeedableRng;
@@ -258,6 +258,48 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
     let c = calibrate(&near(2.0), noise, none);
     assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
     assert!(c.assumed.is_empty(), "{c:?}");
+}
+
+#[test]
+fn residuals_a_tenth_of_a_width_out_cannot_lower_the_growth_a_width_out() {
+    // Precise residuals a tenth of a width beyond the range, none larger there: a growth of the
+    // prior's size would be many standard errors above them, so they do tell it from none, and
+    // fit less. That holds near the edge; a width out, where the prior is stated, they were not.
+    let prior = Prior {
+        floor_var: 0.0,
+        extrapolation_var: 9e-4,
+        extrapolation_parts: (4e-4, 1e-6),
+        rule_share: 0.8,
+        follows: true,
+    };
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let precise = |reach: f64| {
+        let mut r = residuals(400, 7, |_, _| 1e-3);
+        for (i, x) in r.iter_mut().enumerate() {
+            x.excess2 = (reach * (i % 10) as f64 / 9.0).powi(2);
+            x.base_var = 1e-6;
+        }
+        [Series {
+            source: ResidualSource::Temperature,
+            residuals: r,
+        }]
+    };
+    assert!(extrapolation_shows(&precise(0.1), &[0.0; TERMS], 9e-4));
+    let c = calibrate(&precise(0.1), noise, prior);
+    assert_eq!(c.error_model.extrapolation_var, 4e-4, "{c:?}");
+    assert_eq!(c.error_model.extrapolation_scale_var, 1e-6, "{c:?}");
+    assert_eq!(c.extrapolation_share, 0.8);
+    assert_eq!(c.assumed, vec!["extrapolation"]);
+    assert!(!c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    assert!(c.fitted_terms.contains(&"floor"), "{c:?}");
+    // Reaching two widths out, they measured what the prior guesses: the fit stands.
+    let c = calibrate(&precise(2.0), noise, prior);
+    assert!(c.error_model.extrapolation_var < 9e-6, "{c:?}");
+    assert!(c.assumed.is_empty(), "{c:?}");
+    assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
 }
 
 #[test]
