@@ -380,6 +380,9 @@ class Calibration(Record):
     effective: float
     """Independent residuals they are worth."""
 
+    extrapolation_fitted_std: float | None
+    """The growth beyond the range the residuals fitted, per trained width, where the assumed one ships in its place: they fitted less, and none of them reached a whole width beyond the range, where the assumed growth is stated (null where the fit ships or none was fitted). What they showed near the edge; a datasheet's `tempco` stated beside it does not go below."""
+
     extrapolation_scale_ppm: float
     """The assumed prior's part in proportion to the output: ppm of the output one trained width beyond the range (0 where the extrapolation term is fitted, or the training outputs barely move)."""
 
@@ -429,7 +432,7 @@ class Calibration(Record):
     """The floor the table's left-out groups or points showed, where they were used beside a run's (not shipped: a gyro in service is in a run, with the whole table trained)."""
 
     tempco_per_c: float | None
-    """The bias's temperature coefficient beyond the trained range, output units per °C, as stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not stated). Over `trained_width_c` it sets the extrapolation term's part alike at every output, unless the residuals fitted a larger one ([`Calibration::set_tempco`])."""
+    """The bias's temperature coefficient beyond the trained range, output units per °C, as stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not stated). Over `trained_width_c` it sets the extrapolation term's part alike at every output, unless the residuals fitted a larger one, shipped or not ([`Calibration::set_tempco`])."""
 
     trained_width_c: float | None
     """The trained width of the shipped blob's temperature input, °C: the width the extrapolation term is counted in (null: no temperature input, or no blob stated yet)."""

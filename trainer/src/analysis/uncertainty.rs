@@ -39,7 +39,7 @@
 //! the small-sample factor at the fewest degrees of freedom; where no residual lies beyond the
 //! temperatures fitted, or those there cannot tell a growth of the prior's size from none (under
 //! two standard errors of its estimate, the other terms held at their fit), or fit less than it
-//! without reaching a whole width beyond the range, where it is stated, or the blob does not
+//! short of the whole width the prior is stated for, or the blob does not
 //! follow the GP beyond the range as they were scored ([`Prior::follows`]), the extrapolation term
 //! is what the model itself changes over one trained width of its temperature (held at the range's
 //! edge beyond it, the firmware misses that change per width): its trend next to the range's
@@ -90,8 +90,11 @@ const TERMS: usize = 5;
 /// Fewest degrees of freedom the small-sample factor takes (module doc): below it a variance is
 /// not estimated but guessed, and the factor would grow without bound (6.5 at ν = 1).
 const MIN_DOF: f64 = 2.0;
-/// Residuals that must reach [`SEEN_AT`] for a growth term to be fitted ([`seen`]).
+/// Residuals that must reach [`SEEN_AT`] for a growth term to be fitted ([`seen`]), and
+/// [`A_WIDTH`] for an extrapolation term fitted below the prior to stand (`reach_a_width`).
 const MIN_SEEN: usize = 3;
+/// e² of a whole trained width beyond the range: where the prior's growth is stated.
+const A_WIDTH: f64 = 1.0;
 /// The covariate a residual must reach to show a growth term: e² at 5% of a width beyond the
 /// range, t and t² at 3 minutes (the floors' entries are not used).
 const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
@@ -317,6 +320,11 @@ pub struct Calibration {
     /// rule is `hold`, was asked for or could not be tested. Where `--tempco` states the part
     /// alike at every output, it scales the part in proportion to the output alone.
     pub extrapolation_share: f64,
+    /// The growth beyond the range the residuals fitted, per trained width, where the assumed one
+    /// ships in its place: they fitted less, and none of them reached a whole width beyond the
+    /// range, where the assumed growth is stated (null where the fit ships or none was fitted).
+    /// What they showed near the edge; a datasheet's `tempco` stated beside it does not go below.
+    pub extrapolation_fitted_std: Option<f64>,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,
     /// √c_d: drift of unknown rate, output units per h.
@@ -334,7 +342,8 @@ pub struct Calibration {
     /// The bias's temperature coefficient beyond the trained range, output units per °C, as
     /// stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not
     /// stated). Over `trained_width_c` it sets the extrapolation term's part alike at every
-    /// output, unless the residuals fitted a larger one ([`Calibration::set_tempco`]).
+    /// output, unless the residuals fitted a larger one, shipped or not
+    /// ([`Calibration::set_tempco`]).
     pub tempco_per_c: Option<f64>,
     /// The trained width of the shipped blob's temperature input, °C: the width the
     /// extrapolation term is counted in (null: no temperature input, or no blob stated yet).
@@ -642,6 +651,7 @@ impl Calibration {
             } else {
                 1.0
             },
+            extrapolation_fitted_std: None,
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,

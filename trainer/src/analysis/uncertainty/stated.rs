@@ -106,7 +106,8 @@ impl Calibration {
     /// (its share k of holding's miss) is added to the datasheet's, in quadrature. The part in
     /// proportion to the output stays as it was: a bias figure says nothing of the scale factor.
     /// Where the residuals fitted the term, the larger of the fit and the datasheet's stands: they
-    /// reach a fraction of a width beyond the range, the datasheet all of it.
+    /// reach a fraction of a width beyond the range, the datasheet all of it. So it does where
+    /// their fit, below the part assumed, did not ship ([`Self::extrapolation_fitted_std`]).
     pub fn set_tempco(&mut self, per_c: f64, width_c: f64, held: bool) {
         self.tempco_per_c = Some(per_c);
         self.trained_width_c = Some(width_c);
@@ -115,7 +116,7 @@ impl Calibration {
         let bias = if fitted {
             self.extrapolation_std.max(stated)
         } else if held {
-            stated
+            stated.max(self.extrapolation_fitted_std.unwrap_or(0.0))
         } else {
             stated.hypot(self.extrapolation_std)
         };

@@ -7,8 +7,8 @@ use fog_data::stats::rms;
 use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 
 use super::{
-    Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior, Residual,
-    SEEN_AT, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
+    A_WIDTH, Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior,
+    Residual, SEEN_AT, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
 };
 
 /// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
@@ -87,16 +87,20 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // stream's temperature split, a tenth of a width beyond the range. Less growth there says
     // the model holds near its edge, not that a width out costs less than its own trend there (a
     // bias that bends beyond the range grows faster than the distance): the prior stands, unless
-    // the residuals reach a whole width ([`reach_a_width`]). The other terms keep their fit beside
-    // the growth fitted, which is what the residuals beyond showed. (Raised to the prior, the
-    // simulated power-on log fitted on its later half covers its colder earlier half 95 %, not
-    // 78 %; the other terms refitted without it, a heating-only ramp's σ was 14× its error.)
-    let below_prior =
+    // the residuals reach a whole width ([`reach_a_width`]). It is compared as the fit is, one
+    // number over the points' outputs, and ships told apart by them: at low rates it may state
+    // less than the fit, at high rates more. The other terms keep their fit beside the growth
+    // fitted, which is what the residuals beyond showed. (With the prior, the simulated power-on
+    // log fitted on its later half covers its colder earlier half 95 %, not 78 %; with the other
+    // terms refitted without the growth, as where the residuals cannot tell it, a heating-only
+    // ramp's σ was 14× its error.)
+    let fitted_below =
         seen[EXTRAPOLATION] && c[EXTRAPOLATION] < prior.extrapolation_var && !reach_a_width(&all);
+    let extrapolation_fitted_std = fitted_below.then(|| c[EXTRAPOLATION].sqrt());
     let mut assumed = Vec::new();
     let mut extrapolation_scale = 0.0;
     let mut extrapolation_share = 1.0;
-    if (below_prior || !seen[EXTRAPOLATION]) && prior.extrapolation_var > 0.0 {
+    if (fitted_below || !seen[EXTRAPOLATION]) && prior.extrapolation_var > 0.0 {
         (c[EXTRAPOLATION], extrapolation_scale) = prior.extrapolation_parts;
         extrapolation_share = prior.rule_share;
         assumed.push(TERM_NAMES[EXTRAPOLATION]);
@@ -133,6 +137,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         extrapolation_std: c[2].sqrt(),
         extrapolation_scale_ppm: extrapolation_scale.sqrt() * 1e6,
         extrapolation_share,
+        extrapolation_fitted_std,
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,
@@ -144,7 +149,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         inflation,
         fitted_terms: fitted
             .iter()
-            .filter(|&&k| !(below_prior && k == EXTRAPOLATION))
+            .filter(|&&k| !(fitted_below && k == EXTRAPOLATION))
             .map(|&k| TERM_NAMES[k])
             .collect(),
         sources,
@@ -211,12 +216,12 @@ fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
     seen
 }
 
-/// Whether at least [`MIN_SEEN`] residuals lie a whole trained width or more beyond the range:
-/// the distance the prior's growth is stated for ([`Prior::of`]), so that a fit below it
-/// measures what the prior guesses.
+/// Whether at least [`MIN_SEEN`] residuals lie [`A_WIDTH`] or more beyond the range: the
+/// distance the prior's growth is stated for ([`Prior::of`]), so that a fit below it measures
+/// what the prior guesses.
 fn reach_a_width(all: &[(Residual, bool)]) -> bool {
     all.iter()
-        .filter(|(r, run)| r.terms(*run)[EXTRAPOLATION] >= 1.0)
+        .filter(|(r, run)| r.terms(*run)[EXTRAPOLATION] >= A_WIDTH)
         .count()
         >= MIN_SEEN
 }

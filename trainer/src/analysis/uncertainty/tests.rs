@@ -295,11 +295,38 @@ fn residuals_a_tenth_of_a_width_out_cannot_lower_the_growth_a_width_out() {
     assert_eq!(c.assumed, vec!["extrapolation"]);
     assert!(!c.fitted_terms.contains(&"extrapolation"), "{c:?}");
     assert!(c.fitted_terms.contains(&"floor"), "{c:?}");
+    // Fitted, not abstained: the fit is kept, said, and a datasheet's smaller figure stated
+    // beside it does not go below it.
+    let near = c.extrapolation_fitted_std.expect("the fit below the prior");
+    assert!(near < 9e-4f64.sqrt(), "{c:?}");
+    assert!(c.describe("°/s").contains("a growth near the edge"));
+    let mut sheet = c.clone();
+    sheet.set_tempco(0.0, 5.0, true);
+    assert_eq!(sheet.extrapolation_std, near);
     // Reaching two widths out, they measured what the prior guesses: the fit stands.
     let c = calibrate(&precise(2.0), noise, prior);
     assert!(c.error_model.extrapolation_var < 9e-6, "{c:?}");
     assert!(c.assumed.is_empty(), "{c:?}");
     assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    assert_eq!(c.extrapolation_fitted_std, None);
+    // A width out is three residuals there; two are not.
+    let reaching = |n: usize| {
+        let mut s = precise(0.1);
+        for x in s[0].residuals.iter_mut().take(n) {
+            x.excess2 = 1.0;
+        }
+        calibrate(&s, noise, prior)
+    };
+    assert!(reaching(3).assumed.is_empty(), "{:?}", reaching(3));
+    assert_eq!(reaching(2).assumed, vec!["extrapolation"]);
+    // Residuals that grow faster than the prior a tenth of a width out raise it, however near.
+    let mut steep = precise(0.1);
+    for x in steep[0].residuals.iter_mut() {
+        x.error *= 1.0 + 3e4 * x.excess2;
+    }
+    let c = calibrate(&steep, noise, prior);
+    assert!(c.fitted_terms.contains(&"extrapolation"), "{c:?}");
+    assert!(c.error_model.extrapolation_var > 9e-4, "{c:?}");
 }
 
 #[test]

@@ -113,7 +113,10 @@ impl Calibration {
             };
             let width = self.trained_width_c.unwrap_or(0.0);
             let stated = per_c * width;
-            let source = if self.fitted_terms.contains(&"extrapolation")
+            let near = self
+                .extrapolation_fitted_std
+                .is_some_and(|fit| fit >= self.extrapolation_std);
+            let source = if (self.fitted_terms.contains(&"extrapolation") || near)
                 && self.extrapolation_std > stated
             {
                 format!("fitted, larger than the datasheet's {per_c:.3e} {units} per °C")
@@ -139,6 +142,12 @@ impl Calibration {
                 "{:.3e} per trained width beyond the range{share}",
                 self.extrapolation_std
             )
+        };
+        let beyond = match self.extrapolation_fitted_std {
+            Some(fit) => format!(
+                "{beyond}, where the residuals, none a whole width beyond the range, fitted                  {fit:.3e} {units}: a growth near the edge, not a width out"
+            ),
+            None => beyond,
         };
         let noise = self.noise_in_words();
         let Some(c) = &self.coverage else {
