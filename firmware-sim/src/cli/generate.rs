@@ -44,7 +44,8 @@ pub(crate) enum Generate {
     /// from power-on, chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min, three power cycles
     /// (8.75 hours); or (--design ramps) eight 0.5 °C/min legs between 60 and −30 °C from a warm
     /// start (30.7 hours); or the shapes labs record, each from one power-on: power-on (340 min
-    /// of soaks and ramps), short (60 min), warm-up (180 min at 25 °C), cool-down (200 min).
+    /// of soaks and ramps), short (60 min), warm-up (180 min at 25 °C), cool-down (200 min), and
+    /// room (three days at rest in a room's daily swing: a static log).
     ///
     /// Example: firmware-sim generate stream --seed 2 --effect thermal-rate --strength 10 --out s.csv
     Stream {
@@ -118,6 +119,9 @@ pub(crate) enum Design {
     WarmUp,
     /// From power-on at 60 °C, one ramp down to −20 °C (200 minutes).
     CoolDown,
+    /// A static log: three days at rest from power-on in a room swinging 21…25 °C once a day,
+    /// as a bias stability run records one (fit it with `--scale-factor`).
+    Room,
 }
 
 /// What every generator takes.
@@ -435,6 +439,7 @@ pub(super) fn generate_command(g: Generate, flags: ConsoleFlags) -> anyhow::Resu
                 Design::Short => stream::StreamConfig::short(),
                 Design::WarmUp => stream::StreamConfig::warm_up(),
                 Design::CoolDown => stream::StreamConfig::cool_down(),
+                Design::Room => stream::StreamConfig::room(),
             };
             match common.gyro()? {
                 Simulated::One(params, effects) => {

@@ -15,6 +15,8 @@
 //! a bias from the coil's temperature rate (`thermal-rate`), a warm-up after each power-on,
 //! hysteresis, in-run drift.
 //!
+//! A static log (`room`) leaves the table at rest in a room's daily swing instead.
+//!
 //! The chamber program (−30…60 °C at 0.5–1 °C/min, heating and cooling, soaks between) and the rate
 //! program (each of the paper's 14 rates and zero, 90 s each, in an order shuffled per cycle by the
 //! seed) are fixed by `StreamConfig`; a thermal chamber's air tracks its setpoint closely, so the
@@ -71,6 +73,8 @@ pub struct StreamConfig {
     /// Logging starts with the gyro long on at `start_c`: housing and coil at the air plus the
     /// self-heating, no warm-up left. Otherwise at power-on, cold: all at the air.
     pub warm_start: bool,
+    /// The gyro lies at rest (it senses the earth rate alone) instead of on the rate table.
+    pub at_rest: bool,
 }
 
 /// Go to `target_c` at `rate_c_per_min`, then hold `soak_min`.
@@ -99,6 +103,7 @@ impl Default for StreamConfig {
             ],
             power_offs: vec![off(95.0, 20.0), off(310.0, 15.0), off(427.0, 13.0)],
             warm_start: false,
+            at_rest: false,
         }
     }
 }
@@ -122,6 +127,7 @@ impl StreamConfig {
                 .collect(),
             power_offs: Vec::new(),
             warm_start: true,
+            at_rest: false,
         }
     }
 
@@ -158,6 +164,24 @@ impl StreamConfig {
         Self::from_power_on(60.0, 20.0, vec![seg(-20.0, 0.5, 20.0)])
     }
 
+    /// A static log, as a bias stability (Allan deviation) run records one: the gyro at rest on
+    /// a bench for three days from one cold power-on, in a room whose air swings between 21 and
+    /// 25 °C once a day (warming through the day, cooling through the night: 12 hours each way).
+    /// No table turns, so a model of it is a bias model (`trainer fit --scale-factor`).
+    pub fn room() -> Self {
+        let half_day = |target_c| seg(target_c, 4.0 / (12.0 * 60.0), 0.0);
+        Self {
+            at_rest: true,
+            ..Self::from_power_on(
+                21.0,
+                0.0,
+                (0..6)
+                    .map(|i| half_day(if i % 2 == 0 { 25.0 } else { 21.0 }))
+                    .collect(),
+            )
+        }
+    }
+
     /// A program logged from one cold power-on, never switched off.
     fn from_power_on(start_c: f64, initial_soak_min: f64, segments: Vec<Segment>) -> Self {
         Self {
@@ -166,6 +190,7 @@ impl StreamConfig {
             segments,
             power_offs: Vec::new(),
             warm_start: false,
+            at_rest: false,
         }
     }
 
@@ -259,7 +284,11 @@ pub fn run(
             rates = std::iter::once(0.0).chain(RATES_DPS).collect();
             rates.shuffle(&mut order_rng);
         }
-        let table = rates.last().copied().unwrap_or(0.0);
+        let table = if cfg.at_rest {
+            0.0
+        } else {
+            rates.last().copied().unwrap_or(0.0)
+        };
         if k % u64::from(RATE_HOLD_S) == u64::from(RATE_HOLD_S) - 1 {
             rates.pop();
         }
@@ -335,6 +364,24 @@ mod tests {
     }
 
     #[test]
+    fn the_room_design_is_three_days_at_rest_through_daily_swings() {
+        let c = StreamConfig::room();
+        assert_eq!(c.duration_s(), 3.0 * 24.0 * 3600.0);
+        assert_eq!(c.air_c(0.0), 21.0);
+        assert!((c.air_c(12.0 * 3600.0) - 25.0).abs() < 1e-9);
+        assert!((c.air_c(30.0 * 3600.0) - 23.0).abs() < 1e-9);
+        let p = GyroParams::nominal();
+        let day = StreamConfig {
+            segments: c.segments[..2].to_vec(),
+            ..c
+        };
+        let rows = run(&p, &day, Effect::None, 5);
+        assert_eq!(rows.len(), 24 * 3600 + 1);
+        assert!(rows.iter().all(|r| r.table_rate_dps == 0.0));
+        assert!(rows.iter().all(|r| r.rate_dps == p.earth_rate_dps()));
+    }
+
+    #[test]
     fn stream_is_deterministic_and_covers_rates_and_temperatures() {
         let p = GyroParams::nominal();
         let cfg = StreamConfig {
@@ -347,6 +394,7 @@ mod tests {
             }],
             power_offs: Vec::new(),
             warm_start: false,
+            at_rest: false,
         };
         let a = run(&p, &cfg, Effect::None, 4);
         assert_eq!(a, run(&p, &cfg, Effect::None, 4));
