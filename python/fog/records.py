@@ -381,7 +381,7 @@ class Calibration(Record):
     """Independent residuals they are worth."""
 
     extrapolation_fitted_std: float | None
-    """The growth beyond the range the residuals fitted, per trained width, where the assumed one ships in its place: they fitted less, and none of them reached a whole width beyond the range, where the assumed growth is stated (null where the fit ships or none was fitted). What they showed near the edge; a datasheet's `tempco` stated beside it does not go below."""
+    """The growth beyond the range the residuals fitted, per trained width, where the assumed one ships in its place: they fitted less, and fewer than three of them reached a whole width beyond the range, where the assumed growth is stated (null where the fit ships or none was fitted). What they showed near the edge: a datasheet's `tempco` that states less ships it instead, as fitted."""
 
     extrapolation_scale_ppm: float
     """The assumed prior's part in proportion to the output: ppm of the output one trained width beyond the range (0 where the extrapolation term is fitted, or the training outputs barely move)."""

@@ -40,7 +40,8 @@ pub(crate) enum Generate {
         #[arg(long)]
         points: usize,
     },
-    /// A stream at 1 Hz, the rate table stepping through the paper's rates and zero: by default
+    /// A stream at 1 Hz, the rate table stepping through the paper's rates and zero (at rest in a
+    /// room's): by default
     /// from power-on, chamber soaks and ramps over −30…60 °C at 0.5–1 °C/min, three power cycles
     /// (8.75 hours); or (--design ramps) eight 0.5 °C/min legs between 60 and −30 °C from a warm
     /// start (30.7 hours); or the shapes labs record, each from one power-on: power-on (340 min
@@ -51,7 +52,7 @@ pub(crate) enum Generate {
     Stream {
         #[command(flatten)]
         common: GenerateCommon,
-        /// The chamber program.
+        /// The program: a chamber's, on the rate table, or a room's, at rest (room).
         #[arg(long, value_enum, default_value_t = Design::Chamber)]
         design: Design,
     },

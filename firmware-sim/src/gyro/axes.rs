@@ -1,7 +1,8 @@
 //! A simulated unit of several gyro axes (a FOG triad, or more): each axis its own gyro (scale
 //! factor, bias, noise) and its own hidden effects, all in one housing with one temperature
 //! sensor, in one chamber, on a rate table that turns every axis (a three-axis table: each axis
-//! through its own rate program in a stream; the paper's rates together at each soak).
+//! through its own rate program in a stream; the paper's rates together at each soak), or, in a
+//! static log (the `room` stream), all of them at rest.
 //!
 //! Each axis runs the single gyro's simulation ([`paper::run`], [`stream::run`]) with its own
 //! noise seed (the first axis the unit's seed, so a unit of one axis is the single gyro, byte for

@@ -15,7 +15,10 @@
 //! a bias from the coil's temperature rate (`thermal-rate`), a warm-up after each power-on,
 //! hysteresis, in-run drift.
 //!
-//! A static log (`room`) leaves the table at rest in a room's daily swing instead.
+//! A static log (`room`) lays the gyro at rest on a bench in a room's daily swing instead: the log
+//! a bias stability (Allan deviation) run records, the commonest a gyro's user has, whose halves
+//! test what one power-on's model does over days. Its rate program is drawn, from a random stream
+//! of its own that the noise does not share, and left unused.
 //!
 //! The chamber program (−30…60 °C at 0.5–1 °C/min, heating and cooling, soaks between) and the rate
 //! program (each of the paper's 14 rates and zero, 90 s each, in an order shuffled per cycle by the

@@ -321,9 +321,10 @@ pub struct Calibration {
     /// alike at every output, it scales the part in proportion to the output alone.
     pub extrapolation_share: f64,
     /// The growth beyond the range the residuals fitted, per trained width, where the assumed one
-    /// ships in its place: they fitted less, and none of them reached a whole width beyond the
-    /// range, where the assumed growth is stated (null where the fit ships or none was fitted).
-    /// What they showed near the edge; a datasheet's `tempco` stated beside it does not go below.
+    /// ships in its place: they fitted less, and fewer than three of them reached a whole width
+    /// beyond the range, where the assumed growth is stated (null where the fit ships or none was
+    /// fitted). What they showed near the edge: a datasheet's `tempco` that states less ships it
+    /// instead, as fitted.
     pub extrapolation_fitted_std: Option<f64>,
     /// √c_w: random walk, output units per √h.
     pub walk_std_per_sqrt_h: f64,

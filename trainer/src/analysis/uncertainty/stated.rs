@@ -107,7 +107,8 @@ impl Calibration {
     /// proportion to the output stays as it was: a bias figure says nothing of the scale factor.
     /// Where the residuals fitted the term, the larger of the fit and the datasheet's stands: they
     /// reach a fraction of a width beyond the range, the datasheet all of it. So it does where
-    /// their fit, below the part assumed, did not ship ([`Self::extrapolation_fitted_std`]).
+    /// their fit, below the growth assumed, did not ship ([`Self::extrapolation_fitted_std`]):
+    /// where it is the larger, it ships now, as fitted.
     pub fn set_tempco(&mut self, per_c: f64, width_c: f64, held: bool) {
         self.tempco_per_c = Some(per_c);
         self.trained_width_c = Some(width_c);
@@ -116,13 +117,19 @@ impl Calibration {
         let bias = if fitted {
             self.extrapolation_std.max(stated)
         } else if held {
-            stated.max(self.extrapolation_fitted_std.unwrap_or(0.0))
+            stated
         } else {
             stated.hypot(self.extrapolation_std)
         };
+        let near = self.extrapolation_fitted_std.filter(|fit| *fit > bias);
+        let bias = near.unwrap_or(bias);
         self.extrapolation_std = bias;
         self.error_model.extrapolation_var = (bias * bias) as f32;
-        if !fitted && held && self.extrapolation_scale_ppm == 0.0 {
+        if near.is_some() {
+            self.fitted_terms.push("extrapolation");
+            self.extrapolation_fitted_std = None;
+        }
+        if !fitted && (held || near.is_some()) && self.extrapolation_scale_ppm == 0.0 {
             self.extrapolation_share = 1.0;
             self.assumed.retain(|name| *name != "extrapolation");
         }

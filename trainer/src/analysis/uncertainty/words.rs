@@ -113,10 +113,7 @@ impl Calibration {
             };
             let width = self.trained_width_c.unwrap_or(0.0);
             let stated = per_c * width;
-            let near = self
-                .extrapolation_fitted_std
-                .is_some_and(|fit| fit >= self.extrapolation_std);
-            let source = if (self.fitted_terms.contains(&"extrapolation") || near)
+            let source = if self.fitted_terms.contains(&"extrapolation")
                 && self.extrapolation_std > stated
             {
                 format!("fitted, larger than the datasheet's {per_c:.3e} {units} per °C")
@@ -145,7 +142,8 @@ impl Calibration {
         };
         let beyond = match self.extrapolation_fitted_std {
             Some(fit) => format!(
-                "{beyond}, where the residuals, none a whole width beyond the range, fitted                  {fit:.3e} {units}: a growth near the edge, not a width out"
+                "{beyond}, where the residuals, fewer than three a whole width beyond the \
+                 range, fitted {fit:.3e} {units}: a growth near the edge, not a width out"
             ),
             None => beyond,
         };
