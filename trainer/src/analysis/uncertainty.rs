@@ -91,7 +91,7 @@ const TERMS: usize = 5;
 /// not estimated but guessed, and the factor would grow without bound (6.5 at ν = 1).
 const MIN_DOF: f64 = 2.0;
 /// Residuals that must reach [`SEEN_AT`] for a growth term to be fitted ([`seen`]), and
-/// [`A_WIDTH`] for an extrapolation term fitted below the prior to stand (`reach_a_width`).
+/// [`A_WIDTH`] for an extrapolation term fitted below the prior to stand (`reached`).
 const MIN_SEEN: usize = 3;
 /// e² of a whole trained width beyond the range: where the prior's growth is stated.
 const A_WIDTH: f64 = 1.0;

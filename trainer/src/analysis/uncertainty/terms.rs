@@ -87,15 +87,16 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // stream's temperature split, a tenth of a width beyond the range. Less growth there says
     // the model holds near its edge, not that a width out costs less than its own trend there (a
     // bias that bends beyond the range grows faster than the distance): the prior stands, unless
-    // the residuals reach a whole width ([`reach_a_width`]). It is compared as the fit is, one
+    // the residuals reach a whole width ([`reached`]). It is compared as the fit is, one
     // number over the points' outputs, and ships told apart by them: at low rates it may state
     // less than the fit, at high rates more. The other terms keep their fit beside the growth
     // fitted, which is what the residuals beyond showed. (With the prior, the simulated power-on
     // log fitted on its later half covers its colder earlier half 95 %, not 78 %; with the other
     // terms refitted without the growth, as where the residuals cannot tell it, a heating-only
     // ramp's σ was 14× its error.)
-    let fitted_below =
-        seen[EXTRAPOLATION] && c[EXTRAPOLATION] < prior.extrapolation_var && !reach_a_width(&all);
+    let fitted_below = seen[EXTRAPOLATION]
+        && c[EXTRAPOLATION] < prior.extrapolation_var
+        && !reached(&all, EXTRAPOLATION, A_WIDTH);
     let extrapolation_fitted_std = fitted_below.then(|| c[EXTRAPOLATION].sqrt());
     let mut assumed = Vec::new();
     let mut extrapolation_scale = 0.0;
@@ -201,29 +202,21 @@ fn summaries(
 /// width beyond.
 fn seen(all: &[(Residual, bool)]) -> [bool; TERMS] {
     let mut seen = [false; TERMS];
-    let mut reached = [0usize; TERMS];
-    for (r, run) in all {
-        let t = r.terms(*run);
+    for (_, run) in all {
         seen[0] |= !run;
         seen[1] |= *run;
-        for k in 2..TERMS {
-            reached[k] += usize::from(t[k] >= SEEN_AT[k]);
-        }
     }
     for k in 2..TERMS {
-        seen[k] = reached[k] >= MIN_SEEN;
+        seen[k] = reached(all, k, SEEN_AT[k]);
     }
     seen
 }
 
-/// Whether at least [`MIN_SEEN`] residuals lie [`A_WIDTH`] or more beyond the range: the
-/// distance the prior's growth is stated for ([`Prior::of`]), so that a fit below it measures
-/// what the prior guesses.
-fn reach_a_width(all: &[(Residual, bool)]) -> bool {
-    all.iter()
-        .filter(|(r, run)| r.terms(*run)[EXTRAPOLATION] >= A_WIDTH)
-        .count()
-        >= MIN_SEEN
+/// Whether at least [`MIN_SEEN`] residuals reach `at` of the covariate of term `k`: what [`seen`]
+/// asks of every growth term, and [`A_WIDTH`] beyond the range (the distance the prior's growth
+/// is stated for, [`Prior::of`]) what a fit below the prior must reach to stand.
+fn reached(all: &[(Residual, bool)], k: usize, at: f64) -> bool {
+    all.iter().filter(|(r, run)| r.terms(*run)[k] >= at).count() >= MIN_SEEN
 }
 
 /// Whether the residuals of `series` can tell an extrapolation term as large as the larger of the
