@@ -720,6 +720,7 @@ impl Channels {
                 step_s,
                 time_issues: time_issues.clone(),
                 handled: handled.clone(),
+                history: 0,
             })
             .collect())
     }

@@ -17,6 +17,7 @@ use firmware_core::model::{Conditions, Evaluation, Mean, Model, Prediction, Prep
 use firmware_core::record;
 use firmware_core::unit::SINGLE_CHANNEL;
 use firmware_core::unit::{Numbers, Unit, UnitSample};
+use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_core::{BlobError, ErrorModel, FeatureState, Sample, Status};
 use serde::Serialize;
 
@@ -170,6 +171,17 @@ pub fn restarts(stream: &Stream) -> Vec<bool> {
     stream.lines.iter().map(|l| at.contains(l)).collect()
 }
 
+/// In the calibration's own power-on (`state`, [`FeatureState::calibration_run`]), the hours from
+/// the first sample of the window `stream` was cut to, after its history
+/// ([`Stream::history`]), to sample `i`: the held-out part begins where the calibration's data
+/// ended, and the model error's time terms, fitted on the hours since the data a model saw,
+/// count from there. `None` elsewhere: in service they count from the power-on.
+fn held_out_hours(stream: &Stream, i: usize, state: &FeatureState) -> Option<f32> {
+    let from = *stream.time_s.get(stream.history)?;
+    (state.in_calibration_run() && stream.history > 0)
+        .then(|| ((stream.time_s[i] - from).max(0.0) / SECONDS_PER_HOUR) as f32)
+}
+
 /// Sample `i` as the firmware sees it.
 pub fn sample(stream: &Stream, i: usize) -> Sample {
     Sample {
@@ -282,8 +294,13 @@ pub fn replay_unit(
         };
         let prepared = unit.prepare(&sample, &mut state, &mut one).is_ok();
         if prepared {
+            let held_out = held_out_hours(first, i, &state);
             for (p, one) in pending.iter_mut().zip(&one) {
-                p.push(*one);
+                let mut one = *one;
+                if let Some(h) = held_out {
+                    one.limit_hours(h);
+                }
+                p.push(one);
             }
         }
         refused.push(!prepared);
@@ -360,7 +377,8 @@ pub fn unit_scores(
         .collect()
 }
 
-/// A unit's compensated CSV (docs/design.md §3): time and temperature, then each channel's
+/// A unit's compensated CSV (docs/design.md §3), the window's samples (not the history before
+/// it, [`Stream::history`]): time and temperature, then each channel's
 /// output and reference (empty where unknown), `comp_rate_dps`, `comp_std_dps` (the sample's σ:
 /// bias and noise), `status` and `comp_bias_std_dps` (the bias part alone, which a mean keeps),
 /// its values in its quantity's unit. Where the unit has several channels, each column is
@@ -389,7 +407,7 @@ pub fn unit_csv(unit: &HostUnit, streams: &[&Stream], comps: &[Compensated]) -> 
     let Some(first) = streams.first() else {
         return s;
     };
-    for i in 0..first.len() {
+    for i in first.inside() {
         s.push_str(&format!("{},{}", first.time_s[i], first.temp_c[i]));
         for (st, comp) in streams.iter().zip(comps) {
             s.push(',');
@@ -512,7 +530,11 @@ fn evaluate_where(
     walk(stream, calibration_run, |i, sample, state| {
         let (at, batch) = &mut pending[usize::from(wanted.get(i).copied().unwrap_or(false))];
         at.push(i);
-        batch.push(model.prepare(sample, state));
+        let mut prepared = model.prepare(sample, state);
+        if let Some(h) = held_out_hours(stream, i, state) {
+            prepared.limit_hours(h);
+        }
+        batch.push(prepared);
         if batch.len() == BATCH {
             flush(&mut pending, &mut means, &mut full);
         }
@@ -706,6 +728,9 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
     };
     let (means_in_range, sigma_60s_in_range) = part(Status::Valid);
     let (_, sigma_60s_beyond) = part(Status::Extrapolating);
+    // The counts are the window's: the history before it is replayed, not scored.
+    let inside = stream.inside();
+    let flagged = |status: Status| inside.clone().filter(|&i| comp.status[i] == status).count();
     Score {
         n,
         rmse_dps: rms(&errors),
@@ -719,18 +744,13 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         n_blocks_in_range: means_in_range.len(),
         sigma_60s_in_range,
         sigma_60s_beyond,
-        n_unscored: stream.len() - stream.rate_dps.iter().filter(|r| r.is_finite()).count(),
-        n_extrapolating: comp
-            .status
-            .iter()
-            .filter(|s| **s == Status::Extrapolating)
+        n_unscored: inside
+            .clone()
+            .filter(|&i| !stream.rate_dps[i].is_finite())
             .count(),
-        n_degraded: comp
-            .status
-            .iter()
-            .filter(|s| **s == Status::Degraded)
-            .count(),
-        n_fault: comp.status.iter().filter(|s| **s == Status::Fault).count(),
+        n_extrapolating: flagged(Status::Extrapolating),
+        n_degraded: flagged(Status::Degraded),
+        n_fault: flagged(Status::Fault),
         time_issues: stream.time_issues.clone(),
         n_handled: stream.handled.iter().map(|h| h.n).sum(),
         handled: stream.handled.clone(),
@@ -742,14 +762,14 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
 /// `None` where fewer than half are degraded or the steps are not the reason.
 pub fn degraded_reason(stream: &Stream, score: &Score) -> Option<String> {
     use firmware_core::features::{JUMP_MIN_S, JUMP_STEPS};
-    (2 * score.n_degraded > stream.len() && stream.step_s > JUMP_MIN_S).then(|| {
+    (2 * score.n_degraded > stream.inside().len() && stream.step_s > JUMP_MIN_S).then(|| {
         format!(
             "{} of {} samples degraded: they are {} s apart, and the firmware takes any step over \
              {JUMP_MIN_S} s (and {JUMP_STEPS} regular steps) for a time jump, after which its \
              filters settle; is the time in other units than seconds (milliseconds: --map \
              time_s=COLUMN*0.001)?",
             score.n_degraded,
-            stream.len(),
+            stream.inside().len(),
             stream.step_s
         )
     })

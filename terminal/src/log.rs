@@ -43,6 +43,8 @@ pub struct LogArgs {
     #[command(flatten)]
     exclude: Excludes,
     /// Use only this part of the stream: START:END, s from its first sample (either end open).
+    /// The samples before it are its history: the firmware's state runs through them from the
+    /// power-on, as it did on the gyro, but nothing is fitted or scored on them.
     #[arg(long)]
     pub window: Option<Window>,
     /// The unit's channels, where the log holds several.
@@ -240,10 +242,10 @@ fn cut(
                 Some(w) => {
                     let part = s.window(w);
                     anyhow::ensure!(
-                        part.len() >= 2,
+                        part.inside().len() >= 2,
                         "{}: the window {w} s holds {} samples",
                         path.display(),
-                        part.len()
+                        part.inside().len()
                     );
                     part
                 }

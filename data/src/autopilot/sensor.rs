@@ -134,6 +134,7 @@ impl Sensor {
                 step_s,
                 time_issues: time_issues.clone(),
                 handled: handled.clone(),
+                history: 0,
             })
             .collect()
     }

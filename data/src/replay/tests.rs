@@ -14,6 +14,7 @@ fn stream(rate: &[f64], step: f64) -> Stream {
         step_s: step,
         time_issues: vec![],
         handled: vec![],
+        history: 0,
     }
 }
 
@@ -215,4 +216,58 @@ fn block_means_cancel_white_errors() {
     let sc = score(&s, &comp);
     assert!((sc.rmse_dps - 0.5).abs() < 1e-12);
     assert!(sc.rmse_60s_dps < 1e-12);
+}
+
+#[test]
+fn a_window_is_replayed_after_its_history_and_written_without_it() {
+    // An hour at 1 Hz, warming; the window is its last half hour. The model's error grows as a
+    // random walk since power-on.
+    let mut log = stream(&[0.0; 3600], 1.0);
+    for (i, t) in log.temp_c.iter_mut().enumerate() {
+        *t = 20.0 + 0.005 * i as f64;
+    }
+    let part = log.window("1800:".parse().unwrap());
+    let alone = Stream {
+        time_s: log.time_s[1800..].to_vec(),
+        temp_c: log.temp_c[1800..].to_vec(),
+        voltage_v: log.voltage_v[1800..].to_vec(),
+        rate_dps: log.rate_dps[1800..].to_vec(),
+        lines: log.lines[1800..].to_vec(),
+        ..stream(&[], 1.0)
+    };
+    let mut blob = GYRO.to_vec();
+    let error = ErrorModel {
+        walk_var_per_h: 1e-4,
+        ..decode(GYRO).unwrap().error_model()
+    };
+    firmware_core::blob::set_error_model(&mut blob, &error).unwrap();
+    let unit = decode_unit(&blob).unwrap();
+    // The held-out part of the calibration's own power-on: its time terms count from the
+    // window's start, as the trainer fitted them (the hours since the data a model saw).
+    let held_out = replay_unit(&unit, &[&part], true);
+    let cut = replay_unit(&unit, &[&alone], true);
+    for i in 0..1800 {
+        assert_eq!(
+            held_out[0].bias_var[1800 + i].to_bits(),
+            cut[0].bias_var[i].to_bits(),
+            "sample {i}"
+        );
+    }
+    // In service they count from the power-on, half an hour before the window.
+    let service = replay_unit(&unit, &[&part], false);
+    let grown = service[0].bias_var[1800] - replay_unit(&unit, &[&alone], false)[0].bias_var[0];
+    assert!((grown - 0.5e-4).abs() < 1e-6, "{grown}");
+    // The history is replayed, never scored, counted or written.
+    let scored = score(&part, &held_out[0]);
+    assert_eq!((scored.n, scored.n_unscored), (1800, 0));
+    assert_eq!(
+        scored.n_extrapolating,
+        held_out[0].status[1800..]
+            .iter()
+            .filter(|s| **s == Status::Extrapolating)
+            .count()
+    );
+    let csv = unit_csv(&unit, &[&part], &held_out);
+    assert_eq!(csv.lines().count(), 1 + 1800);
+    assert!(csv.lines().nth(1).unwrap().starts_with("1800,"));
 }

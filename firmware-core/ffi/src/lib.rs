@@ -189,7 +189,9 @@ pub enum FogStatus {
     /// beyond the range (hold: the model held at the range's edge, as PX4 and ArduPilot clip the
     /// temperature, its pure linear terms in the output and the time since power-on following
     /// them; tangent: held, the prior mean continued along its tangent; follow: the GP's own
-    /// prediction, as every blob before format 6); the bias variance grows with the distance.
+    /// prediction, as every blob before format 6); the bias variance grows with the distance (an
+    /// input only a linear term reads, such as a time drift's, follows it, its variance growing by
+    /// the square of what it added past the edge).
     FogExtrapolating = 1,
     /// A stateful input's history is not to be trusted (time jump, stuck sensor): settling.
     FogDegraded = 2,

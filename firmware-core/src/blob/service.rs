@@ -22,10 +22,14 @@ use crate::error::BlobError;
 /// bias variance  = latent(x) + floor + (extrapolation + extrapolation_scale·y²)·e(x)²
 ///                  + walk·t + trend·t² + leg·l(s)²
 ///                  + turn_on + scale·y²          (the last two on another power-on only)
+///                  + f(x)²
 /// noise variance = sample_noise (one sample of sample_interval_s)
 /// ```
 ///
-/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)², and
+/// with e(x)² = Σ_k (distance of input k beyond its trained range / that range's width)² over
+/// the inputs the kernel or the prior mean reads, f(x)² = Σ_k (what input k's raw linear term
+/// added past its trained range's edge)² over those only that term reads (`crate::model`, module
+/// doc: no number of its own, the blob's coefficient states it), and
 /// l(s) the distance of the state s ∈ [−1, 1] ([`crate::features::FeatureState::leg`]: +1 after
 /// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
 /// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest).

@@ -275,15 +275,59 @@ impl<const D: usize> Evaluator<'_, D> {
         let clamped = xk.max(lo).min(hi);
         let excess = ((clamped - xk) / width).abs().min(MAX_EXCESS);
         // An input the kernel ignores enters through linear terms alone, a slope fitted on the
-        // data: it follows its value, as every input does under `Follow`.
+        // data: it follows its value, as every input does under `Follow`. Where the prior mean
+        // does not read it either, its distance grows the variance through what its raw linear
+        // term followed ([`Self::followed2`]), not through e(x)².
         let linear = length >= blob::IGNORED_LENGTH_SCALE;
         let held = if !linear && self.beyond != Beyond::Follow {
             clamped
         } else {
             xk
         };
+        let excess = if linear && !self.in_prior(k) {
+            0.0
+        } else {
+            excess
+        };
         // A positive excess marks the input extrapolating, however small.
         Some((held, excess.max(f32::MIN_POSITIVE)))
+    }
+
+    /// Whether a prior-mean monomial reads input `k`.
+    fn in_prior(&self, k: usize) -> bool {
+        self.exponents
+            .chunks(self.dims.d.max(1))
+            .any(|e| e.get(k).is_some_and(|&ek| ek > 0))
+    }
+
+    /// f(x)²: over the inputs only a raw linear term reads (an extension's time drift, warm-up,
+    /// heating/cooling state, temperature rate), the square of what that term added past the
+    /// trained range's edge ([`ErrorModel`]): the slope was fitted where the data were, and
+    /// followed further it may be wrong by all it adds there. The distance is capped as the
+    /// widths are (a time since power-on of years stays finite). Out of line, called only for a
+    /// sample that is extrapolating: the common path costs nothing more.
+    #[cold]
+    #[inline(never)]
+    pub(crate) fn followed2(&self, x: &[f32]) -> f32 {
+        let sec = self.dims.sections();
+        let at = |base: usize, k: usize| self.floats.get(base + k).copied().unwrap_or(0.0);
+        let mut sum = 0.0f32;
+        for (k, &xk) in x.iter().enumerate().take(self.dims.d) {
+            let (lo, hi) = (at(sec.min.start, k), at(sec.max.start, k));
+            if at(sec.length.start, k) < blob::IGNORED_LENGTH_SCALE
+                || (lo..=hi).contains(&xk)
+                || self.in_prior(k)
+            {
+                continue;
+            }
+            let span = hi - lo;
+            let width = if span > 0.0 { span } else { lo.abs().max(1.0) };
+            let reach = MAX_EXCESS * width;
+            let distance = (xk - xk.max(lo).min(hi)).max(-reach).min(reach);
+            let followed = (at(sec.raw_hi.start, k) + at(sec.raw_lo.start, k)) * distance;
+            sum += followed * followed;
+        }
+        sum
     }
 
     /// Adds the prior monomials, highest degree (smallest term) first.
@@ -567,8 +611,11 @@ impl<const D: usize> Evaluator<'_, D> {
             }
             rest.add(-(vi * vi));
         }
-        let bias_variance =
+        let mut bias_variance =
             signal * rest.total().max(0.0) + self.error.model_error(excess2, mean, at);
+        if status == Status::Extrapolating {
+            bias_variance += self.followed2(x);
+        }
         // With the noise, so that the sum a caller forms (`Prediction::variance`) is finite too.
         if !(bias_variance + self.error.sample_noise_var).is_finite() {
             // Absurd but finite numbers in a blob (the mutated-blob test), as a mean that is not

@@ -40,6 +40,14 @@ impl<const D: usize> Prepared<D> {
         Self::judged(x, Status::Valid, at)
     }
 
+    /// The time the model error's time terms read, h, at most `hours`: a host that replays the
+    /// held-out part of the calibration's own power-on, its history run through the feature
+    /// state first, counts them from where that part begins, as the trainer fitted them (the
+    /// hours since the data a model saw). The firmware in service never calls this.
+    pub fn limit_hours(&mut self, hours: f32) {
+        self.at.hours = self.at.hours.min(hours);
+    }
+
     /// Inputs `x` whose health the feature pipeline judged `health`, in the conditions `at`.
     pub(crate) fn judged(x: &[f32], health: Status, at: Conditions) -> Self {
         let mut kept = [0.0; D];
@@ -338,8 +346,11 @@ impl<const D: usize> Evaluator<'_, D> {
                     let mut prediction = if mean.status == Status::Fault {
                         self.fault()
                     } else {
-                        let bias_variance = signal * rest.max(0.0)
+                        let mut bias_variance = signal * rest.max(0.0)
                             + self.error.model_error(excess2, mean.mean, q.at);
+                        if mean.status == Status::Extrapolating {
+                            bias_variance += self.followed2(q.read(self.dims.d));
+                        }
                         if (bias_variance + self.error.sample_noise_var).is_finite() {
                             Prediction {
                                 mean: mean.mean,

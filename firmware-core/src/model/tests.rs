@@ -245,6 +245,59 @@ fn an_input_only_linear_terms_read_follows_its_value_beyond_the_range() {
 }
 
 #[test]
+fn an_input_only_linear_terms_read_grows_the_variance_by_what_it_followed() {
+    // An extension's time drift: ignored by the kernel and the prior mean (its monomial z₁
+    // replaced by z₀²), read by its raw linear term alone over a trained −3…3 h.
+    let mut r = Reference::small();
+    r.length[1] = f64::from(blob::IGNORED_LENGTH_SCALE);
+    r.exponents = vec![0, 0, 1, 0, 2, 0];
+    let m = Small::decode(&r.blob_of([Feature::Temperature, Feature::TimeOn])).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let mut at = |t: f32, h: f32| m.predict(&[t, h], &mut scratch).unwrap();
+    let (inside, edge, beyond) = (at(20.0, 1.0), at(20.0, 3.0), at(20.0, 5.0));
+    assert_eq!((inside.status, edge.status), (Status::Valid, Status::Valid));
+    assert_eq!(beyond.status, Status::Extrapolating);
+    // Two hours past the edge the drift followed adds raw₁ · 2 to the mean, and its square to
+    // the variance: nothing through e(x)², which would have added extrapolation · (2/6)².
+    // (Another power-on's scale term grows with the mean followed, as at any output.)
+    let followed = 2.0 * r.raw[1];
+    let scale = f64::from(r.error.scale_var)
+        * (f64::from(beyond.mean).powi(2) - f64::from(edge.mean).powi(2));
+    let grown = f64::from(beyond.bias_variance - edge.bias_variance);
+    let expected = followed * followed + scale;
+    assert!(
+        (grown - expected).abs() < 1e-5 * expected,
+        "{grown} {expected}"
+    );
+    // Inside the range, nothing is added: the variance of a reading there is the one before it
+    // was written, bit for bit (the latent variance plus the model error at e(x)² = 0).
+    let expected =
+        r.predict([20.0, 1.0]).1 + r.model_error([20.0, 1.0], f64::from(inside.mean), 0.0);
+    assert!((f64::from(inside.bias_variance) - expected).abs() < 1e-6 * expected);
+    // A temperature beyond its range still grows by e(x)², held at the edge's mean.
+    let (warm, hot) = (at(60.0, 1.0), at(70.0, 1.0));
+    assert_eq!(
+        (warm.status, hot.status),
+        (Status::Valid, Status::Extrapolating)
+    );
+    assert_eq!(hot.mean, warm.mean);
+    let e = &r.error;
+    let y2 = f64::from(hot.mean).powi(2);
+    let e2 = (10.0f64 / 90.0).powi(2);
+    let expected =
+        (f64::from(e.extrapolation_var) + f64::from(e.extrapolation_scale_var) * y2) * e2;
+    let grown = f64::from(hot.bias_variance - warm.bias_variance);
+    assert!(
+        (grown - expected).abs() < 1e-3 * expected,
+        "{grown} {expected}"
+    );
+    // Years since power-on: the distance is capped as the widths are, never a fault.
+    let far = at(20.0, 1e9);
+    assert_eq!(far.status, Status::Extrapolating);
+    assert!(far.bias_variance.is_finite() && far.mean.is_finite());
+}
+
+#[test]
 fn the_tangent_continues_the_prior_mean_from_the_edge_to_first_order() {
     let r = Reference::small();
     let mut b = r.blob();

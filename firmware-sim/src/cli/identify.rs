@@ -31,6 +31,8 @@ pub(super) struct IdentifyArgs {
     #[command(flatten)]
     maps: Maps,
     /// Use only this part of the stream: START:END, s from its first sample.
+    /// The samples before it are its history: the firmware's state runs through them from the
+    /// power-on, as it did on the gyro, but nothing is fitted or scored on them.
     #[arg(long, requires = "stream")]
     window: Option<Window>,
     #[command(flatten)]

@@ -240,7 +240,7 @@ fn replay_command(
     }
     console.result(&format!(
         "replayed {} samples{} through {}:\n{}",
-        streams.first().map_or(0, |s| s.len()),
+        streams.first().map_or(0, |s| s.inside().len()),
         match scores.len() {
             1 => String::new(),
             n => format!(" of {n} channels"),

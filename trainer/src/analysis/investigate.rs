@@ -345,8 +345,8 @@ fn check_figures(c: &ForwardCheck, names: &str, unit: &str) -> String {
         }
     };
     let mut figures = format!(
-        "fitted on the first {:.0} min of the training stream, {names} scores {:.3e} {unit} on \
-         the {} later blocks against the static model's {:.3e}{}",
+        "fitted on the training stream up to {:.0} min from the log's start, {names} scores \
+         {:.3e} {unit} on the {} later blocks against the static model's {:.3e}{}",
         c.split_s / 60.0,
         c.extended_rmse_60s_dps,
         c.later_blocks,

@@ -111,6 +111,9 @@ const OWN_DRAW: f64 = 2.0;
 const DETECTED: f64 = 2.0;
 /// A heating/cooling state the training data must reach on each side of 0 to hold both legs.
 const BOTH_LEGS: f32 = 0.5;
+/// The share of the trained temperatures a leg's states must span to count as held (a judgement:
+/// most of the range, so that a turn's minutes at one end do not count; [`Calibration::set_legs`]).
+const LEG_SPAN: f64 = 0.5;
 
 /// Where a series of residuals comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
@@ -372,8 +375,10 @@ pub struct Calibration {
     /// `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]),
     /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]).
     pub assumed: Vec<&'static str>,
-    /// The heating/cooling states the training stream held (0.5 % quantiles; `None`: not known,
-    /// as for a rate table's soaks, and no leg term).
+    /// The heating/cooling states the training stream held (0.5 % quantiles, the side of a leg
+    /// whose states span less than half the trained temperatures no further than 0:
+    /// [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg
+    /// term).
     pub legs_trained: Option<(f32, f32)>,
     /// The model error of a full swing of the heating/cooling state beyond those trained, output
     /// units (0 where the training stream held both legs, or its states are not known): stated

@@ -54,6 +54,8 @@ pub(super) struct InvestigateArgs {
     #[arg(long)]
     stream: PathBuf,
     /// Use only this part of each log: START:END, s from its first sample (either end open).
+    /// The samples before it are its history: the firmware's state runs through them from the
+    /// power-on, as it did on the gyro, but nothing is fitted or scored on them.
     #[arg(long)]
     window: Option<Window>,
     #[command(flatten)]

@@ -122,11 +122,15 @@ impl HeldOut {
     pub(super) fn split(&self, stream: &Stream) -> anyhow::Result<(Stream, Stream, f64)> {
         let t0 = stream.time_s.first().copied().unwrap_or(0.0);
         let t1 = stream.time_s.last().copied().unwrap_or(t0);
-        let split = self.hold_out_from.unwrap_or((t1 - t0) * 2.0 / 3.0);
+        // A window's history is no part of either (`Stream::history`).
+        let from = stream.time_s.get(stream.history).map_or(0.0, |t| t - t0);
+        let split = self
+            .hold_out_from
+            .unwrap_or(from + (t1 - t0 - from) * 2.0 / 3.0);
         anyhow::ensure!(
-            split > 0.0 && split < t1 - t0,
-            "--hold-out-from {split} s: the stream runs from 0 to {:.0} s, so nothing would be \
-             left to fit on or to hold out",
+            split > from && split < t1 - t0,
+            "--hold-out-from {split} s: the stream runs from {from:.0} to {:.0} s, so nothing \
+             would be left to fit on or to hold out",
             t1 - t0
         );
         let before = stream.window(Window {
@@ -253,6 +257,7 @@ mod tests {
             time_issues: Vec::new(),
             handled: Vec::new(),
             time_s,
+            history: 0,
         }
     }
 
@@ -266,9 +271,11 @@ mod tests {
         // Default: the last third in time, every sample in exactly one part, in time order.
         let (train, valid, at) = held(None).split(&s).unwrap();
         assert_eq!(at, 200.0);
-        assert_eq!(train.len() + valid.len(), s.len());
-        assert!(train.time_s.last().unwrap() < valid.time_s.first().unwrap());
-        assert_eq!(valid.time_s[0], 200.0);
+        assert_eq!(train.len() + valid.inside().len(), s.len());
+        assert!(train.time_s.last().unwrap() < &valid.time_s[valid.history]);
+        assert_eq!(valid.time_s[valid.history], 200.0);
+        // The part held out keeps the training part as its history (`Stream::window`).
+        assert_eq!((valid.history, valid.len()), (200, 301));
         assert!(
             held(None)
                 .said(Path::new("a.csv"), at)
@@ -276,7 +283,7 @@ mod tests {
         );
         // Asked: from 60 s on.
         let (train, valid, at) = held(Some(60.0)).split(&s).unwrap();
-        assert_eq!((at, train.len(), valid.len()), (60.0, 60, 241));
+        assert_eq!((at, train.len(), valid.inside().len()), (60.0, 60, 241));
         assert_eq!(
             held(Some(60.0)).said(Path::new("a.csv"), at),
             "a.csv from 60 s on"
@@ -286,6 +293,14 @@ mod tests {
             let e = held(Some(from)).split(&s).unwrap_err().to_string();
             assert!(e.contains("runs from 0 to 300 s"), "{e}");
         }
+        // A window's last third, its history part of neither; times from the log's start.
+        let w = s.window("120:".parse().unwrap());
+        let (train, valid, at) = held(None).split(&w).unwrap();
+        assert_eq!(at, 240.0);
+        assert_eq!((train.history, train.referenced().len()), (120, 120));
+        assert_eq!(valid.inside().len(), 61);
+        let e = held(Some(100.0)).split(&w).unwrap_err().to_string();
+        assert!(e.contains("runs from 120 to 300 s"), "{e}");
     }
 }
 

@@ -752,6 +752,7 @@ mod tests {
             step_s: 1.0,
             time_issues: Vec::new(),
             handled: Vec::new(),
+            history: 0,
         };
         let p = Points::from_stream_samples(Path::new("s.csv"), &stream, None).unwrap();
         assert_eq!(p.len(), n - 1);

@@ -114,15 +114,18 @@ fn analyse(
     (rate, what): (Vec<f64>, String),
     messages: &dyn Messages,
 ) -> anyhow::Result<Analysis> {
-    let referenced = data.rate_dps.iter().any(|r| r.is_finite());
-    let left_out = data.rate_dps.iter().filter(|r| !r.is_finite()).count();
+    // The window's samples: the history before it is no part of the analysis.
+    let w = data.inside();
+    let reference = &data.rate_dps[w.clone()];
+    let referenced = reference.iter().any(|r| r.is_finite());
+    let left_out = reference.iter().filter(|r| !r.is_finite()).count();
     if referenced && left_out > 0 {
         messages.result(&format!(
             "left out of the Allan deviation: the {left_out} samples without a reference (the \
              windows above); it is computed over the stretches between them"
         ));
     }
-    let analysis = Analysis::less_reference(&what, &data.time_s, &rate, &data.rate_dps);
+    let analysis = Analysis::less_reference(&what, &data.time_s[w.clone()], &rate[w], reference);
     analysis.enough().with_context(|| path.to_owned())?;
     Ok(analysis)
 }

@@ -189,12 +189,14 @@ impl<'a> Residual<'a> {
         out
     }
 
-    /// Range of a feature along the stream, widened by 10% of its span each side: the trained
-    /// range of an additive input.
+    /// Range of a feature over the samples the blocks hold (not a window's history before them,
+    /// nor minutes left out), widened by 10% of its span each side: the trained range of an
+    /// additive input.
     pub fn range(&self, feature: Feature) -> (f64, f64) {
         let x = self.series(feature);
-        let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let fitted = || self.blocks.iter().flatten().map(|&i| x[i]);
+        let lo = fitted().fold(f64::INFINITY, f64::min);
+        let hi = fitted().fold(f64::NEG_INFINITY, f64::max);
         let pad = 0.1 * (hi - lo);
         (lo - pad, hi + pad)
     }

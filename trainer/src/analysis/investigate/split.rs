@@ -76,7 +76,8 @@ impl Split {
             Some(b) => run(b)?,
             None => static_run.clone(),
         };
-        let all: Vec<usize> = (0..self.scored.len()).collect();
+        // The window's samples: the history before it is no part of any test.
+        let all: Vec<usize> = self.scored.inside().collect();
         let blocks = self.scored.half_filled_blocks(&all);
         let block_mean = |b: &[usize], f: &dyn Fn(usize) -> f64| {
             b.iter().map(|&i| f(i)).sum::<f64>() / b.len() as f64

@@ -7,8 +7,9 @@
 use firmware_core::blob::Beyond;
 use fog_data::channels::Datasheet;
 
-use super::{BOTH_LEGS, Calibration, OWN_DRAW, ResidualSource};
+use super::{BOTH_LEGS, Calibration, LEG_SPAN, OWN_DRAW, ResidualSource};
 use crate::firmware::export::{self, ExportError};
+use crate::models::normalize::trained_range;
 
 impl Calibration {
     /// States the bias of another power-on: `sigma`, output units (a datasheet's run-to-run
@@ -144,25 +145,45 @@ impl Calibration {
     }
 
     /// States the heating/cooling states the training stream held (`states`, each sample's, as
-    /// the firmware tracks them: [`super::streams::legs`]). Where they are one leg's only, the error of a full
-    /// swing of the state is assumed as large as the model's out-of-sample error on the leg it
-    /// saw (the RMS of the residuals of the training data, or the floor where there are none),
-    /// said in `assumed`; the firmware adds it in proportion to how far a state lies beyond the
-    /// trained ones (half of it at a full cooling state after a heating that started at rest).
-    pub fn set_legs(&mut self, states: &[f32]) {
+    /// the firmware tracks them, with its temperature: [`super::streams::legs`]). A leg counts as
+    /// held where its states (beyond ±0.5) span at least half of the trained temperatures
+    /// (`LEG_SPAN`): a few minutes at a turn hold its state at one temperature, not the leg (a
+    /// window that starts where a ramp turned from cooling to heating carries the cooling state
+    /// into its first minutes, as the gyro did). The side of a leg not held is then trained no
+    /// further than the centre, 0, as after a start at rest. Where one leg only is held, the
+    /// error of a full swing of the state is assumed as large as the model's out-of-sample error
+    /// on the leg it saw (the RMS of the residuals of the training data, or the floor where there
+    /// are none), said in `assumed`; the firmware adds it in proportion to how far a state lies
+    /// beyond the trained ones (half of it at a full cooling state after a heating that started
+    /// at rest).
+    pub fn set_legs(&mut self, states: &[(f32, f64)]) {
         if states.is_empty() {
             return;
         }
-        let mut sorted = states.to_vec();
+        let mut sorted: Vec<f32> = states.iter().map(|(s, _)| *s).collect();
         sorted.sort_by(f32::total_cmp);
         let at = |q: f64| {
             sorted[((q * (sorted.len() - 1) as f64).round() as usize).min(sorted.len() - 1)]
         };
-        let (lo, hi) = (at(0.005), at(0.995));
+        let span = |keep: &dyn Fn(f32) -> bool| {
+            let (lo, hi) = trained_range(states.iter().filter(|(s, _)| keep(*s)).map(|(_, t)| *t));
+            if hi >= lo { hi - lo } else { 0.0 }
+        };
+        let width = span(&|_| true);
+        let held = |keep: &dyn Fn(f32) -> bool| span(keep) >= LEG_SPAN * width;
+        let (mut lo, mut hi) = (at(0.005), at(0.995));
+        let cooling = lo <= -BOTH_LEGS && held(&|s| s <= -BOTH_LEGS);
+        let heating = hi >= BOTH_LEGS && held(&|s| s >= BOTH_LEGS);
+        if !cooling {
+            lo = lo.max(0.0).min(hi);
+        }
+        if !heating {
+            hi = hi.min(0.0).max(lo);
+        }
         self.legs_trained = Some((lo, hi));
         self.error_model.leg_min = lo;
         self.error_model.leg_max = hi;
-        if lo <= -BOTH_LEGS && hi >= BOTH_LEGS {
+        if cooling && heating {
             self.error_model.leg_var = 0.0;
             self.leg_std = 0.0;
             return;

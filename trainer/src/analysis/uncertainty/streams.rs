@@ -82,12 +82,17 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
 }
 
 /// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
-/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream.
-pub fn legs(stream: &Stream) -> Vec<f32> {
+/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream, with the
+/// sample's temperature.
+pub fn legs(stream: &Stream) -> Vec<(f32, f64)> {
     leg_states(stream)
         .into_iter()
         .enumerate()
-        .filter_map(|(i, state)| state.filter(|_| stream.rate_dps[i].is_finite()))
+        .filter_map(|(i, state)| {
+            state
+                .filter(|_| stream.rate_dps[i].is_finite())
+                .map(|s| (s, stream.temp_c[i]))
+        })
         .collect()
 }
 

@@ -224,6 +224,7 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
         step_s: 1.0,
         time_issues: vec![],
         handled: vec![],
+        history: 0,
     };
     let noise = SampleNoise::from_streams(&[(&stream, &error)]).unwrap();
     assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
@@ -250,6 +251,7 @@ fn streams_at_other_rates_pool_their_noise_as_a_density() {
             step_s,
             time_issues: vec![],
             handled: vec![],
+            history: 0,
         };
         let error: Vec<f64> = (0..n).map(|_| sd * unit.sample(rng)).collect();
         (stream, error)
@@ -342,7 +344,10 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
         interval_s: 1.0,
     };
     let mut heating = calibrate(&series, noise, Prior::NONE);
-    let states: Vec<f32> = (0..1000).map(|i| 0.2 + 0.8 * (i as f32 / 999.0)).collect();
+    // Heating from 20 to 30 °C.
+    let states: Vec<(f32, f64)> = (0..1000)
+        .map(|i| (0.2 + 0.8 * (i as f32 / 999.0), 20.0 + 0.01 * f64::from(i)))
+        .collect();
     heating.set_legs(&states);
     let (lo, hi) = heating.legs_trained.unwrap();
     assert!((lo - 0.204).abs() < 0.01 && hi > 0.99, "{lo} {hi}");
@@ -366,11 +371,26 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
         "{added} {}",
         heating.leg_std
     );
+    // Up and down the same 10 °C: both legs, each over all of it.
     let mut both = calibrate(&series, noise, Prior::NONE);
-    let states: Vec<f32> = (0..1000).map(|i| -1.0 + 2.0 * (i as f32 / 999.0)).collect();
+    let states: Vec<(f32, f64)> = (0..1000)
+        .map(|i| {
+            let up = i % 200 < 100;
+            let t = 20.0 + 0.1 * f64::from(if up { i % 100 } else { 99 - i % 100 });
+            (if up { 1.0 } else { -1.0 }, t)
+        })
+        .collect();
     both.set_legs(&states);
     assert_eq!(both.error_model.leg_var, 0.0);
     assert!(both.assumed.is_empty(), "{both:?}");
+    // Heating that starts where a cooling leg turned: three minutes of its state at one
+    // temperature are not the leg, which is assumed as from a start at rest.
+    let mut turned = calibrate(&series, noise, Prior::NONE);
+    let mut states: Vec<(f32, f64)> = (0..180).map(|_| (-0.8, 20.0)).collect();
+    states.extend((0..6000).map(|i| (1.0, 20.0 + 0.002 * f64::from(i))));
+    turned.set_legs(&states);
+    assert_eq!(turned.legs_trained, Some((0.0, 1.0)));
+    assert!(turned.assumed.contains(&"leg") && turned.error_model.leg_var > 0.0);
     // A datasheet's heating/cooling gap takes the assumed term's place on one leg, and on both
     // there is still none to take.
     let mut stated = heating.clone();

@@ -31,6 +31,8 @@ pub(in crate::cli) struct FitArgs {
     #[arg(long)]
     pub(super) stream: Vec<PathBuf>,
     /// Use only this part of each stream: START:END, s from its first sample.
+    /// The samples before it are its history: the firmware's state runs through them from the
+    /// power-on, as it did on the gyro, but nothing is fitted or scored on them.
     #[arg(long, requires = "stream")]
     pub(super) window: Option<Window>,
     /// Fit the static model on every sample of --stream (1 Hz, not 60 s means), pooled with
