@@ -208,7 +208,17 @@ fn walk(
         if restart {
             state.power_on();
         }
+        held_out_starts(stream, i, calibration_run, &mut state);
         each(i, &sample(stream, i), &mut state);
+    }
+}
+
+/// With `calibration_run`, at the first sample of the window `stream` was cut to (after its
+/// history, [`Stream::history`]) the calibration's own power-on begins again: a power cycle in the
+/// history (a later power-on's window) ended the one the walk started with.
+fn held_out_starts(stream: &Stream, i: usize, calibration_run: bool, state: &mut FeatureState) {
+    if calibration_run && stream.history > 0 && i == stream.history {
+        state.calibration_run();
     }
 }
 
@@ -284,6 +294,7 @@ pub fn replay_unit(
         if restart {
             state.power_on();
         }
+        held_out_starts(first, i, calibration_run, &mut state);
         for (o, s) in outputs.iter_mut().zip(streams) {
             *o = s.voltage_v[i] as f32;
         }
@@ -751,7 +762,12 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         n_extrapolating: flagged(Status::Extrapolating),
         n_degraded: flagged(Status::Degraded),
         n_fault: flagged(Status::Fault),
-        time_issues: stream.time_issues.clone(),
+        time_issues: stream
+            .time_issues
+            .iter()
+            .filter(|t| stream.lines[inside.clone()].contains(&t.line()))
+            .cloned()
+            .collect(),
         n_handled: stream.handled.iter().map(|h| h.n).sum(),
         handled: stream.handled.clone(),
     }

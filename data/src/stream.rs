@@ -425,22 +425,20 @@ impl Stream {
     /// are left out. Times stay counted from the log's first sample.
     pub fn window(&self, window: Window) -> Self {
         let t0 = self.time_s.first().copied().unwrap_or(0.0);
-        let kept = self
-            .time_s
-            .iter()
-            .take_while(|&&t| window.end_s.is_none_or(|e| t - t0 < e))
-            .count();
-        let history = self.time_s[..kept]
-            .iter()
-            .take_while(|&&t| window.start_s.is_some_and(|s| t - t0 < s))
-            .count()
-            .max(self.history.min(kept));
+        // From the first sample inside to the last (a clock that jumps back at a power cycle, or
+        // one stray time stamp, can put samples outside between them: their references go).
+        let inside = |i: &usize| window.contains(self.time_s[*i] - t0);
+        let first = (0..self.len()).find(inside).unwrap_or(self.len());
+        let kept = (0..self.len()).rev().find(inside).map_or(first, |i| i + 1);
+        let history = first.max(self.history).min(kept);
         let mut rate_dps = self.rate_dps[..kept].to_vec();
-        for r in &mut rate_dps[..history] {
-            *r = f64::NAN;
+        for (i, r) in rate_dps.iter_mut().enumerate() {
+            if i < history || !inside(&i) {
+                *r = f64::NAN;
+            }
         }
         let lines = self.lines[..kept].to_vec();
-        let inside: Vec<usize> = (history..kept).collect();
+        let rows: Vec<usize> = (history..kept).filter(inside).collect();
         Self {
             time_s: self.time_s[..kept].to_vec(),
             temp_c: self.temp_c[..kept].to_vec(),
@@ -456,7 +454,7 @@ impl Stream {
             handled: self
                 .handled
                 .iter()
-                .filter_map(|h| h.within(&self.time_s, &self.lines, &inside, t0))
+                .filter_map(|h| h.within(&self.time_s, &self.lines, &rows, t0))
                 .collect(),
             lines,
             history,
@@ -713,6 +711,13 @@ mod tests {
         assert_eq!(inner.time_s, vec![100.0, 101.0, 102.0, 110.0]);
         assert_eq!((inner.history, inner.referenced()), (2, vec![2, 3]));
         assert_eq!(part.window(":11".parse().unwrap()).history, 1);
+        // A clock that jumps back (a power cycle whose counter restarted): the window runs from
+        // its first sample inside to its last, and a sample outside between them is not scored.
+        let mut back = s.clone();
+        back.time_s = vec![100.0, 101.0, 102.0, 100.5, 101.5];
+        let part = back.window("1:2".parse().unwrap());
+        assert_eq!((part.history, part.len()), (1, 5));
+        assert_eq!(part.referenced(), vec![1, 4]);
         for bad in ["", "5", "a:b", "3:1", "inf:"] {
             assert!(bad.parse::<Window>().is_err(), "{bad}");
         }

@@ -59,11 +59,11 @@
 //! mean reads. An input only its raw linear term reads (an extension's time drift, warm-up,
 //! heating/cooling state or temperature rate) adds instead the square of what that term added
 //! past the edge: its slope was fitted where its data were, and following it further may be wrong
-//! by all it adds there. A time drift fitted on the later half of a three-day log and followed
-//! back to the power-on covered 35 % of the earlier half's 60 s means at sharpness 0.35 with its
-//! distance in e(x)² (the temperature's growth per width, for hours), 85 % at 0.62 with this term;
-//! forward, on the later half of a log fitted on its earlier half, e(x)² had made it 6.6× too wide
-//! (1.33 with this term; docs/uncertainty.md).
+//! by all it adds there. Counted in e(x)², a time drift's hours grew the σ at the temperature's
+//! growth per width: on the simulated room log, a drift fitted on the earlier half and followed
+//! over the later half made it 6.6× the error of its 60 s means (1.43 with this term), and where
+//! it covered a drift followed back to the power-on, the temperature's growth stood in for the
+//! drift's own (docs/uncertainty.md).
 
 use heapless::Vec;
 

@@ -408,7 +408,7 @@ class Calibration(Record):
     """The model error of a full swing of the heating/cooling state beyond those trained, output units (0 where the training stream held both legs, or its states are not known): stated by `--hysteresis`, else assumed (`leg` in `assumed`)."""
 
     legs_trained: list[float] | None
-    """The heating/cooling states the training stream held (0.5 % quantiles, the side of a leg whose states span less than half the trained temperatures no further than 0: [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg term)."""
+    """The heating/cooling states the training stream held (0.5 % quantiles; a side that reached a leg whose states span less than half the trained temperatures, no further than 0: [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg term)."""
 
     note: str | None
     """Why there is no error model measured, when there is none."""

@@ -220,11 +220,11 @@ fn block_means_cancel_white_errors() {
 
 #[test]
 fn a_window_is_replayed_after_its_history_and_written_without_it() {
-    // An hour at 1 Hz, warming; the window is its last half hour. The model's error grows as a
-    // random walk since power-on.
+    // An hour at 1 Hz, cooling from beyond the model's trained range (−26…64 °C) into it; the
+    // window is its last half hour. The model's error grows as a random walk since power-on.
     let mut log = stream(&[0.0; 3600], 1.0);
     for (i, t) in log.temp_c.iter_mut().enumerate() {
-        *t = 20.0 + 0.005 * i as f64;
+        *t = 80.0 - 0.02 * i as f64;
     }
     let part = log.window("1800:".parse().unwrap());
     let alone = Stream {
@@ -257,17 +257,36 @@ fn a_window_is_replayed_after_its_history_and_written_without_it() {
     let service = replay_unit(&unit, &[&part], false);
     let grown = service[0].bias_var[1800] - replay_unit(&unit, &[&alone], false)[0].bias_var[0];
     assert!((grown - 0.5e-4).abs() < 1e-6, "{grown}");
-    // The history is replayed, never scored, counted or written.
+    // The history is replayed, never scored, counted or written: its first minutes lie beyond
+    // the trained range, the window's none.
     let scored = score(&part, &held_out[0]);
     assert_eq!((scored.n, scored.n_unscored), (1800, 0));
-    assert_eq!(
-        scored.n_extrapolating,
-        held_out[0].status[1800..]
+    let beyond = |c: &Compensated| {
+        c.status
             .iter()
             .filter(|s| **s == Status::Extrapolating)
             .count()
-    );
+    };
+    assert!(beyond(&held_out[0]) > 600, "{}", beyond(&held_out[0]));
+    assert_eq!(scored.n_extrapolating, 0);
     let csv = unit_csv(&unit, &[&part], &held_out);
     assert_eq!(csv.lines().count(), 1 + 1800);
     assert!(csv.lines().nth(1).unwrap().starts_with("1800,"));
+    // A power cycle in the history (ten minutes off before the window's power-on): the window is
+    // still the calibration's own power-on, its time terms counted from its start.
+    let mut cycled = log.clone();
+    for t in &mut cycled.time_s[1000..] {
+        *t += 600.0;
+    }
+    cycled.time_issues.push(TimeIssue::Gap {
+        line: cycled.lines[1000],
+        step_s: 601.0,
+    });
+    let part = cycled.window("2400:".parse().unwrap());
+    assert_eq!(part.history, 1800);
+    let after = replay_unit(&unit, &[&part], true);
+    assert_eq!(
+        after[0].bias_var[1800].to_bits(),
+        cut[0].bias_var[0].to_bits()
+    );
 }

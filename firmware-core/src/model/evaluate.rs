@@ -14,6 +14,9 @@ use crate::units::SECONDS_PER_HOUR;
 /// The farthest beyond its trained range an input counts, in the range's widths: a σ grown that
 /// far says nothing more than "not this model's", and e(x)² stays finite for any finite input.
 const MAX_EXCESS: f32 = 1e3;
+/// The most [`Evaluator::followed2`] adds: a variance far past any use that leaves room for the
+/// terms added beside it.
+const FOLLOWED2_MAX: f32 = f32::MAX / 16.0;
 
 /// Predictive mean (output units, e.g. °/s) and its status.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -304,8 +307,8 @@ impl<const D: usize> Evaluator<'_, D> {
     /// heating/cooling state, temperature rate), the square of what that term added past the
     /// trained range's edge ([`ErrorModel`]): the slope was fitted where the data were, and
     /// followed further it may be wrong by all it adds there. The distance is capped as the
-    /// widths are (a time since power-on of years stays finite). Out of line, called only for a
-    /// sample that is extrapolating: the common path costs nothing more.
+    /// widths are (a time since power-on of years stays finite), and so is the sum. Out of line,
+    /// called only for a sample that is extrapolating: the common path costs nothing more.
     #[cold]
     #[inline(never)]
     pub(crate) fn followed2(&self, x: &[f32]) -> f32 {
@@ -327,7 +330,8 @@ impl<const D: usize> Evaluator<'_, D> {
             let followed = (at(sec.raw_hi.start, k) + at(sec.raw_lo.start, k)) * distance;
             sum += followed * followed;
         }
-        sum
+        // However large a coefficient, finite: a reading is never made a fault by its variance.
+        sum.min(FOLLOWED2_MAX)
     }
 
     /// Adds the prior monomials, highest degree (smallest term) first.

@@ -269,8 +269,8 @@ fn an_input_only_linear_terms_read_grows_the_variance_by_what_it_followed() {
         (grown - expected).abs() < 1e-5 * expected,
         "{grown} {expected}"
     );
-    // Inside the range, nothing is added: the variance of a reading there is the one before it
-    // was written, bit for bit (the latent variance plus the model error at e(x)² = 0).
+    // Inside the range, nothing is added: the latent variance plus the model error at
+    // e(x)² = 0, as the f64 reference gives them.
     let expected =
         r.predict([20.0, 1.0]).1 + r.model_error([20.0, 1.0], f64::from(inside.mean), 0.0);
     assert!((f64::from(inside.bias_variance) - expected).abs() < 1e-6 * expected);
@@ -295,6 +295,20 @@ fn an_input_only_linear_terms_read_grows_the_variance_by_what_it_followed() {
     let far = at(20.0, 1e9);
     assert_eq!(far.status, Status::Extrapolating);
     assert!(far.bias_variance.is_finite() && far.mean.is_finite());
+    // Side by side, the same variances bit for bit.
+    let queries = [[20.0f32, 1.0], [20.0, 5.0], [70.0, 1.0], [20.0, 1e9]];
+    let prepared = queries.map(|x| Prepared::<2>::inputs(&x, Conditions::at_hours(0.0)));
+    let mut lanes = vec![0.0f32; m.evaluate_scratch_len()];
+    let mut out = [Evaluation::NONE; 4];
+    m.evaluate(&prepared, &mut lanes, &mut out).unwrap();
+    for (x, e) in queries.iter().zip(&out) {
+        let one = m.predict(x, &mut [0.0f32; 5]).unwrap();
+        assert_eq!(
+            (e.prediction.bias_variance.to_bits(), e.prediction.status),
+            (one.bias_variance.to_bits(), one.status),
+            "{x:?}"
+        );
+    }
 }
 
 #[test]

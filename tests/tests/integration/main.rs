@@ -16,6 +16,7 @@ mod sigma;
 mod sparse;
 mod twin;
 mod unit;
+mod window;
 
 use std::path::{Path, PathBuf};
 

@@ -556,8 +556,9 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     let calibration = &calibration;
     // The window starts where the ramp turned from cooling: its first minutes hold the cooling
     // state at one temperature, not the cooling leg, which is trained no further than the centre.
-    assert!(
-        calibration["legs_trained"][0].as_f64().unwrap() >= 0.0,
+    assert_eq!(
+        calibration["legs_trained"][0].as_f64().unwrap(),
+        0.0,
         "{calibration}"
     );
     assert!(crate::assumes(calibration, "leg"), "{calibration}");

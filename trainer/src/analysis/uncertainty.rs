@@ -375,8 +375,8 @@ pub struct Calibration {
     /// `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]),
     /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]).
     pub assumed: Vec<&'static str>,
-    /// The heating/cooling states the training stream held (0.5 % quantiles, the side of a leg
-    /// whose states span less than half the trained temperatures no further than 0:
+    /// The heating/cooling states the training stream held (0.5 % quantiles; a side that reached
+    /// a leg whose states span less than half the trained temperatures, no further than 0:
     /// [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg
     /// term).
     pub legs_trained: Option<(f32, f32)>,

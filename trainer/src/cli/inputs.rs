@@ -101,8 +101,9 @@ impl ModelInput {
 /// its own.
 #[derive(Args, Clone)]
 pub(super) struct HeldOut {
-    /// Hold out --stream's log from this time on, s from its first sample used (default: its last
-    /// third in time): the part before fits, the part from it on is scored, forward in time.
+    /// Hold out --stream's log from this time on, s from the log's first sample (default: the
+    /// last third in time of the part --window keeps): the part before fits, the part from it on
+    /// is scored, forward in time, the part before as its history.
     #[arg(
         long,
         value_name = "SECONDS",

@@ -149,8 +149,8 @@ impl Calibration {
     /// held where its states (beyond ±0.5) span at least half of the trained temperatures
     /// (`LEG_SPAN`): a few minutes at a turn hold its state at one temperature, not the leg (a
     /// window that starts where a ramp turned from cooling to heating carries the cooling state
-    /// into its first minutes, as the gyro did). The side of a leg not held is then trained no
-    /// further than the centre, 0, as after a start at rest. Where one leg only is held, the
+    /// into its first minutes, as the gyro did). A side that reached a leg without holding it is
+    /// then trained no further than the centre, 0, as after a start at rest. Where one leg only is held, the
     /// error of a full swing of the state is assumed as large as the model's out-of-sample error
     /// on the leg it saw (the RMS of the residuals of the training data, or the floor where there
     /// are none), said in `assumed`; the firmware adds it in proportion to how far a state lies
@@ -174,11 +174,12 @@ impl Calibration {
         let (mut lo, mut hi) = (at(0.005), at(0.995));
         let cooling = lo <= -BOTH_LEGS && held(&|s| s <= -BOTH_LEGS);
         let heating = hi >= BOTH_LEGS && held(&|s| s >= BOTH_LEGS);
-        if !cooling {
-            lo = lo.max(0.0).min(hi);
+        // A side that reached a leg without holding it is trained to the centre.
+        if lo <= -BOTH_LEGS && !cooling {
+            (lo, hi) = (0.0, hi.max(0.0));
         }
-        if !heating {
-            hi = hi.min(0.0).max(lo);
+        if hi >= BOTH_LEGS && !heating {
+            (lo, hi) = (lo.min(0.0), 0.0);
         }
         self.legs_trained = Some((lo, hi));
         self.error_model.leg_min = lo;
