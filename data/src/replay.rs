@@ -194,7 +194,8 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
 /// Walks `stream` sample by sample with one feature state, powered on again at each of its
 /// [`restarts`] as a gyro that stores the state at power-down would (`firmware_core::features`):
 /// the loop every replay of one model shares. With `calibration_run`, the samples up to the first
-/// power cycle are of the power-on the model was calibrated on ([`FeatureState::calibration_run`]).
+/// power cycle (of a window: from its start, [`held_out_starts`]) are of the power-on the model was
+/// calibrated on ([`FeatureState::calibration_run`]).
 fn walk(
     stream: &Stream,
     calibration_run: bool,
@@ -230,8 +231,9 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
 }
 
 /// [`replay`], where with `calibration_run` the stream is the power-on the model was calibrated on
-/// (the held-out part of its own log): up to its first power cycle the σ leaves out another
-/// power-on's bias and scale, as [`replay_unit`]'s `calibration_run` does.
+/// (the held-out part of its own log): up to its first power cycle (a window's: from its start)
+/// the σ leaves out another power-on's bias and scale, as [`replay_unit`]'s `calibration_run`
+/// does.
 pub fn replay_run(model: &HostModel, stream: &Stream, calibration_run: bool) -> Compensated {
     evaluate_where(model, stream, &vec![true; stream.len()], calibration_run).1
 }

@@ -57,8 +57,9 @@ enum Command {
         json: Option<PathBuf>,
         /// The stream is the power-on the model was calibrated on (its held-out part): the σ
         /// leaves out another power-on's bias and scale (the blob's turn-on and scale terms), up
-        /// to the stream's first power cycle. Without it, every sample is scored as in service,
-        /// on another power-on.
+        /// to the stream's first power cycle (with --window, from the window's start, where its
+        /// time terms count from too). Without it, every sample is scored as in service, on
+        /// another power-on.
         #[arg(long)]
         calibration_run: bool,
     },
