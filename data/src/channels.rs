@@ -721,6 +721,7 @@ impl Channels {
                 time_issues: time_issues.clone(),
                 handled: handled.clone(),
                 history: 0,
+                after_s: None,
             })
             .collect())
     }

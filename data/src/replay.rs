@@ -17,7 +17,6 @@ use firmware_core::model::{Conditions, Evaluation, Mean, Model, Prediction, Prep
 use firmware_core::record;
 use firmware_core::unit::SINGLE_CHANNEL;
 use firmware_core::unit::{Numbers, Unit, UnitSample};
-use firmware_core::units::SECONDS_PER_HOUR;
 use firmware_core::{BlobError, ErrorModel, FeatureState, Sample, Status};
 use serde::Serialize;
 
@@ -25,6 +24,7 @@ use crate::sigma::Coverage;
 
 use crate::stats::rms;
 use crate::stream::{Handled, Stream, TimeIssue};
+use held_out::HeldOut;
 
 /// The host decodes blobs into the firmware's largest capacities ([`MAX_CENTRES`] centres,
 /// [`MAX_INPUTS`] inputs; heapless storage is inline, so they also bound the host's stack use).
@@ -165,21 +165,10 @@ pub fn restarts(stream: &Stream) -> Vec<bool> {
     let at: std::collections::HashSet<u64> = stream
         .time_issues
         .iter()
-        .filter(|i| !matches!(i, TimeIssue::Duplicate { .. }))
+        .filter(|i| i.restarts_at(i.line()))
         .map(TimeIssue::line)
         .collect();
     stream.lines.iter().map(|l| at.contains(l)).collect()
-}
-
-/// In the calibration's own power-on (`state`, [`FeatureState::calibration_run`]), the hours from
-/// the first sample of the window `stream` was cut to, after its history
-/// ([`Stream::history`]), to sample `i`: the held-out part begins where the calibration's data
-/// ended, and the model error's time terms, fitted on the hours since the data a model saw,
-/// count from there. `None` elsewhere: in service they count from the power-on.
-fn held_out_hours(stream: &Stream, i: usize, state: &FeatureState) -> Option<f32> {
-    let from = *stream.time_s.get(stream.history)?;
-    (state.in_calibration_run() && stream.history > 0)
-        .then(|| ((stream.time_s[i] - from).max(0.0) / SECONDS_PER_HOUR) as f32)
 }
 
 /// Sample `i` as the firmware sees it.
@@ -193,33 +182,24 @@ pub fn sample(stream: &Stream, i: usize) -> Sample {
 
 /// Walks `stream` sample by sample with one feature state, powered on again at each of its
 /// [`restarts`] as a gyro that stores the state at power-down would (`firmware_core::features`):
-/// the loop every replay of one model shares. With `calibration_run`, the samples up to the first
-/// power cycle (of a window: from its start, [`held_out_starts`]) are of the power-on the model was
-/// calibrated on ([`FeatureState::calibration_run`]).
+/// the loop every replay of one model shares. With `calibration_run`, the samples of the power-on
+/// the model was calibrated on are marked so ([`FeatureState::calibration_run`], [`HeldOut`]).
 fn walk(
     stream: &Stream,
     calibration_run: bool,
-    mut each: impl FnMut(usize, &Sample, &mut FeatureState),
+    mut each: impl FnMut(usize, &Sample, &mut FeatureState, &HeldOut),
 ) {
     let mut state = FeatureState::default();
-    if calibration_run {
-        state.calibration_run();
-    }
-    for (i, restart) in restarts(stream).into_iter().enumerate() {
+    let restarts = restarts(stream);
+    let held_out = HeldOut::new(stream, &restarts, calibration_run);
+    for (i, restart) in restarts.into_iter().enumerate() {
         if restart {
             state.power_on();
         }
-        held_out_starts(stream, i, calibration_run, &mut state);
-        each(i, &sample(stream, i), &mut state);
-    }
-}
-
-/// With `calibration_run`, at the first sample of the window `stream` was cut to (after its
-/// history, [`Stream::history`]) the calibration's own power-on begins again: a power cycle in the
-/// history (a later power-on's window) ended the one the walk started with.
-fn held_out_starts(stream: &Stream, i: usize, calibration_run: bool, state: &mut FeatureState) {
-    if calibration_run && stream.history > 0 && i == stream.history {
-        state.calibration_run();
+        if held_out.begins_at(i) {
+            state.calibration_run();
+        }
+        each(i, &sample(stream, i), &mut state, &held_out);
     }
 }
 
@@ -262,9 +242,8 @@ pub fn replay_unit(
     };
     let mut scratch = vec![0.0f32; unit.evaluate_scratch_len()];
     let mut state = FeatureState::default();
-    if calibration_run {
-        state.calibration_run();
-    }
+    let restarts = restarts(first);
+    let held_out = HeldOut::new(first, &restarts, calibration_run);
     // Each channel's samples wait to be evaluated side by side ([`HostUnit::evaluate`]); a
     // sample the unit refused (fewer outputs than channels) is a `Fault` with mean 0 and an
     // infinite variance in every channel, as is one the evaluation refused (a scratch too short:
@@ -292,11 +271,13 @@ pub fn replay_unit(
         }
         refused.clear();
     };
-    for (i, restart) in restarts(first).into_iter().enumerate() {
+    for (i, restart) in restarts.into_iter().enumerate() {
         if restart {
             state.power_on();
         }
-        held_out_starts(first, i, calibration_run, &mut state);
+        if held_out.begins_at(i) {
+            state.calibration_run();
+        }
         for (o, s) in outputs.iter_mut().zip(streams) {
             *o = s.voltage_v[i] as f32;
         }
@@ -307,11 +288,11 @@ pub fn replay_unit(
         };
         let prepared = unit.prepare(&sample, &mut state, &mut one).is_ok();
         if prepared {
-            let held_out = held_out_hours(first, i, &state);
+            let hours = held_out.hours(first, i, &state);
             for (p, one) in pending.iter_mut().zip(&one) {
                 let mut one = *one;
-                if let Some(h) = held_out {
-                    one.limit_hours(h);
+                if let Some(h) = hours {
+                    one.hours_since_data(h);
                 }
                 p.push(one);
             }
@@ -540,12 +521,12 @@ fn evaluate_where(
             batch.clear();
         }
     };
-    walk(stream, calibration_run, |i, sample, state| {
+    walk(stream, calibration_run, |i, sample, state, held_out| {
         let (at, batch) = &mut pending[usize::from(wanted.get(i).copied().unwrap_or(false))];
         at.push(i);
         let mut prepared = model.prepare(sample, state);
-        if let Some(h) = held_out_hours(stream, i, state) {
-            prepared.limit_hours(h);
+        if let Some(h) = held_out.hours(stream, i, state) {
+            prepared.hours_since_data(h);
         }
         batch.push(prepared);
         if batch.len() == BATCH {
@@ -793,5 +774,6 @@ pub fn degraded_reason(stream: &Stream, score: &Score) -> Option<String> {
     })
 }
 
+mod held_out;
 #[cfg(test)]
 mod tests;

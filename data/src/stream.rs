@@ -49,6 +49,12 @@ impl TimeIssue {
             }
         }
     }
+
+    /// Whether the gyro was powered on again at `line`: time jumps back or leaves a gap there (a
+    /// power cycle, or a reset the firmware would make); a repeated time stamp is neither.
+    pub fn restarts_at(&self, line: u64) -> bool {
+        !matches!(self, Self::Duplicate { .. }) && self.line() == line
+    }
 }
 
 impl fmt::Display for TimeIssue {
@@ -90,6 +96,10 @@ pub struct Stream {
     /// the firmware's feature state runs through them from the power-on, as it did on the gyro,
     /// but their references are removed and no replay writes them.
     pub history: usize,
+    /// Time of the log's first sample after a window ([`Stream::window`]), s, where the log goes
+    /// on past it in the same power-on: a model fitted on the rest of the log saw data there too.
+    /// `None` for a whole log, a window to its end, and one a power cycle ends.
+    pub after_s: Option<f64>,
 }
 
 /// How many times the log's typical scatter a block's output scatter must exceed to count as
@@ -411,6 +421,7 @@ impl Stream {
             time_issues,
             handled,
             history: 0,
+            after_s: None,
         }
     }
 
@@ -439,6 +450,13 @@ impl Stream {
         }
         let lines = self.lines[..kept].to_vec();
         let rows: Vec<usize> = (history..kept).filter(inside).collect();
+        let after_s = match self.lines.get(kept) {
+            Some(&line) if !self.time_issues.iter().any(|i| i.restarts_at(line)) => {
+                Some(self.time_s[kept])
+            }
+            Some(_) => None,
+            None => self.after_s,
+        };
         Self {
             time_s: self.time_s[..kept].to_vec(),
             temp_c: self.temp_c[..kept].to_vec(),
@@ -458,6 +476,7 @@ impl Stream {
                 .collect(),
             lines,
             history,
+            after_s,
         }
     }
 
@@ -617,6 +636,7 @@ mod tests {
             time_issues: Vec::new(),
             handled: handled.clone(),
             history: 0,
+            after_s: None,
         };
         let part = log.window(Window {
             start_s: Some(630.0),
@@ -706,6 +726,11 @@ mod tests {
         assert_eq!(head.time_s, vec![100.0, 101.0]);
         assert_eq!(head.history, 0);
         assert!(head.time_issues.is_empty());
+        // The log goes on after it, in the same power-on; a window that a gap ends, or that
+        // reaches the log's end, has nothing after it.
+        assert_eq!((head.after_s, part.after_s), (Some(102.0), None));
+        assert!(s.time_issues.iter().any(|i| i.restarts_at(5)));
+        assert_eq!(s.window(":5".parse().unwrap()).after_s, None);
         // A window of a window keeps the first one's history, and adds to it.
         let inner = part.window("2:11".parse().unwrap());
         assert_eq!(inner.time_s, vec![100.0, 101.0, 102.0, 110.0]);

@@ -135,6 +135,7 @@ impl Sensor {
                 time_issues: time_issues.clone(),
                 handled: handled.clone(),
                 history: 0,
+                after_s: None,
             })
             .collect()
     }

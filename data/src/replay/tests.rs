@@ -15,7 +15,21 @@ fn stream(rate: &[f64], step: f64) -> Stream {
         time_issues: vec![],
         handled: vec![],
         history: 0,
+        after_s: None,
     }
+}
+
+/// `log` switched off for ten minutes before sample `at`, its clock running on.
+fn power_cycled(log: &Stream, at: usize) -> Stream {
+    let mut cycled = log.clone();
+    for t in &mut cycled.time_s[at..] {
+        *t += 600.0;
+    }
+    cycled.time_issues.push(TimeIssue::Gap {
+        line: cycled.lines[at],
+        step_s: 601.0,
+    });
+    cycled
 }
 
 #[test]
@@ -163,7 +177,7 @@ fn samples_evaluated_side_by_side_are_those_of_one_at_a_time_bit_for_bit() {
     let model = decode(GYRO).unwrap();
     let mut scratch = vec![0.0f32; model.dims().m];
     let (mut alone, mut mean_path) = (Compensated::default(), Vec::new());
-    walk(&s, false, |_, sample, state| {
+    walk(&s, false, |_, sample, state, _| {
         mean_path.push(model.compensate_mean(sample, &mut state.clone()));
         alone.push(&model.compensate(sample, state, &mut scratch).unwrap());
     });
@@ -274,19 +288,52 @@ fn a_window_is_replayed_after_its_history_and_written_without_it() {
     assert!(csv.lines().nth(1).unwrap().starts_with("1800,"));
     // A power cycle in the history (ten minutes off before the window's power-on): the window is
     // still the calibration's own power-on, its time terms counted from its start.
-    let mut cycled = log.clone();
-    for t in &mut cycled.time_s[1000..] {
-        *t += 600.0;
-    }
-    cycled.time_issues.push(TimeIssue::Gap {
-        line: cycled.lines[1000],
-        step_s: 601.0,
-    });
+    let cycled = power_cycled(&log, 1000);
     let part = cycled.window("2400:".parse().unwrap());
     assert_eq!(part.history, 1800);
     let after = replay_unit(&unit, &[&part], true);
     assert_eq!(
         after[0].bias_var[1800].to_bits(),
         cut[0].bias_var[0].to_bits()
+    );
+}
+
+#[test]
+fn a_window_before_the_calibrations_data_counts_its_hours_back_from_its_end() {
+    // An hour at 1 Hz inside the trained range; the model's error grows as a random walk.
+    let log = stream(&[0.0; 3600], 1.0);
+    let mut blob = GYRO.to_vec();
+    let error = ErrorModel {
+        walk_var_per_h: 1e-4,
+        turn_on_var: 1e-3,
+        ..decode(GYRO).unwrap().error_model()
+    };
+    firmware_core::blob::set_error_model(&mut blob, &error).unwrap();
+    let unit = decode_unit(&blob).unwrap();
+    let var = |s: &Stream, own: bool| replay_unit(&unit, &[s], own).remove(0).bias_var;
+    // The first half, fitted on the second: its time terms count back from its end, where the
+    // data fitted begin; in service, from the power-on.
+    let head = log.window(":1800".parse().unwrap());
+    assert_eq!(head.after_s, Some(1800.0));
+    let held_out = var(&head, true);
+    let back = held_out[0] - held_out[1799];
+    assert!((back - 1e-4 * 1799.0 / 3600.0).abs() < 1e-7, "{back}");
+    let service = var(&head, false);
+    assert!((service[1799] - service[0] - 1e-4 * 1799.0 / 3600.0).abs() < 1e-7);
+    // A window between the data: from the nearer of its ends.
+    let middle = var(&log.window("1200:2400".parse().unwrap()), true);
+    assert!(middle[1800] > middle[1200] && middle[1800] > middle[2399]);
+    assert!((middle[1200] - middle[2399]).abs() < 1e-7);
+    // A power cycle in the first half (ten minutes off): the calibration's power-on is the one
+    // the data go on from, the window's last; before it, another power-on's, as in service.
+    let cycled = power_cycled(&log, 900);
+    let head = cycled.window(":2400".parse().unwrap());
+    let (held_out, service) = (var(&head, true), var(&head, false));
+    assert!((0..900).all(|i| held_out[i].to_bits() == service[i].to_bits()));
+    assert!(
+        held_out[900] + 5e-4 < service[900],
+        "{} {}",
+        held_out[900],
+        service[900]
     );
 }

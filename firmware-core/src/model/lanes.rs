@@ -40,12 +40,12 @@ impl<const D: usize> Prepared<D> {
         Self::judged(x, Status::Valid, at)
     }
 
-    /// The time the model error's time terms read, h, at most `hours`: a host that replays the
-    /// held-out part of the calibration's own power-on, its history run through the feature
-    /// state first, counts them from where that part begins, as the trainer fitted them (the
-    /// hours since the data a model saw). The firmware in service never calls this.
-    pub fn limit_hours(&mut self, hours: f32) {
-        self.at.hours = self.at.hours.min(hours);
+    /// The time the model error's time terms read, h: a host that replays a held-out part of the
+    /// calibration's own power-on counts them from the calibration's data, as the trainer fitted
+    /// them (the hours since the data a model saw), where the firmware counts them from the
+    /// power-on. The firmware in service never calls this.
+    pub fn hours_since_data(&mut self, hours: f32) {
+        self.at.hours = hours;
     }
 
     /// Inputs `x` whose health the feature pipeline judged `health`, in the conditions `at`.

@@ -57,9 +57,11 @@ enum Command {
         json: Option<PathBuf>,
         /// The stream is the power-on the model was calibrated on (its held-out part): the σ
         /// leaves out another power-on's bias and scale (the blob's turn-on and scale terms), up
-        /// to the stream's first power cycle (with --window, from the window's start, where its
-        /// time terms count from too). Without it, every sample is scored as in service, on
-        /// another power-on.
+        /// to the stream's first power cycle. With --window, the rest of the log's power-on is
+        /// taken for the calibration's data: its time terms count forward from the window's start
+        /// where the log has samples before it, back from its end where the log goes on after it
+        /// (from its last power cycle then), from the nearer of the two where both. Without it,
+        /// every sample is scored as in service, on another power-on.
         #[arg(long)]
         calibration_run: bool,
     },

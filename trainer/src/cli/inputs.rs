@@ -259,6 +259,7 @@ mod tests {
             handled: Vec::new(),
             time_s,
             history: 0,
+            after_s: None,
         }
     }
 

@@ -753,6 +753,7 @@ mod tests {
             time_issues: Vec::new(),
             handled: Vec::new(),
             history: 0,
+            after_s: None,
         };
         let p = Points::from_stream_samples(Path::new("s.csv"), &stream, None).unwrap();
         assert_eq!(p.len(), n - 1);

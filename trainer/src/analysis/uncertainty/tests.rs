@@ -225,6 +225,7 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
         time_issues: vec![],
         handled: vec![],
         history: 0,
+        after_s: None,
     };
     let noise = SampleNoise::from_streams(&[(&stream, &error)]).unwrap();
     assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
@@ -252,6 +253,7 @@ fn streams_at_other_rates_pool_their_noise_as_a_density() {
             time_issues: vec![],
             handled: vec![],
             history: 0,
+            after_s: None,
         };
         let error: Vec<f64> = (0..n).map(|_| sd * unit.sample(rng)).collect();
         (stream, error)
