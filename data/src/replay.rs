@@ -211,9 +211,9 @@ pub fn replay(model: &HostModel, stream: &Stream) -> Compensated {
 }
 
 /// [`replay`], where with `calibration_run` the stream is the power-on the model was calibrated on
-/// (the held-out part of its own log): up to its first power cycle (a window's: from its start)
-/// the σ leaves out another power-on's bias and scale, as [`replay_unit`]'s `calibration_run`
-/// does.
+/// (the held-out part of its own log): in that power-on (a whole log's first; a window's first and
+/// last, beside the rest of the log taken for the calibration's data) the σ leaves out another
+/// power-on's bias and scale, as [`replay_unit`]'s `calibration_run` does.
 pub fn replay_run(model: &HostModel, stream: &Stream, calibration_run: bool) -> Compensated {
     evaluate_where(model, stream, &vec![true; stream.len()], calibration_run).1
 }
@@ -221,8 +221,8 @@ pub fn replay_run(model: &HostModel, stream: &Stream, calibration_run: bool) -> 
 /// Every sample of a unit's `streams` (one per channel, in the unit's channel order, sharing
 /// their time and temperature: [`crate::channels::Channels::load_log`]) through the unit in
 /// one call each, its one feature state kept through the power cycles as [`replay`] keeps a
-/// model's; one replay per channel. With `calibration_run`, the stream up to its first power
-/// cycle is of the power-on the model was calibrated on ([`FeatureState::calibration_run`]).
+/// model's; one replay per channel. With `calibration_run`, the stream is of the power-on the
+/// model was calibrated on where [`replay_run`] says ([`FeatureState::calibration_run`]).
 pub fn replay_unit(
     unit: &HostUnit,
     streams: &[&Stream],

@@ -735,6 +735,7 @@ mod tests {
         let inner = part.window("2:11".parse().unwrap());
         assert_eq!(inner.time_s, vec![100.0, 101.0, 102.0, 110.0]);
         assert_eq!((inner.history, inner.referenced()), (2, vec![2, 3]));
+        assert_eq!(inner.after_s, Some(111.0));
         assert_eq!(part.window(":11".parse().unwrap()).history, 1);
         // A clock that jumps back (a power cycle whose counter restarted): the window runs from
         // its first sample inside to its last, and a sample outside between them is not scored.

@@ -310,7 +310,14 @@ fn a_window_before_the_calibrations_data_counts_its_hours_back_from_its_end() {
     };
     firmware_core::blob::set_error_model(&mut blob, &error).unwrap();
     let unit = decode_unit(&blob).unwrap();
-    let var = |s: &Stream, own: bool| replay_unit(&unit, &[s], own).remove(0).bias_var;
+    let model = decode(&blob).unwrap();
+    // One model's replay and a unit's agree sample for sample.
+    let var = |s: &Stream, own: bool| {
+        let v = replay_unit(&unit, &[s], own).remove(0).bias_var;
+        let one = replay_run(&model, s, own).bias_var;
+        assert!(v.iter().zip(&one).all(|(a, b)| a.to_bits() == b.to_bits()));
+        v
+    };
     // The first half, fitted on the second: its time terms count back from its end, where the
     // data fitted begin; in service, from the power-on.
     let head = log.window(":1800".parse().unwrap());
@@ -330,6 +337,16 @@ fn a_window_before_the_calibrations_data_counts_its_hours_back_from_its_end() {
     let head = cycled.window(":2400".parse().unwrap());
     let (held_out, service) = (var(&head, true), var(&head, false));
     assert!((0..900).all(|i| held_out[i].to_bits() == service[i].to_bits()));
+    // Data on both sides, a power cycle inside: the window's first power-on counts forward from
+    // its start, its last back from its end.
+    let cycled = power_cycled(&log, 1800);
+    let both = cycled.window("900:3000".parse().unwrap());
+    assert_eq!((both.history, both.after_s), (900, Some(3000.0)));
+    let held_out = var(&both, true);
+    let walked = |i: usize, hours: f64| held_out[i] - held_out[900] - (1e-4 * hours) as f32;
+    assert!(walked(1799, 899.0 / 3600.0).abs() < 1e-7);
+    assert!(walked(1800, 600.0 / 3600.0).abs() < 1e-7);
+    assert!(walked(2399, 1.0 / 3600.0).abs() < 1e-7);
     assert!(
         held_out[900] + 5e-4 < service[900],
         "{} {}",

@@ -138,10 +138,13 @@ impl HeldOut {
             start_s: None,
             end_s: Some(split),
         });
-        let after = stream.window(Window {
+        let mut after = stream.window(Window {
             start_s: Some(split),
             end_s: None,
         });
+        // Fitted on the part before alone: what follows a --window was not seen, so the σ's time
+        // terms count forward from the hold-out time only (`Stream::after_s`).
+        after.after_s = None;
         Ok((before, after, split))
     }
 
@@ -283,6 +286,12 @@ mod tests {
                 .said(Path::new("a.csv"), at)
                 .contains("last third")
         );
+        // A window that ends before the log does: its held-out part was never fitted on what
+        // follows it, so its time terms count forward only.
+        let cut = s.window(":250".parse().unwrap());
+        assert_eq!(cut.after_s, Some(250.0));
+        let (_, valid, _) = held(None).split(&cut).unwrap();
+        assert_eq!(valid.after_s, None);
         // Asked: from 60 s on.
         let (train, valid, at) = held(Some(60.0)).split(&s).unwrap();
         assert_eq!((at, train.len(), valid.inside().len()), (60.0, 60, 241));
@@ -325,7 +334,8 @@ pub(super) struct DatasheetArgs {
     /// power-on in service is another than the calibration's, so twice its variance, in
     /// proportion to the output², is added to every sample's σ; on a unit, the same figure to
     /// each channel's (a channel's `scale_repeatability` in the channels file states its own;
-    /// default: not assumed, said in one line).
+    /// default: assumed as large as the residuals' error in proportion to the output inside the
+    /// trained range, where they show one, and said; else left out, said in one line).
     #[arg(long, value_name = "PPM")]
     scale_repeatability: Option<f64>,
     /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as
