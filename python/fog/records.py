@@ -369,7 +369,7 @@ class Calibration(Record):
     """The error model of a shipped model and the evidence behind it (`calibration` in the JSON)."""
 
     assumed: list[str]
-    """The terms the data could not show, assumed instead: from the [`Prior`] (`floor`, `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]), another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`])."""
+    """The terms the data could not show, assumed instead: from the [`Prior`] (`floor`, `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]), another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]) and scale factor (`scale`: [`Calibration::assume_scale`])."""
 
     before: Coverage | None
     """The GP's σ alone on those residuals."""
@@ -413,6 +413,9 @@ class Calibration(Record):
     note: str | None
     """Why there is no error model measured, when there is none."""
 
+    residual_scale_ppm: float
+    """The out-of-sample residuals' error in proportion to the output inside the trained range, ppm of it: their variance told apart into `a + b·y²` at their reference outputs y ([`split_by_output`]), √b (0 where the outputs barely move or the split does not make them more likely). What another power-on's scale factor is assumed to differ by where nothing states it."""
+
     residuals: int
     """Residuals the terms were fitted on."""
 
@@ -423,7 +426,7 @@ class Calibration(Record):
     """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
-    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its variance, as for the bias."""
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, or, where nothing states or measures it and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for the bias."""
 
     sources: list[SourceSummary]
     """Each test."""
@@ -989,11 +992,14 @@ class CrossRun(Record):
     rmse_dps: float
     """RMSE on the shared range, °/s."""
 
+    scale_assumed: bool
+    """Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale factors as large as the training run's residual error in proportion to the rate) rather than stated."""
+
     scale_repeatability_ppm: float | None
-    """The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null: none)."""
+    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's residuals showing no error in proportion to the rate or the runs left out measuring another power-on, or no σ)."""
 
     sigma: Coverage | None
-    """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`, or assumed as `fit` assumes it) and the scale factor's repeatability where `--scale-repeatability` states it (null for the methods that state no σ)."""
+    """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`) and scale factor (`--scale-repeatability`), each assumed as `fit` assumes it where not stated (null for the methods that state no σ)."""
 
     temp_range_c: list[float]
     """Shared temperature range, °C."""

@@ -39,8 +39,10 @@ const fn v2(name: &'static str, written_by: &'static str) -> Schema {
 
 /// Version 3 of a unit's σ (version 2 of `trainer.loo`, whose version 1 was already one table's):
 /// another power-on's bias assumed where nothing states or measures it (`turn_on_std` no longer 0
-/// for "not stated": `turn-on` in `assumed` says it is assumed), and a log's own later part
-/// scored as the calibration's power-on.
+/// for "not stated": `turn-on` in `assumed` says it is assumed), its scale factor likewise where
+/// the residuals show an error in proportion to the output (`scale_repeatability_ppm` no longer 0
+/// for "not stated": `scale` in `assumed`), and a log's own later part scored as the
+/// calibration's power-on.
 const fn turn_on_assumed(name: &'static str, version: u32, written_by: &'static str) -> Schema {
     Schema {
         name,

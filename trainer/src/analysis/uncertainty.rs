@@ -54,7 +54,9 @@
 //! warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Another power-on's bias, which
 //! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
-//! else assumed as large as the floor ([`Calibration::assume_turn_on`]). Each assumed term is
+//! else assumed as large as the floor ([`Calibration::assume_turn_on`]); its scale factor, by a
+//! datasheet, or else assumed as large as the residuals' error in proportion to the output inside
+//! the trained range, where they show one ([`Calibration::assume_scale`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
 //!
 //! **A datasheet states what it knows better** ([`fog_data::channels::Datasheet`],
@@ -340,9 +342,17 @@ pub struct Calibration {
     /// calibration's power-on was a draw too.
     pub turn_on_std: f64,
     /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
-    /// output: as stated by `--scale-repeatability` (0: not stated). The blob carries twice its
-    /// variance, as for the bias.
+    /// output: as stated by `--scale-repeatability`, or, where nothing states or measures it and
+    /// the residuals show an error in proportion to the output, assumed (`scale` in `assumed`:
+    /// [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for
+    /// the bias.
     pub scale_repeatability_ppm: f64,
+    /// The out-of-sample residuals' error in proportion to the output inside the trained range,
+    /// ppm of it: their variance told apart into `a + b·y²` at their reference outputs y
+    /// ([`split_by_output`]), √b (0 where the outputs barely move or the split does not make
+    /// them more likely). What another power-on's scale factor is assumed to differ by where
+    /// nothing states it.
+    pub residual_scale_ppm: f64,
     /// The bias's temperature coefficient beyond the trained range, output units per °C, as
     /// stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not
     /// stated). Over `trained_width_c` it sets the extrapolation term's part alike at every
@@ -373,7 +383,8 @@ pub struct Calibration {
     pub note: Option<String>,
     /// The terms the data could not show, assumed instead: from the [`Prior`] (`floor`,
     /// `extrapolation`), the heating/cooling leg not trained (`leg`: [`Calibration::set_legs`]),
-    /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]).
+    /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]) and scale factor
+    /// (`scale`: [`Calibration::assume_scale`]).
     pub assumed: Vec<&'static str>,
     /// The heating/cooling states the training stream held (0.5 % quantiles; a side that reached
     /// a leg whose states span less than half the trained temperatures, no further than 0:
@@ -662,6 +673,7 @@ impl Calibration {
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             scale_repeatability_ppm: 0.0,
+            residual_scale_ppm: 0.0,
             tempco_per_c: None,
             trained_width_c: None,
             residuals: 0,

@@ -108,7 +108,7 @@ pub(super) struct LooArgs {
     valid_points: Option<PathBuf>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: stated
     /// in the GP's σ on the --valid-points run, as `fit --scale-repeatability` states it in a
-    /// blob.
+    /// blob (default: assumed as `fit` assumes it, where the --run tables do not measure it).
     #[arg(long, value_name = "PPM", requires = "valid_points")]
     scale_repeatability: Option<f64>,
     /// The bias's run-to-run repeatability, 1σ in the table's units, as a datasheet gives it:

@@ -32,9 +32,8 @@ pub struct CrossRun {
     /// Same, °/h.
     pub rmse_dph: f64,
     /// The GP's σ there, its error model measured on the training run alone, with another
-    /// power-on's bias (`--repeatability`, or assumed as `fit` assumes it) and the scale factor's
-    /// repeatability where `--scale-repeatability` states it (null for the methods that state no
-    /// σ).
+    /// power-on's bias (`--repeatability`) and scale factor (`--scale-repeatability`), each
+    /// assumed as `fit` assumes it where not stated (null for the methods that state no σ).
     pub sigma: Option<Coverage>,
     /// Another power-on's bias stated in `sigma`, output units (`--repeatability`, or assumed:
     /// `turn_on_assumed`; 0 where the training runs left out measured it; null without a σ).
@@ -42,9 +41,14 @@ pub struct CrossRun {
     /// Whether `turn_on_std` is assumed (the difference of two power-ons as large as the model
     /// error's floor) rather than stated.
     pub turn_on_assumed: bool,
-    /// The scale factor's repeatability stated in `sigma`, ppm (`--scale-repeatability`; null:
-    /// none).
+    /// The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed:
+    /// `scale_assumed`; null: none, the training run's residuals showing no error in proportion
+    /// to the rate or the runs left out measuring another power-on, or no σ).
     pub scale_repeatability_ppm: Option<f64>,
+    /// Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale
+    /// factors as large as the training run's residual error in proportion to the rate) rather
+    /// than stated.
+    pub scale_assumed: bool,
     /// What differs between the runs, read off the test run's errors (null where its rates do
     /// not vary or fewer than three points are scored).
     pub difference: Option<RunDifference>,
@@ -96,8 +100,8 @@ impl RunDifference {
 /// Fits `method` on `train` and scores it on the points of `test` inside the temperature range
 /// and the |rate| range both runs cover (a model is not asked to extrapolate here). The GP's σ is
 /// its error model measured on `train`, with another power-on's bias (`stated.0`, a datasheet's
-/// bias repeatability, or assumed where `train`'s runs do not measure it) and `stated.1`, a
-/// datasheet's scale-factor repeatability in ppm, stated beside it where given.
+/// bias repeatability) and scale factor (`stated.1`, a datasheet's scale-factor repeatability in
+/// ppm), each assumed where nothing states it and `train`'s runs do not measure it.
 pub fn score(
     train: &Points,
     test: &Points,
@@ -132,9 +136,7 @@ pub fn score(
     let mut calibration = m.calibration(train, cfg)?;
     if let Some(c) = calibration.as_mut() {
         c.turn_on(bias);
-        if let Some(ppm) = scale_ppm {
-            c.set_scale(ppm);
-        }
+        c.scale(scale_ppm);
     }
     bar.advance(1);
     let (e, sigmas): (Vec<f64>, Vec<f64>) = inside
@@ -159,7 +161,13 @@ pub fn score(
         turn_on_assumed: calibration
             .as_ref()
             .is_some_and(|c| c.assumed.contains(&"turn-on")),
-        scale_repeatability_ppm: scale_ppm,
+        scale_repeatability_ppm: scale_ppm.or(calibration
+            .as_ref()
+            .map(|c| c.scale_repeatability_ppm)
+            .filter(|ppm| *ppm > 0.0)),
+        scale_assumed: calibration
+            .as_ref()
+            .is_some_and(|c| c.assumed.contains(&"scale")),
         difference: RunDifference::of(&e, &rates),
     })
 }

@@ -64,14 +64,44 @@ impl Calibration {
     /// scale-factor repeatability, 1σ), its variance twice over (as for the bias) added to every
     /// sample's bias variance in proportion to the output².
     pub fn set_scale(&mut self, ppm: f64) {
+        self.assumed.retain(|name| *name != "scale");
         self.scale_repeatability_ppm = ppm;
         self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
     }
 
+    /// States another power-on's scale factor as the commands take it: `ppm`, a datasheet's
+    /// ([`Self::set_scale`]), or, with none, assumed ([`Self::assume_scale`]).
+    pub fn scale(&mut self, ppm: Option<f64>) {
+        match ppm {
+            Some(ppm) => self.set_scale(ppm),
+            None => self.assume_scale(),
+        }
+    }
+
+    /// Assumes the scale factor of another power-on where no datasheet states it
+    /// (`--scale-repeatability`) and no power-on left out measured it ([`Self::runs_measured`]),
+    /// as [`Self::assume_turn_on`] assumes its bias: the difference of two power-ons' scale
+    /// factors is taken as large as the residuals' own error in proportion to the output
+    /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once), said in
+    /// `assumed` as `scale`. Where the residuals show none (outputs that barely move, as at rest,
+    /// or errors that do not grow with them), nothing is assumed and the fit says it skipped
+    /// the term. A gyro's scale factor differs from one power-on to the next as its bias does
+    /// (the FOG runs in `../shared` by −765 and +792 ppm), an error that grows with the rate
+    /// where a bias term states the same at every rate.
+    pub fn assume_scale(&mut self) {
+        if self.runs_measured() || self.scale_repeatability_ppm > 0.0 {
+            return;
+        }
+        self.set_scale(self.residual_scale_ppm / OWN_DRAW.sqrt());
+        if self.scale_repeatability_ppm > 0.0 {
+            self.assumed.push("scale");
+        }
+    }
+
     /// States what `sheet` states for the blob this calibration is for, `blob`, whose mean
-    /// follows `rule` beyond the trained range, and assumes another power-on's bias where nothing
-    /// states or measures it ([`Self::turn_on`]): the one place every shipped σ takes a
-    /// datasheet's figures.
+    /// follows `rule` beyond the trained range, and assumes another power-on's bias and scale
+    /// where nothing states or measures them ([`Self::turn_on`], [`Self::scale`]): the one place
+    /// every shipped σ takes a datasheet's figures.
     pub fn state(
         &mut self,
         sheet: &Datasheet,
@@ -84,9 +114,7 @@ impl Calibration {
             .map(|[lo, hi]| f64::from(hi - lo))
             .filter(|w| *w > 0.0);
         self.turn_on(sheet.repeatability);
-        if let Some(ppm) = sheet.scale_repeatability {
-            self.set_scale(ppm);
-        }
+        self.scale(sheet.scale_repeatability);
         if let Some(per_c) = sheet.tempco {
             let width = self.trained_width_c.ok_or(ExportError::NoTemperature)?;
             self.set_tempco(per_c, width, rule == Beyond::Hold);

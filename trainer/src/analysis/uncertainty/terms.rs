@@ -9,6 +9,7 @@ use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 use super::{
     A_WIDTH, Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior,
     Residual, SEEN_AT, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
+    split_by_output,
 };
 
 /// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
@@ -119,6 +120,16 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         .filter(|(_, run)| *run || !runs)
         .map(|(r, _)| r)
         .collect();
+    // The residuals' error in proportion to the output inside the trained range, beyond what the
+    // predicting model states: what another power-on's scale factor is assumed to differ by
+    // where nothing states it ([`Calibration::assume_scale`]). Beyond the range the error grows
+    // with the output as the model's slope does, which the extrapolation term states.
+    let (errors2, outputs): (Vec<f64>, Vec<f64>) = all
+        .iter()
+        .filter(|(r, _)| r.excess2 == 0.0)
+        .map(|(r, _)| ((r.error * r.error - r.base_var).max(0.0), r.output2.sqrt()))
+        .unzip();
+    let residual_scale = split_by_output(&errors2, &outputs, noise.var.sqrt()).1;
     let error_model = ErrorModel {
         sample_noise_var: noise.var as f32,
         sample_interval_s: noise.interval_s as f32,
@@ -143,6 +154,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: 0.0,
         scale_repeatability_ppm: 0.0,
+        residual_scale_ppm: residual_scale.sqrt() * 1e6,
         tempco_per_c: None,
         trained_width_c: None,
         residuals: all.len(),

@@ -322,11 +322,19 @@ impl FitPlan {
                  beside a table with --features or --pool-stream)",
             );
         }
-        if self.service.sheet.scale_repeatability.is_none() {
-            messages.result(
-                "skipped: the scale factor of another power-on (no term is measured for it; \
-                 --scale-repeatability states a datasheet's run-to-run σ, in ppm)",
-            );
+        if self.service.sheet.scale_repeatability.is_none()
+            && calibration.scale_repeatability_ppm <= 0.0
+        {
+            let why = if calibration.runs_measured() {
+                "the runs left out measure another power-on's bias, in a floor alike at every \
+                 rate, not its scale"
+            } else {
+                "the residuals show no error in proportion to the output to assume it from"
+            };
+            messages.result(&format!(
+                "skipped: the scale factor of another power-on ({why}; --scale-repeatability \
+                 states a datasheet's run-to-run σ, in ppm)"
+            ));
         }
         summary.calibration = Some(calibration);
         summary.handled = streams
