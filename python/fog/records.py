@@ -426,7 +426,7 @@ class Calibration(Record):
     """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
-    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, or, where nothing states or measures it and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for the bias."""
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, or, where nothing states it, no runs are pooled (their floor holds it) and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for the bias."""
 
     sources: list[SourceSummary]
     """Each test."""
@@ -996,7 +996,7 @@ class CrossRun(Record):
     """Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale factors as large as the training run's residual error in proportion to the rate) rather than stated."""
 
     scale_repeatability_ppm: float | None
-    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's residuals showing no error in proportion to the rate or the runs left out measuring another power-on, or no σ)."""
+    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's residuals showing no error in proportion to the rate or runs pooled, whose floor holds it at the rates they hold, or no σ)."""
 
     sigma: Coverage | None
     """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`) and scale factor (`--scale-repeatability`), each assumed as `fit` assumes it where not stated (null for the methods that state no σ)."""

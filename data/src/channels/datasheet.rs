@@ -28,7 +28,8 @@ const MAX_PPM: f64 = 1e6;
 /// "What the data cannot show"), as `fit` and `investigate` take it, from their flags or a
 /// channels file's channel, in the channel's quantity's unit (°/s, m/s²). Each `None` where it
 /// is not stated: then measured where the data show it, else assumed (another power-on's bias,
-/// the growth beyond the range, the leg not trained), or for the scale factor left out and said.
+/// the growth beyond the range, the leg not trained; the scale factor where the residuals err in
+/// proportion to the output, else left out and said).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Datasheet {
     /// The bias's run-to-run repeatability, 1σ (`--repeatability`).

@@ -337,20 +337,27 @@ fn a_window_before_the_calibrations_data_counts_its_hours_back_from_its_end() {
     let head = cycled.window(":2400".parse().unwrap());
     let (held_out, service) = (var(&head, true), var(&head, false));
     assert!((0..900).all(|i| held_out[i].to_bits() == service[i].to_bits()));
-    // Data on both sides, a power cycle inside: the window's first power-on counts forward from
-    // its start, its last back from its end.
-    let cycled = power_cycled(&log, 1800);
-    let both = cycled.window("900:3000".parse().unwrap());
-    assert_eq!((both.history, both.after_s), (900, Some(3000.0)));
-    let held_out = var(&both, true);
-    let walked = |i: usize, hours: f64| held_out[i] - held_out[900] - (1e-4 * hours) as f32;
-    assert!(walked(1799, 899.0 / 3600.0).abs() < 1e-7);
-    assert!(walked(1800, 600.0 / 3600.0).abs() < 1e-7);
-    assert!(walked(2399, 1.0 / 3600.0).abs() < 1e-7);
     assert!(
         held_out[900] + 5e-4 < service[900],
         "{} {}",
         held_out[900],
         service[900]
     );
+    // Data on both sides, a power cycle inside: the window's first power-on counts forward from
+    // its start, its last back from its end.
+    let cycled = power_cycled(&log, 1800);
+    let both = cycled.window("900:3000".parse().unwrap());
+    assert_eq!((both.history, both.after_s), (900, Some(3000.0)));
+    let both_ways = var(&both, true);
+    let walked = |i: usize, hours: f64| both_ways[i] - both_ways[900] - (1e-4 * hours) as f32;
+    assert!(walked(1799, 899.0 / 3600.0).abs() < 1e-7);
+    assert!(walked(1800, 600.0 / 3600.0).abs() < 1e-7);
+    assert!(walked(2399, 1.0 / 3600.0).abs() < 1e-7);
+    // Three power-ons: the middle one is another's, as in service.
+    let thrice = power_cycled(&power_cycled(&log, 1200), 2400);
+    let window = thrice.window("600:4500".parse().unwrap());
+    assert_eq!((window.history, window.after_s), (600, Some(4500.0)));
+    let (own, service) = (var(&window, true), var(&window, false));
+    assert!((1200..2400).all(|i| own[i].to_bits() == service[i].to_bits()));
+    assert!(own[1199] + 5e-4 < service[1199] && own[2400] + 5e-4 < service[2400]);
 }

@@ -57,11 +57,12 @@ enum Command {
         json: Option<PathBuf>,
         /// The stream is the power-on the model was calibrated on (its held-out part): the σ
         /// leaves out another power-on's bias and scale (the blob's turn-on and scale terms), up
-        /// to the stream's first power cycle. With --window, the rest of the log's power-on is
-        /// taken for the calibration's data: its time terms count forward from the window's start
-        /// where the log has samples before it, back from its end where the log goes on after it
-        /// (from its last power cycle then), from the nearer of the two where both. Without it,
-        /// every sample is scored as in service, on another power-on.
+        /// to the stream's first power cycle. With --window, the rest of the log is taken for the
+        /// calibration's data: the window's first power-on is the calibration's where the log has
+        /// samples before it, its time terms counted forward from the window's start, and its last
+        /// where the log goes on after it, counted back from its end (from the nearer of the two
+        /// where that is one power-on); a power-on between is another. Without it, every sample
+        /// is scored as in service, on another power-on.
         #[arg(long)]
         calibration_run: bool,
     },

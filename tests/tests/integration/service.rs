@@ -880,6 +880,8 @@ fn a_run_whose_scale_factor_differs_is_told_apart_and_a_stated_repeatability_cov
     // figure stands in its place.
     assert_eq!(found["turn_on_assumed"], true, "{found}");
     assert!(get(&found, "turn_on_std") > 0.0, "{found}");
+    // Nor its scale: the soaked table's residuals do not grow with the rate, so none is assumed.
+    assert_eq!(found["scale_assumed"], false, "{found}");
     let stated = across(&tables, &["--scale-repeatability", "800"]);
     assert!(get(&stated["sigma"], "within_2sigma") > 0.95, "{stated}");
     let bias = across(&tables, &["--repeatability", "0.001"]);

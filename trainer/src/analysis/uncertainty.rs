@@ -342,8 +342,9 @@ pub struct Calibration {
     /// calibration's power-on was a draw too.
     pub turn_on_std: f64,
     /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
-    /// output: as stated by `--scale-repeatability`, or, where nothing states or measures it and
-    /// the residuals show an error in proportion to the output, assumed (`scale` in `assumed`:
+    /// output: as stated by `--scale-repeatability`, or, where nothing states it, no runs are
+    /// pooled (their floor holds it) and the residuals show an error in proportion to the
+    /// output, assumed (`scale` in `assumed`:
     /// [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for
     /// the bias.
     pub scale_repeatability_ppm: f64,

@@ -43,7 +43,7 @@ pub struct CrossRun {
     pub turn_on_assumed: bool,
     /// The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed:
     /// `scale_assumed`; null: none, the training run's residuals showing no error in proportion
-    /// to the rate or the runs left out measuring another power-on, or no σ).
+    /// to the rate or runs pooled, whose floor holds it at the rates they hold, or no σ).
     pub scale_repeatability_ppm: Option<f64>,
     /// Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale
     /// factors as large as the training run's residual error in proportion to the rate) rather

@@ -79,7 +79,8 @@ impl Calibration {
     }
 
     /// Assumes the scale factor of another power-on where no datasheet states it
-    /// (`--scale-repeatability`) and no power-on left out measured it ([`Self::runs_measured`]),
+    /// (`--scale-repeatability`) and no power-ons are pooled ([`Self::runs_measured`]: the runs
+    /// left out hold it in their floor, alike at every rate they hold),
     /// as [`Self::assume_turn_on`] assumes its bias: the difference of two power-ons' scale
     /// factors is taken as large as the residuals' own error in proportion to the output
     /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once), said in

@@ -55,8 +55,8 @@ impl Calibration {
         let scale = if self.assumed.contains(&"scale") {
             format!(
                 "; another power-on's scale {:.0} ppm of the output (assumed: the difference of \
-                 two power-ons as large as the residuals' error in proportion to the output, \
-                 {:.0} ppm; --scale-repeatability states a datasheet's)",
+                 two power-ons as large as the residuals' model error in proportion to the \
+                 output, {:.0} ppm; --scale-repeatability states a datasheet's)",
                 self.scale_repeatability_ppm, self.residual_scale_ppm
             )
         } else if self.scale_repeatability_ppm > 0.0 {

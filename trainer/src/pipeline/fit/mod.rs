@@ -326,8 +326,9 @@ impl FitPlan {
             && calibration.scale_repeatability_ppm <= 0.0
         {
             let why = if calibration.runs_measured() {
-                "the runs left out measure another power-on's bias, in a floor alike at every \
-                 rate, not its scale"
+                "the runs left out hold it in their floor, alike at every rate they hold"
+            } else if calibration.residuals == 0 {
+                "no out-of-sample residual to assume it from"
             } else {
                 "the residuals show no error in proportion to the output to assume it from"
             };
