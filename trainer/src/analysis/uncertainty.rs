@@ -348,11 +348,11 @@ pub struct Calibration {
     /// [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for
     /// the bias.
     pub scale_repeatability_ppm: f64,
-    /// The out-of-sample residuals' error in proportion to the output inside the trained range,
-    /// ppm of it: their variance told apart into `a + b·y²` at their reference outputs y
-    /// ([`split_by_output`]), √b (0 where the outputs barely move or the split does not make
-    /// them more likely). What another power-on's scale factor is assumed to differ by where
-    /// nothing states it.
+    /// The out-of-sample residuals' model error in proportion to the output inside the trained
+    /// range, ppm of it: their squared errors less the variance their model states, told apart
+    /// into `a + b·y²` at their reference outputs y ([`split_by_output`]), √b (0 where the
+    /// outputs barely move or the split does not make them more likely). What another power-on's
+    /// scale factor is assumed to differ by where nothing states it.
     pub residual_scale_ppm: f64,
     /// The bias's temperature coefficient beyond the trained range, output units per °C, as
     /// stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not

@@ -82,7 +82,7 @@ impl Calibration {
     /// (`--scale-repeatability`) and no power-ons are pooled ([`Self::runs_measured`]: the runs
     /// left out hold it in their floor, alike at every rate they hold),
     /// as [`Self::assume_turn_on`] assumes its bias: the difference of two power-ons' scale
-    /// factors is taken as large as the residuals' own error in proportion to the output
+    /// factors is taken as large as the residuals' own model error in proportion to the output
     /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once), said in
     /// `assumed` as `scale`. Where the residuals show none (outputs that barely move, as at rest,
     /// or errors that do not grow with them), nothing is assumed and the fit says it skipped
