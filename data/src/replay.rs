@@ -165,7 +165,7 @@ pub fn restarts(stream: &Stream) -> Vec<bool> {
     let at: std::collections::HashSet<u64> = stream
         .time_issues
         .iter()
-        .filter(|i| i.restarts_at(i.line()))
+        .filter(|i| i.is_restart())
         .map(TimeIssue::line)
         .collect();
     stream.lines.iter().map(|l| at.contains(l)).collect()
@@ -241,9 +241,6 @@ pub fn replay_unit(
         return out;
     };
     let mut scratch = vec![0.0f32; unit.evaluate_scratch_len()];
-    let mut state = FeatureState::default();
-    let restarts = restarts(first);
-    let held_out = HeldOut::new(first, &restarts, calibration_run);
     // Each channel's samples wait to be evaluated side by side ([`HostUnit::evaluate`]); a
     // sample the unit refused (fewer outputs than channels) is a `Fault` with mean 0 and an
     // infinite variance in every channel, as is one the evaluation refused (a scratch too short:
@@ -271,24 +268,18 @@ pub fn replay_unit(
         }
         refused.clear();
     };
-    for (i, restart) in restarts.into_iter().enumerate() {
-        if restart {
-            state.power_on();
-        }
-        if held_out.begins_at(i) {
-            state.calibration_run();
-        }
+    walk(first, calibration_run, |i, sample, state, held_out| {
         for (o, s) in outputs.iter_mut().zip(streams) {
             *o = s.voltage_v[i] as f32;
         }
         let sample = UnitSample {
-            time_s: first.time_s[i],
-            temp_c: first.temp_c[i] as f32,
+            time_s: sample.time_s,
+            temp_c: sample.temp_c,
             outputs: &outputs,
         };
-        let prepared = unit.prepare(&sample, &mut state, &mut one).is_ok();
+        let prepared = unit.prepare(&sample, state, &mut one).is_ok();
         if prepared {
-            let hours = held_out.hours(first, i, &state);
+            let hours = held_out.hours(first, i, state);
             for (p, one) in pending.iter_mut().zip(&one) {
                 let mut one = *one;
                 if let Some(h) = hours {
@@ -301,7 +292,7 @@ pub fn replay_unit(
         if refused.len() == BATCH {
             flush(&mut pending, &mut refused, &mut out);
         }
-    }
+    });
     flush(&mut pending, &mut refused, &mut out);
     out
 }

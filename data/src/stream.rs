@@ -50,10 +50,10 @@ impl TimeIssue {
         }
     }
 
-    /// Whether the gyro was powered on again at `line`: time jumps back or leaves a gap there (a
+    /// Whether the gyro was powered on again where it shows: time jumps back or leaves a gap (a
     /// power cycle, or a reset the firmware would make); a repeated time stamp is neither.
-    pub fn restarts_at(&self, line: u64) -> bool {
-        !matches!(self, Self::Duplicate { .. }) && self.line() == line
+    pub fn is_restart(&self) -> bool {
+        !matches!(self, Self::Duplicate { .. })
     }
 }
 
@@ -451,7 +451,12 @@ impl Stream {
         let lines = self.lines[..kept].to_vec();
         let rows: Vec<usize> = (history..kept).filter(inside).collect();
         let after_s = match self.lines.get(kept) {
-            Some(&line) if !self.time_issues.iter().any(|i| i.restarts_at(line)) => {
+            Some(&line)
+                if !self
+                    .time_issues
+                    .iter()
+                    .any(|i| i.is_restart() && i.line() == line) =>
+            {
                 Some(self.time_s[kept])
             }
             Some(_) => None,
@@ -729,7 +734,11 @@ mod tests {
         // The log goes on after it, in the same power-on; a window that a gap ends, or that
         // reaches the log's end, has nothing after it.
         assert_eq!((head.after_s, part.after_s), (Some(102.0), None));
-        assert!(s.time_issues.iter().any(|i| i.restarts_at(5)));
+        assert!(
+            s.time_issues
+                .iter()
+                .any(|i| i.is_restart() && i.line() == 5)
+        );
         assert_eq!(s.window(":5".parse().unwrap()).after_s, None);
         // A window of a window keeps the first one's history, and adds to it.
         let inner = part.window("2:11".parse().unwrap());
