@@ -96,9 +96,10 @@ pub struct Stream {
     /// the firmware's feature state runs through them from the power-on, as it did on the gyro,
     /// but their references are removed and no replay writes them.
     pub history: usize,
-    /// Time of the log's first sample after a window ([`Stream::window`]), s, where the log goes
-    /// on past it in the same power-on: a model fitted on the rest of the log saw data there too.
-    /// `None` for a whole log, a window to its end, and one a power cycle ends.
+    /// Time of the log's first sample with a reference after a window ([`Stream::window`]), s,
+    /// where the log goes on past it in the same power-on: a model fitted on the rest of the log
+    /// saw data there too. `None` for a whole log, a window to its end, and one a power cycle
+    /// ends (before another reference).
     pub after_s: Option<f64>,
 }
 
@@ -450,18 +451,24 @@ impl Stream {
         }
         let lines = self.lines[..kept].to_vec();
         let rows: Vec<usize> = (history..kept).filter(inside).collect();
-        let after_s = match self.lines.get(kept) {
-            Some(&line)
-                if !self
-                    .time_issues
-                    .iter()
-                    .any(|i| i.is_restart() && i.line() == line) =>
-            {
-                Some(self.time_s[kept])
-            }
-            Some(_) => None,
-            None => self.after_s,
+        // The first sample after it with a reference, in the same power-on: a minute left out
+        // or handled there held nothing to fit.
+        let restart = |line: u64| {
+            self.time_issues
+                .iter()
+                .any(|i| i.is_restart() && i.line() == line)
         };
+        let mut after_s = self.after_s;
+        for i in kept..self.len() {
+            if restart(self.lines[i]) {
+                after_s = None;
+                break;
+            }
+            if self.rate_dps[i].is_finite() {
+                after_s = Some(self.time_s[i]);
+                break;
+            }
+        }
         Self {
             time_s: self.time_s[..kept].to_vec(),
             temp_c: self.temp_c[..kept].to_vec(),
@@ -745,6 +752,18 @@ mod tests {
         assert_eq!(inner.time_s, vec![100.0, 101.0, 102.0, 110.0]);
         assert_eq!((inner.history, inner.referenced()), (2, vec![2, 3]));
         assert_eq!(inner.after_s, Some(111.0));
+        // A minute left out right after the window held nothing to fit: the data resume later,
+        // unless a power cycle comes first.
+        let mut gap = load(
+            "time_s,temp_c,voltage_v,rate_dps\n100,20,0.1,1\n101,20,0.1,1\n102,20,0.1,1\n\
+             103,20,0.1,1\n",
+        )
+        .unwrap();
+        gap.rate_dps[2] = f64::NAN;
+        assert_eq!(gap.window(":2".parse().unwrap()).after_s, Some(103.0));
+        let mut cycled = s.clone();
+        cycled.rate_dps[2] = f64::NAN;
+        assert_eq!(cycled.window(":2".parse().unwrap()).after_s, None);
         assert_eq!(part.window(":11".parse().unwrap()).history, 1);
         // A clock that jumps back (a power cycle whose counter restarted): the window runs from
         // its first sample inside to its last, and a sample outside between them is not scored.

@@ -99,6 +99,21 @@ impl Calibration {
         }
     }
 
+    /// Why no scale factor of another power-on is in the σ, where none is: neither stated (`stated`:
+    /// a datasheet's figure was given) nor assumed ([`Self::assume_scale`]). `None` where one is.
+    pub fn scale_skipped(&self, stated: bool) -> Option<&'static str> {
+        if stated || self.scale_repeatability_ppm > 0.0 {
+            return None;
+        }
+        Some(if self.runs_measured() {
+            "the runs left out hold it in their floor, alike at every rate they hold"
+        } else if self.residuals == 0 {
+            "no out-of-sample residual to assume it from"
+        } else {
+            "the residuals show no error in proportion to the output to assume it from"
+        })
+    }
+
     /// States what `sheet` states for the blob this calibration is for, `blob`, whose mean
     /// follows `rule` beyond the trained range, and assumes another power-on's bias and scale
     /// where nothing states or measures them ([`Self::turn_on`], [`Self::scale`]): the one place

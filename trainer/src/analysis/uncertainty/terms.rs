@@ -8,8 +8,8 @@ use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 
 use super::{
     A_WIDTH, Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior,
-    Residual, SEEN_AT, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
-    split_by_output,
+    Residual, SEEN_AT, SPLIT_MARGIN, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS,
+    small_sample_factor,
 };
 
 /// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
@@ -83,6 +83,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let eff: f64 = standardized.iter().map(|z| effective(z)).sum();
     let dof = (eff - fitted.len() as f64).max(MIN_DOF);
     let inflation = small_sample_factor(dof);
+    let fit = c;
     let mut c = c.map(|v| v * inflation);
     // A fit below the prior measures the growth only as far out as its residuals reach: a
     // stream's temperature split, a tenth of a width beyond the range. Less growth there says
@@ -124,12 +125,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // predicting model states: what another power-on's scale factor is assumed to differ by
     // where nothing states it ([`Calibration::assume_scale`]). Beyond the range the error grows
     // with the output as the model's slope does, which the extrapolation term states.
-    let (errors2, outputs): (Vec<f64>, Vec<f64>) = all
-        .iter()
-        .filter(|(r, _)| r.excess2 == 0.0)
-        .map(|(r, _)| ((r.error * r.error - r.base_var).max(0.0), r.output2.sqrt()))
-        .unzip();
-    let residual_scale = split_by_output(&errors2, &outputs, noise.var.sqrt()).1;
+    let residual_scale = proportional_error(&all, &fit, noise.var.sqrt());
     let error_model = ErrorModel {
         sample_noise_var: noise.var as f32,
         sample_interval_s: noise.interval_s as f32,
@@ -270,6 +266,57 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
     size * information.sqrt() >= DETECTED
 }
 
+/// The residuals' model error in proportion to the output inside the trained range, as a variance
+/// per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each residual there a
+/// Gaussian draw of variance `v + a + b·y²`, v what its model states with the terms `c` fitted
+/// beside the floors (the floors refitted as `a`), y its reference output (the root of its mean
+/// square); a, b ≥ 0 at the likelihood's maximum. b where it makes the residuals more likely than
+/// `a` alone by the χ²(1) 95 % margin ([`SPLIT_MARGIN`]) and the outputs move (their magnitudes'
+/// spread over ten times `noise_std`, as [`split_by_output`](super::split_by_output) asks), else 0. The stated variance
+/// is an offset in each residual's variance, not taken off its squared error: a squared error
+/// less it, clipped at 0, is no Gaussian draw, and where the stated variance grows with the
+/// output the clipping alone made a part in proportion to it.
+fn proportional_error(all: &[(Residual, bool)], c: &[f64; TERMS], noise_std: f64) -> f64 {
+    let mut beside = *c;
+    beside[0] = 0.0;
+    beside[1] = 0.0;
+    let inside: Vec<(f64, f64, f64)> = all
+        .iter()
+        .filter(|(r, _)| r.excess2 == 0.0)
+        .map(|(r, run)| (r.error * r.error, r.var(*run, &beside), r.output2))
+        .filter(|(e2, v, u)| e2.is_finite() && v.is_finite() && u.is_finite())
+        .collect();
+    let n = inside.len() as f64;
+    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| inside.iter().map(f).sum::<f64>() / n;
+    let (mean_e2, mean_u) = (mean(&|r| r.0), mean(&|r| r.2));
+    let mean_y = mean(&|r| r.2.sqrt());
+    let spread = mean(&|r| (r.2.sqrt() - mean_y).powi(2)).sqrt();
+    // False for a NaN noise, or no residuals, as well.
+    if !(spread > 10.0 * noise_std && mean_e2 > 0.0 && mean_u > 0.0) {
+        return 0.0;
+    }
+    // In units of the residuals' mean square error and of it per mean output², so that the search
+    // sees numbers of order one.
+    let nll = |p: &[f64]| -> (f64, Vec<f64>) {
+        let (a, b) = (p[0] * mean_e2, p[1] * mean_e2 / mean_u);
+        let (mut f, mut g) = (0.0, vec![0.0; 2]);
+        for (e2, v, u) in &inside {
+            let v = (v + a + b * u).max(f64::MIN_POSITIVE);
+            f += 0.5 * (v.ln() + e2 / v);
+            let dv = 0.5 * (1.0 / v - e2 / (v * v)) * mean_e2;
+            g[0] += dv;
+            g[1] += dv * u / mean_u;
+        }
+        (f, g)
+    };
+    let fit = |upper_b: f64| minimize(vec![0.1, 0.1f64.min(upper_b)], vec![1e6, upper_b], &nll);
+    let (alike, split) = (fit(0.0), fit(1e6));
+    if 2.0 * (nll(&alike).0 - nll(&split).0) < SPLIT_MARGIN {
+        return 0.0;
+    }
+    split[1].max(0.0) * mean_e2 / mean_u
+}
+
 /// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
 /// `seen` (the others 0). Each term is scaled to the residuals' size and its covariate's so the
 /// search sees numbers of order one.
@@ -311,25 +358,35 @@ fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; T
     };
     let upper: Vec<f64> = seen.iter().map(|&s| if s { 1e6 } else { 0.0 }).collect();
     let start: Vec<f64> = seen.iter().map(|&s| if s { 0.1 } else { 0.0 }).collect();
-    let best = Bounds::new(vec![0.0; TERMS], upper)
-        .ok()
-        .and_then(|bounds| {
-            optim_lbfgsb_with_gradient(
-                start.clone(),
-                bounds,
-                |u: &[f64]| nll(u).0,
-                |u: &[f64]| nll(u).1,
-                OptimControl {
-                    maxit: 500,
-                    ..OptimControl::default_for_dimension(TERMS)
-                },
-            )
-            .ok()
-        })
-        .map_or(start, |r| r.par);
+    let best = minimize(start, upper, &nll);
     let mut c = [0.0; TERMS];
     for (k, ck) in c.iter_mut().enumerate() {
         *ck = best[k].max(0.0) * unit(k);
     }
     c
+}
+
+/// A negative log-likelihood: its value and gradient at a point.
+type Objective<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
+
+/// The minimum of `f` within 0 … `upper`, searched from `start` by L-BFGS-B; `start` itself where
+/// the search fails.
+fn minimize(start: Vec<f64>, upper: Vec<f64>, f: &Objective) -> Vec<f64> {
+    let n = start.len();
+    Bounds::new(vec![0.0; n], upper)
+        .ok()
+        .and_then(|bounds| {
+            optim_lbfgsb_with_gradient(
+                start.clone(),
+                bounds,
+                |p: &[f64]| f(p).0,
+                |p: &[f64]| f(p).1,
+                OptimControl {
+                    maxit: 500,
+                    ..OptimControl::default_for_dimension(n)
+                },
+            )
+            .ok()
+        })
+        .map_or(start, |r| r.par)
 }

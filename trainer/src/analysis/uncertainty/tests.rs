@@ -549,6 +549,7 @@ fn one_power_on_assumes_another_ones_scale_as_large_as_its_error_in_proportion()
         one.describe("°/s")
             .contains("as large as the residuals' model error")
     );
+    assert_eq!(one.scale_skipped(false), None);
     // A datasheet's figure replaces it.
     one.scale(Some(800.0));
     assert_eq!(one.assumed, ["turn-on"]);
@@ -557,11 +558,20 @@ fn one_power_on_assumes_another_ones_scale_as_large_as_its_error_in_proportion()
     let mut rest = calibrate(&series(ResidualSource::Forward, false), noise, Prior::NONE);
     rest.assume_scale();
     assert_eq!((rest.scale_repeatability_ppm, rest.assumed.len()), (0.0, 0));
+    let why = rest.scale_skipped(false).unwrap();
+    assert!(why.starts_with("the residuals show no error"), "{why}");
+    // A datasheet's 0 is stated, not skipped.
+    assert_eq!(rest.scale_skipped(true), None);
+    let none = Calibration::assumed(noise, Prior::NONE, String::new());
+    let why = none.scale_skipped(false).unwrap();
+    assert!(why.starts_with("no out-of-sample residual"), "{why}");
     // Measured by runs left out, nothing is assumed either.
     let mut runs = calibrate(&series(ResidualSource::Runs, true), noise, Prior::NONE);
     assert!(runs.residual_scale_ppm > 0.0, "{runs:?}");
     runs.scale(None);
     assert_eq!(runs.error_model.scale_var, 0.0);
+    let why = runs.scale_skipped(false).unwrap();
+    assert!(why.starts_with("the runs left out hold it"), "{why}");
 }
 
 /// The prior's growth is the model's trend next to the range's edges: a bias model fitted on 60

@@ -322,16 +322,9 @@ impl FitPlan {
                  beside a table with --features or --pool-stream)",
             );
         }
-        if self.service.sheet.scale_repeatability.is_none()
-            && calibration.scale_repeatability_ppm <= 0.0
+        if let Some(why) =
+            calibration.scale_skipped(self.service.sheet.scale_repeatability.is_some())
         {
-            let why = if calibration.runs_measured() {
-                "the runs left out hold it in their floor, alike at every rate they hold"
-            } else if calibration.residuals == 0 {
-                "no out-of-sample residual to assume it from"
-            } else {
-                "the residuals show no error in proportion to the output to assume it from"
-            };
             messages.result(&format!(
                 "skipped: the scale factor of another power-on ({why}; --scale-repeatability \
                  states a datasheet's run-to-run σ, in ppm)"
