@@ -162,12 +162,7 @@ pub fn status_word(s: Status) -> &'static str {
 /// [`FeatureState::power_on`] there: kept through the time off where the clock ran on, started
 /// afresh where it jumped back.
 pub fn restarts(stream: &Stream) -> Vec<bool> {
-    let at: std::collections::HashSet<u64> = stream
-        .time_issues
-        .iter()
-        .filter(|i| i.is_restart())
-        .map(TimeIssue::line)
-        .collect();
+    let at = stream.restart_lines();
     stream.lines.iter().map(|l| at.contains(l)).collect()
 }
 

@@ -98,8 +98,8 @@ pub struct Stream {
     pub history: usize,
     /// Time of the log's first sample with a reference after a window ([`Stream::window`]), s,
     /// where the log goes on past it in the same power-on: a model fitted on the rest of the log
-    /// saw data there too. `None` for a whole log, a window to its end, and one a power cycle
-    /// ends (before another reference).
+    /// saw data there too. `None` for a whole log, a window to its end, one a power cycle ends
+    /// before another reference, and one no reference follows.
     pub after_s: Option<f64>,
 }
 
@@ -453,14 +453,10 @@ impl Stream {
         let rows: Vec<usize> = (history..kept).filter(inside).collect();
         // The first sample after it with a reference, in the same power-on: a minute left out
         // or handled there held nothing to fit.
-        let restart = |line: u64| {
-            self.time_issues
-                .iter()
-                .any(|i| i.is_restart() && i.line() == line)
-        };
+        let restarts = self.restart_lines();
         let mut after_s = self.after_s;
         for i in kept..self.len() {
-            if restart(self.lines[i]) {
+            if restarts.contains(&self.lines[i]) {
                 after_s = None;
                 break;
             }
@@ -490,6 +486,15 @@ impl Stream {
             history,
             after_s,
         }
+    }
+
+    /// The file lines where the gyro was powered on again ([`TimeIssue::is_restart`]).
+    pub fn restart_lines(&self) -> std::collections::HashSet<u64> {
+        self.time_issues
+            .iter()
+            .filter(|i| i.is_restart())
+            .map(TimeIssue::line)
+            .collect()
     }
 
     /// The samples of the window a command was given: those after the log's history before it
@@ -764,6 +769,15 @@ mod tests {
         let mut cycled = s.clone();
         cycled.rate_dps[2] = f64::NAN;
         assert_eq!(cycled.window(":2".parse().unwrap()).after_s, None);
+        // No reference follows: nothing after it was fitted, unless the log it is a window of
+        // goes on.
+        let mut tail = gap.clone();
+        tail.rate_dps[3] = f64::NAN;
+        assert_eq!(tail.window(":2".parse().unwrap()).after_s, None);
+        gap.rate_dps[1] = f64::NAN;
+        let outer = gap.window(":3".parse().unwrap());
+        assert_eq!(outer.after_s, Some(103.0));
+        assert_eq!(outer.window(":1".parse().unwrap()).after_s, Some(103.0));
         assert_eq!(part.window(":11".parse().unwrap()).history, 1);
         // A clock that jumps back (a power cycle whose counter restarted): the window runs from
         // its first sample inside to its last, and a sample outside between them is not scored.

@@ -414,7 +414,7 @@ class Calibration(Record):
     """Why there is no error model measured, when there is none."""
 
     residual_scale_ppm: float
-    """The out-of-sample residuals' model error in proportion to the output inside the trained range, ppm of it: each residual there a draw of the variance its model states plus `a + b·y²` at its reference output y, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does not make the residuals more likely by the χ²(1) 95 % margin). What another power-on's scale factor is assumed to differ by where nothing states it."""
+    """The out-of-sample residuals' model error in proportion to the output inside the trained range, ppm of it: each residual there a draw of the variance its model states (with the time terms fitted beside it) plus `a + b·y²` at its reference output y, a the floor of its kind, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does not make the residuals more likely by the χ²(1) 95 % point, counted over the independent residuals they are worth). What another power-on's scale factor is assumed to differ by where nothing states it."""
 
     residuals: int
     """Residuals the terms were fitted on."""

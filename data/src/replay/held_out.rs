@@ -4,8 +4,8 @@
 //!
 //! The calibration's data are taken to be the rest of the log beside the window, in the power-ons
 //! the window shares with it: before it (a window after the log's first sample keeps the samples
-//! before it as its history, [`Stream::history`]) and after it (the log goes on past the window
-//! in the power-on of the window's last sample, [`Stream::after_s`]). The model error's time
+//! before it as its history, [`Stream::history`]) and after it (the log's references resume past
+//! the window in the power-on of the window's last sample, [`Stream::after_s`]). The model error's time
 //! terms are fitted on the hours since the data a model saw, so the σ counts them from the data
 //! of the sample's power-on: forward from the window's start in its first power-on, back from
 //! its end in its last, from the nearer of the two where that is one power-on. A power-on
@@ -30,8 +30,9 @@ pub(super) struct HeldOut {
     /// Where the data lie before the window: its first time, s, and the window's first power
     /// cycle (the samples before it count forward from that time).
     from: Option<(f64, usize)>,
-    /// Where they lie after it: the log's first time after the window, s, and the first sample of
-    /// the window's last power-on (the samples from it count back from that time).
+    /// Where they lie after it: the log's first time with a reference after the window, s, and the
+    /// first sample of the window's last power-on (the samples from it count back from that
+    /// time).
     until: Option<(f64, usize)>,
 }
 
@@ -73,8 +74,8 @@ impl HeldOut {
 
     /// The hours from the calibration's data to sample `i` of `stream`, once the feature state
     /// has taken it (`state`): forward from the window's start in its first power-on (at most the
-    /// time since power-on), back from the log's first time after it in its last, the nearer
-    /// where both. `None` outside the calibration's power-ons, and for a whole log: the time
+    /// time since power-on), back from the log's first referenced time after it in its last, the
+    /// nearer where both. `None` outside the calibration's power-ons, and for a whole log: the time
     /// terms then read the time since power-on, as in service.
     pub(super) fn hours(&self, stream: &Stream, i: usize, state: &FeatureState) -> Option<f32> {
         if !state.in_calibration_run() {

@@ -60,8 +60,8 @@ enum Command {
         /// to the stream's first power cycle. With --window, the rest of the log is taken for the
         /// calibration's data: the window's first power-on is the calibration's where the log has
         /// samples before it, its time terms counted forward from the window's start, and its last
-        /// where the log goes on after it, counted back from its end (from the nearer of the two
-        /// where that is one power-on); a power-on between is another. Without it, every sample
+        /// where the log goes on after it, counted back from where its data resume (from the
+        /// nearer of the two where that is one power-on); a power-on between is another. Without it, every sample
         /// is scored as in service, on another power-on.
         #[arg(long)]
         calibration_run: bool,

@@ -210,8 +210,8 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     let two_step = cross(Method::TwoStep);
     assert_eq!(gp.n, 281);
     // Issue 44: the GP's σ, measured on the Aug run's own left-out sweeps, with another
-    // power-on's bias and scale assumed (one run cannot show them; its sweeps err by 540 ppm of
-    // the rate), covers the Oct run (100 % at 2σ, sharpness 1.17). The other way less (75 %,
+    // power-on's bias and scale assumed (one run cannot show them; its sweeps err by 484 ppm of
+    // the rate), covers the Oct run (100 % at 2σ, sharpness 1.15). The other way less (72 %,
     // 69 % with the bias alone): the Oct run's sweeps differ less than the runs do
     // (docs/uncertainty.md).
     assert!(
@@ -230,7 +230,7 @@ fn the_fog_turntable_runs_load_and_carry_across_runs() {
     let back = across_runs::score(&oct, &aug, Method::Gpr, &cfg, (None, None), &()).unwrap();
     let sigma = back.sigma.unwrap();
     assert!(
-        back.scale_assumed && sigma.within_2sigma > 0.72,
+        back.scale_assumed && sigma.within_2sigma > 0.70,
         "{sigma:?}"
     );
     let (there, back) = (gp.difference.unwrap(), back.difference.unwrap());

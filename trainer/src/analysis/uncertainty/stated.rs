@@ -108,7 +108,7 @@ impl Calibration {
         Some(if self.runs_measured() {
             "the runs left out hold it in their floor, alike at every rate they hold"
         } else if self.residuals == 0 {
-            "no out-of-sample residual to assume it from"
+            "too few out-of-sample residuals to assume it from"
         } else {
             "the residuals show no error in proportion to the output to assume it from"
         })

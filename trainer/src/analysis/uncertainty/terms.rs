@@ -125,7 +125,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // predicting model states: what another power-on's scale factor is assumed to differ by
     // where nothing states it ([`Calibration::assume_scale`]). Beyond the range the error grows
     // with the output as the model's slope does, which the extrapolation term states.
-    let residual_scale = proportional_error(&all, &fit, noise.var.sqrt());
+    let residual_scale = proportional_error(&all, &fit, noise.var.sqrt(), eff / all.len() as f64);
     let error_model = ErrorModel {
         sample_noise_var: noise.var as f32,
         sample_interval_s: noise.interval_s as f32,
@@ -268,53 +268,87 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
 
 /// The residuals' model error in proportion to the output inside the trained range, as a variance
 /// per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each residual there a
-/// Gaussian draw of variance `v + a + b·y²`, v what its model states with the terms `c` fitted
-/// beside the floors (the floors refitted as `a`), y its reference output (the root of its mean
-/// square); a, b ≥ 0 at the likelihood's maximum. b where it makes the residuals more likely than
-/// `a` alone by the χ²(1) 95 % margin ([`SPLIT_MARGIN`]) and the outputs move (their magnitudes'
-/// spread over ten times `noise_std`, as [`split_by_output`](super::split_by_output) asks), else 0. The stated variance
-/// is an offset in each residual's variance, not taken off its squared error: a squared error
-/// less it, clipped at 0, is no Gaussian draw, and where the stated variance grows with the
-/// output the clipping alone made a part in proportion to it.
-fn proportional_error(all: &[(Residual, bool)], c: &[f64; TERMS], noise_std: f64) -> f64 {
+/// Gaussian draw of variance `v + a + b·y²`, v what its model states with the time terms `c`
+/// fitted beside it, a the floor of its kind (a table's, a run's; refitted here), y its reference
+/// output (the root of its mean square); a, b ≥ 0 at the likelihood's maximum. b where the outputs
+/// move (their magnitudes' spread over ten times `noise_std`, as
+/// [`split_by_output`](super::split_by_output) asks) and b makes the residuals more likely than
+/// the floors alone by [`SPLIT_MARGIN`], the log-likelihood ratio counted over the independent
+/// residuals they are worth (`independent`: the share of the residuals the small-sample factor
+/// counts as independent, as neighbours in a series say much the same); else 0, and 0 where a search fails. With b on its bound at 0, the margin, the
+/// χ²(1) 95 % point, makes a test at about 2.5 %. The stated variance is an offset in each
+/// residual's variance, not taken off its squared error: a squared error less it, clipped at 0,
+/// is no Gaussian draw, and where the stated variance grows with the output the clipping alone
+/// made a part in proportion to it.
+fn proportional_error(
+    all: &[(Residual, bool)],
+    c: &[f64; TERMS],
+    noise_std: f64,
+    independent: f64,
+) -> f64 {
     let mut beside = *c;
     beside[0] = 0.0;
     beside[1] = 0.0;
-    let inside: Vec<(f64, f64, f64)> = all
+    // Each residual's squared error, the variance stated for it, its output² and whether it is a
+    // run's.
+    let inside: Vec<(f64, f64, f64, bool)> = all
         .iter()
         .filter(|(r, _)| r.excess2 == 0.0)
-        .map(|(r, run)| (r.error * r.error, r.var(*run, &beside), r.output2))
-        .filter(|(e2, v, u)| e2.is_finite() && v.is_finite() && u.is_finite())
+        .map(|(r, run)| (r.error * r.error, r.var(*run, &beside), r.output2, *run))
+        .filter(|(e2, v, u, _)| e2.is_finite() && v.is_finite() && u.is_finite())
         .collect();
     let n = inside.len() as f64;
-    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| inside.iter().map(f).sum::<f64>() / n;
-    let (mean_e2, mean_u) = (mean(&|r| r.0), mean(&|r| r.2));
-    let mean_y = mean(&|r| r.2.sqrt());
-    let spread = mean(&|r| (r.2.sqrt() - mean_y).powi(2)).sqrt();
+    let mean_e2 = inside.iter().map(|r| r.0).sum::<f64>() / n;
+    let mean_u = inside.iter().map(|r| r.2).sum::<f64>() / n;
+    let mean_y = inside.iter().map(|r| r.2.sqrt()).sum::<f64>() / n;
+    let spread = (inside
+        .iter()
+        .map(|r| (r.2.sqrt() - mean_y).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
     // False for a NaN noise, or no residuals, as well.
     if !(spread > 10.0 * noise_std && mean_e2 > 0.0 && mean_u > 0.0) {
         return 0.0;
     }
-    // In units of the residuals' mean square error and of it per mean output², so that the search
-    // sees numbers of order one.
+    // p = (a of a table, a of a run, b), in units of the residuals' mean square error and of it
+    // per mean output², so that the search sees numbers of order one.
     let nll = |p: &[f64]| -> (f64, Vec<f64>) {
-        let (a, b) = (p[0] * mean_e2, p[1] * mean_e2 / mean_u);
-        let (mut f, mut g) = (0.0, vec![0.0; 2]);
-        for (e2, v, u) in &inside {
-            let v = (v + a + b * u).max(f64::MIN_POSITIVE);
+        let (mut f, mut g) = (0.0, vec![0.0; 3]);
+        for (e2, v, u, run) in &inside {
+            let floor = usize::from(*run);
+            let v = (v + (p[floor] + p[2] * u / mean_u) * mean_e2).max(f64::MIN_POSITIVE);
             f += 0.5 * (v.ln() + e2 / v);
             let dv = 0.5 * (1.0 / v - e2 / (v * v)) * mean_e2;
-            g[0] += dv;
-            g[1] += dv * u / mean_u;
+            g[floor] += dv;
+            g[2] += dv * u / mean_u;
         }
         (f, g)
     };
-    let fit = |upper_b: f64| minimize(vec![0.1, 0.1f64.min(upper_b)], vec![1e6, upper_b], &nll);
-    let (alike, split) = (fit(0.0), fit(1e6));
-    if 2.0 * (nll(&alike).0 - nll(&split).0) < SPLIT_MARGIN {
+    let floors: Vec<f64> = [false, true]
+        .iter()
+        .map(|kind| {
+            if inside.iter().any(|r| r.3 == *kind) {
+                1e6
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let start: Vec<f64> = floors.iter().map(|&u| 0.1f64.min(u)).chain([0.0]).collect();
+    let Some(alike) = minimize(start, [floors.clone(), vec![0.0]].concat(), &nll) else {
+        return 0.0;
+    };
+    // From the floors' own fit: the search only lowers the likelihood's negative from there, so
+    // the ratio below is never negative.
+    let Some(split) = minimize(alike.clone(), [floors, vec![1e6]].concat(), &nll) else {
+        return 0.0;
+    };
+    let ratio = 2.0 * (nll(&alike).0 - nll(&split).0) * independent.min(1.0);
+    if ratio.is_nan() || ratio < SPLIT_MARGIN {
         return 0.0;
     }
-    split[1].max(0.0) * mean_e2 / mean_u
+    split[2].max(0.0) * mean_e2 / mean_u
 }
 
 /// The c ≥ 0 that maximize the Gaussian likelihood of the residuals (module doc), for the terms
@@ -358,7 +392,7 @@ fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; T
     };
     let upper: Vec<f64> = seen.iter().map(|&s| if s { 1e6 } else { 0.0 }).collect();
     let start: Vec<f64> = seen.iter().map(|&s| if s { 0.1 } else { 0.0 }).collect();
-    let best = minimize(start, upper, &nll);
+    let best = minimize(start.clone(), upper, &nll).unwrap_or(start);
     let mut c = [0.0; TERMS];
     for (k, ck) in c.iter_mut().enumerate() {
         *ck = best[k].max(0.0) * unit(k);
@@ -369,24 +403,21 @@ fn maximum_likelihood(all: &[(Residual, bool)], seen: &[bool; TERMS]) -> [f64; T
 /// A negative log-likelihood: its value and gradient at a point.
 type Objective<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
 
-/// The minimum of `f` within 0 … `upper`, searched from `start` by L-BFGS-B; `start` itself where
-/// the search fails.
-fn minimize(start: Vec<f64>, upper: Vec<f64>, f: &Objective) -> Vec<f64> {
+/// The minimum of `f` within 0 … `upper`, searched from `start` by L-BFGS-B; `None` where the
+/// search fails (an objective that is not a number on its way, say).
+fn minimize(start: Vec<f64>, upper: Vec<f64>, f: &Objective) -> Option<Vec<f64>> {
     let n = start.len();
-    Bounds::new(vec![0.0; n], upper)
-        .ok()
-        .and_then(|bounds| {
-            optim_lbfgsb_with_gradient(
-                start.clone(),
-                bounds,
-                |p: &[f64]| f(p).0,
-                |p: &[f64]| f(p).1,
-                OptimControl {
-                    maxit: 500,
-                    ..OptimControl::default_for_dimension(n)
-                },
-            )
-            .ok()
-        })
-        .map_or(start, |r| r.par)
+    let bounds = Bounds::new(vec![0.0; n], upper).ok()?;
+    optim_lbfgsb_with_gradient(
+        start,
+        bounds,
+        |p: &[f64]| f(p).0,
+        |p: &[f64]| f(p).1,
+        OptimControl {
+            maxit: 500,
+            ..OptimControl::default_for_dimension(n)
+        },
+    )
+    .ok()
+    .map(|r| r.par)
 }

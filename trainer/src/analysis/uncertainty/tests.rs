@@ -6,6 +6,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
 mod beyond;
+mod scale;
 
 fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -504,74 +505,6 @@ fn one_power_on_assumes_another_ones_bias_as_large_as_the_floor() {
         "{bare:?}"
     );
     assert!(bare.describe("°/s").contains("the floor fitted 0"));
-}
-
-/// Residuals inside the trained range that err in proportion to the output (500 ppm of rates up
-/// to ±80, beside 0.01 at every rate): one power-on assumes another's scale factor as large, its
-/// variance once; at rest, or measured by runs left out, nothing is assumed.
-#[test]
-fn one_power_on_assumes_another_ones_scale_as_large_as_its_error_in_proportion() {
-    let noise = SampleNoise {
-        var: 1e-6,
-        interval_s: 1.0,
-    };
-    let series = |source, moving: bool| {
-        let mut r = residuals(2000, 9, |_, _| 0.0);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let unit = Gauss::new(0.0, 1.0).unwrap();
-        for (i, x) in r.iter_mut().enumerate() {
-            let y = if moving {
-                80.0 * ((i % 17) as f64 / 8.0 - 1.0)
-            } else {
-                1.0
-            };
-            x.output2 = y * y;
-            x.excess2 = 0.0;
-            x.error = (1e-4 + (500e-6 * y).powi(2)).sqrt() * unit.sample(&mut rng);
-        }
-        [Series {
-            source,
-            residuals: r,
-        }]
-    };
-    let mut one = calibrate(&series(ResidualSource::Forward, true), noise, Prior::NONE);
-    assert!(
-        (one.residual_scale_ppm / 500.0 - 1.0).abs() < 0.1,
-        "{one:?}"
-    );
-    one.assume_turn_on();
-    one.assume_scale();
-    assert_eq!(one.assumed, ["turn-on", "scale"]);
-    let ppm = one.residual_scale_ppm * 1e-6;
-    let var = f64::from(one.error_model.scale_var);
-    assert!((var / (ppm * ppm) - 1.0).abs() < 1e-5, "{var}");
-    assert!(
-        one.describe("°/s")
-            .contains("as large as the residuals' model error")
-    );
-    assert_eq!(one.scale_skipped(false), None);
-    // A datasheet's figure replaces it.
-    one.scale(Some(800.0));
-    assert_eq!(one.assumed, ["turn-on"]);
-    assert_eq!(one.scale_repeatability_ppm, 800.0);
-    // At rest the residuals cannot show it: nothing is assumed, and the fit says it skipped it.
-    let mut rest = calibrate(&series(ResidualSource::Forward, false), noise, Prior::NONE);
-    rest.assume_scale();
-    assert_eq!((rest.scale_repeatability_ppm, rest.assumed.len()), (0.0, 0));
-    let why = rest.scale_skipped(false).unwrap();
-    assert!(why.starts_with("the residuals show no error"), "{why}");
-    // A datasheet's 0 is stated, not skipped.
-    assert_eq!(rest.scale_skipped(true), None);
-    let none = Calibration::assumed(noise, Prior::NONE, String::new());
-    let why = none.scale_skipped(false).unwrap();
-    assert!(why.starts_with("no out-of-sample residual"), "{why}");
-    // Measured by runs left out, nothing is assumed either.
-    let mut runs = calibrate(&series(ResidualSource::Runs, true), noise, Prior::NONE);
-    assert!(runs.residual_scale_ppm > 0.0, "{runs:?}");
-    runs.scale(None);
-    assert_eq!(runs.error_model.scale_var, 0.0);
-    let why = runs.scale_skipped(false).unwrap();
-    assert!(why.starts_with("the runs left out hold it"), "{why}");
 }
 
 /// The prior's growth is the model's trend next to the range's edges: a bias model fitted on 60
