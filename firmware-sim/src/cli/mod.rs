@@ -55,14 +55,14 @@ enum Command {
         /// Scores as JSON: n, rmse_dps, rmse_60s_dps, max_abs_err_dps, coverage_2sigma, ….
         #[arg(long)]
         json: Option<PathBuf>,
-        /// The stream is the power-on the model was calibrated on (its held-out part): the σ
-        /// leaves out another power-on's bias and scale (the blob's turn-on and scale terms), up
-        /// to the stream's first power cycle. With --window, the rest of the log is taken for the
+        /// The stream is the power-on the model was calibrated on (its held-out part): the σ leaves
+        /// out another power-on's bias and scale (the blob's turn-on and scale terms), up to the
+        /// stream's first power cycle. With --window, the rest of the log is taken for the
         /// calibration's data: the window's first power-on is the calibration's where the log has
         /// samples before it, its time terms counted forward from the window's start, and its last
-        /// where the log goes on after it, counted back from where its data resume (from the
-        /// nearer of the two where that is one power-on); a power-on between is another. Without it, every sample
-        /// is scored as in service, on another power-on.
+        /// where the log goes on after it, counted back from where its data resume (from the nearer
+        /// of the two where that is one power-on); a power-on between is another. Without it, every
+        /// sample is scored as in service, on another power-on.
         #[arg(long)]
         calibration_run: bool,
     },

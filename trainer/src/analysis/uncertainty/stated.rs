@@ -99,8 +99,9 @@ impl Calibration {
         }
     }
 
-    /// Why no scale factor of another power-on is in the σ, where none is: neither stated (`stated`:
-    /// a datasheet's figure was given) nor assumed ([`Self::assume_scale`]). `None` where one is.
+    /// Why no scale factor of another power-on is in the σ, where none is: neither stated
+    /// (`stated`: a datasheet's figure was given) nor assumed ([`Self::assume_scale`]). `None`
+    /// where one is.
     pub fn scale_skipped(&self, stated: bool) -> Option<&'static str> {
         if stated || self.scale_repeatability_ppm > 0.0 {
             return None;

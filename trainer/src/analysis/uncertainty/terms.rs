@@ -266,20 +266,20 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
     size * information.sqrt() >= DETECTED
 }
 
-/// The residuals' model error in proportion to the output inside the trained range, as a variance
-/// per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each residual there a
-/// Gaussian draw of variance `v + a + b·y²`, v what its model states with the time terms `c`
-/// fitted beside it, a the floor of its kind (a table's, a run's; refitted here), y its reference
-/// output (the root of its mean square); a, b ≥ 0 at the likelihood's maximum. b where the outputs
-/// move (their magnitudes' spread over ten times `noise_std`, as
+/// The residuals' model error in proportion to the output inside the trained range, as a
+/// variance per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each
+/// residual there a Gaussian draw of variance `v + a + b·y²`, v what its model states with the
+/// time terms `c` fitted beside it, a the floor of its kind (a table's, a run's; refitted here), y
+/// its reference output (the root of its mean square); a, b ≥ 0 at the likelihood's maximum. b
+/// where the outputs move (their magnitudes' spread over ten times `noise_std`, as
 /// [`split_by_output`](super::split_by_output) asks) and b makes the residuals more likely than
 /// the floors alone by [`SPLIT_MARGIN`], the log-likelihood ratio counted over the independent
 /// residuals they are worth (`independent`: the share of the residuals the small-sample factor
-/// counts as independent, as neighbours in a series say much the same); else 0, and 0 where a search fails. With b on its bound at 0, the margin, the
-/// χ²(1) 95 % point, makes a test at about 2.5 %. The stated variance is an offset in each
-/// residual's variance, not taken off its squared error: a squared error less it, clipped at 0,
-/// is no Gaussian draw, and where the stated variance grows with the output the clipping alone
-/// made a part in proportion to it.
+/// counts as independent, as neighbours in a series say much the same); else 0, and 0 where a
+/// search fails. With b on its bound at 0, the margin, the χ²(1) 95 % point, makes a test at
+/// about 2.5 %. The stated variance is an offset in each residual's variance, not taken off its
+/// squared error: a squared error less it, clipped at 0, is no Gaussian draw, and where the
+/// stated variance grows with the output the clipping alone made a part in proportion to it.
 fn proportional_error(
     all: &[(Residual, bool)],
     c: &[f64; TERMS],
