@@ -9,12 +9,12 @@
 //! time terms are fitted on the hours since the data a model saw, so the σ counts them from the
 //! data of the sample's power-on: forward from the window's start in its first power-on, back from
 //! where the data resume after it in its last, from the nearer of the two where that is one
-//! power-on. A power-on between
-//! is another, as in service. A window's first power-on counts as the calibration's even where a
-//! power cycle in its history, or at its first sample, parted it from the data before:
-//! the window was asked for as the held-out part of the calibration's own log. Counted from the
-//! power-on instead, a window before the data (a three-day log fitted on its later half and
-//! scored on its earlier) had them smallest where it lies furthest from the data fitted.
+//! power-on. A power-on between is another, as in service. A window's first power-on counts as
+//! the calibration's even where a power cycle in its history, or at its first sample, parted it
+//! from the data before: the window was asked for as the held-out part of the calibration's own
+//! log. Counted from the power-on instead, a window before the data (a three-day log fitted on
+//! its later half and scored on its earlier) had them smallest where it lies furthest from the
+//! data fitted.
 
 use firmware_core::FeatureState;
 use firmware_core::units::SECONDS_PER_HOUR;
