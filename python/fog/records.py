@@ -410,8 +410,14 @@ class Calibration(Record):
     legs_trained: list[float] | None
     """The heating/cooling states the training stream held (0.5 % quantiles; a side that reached a leg whose states span less than half the trained temperatures, no further than 0: [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg term)."""
 
+    measured: list[str]
+    """Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean errors; the scale, their residuals' error in proportion to the output as `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error where its rates are alike in both signs. A datasheet's figure takes their place."""
+
     note: str | None
     """Why there is no error model measured, when there is none."""
+
+    power_ons_left_out: int | None
+    """Where a training stream's power-ons were left out in turn ([`ResidualSource::PowerOn`]): how many. Their residuals enter the other terms each less its power-on's mean; another power-on's bias is measured on those means, its scale on their residuals (`measured`)."""
 
     residual_scale_ppm: float
     """The out-of-sample residuals' model error in proportion to the output inside the trained range, ppm of it: each residual there a draw of the variance its model states (with the time terms fitted beside it) plus `a + b·y²` at its reference output y, a the floor of its kind, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does not make the residuals more likely by the χ²(1) 95 % point, counted over the independent residuals they are worth). What another power-on's scale factor is assumed to differ by where nothing states it."""
@@ -426,7 +432,7 @@ class Calibration(Record):
     """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
-    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, or, where nothing states it, no runs are pooled (their floor holds it) and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for the bias."""
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, measured on a training stream's power-ons left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their floor holds it) and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as for the bias."""
 
     sources: list[SourceSummary]
     """Each test."""
@@ -444,7 +450,7 @@ class Calibration(Record):
     """√c_d: drift of unknown rate, output units per h."""
 
     turn_on_std: float
-    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
+    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in `measured`), or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
 
     walk_std_per_sqrt_h: float
     """√c_w: random walk, output units per √h."""

@@ -723,6 +723,62 @@ fn a_calibration_on_several_power_ons_covers_another() {
     assert!(median(&["--calibration-run"]) < 0.8 * median(&[]));
 }
 
+/// A rate table and a chamber stream of the gyro with a turn-on repeatability of 80 °/h: the
+/// stream's four power-ons, each left out in turn, measure another power-on's bias, nothing
+/// assumed, and the σ covers two other chamber streams' 60 s means.
+#[test]
+fn a_stream_of_several_power_ons_measures_another_ones_bias() {
+    let dir = tempfile::tempdir().unwrap();
+    let unit_file = turn_on_unit(dir.path());
+    let table = generated(dir.path(), &unit_file, &["paper"], 41..=41);
+    let streams = generated(
+        dir.path(),
+        &unit_file,
+        &["stream", "--design", "chamber"],
+        42..=44,
+    );
+    let (blob, report) = (at(dir.path(), "m.bin"), at(dir.path(), "m.json"));
+    trainer(&[
+        "fit",
+        "--points",
+        &table[0],
+        "--stream",
+        &streams[0],
+        "--features",
+        "auto",
+        "--out",
+        &blob,
+        "--json",
+        &report,
+        "-q",
+    ])
+    .unwrap();
+    let calibration = one(&report)["calibration"].clone();
+    assert_eq!(calibration["power_ons_left_out"], 4, "{calibration}");
+    assert_eq!(calibration["measured"][0], "turn-on", "{calibration}");
+    assert!(!crate::assumes(&calibration, "turn-on"), "{calibration}");
+    assert!(
+        calibration["sources"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| s["source"] == "power-on"),
+        "{calibration}"
+    );
+    // 80 °/h is 0.0222 °/s; four draws measure it within a factor of three.
+    let measured = calibration["turn_on_std"].as_f64().unwrap();
+    assert!((0.0074..0.067).contains(&measured), "{calibration}");
+    for stream in &streams[1..] {
+        let out = at(dir.path(), "r.json");
+        sim(&[
+            "replay", "--model", &blob, "--stream", stream, "--json", &out, "-q",
+        ])
+        .unwrap();
+        let s = one(&out)["sigma_60s"].clone();
+        assert!(s["within_2sigma"].as_f64().unwrap() >= 0.85, "{s}");
+    }
+}
+
 /// Rate tables of three power-ons of a gyro with a turn-on repeatability of 80 °/h, pooled by
 /// `fit --run`: the σ is measured on each run left out in turn (more points than the firmware
 /// holds: each refitted sparse), `loo --run` leaves each out, and `report`, which would not use

@@ -53,8 +53,11 @@
 //! other inputs: along the temperature at inputs no point is near, a (T, V) model fitted on a
 //! warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Another power-on's bias, which
-//! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out, or
-//! else assumed as large as the floor ([`Calibration::assume_turn_on`]); its scale factor, by a
+//! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out
+//! (a table's, in the floor; a training stream's power-ons, as the spread of their mean errors
+//! beyond their in-run error, widened by the small-sample factor for as many degrees of freedom
+//! as power-ons, the other terms fitted to what is left of their residuals), or else assumed as
+//! large as the floor ([`Calibration::assume_turn_on`]); its scale factor, by a
 //! datasheet, or else assumed as large as the residuals' error in proportion to the output inside
 //! the trained range, where they show one ([`Calibration::assume_scale`]). Each assumed term is
 //! named in the calibration (`assumed`) and in its one line.
@@ -111,6 +114,10 @@ const OWN_DRAW: f64 = 2.0;
 /// Standard errors of its estimate the prior's growth beyond the range must reach for the residuals
 /// to show it ([`extrapolation_shows`]).
 const DETECTED: f64 = 2.0;
+/// Fewest power-ons of a training stream, each left out in turn, whose residuals measure another
+/// power-on's bias rather than assume it: three, two degrees of freedom for their spread (with
+/// one, the small-sample factor is 42 on a variance that may have come out 0).
+pub const MIN_POWER_ONS: usize = 3;
 /// A heating/cooling state the training data must reach on each side of 0 to hold both legs.
 const BOTH_LEGS: f32 = 0.5;
 /// The share of the trained temperatures a leg's states must span to count as held (a judgement:
@@ -137,6 +144,9 @@ pub enum ResidualSource {
     Leg,
     /// A stream the model was not fitted on.
     Stream,
+    /// A training stream's power-ons, each left out in turn: fitted on the others, scored on it.
+    /// Each carries its own turn-on bias, which the others cannot know.
+    PowerOn,
 }
 
 impl ResidualSource {
@@ -145,7 +155,7 @@ impl ResidualSource {
     pub fn is_run(self) -> bool {
         matches!(
             self,
-            Self::Forward | Self::Temperature | Self::Leg | Self::Stream
+            Self::Forward | Self::Temperature | Self::Leg | Self::Stream | Self::PowerOn
         )
     }
 
@@ -159,6 +169,7 @@ impl ResidualSource {
             Self::Temperature => "from the training stream beyond the temperatures fitted",
             Self::Leg => "from the training stream's other heating/cooling leg",
             Self::Stream => "from the training stream (not fitted on)",
+            Self::PowerOn => "from the training stream's power-ons, each left out in turn",
         }
     }
 }
@@ -336,17 +347,22 @@ pub struct Calibration {
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
-    /// `--repeatability`, or, where nothing states or measures it, assumed (`turn-on` in
-    /// `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out measured it (it is in
-    /// the model error) or a datasheet states 0. The blob carries twice its variance: the
-    /// calibration's power-on was a draw too.
+    /// `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in
+    /// `measured`), or, where nothing states or measures it, assumed (`turn-on` in
+    /// `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it
+    /// (it is in the model error) or a datasheet states 0. The blob carries twice its variance:
+    /// the calibration's power-on was a draw too.
     pub turn_on_std: f64,
+    /// Where a training stream's power-ons were left out in turn ([`ResidualSource::PowerOn`]):
+    /// how many. Their residuals enter the other terms each less its power-on's mean; another
+    /// power-on's bias is measured on those means, its scale on their residuals (`measured`).
+    pub power_ons_left_out: Option<usize>,
     /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
-    /// output: as stated by `--scale-repeatability`, or, where nothing states it, no runs are
-    /// pooled (their floor holds it) and the residuals show an error in proportion to the
-    /// output, assumed (`scale` in `assumed`:
-    /// [`Calibration::assume_scale`]); 0: neither. The blob carries twice its variance, as for
-    /// the bias.
+    /// output: as stated by `--scale-repeatability`, measured on a training stream's power-ons
+    /// left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their
+    /// floor holds it) and the residuals show an error in proportion to the output, assumed
+    /// (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries
+    /// twice its variance, as for the bias.
     pub scale_repeatability_ppm: f64,
     /// The out-of-sample residuals' model error in proportion to the output inside the trained
     /// range, ppm of it: each residual there a draw of the variance its model states (with the
@@ -389,6 +405,13 @@ pub struct Calibration {
     /// another power-on's bias (`turn-on`: [`Calibration::assume_turn_on`]) and scale factor
     /// (`scale`: [`Calibration::assume_scale`]).
     pub assumed: Vec<&'static str>,
+    /// Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the
+    /// power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean
+    /// errors; the scale, their residuals' error in proportion to the output as
+    /// `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one
+    /// degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error
+    /// where its rates are alike in both signs. A datasheet's figure takes their place.
+    pub measured: Vec<&'static str>,
     /// The heating/cooling states the training stream held (0.5 % quantiles; a side that reached
     /// a leg whose states span less than half the trained temperatures, no further than 0:
     /// [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg
@@ -675,6 +698,7 @@ impl Calibration {
             walk_std_per_sqrt_h: 0.0,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
+            power_ons_left_out: None,
             scale_repeatability_ppm: 0.0,
             residual_scale_ppm: 0.0,
             tempco_per_c: None,
@@ -688,6 +712,7 @@ impl Calibration {
             coverage: None,
             note: Some(note),
             assumed,
+            measured: Vec::new(),
             legs_trained: None,
             leg_std: 0.0,
             hysteresis: None,

@@ -1,11 +1,12 @@
-//! A training stream cut for the checks: forward in time ([`forward`]), across temperature and by
-//! heating/cooling leg ([`splits`]), with the static model and the extension fitted on one part
-//! and scored on the other ([`Split`]), and what a part could see of the extension ([`Sight`]).
+//! A training stream cut for the checks and the σ: forward in time ([`forward`]), across
+//! temperature, by heating/cooling leg and by power-on ([`splits`]), with the static model and
+//! the extension fitted on one part and scored on the other ([`Split`]), and what a part could
+//! see of the extension ([`Sight`]).
 
 use fog_data::cause::Cause;
 use fog_data::replay;
 use fog_data::stats::rms;
-use fog_data::stream::{Stream, Window};
+use fog_data::stream::{Stream, TimeIssue, Window};
 use serde::Serialize;
 
 use crate::analysis::diagnose;
@@ -42,12 +43,13 @@ const LEG_MIN_BLOCKS: usize = 15;
 
 /// A model fitted on part of the training stream and the rest it is scored on.
 pub struct Split {
-    /// The test: forward in time, or across temperature.
+    /// The test: forward in time, across temperature, across legs, or a power-on left out.
     pub source: ResidualSource,
     /// The training stream with its reference only where scored (replayed whole, so the stateful
     /// inputs keep their history).
     pub scored: Stream,
-    /// Hours from each sample to the data fitted (NaN where fitted).
+    /// Hours from each sample to the data fitted (NaN where fitted); for a power-on left out,
+    /// hours since its power-on, as for a run the model never saw.
     pub hours: Vec<f64>,
     /// The static model fitted without the scored part (a rate table's, where there is one).
     pub static_blob: Vec<u8>,
@@ -187,10 +189,12 @@ pub struct Sight {
     pub centred_rmse_60s_dps: [f64; 2],
 }
 
-/// The models of a training stream's splits: forward in time, and, where the static model is
-/// fitted on the stream itself, across temperature ([`super::TemperatureCheck`]); each the static model
-/// fitted without the scored part (a rate table's model as it is) and its extension by `causes`
-/// (none without causes). A split the stream is too short for is left out.
+/// The models of a training stream's splits: forward in time; where the static model is fitted
+/// on the stream itself, across temperature ([`super::TemperatureCheck`]); across
+/// heating/cooling legs; and each power-on left out, where the stream holds several. Each
+/// is the static model fitted without the scored part (a rate table's model as it is) and its
+/// extension by `causes` (none without causes). A split the stream is too short for is left
+/// out.
 pub fn splits(
     points: &Points,
     model: &GpModel,
@@ -248,7 +252,62 @@ pub fn splits(
         }
     }
     out.extend(leg_splits(points, model, train, cfg, causes, rebuild)?);
+    out.extend(power_on_splits(points, model, train, cfg, causes, rebuild)?);
     Ok(out)
+}
+
+/// The power-on splits of [`splits`]: where the training stream holds at least
+/// [`uncertainty::MIN_POWER_ONS`] power-ons ([`power_on_of_each`]) with
+/// [`LATER_MIN_BLOCKS`] blocks each, each power-on left out in turn, the static model and the
+/// extension fitted on the others (at least [`EARLIER_MIN_BLOCKS`]) and scored on it, in hours
+/// since its power-on, as a run the model never saw. Its residuals carry its own turn-on bias and
+/// scale, so the σ measures another power-on's where the stream holds several, as `loo --run`
+/// does a table's runs, rather than assume it. None for a stream of one power-on.
+fn power_on_splits(
+    points: &Points,
+    model: &GpModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    causes: &[Cause],
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Vec<Split>> {
+    let of = power_on_of_each(train);
+    let count = |s: &Stream| s.half_filled_blocks(&s.referenced()).len();
+    let parts: Vec<(Stream, Stream)> = (0..=of.last().copied().unwrap_or(0))
+        .map(|p| {
+            let (mut fit_on, mut scored) = (train.clone(), train.clone());
+            for (i, &q) in of.iter().enumerate() {
+                if q == p {
+                    fit_on.rate_dps[i] = f64::NAN;
+                } else {
+                    scored.rate_dps[i] = f64::NAN;
+                }
+            }
+            (fit_on, scored)
+        })
+        .filter(|(fit_on, scored)| {
+            count(fit_on) >= EARLIER_MIN_BLOCKS && count(scored) >= LATER_MIN_BLOCKS
+        })
+        .collect();
+    if parts.len() < uncertainty::MIN_POWER_ONS {
+        return Ok(Vec::new());
+    }
+    parts
+        .into_iter()
+        .map(|(fit_on, scored)| {
+            let (static_model, static_points) = static_on(points, model, &fit_on, cfg, rebuild)?;
+            let (static_blob, extended_blob) =
+                split_blobs(&static_model, &static_points, &fit_on, causes)?;
+            Ok(Split {
+                source: ResidualSource::PowerOn,
+                hours: uncertainty::streams::hours_on(&scored),
+                scored,
+                static_blob,
+                extended_blob,
+                leg: None,
+            })
+        })
+        .collect()
 }
 
 /// The leg splits of [`splits`]: the static model and its extension fitted on the samples of one
@@ -304,6 +363,60 @@ fn leg_splits(
         });
     }
     Ok(out)
+}
+
+impl Split {
+    /// Its scored part of `train` less the power-ons none of whose samples its models were
+    /// fitted on: where power-ons are left out in turn (a split of [`splits`]), their bias is
+    /// measured there, and this split's residuals in such a power-on would count it again in
+    /// the floor.
+    pub fn within_power_ons_seen(&self, train: &Stream) -> Stream {
+        let of = power_on_of_each(train);
+        let seen: std::collections::HashSet<usize> = of
+            .iter()
+            .zip(&self.hours)
+            .filter(|(_, h)| h.is_nan())
+            .map(|(p, _)| *p)
+            .collect();
+        let mut scored = self.scored.clone();
+        for (rate, p) in scored.rate_dps.iter_mut().zip(&of) {
+            if !seen.contains(p) {
+                *rate = f64::NAN;
+            }
+        }
+        scored
+    }
+}
+
+/// Shortest break in a log's time the power-on splits take for a power-off: a jump back (the
+/// clock restarted) is one whatever its size. A shorter gap may be a logger's pause, and a pause
+/// taken for a power-on would measure a turn-on bias of next to nothing; the firmware's stateful
+/// inputs restart at any gap, as a power cycle's would ([`replay::restarts`]).
+const MIN_OFF_S: f64 = 300.0;
+
+/// The power-on each sample of `train` belongs to, counted from 0 at its start: a new one after
+/// each jump back in time, and each gap of at least [`MIN_OFF_S`].
+fn power_on_of_each(train: &Stream) -> Vec<usize> {
+    let starts: std::collections::HashSet<u64> = train
+        .time_issues
+        .iter()
+        .filter(|issue| match issue {
+            TimeIssue::Backwards { .. } => true,
+            TimeIssue::Gap { step_s, .. } => *step_s >= MIN_OFF_S,
+            TimeIssue::Duplicate { .. } => false,
+        })
+        .map(TimeIssue::line)
+        .collect();
+    let mut power_on = 0;
+    train
+        .lines
+        .iter()
+        .enumerate()
+        .map(|(i, line)| {
+            power_on += usize::from(i > 0 && starts.contains(line));
+            power_on
+        })
+        .collect()
 }
 
 /// The static model of a split fitted on `fit_on`: a rate table's as it is, else refitted on the

@@ -17,6 +17,7 @@ impl Calibration {
     /// calibration's own power-on was a draw too.
     pub fn set_turn_on(&mut self, sigma: f64) {
         self.assumed.retain(|name| *name != "turn-on");
+        self.measured.retain(|name| *name != "turn-on");
         self.turn_on_std = sigma;
         self.error_model.turn_on_var = (OWN_DRAW * sigma * sigma) as f32;
     }
@@ -65,6 +66,7 @@ impl Calibration {
     /// sample's bias variance in proportion to the output².
     pub fn set_scale(&mut self, ppm: f64) {
         self.assumed.retain(|name| *name != "scale");
+        self.measured.retain(|name| *name != "scale");
         self.scale_repeatability_ppm = ppm;
         self.error_model.scale_var = (OWN_DRAW * (ppm * 1e-6).powi(2)) as f32;
     }
@@ -79,8 +81,8 @@ impl Calibration {
     }
 
     /// Assumes the scale factor of another power-on where no datasheet states it
-    /// (`--scale-repeatability`) and no power-ons are pooled ([`Self::runs_measured`]: the runs
-    /// left out hold it in their floor, alike at every rate they hold),
+    /// (`--scale-repeatability`) and no power-ons were left out ([`Self::runs_measured`]: a
+    /// table's runs hold it in their floor, alike at every rate they hold; a stream's measure it),
     /// as [`Self::assume_turn_on`] assumes its bias: the difference of two power-ons' scale
     /// factors is taken as large as the residuals' own model error in proportion to the output
     /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once), said in
@@ -106,7 +108,9 @@ impl Calibration {
         if stated || self.scale_repeatability_ppm > 0.0 {
             return None;
         }
-        Some(if self.runs_measured() {
+        Some(if self.power_ons_left_out.is_some() {
+            "the power-ons left out show no error in proportion to the output"
+        } else if self.runs_measured() {
             "the runs left out hold it in their floor, alike at every rate they hold"
         } else if self.residuals == 0 {
             "too few out-of-sample residuals to assume it from"
@@ -181,12 +185,15 @@ impl Calibration {
         }
     }
 
-    /// Whether the residuals came from power-ons left out ([`ResidualSource::Runs`]): their model
-    /// error then holds another power-on's bias, measured.
+    /// Whether the residuals came from power-ons left out: a table's runs
+    /// ([`ResidualSource::Runs`]), their model error then holding another power-on's bias and
+    /// scale, or a training stream's (`power_ons_left_out`), which measure them.
     pub fn runs_measured(&self) -> bool {
-        self.sources
-            .iter()
-            .any(|s| s.source == ResidualSource::Runs)
+        self.power_ons_left_out.is_some()
+            || self
+                .sources
+                .iter()
+                .any(|s| s.source == ResidualSource::Runs)
     }
 
     /// States the heating/cooling states the training stream held (`states`, each sample's, as

@@ -7,9 +7,9 @@ use fog_data::stats::rms;
 use rcompat_lbfgsb::{Bounds, OptimControl, optim_lbfgsb_with_gradient};
 
 use super::{
-    A_WIDTH, Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_SEEN, Prior,
-    Residual, SEEN_AT, SPLIT_MARGIN, SampleNoise, Series, SourceSummary, TERM_NAMES, TERMS,
-    small_sample_factor,
+    A_WIDTH, Calibration, DETECTED, EXTRAPOLATION, ErrorModel, MAX_RHO, MIN_DOF, MIN_POWER_ONS,
+    MIN_SEEN, OWN_DRAW, Prior, Residual, ResidualSource, SEEN_AT, SPLIT_MARGIN, SampleNoise,
+    Series, SourceSummary, TERM_NAMES, TERMS, small_sample_factor,
 };
 
 /// Independent residuals a series is worth: n (1 − ρ)/(1 + ρ), ρ the lag-1 autocorrelation of
@@ -35,6 +35,15 @@ pub(super) fn effective(z: &[f64]) -> f64 {
 /// (a gyro in service is in one, with every group of the table trained), the table's otherwise.
 /// A term the residuals cannot show is `prior`'s (module doc).
 pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibration {
+    let power_ons = power_on_means(series);
+    let centred;
+    let series = match &power_ons {
+        Some(means) => {
+            centred = centre(series, means);
+            centred.as_slice()
+        }
+        None => series,
+    };
     let all: Vec<(Residual, bool)> = series
         .iter()
         .flat_map(|s| s.residuals.iter().map(|r| (*r, s.source.is_run())))
@@ -126,6 +135,27 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // where nothing states it ([`Calibration::assume_scale`]). Beyond the range the error grows
     // with the output as the model's slope does, which the extrapolation term states.
     let residual_scale = proportional_error(&all, &fit, noise.var.sqrt(), eff / all.len() as f64);
+    let turn_on_var = power_ons.as_deref().map(between_power_ons);
+    // Another power-on's scale factor, where the power-ons were left out: their residuals' error
+    // in proportion to the output, fitted on theirs alone, widened for as many draws as the bias
+    // is. Over a table's rates, positive and negative alike, a scale moves no power-on's mean
+    // error, and stays in what centring leaves.
+    let scale_var = power_ons.as_ref().map(|means| {
+        let theirs: Vec<(Residual, bool)> = series
+            .iter()
+            .filter(|s| s.source == ResidualSource::PowerOn)
+            .flat_map(|s| s.residuals.iter().map(|r| (*r, true)))
+            .filter(|(r, _)| r.usable())
+            .collect();
+        let z: Vec<f64> = theirs
+            .iter()
+            .map(|(r, run)| r.error / r.var(*run, &fit).sqrt())
+            .filter(|z| z.is_finite())
+            .collect();
+        let independent = effective(&z) / theirs.len().max(1) as f64;
+        proportional_error(&theirs, &fit, noise.var.sqrt(), independent)
+            * small_sample_factor(means.len() as f64 - 1.0)
+    });
     let error_model = ErrorModel {
         sample_noise_var: noise.var as f32,
         sample_interval_s: noise.interval_s as f32,
@@ -134,6 +164,8 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         walk_var_per_h: c[3] as f32,
         trend_var_per_h2: c[4] as f32,
         extrapolation_scale_var: extrapolation_scale as f32,
+        turn_on_var: turn_on_var.unwrap_or(0.0) as f32,
+        scale_var: scale_var.unwrap_or(0.0) as f32,
         ..ErrorModel::noise_only(0.0)
     };
     Calibration {
@@ -148,8 +180,9 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         extrapolation_fitted_std,
         walk_std_per_sqrt_h: c[3].sqrt(),
         trend_std_per_h: c[4].sqrt(),
-        turn_on_std: 0.0,
-        scale_repeatability_ppm: 0.0,
+        turn_on_std: (turn_on_var.unwrap_or(0.0) / OWN_DRAW).sqrt(),
+        power_ons_left_out: power_ons.as_ref().map(Vec::len),
+        scale_repeatability_ppm: (scale_var.unwrap_or(0.0) / OWN_DRAW).sqrt() * 1e6,
         residual_scale_ppm: residual_scale.sqrt() * 1e6,
         tempco_per_c: None,
         trained_width_c: None,
@@ -166,10 +199,71 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         coverage: Some(coverage(&scored, &shipped_sigma)),
         note: None,
         assumed,
+        measured: [
+            ("turn-on", turn_on_var.is_some()),
+            ("scale", scale_var.is_some_and(|v| v > 0.0)),
+        ]
+        .into_iter()
+        .filter(|(_, measured)| *measured)
+        .map(|(name, _)| name)
+        .collect(),
         legs_trained: None,
         leg_std: 0.0,
         hysteresis: None,
     }
+}
+
+/// Each power-on left out ([`ResidualSource::PowerOn`]) with a usable residual: its index in
+/// `series` and its mean error, where there are at least [`MIN_POWER_ONS`]; `None` otherwise.
+fn power_on_means(series: &[Series]) -> Option<Vec<(usize, f64)>> {
+    let means: Vec<(usize, f64)> = series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.source == ResidualSource::PowerOn)
+        .filter_map(|(i, s)| {
+            let e: Vec<f64> = s
+                .residuals
+                .iter()
+                .filter(|r| r.usable())
+                .map(|r| r.error)
+                .collect();
+            let mean = e.iter().sum::<f64>() / e.len() as f64;
+            mean.is_finite().then_some((i, mean))
+        })
+        .collect();
+    (means.len() >= MIN_POWER_ONS).then_some(means)
+}
+
+/// `series` with each power-on left out less its mean error (`means`, as [`power_on_means`]),
+/// and without a power-on that has none: what is left is the in-run error the other terms are
+/// fitted to.
+fn centre(series: &[Series], means: &[(usize, f64)]) -> Vec<Series> {
+    series
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| {
+            if s.source != ResidualSource::PowerOn {
+                return Some(s.clone());
+            }
+            let (_, m) = means.iter().find(|(j, _)| *j == i)?;
+            let mut s = s.clone();
+            for r in &mut s.residuals {
+                r.error -= m;
+            }
+            Some(s)
+        })
+        .collect()
+}
+
+/// The variance of another power-on's mean error about the model, measured on the power-ons left
+/// out: the mean of their squared mean errors (`means`), widened by the small-sample factor for
+/// one degree of freedom fewer than power-ons (left out of a stream in turn, each is scored
+/// against the others' mean: their errors nearly sum to 0). Four power-ons are four draws of a
+/// turn-on, however many residuals each holds. Nothing is taken off for the noise of a mean:
+/// centred, the residuals leave each power-on's mean model error to this term alone.
+fn between_power_ons(means: &[(usize, f64)]) -> f64 {
+    let k = means.len() as f64;
+    means.iter().map(|(_, m)| m * m).sum::<f64>() / k * small_sample_factor(k - 1.0)
 }
 
 /// How `sigma` covers the residuals `rs`.

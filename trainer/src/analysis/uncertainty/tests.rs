@@ -6,6 +6,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
 mod beyond;
+mod power_ons;
 mod scale;
 
 fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {

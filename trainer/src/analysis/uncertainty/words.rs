@@ -41,6 +41,13 @@ impl Calibration {
                  power-ons as large as {size}; --repeatability states a datasheet's)",
                 self.turn_on_std
             )
+        } else if self.measured.contains(&"turn-on") {
+            format!(
+                "; another power-on's bias {:.3e} {units} (measured: the mean errors of {} \
+                 power-ons left out, widened for the few)",
+                self.turn_on_std,
+                self.power_ons_left_out.unwrap_or(0)
+            )
         } else if self.turn_on_std > 0.0 {
             format!(
                 "; another power-on's bias {:.3e} {units} (--repeatability)",
@@ -58,6 +65,13 @@ impl Calibration {
                  two power-ons as large as the residuals' model error in proportion to the \
                  output, {:.0} ppm; --scale-repeatability states a datasheet's)",
                 self.scale_repeatability_ppm, self.residual_scale_ppm
+            )
+        } else if self.measured.contains(&"scale") {
+            format!(
+                "; another power-on's scale {:.0} ppm of the output (measured: the error in \
+                 proportion to the output of {} power-ons left out, widened for the few)",
+                self.scale_repeatability_ppm,
+                self.power_ons_left_out.unwrap_or(0)
             )
         } else if self.scale_repeatability_ppm > 0.0 {
             format!(
