@@ -54,13 +54,15 @@
 //! warm-up's shuffled rates is unconstrained; and the kernel's own expected change is no measure
 //! either, its signal variance holding the whole rate response.) Another power-on's bias, which
 //! one power-on's residuals cannot hold, is stated by a datasheet, measured by runs left out
-//! (a table's, in the floor; a training stream's power-ons, as the spread of their mean errors
-//! beyond their in-run error, widened by the small-sample factor for as many degrees of freedom
-//! as power-ons, the other terms fitted to what is left of their residuals), or else assumed as
-//! large as the floor ([`Calibration::assume_turn_on`]); its scale factor, by a
-//! datasheet, or else assumed as large as the residuals' error in proportion to the output inside
-//! the trained range, where they show one ([`Calibration::assume_scale`]). Each assumed term is
-//! named in the calibration (`assumed`) and in its one line.
+//! (a table's, in the floor; a training stream's power-ons, as the mean of their squared mean
+//! errors, widened by the small-sample factor for one degree of freedom fewer than power-ons,
+//! the other terms fitted to what is left of their residuals), or else assumed as large as the
+//! floor ([`Calibration::assume_turn_on`]); its scale factor, by a datasheet, measured on a
+//! training stream's power-ons left out (their residuals' error in proportion to the output,
+//! widened alike), or else assumed as large as the residuals' error in proportion to the output
+//! inside the trained range, where they show one ([`Calibration::assume_scale`]). Each assumed
+//! term is named in the calibration (`assumed`), each measured one in `measured`, and both in its
+//! one line.
 //!
 //! **A datasheet states what it knows better** ([`fog_data::channels::Datasheet`],
 //! [`Calibration::state`]): the bias's and the scale factor's run-to-run repeatability, the
@@ -116,7 +118,7 @@ const OWN_DRAW: f64 = 2.0;
 const DETECTED: f64 = 2.0;
 /// Fewest power-ons of a training stream, each left out in turn, whose residuals measure another
 /// power-on's bias rather than assume it: three, two degrees of freedom for their spread (with
-/// one, the small-sample factor is 42 on a variance that may have come out 0).
+/// two power-ons, one degree of freedom, the small-sample factor is 42).
 pub const MIN_POWER_ONS: usize = 3;
 /// A heating/cooling state the training data must reach on each side of 0 to hold both legs.
 const BOTH_LEGS: f32 = 0.5;

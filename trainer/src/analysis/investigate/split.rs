@@ -372,11 +372,9 @@ impl Split {
     /// the floor.
     pub fn within_power_ons_seen(&self, train: &Stream) -> Stream {
         let of = power_on_of_each(train);
-        let seen: std::collections::HashSet<usize> = of
-            .iter()
-            .zip(&self.hours)
-            .filter(|(_, h)| h.is_nan())
-            .map(|(p, _)| *p)
+        let seen: std::collections::HashSet<usize> = (0..train.len())
+            .filter(|&i| self.hours[i].is_nan() && train.rate_dps[i].is_finite())
+            .map(|i| of[i])
             .collect();
         let mut scored = self.scored.clone();
         for (rate, p) in scored.rate_dps.iter_mut().zip(&of) {
@@ -480,4 +478,78 @@ pub(super) fn inside(train: &Stream) -> ((f64, f64), usize, usize) {
     let inside_blocks = inside.half_filled_blocks(&inside.referenced()).len();
     let outside_blocks = outside.half_filled_blocks(&outside.referenced()).len();
     (inside_c, inside_blocks, outside_blocks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1 Hz stream of `n` samples whose time steps by `step` s at each of the `jumps`
+    /// (sample, step), as the loader reports it.
+    fn stream(n: usize, jumps: &[(usize, f64)]) -> Stream {
+        let (mut time_s, mut time_issues, mut t) = (Vec::new(), Vec::new(), 0.0);
+        for i in 0..n {
+            let line = i as u64 + 2;
+            match jumps.iter().find(|(at, _)| *at == i) {
+                Some(&(_, step_s)) => {
+                    t += step_s;
+                    time_issues.push(if step_s < 0.0 {
+                        TimeIssue::Backwards { line, step_s }
+                    } else if step_s == 0.0 {
+                        TimeIssue::Duplicate { line }
+                    } else {
+                        TimeIssue::Gap { line, step_s }
+                    });
+                }
+                None if i > 0 => t += 1.0,
+                None => {}
+            }
+            time_s.push(t);
+        }
+        Stream {
+            time_s,
+            temp_c: vec![20.0; n],
+            voltage_v: vec![0.0; n],
+            rate_dps: vec![0.0; n],
+            lines: (2..n as u64 + 2).collect(),
+            step_s: 1.0,
+            time_issues,
+            handled: vec![],
+            history: 0,
+            after_s: None,
+        }
+    }
+
+    #[test]
+    fn a_power_on_starts_at_a_jump_back_or_a_long_gap_but_not_at_a_pause() {
+        let s = stream(10, &[(2, 299.0), (4, MIN_OFF_S), (6, -50.0), (8, 0.0)]);
+        assert_eq!(power_on_of_each(&s), [0, 0, 0, 0, 1, 1, 2, 2, 2, 2]);
+    }
+
+    #[test]
+    fn a_split_keeps_to_the_power_ons_its_models_were_fitted_on() {
+        let s = stream(9, &[(3, 600.0), (6, 600.0)]);
+        // Fitted on samples 0, 1 and 7, and on 3, which has no reference: the second power-on
+        // (3–5) was not fitted on.
+        let mut train = s.clone();
+        train.rate_dps[3] = f64::NAN;
+        let mut hours = vec![0.1; 9];
+        for i in [0, 1, 3, 7] {
+            hours[i] = f64::NAN;
+        }
+        let split = Split {
+            source: ResidualSource::Forward,
+            scored: s,
+            hours,
+            static_blob: Vec::new(),
+            extended_blob: None,
+            leg: None,
+        };
+        let kept = split.within_power_ons_seen(&train);
+        let scored: Vec<bool> = kept.rate_dps.iter().map(|r| r.is_finite()).collect();
+        assert_eq!(
+            scored,
+            [true, true, true, false, false, false, true, true, true]
+        );
+    }
 }

@@ -53,7 +53,7 @@ impl Calibration {
                 "; another power-on's bias {:.3e} {units} (--repeatability)",
                 self.turn_on_std
             )
-        } else if self.runs_measured() {
+        } else if self.runs_measured() && self.power_ons_left_out.is_none() {
             "; another power-on's bias is in the model error (measured on the runs left out)"
                 .to_owned()
         } else {

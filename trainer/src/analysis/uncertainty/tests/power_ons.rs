@@ -61,6 +61,9 @@ fn power_ons_left_out_measure_the_bias_between_them_once() {
     stated.set_turn_on(0.02);
     assert!(stated.measured.is_empty());
     assert!(stated.describe("°/s").contains("(--repeatability)"));
+    // A bias that repeats exactly: nothing is said of runs left out, whose floor would hold it.
+    stated.set_turn_on(0.0);
+    assert!(!stated.describe("°/s").contains("another power-on's bias"));
 }
 
 #[test]
