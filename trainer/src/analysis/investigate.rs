@@ -29,7 +29,7 @@ use check::forward_check;
 pub use check::{ForwardCheck, LegCheck, TemperatureCheck, vote};
 use split::{EARLIER_MIN_BLOCKS, LATER_MIN_BLOCKS};
 pub(crate) use split::{FORWARD_MIN_BLOCKS, Forward, forward};
-pub use split::{Rebuild, Sight, Split, splits};
+pub use split::{Rebuild, Sight, Split, power_on_splits, splits};
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
 pub const STEPS: u64 = 5;
@@ -214,8 +214,30 @@ pub fn calibrate(
 /// the stream, as `points` were made from all of it; it is called only where the points are not
 /// a rate table. Named causes ship only when the forward check shows a gain (an extension or a
 /// check that cannot be fitted ships the static model, with the reason); asked-for causes ship
-/// regardless, with a warning when the check shows none.
+/// regardless, with a warning when the check shows none. The choice's splits hold the power-ons
+/// left out for the σ ([`power_on_splits`]), of the design shipped.
 pub fn choose(
+    points: &Points,
+    model: &GpModel,
+    fw: &HostModel,
+    train: &Stream,
+    cfg: &GpConfig,
+    asked: Option<&[Cause]>,
+    rebuild: &Rebuild<'_>,
+) -> anyhow::Result<Choice> {
+    let mut choice = choose_design(points, model, fw, train, cfg, asked, rebuild)?;
+    let causes: &[Cause] = if choice.extended.is_some() {
+        &choice.causes
+    } else {
+        &[]
+    };
+    let power_ons = power_on_splits(points, model, train, cfg, causes, rebuild)?;
+    choice.splits.extend(power_ons);
+    Ok(choice)
+}
+
+/// [`choose`] without the power-ons left out.
+fn choose_design(
     points: &Points,
     model: &GpModel,
     fw: &HostModel,

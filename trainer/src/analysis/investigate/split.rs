@@ -190,11 +190,11 @@ pub struct Sight {
 }
 
 /// The models of a training stream's splits: forward in time; where the static model is fitted
-/// on the stream itself, across temperature ([`super::TemperatureCheck`]); across
-/// heating/cooling legs; and each power-on left out, where the stream holds several. Each
-/// is the static model fitted without the scored part (a rate table's model as it is) and its
-/// extension by `causes` (none without causes). A split the stream is too short for is left
-/// out.
+/// on the stream itself, across temperature ([`super::TemperatureCheck`]); and across
+/// heating/cooling legs. Each is the static model fitted without the scored part (a rate
+/// table's model as it is) and its extension by `causes` (none without causes). A split the
+/// stream is too short for is left out. The σ's own, each power-on left out, are
+/// [`power_on_splits`]: no check reads them, and each design checked would refit them.
 pub fn splits(
     points: &Points,
     model: &GpModel,
@@ -252,18 +252,17 @@ pub fn splits(
         }
     }
     out.extend(leg_splits(points, model, train, cfg, causes, rebuild)?);
-    out.extend(power_on_splits(points, model, train, cfg, causes, rebuild)?);
     Ok(out)
 }
 
-/// The power-on splits of [`splits`]: where the training stream holds at least
-/// [`uncertainty::MIN_POWER_ONS`] power-ons ([`power_on_of_each`]) with
-/// [`LATER_MIN_BLOCKS`] blocks each, each power-on left out in turn, the static model and the
-/// extension fitted on the others (at least [`EARLIER_MIN_BLOCKS`]) and scored on it, in hours
-/// since its power-on, as a run the model never saw. Its residuals carry its own turn-on bias and
+/// The power-on splits of a training stream, for the σ of the design shipped (`causes`, as
+/// [`splits`] takes them): where it holds at least [`uncertainty::MIN_POWER_ONS`] power-ons (a
+/// jump back in time or a gap of 5 minutes starts one) with 8 blocks each, each power-on left
+/// out in turn, the static model and the extension fitted on the others (at least 30 blocks)
+/// and scored on it, in hours since its power-on, as a run the model never saw. Its residuals carry its own turn-on bias and
 /// scale, so the σ measures another power-on's where the stream holds several, as `loo --run`
 /// does a table's runs, rather than assume it. None for a stream of one power-on.
-fn power_on_splits(
+pub fn power_on_splits(
     points: &Points,
     model: &GpModel,
     train: &Stream,
@@ -367,7 +366,7 @@ fn leg_splits(
 
 impl Split {
     /// Its scored part of `train` less the power-ons none of whose samples its models were
-    /// fitted on: where power-ons are left out in turn (a split of [`splits`]), their bias is
+    /// fitted on: where power-ons are left out in turn ([`power_on_splits`]), their bias is
     /// measured there, and this split's residuals in such a power-on would count it again in
     /// the floor.
     pub fn within_power_ons_seen(&self, train: &Stream) -> Stream {

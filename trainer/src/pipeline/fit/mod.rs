@@ -507,10 +507,18 @@ impl FitPlan {
         };
         let (kind, splits) = match &choice {
             Some(c) => (c.shipped, None),
-            None if !self.pool => (
-                investigate::Shipped::Static,
-                Some(investigate::splits(points, model, data, gp, &[], &rebuild)?),
-            ),
+            None if !self.pool => {
+                let mut splits = investigate::splits(points, model, data, gp, &[], &rebuild)?;
+                splits.extend(investigate::power_on_splits(
+                    points,
+                    model,
+                    data,
+                    gp,
+                    &[],
+                    &rebuild,
+                )?);
+                (investigate::Shipped::Static, Some(splits))
+            }
             None => (investigate::Shipped::Static, None),
         };
         let mut blob = static_blob.to_vec();
