@@ -475,14 +475,23 @@ class Case(Record):
     axis: str | None
     """The axis of a unit, for [`CaseSet::Unit`]."""
 
+    condition: str | None
+    """What a [`CaseSet::Service`] case holds out ([`SERVICE`])."""
+
     design: str
-    """The streams' chamber program: `chamber`, or a [`LAB`] shape; `unit` for an axis of a [`CaseSet::Unit`] case."""
+    """The streams' chamber program: `chamber`, or a [`LAB`] shape; `unit` for an axis of a [`CaseSet::Unit`] case; the training log's for a [`CaseSet::Service`] case."""
 
     extended_rmse_60s_dps: float
     """Shipped model's `rmse_60s_dps` on the held-out stream."""
 
+    faults: int
+    """Held-out samples the shipped model called a fault (a reading that cannot be true; none of the simulator's can be)."""
+
     gain: float
     """Their ratio."""
+
+    held_out: str | None
+    """The held-out log's program, where it is not `design`'s ([`CaseSet::Service`])."""
 
     hidden: list[Record]
     """The hidden effects."""
@@ -498,6 +507,9 @@ class Case(Record):
 
     shipped_extension: bool
     """Whether the extension was shipped (else the static model)."""
+
+    sigma_60s: Coverage
+    """The shipped model's σ against the errors of the held-out stream's 60 s means."""
 
     static_rmse_60s_dps: float
     """Static `rmse_60s_dps` on the held-out stream."""
@@ -552,6 +564,9 @@ class ChallengeSummary(Record):
     false_alarms_none: int
     """Cases of `none` where a cause was named."""
 
+    faults: int
+    """Held-out samples called a fault, over every case."""
+
     first_named_right: int
     """Cases whose first named cause is one of the hidden ones (`none` for none)."""
 
@@ -563,6 +578,21 @@ class ChallengeSummary(Record):
 
     of_oracle_min_median: list[float] | None
     """Smallest and median gain over the oracle's (pairs)."""
+
+    sigma_coverage_min_median: list[float]
+    """Smallest and median share of held-out 60 s means within ±2σ."""
+
+    sigma_narrow: int
+    """Cases whose shipped σ covers under 85 % of them: too narrow."""
+
+    sigma_on_target: int
+    """Cases whose shipped σ covers 85–99 % of the held-out 60 s means within ±2σ at a median σ at most 1.5× their RMS error ([`SIGMA_TARGET`])."""
+
+    sigma_sharpness_median_max: list[float]
+    """Median and largest sharpness (median σ over RMS error) of the held-out 60 s means."""
+
+    sigma_wide: int
+    """Cases covered 85 % or more whose σ is wider than the target: over 99 %, or a median σ more than 1.5× the RMS error."""
 
     worse_than_static: int
     """Cases whose shipped model did worse on the held-out stream than the static one."""
@@ -756,6 +786,9 @@ class ChannelEntryTrainerInvestigate(Record):
 
     calibration: Calibration
     """The shipped model's σ, measured on the training data alone."""
+
+    centres_choice: Choice | None
+    """How the default size (`--inducing auto`) chose the firmware model's inducing points, as `fit` chooses them, on more points than a firmware model holds (`null`: the exact GP, or a size asked for)."""
 
     diagnosis: Diagnosis
     """Diagnosis of the static model on the training stream."""
@@ -1359,6 +1392,9 @@ class Investigation(Record):
 
     calibration: Calibration
     """The shipped model's σ, measured on the training data alone."""
+
+    centres_choice: Choice | None
+    """How the default size (`--inducing auto`) chose the firmware model's inducing points, as `fit` chooses them, on more points than a firmware model holds (`null`: the exact GP, or a size asked for)."""
 
     diagnosis: Diagnosis
     """Diagnosis of the static model on the training stream."""
@@ -1981,9 +2017,10 @@ AllanRecord._nested = {"channels": ChannelEntryTrainerAllan}
 AgreementReport._nested = {"grid_beyond": Agreement, "grid_inside": Agreement, "training": Agreement}
 BasisChoice._nested = {"scores": BasisScore}
 Calibration._nested = {"before": Coverage, "coverage": Coverage, "sources": SourceSummary}
+Case._nested = {"sigma_60s": Coverage}
 ChannelEntry._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
 ChannelEntryTrainerDiagnose._nested = {"diagnosis": Diagnosis}
-ChannelEntryTrainerInvestigate._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
+ChannelEntryTrainerInvestigate._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 ChannelFigures._nested = {"cubic": CubicFigures, "held_out": HeldOutFigures, "reproduction": Reproduction, "summaries": Summary}
 ChannelSizes._nested = {"sizes": Size}
 Choice._nested = {"candidates": TriedSize, "default_mean_candidates": TriedSize, "exact": TriedSize}
@@ -1997,7 +2034,7 @@ Fig2._nested = {"per_rate": RateLineFit, "worst": RateLineFit}
 FittedTerm._nested = {"candidate": Candidate}
 ForwardCheck._nested = {"legs": LegCheck, "sight": Sight, "temperature": TemperatureCheck}
 HeldOutFigures._nested = {"investigation": Investigation}
-Investigation._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
+Investigation._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 LegCheck._nested = {"sight": Sight}
 PolyPrior._nested = {"dropped": Dropped}
 PoolCheck._nested = {"pooled_hyperparameters": Hyperparameters}

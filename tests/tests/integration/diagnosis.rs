@@ -10,7 +10,7 @@ use firmware_sim::gyro::effects::Strength;
 use firmware_sim::gyro::stream::StreamConfig;
 use fog_data::cause::Cause;
 use rand::{RngExt, SeedableRng};
-use trainer::analysis::challenge::{run_case, run_lab};
+use trainer::analysis::challenge::{SERVICE, run_case, run_lab, run_service};
 
 fn check(cause: Cause, seed: u64) {
     let case = run_case(&[cause], seed, Strength::Documented, false).unwrap();
@@ -148,5 +148,24 @@ fn a_warm_up_whose_tail_misses_a_quiet_later_half_is_still_named_and_shipped() {
         assert!(case.shipped_extension, "{}", case.verdict);
         assert!(case.gain > 3.0, "{case:?}");
         assert!(case.gain >= 0.85 * case.oracle_gain.unwrap(), "{case:?}");
+    }
+}
+
+/// Issue 54: a random unit whose every power-on adds its own bias and scale, calibrated on one
+/// log alone and held out on another power-on of another shape (`challenge --kind service`):
+/// a warm-up's plateau and a cool-down to −20 °C, a cooling leg and a heating one, the same
+/// 340-minute log (more blocks than a firmware model holds: the investigation chooses a sparse
+/// GP's size as `fit` does) and a log with four power-ons. No sample of the held-out logs is a
+/// fault, nothing is named where nothing is hidden, and the shipped σ covers at least 85 % of
+/// the held-out 60 s means: never too narrow. (It is too wide on most: docs/uncertainty.md.)
+#[test]
+fn a_unit_held_out_where_its_calibration_did_not_reach_is_covered_and_never_a_fault() {
+    for condition in SERVICE {
+        let case = run_service(condition, 1000).unwrap();
+        assert_eq!(case.faults, 0, "{case:?}");
+        assert!(case.named.is_empty(), "{case:?}");
+        assert!(case.sigma_60s.n >= 30, "{case:?}");
+        assert!(case.sigma_60s.within_2sigma >= 0.85, "{case:?}");
+        assert!(case.sigma_60s.sharpness.is_finite(), "{case:?}");
     }
 }

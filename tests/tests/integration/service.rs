@@ -1059,3 +1059,39 @@ fn generated(
         })
         .collect()
 }
+
+/// A log longer than a firmware model's centres (the 340-minute power-on log: 340 blocks) is
+/// investigated on its own, as `fit` fits it: a sparse GP of the size chosen on held-out
+/// points, said in `centres_choice`. It used to stop at "model too large to export".
+#[test]
+fn a_log_longer_than_a_firmware_model_holds_is_investigated_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = generated(
+        dir.path(),
+        "nominal",
+        &["stream", "--design", "power-on"],
+        5..=6,
+    );
+    let report = at(dir.path(), "inv.json");
+    trainer(&[
+        "investigate",
+        "--stream",
+        &logs[0],
+        "--valid-stream",
+        &logs[1],
+        "--json",
+        &report,
+        "-q",
+    ])
+    .unwrap();
+    let inv = one(&report);
+    let chosen = inv["centres_choice"]["chosen"]
+        .as_u64()
+        .expect("a size chosen");
+    assert!(chosen <= 256, "{}", inv["centres_choice"]);
+    assert_eq!(
+        inv["extended_score"]["n_fault"], 0,
+        "{}",
+        inv["extended_score"]
+    );
+}

@@ -8,6 +8,10 @@
 //! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
 //! both cores (rayon); each is deterministic by its seed. A [`CaseSet::Unit`] case does the same for
 //! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
+//! A [`CaseSet::Service`] case hides nothing: it calibrates a random unit with a turn-on
+//! repeatability on one log alone and holds out another power-on of another shape
+//! ([`SERVICE`]), as service meets what its calibration did not reach. Every case scores the
+//! shipped model's σ on the held-out stream: the challenge is judged on its σ as on its names.
 
 use crate::progress::Progress;
 use firmware_sim::gyro::axes::Axes;
@@ -16,6 +20,7 @@ use firmware_sim::gyro::plant::GyroParams;
 use firmware_sim::gyro::{output, paper, stream};
 use fog_data::cause::Cause;
 use fog_data::channels::{Channels, Read};
+use fog_data::sigma::Coverage;
 use fog_data::stream::Stream;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -43,16 +48,22 @@ pub enum CaseSet {
     /// seeds), calibrated and investigated through a channels file as a user's unit is: each
     /// axis a case.
     Unit,
+    /// A random unit with a turn-on repeatability, calibrated on one log alone (no rate table)
+    /// and held out on another power-on of another shape: colder, the other leg, another
+    /// power-on, a log with power cycles ([`SERVICE`]). Nothing hidden; what is scored is the
+    /// shipped model's σ where the calibration did not reach.
+    Service,
 }
 
 impl CaseSet {
     /// Every kind, in the order above.
-    pub const ALL: [CaseSet; 5] = [
+    pub const ALL: [CaseSet; 6] = [
         CaseSet::Single,
         CaseSet::Pairs,
         CaseSet::Weak,
         CaseSet::Lab,
         CaseSet::Unit,
+        CaseSet::Service,
     ];
 
     /// Its name, as its JSON and the command line spell it.
@@ -63,6 +74,7 @@ impl CaseSet {
             CaseSet::Weak => "weak",
             CaseSet::Lab => "lab",
             CaseSet::Unit => "unit",
+            CaseSet::Service => "service",
         }
     }
 }
@@ -80,6 +92,89 @@ pub const LAB: [Design; 4] = [
     ("warm-up", stream::StreamConfig::warm_up),
     ("cool-down", stream::StreamConfig::cool_down),
 ];
+
+/// A condition of [`CaseSet::Service`]: its name, the training log's program and the held-out
+/// log's (another power-on).
+pub type Condition = (&'static str, Design, Design);
+
+/// What [`CaseSet::Service`] holds out: each a log unlike the one calibrated on, as service
+/// meets it.
+pub const SERVICE: [Condition; 4] = [
+    // The warm-up's plateau at 25 °C spans a few degrees; the cool-down reaches 60 and −20 °C,
+    // ten trained widths and more beyond it.
+    (
+        "colder",
+        ("warm-up", stream::StreamConfig::warm_up),
+        ("cool-down", stream::StreamConfig::cool_down),
+    ),
+    // Calibrated cooling from 60 to −20 °C; held out heating from −20 to 60 °C.
+    (
+        "other leg",
+        ("cool-down", stream::StreamConfig::cool_down),
+        ("power-on", stream::StreamConfig::power_on),
+    ),
+    ("another power-on", LAB[0], LAB[0]),
+    // Four power-ons in the training log: another power-on's bias is measured, not assumed.
+    (
+        "power cycles",
+        ("chamber", stream::StreamConfig::default),
+        ("chamber", stream::StreamConfig::default),
+    ),
+];
+
+/// The largest turn-on bias and scale a [`CaseSet::Service`] unit draws, °/h and ppm: the scale
+/// the full-temperature repeatability of PHYSICS.md [S17] (200–300 ppm); the bias an estimate,
+/// a third of the nominal gyro's bias swing over −30…60 °C (60 °/h).
+pub const SERVICE_TURN_ON: (f64, f64) = (20.0, 300.0);
+
+/// A share in [0, 1) drawn by `seed` and `salt`.
+fn share(seed: u64, salt: u64) -> f64 {
+    ((seed ^ salt).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The unit of a [`CaseSet::Service`] case of `seed`: a random unit ([`GyroParams::random_unit`])
+/// whose every power-on adds a bias and a scale of its own, up to [`SERVICE_TURN_ON`].
+pub fn service_unit(seed: u64) -> GyroParams {
+    GyroParams {
+        turn_on_bias_dph: SERVICE_TURN_ON.0 * share(seed, 0x6269_6173),
+        turn_on_scale_ppm: SERVICE_TURN_ON.1 * share(seed, 0x7363_616c),
+        ..GyroParams::random_unit(seed)
+    }
+}
+
+/// A [`CaseSet::Service`] case: the unit of `seed` ([`service_unit`]) calibrated on a log of the
+/// condition's training program alone and held out on another power-on of its held-out
+/// program.
+pub fn run_service((condition, train, held_out): Condition, seed: u64) -> anyhow::Result<Case> {
+    let params = service_unit(seed);
+    let dir = tempfile::tempdir()?;
+    let train_path = dir.path().join("train.csv");
+    let valid_path = dir.path().join("valid.csv");
+    let write = |path: &std::path::Path, design: Design, run_seed: u64| {
+        let run = stream::run(&params, &design.1(), Hidden(Vec::new()), run_seed);
+        std::fs::write(path, output::stream_csv(&run))
+    };
+    write(&train_path, train, seed + 1)?;
+    write(&valid_path, held_out, seed + 2)?;
+    let train_stream = Stream::load(&train_path, &[])?;
+    let valid = Stream::load(&valid_path, &[])?;
+    let points = Points::from_stream(&train_path, &train_stream, None)?;
+    let rebuild = |part: &Stream| Ok(Points::from_stream(&train_path, part, None)?);
+    let (inv, _) = investigate::investigate(
+        &points,
+        &train_stream,
+        (&valid, false),
+        &shipped_config(),
+        investigate::Told::default(),
+        &rebuild,
+        &(),
+    )?;
+    Ok(Case {
+        condition: Some(condition),
+        held_out: Some(held_out.0),
+        ..Case::of(Hidden(Vec::new()), train.0, seed, &inv)
+    })
+}
 
 /// A warm-up drawn by `seed`: amplitude over the documented range, τ 10–40 min (a cold start of a
 /// large coil is slower than the simulator's nominal 15 min).
@@ -111,8 +206,14 @@ pub struct Case {
     /// The hidden effects.
     pub hidden: Hidden,
     /// The streams' chamber program: `chamber`, or a [`LAB`] shape; `unit` for an axis of a
-    /// [`CaseSet::Unit`] case.
+    /// [`CaseSet::Unit`] case; the training log's for a [`CaseSet::Service`] case.
     pub design: &'static str,
+    /// What a [`CaseSet::Service`] case holds out ([`SERVICE`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<&'static str>,
+    /// The held-out log's program, where it is not `design`'s ([`CaseSet::Service`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_out: Option<&'static str>,
     /// The axis of a unit, for [`CaseSet::Unit`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub axis: Option<String>,
@@ -132,9 +233,40 @@ pub struct Case {
     pub oracle_gain: Option<f64>,
     /// Why the shipped model is the one it is.
     pub verdict: String,
+    /// The shipped model's σ against the errors of the held-out stream's 60 s means.
+    pub sigma_60s: Coverage,
+    /// Held-out samples the shipped model called a fault (a reading that cannot be true; none
+    /// of the simulator's can be).
+    pub faults: usize,
 }
 
 impl Case {
+    /// The case of `hidden` on streams of `design`, from its investigation (no oracle, no axis).
+    fn of(
+        hidden: Hidden,
+        design: &'static str,
+        seed: u64,
+        inv: &investigate::Investigation,
+    ) -> Self {
+        Case {
+            hidden,
+            design,
+            condition: None,
+            held_out: None,
+            axis: None,
+            seed,
+            named: inv.diagnosis.causes.clone(),
+            shipped_extension: inv.shipped == investigate::Shipped::Extended,
+            static_rmse_60s_dps: inv.static_score.rmse_60s_dps,
+            extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
+            gain: inv.gain,
+            oracle_gain: None,
+            verdict: inv.verdict.clone(),
+            sigma_60s: inv.extended_score.sigma_60s,
+            faults: inv.extended_score.n_fault,
+        }
+    }
+
     /// The first hidden cause (`none` when there is none).
     pub fn hidden_cause(&self) -> Cause {
         self.hidden.causes().first().copied().unwrap_or(Cause::None)
@@ -227,17 +359,8 @@ pub fn run_hidden(
         None
     };
     Ok(Case {
-        hidden,
-        design,
-        axis: None,
-        seed,
-        named: inv.diagnosis.causes.clone(),
-        shipped_extension: inv.shipped == investigate::Shipped::Extended,
-        static_rmse_60s_dps: inv.static_score.rmse_60s_dps,
-        extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
-        gain: inv.gain,
         oracle_gain,
-        verdict: inv.verdict,
+        ..Case::of(hidden, design, seed, &inv)
     })
 }
 
@@ -295,17 +418,8 @@ pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
                 &(),
             )?;
             Ok(Case {
-                hidden: Hidden(axis.effects),
-                design: "unit",
                 axis: Some(ch.name.clone()),
-                seed,
-                named: inv.diagnosis.causes.clone(),
-                shipped_extension: inv.shipped == investigate::Shipped::Extended,
-                static_rmse_60s_dps: inv.static_score.rmse_60s_dps,
-                extended_rmse_60s_dps: inv.extended_score.rmse_60s_dps,
-                gain: inv.gain,
-                oracle_gain: None,
-                verdict: inv.verdict,
+                ..Case::of(Hidden(axis.effects), "unit", seed, &inv)
             })
         })
         .collect()
@@ -321,8 +435,8 @@ fn designs(kind: CaseSet) -> Vec<Vec<Cause>> {
         CaseSet::Single => Cause::ALL.into_iter().map(|c| vec![c]).collect(),
         CaseSet::Weak => real.into_iter().map(|c| vec![c]).collect(),
         CaseSet::Lab => vec![vec![Cause::WarmUp], vec![Cause::None]],
-        // One design: each case draws its axes' causes by its index.
-        CaseSet::Unit => vec![Vec::new()],
+        // One design: each case draws its axes' causes by its index; a service case hides none.
+        CaseSet::Unit | CaseSet::Service => vec![Vec::new()],
         CaseSet::Pairs => real
             .iter()
             .enumerate()
@@ -336,10 +450,11 @@ fn designs(kind: CaseSet) -> Vec<Vec<Cause>> {
 pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow::Result<Vec<Case>> {
     let strength = match kind {
         CaseSet::Weak => Strength::Weak,
-        CaseSet::Single | CaseSet::Pairs | CaseSet::Lab | CaseSet::Unit => Strength::Documented,
+        _ => Strength::Documented,
     };
     let shapes: Vec<Option<usize>> = match kind {
         CaseSet::Lab => (0..LAB.len()).map(Some).collect(),
+        CaseSet::Service => (0..SERVICE.len()).map(Some).collect(),
         _ => vec![None],
     };
     let jobs: Vec<(Vec<Cause>, Option<usize>, u64)> = designs(kind)
@@ -360,6 +475,7 @@ pub fn run(kind: CaseSet, seeds: u64, first: u64, bar: &dyn Progress) -> anyhow:
             .map(|(i, (c, shape, s))| {
                 let cases = match (kind, shape) {
                     (CaseSet::Unit, _) => run_unit_case(i, s),
+                    (CaseSet::Service, Some(k)) => run_service(SERVICE[k], s).map(|c| vec![c]),
                     (_, Some(k)) => run_lab(LAB[k], s, c.contains(&Cause::WarmUp)).map(|c| vec![c]),
                     (_, None) => run_case(&c, s, strength, kind == CaseSet::Pairs).map(|c| vec![c]),
                 };
@@ -394,6 +510,49 @@ pub struct ChallengeSummary {
     pub of_oracle_min_median: Option<[f64; 2]>,
     /// Cases whose gain is at least 70% of the oracle's (pairs).
     pub at_least_70pc_of_oracle: usize,
+    /// Cases whose shipped σ covers 85–99 % of the held-out 60 s means within ±2σ at a median
+    /// σ at most 1.5× their RMS error ([`SIGMA_TARGET`]).
+    pub sigma_on_target: usize,
+    /// Cases whose shipped σ covers under 85 % of them: too narrow.
+    pub sigma_narrow: usize,
+    /// Cases covered 85 % or more whose σ is wider than the target: over 99 %, or a median σ
+    /// more than 1.5× the RMS error.
+    pub sigma_wide: usize,
+    /// Smallest and median share of held-out 60 s means within ±2σ.
+    pub sigma_coverage_min_median: [f64; 2],
+    /// Median and largest sharpness (median σ over RMS error) of the held-out 60 s means.
+    pub sigma_sharpness_median_max: [f64; 2],
+    /// Held-out samples called a fault, over every case.
+    pub faults: usize,
+}
+
+/// The σ a held-out stream should meet: ±2σ covering this share of its 60 s means (lowest,
+/// highest) at a median σ at most this many times their RMS error.
+pub const SIGMA_TARGET: ((f64, f64), f64) = ((0.85, 0.99), 1.5);
+
+/// Where a case's σ falls against [`SIGMA_TARGET`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SigmaVerdict {
+    /// Within the target.
+    OnTarget,
+    /// Covers under its lowest share.
+    Narrow,
+    /// Covers more than its highest share, or wider than its sharpness.
+    Wide,
+}
+
+impl SigmaVerdict {
+    /// Where `c` falls.
+    pub fn of(c: &Coverage) -> Self {
+        let ((lo, hi), sharpness) = SIGMA_TARGET;
+        if c.within_2sigma < lo {
+            SigmaVerdict::Narrow
+        } else if c.within_2sigma > hi || c.sharpness > sharpness {
+            SigmaVerdict::Wide
+        } else {
+            SigmaVerdict::OnTarget
+        }
+    }
 }
 
 impl ChallengeSummary {
@@ -414,6 +573,22 @@ impl ChallengeSummary {
             self.gain_min_median[0],
             self.gain_min_median[1]
         );
+        let ((lo, hi), sharpness) = SIGMA_TARGET;
+        s.push_str(&format!(
+            "; shipped σ on the held-out 60 s means: {:.0}–{:.0} % within ±2σ at sharpness ≤ \
+             {sharpness} in {}, too narrow in {}, too wide in {} (coverage min {:.1} % median \
+             {:.1} %, sharpness median {:.2} max {:.2}); {} held-out samples called a fault",
+            100.0 * lo,
+            100.0 * hi,
+            self.sigma_on_target,
+            self.sigma_narrow,
+            self.sigma_wide,
+            100.0 * self.sigma_coverage_min_median[0],
+            100.0 * self.sigma_coverage_min_median[1],
+            self.sigma_sharpness_median_max[0],
+            self.sigma_sharpness_median_max[1],
+            self.faults
+        ));
         if let Some([lo, mid]) = self.of_oracle_min_median {
             s.push_str(&format!(
                 "; of the oracle's gain: min {:.0}% median {:.0}%, ≥ 70% in {}",
@@ -459,6 +634,21 @@ pub fn summary(cases: &[Case]) -> ChallengeSummary {
         gain_min_median: min_median(cases.iter().map(|c| c.gain).collect()),
         at_least_70pc_of_oracle: of_oracle.iter().filter(|r| **r >= 0.7).count(),
         of_oracle_min_median: (!of_oracle.is_empty()).then(|| min_median(of_oracle)),
+        sigma_on_target: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::OnTarget),
+        sigma_narrow: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::Narrow),
+        sigma_wide: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::Wide),
+        sigma_coverage_min_median: min_median(
+            cases.iter().map(|c| c.sigma_60s.within_2sigma).collect(),
+        ),
+        sigma_sharpness_median_max: {
+            let mut v: Vec<f64> = cases.iter().map(|c| c.sigma_60s.sharpness).collect();
+            v.sort_by(f64::total_cmp);
+            [
+                v.get(v.len() / 2).copied().unwrap_or(f64::NAN),
+                v.last().copied().unwrap_or(f64::NAN),
+            ]
+        },
+        faults: cases.iter().map(|c| c.faults).sum(),
     }
 }
 

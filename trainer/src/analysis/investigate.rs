@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::analysis::basis::{self, BasisChoice};
 use crate::analysis::beyond::{self, BeyondChoice};
+use crate::analysis::capacity;
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
 use crate::analysis::uncertainty::{self, Calibration, ResidualSource, SampleNoise};
@@ -69,6 +70,10 @@ pub struct Investigation {
     /// How `--mean auto` (the default) chose the prior mean's basis, on temperature bands left
     /// out (`null`: a basis asked for).
     pub basis_choice: Option<BasisChoice>,
+    /// How the default size (`--inducing auto`) chose the firmware model's inducing points, as
+    /// `fit` chooses them, on more points than a firmware model holds (`null`: the exact GP, or
+    /// a size asked for).
+    pub centres_choice: Option<capacity::Choice>,
 }
 
 impl Investigation {
@@ -519,6 +524,10 @@ pub fn investigate(
     bar.expect(STEPS);
     bar.stage("the prior mean's basis, on temperature bands");
     let (cfg, basis_choice) = basis::resolve(points, cfg);
+    // A log longer than a firmware model's centres needs the sparse GP `fit` would ship.
+    let (cfg, centres_choice) = capacity::resolve(points, &cfg, |step| {
+        bar.stage(&format!("choosing the firmware model's size: {step}"))
+    })?;
     let cfg = &cfg;
     bar.stage(&format!("static fit on {} points", points.len()));
     let model = GpModel::fit(points.inputs(), &points.target(), cfg)?;
@@ -607,6 +616,7 @@ pub fn investigate(
             static_calibration,
             beyond,
             basis_choice,
+            centres_choice,
         },
         Blobs {
             static_blob,

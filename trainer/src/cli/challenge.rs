@@ -20,7 +20,10 @@ pub(super) struct ChallengeArgs {
     /// lower end of its documented strength; lab: the shapes of log labs record, each from one
     /// power-on (power-on, short, warm-up, cool-down), with a warm-up of τ 10–40 min or none;
     /// unit: a unit of three gyro axes, each its own gyro and hidden cause, calibrated through a
-    /// channels file.
+    /// channels file; service: a random unit with a turn-on repeatability, calibrated on one log
+    /// alone and held out on another power-on of another shape (colder, the other leg, another
+    /// power-on, a log with power cycles), its σ scored. Every case scores the shipped model's σ
+    /// on the held-out stream.
     #[arg(long, value_enum, default_value_t = challenge::CaseSet::Single)]
     kind: challenge::CaseSet,
     /// Seeds per cause (per pair).
@@ -47,8 +50,13 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
     bar.set_message("hidden-effect cases");
     let cases = challenge::run(kind, seeds, first_seed, &bar)?;
     bar.finish_and_clear();
+    let each = match kind {
+        challenge::CaseSet::Lab => "points + two logs of one shape",
+        challenge::CaseSet::Service => "one log to calibrate on alone + another power-on held out",
+        _ => "points + two 8.75 h chamber streams",
+    };
     console.detail(&format!(
-        "{} cases ({kind:?}, {seeds} seeds each), each: points + two 8.75 h streams → investigate",
+        "{} cases ({kind:?}, {seeds} seeds each), each: {each} → investigate",
         cases.len()
     ));
     for c in &cases {
@@ -65,17 +73,38 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
             .iter()
             .map(|e| format!("{:.2}", e.strength()))
             .collect();
+        let sigma = format!(
+            "; σ covers {:.1} % of the 60 s means (sharpness {:.2}){}",
+            100.0 * c.sigma_60s.within_2sigma,
+            c.sigma_60s.sharpness,
+            if c.faults > 0 {
+                format!(", {} samples called a fault", c.faults)
+            } else {
+                String::new()
+            }
+        );
+        let scores = format!(
+            "static {:.3e} shipped {:.3e} °/s gain {:.2}×",
+            c.static_rmse_60s_dps, c.extended_rmse_60s_dps, c.gain
+        );
+        if let (Some(condition), Some(held_out)) = (c.condition, c.held_out) {
+            console.result(&format!(
+                "{:<32} seed {:>5} → {:<12} {scores}{sigma}",
+                format!("{condition}: {} → {held_out}", c.design),
+                c.seed,
+                ids(&c.named),
+            ));
+            continue;
+        }
         console.result(&format!(
-            "{:<10} {:<24} strength {:<12} seed {:>5} → {:<24} static {:.3e} shipped {:.3e} °/s gain {:.2}×{}",
+            "{:<10} {:<24} strength {:<12} seed {:>5} → {:<24} {scores}{}{sigma}",
             c.axis.as_deref().unwrap_or(c.design),
             ids(&c.hidden.causes()),
             strengths.join("+"),
             c.seed,
             ids(&c.named),
-            c.static_rmse_60s_dps,
-            c.extended_rmse_60s_dps,
-            c.gain,
-            c.oracle_gain.map_or(String::new(), |o| format!(" (oracle {o:.2}×)"))
+            c.oracle_gain
+                .map_or(String::new(), |o| format!(" (oracle {o:.2}×)")),
         ));
     }
     let summary = challenge::summary(&cases);

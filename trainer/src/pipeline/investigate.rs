@@ -96,6 +96,9 @@ impl InvestigatePlan {
         if let Some(c) = &inv.basis_choice {
             messages.result(&format!("prior mean: {}", c.verdict));
         }
+        if let Some(c) = &inv.centres_choice {
+            messages.result(&c.verdict);
+        }
         messages.result(render_diagnosis(&inv.diagnosis).trim_end());
         messages.result(&format!("shipped {:?}: {}", inv.shipped, inv.verdict));
         messages.result(&format!(
