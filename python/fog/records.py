@@ -416,11 +416,14 @@ class Calibration(Record):
     note: str | None
     """Why there is no error model measured, when there is none."""
 
+    output_rms: float
+    """The RMS reference output of the out-of-sample residuals inside the trained range (nearer it than 5 % of a width), output units, where the outputs move: their spread about their mean, within a 60 s mean and across them, over ten times a sample's noise (else 0, as at rest). Where the residuals show no error in proportion to the output, another power-on's scale is assumed as large at this output as its bias."""
+
     power_ons_left_out: int | None
     """Where a training stream's power-ons were left out in turn ([`ResidualSource::PowerOn`]): how many. Their residuals enter the other terms each less its power-on's mean; another power-on's bias is measured on those means, its scale on their residuals (`measured`)."""
 
     residual_scale_ppm: float
-    """The out-of-sample residuals' model error in proportion to the output inside the trained range, ppm of it: each residual there a draw of the variance its model states (with the time terms fitted beside it) plus `a + b·y²` at its reference output y, a the floor of its kind, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does not make the residuals more likely by the χ²(1) 95 % point, counted over the independent residuals they are worth). What another power-on's scale factor is assumed to differ by where nothing states it."""
+    """The out-of-sample residuals' model error in proportion to the output inside the trained range (nearer it than 5 % of a width: a 60 s mean over a table's sweep holds its extreme rates, a hair beyond the trimmed range), ppm of it: each residual there a draw of the variance its model states (with the time terms fitted beside it) plus `a + b·y²` at its reference output y, a the floor of its kind, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does not make the residuals more likely by the χ²(1) 95 % point, counted over the independent residuals they are worth). What another power-on's scale factor is assumed to differ by where nothing states it."""
 
     residuals: int
     """Residuals the terms were fitted on."""
@@ -432,7 +435,7 @@ class Calibration(Record):
     """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
-    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, measured on a training stream's power-ons left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their floor holds it) and the residuals show an error in proportion to the output, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as for the bias."""
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, measured on a training stream's power-ons left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their floor holds it) and the outputs move, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as for the bias."""
 
     sources: list[SourceSummary]
     """Each test."""
@@ -1032,10 +1035,10 @@ class CrossRun(Record):
     """RMSE on the shared range, °/s."""
 
     scale_assumed: bool
-    """Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale factors as large as the training run's residual error in proportion to the rate) rather than stated."""
+    """Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale factors as large as the training run's residual error in proportion to the rate, or where they show none, as large at their RMS rate as another power-on's bias) rather than stated."""
 
     scale_repeatability_ppm: float | None
-    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's residuals showing no error in proportion to the rate or runs pooled, whose floor holds it at the rates they hold, or no σ)."""
+    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's rates barely moving or runs pooled, whose floor holds it at the rates they hold, or no σ)."""
 
     sigma: Coverage | None
     """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`) and scale factor (`--scale-repeatability`), each assumed as `fit` assumes it where not stated (null for the methods that state no σ)."""

@@ -596,13 +596,15 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     let covered = cooling(&stated, "s.json");
     assert!((0.85..=0.99).contains(&covered), "{covered}");
     // Its one channel's model, as a model blob of its own (still read), without the leg's term
-    // and without another power-on's assumed bias: what the run's residuals alone state.
+    // and without another power-on's assumed bias and scale: what the run's residuals alone
+    // state.
     let mut bytes = model_blob(&std::fs::read(&blob).unwrap());
     let fw = fog_data::replay::decode(&bytes).unwrap();
     assert!(fw.error_model().turn_on_var > 0.0);
     let without = firmware_core::ErrorModel {
         leg_var: 0.0,
         turn_on_var: 0.0,
+        scale_var: 0.0,
         ..fw.error_model()
     };
     firmware_core::blob::set_error_model(&mut bytes, &without).unwrap();
@@ -936,8 +938,10 @@ fn a_run_whose_scale_factor_differs_is_told_apart_and_a_stated_repeatability_cov
     // figure stands in its place.
     assert_eq!(found["turn_on_assumed"], true, "{found}");
     assert!(get(&found, "turn_on_std") > 0.0, "{found}");
-    // Nor its scale: the soaked table's residuals do not grow with the rate, so none is assumed.
-    assert_eq!(found["scale_assumed"], false, "{found}");
+    // Nor its scale: the soaked table's residuals do not grow with the rate, so it is assumed as
+    // large at their RMS rate as the bias, a few ppm, far from the 800 drawn.
+    assert_eq!(found["scale_assumed"], true, "{found}");
+    assert!(get(&found, "scale_repeatability_ppm") < 20.0, "{found}");
     let stated = across(&tables, &["--scale-repeatability", "800"]);
     assert!(get(&stated["sigma"], "within_2sigma") > 0.95, "{stated}");
     let bias = across(&tables, &["--repeatability", "0.001"]);
@@ -1093,5 +1097,35 @@ fn a_log_longer_than_a_firmware_model_holds_is_investigated_alone() {
         inv["extended_score"]["n_fault"], 0,
         "{}",
         inv["extended_score"]
+    );
+}
+
+/// A log that sweeps the table's rates, calibrated alone: its 60 s means each hold the whole
+/// sweep, so their residuals cannot show an error in proportion to the rate, yet another
+/// power-on's scale factor differs as its bias does. It is assumed, as large at the outputs'
+/// RMS as that bias, never left out; at rest (the MEMS log) there is nothing to assume.
+#[test]
+fn a_log_calibrated_alone_assumes_another_power_ons_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = generated(
+        dir.path(),
+        "nominal",
+        &["stream", "--design", "short"],
+        5..=5,
+    );
+    let (blob, report) = (at(dir.path(), "m.bin"), at(dir.path(), "m.json"));
+    trainer(&[
+        "fit", "--stream", &logs[0], "--out", &blob, "--json", &report, "-q",
+    ])
+    .unwrap();
+    let calibration = one(&report)["calibration"].clone();
+    assert!(crate::assumes(&calibration, "scale"), "{calibration}");
+    let rms = calibration["output_rms"].as_f64().unwrap();
+    assert!((1.0..80.0).contains(&rms), "{calibration}");
+    let ppm = calibration["scale_repeatability_ppm"].as_f64().unwrap();
+    let bias = calibration["turn_on_std"].as_f64().unwrap();
+    assert!(
+        (ppm / (bias / rms * 1e6) - 1.0).abs() < 1e-6,
+        "{calibration}"
     );
 }

@@ -123,8 +123,8 @@ pub const SERVICE: [Condition; 4] = [
 ];
 
 /// The largest turn-on bias and scale a [`CaseSet::Service`] unit draws, °/h and ppm: the scale
-/// the full-temperature repeatability of PHYSICS.md [S17] (200–300 ppm); the bias an estimate,
-/// a third of the nominal gyro's bias swing over −30…60 °C (60 °/h).
+/// the full-temperature repeatability of PHYSICS.md (source S17: 200–300 ppm); the bias an
+/// estimate, a third of the nominal gyro's bias swing over −30…60 °C (60 °/h).
 pub const SERVICE_TURN_ON: (f64, f64) = (20.0, 300.0);
 
 /// A share in [0, 1) drawn by `seed` and `salt`.

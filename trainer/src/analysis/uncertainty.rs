@@ -189,6 +189,8 @@ pub struct Residual {
     /// The reference output squared (its mean over a 60 s mean's samples), output units²: where
     /// the shipped σ's extrapolation has a part in proportion to the output, what it multiplies.
     pub output2: f64,
+    /// The reference output (its mean over a 60 s mean's samples), output units.
+    pub output: f64,
     /// Hours since the data the predicting model was fitted on (time since power-on, for a run it
     /// never saw).
     pub hours: f64,
@@ -362,18 +364,25 @@ pub struct Calibration {
     /// The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the
     /// output: as stated by `--scale-repeatability`, measured on a training stream's power-ons
     /// left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their
-    /// floor holds it) and the residuals show an error in proportion to the output, assumed
-    /// (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries
-    /// twice its variance, as for the bias.
+    /// floor holds it) and the outputs move, assumed (`scale` in `assumed`:
+    /// [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as
+    /// for the bias.
     pub scale_repeatability_ppm: f64,
     /// The out-of-sample residuals' model error in proportion to the output inside the trained
-    /// range, ppm of it: each residual there a draw of the variance its model states (with the
-    /// time terms fitted beside it) plus `a + b·y²` at its reference output y, a the floor of its
-    /// kind, a and b at the likelihood's maximum, √b (0 where the outputs barely move or b does
-    /// not make the residuals more likely by the χ²(1) 95 % point, counted over the independent
-    /// residuals they are worth). What another power-on's scale factor is assumed to differ by
-    /// where nothing states it.
+    /// range (nearer it than 5 % of a width: a 60 s mean over a table's sweep holds its extreme
+    /// rates, a hair beyond the trimmed range), ppm of it: each residual there a draw of the
+    /// variance its model states (with the time terms fitted beside it) plus `a + b·y²` at its
+    /// reference output y, a the floor of its kind, a and b at the likelihood's maximum, √b (0
+    /// where the outputs barely move or b does not make the residuals more likely by the χ²(1)
+    /// 95 % point, counted over the independent residuals they are worth). What another
+    /// power-on's scale factor is assumed to differ by where nothing states it.
     pub residual_scale_ppm: f64,
+    /// The RMS reference output of the out-of-sample residuals inside the trained range (nearer
+    /// it than 5 % of a width), output units, where the outputs move: their spread about their
+    /// mean, within a 60 s mean and across them, over ten times a sample's noise (else 0, as at
+    /// rest). Where the residuals show no error in proportion to the output, another power-on's
+    /// scale is assumed as large at this output as its bias.
+    pub output_rms: f64,
     /// The bias's temperature coefficient beyond the trained range, output units per °C, as
     /// stated by `--tempco` or the channel's `tempco` in a channels file (a datasheet's; null: not
     /// stated). Over `trained_width_c` it sets the extrapolation term's part alike at every
@@ -703,6 +712,7 @@ impl Calibration {
             power_ons_left_out: None,
             scale_repeatability_ppm: 0.0,
             residual_scale_ppm: 0.0,
+            output_rms: 0.0,
             tempco_per_c: None,
             trained_width_c: None,
             residuals: 0,

@@ -336,8 +336,9 @@ pub(super) struct DatasheetArgs {
     /// each channel's (a channel's `scale_repeatability` in the channels file states its own;
     /// default: measured where a training stream's power-ons are left out in turn; else
     /// assumed, the difference of two power-ons as large as the residuals' model error in
-    /// proportion to the output inside the trained range, where they show one; else left out,
-    /// which `fit` says in one line).
+    /// proportion to the output inside the trained range, where they show one, else as large at
+    /// their outputs' RMS as another power-on's bias; at rest, left out, which `fit` says in one
+    /// line).
     #[arg(long, value_name = "PPM")]
     scale_repeatability: Option<f64>,
     /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as

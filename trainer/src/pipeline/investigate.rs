@@ -122,6 +122,10 @@ impl InvestigatePlan {
             "shipped model's {}",
             inv.calibration.describe(unit)
         ));
+        let stated = self.sheet.scale_repeatability.is_some();
+        if let Some(line) = inv.calibration.scale_skipped_line(stated) {
+            messages.result(&line);
+        }
         let scored_as = if self.calibration_run {
             "scored as the calibration's own power-on"
         } else {

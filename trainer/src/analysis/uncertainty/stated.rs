@@ -85,17 +85,26 @@ impl Calibration {
     /// table's runs hold it in their floor, alike at every rate they hold; a stream's measure it),
     /// as [`Self::assume_turn_on`] assumes its bias: the difference of two power-ons' scale
     /// factors is taken as large as the residuals' own model error in proportion to the output
-    /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once), said in
-    /// `assumed` as `scale`. Where the residuals show none (outputs that barely move, as at rest,
-    /// or errors that do not grow with them), nothing is assumed and the fit says it skipped
-    /// the term. A gyro's scale factor differs from one power-on to the next as its bias does
-    /// (the FOG runs in `../shared` by −765 and +792 ppm), an error that grows with the rate
-    /// where a bias term states the same at every rate.
+    /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once). Where the
+    /// residuals show none, but their outputs move (`output_rms`), it is taken as large at the
+    /// outputs' RMS as another power-on's bias is there ([`Self::turn_on_std`]): one power-on
+    /// cannot show either, and the scale is no less a draw of the next power-on than the bias.
+    /// Said in `assumed` as `scale`. At rest (outputs that barely move) nothing is assumed and
+    /// the fit says it skipped the term. A gyro's scale factor differs from one power-on to the
+    /// next as its bias does (the FOG runs in `../shared` by −765 and +792 ppm), an error that
+    /// grows with the rate where a bias term states the same at every rate.
     pub fn assume_scale(&mut self) {
         if self.runs_measured() || self.scale_repeatability_ppm > 0.0 {
             return;
         }
-        self.set_scale(self.residual_scale_ppm / OWN_DRAW.sqrt());
+        let ppm = if self.residual_scale_ppm > 0.0 {
+            self.residual_scale_ppm / OWN_DRAW.sqrt()
+        } else if self.output_rms > 0.0 {
+            self.turn_on_std / self.output_rms * 1e6
+        } else {
+            0.0
+        };
+        self.set_scale(ppm);
         if self.scale_repeatability_ppm > 0.0 {
             self.assumed.push("scale");
         }
@@ -114,8 +123,21 @@ impl Calibration {
             "the runs left out hold it in their floor, alike at every rate they hold"
         } else if self.residuals == 0 {
             "too few out-of-sample residuals to assume it from"
+        } else if self.output_rms == 0.0 {
+            "the outputs barely move, as at rest: no error in proportion to them shows"
         } else {
-            "the residuals show no error in proportion to the output to assume it from"
+            "the residuals show no error in proportion to the output, and another power-on's \
+             bias, which it would be assumed as large as at their RMS, is 0"
+        })
+    }
+
+    /// The line a command says where [`Self::scale_skipped`] has a reason.
+    pub fn scale_skipped_line(&self, stated: bool) -> Option<String> {
+        self.scale_skipped(stated).map(|why| {
+            format!(
+                "skipped: the scale factor of another power-on ({why}; --scale-repeatability \
+                 states a datasheet's run-to-run σ, in ppm)"
+            )
         })
     }
 

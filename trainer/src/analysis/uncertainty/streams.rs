@@ -53,6 +53,7 @@ pub fn stream_series(
                 })
                 .max(0.0),
                 output2: mean(b, &|i| stream.rate_dps[i].powi(2)),
+                output: mean(b, &|i| stream.rate_dps[i]),
                 hours: mean(b, &|i| hours[i]),
             }
         })

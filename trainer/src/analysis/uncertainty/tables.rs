@@ -172,6 +172,7 @@ pub fn series_of(
                 base_var,
                 excess2: export::excess2(&row, &range),
                 output2: points.rate_dps[i].powi(2),
+                output: points.rate_dps[i],
                 hours: 0.0,
             });
         }

@@ -184,6 +184,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         power_ons_left_out: power_ons.as_ref().map(Vec::len),
         scale_repeatability_ppm: (scale_var.unwrap_or(0.0) / OWN_DRAW).sqrt() * 1e6,
         residual_scale_ppm: residual_scale.sqrt() * 1e6,
+        output_rms: output_rms(&all, noise.var.sqrt()),
         tempco_per_c: None,
         trained_width_c: None,
         residuals: all.len(),
@@ -374,6 +375,32 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
 /// about 2.5 %. The stated variance is an offset in each residual's variance, not taken off its
 /// squared error: a squared error less it, clipped at 0, is no Gaussian draw, and where the
 /// stated variance grows with the output the clipping alone made a part in proportion to it.
+/// How far beyond its model's trained range a residual may lie and still count as inside it
+/// for the error in proportion to the output ([`proportional_error`], [`output_rms`]), widths
+/// squared: nearer than the extrapolation term is seen at ([`SEEN_AT`]). A 60 s mean over a
+/// table's sweep holds its extreme rates, a hair beyond the voltage input's trimmed range, so
+/// that none of a stream's residuals lay exactly inside and none showed the scale.
+const INSIDE: f64 = SEEN_AT[EXTRAPOLATION];
+
+/// The RMS reference output of the residuals inside the range ([`INSIDE`]), where the outputs
+/// move: their spread about their mean, within a 60 s mean and across them, over ten times a
+/// sample's noise (a gyro or accelerometer at rest does not, whatever its output). Else 0.
+fn output_rms(all: &[(Residual, bool)], noise_std: f64) -> f64 {
+    let inside: Vec<&Residual> = all
+        .iter()
+        .filter(|(r, _)| r.excess2 < INSIDE && r.output2.is_finite() && r.output.is_finite())
+        .map(|(r, _)| r)
+        .collect();
+    let n = inside.len() as f64;
+    let mean_u = inside.iter().map(|r| r.output2).sum::<f64>() / n;
+    let mean_y = inside.iter().map(|r| r.output).sum::<f64>() / n;
+    if (mean_u - mean_y * mean_y).max(0.0).sqrt() > 10.0 * noise_std {
+        mean_u.sqrt()
+    } else {
+        0.0
+    }
+}
+
 fn proportional_error(
     all: &[(Residual, bool)],
     c: &[f64; TERMS],
@@ -387,7 +414,7 @@ fn proportional_error(
     // run's.
     let inside: Vec<(f64, f64, f64, bool)> = all
         .iter()
-        .filter(|(r, _)| r.excess2 == 0.0)
+        .filter(|(r, _)| r.excess2 < INSIDE)
         .map(|(r, run)| (r.error * r.error, r.var(*run, &beside), r.output2, *run))
         .filter(|(e2, v, u, _)| e2.is_finite() && v.is_finite() && u.is_finite())
         .collect();

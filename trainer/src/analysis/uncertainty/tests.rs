@@ -21,6 +21,7 @@ fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual>
                 base_var: 1e-4,
                 excess2,
                 output2: 0.0,
+                output: 0.0,
                 hours,
             }
         })
@@ -84,6 +85,7 @@ fn few_correlated_residuals_widen_the_sigma() {
             base_var: 1e-6,
             excess2: 0.0,
             output2: 0.0,
+            output: 0.0,
             hours: 0.0,
         })
         .collect();

@@ -59,12 +59,20 @@ impl Calibration {
         } else {
             String::new()
         };
-        let scale = if self.assumed.contains(&"scale") {
+        let scale = if self.assumed.contains(&"scale") && self.residual_scale_ppm > 0.0 {
             format!(
                 "; another power-on's scale {:.0} ppm of the output (assumed: the difference of \
                  two power-ons as large as the residuals' model error in proportion to the \
                  output, {:.0} ppm; --scale-repeatability states a datasheet's)",
                 self.scale_repeatability_ppm, self.residual_scale_ppm
+            )
+        } else if self.assumed.contains(&"scale") {
+            format!(
+                "; another power-on's scale {:.0} ppm of the output (assumed: the residuals show \
+                 no error in proportion to the output, so as large at their outputs' RMS, \
+                 {:.3e} {units}, as another power-on's bias; --scale-repeatability states a \
+                 datasheet's)",
+                self.scale_repeatability_ppm, self.output_rms
             )
         } else if self.measured.contains(&"scale") {
             format!(

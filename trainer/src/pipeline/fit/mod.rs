@@ -322,13 +322,9 @@ impl FitPlan {
                  beside a table with --features or --pool-stream)",
             );
         }
-        if let Some(why) =
-            calibration.scale_skipped(self.service.sheet.scale_repeatability.is_some())
-        {
-            messages.result(&format!(
-                "skipped: the scale factor of another power-on ({why}; --scale-repeatability \
-                 states a datasheet's run-to-run σ, in ppm)"
-            ));
+        let stated = self.service.sheet.scale_repeatability.is_some();
+        if let Some(line) = calibration.scale_skipped_line(stated) {
+            messages.result(&line);
         }
         summary.calibration = Some(calibration);
         summary.handled = streams
