@@ -494,7 +494,7 @@ class Case(Record):
     """Their ratio."""
 
     held_out: str | None
-    """The held-out log's program, where it is not `design`'s ([`CaseSet::Service`])."""
+    """The held-out log's program ([`CaseSet::Service`]; absent otherwise, where it is `design`'s)."""
 
     hidden: list[Record]
     """The hidden effects."""
@@ -1038,7 +1038,7 @@ class CrossRun(Record):
     """Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale factors as large as the training run's residual error in proportion to the rate, or where they show none, as large at their RMS rate as another power-on's bias) rather than stated."""
 
     scale_repeatability_ppm: float | None
-    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's rates barely moving or runs pooled, whose floor holds it at the rates they hold, or no σ)."""
+    """The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed: `scale_assumed`; null: none, the training run's rates barely moving or the bias it would be assumed as large as 0, runs pooled, whose floor holds it at the rates they hold, or no σ)."""
 
     sigma: Coverage | None
     """The GP's σ there, its error model measured on the training run alone, with another power-on's bias (`--repeatability`) and scale factor (`--scale-repeatability`), each assumed as `fit` assumes it where not stated (null for the methods that state no σ)."""

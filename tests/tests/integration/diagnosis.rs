@@ -157,7 +157,7 @@ fn a_warm_up_whose_tail_misses_a_quiet_later_half_is_still_named_and_shipped() {
 /// 340-minute log (more blocks than a firmware model holds: the investigation chooses a sparse
 /// GP's size as `fit` does) and a log with four power-ons. No sample of the held-out logs is a
 /// fault, nothing is named where nothing is hidden, and the shipped σ covers at least 85 % of
-/// the held-out 60 s means: never too narrow. (It is too wide on most: docs/uncertainty.md.)
+/// the held-out 60 s means: never too narrow. (It is too wide on all: docs/uncertainty.md.)
 #[test]
 fn a_unit_held_out_where_its_calibration_did_not_reach_is_covered_and_never_a_fault() {
     for condition in SERVICE {

@@ -60,7 +60,8 @@
 //! floor ([`Calibration::assume_turn_on`]); its scale factor, by a datasheet, measured on a
 //! training stream's power-ons left out (their residuals' error in proportion to the output,
 //! widened alike), or else assumed as large as the residuals' error in proportion to the output
-//! inside the trained range, where they show one ([`Calibration::assume_scale`]). Each assumed
+//! inside the trained range, where they show one, and where they show none but the outputs move,
+//! as large at their RMS as that bias ([`Calibration::assume_scale`]). Each assumed
 //! term is named in the calibration (`assumed`), each measured one in `measured`, and both in its
 //! one line.
 //!

@@ -1,5 +1,6 @@
 //! `trainer challenge`: hidden-effect cases on the simulator, each investigated as a user's log
-//! would be, and how often the diagnosis names the cause it hid.
+//! would be, how often the diagnosis names the cause it hid, and how well the shipped σ covers
+//! the held-out stream (the service cases hide nothing and are judged on that σ alone).
 
 use std::path::PathBuf;
 
@@ -47,7 +48,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
     } = args;
     let console = Console::new(flags, json.as_deref());
     let bar = console.bar(0);
-    bar.set_message("hidden-effect cases");
+    bar.set_message("challenge cases");
     let cases = challenge::run(kind, seeds, first_seed, &bar)?;
     bar.finish_and_clear();
     let each = match kind {
@@ -74,7 +75,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
             .map(|e| format!("{:.2}", e.strength()))
             .collect();
         let sigma = format!(
-            "; σ covers {:.1} % of the 60 s means (sharpness {:.2}){}",
+            "; ±2σ covers {:.1} % of the 60 s means (sharpness {:.2}){}",
             100.0 * c.sigma_60s.within_2sigma,
             c.sigma_60s.sharpness,
             if c.faults > 0 {
@@ -89,7 +90,7 @@ pub(super) fn challenge_command(args: ChallengeArgs, flags: ConsoleFlags) -> any
         );
         if let (Some(condition), Some(held_out)) = (c.condition, c.held_out) {
             console.result(&format!(
-                "{:<32} seed {:>5} → {:<12} {scores}{sigma}",
+                "{:<38} seed {:>5} → named {:<12} {scores}{sigma}",
                 format!("{condition}: {} → {held_out}", c.design),
                 c.seed,
                 ids(&c.named),

@@ -205,8 +205,8 @@ pub(super) struct FitOptions {
     /// monomials of degree ≤ N). Its coefficients are estimated with the GP (GLS).
     #[arg(long, default_value_t = crate::analysis::basis::DEFAULT)]
     pub(super) mean: MeanBasis,
-    /// Exact GP or sparse (variational, this many inducing points). auto: for `fit` and `loo`,
-    /// the exact GP up to 256 points (what a firmware model holds), else a sparse GP whose size
+    /// Exact GP or sparse (variational, this many inducing points). auto: for `fit`, `loo` and
+    /// `investigate` (and `report` through it), the exact GP up to 256 points (what a firmware model holds), else a sparse GP whose size
     /// is chosen on held-out data; the models other commands fit along the way and do not
     /// export are exact up to 1,000 points and have 24 inducing points above.
     #[arg(long, default_value_t = GpConfig::default().inducing, value_name = "auto|exact|M")]
@@ -325,9 +325,10 @@ pub(super) struct DatasheetArgs {
     /// gives it: every power-on in service is another than the calibration's, whose own bias was
     /// a draw too, so twice its variance is added to every sample's σ (default: where several
     /// power-ons do not measure it, the difference of two power-ons assumed as large as the
-    /// model error's floor, said in the σ line). For channels of one quantity (else each
-    /// channel's `repeatability` in the channels file), but 0 (a bias that repeats exactly),
-    /// which every channel takes.
+    /// model error's floor, said in the σ line; where another power-on's scale is assumed as
+    /// large at the outputs' RMS as this bias, --scale-repeatability says what it does). For
+    /// channels of one quantity (else each channel's `repeatability` in the channels file), but 0
+    /// (a bias that repeats exactly), which every channel takes.
     #[arg(long, value_name = "SIGMA")]
     repeatability: Option<f64>,
     /// The scale factor's run-to-run repeatability, 1σ in ppm, as a datasheet gives it: every
@@ -337,8 +338,8 @@ pub(super) struct DatasheetArgs {
     /// default: measured where a training stream's power-ons are left out in turn; else
     /// assumed, the difference of two power-ons as large as the residuals' model error in
     /// proportion to the output inside the trained range, where they show one, else as large at
-    /// their outputs' RMS as another power-on's bias; at rest, left out, which `fit` says in one
-    /// line).
+    /// their outputs' RMS as another power-on's bias; left out at rest or where that bias is 0,
+    /// which `fit` and `investigate` say in one line).
     #[arg(long, value_name = "PPM")]
     scale_repeatability: Option<f64>,
     /// The bias's temperature coefficient, in the channel's units per °C (°/s/°C, m/s²/°C), as

@@ -42,8 +42,9 @@ pub struct CrossRun {
     /// error's floor) rather than stated.
     pub turn_on_assumed: bool,
     /// The scale factor's repeatability in `sigma`, ppm (`--scale-repeatability`, or assumed:
-    /// `scale_assumed`; null: none, the training run's rates barely moving or runs pooled, whose
-    /// floor holds it at the rates they hold, or no σ).
+    /// `scale_assumed`; null: none, the training run's rates barely moving or the bias it
+    /// would be assumed as large as 0, runs pooled, whose floor holds it at the rates they hold,
+    /// or no σ).
     pub scale_repeatability_ppm: Option<f64>,
     /// Whether `scale_repeatability_ppm` is assumed (the difference of two power-ons' scale
     /// factors as large as the training run's residual error in proportion to the rate, or where

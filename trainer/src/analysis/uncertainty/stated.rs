@@ -87,10 +87,10 @@ impl Calibration {
     /// factors is taken as large as the residuals' own model error in proportion to the output
     /// (`residual_scale_ppm`; twice the repeatability's variance is its variance once). Where the
     /// residuals show none, but their outputs move (`output_rms`), it is taken as large at the
-    /// outputs' RMS as another power-on's bias is there ([`Self::turn_on_std`]): one power-on
-    /// cannot show either, and the scale is no less a draw of the next power-on than the bias.
-    /// Said in `assumed` as `scale`. At rest (outputs that barely move) nothing is assumed and
-    /// the fit says it skipped the term. A gyro's scale factor differs from one power-on to the
+    /// outputs' RMS as another power-on's bias is there ([`Self::turn_on_std`], assumed or a
+    /// datasheet's): one power-on cannot show either, and the scale is no less a draw of the
+    /// next power-on than the bias. Said in `assumed` as `scale`. At rest (outputs that barely
+    /// move), or where that bias is 0, nothing is assumed and the fit says it skipped the term. A gyro's scale factor differs from one power-on to the
     /// next as its bias does (the FOG runs in `../shared` by −765 and +792 ppm), an error that
     /// grows with the rate where a bias term states the same at every rate.
     pub fn assume_scale(&mut self) {
@@ -104,6 +104,7 @@ impl Calibration {
         } else {
             0.0
         };
+        let ppm = if ppm.is_finite() { ppm } else { 0.0 };
         self.set_scale(ppm);
         if self.scale_repeatability_ppm > 0.0 {
             self.assumed.push("scale");

@@ -361,8 +361,52 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
     size * information.sqrt() >= DETECTED
 }
 
-/// The residuals' model error in proportion to the output inside the trained range, as a
-/// variance per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each
+/// How far beyond its model's trained range a residual may lie and still count as inside it
+/// for the error in proportion to the output ([`proportional_error`], [`output_rms`]), widths
+/// squared: nearer than the extrapolation term is seen at ([`SEEN_AT`]). A 60 s mean over a
+/// table's sweep holds its extreme rates, a hair beyond the voltage input's trimmed range, so
+/// that none of a stream's residuals lay exactly inside and none showed the scale.
+const INSIDE: f64 = SEEN_AT[EXTRAPOLATION];
+
+/// How many times a sample's noise the outputs must spread over to move
+/// ([`proportional_error`], [`output_rms`]).
+const MOVES: f64 = 10.0;
+
+/// The RMS reference output of the residuals inside the range ([`INSIDE`]), where the outputs
+/// move: their spread about their mean, within a 60 s mean and across them, over [`MOVES`]
+/// times a sample's noise and a thousandth of their RMS (a gyro or accelerometer at rest does
+/// not, whatever its output, and its mean square less its squared mean is rounding). Else 0.
+fn output_rms(all: &[(Residual, bool)], noise_std: f64) -> f64 {
+    let inside: Vec<&Residual> = all
+        .iter()
+        .filter(|(r, _)| r.excess2 < INSIDE && r.output2.is_finite() && r.output.is_finite())
+        .map(|(r, _)| r)
+        .collect();
+    let n = inside.len() as f64;
+    let mean_u = inside.iter().map(|r| r.output2).sum::<f64>() / n;
+    let mean_y = inside.iter().map(|r| r.output).sum::<f64>() / n;
+    // Within each 60 s mean, and of the means about theirs (two passes: no cancellation there).
+    let within = inside
+        .iter()
+        .map(|r| (r.output2 - r.output * r.output).max(0.0))
+        .sum::<f64>()
+        / n;
+    let across = inside
+        .iter()
+        .map(|r| (r.output - mean_y).powi(2))
+        .sum::<f64>()
+        / n;
+    let rms = mean_u.sqrt();
+    let spread = (within + across).sqrt();
+    if spread > MOVES * noise_std && spread > 1e-3 * rms {
+        rms
+    } else {
+        0.0
+    }
+}
+
+/// The residuals' model error in proportion to the output inside the trained range (nearer it
+/// than [`INSIDE`]), as a variance per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each
 /// residual there a Gaussian draw of variance `v + a + b·y²`, v what its model states with the
 /// time terms `c` fitted beside it, a the floor of its kind (a table's, a run's; refitted here), y
 /// its reference output (the root of its mean square); a, b ≥ 0 at the likelihood's maximum. b
@@ -375,32 +419,6 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
 /// about 2.5 %. The stated variance is an offset in each residual's variance, not taken off its
 /// squared error: a squared error less it, clipped at 0, is no Gaussian draw, and where the
 /// stated variance grows with the output the clipping alone made a part in proportion to it.
-/// How far beyond its model's trained range a residual may lie and still count as inside it
-/// for the error in proportion to the output ([`proportional_error`], [`output_rms`]), widths
-/// squared: nearer than the extrapolation term is seen at ([`SEEN_AT`]). A 60 s mean over a
-/// table's sweep holds its extreme rates, a hair beyond the voltage input's trimmed range, so
-/// that none of a stream's residuals lay exactly inside and none showed the scale.
-const INSIDE: f64 = SEEN_AT[EXTRAPOLATION];
-
-/// The RMS reference output of the residuals inside the range ([`INSIDE`]), where the outputs
-/// move: their spread about their mean, within a 60 s mean and across them, over ten times a
-/// sample's noise (a gyro or accelerometer at rest does not, whatever its output). Else 0.
-fn output_rms(all: &[(Residual, bool)], noise_std: f64) -> f64 {
-    let inside: Vec<&Residual> = all
-        .iter()
-        .filter(|(r, _)| r.excess2 < INSIDE && r.output2.is_finite() && r.output.is_finite())
-        .map(|(r, _)| r)
-        .collect();
-    let n = inside.len() as f64;
-    let mean_u = inside.iter().map(|r| r.output2).sum::<f64>() / n;
-    let mean_y = inside.iter().map(|r| r.output).sum::<f64>() / n;
-    if (mean_u - mean_y * mean_y).max(0.0).sqrt() > 10.0 * noise_std {
-        mean_u.sqrt()
-    } else {
-        0.0
-    }
-}
-
 fn proportional_error(
     all: &[(Residual, bool)],
     c: &[f64; TERMS],
@@ -429,7 +447,7 @@ fn proportional_error(
         / n)
         .sqrt();
     // False for a NaN noise, or no residuals, as well.
-    if !(spread > 10.0 * noise_std && mean_e2 > 0.0 && mean_u > 0.0) {
+    if !(spread > MOVES * noise_std && mean_e2 > 0.0 && mean_u > 0.0) {
         return 0.0;
     }
     // p = (a of a table, a of a run, b), in units of the residuals' mean square error and of it

@@ -78,6 +78,8 @@ fn a_scale_the_residuals_cannot_show_is_assumed_as_large_as_the_bias_at_their_rm
         (c.scale_repeatability_ppm / ppm - 1.0).abs() < 1e-9,
         "{c:?}"
     );
+    // An error of 1e-2 at every rate, half of it another power-on's: about 7e-3 at RMS 57.
+    assert!((60.0..250.0).contains(&c.scale_repeatability_ppm), "{c:?}");
     assert!(c.describe("°/s").contains("as large at their outputs' RMS"));
     assert_eq!(c.scale_skipped(false), None);
     let mut zero = calibrate(&series, noise, Prior::NONE);
@@ -124,6 +126,17 @@ fn one_power_on_assumes_another_ones_scale_as_large_as_its_error_in_proportion()
         (one.residual_scale_ppm / 500.0 - 1.0).abs() < 0.1,
         "{one:?}"
     );
+    // A hair beyond the range, as a 60 s mean over a sweep lies, still inside for it; a tenth of
+    // a width beyond, not.
+    let near = |excess2: f64| {
+        let mut s = series(ResidualSource::Forward, true);
+        for r in &mut s[0].residuals {
+            r.excess2 = excess2;
+        }
+        calibrate(&s, noise, Prior::NONE).residual_scale_ppm
+    };
+    assert!((near(1e-4) / 500.0 - 1.0).abs() < 0.1, "{}", near(1e-4));
+    assert_eq!(near(1e-2), 0.0);
     one.assume_turn_on();
     one.assume_scale();
     assert_eq!(one.assumed, ["turn-on", "scale"]);
