@@ -714,11 +714,20 @@ mod tests {
     #[test]
     fn a_sigma_is_on_target_narrow_or_wide_and_unscored_is_narrow() {
         // 95 % within ±2σ at a σ about the errors' RMS.
-        assert_eq!(SigmaVerdict::of(&coverage(100, 1.2, 20)), SigmaVerdict::OnTarget);
+        assert_eq!(
+            SigmaVerdict::of(&coverage(100, 1.2, 20)),
+            SigmaVerdict::OnTarget
+        );
         // 75 %.
-        assert_eq!(SigmaVerdict::of(&coverage(100, 1.2, 4)), SigmaVerdict::Narrow);
+        assert_eq!(
+            SigmaVerdict::of(&coverage(100, 1.2, 4)),
+            SigmaVerdict::Narrow
+        );
         // Every mean within ±2σ, and a σ 3× the errors' RMS.
-        assert_eq!(SigmaVerdict::of(&coverage(100, 3.0, 1000)), SigmaVerdict::Wide);
+        assert_eq!(
+            SigmaVerdict::of(&coverage(100, 3.0, 1000)),
+            SigmaVerdict::Wide
+        );
         assert_eq!(SigmaVerdict::of(&coverage(0, 1.0, 1)), SigmaVerdict::Narrow);
     }
 }
