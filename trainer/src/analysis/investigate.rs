@@ -30,7 +30,7 @@ use check::forward_check;
 pub use check::{ForwardCheck, LegCheck, TemperatureCheck, vote};
 use split::{EARLIER_MIN_BLOCKS, LATER_MIN_BLOCKS};
 pub(crate) use split::{FORWARD_MIN_BLOCKS, Forward, forward};
-pub use split::{Rebuild, Sight, Split, power_on_splits, splits};
+pub use split::{Fitted, Rebuild, Sight, Split, power_on_splits, splits};
 
 /// Steps of an investigation: static fit, diagnosis, forward check, extended fit, replays.
 pub const STEPS: u64 = 5;
@@ -236,7 +236,14 @@ pub fn choose(
     } else {
         &[]
     };
-    let power_ons = power_on_splits(points, model, train, cfg, causes, rebuild)?;
+    let fitted = Fitted {
+        points,
+        model,
+        train,
+        cfg,
+        rebuild,
+    };
+    let power_ons = power_on_splits(fitted, causes)?;
     choice.splits.extend(power_ons);
     Ok(choice)
 }
@@ -253,6 +260,13 @@ fn choose_design(
 ) -> anyhow::Result<Choice> {
     // One residual for the diagnosis and the extension's fit: both read the same lags of it.
     let res = Residual::new(fw, train).fitted_on(model, points);
+    let on = Fitted {
+        points,
+        model,
+        train,
+        cfg,
+        rebuild,
+    };
     let diagnosis = diagnose::diagnose_residual(&res, points.quantity);
     let causes: Vec<Cause> = asked
         .unwrap_or(&diagnosis.causes)
@@ -271,20 +285,12 @@ fn choose_design(
     };
     if causes.is_empty() {
         let verdict = "nothing named: the static model is shipped".to_owned();
-        let splits = splits(points, model, train, cfg, &[], rebuild)?;
+        let splits = splits(on, &[])?;
         return Ok(static_choice(diagnosis, causes, None, verdict, splits));
     }
     let names = joined(&causes);
-    let fitted = forward_check(
-        points,
-        model,
-        train,
-        cfg,
-        &causes,
-        rebuild,
-        res.spread_60s(),
-    )
-    .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
+    let fitted = forward_check(on, &causes, res.spread_60s())
+        .and_then(|check| Ok((check, extend::fit(model, points, &res, &causes)?)));
     let ((check, splits), extended) = match (fitted, asked) {
         (Ok(both), _) => both,
         (Err(e), Some(_)) => return Err(e),
@@ -293,7 +299,7 @@ fn choose_design(
                 "{names} named, but its extension could not be fitted and checked ({e:#}): the \
                  static model is shipped"
             );
-            let splits = splits(points, model, train, cfg, &[], rebuild)?;
+            let splits = splits(on, &[])?;
             return Ok(static_choice(diagnosis, causes, None, verdict, splits));
         }
     };
@@ -304,15 +310,9 @@ fn choose_design(
     );
     if shipped == Shipped::Static && asked.is_none() && causes.len() > 1 {
         // Do no harm by nested fallback: a design refused whole may hold a part that helps.
-        if let Some((causes, check, extended, verdict, splits)) = nested(
-            points,
-            model,
-            (train, &res),
-            cfg,
-            &causes,
-            rebuild,
-            &verdict,
-        )? {
+        if let Some((causes, check, extended, verdict, splits)) =
+            nested(on, &res, &causes, &verdict)?
+        {
             return Ok(Choice {
                 diagnosis,
                 causes,
@@ -348,19 +348,15 @@ type Nested = (
 /// extension passes the checks the whole design failed (`refused`, why it did); `None` when none
 /// does. A nested design that cannot be fitted is passed over.
 fn nested(
-    points: &Points,
-    model: &GpModel,
-    (train, res): (&Stream, &Residual<'_>),
-    cfg: &GpConfig,
+    on: Fitted<'_>,
+    res: &Residual<'_>,
     causes: &[Cause],
-    rebuild: &Rebuild<'_>,
     refused: &str,
 ) -> anyhow::Result<Option<Nested>> {
+    let (points, model) = (on.points, on.model);
     for &cause in causes {
         let one = [cause];
-        let Ok((check, splits)) =
-            forward_check(points, model, train, cfg, &one, rebuild, res.spread_60s())
-        else {
+        let Ok((check, splits)) = forward_check(on, &one, res.spread_60s()) else {
             continue;
         };
         let Ok(extended) = extend::fit(model, points, res, &one) else {

@@ -3,15 +3,12 @@
 //! [`LegCheck`]s) and the rule each votes by ([`vote`]).
 
 use fog_data::cause::Cause;
-use fog_data::stream::Stream;
 use serde::Serialize;
 
 use crate::analysis::diagnose;
 use crate::analysis::uncertainty::ResidualSource;
-use crate::data::points::Points;
-use crate::models::gp::{GpConfig, GpModel};
 
-use super::split::{Forward, Rebuild, Sight, Split, forward, inside, splits};
+use super::split::{Fitted, Forward, Sight, Split, forward, inside, splits};
 
 /// Do no harm: the extension of the named causes fitted on the earlier part of the training
 /// stream (the static model too, where it was fitted on the stream), both scored on the later
@@ -170,15 +167,12 @@ impl TemperatureCheck {
 /// it fitted; `residual_60s_dps` is [`ForwardCheck::residual_60s_dps`]. Blocks are counted as the
 /// diagnosis counts them (samples with a reference).
 pub(super) fn forward_check(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
+    fitted: Fitted<'_>,
     causes: &[Cause],
-    rebuild: &Rebuild<'_>,
     residual_60s_dps: f64,
 ) -> anyhow::Result<(Option<ForwardCheck>, Vec<Split>)> {
-    let splits = splits(points, model, train, cfg, causes, rebuild)?;
+    let splits = splits(fitted, causes)?;
+    let train = fitted.train;
     let Some(Forward {
         split_s,
         earlier_blocks,

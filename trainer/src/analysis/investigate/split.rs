@@ -19,6 +19,22 @@ use crate::models::gp::{GpConfig, GpModel};
 /// Makes the static points from part of a training stream as from all of it (a table's: as is).
 pub type Rebuild<'a> = dyn Fn(&Stream) -> anyhow::Result<Points> + 'a;
 
+/// A training stream's static model and what it was fitted on, as every split refits it
+/// without the part it scores ([`splits`], [`power_on_splits`]).
+#[derive(Clone, Copy)]
+pub struct Fitted<'a> {
+    /// The static model's points.
+    pub points: &'a Points,
+    /// The static model.
+    pub model: &'a GpModel,
+    /// The training stream.
+    pub train: &'a Stream,
+    /// The GP's settings.
+    pub cfg: &'a GpConfig,
+    /// The static points of part of the stream, as `points` were made from all of it.
+    pub rebuild: &'a Rebuild<'a>,
+}
+
 /// Fewest 60 s blocks the earlier part of a forward check holds (an extension needs 30).
 pub(super) const EARLIER_MIN_BLOCKS: usize = 30;
 
@@ -195,14 +211,14 @@ pub struct Sight {
 /// table's model as it is) and its extension by `causes` (none without causes). A split the
 /// stream is too short for is left out. The σ's own, each power-on left out, are
 /// [`power_on_splits`]: no check reads them, and each design checked would refit them.
-pub fn splits(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
-    causes: &[Cause],
-    rebuild: &Rebuild<'_>,
-) -> anyhow::Result<Vec<Split>> {
+pub fn splits(fitted: Fitted<'_>, causes: &[Cause]) -> anyhow::Result<Vec<Split>> {
+    let Fitted {
+        points,
+        model,
+        train,
+        cfg,
+        rebuild,
+    } = fitted;
     let mut out = Vec::new();
     if let Some(Forward {
         split_s,
@@ -251,7 +267,7 @@ pub fn splits(
             });
         }
     }
-    out.extend(leg_splits(points, model, train, cfg, causes, rebuild)?);
+    out.extend(leg_splits(fitted, causes)?);
     Ok(out)
 }
 
@@ -262,14 +278,14 @@ pub fn splits(
 /// and scored on it, in hours since its power-on, as a run the model never saw. Its residuals carry its own turn-on bias and
 /// scale, so the σ measures another power-on's where the stream holds several, as `loo --run`
 /// does a table's runs, rather than assume it. None for a stream of one power-on.
-pub fn power_on_splits(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
-    causes: &[Cause],
-    rebuild: &Rebuild<'_>,
-) -> anyhow::Result<Vec<Split>> {
+pub fn power_on_splits(fitted: Fitted<'_>, causes: &[Cause]) -> anyhow::Result<Vec<Split>> {
+    let Fitted {
+        points,
+        model,
+        train,
+        cfg,
+        rebuild,
+    } = fitted;
     let of = power_on_of_each(train);
     let count = |s: &Stream| s.half_filled_blocks(&s.referenced()).len();
     let parts: Vec<(Stream, Stream)> = (0..=of.last().copied().unwrap_or(0))
@@ -315,14 +331,14 @@ pub fn power_on_splits(
 /// before the temperature first moved is on neither leg. Where the static model is a rate
 /// table's, it is kept and the extension alone is fitted on the leg. None for hysteresis, whose
 /// input, the leg itself, holds one value on one leg: no fit on one leg can see it.
-fn leg_splits(
-    points: &Points,
-    model: &GpModel,
-    train: &Stream,
-    cfg: &GpConfig,
-    causes: &[Cause],
-    rebuild: &Rebuild<'_>,
-) -> anyhow::Result<Vec<Split>> {
+fn leg_splits(fitted: Fitted<'_>, causes: &[Cause]) -> anyhow::Result<Vec<Split>> {
+    let Fitted {
+        points,
+        model,
+        train,
+        cfg,
+        rebuild,
+    } = fitted;
     if causes.contains(&Cause::Hysteresis) {
         return Ok(Vec::new());
     }

@@ -504,15 +504,15 @@ impl FitPlan {
         let (kind, splits) = match &choice {
             Some(c) => (c.shipped, None),
             None if !self.pool => {
-                let mut splits = investigate::splits(points, model, data, gp, &[], &rebuild)?;
-                splits.extend(investigate::power_on_splits(
+                let on = investigate::Fitted {
                     points,
                     model,
-                    data,
-                    gp,
-                    &[],
-                    &rebuild,
-                )?);
+                    train: data,
+                    cfg: gp,
+                    rebuild: &rebuild,
+                };
+                let mut splits = investigate::splits(on, &[])?;
+                splits.extend(investigate::power_on_splits(on, &[])?);
                 (investigate::Shipped::Static, Some(splits))
             }
             None => (investigate::Shipped::Static, None),
