@@ -169,3 +169,34 @@ fn a_unit_held_out_where_its_calibration_did_not_reach_is_covered_and_never_a_fa
         assert!(case.sigma_60s.sharpness.is_finite(), "{case:?}");
     }
 }
+
+/// `trainer challenge --kind service` as a user runs it: every case's σ scored, each counted
+/// once as on target, too narrow or too wide, and nothing called a fault.
+#[test]
+fn the_service_challenge_counts_every_case_s_sigma_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = crate::at(dir.path(), "c.json");
+    crate::trainer(&[
+        "challenge",
+        "--kind",
+        "service",
+        "--seeds",
+        "1",
+        "--json",
+        &out,
+        "-q",
+    ])
+    .unwrap();
+    let report = crate::json(&out);
+    let summary = &report["summary"];
+    assert_eq!(summary["cases"], 4, "{summary}");
+    let counted: u64 = ["sigma_on_target", "sigma_narrow", "sigma_wide"]
+        .iter()
+        .map(|k| summary[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(counted, 4, "{summary}");
+    assert_eq!(summary["sigma_narrow"], 0, "{summary}");
+    assert_eq!(summary["faults"], 0, "{summary}");
+    let cases = report["cases"].as_array().unwrap();
+    assert!(cases.iter().all(|c| c["condition"].is_string()), "{report}");
+}
