@@ -455,8 +455,11 @@ class Calibration(Record):
     turn_on_std: float
     """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in `measured`), or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
 
+    walk_fitted_std: float | None
+    """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships)."""
+
     walk_std_per_sqrt_h: float
-    """√c_w: random walk, output units per √h."""
+    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk from its Allan deviation where that is larger ([`Prior::walk_var_per_h`])."""
 
 
 class Candidate(Record):

@@ -138,3 +138,18 @@ fn a_model_fitted_on_a_logs_later_half_does_no_harm_on_its_earlier_half() {
     let (shipped, static_model) = (rmse(&auto), rmse(&fixed));
     assert!(shipped <= 1.05 * static_model, "{shipped} {static_model}");
 }
+
+/// A forward split inside the nominal gyro's later half shows no walk of its bias: the stretch
+/// it scores happened not to wander. The Allan deviation of the model's errors over the whole
+/// half reads the rate random walk the simulator drew (0.3 (°/h)/√h; it reads 0.46), and that
+/// ships, the split's fit kept beside it.
+#[test]
+fn a_walk_one_stretch_hides_ships_as_the_allan_deviation_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = room(dir.path(), "31", &[]);
+    let (_, fit) = fitted(dir.path(), &room, "static", &[]);
+    let calibration = &fit["calibration"];
+    assert_eq!(calibration["walk_fitted_std"], 0.0, "{calibration}");
+    let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
+    assert!((0.3..0.6).contains(&walk), "{walk} (°/h)/√h");
+}

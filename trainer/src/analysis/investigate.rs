@@ -207,7 +207,13 @@ pub fn calibrate(
     let mut calibration = uncertainty::terms::calibrate(
         &series,
         noise,
-        uncertainty::Prior::of(static_model, points).for_rule(beyond),
+        uncertainty::Prior::of(static_model, points)
+            .for_rule(beyond)
+            .with_walk(uncertainty::streams::allan_walk(
+                &fw,
+                train,
+                noise.var.sqrt(),
+            )),
     );
     calibration.set_legs(&uncertainty::streams::legs(train));
     Ok(calibration)

@@ -33,6 +33,11 @@
 //! by its lag-1 autocorrelation) less the terms fitted, at least 2. With hundreds of residuals
 //! that factor is 1.
 //!
+//! **A walk is one path.** A forward split scores one stretch of the bias's random walk, which
+//! may have wandered far less than the walk does. Where the shipped model's errors over the
+//! training log show a rate random walk in their Allan deviation (its +½ slope) larger than the
+//! split fitted, the Allan's ships (`walk_fitted_std` keeps the split's).
+//!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
 //! warm-up has no forward split), the floor is the GP's own noise level on its points inflated by
@@ -110,6 +115,8 @@ const SEEN_AT: [f64; TERMS] = [0.0, 0.0, 0.05 * 0.05, 0.05, 0.05 * 0.05];
 const MAX_RHO: f64 = 0.95;
 /// The extrapolation term's index among [`TERMS`].
 const EXTRAPOLATION: usize = 2;
+/// The walk term's index among [`TERMS`].
+const WALK: usize = 3;
 /// A datasheet's run-to-run repeatability σ is the spread of one power-on's bias (or scale) about
 /// the sensor's mean; the calibration's own power-on is one such draw, taken for the mean, and
 /// service another, so their difference, the error, has twice its variance.
@@ -347,8 +354,12 @@ pub struct Calibration {
     /// fitted). What they showed near the edge: a datasheet's `tempco` that states less ships it
     /// instead, as fitted.
     pub extrapolation_fitted_std: Option<f64>,
-    /// √c_w: random walk, output units per √h.
+    /// √c_w: random walk, output units per √h: fitted, or the training log's rate random walk
+    /// from its Allan deviation where that is larger ([`Prior::walk_var_per_h`]).
     pub walk_std_per_sqrt_h: f64,
+    /// The walk the residuals fitted where the training log's Allan deviation read a larger one,
+    /// which ships (null where the fit ships).
+    pub walk_fitted_std: Option<f64>,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
@@ -465,6 +476,10 @@ pub struct Prior {
     /// (a split's blob as exported, a table's left-out point by the GP): only then is an
     /// extrapolation term fitted on them a measure of its miss there ([`Prior::for_rule`]).
     pub follows: bool,
+    /// The bias's random walk, output units² per hour: the rate random walk the model leaves on
+    /// its training log, read from their Allan deviation (`streams::allan_walk`); 0 where none
+    /// is read (a rate table's points, a log too short).
+    pub walk_var_per_h: f64,
 }
 
 impl Prior {
@@ -476,6 +491,7 @@ impl Prior {
         extrapolation_parts: (0.0, 0.0),
         rule_share: 1.0,
         follows: true,
+        walk_var_per_h: 0.0,
     };
 
     /// The prior of `model` fitted on `points` (module doc): what it changes over one width of
@@ -558,6 +574,15 @@ impl Prior {
             extrapolation_parts,
             rule_share: 1.0,
             follows: true,
+            walk_var_per_h: 0.0,
+        }
+    }
+
+    /// This prior with the bias's random walk `walk_var_per_h` (output units² per hour).
+    pub fn with_walk(self, walk_var_per_h: f64) -> Self {
+        Self {
+            walk_var_per_h,
+            ..self
         }
     }
 
@@ -683,6 +708,7 @@ impl Calibration {
             floor_var: prior.floor_var as f32,
             extrapolation_var: prior.extrapolation_parts.0 as f32,
             extrapolation_scale_var: prior.extrapolation_parts.1 as f32,
+            walk_var_per_h: prior.walk_var_per_h as f32,
             ..ErrorModel::noise_only(0.0)
         };
         let assumed = [
@@ -707,7 +733,8 @@ impl Calibration {
                 1.0
             },
             extrapolation_fitted_std: None,
-            walk_std_per_sqrt_h: 0.0,
+            walk_std_per_sqrt_h: prior.walk_var_per_h.sqrt(),
+            walk_fitted_std: None,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             power_ons_left_out: None,

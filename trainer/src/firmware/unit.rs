@@ -278,8 +278,8 @@ mod tests {
 
     /// A unit blob of version 2 or 3 (channels of format 6 or 7) gives its channels back as blobs
     /// of that format, which compute what the same fit's unit of the current version computes (the
-    /// assumed extrapolation term aside, changed since, and another power-on's bias, assumed
-    /// since).
+    /// assumed extrapolation term aside, changed since, another power-on's bias, assumed since,
+    /// and the walk, read since from the training log's Allan deviation where it is larger).
     #[test]
     fn an_older_units_channels_come_back_in_their_own_format() {
         use firmware_core::blob::{FORMAT_VERSION, V6, V7};
@@ -322,6 +322,7 @@ mod tests {
                     extrapolation_var: eb.extrapolation_var,
                     extrapolation_scale_var: eb.extrapolation_scale_var,
                     turn_on_var: eb.turn_on_var,
+                    walk_var_per_h: eb.walk_var_per_h,
                     ..ea
                 };
                 assert_eq!(ea, eb, "{name}");

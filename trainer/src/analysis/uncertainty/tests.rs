@@ -8,6 +8,7 @@ use rand_distr::{Distribution, Normal as Gauss};
 mod beyond;
 mod power_ons;
 mod scale;
+mod walk;
 
 fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -112,6 +113,7 @@ const PRIOR: Prior = Prior {
     extrapolation_parts: (5e-4, 2e-7),
     rule_share: 1.0,
     follows: true,
+    walk_var_per_h: 0.0,
 };
 
 #[test]

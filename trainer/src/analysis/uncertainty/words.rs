@@ -177,10 +177,27 @@ impl Calibration {
             None => beyond,
         };
         let noise = self.noise_in_words();
+        let walk = match self.walk_fitted_std {
+            Some(fit) => format!(
+                "{:.3e} per √h (the training log's rate random walk, from its Allan deviation; \
+                 the residuals fitted {fit:.3e}, one stretch of it)",
+                self.walk_std_per_sqrt_h
+            ),
+            None => format!("{:.3e} per √h", self.walk_std_per_sqrt_h),
+        };
         let Some(c) = &self.coverage else {
+            let walk = if self.walk_std_per_sqrt_h > 0.0 {
+                format!(
+                    ", {:.3e} per √h (the training log's rate random walk, from its Allan \
+                     deviation)",
+                    self.walk_std_per_sqrt_h
+                )
+            } else {
+                String::new()
+            };
             return format!(
                 "σ: the GP's own, with {noise} and an assumed model error {:.3e} {units}, \
-                 {beyond} ({}; module doc of trainer::analysis::uncertainty)",
+                 {beyond}{walk} ({}; module doc of trainer::analysis::uncertainty)",
                 self.floor_std,
                 self.note.as_deref().unwrap_or("no error model")
             );
@@ -199,7 +216,7 @@ impl Calibration {
             .unwrap_or_default();
         format!(
             "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
-             {}): model error {:.3e} {units}, {beyond}, {:.3e} per √h, {:.3e} per h (× {:.2} \
+             {}): model error {:.3e} {units}, {beyond}, {walk}, {:.3e} per h (× {:.2} \
              for the few residuals), {noise}; \
              ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
              RMS{assumed}",
@@ -207,7 +224,6 @@ impl Calibration {
             self.effective,
             self.sources_in_words(),
             self.floor_std,
-            self.walk_std_per_sqrt_h,
             self.trend_std_per_h,
             self.inflation.sqrt(),
             100.0 * c.within_2sigma,

@@ -1,0 +1,64 @@
+//! The bias's random walk: one stretch of it in a forward split, the whole log in its Allan
+//! deviation.
+
+use super::*;
+use crate::analysis::uncertainty::streams::rate_random_walk;
+
+#[test]
+fn the_allan_deviation_reads_a_random_walk_a_white_noise_hides() {
+    // Two days at 1 Hz: white noise of 1e-3 per sample (an ARW of 0.06 °/√h) and a walk of
+    // K = 0.5 (°/h)/√h. The walk reads within 30 % of it; the noise alone shows none.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let n = 2 * 86_400;
+    let k = 0.5 / 3600.0;
+    let step = k / 3600.0_f64.sqrt();
+    let time: Vec<f64> = (0..n).map(f64::from).collect();
+    let mut walk = 0.0;
+    let mut white = Vec::with_capacity(n as usize);
+    let mut both = Vec::with_capacity(n as usize);
+    for _ in 0..n {
+        walk += step * unit.sample(&mut rng);
+        let w = 1e-3 * unit.sample(&mut rng);
+        white.push(w);
+        both.push(w + walk);
+    }
+    let read = rate_random_walk(&time, &both).sqrt() * 3600.0;
+    assert!((read / 0.5 - 1.0).abs() < 0.3, "read {read} (°/h)/√h");
+    assert_eq!(rate_random_walk(&time, &white), 0.0);
+}
+
+#[test]
+fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
+    // Residuals with no growth in time: the split fits no walk. The training log's Allan
+    // deviation read one: it ships, and the fit is kept beside it.
+    let r = residuals(600, 3, |_, _| 0.01);
+    let series = [Series {
+        source: ResidualSource::Forward,
+        residuals: r,
+    }];
+    let noise = SampleNoise {
+        var: 1e-4,
+        interval_s: 1.0,
+    };
+    let walk = 4e-4;
+    let c = calibrate(&series, noise, PRIOR.with_walk(walk));
+    assert_eq!(c.error_model.walk_var_per_h, walk as f32, "{c:?}");
+    let fitted = c.walk_fitted_std.expect("the split's walk kept");
+    assert!(fitted * fitted < walk, "{fitted}");
+    assert!(!c.fitted_terms.contains(&"walk"), "{c:?}");
+    assert!(c.describe("°/s").contains("Allan deviation"));
+    // A walk the split fits larger than the Allan deviation's ships as fitted.
+    let grows = residuals(600, 3, |_, h| (1e-4 + 0.01 * h).sqrt());
+    let series = [Series {
+        source: ResidualSource::Forward,
+        residuals: grows,
+    }];
+    let c = calibrate(&series, noise, PRIOR.with_walk(1e-5));
+    assert!(c.error_model.walk_var_per_h > 1e-5, "{c:?}");
+    assert_eq!(c.walk_fitted_std, None);
+    // With too few residuals for any fit, the Allan deviation's walk is stated all the same.
+    let c = calibrate(&series[..0], noise, PRIOR.with_walk(walk));
+    assert_eq!(c.error_model.walk_var_per_h, walk as f32);
+    assert!(c.describe("°/s").contains("Allan deviation"));
+}
