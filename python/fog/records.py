@@ -393,7 +393,7 @@ class Calibration(Record):
     """√c_x: model error one trained width beyond the range, output units (where the prior is assumed, its part alike at every output)."""
 
     fitted_terms: list[str]
-    """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none, or fitted less than it without reaching a whole width beyond the range (the prior ships)."""
+    """The terms fitted. The others abstain: their covariates did not reach where they would show, or, for the extrapolation, the residuals could not tell the prior's growth from none, or fitted less than it without reaching a whole width beyond the range (the prior ships); for the walk, they fitted less than the training log's Allan deviation reads (it ships)."""
 
     floor_std: float
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""
@@ -411,7 +411,7 @@ class Calibration(Record):
     """The heating/cooling states the training stream held (0.5 % quantiles; a side that reached a leg whose states span less than half the trained temperatures, no further than 0: [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg term)."""
 
     measured: list[str]
-    """Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean errors; the scale, their residuals' error in proportion to the output as `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error where its rates are alike in both signs. A datasheet's figure takes their place."""
+    """Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean errors; the scale, their residuals' error in proportion to the output as `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error where its rates are alike in both signs. A datasheet's figure takes their place. And the walk (`walk`), where it is the training log's rate random walk, read from its Allan deviation ([`Prior::walk_var_per_h`]), not fitted."""
 
     note: str | None
     """Why there is no error model measured, when there is none."""
@@ -456,7 +456,7 @@ class Calibration(Record):
     """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in `measured`), or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
 
     walk_fitted_std: float | None
-    """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships)."""
+    """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""
 
     walk_std_per_sqrt_h: float
     """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk from its Allan deviation where that is larger ([`Prior::walk_var_per_h`])."""
@@ -516,6 +516,9 @@ class Case(Record):
 
     sigma_60s: Coverage
     """The shipped model's σ against the errors of the held-out stream's 60 s means."""
+
+    sigma_verdict: str
+    """Where that σ falls against the target ([`SIGMA_TARGET`]): ±2σ covering 85–99 % of the 60 s means at a median σ at most 1.5× their RMS error."""
 
     static_rmse_60s_dps: float
     """Static `rmse_60s_dps` on the held-out stream."""

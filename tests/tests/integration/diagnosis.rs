@@ -199,4 +199,10 @@ fn the_service_challenge_counts_every_case_s_sigma_once() {
     assert_eq!(summary["faults"], 0, "{summary}");
     let cases = report["cases"].as_array().unwrap();
     assert!(cases.iter().all(|c| c["condition"].is_string()), "{report}");
+    // Each case says where its σ falls, as the summary counts it.
+    let wide = cases
+        .iter()
+        .filter(|c| c["sigma_verdict"] == "wide")
+        .count();
+    assert_eq!(summary["sigma_wide"], wide as u64, "{report}");
 }

@@ -149,7 +149,9 @@ fn a_walk_one_stretch_hides_ships_as_the_allan_deviation_reads_it() {
     let room = room(dir.path(), "31", &[]);
     let (_, fit) = fitted(dir.path(), &room, "static", &[]);
     let calibration = &fit["calibration"];
-    assert_eq!(calibration["walk_fitted_std"], 0.0, "{calibration}");
+    let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
     let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
     assert!((0.3..0.6).contains(&walk), "{walk} (°/h)/√h");
+    assert!(fitted < 0.5 * walk, "{calibration}");
+    assert_eq!(calibration["measured"][0], "walk", "{calibration}");
 }

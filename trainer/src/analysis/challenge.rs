@@ -1,13 +1,13 @@
 //! The challenge: hidden-effect cases through the whole investigation, scored by what it names.
 //!
 //! Each case draws one effect, or two acting together, and their magnitudes from the documented
-//! ranges (or below them: weak effects) by seed ([`Hidden::draw`]), simulates the paper-protocol points and two streams of one gyro with it
-//! (the chamber design, or for [`CaseSet::Lab`] the shapes of log labs record, each from one
-//! power-on)
-//! (training and held-out: other noise, other rate order), writes them as CSV files and hands only
-//! those files to the trainer's investigation, which never sees the plant's settings. Cases run on
-//! both cores (rayon); each is deterministic by its seed. A [`CaseSet::Unit`] case does the same for
-//! a unit of three axes, each hiding its own cause, through the unit's files and channels file.
+//! ranges (or below them: weak effects) by seed ([`Hidden::draw`]), simulates the paper-protocol
+//! points and two streams of one gyro with it (the chamber design, or for [`CaseSet::Lab`] the
+//! shapes of log labs record, each from one power-on; training and held-out: other noise, other
+//! rate order), writes them as CSV files and hands only those files to the trainer's
+//! investigation, which never sees the plant's settings. Cases run on both cores (rayon); each is
+//! deterministic by its seed. A [`CaseSet::Unit`] case does the same for a unit of three axes,
+//! each hiding its own cause, through the unit's files and channels file.
 //! A [`CaseSet::Service`] case hides nothing and is judged on its σ alone: it calibrates a random
 //! unit with a turn-on
 //! repeatability on one log alone and holds out another power-on of another shape
@@ -238,6 +238,9 @@ pub struct Case {
     pub verdict: String,
     /// The shipped model's σ against the errors of the held-out stream's 60 s means.
     pub sigma_60s: Coverage,
+    /// Where that σ falls against the target ([`SIGMA_TARGET`]): ±2σ covering 85–99 % of the
+    /// 60 s means at a median σ at most 1.5× their RMS error.
+    pub sigma_verdict: SigmaVerdict,
     /// Held-out samples the shipped model called a fault (a reading that cannot be true; none
     /// of the simulator's can be).
     pub faults: usize,
@@ -266,6 +269,7 @@ impl Case {
             oracle_gain: None,
             verdict: inv.verdict.clone(),
             sigma_60s: inv.extended_score.sigma_60s,
+            sigma_verdict: SigmaVerdict::of(&inv.extended_score.sigma_60s),
             faults: inv.extended_score.n_fault,
         }
     }
@@ -367,10 +371,10 @@ pub fn run_hidden(
     })
 }
 
-/// One [`CaseSet::Unit`] case, the `index`-th, of seed `seed`: a unit of [`UNIT_AXES`] random gyros,
-/// axis k hiding cause `(UNIT_AXES·index + k)` of [`Cause::ALL`] at a strength drawn from its
-/// documented range; its rate table and two chamber streams written as a unit's files with their
-/// channels file, and each axis investigated from those files alone. A case per axis.
+/// One [`CaseSet::Unit`] case, the `index`-th, of seed `seed`: a unit of [`UNIT_AXES`] random
+/// gyros, axis k hiding cause `(UNIT_AXES·index + k)` of [`Cause::ALL`] at a strength drawn from
+/// its documented range; its rate table and two chamber streams written as a unit's files with
+/// their channels file, and each axis investigated from those files alone. A case per axis.
 pub fn run_unit_case(index: usize, seed: u64) -> anyhow::Result<Vec<Case>> {
     let parts: Vec<(GyroParams, Hidden)> = (0..UNIT_AXES)
         .map(|k| {
@@ -536,13 +540,14 @@ pub struct ChallengeSummary {
 pub const SIGMA_TARGET: ((f64, f64), f64) = ((0.85, 0.99), 1.5);
 
 /// Where a case's σ falls against [`SIGMA_TARGET`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
 pub enum SigmaVerdict {
-    /// Within the target.
+    /// Within the target: ±2σ covers 85–99 % at a median σ at most 1.5× the RMS error.
     OnTarget,
-    /// Covers under its lowest share.
+    /// ±2σ covers under 85 % (or nothing was scored).
     Narrow,
-    /// Covers more than its highest share, or wider than its sharpness.
+    /// ±2σ covers over 99 %, or the median σ is over 1.5× the RMS error.
     Wide,
 }
 
@@ -641,9 +646,9 @@ pub fn summary(cases: &[Case]) -> ChallengeSummary {
         gain_min_median: min_median(cases.iter().map(|c| c.gain).collect()),
         at_least_70pc_of_oracle: of_oracle.iter().filter(|r| **r >= 0.7).count(),
         of_oracle_min_median: (!of_oracle.is_empty()).then(|| min_median(of_oracle)),
-        sigma_on_target: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::OnTarget),
-        sigma_narrow: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::Narrow),
-        sigma_wide: count(&|c| SigmaVerdict::of(&c.sigma_60s) == SigmaVerdict::Wide),
+        sigma_on_target: count(&|c| c.sigma_verdict == SigmaVerdict::OnTarget),
+        sigma_narrow: count(&|c| c.sigma_verdict == SigmaVerdict::Narrow),
+        sigma_wide: count(&|c| c.sigma_verdict == SigmaVerdict::Wide),
         sigma_coverage_min_median: min_median(
             cases.iter().map(|c| c.sigma_60s.within_2sigma).collect(),
         ),

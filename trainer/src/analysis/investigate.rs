@@ -133,6 +133,9 @@ pub struct Choice {
 /// ±80 °/s in its temperature split, and the term fitted there, one number for every rate, made
 /// its σ 8.4× its RMS error on the colder day (1.03 so). Their extrapolation term is then the
 /// GP's miss, not the shipped rule's: under another rule it is assumed (`Prior::follows`).
+/// The bias's random walk is also read from the Allan deviation of `shipped_blob`'s errors over
+/// the training stream, where its reference holds still
+/// ([`uncertainty::streams::allan_walk`]): where the splits fit less, it ships.
 pub fn calibrate(
     (points, static_model, static_blob): (&Points, &GpModel, &[u8]),
     shipped_blob: &[u8],

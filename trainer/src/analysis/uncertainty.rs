@@ -34,9 +34,11 @@
 //! that factor is 1.
 //!
 //! **A walk is one path.** A forward split scores one stretch of the bias's random walk, which
-//! may have wandered far less than the walk does. Where the shipped model's errors over the
-//! training log show a rate random walk in their Allan deviation (its +½ slope) larger than the
-//! split fitted, the Allan's ships (`walk_fitted_std` keeps the split's).
+//! may have wandered far less than the walk does. Where the training log's reference holds still
+//! (a log at rest) and the shipped model's errors over it show a rate random walk in their Allan
+//! deviation (its +½ slope) larger than the split fitted, or where there is no split, the
+//! Allan's ships, read from those in-sample errors (`walk` in `measured`; `walk_fitted_std`
+//! keeps the split's).
 //!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
@@ -358,7 +360,7 @@ pub struct Calibration {
     /// from its Allan deviation where that is larger ([`Prior::walk_var_per_h`]).
     pub walk_std_per_sqrt_h: f64,
     /// The walk the residuals fitted where the training log's Allan deviation read a larger one,
-    /// which ships (null where the fit ships).
+    /// which ships (null where the fit ships or none was fitted).
     pub walk_fitted_std: Option<f64>,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
@@ -412,7 +414,8 @@ pub struct Calibration {
     pub inflation: f64,
     /// The terms fitted. The others abstain: their covariates did not reach where they would show,
     /// or, for the extrapolation, the residuals could not tell the prior's growth from none, or
-    /// fitted less than it without reaching a whole width beyond the range (the prior ships).
+    /// fitted less than it without reaching a whole width beyond the range (the prior ships); for
+    /// the walk, they fitted less than the training log's Allan deviation reads (it ships).
     pub fitted_terms: Vec<&'static str>,
     /// Each test.
     pub sources: Vec<SourceSummary>,
@@ -433,7 +436,9 @@ pub struct Calibration {
     /// errors; the scale, their residuals' error in proportion to the output as
     /// `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one
     /// degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error
-    /// where its rates are alike in both signs. A datasheet's figure takes their place.
+    /// where its rates are alike in both signs. A datasheet's figure takes their place. And the
+    /// walk (`walk`), where it is the training log's rate random walk, read from its Allan
+    /// deviation ([`Prior::walk_var_per_h`]), not fitted.
     pub measured: Vec<&'static str>,
     /// The heating/cooling states the training stream held (0.5 % quantiles; a side that reached
     /// a leg whose states span less than half the trained temperatures, no further than 0:
@@ -478,7 +483,9 @@ pub struct Prior {
     pub follows: bool,
     /// The bias's random walk, output units² per hour: the rate random walk the model leaves on
     /// its training log, read from their Allan deviation (`streams::allan_walk`); 0 where none
-    /// is read (a rate table's points, a log too short).
+    /// is read: a rate table's points, a log whose reference moves, one whose Allan deviation
+    /// shows no slope +½ (too short), and the logs of a calibration on several (`fit --stream A
+    /// --stream B`, `--pool`), whose power-ons measure the walk their splits see.
     pub walk_var_per_h: f64,
 }
 
@@ -752,7 +759,11 @@ impl Calibration {
             coverage: None,
             note: Some(note),
             assumed,
-            measured: Vec::new(),
+            measured: if prior.walk_var_per_h > 0.0 {
+                vec!["walk"]
+            } else {
+                Vec::new()
+            },
             legs_trained: None,
             leg_std: 0.0,
             hysteresis: None,

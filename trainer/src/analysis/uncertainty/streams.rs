@@ -1,6 +1,7 @@
 //! The residuals of a stream: a model fitted on part of a log and replayed through the firmware's
 //! own evaluation on the rest, with the covariates the error model grows by (the hours since the
-//! data it saw, the heating/cooling state).
+//! data it saw, the heating/cooling state); and what a model's errors over a whole log show: one
+//! sample's noise, and the bias's random walk.
 
 use firmware_core::ErrorModel;
 use firmware_core::units::SECONDS_PER_HOUR;
@@ -77,34 +78,51 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
 
 /// The bias's random walk `model` leaves on `stream`, output units² per hour: the rate random
 /// walk K of the Allan deviation of its errors (IEEE 952's +½ slope after the bottom, over the
-/// stretches without a gap), K² per hour; 0 where the log is too short to show a slope +½, or
-/// where its reference moves (spreads over ten times `noise_std`, one sample's noise).
-/// Over the whole log, it reads the walk at every lag up to a third of the log at once, where a
-/// forward split scores one stretch of it: on 24 fits of the simulated room logs (one half of a
+/// stretches without a gap or a power cycle), K² per hour; 0 where the log is too short to show
+/// a slope +½, or where its reference does not hold still as a log at rest does. It is read
+/// from the errors of the model fitted on the whole log, not from out-of-sample residuals: over the
+/// whole log it reads the walk at every lag up to a third of the log at once, where a forward
+/// split scores one stretch of it. On 24 fits of the simulated room logs (one half of a
 /// three-day static log each) the split's walk was 0 on 7 and up to 4.7× the simulator's on
-/// others, the Allan deviation's within 0.3–1.5× of it on 17 and 2.6× on one, none on 6. Where the reference
-/// moves, the errors follow the rate program (a scale factor's miss at each rate, a table's
-/// cycles), which the Allan deviation cannot tell from a walk: on the simulated chamber and
-/// ramp runs it read one 1.3–2.2× too wide held out.
+/// others, the Allan deviation's within 0.3–1.5× of it on 17 and 2.6× on one, none on 6.
 pub fn allan_walk(model: &HostModel, stream: &Stream, noise_std: f64) -> f64 {
-    let reference: Vec<f64> = stream
-        .rate_dps
+    walk_of(stream, errors(model, stream), noise_std)
+}
+
+/// [`allan_walk`] of a model whose `errors` over `stream` are given.
+pub(super) fn walk_of(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
+    if !holds_still(&stream.rate_dps, noise_std) {
+        return 0.0;
+    }
+    // A power-on starts a stretch of its own, where the clock jumps back as where it leaves a
+    // gap: another power-on's bias is a step, whose Allan deviation rises as a walk's does.
+    for (e, restart) in e.iter_mut().zip(replay::restarts(stream)) {
+        if restart {
+            *e = f64::NAN;
+        }
+    }
+    rate_random_walk(&stream.time_s, &e)
+}
+
+/// Whether a log's `reference` holds still, as a log at rest does: its spread under ten times
+/// `noise_std` (one sample's noise), as the outputs that do not move ([`MOVES`]). Where the
+/// reference moves, the errors follow the rate program (a scale factor's miss at each rate, a
+/// table's cycles), which the Allan deviation cannot tell from a walk: read there, it left the
+/// simulated chamber, ramp and warm-up runs' σ up to 1.8, 2.2 and 2.4× wider held out. False
+/// for a log without a reference, or a noise that is not a number.
+pub(super) fn holds_still(reference: &[f64], noise_std: f64) -> bool {
+    let finite: Vec<f64> = reference
         .iter()
         .copied()
         .filter(|r| r.is_finite())
         .collect();
-    let n = reference.len() as f64;
-    let mean = reference.iter().sum::<f64>() / n;
-    let spread = (reference.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
-    // False for a log without a reference, or a noise that is not a number, as well.
-    let still = spread <= MOVES * noise_std;
-    if !still {
-        return 0.0;
-    }
-    rate_random_walk(&stream.time_s, &errors(model, stream))
+    let n = finite.len() as f64;
+    let mean = finite.iter().sum::<f64>() / n;
+    let spread = (finite.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+    spread <= MOVES * noise_std
 }
 
-/// [`allan_walk`] of `errors` (output units) sampled at `time_s` (s).
+/// [`allan_walk`] of `errors` (output units) sampled at `time_s` (s), a NaN error a gap.
 pub(super) fn rate_random_walk(time_s: &[f64], errors: &[f64]) -> f64 {
     fog_data::allan::Analysis::of("errors", time_s, errors)
         .terms

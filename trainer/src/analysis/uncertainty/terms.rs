@@ -96,10 +96,13 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     let mut c = c.map(|v| v * inflation);
     // A forward split scores one stretch of the bias's random walk, which may wander far less
     // (or more) than the walk does: where it fits less than the training log's Allan deviation
-    // reads ([`Prior::walk_var_per_h`]), the Allan's stands. (On the simulated room logs, the
-    // σ of the earlier half fitted on the later covered 86 % of its 60 s means, not 80 %.)
-    let walk_fitted_std = (c[WALK] < prior.walk_var_per_h).then(|| c[WALK].sqrt());
-    if walk_fitted_std.is_some() {
+    // reads ([`Prior::walk_var_per_h`]), or shows none, the Allan's stands. (On the simulated
+    // room logs, the σ of the earlier half fitted on the later covered 86 % of its 60 s means,
+    // not 80 %.) The other terms keep their fit beside the split's walk: a trend it fitted in
+    // the walk's place stays beside the Allan's (wide, never narrow).
+    let allan_walk = c[WALK] < prior.walk_var_per_h;
+    let walk_fitted_std = (allan_walk && seen[WALK]).then(|| c[WALK].sqrt());
+    if allan_walk {
         c[WALK] = prior.walk_var_per_h;
     }
     // A fit below the prior measures the growth only as far out as its residuals reach: a
@@ -129,7 +132,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // What the blob carries: the run's floor (the table's where there is no run), for every
     // residual alike.
     let floor = if runs { c[1] } else { c[0] };
-    let shipped = [0.0, floor, c[2], c[3], c[4]];
+    let shipped = [0.0, floor, c[EXTRAPOLATION], c[WALK], c[4]];
     let shipped_sigma =
         |r: &Residual| (r.var(true, &shipped) + extrapolation_scale * r.output2 * r.excess2).sqrt();
     let sources = summaries(series, &standardized, &shipped_sigma);
@@ -168,8 +171,8 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         sample_noise_var: noise.var as f32,
         sample_interval_s: noise.interval_s as f32,
         floor_var: floor as f32,
-        extrapolation_var: c[2] as f32,
-        walk_var_per_h: c[3] as f32,
+        extrapolation_var: c[EXTRAPOLATION] as f32,
+        walk_var_per_h: c[WALK] as f32,
         trend_var_per_h2: c[4] as f32,
         extrapolation_scale_var: extrapolation_scale as f32,
         turn_on_var: turn_on_var.unwrap_or(0.0) as f32,
@@ -182,7 +185,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         sample_interval_s: noise.interval_s,
         floor_std: floor.sqrt(),
         table_floor_std: (runs && seen[0]).then(|| c[0].sqrt()),
-        extrapolation_std: c[2].sqrt(),
+        extrapolation_std: c[EXTRAPOLATION].sqrt(),
         extrapolation_scale_ppm: extrapolation_scale.sqrt() * 1e6,
         extrapolation_share,
         extrapolation_fitted_std,
@@ -202,7 +205,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         fitted_terms: fitted
             .iter()
             .filter(|&&k| !(fitted_below && k == EXTRAPOLATION))
-            .filter(|&&k| !(walk_fitted_std.is_some() && k == WALK))
+            .filter(|&&k| !(allan_walk && k == WALK))
             .map(|&k| TERM_NAMES[k])
             .collect(),
         sources,
@@ -213,6 +216,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         measured: [
             ("turn-on", turn_on_var.is_some()),
             ("scale", scale_var.is_some_and(|v| v > 0.0)),
+            ("walk", allan_walk),
         ]
         .into_iter()
         .filter(|(_, measured)| *measured)
@@ -416,10 +420,11 @@ fn output_rms(all: &[(Residual, bool)], noise_std: f64) -> f64 {
 }
 
 /// The residuals' model error in proportion to the output inside the trained range (nearer it
-/// than [`INSIDE`]), as a variance per output² (relative²; [`Calibration::residual_scale_ppm`] is its root): each
-/// residual there a Gaussian draw of variance `v + a + b·y²`, v what its model states with the
-/// time terms `c` fitted beside it, a the floor of its kind (a table's, a run's; refitted here), y
-/// its reference output (the root of its mean square); a, b ≥ 0 at the likelihood's maximum. b
+/// than [`INSIDE`]), as a variance per output² (relative²; [`Calibration::residual_scale_ppm`]
+/// is its root): each residual there a Gaussian draw of variance `v + a + b·y²`, v what its
+/// model states with the time terms `c` fitted beside it, a the floor of its kind (a table's, a
+/// run's; refitted here), y its reference output (the root of its mean square); a, b ≥ 0 at the
+/// likelihood's maximum. b
 /// where the outputs move (their magnitudes' spread over ten times `noise_std`, as
 /// [`split_by_output`](super::split_by_output) asks) and b makes the residuals more likely than
 /// the floors alone by [`SPLIT_MARGIN`], the log-likelihood ratio counted over the independent

@@ -177,16 +177,22 @@ impl Calibration {
             None => beyond,
         };
         let noise = self.noise_in_words();
-        let walk = match self.walk_fitted_std {
-            Some(fit) => format!(
+        let allan = self.measured.contains(&"walk");
+        let walk = match (allan, self.walk_fitted_std) {
+            (true, Some(fit)) => format!(
                 "{:.3e} per √h (the training log's rate random walk, from its Allan deviation; \
                  the residuals fitted {fit:.3e}, one stretch of it)",
                 self.walk_std_per_sqrt_h
             ),
-            None => format!("{:.3e} per √h", self.walk_std_per_sqrt_h),
+            (true, None) => format!(
+                "{:.3e} per √h (the training log's rate random walk, from its Allan deviation; \
+                 the residuals fitted none)",
+                self.walk_std_per_sqrt_h
+            ),
+            (false, _) => format!("{:.3e} per √h", self.walk_std_per_sqrt_h),
         };
         let Some(c) = &self.coverage else {
-            let walk = if self.walk_std_per_sqrt_h > 0.0 {
+            let walk = if allan {
                 format!(
                     ", {:.3e} per √h (the training log's rate random walk, from its Allan \
                      deviation)",

@@ -2,7 +2,8 @@
 //! deviation.
 
 use super::*;
-use crate::analysis::uncertainty::streams::rate_random_walk;
+use crate::analysis::uncertainty::streams::{holds_still, rate_random_walk, walk_of};
+use fog_data::stream::Stream;
 
 #[test]
 fn the_allan_deviation_reads_a_random_walk_a_white_noise_hides() {
@@ -60,5 +61,72 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
     // With too few residuals for any fit, the Allan deviation's walk is stated all the same.
     let c = calibrate(&series[..0], noise, PRIOR.with_walk(walk));
     assert_eq!(c.error_model.walk_var_per_h, walk as f32);
+    assert_eq!(c.measured, ["walk"]);
     assert!(c.describe("°/s").contains("Allan deviation"));
+    // Residuals that never reach the walk's covariate fit none: the Allan's ships, and no fit is
+    // said to be beside it.
+    let mut early = residuals(600, 3, |_, _| 0.01);
+    for r in &mut early {
+        r.hours = 0.0;
+    }
+    let series = [Series {
+        source: ResidualSource::Forward,
+        residuals: early,
+    }];
+    let c = calibrate(&series, noise, PRIOR.with_walk(walk));
+    assert_eq!(c.error_model.walk_var_per_h, walk as f32);
+    assert_eq!(c.walk_fitted_std, None);
+    assert!(
+        c.describe("°/s").contains("the residuals fitted none"),
+        "{c:?}"
+    );
+}
+
+/// A stream of `n` samples at 1 Hz at rest, whose clock jumps back to 0 at `restart` (a power
+/// cycle), with `rate` as its reference.
+fn at_rest(n: usize, restart: usize, rate: impl Fn(usize) -> f64) -> Stream {
+    let time = (0..n)
+        .map(|i| if i < restart { i } else { i - restart } as f64)
+        .collect();
+    Stream::from_columns(
+        time,
+        vec![20.0; n],
+        vec![0.0; n],
+        (0..n).map(rate).collect(),
+    )
+    .unwrap()
+}
+
+#[test]
+fn another_power_ons_bias_is_a_step_not_a_walk() {
+    // White noise and, after a power cycle half-way, a bias 0.01 higher: one run of it would
+    // rise as a walk does. Each power-on is a run of its own, and neither shows a walk.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let n = 2 * 86_400;
+    let stream = at_rest(n, n / 2, |_| 0.0);
+    let e: Vec<f64> = (0..n)
+        .map(|i| 1e-3 * unit.sample(&mut rng) + if i < n / 2 { 0.0 } else { 0.01 })
+        .collect();
+    let time: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    assert!(rate_random_walk(&time, &e) > 0.0, "one run holds the step");
+    assert_eq!(walk_of(&stream, e, 1e-3), 0.0);
+}
+
+#[test]
+fn the_walk_is_read_only_where_the_reference_holds_still() {
+    assert!(holds_still(&[0.0; 10], 1e-3));
+    assert!(
+        holds_still(&[1.0, 1.0, f64::NAN], 1e-3),
+        "gravity, a minute left out"
+    );
+    let table = [80.0, -80.0, 0.0];
+    assert!(!holds_still(&table, 1e-3), "a rate table");
+    assert!(!holds_still(&[f64::NAN; 4], 1e-3), "no reference");
+    assert!(!holds_still(&[0.0; 4], f64::NAN), "no noise");
+    // A table's log reads no walk, whatever its errors.
+    let n = 86_400;
+    let stream = at_rest(n, n, |i| if (i / 90) % 2 == 0 { 80.0 } else { -80.0 });
+    let walk: Vec<f64> = (0..n).map(|i| (i as f64).sqrt() * 1e-4).collect();
+    assert_eq!(walk_of(&stream, walk, 1e-3), 0.0);
 }
