@@ -145,7 +145,8 @@ pub fn calibrate(
     beyond: &BeyondChoice,
 ) -> anyhow::Result<Calibration> {
     let fw = fog_data::replay::decode(shipped_blob)?;
-    let noise = uncertainty::streams::sample_noise(&fw, &[train]).unwrap_or(SampleNoise {
+    let errors = uncertainty::streams::errors(&fw, train);
+    let noise = SampleNoise::from_streams(&[(train, &errors)]).unwrap_or(SampleNoise {
         var: f64::from(fw.variances()[1]),
         interval_s: 0.0,
     });
@@ -213,8 +214,8 @@ pub fn calibrate(
         uncertainty::Prior::of(static_model, points)
             .for_rule(beyond)
             .with_walk(uncertainty::streams::allan_walk(
-                &fw,
                 train,
+                errors,
                 noise.var.sqrt(),
             )),
     );

@@ -76,8 +76,8 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
     SampleNoise::from_streams(&parts)
 }
 
-/// The bias's random walk `model` leaves on `stream`, output units² per hour: the rate random
-/// walk K of the Allan deviation of its errors (IEEE 952's +½ slope after the bottom, over the
+/// The bias's random walk a model leaves on `stream`, output units² per hour, from its `errors`
+/// there ([`errors`]): the rate random walk K of their Allan deviation (IEEE 952's +½ slope after the bottom, over the
 /// stretches without a gap or a power cycle), K² per hour; 0 where the log is too short to show
 /// a slope +½, or where its reference does not hold still as a log at rest does. It is read
 /// from the errors of the model fitted on the whole log, not from out-of-sample residuals: over the
@@ -85,12 +85,7 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
 /// split scores one stretch of it. On 24 fits of the simulated room logs (one half of a
 /// three-day static log each) the split's walk was 0 on 7 and up to 4.7× the simulator's on
 /// others, the Allan deviation's within 0.3–1.5× of it on 17 and 2.6× on one, none on 6.
-pub fn allan_walk(model: &HostModel, stream: &Stream, noise_std: f64) -> f64 {
-    walk_of(stream, errors(model, stream), noise_std)
-}
-
-/// [`allan_walk`] of a model whose `errors` over `stream` are given.
-pub(super) fn walk_of(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
+pub fn allan_walk(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
     if !holds_still(&stream.rate_dps, noise_std) {
         return 0.0;
     }
@@ -132,7 +127,7 @@ pub(super) fn rate_random_walk(time_s: &[f64], errors: &[f64]) -> f64 {
 
 /// `model`'s error at every sample of `stream`, replayed whole through the firmware's
 /// evaluation (NaN where the stream has no reference).
-fn errors(model: &HostModel, stream: &Stream) -> Vec<f64> {
+pub fn errors(model: &HostModel, stream: &Stream) -> Vec<f64> {
     let c = replay::means(model, stream);
     (0..stream.len())
         .map(|i| f64::from(c.rate_dps[i]) - stream.rate_dps[i])

@@ -2,7 +2,7 @@
 //! deviation.
 
 use super::*;
-use crate::analysis::uncertainty::streams::{holds_still, rate_random_walk, walk_of};
+use crate::analysis::uncertainty::streams::{allan_walk, holds_still, rate_random_walk};
 use fog_data::stream::Stream;
 
 #[test]
@@ -110,7 +110,7 @@ fn another_power_ons_bias_is_a_step_not_a_walk() {
         .collect();
     let time: Vec<f64> = (0..n).map(|i| i as f64).collect();
     assert!(rate_random_walk(&time, &e) > 0.0, "one run holds the step");
-    assert_eq!(walk_of(&stream, e, 1e-3), 0.0);
+    assert_eq!(allan_walk(&stream, e, 1e-3), 0.0);
 }
 
 #[test]
@@ -128,5 +128,5 @@ fn the_walk_is_read_only_where_the_reference_holds_still() {
     let n = 86_400;
     let stream = at_rest(n, n, |i| if (i / 90) % 2 == 0 { 80.0 } else { -80.0 });
     let walk: Vec<f64> = (0..n).map(|i| (i as f64).sqrt() * 1e-4).collect();
-    assert_eq!(walk_of(&stream, walk, 1e-3), 0.0);
+    assert_eq!(allan_walk(&stream, walk, 1e-3), 0.0);
 }
