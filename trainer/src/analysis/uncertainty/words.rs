@@ -223,7 +223,7 @@ impl Calibration {
         format!(
             "σ calibrated on {} out-of-sample residuals of the training data ({:.1} independent; \
              {}): model error {:.3e} {units}, {beyond}, {walk}, {:.3e} per h (× {:.2} \
-             for the few residuals), {noise}; \
+             for the few residuals, on the terms they fitted), {noise}; \
              ±2σ covers {:.0}% of them (the GP's own σ: {before}), median σ {:.2}× their \
              RMS{assumed}",
             self.residuals,
