@@ -53,9 +53,10 @@ pub struct ErrorModel {
     pub trend_var_per_h2: f32,
     /// The bias of another power-on than calibration's, output units²: twice a datasheet's
     /// run-to-run repeatability squared (the calibration's own power-on was a draw too), or,
-    /// where nothing states it, as the trainer assumes it (the model error's floor); 0 where
-    /// power-ons left out measured it (it is then in the floor). Every power-on in service is
-    /// another one, so it holds at every sample.
+    /// where nothing states it, as the trainer assumes it (the model error's floor), or measured
+    /// on a training log's power-ons left out in turn (each one's mean error, predicted from the
+    /// others); 0 where a table's runs left out measured it (it is then in the floor). Every
+    /// power-on in service is another one, so it holds at every sample.
     pub turn_on_var: f32,
     /// Model error on a heating/cooling state the calibration did not hold, at a full swing
     /// (l = 1), output units².

@@ -535,9 +535,23 @@ pub struct ChallengeSummary {
     pub faults: usize,
 }
 
-/// The σ a held-out stream should meet: ±2σ covering this share of its 60 s means (lowest,
-/// highest) at a median σ at most this many times their RMS error.
-pub const SIGMA_TARGET: ((f64, f64), f64) = ((0.85, 0.99), 1.5);
+/// The σ a held-out stream should meet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SigmaTarget {
+    /// ±2σ covers at least this share of its 60 s means,
+    pub coverage_min: f64,
+    /// and at most this share (more says the σ is wider than its errors need),
+    pub coverage_max: f64,
+    /// at a median σ at most this many times their RMS error.
+    pub sharpness_max: f64,
+}
+
+/// What the challenge scores every case's σ against.
+pub const SIGMA_TARGET: SigmaTarget = SigmaTarget {
+    coverage_min: 0.85,
+    coverage_max: 0.99,
+    sharpness_max: 1.5,
+};
 
 /// Where a case's σ falls against [`SIGMA_TARGET`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, schemars::JsonSchema)]
@@ -555,10 +569,13 @@ impl SigmaVerdict {
     /// Where `c` falls: a σ scored on no held-out mean, or not a number, is too narrow (nothing
     /// shows that it covers).
     pub fn of(c: &Coverage) -> Self {
-        let ((lo, hi), sharpness) = SIGMA_TARGET;
-        if c.n == 0 || !c.within_2sigma.is_finite() || c.within_2sigma < lo {
+        let t = SIGMA_TARGET;
+        if c.n == 0 || !c.within_2sigma.is_finite() || c.within_2sigma < t.coverage_min {
             SigmaVerdict::Narrow
-        } else if c.within_2sigma > hi || c.sharpness > sharpness || c.sharpness.is_nan() {
+        } else if c.within_2sigma > t.coverage_max
+            || c.sharpness > t.sharpness_max
+            || c.sharpness.is_nan()
+        {
             SigmaVerdict::Wide
         } else {
             SigmaVerdict::OnTarget
@@ -584,7 +601,11 @@ impl ChallengeSummary {
             self.gain_min_median[0],
             self.gain_min_median[1]
         );
-        let ((lo, hi), sharpness) = SIGMA_TARGET;
+        let SigmaTarget {
+            coverage_min: lo,
+            coverage_max: hi,
+            sharpness_max: sharpness,
+        } = SIGMA_TARGET;
         s.push_str(&format!(
             "; shipped σ on the held-out 60 s means: on target ({:.0}–{:.0} % within ±2σ, \
              sharpness ≤ {sharpness}) in {}, too narrow in {}, too wide in {} (coverage min \

@@ -82,7 +82,7 @@
 
 use firmware_core::ErrorModel;
 use fog_data::sigma::Coverage;
-use fog_data::stats::{Line, median};
+use fog_data::stats::{Line, median, spread};
 use fog_data::stream::Stream;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
@@ -103,7 +103,7 @@ mod words;
 /// e(x)², t and t² ([`Residual::terms`]).
 const TERMS: usize = 5;
 /// Fewest degrees of freedom the small-sample factor takes (module doc): below it a variance is
-/// not estimated but guessed, and the factor would grow without bound (6.5 at ν = 1).
+/// not estimated but guessed, and the factor would grow without bound (on σ, 6.5 at ν = 1).
 const MIN_DOF: f64 = 2.0;
 /// Residuals that must reach [`SEEN_AT`] for a growth term to be fitted ([`seen`]), and
 /// [`A_WIDTH`] for an extrapolation term fitted below the prior to stand (`reached`).
@@ -267,10 +267,11 @@ impl SampleNoise {
     /// From the per-sample errors of one sensor's streams (`(stream, error)` each, `error[i]` NaN
     /// where not scored): half the variance of the differences of consecutive scored samples,
     /// robustly (1.4826 × their median absolute deviation), which a drift slower than a sample
-    /// leaves out. At the sample interval of the stream with the most differences, each stream's
-    /// differences scaled to it as white noise scales (a sample's variance inversely in
-    /// proportion to its interval: one noise density), so that a log recorded at another rate
-    /// counts alike. `None` with fewer than 10 differences.
+    /// leaves out (their RMS where more than half are alike, as on an output quantized coarser
+    /// than its noise). At the sample interval of the stream with the most differences, each
+    /// stream's differences scaled to it as white noise scales (a sample's variance inversely
+    /// in proportion to its interval: one noise density), so that a log recorded at another
+    /// rate counts alike. `None` with fewer than 10 differences.
     pub fn from_streams(streams: &[(&Stream, &[f64])]) -> Option<Self> {
         let differences = |stream: &Stream, error: &[f64]| -> Vec<f64> {
             let gap = 1.5 * stream.step_s;
@@ -297,7 +298,11 @@ impl SampleNoise {
         }
         let m = median(&d);
         let mad = median(&d.iter().map(|v| (v - m).abs()).collect::<Vec<_>>());
-        let sd = 1.4826 * mad / std::f64::consts::SQRT_2;
+        // An output quantized coarser than its noise changes in fewer than half its samples, and
+        // the median of its differences' deviations is 0 though its steps are noise: their RMS
+        // states them then, never a noise of 0.
+        let robust = if mad > 0.0 { 1.4826 * mad } else { spread(&d) };
+        let sd = robust / std::f64::consts::SQRT_2;
         Some(Self {
             var: sd * sd,
             interval_s,
@@ -652,7 +657,7 @@ pub fn split_by_output(c2: &[f64], y: &[f64], noise_std: f64) -> (f64, f64) {
     let spread = (y.iter().map(|v| (v - mean_y).powi(2)).sum::<f64>() / nf).sqrt();
     let mean_u = y.iter().map(|v| v * v).sum::<f64>() / nf;
     // False for a NaN noise as well.
-    let moves = spread > 10.0 * noise_std;
+    let moves = spread > terms::MOVES * noise_std;
     if !moves || mean_c2 <= 0.0 || mean_u <= 0.0 {
         return (mean_c2, 0.0);
     }

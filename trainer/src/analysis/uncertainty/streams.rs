@@ -24,9 +24,8 @@ pub fn stream_series(
     hours: &[f64],
     noise: SampleNoise,
 ) -> Result<Series, ExportError> {
-    // The latent variance from the firmware's own evaluation, and e(x)² from its mean path: the
-    // variance it would state with an extrapolation term of 1 is the latent one plus e(x)², in
-    // the same f32 addition.
+    // The latent variance from the firmware's own evaluation, and e(x)² from its mean path, as
+    // the firmware computes it before the extrapolation term multiplies it.
     let model = replay::decode(&export::with_error_model(
         blob,
         &ErrorModel::noise_only(0.0),
@@ -50,10 +49,7 @@ pub fn stream_series(
             Residual {
                 error: mean(b, &|i| f64::from(latent.rate_dps[i]) - stream.rate_dps[i]),
                 base_var: latent_var + noise.of_mean(b.len() as f64 * stream.step_s),
-                excess2: mean(b, &|i| {
-                    f64::from(latent.bias_var[i] + excess2[i]) - f64::from(latent.bias_var[i])
-                })
-                .max(0.0),
+                excess2: mean(b, &|i| f64::from(excess2[i])).max(0.0),
                 output2: mean(b, &|i| stream.rate_dps[i].powi(2)),
                 output: mean(b, &|i| stream.rate_dps[i]),
                 hours: mean(b, &|i| hours[i]),

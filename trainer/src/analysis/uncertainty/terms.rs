@@ -90,7 +90,9 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         })
         .collect();
     let eff: f64 = standardized.iter().map(|z| effective(z)).sum();
-    let dof = (eff - fitted.len() as f64).max(MIN_DOF);
+    // Each power-on's mean taken out of its residuals is one more number fitted on them.
+    let centred_means = power_ons.as_ref().map_or(0, Vec::len);
+    let dof = (eff - (fitted.len() + centred_means) as f64).max(MIN_DOF);
     let inflation = small_sample_factor(dof);
     let fit = c;
     let mut c = c.map(|v| v * inflation);
@@ -383,7 +385,8 @@ pub(super) fn extrapolation_shows(series: &[Series], c: &[f64; TERMS], prior: f6
 const INSIDE: f64 = SEEN_AT[EXTRAPOLATION];
 
 /// How many times a sample's noise the outputs must spread over to move
-/// ([`proportional_error`], [`output_rms`], [`super::streams::allan_walk`]).
+/// ([`proportional_error`], [`output_rms`], [`super::streams::allan_walk`],
+/// [`super::split_by_output`]).
 pub(super) const MOVES: f64 = 10.0;
 
 /// The RMS reference output of the residuals inside the range ([`INSIDE`]), where the outputs

@@ -212,6 +212,22 @@ fn the_assumed_growth_is_the_share_of_holdings_miss_the_rule_shipped_missed() {
     assert!(!p.follows && !prior.for_rule(&tested(Beyond::Hold, 0, None)).follows);
 }
 
+/// `n` samples `step_s` apart of a log at rest at 20 °C, without a fault.
+fn at_rest(n: usize, step_s: f64) -> Stream {
+    Stream {
+        time_s: (0..n).map(|i| i as f64 * step_s).collect(),
+        temp_c: vec![20.0; n],
+        voltage_v: vec![0.0; n],
+        rate_dps: vec![0.0; n],
+        lines: (2..n as u64 + 2).collect(),
+        step_s,
+        time_issues: vec![],
+        handled: vec![],
+        history: 0,
+        after_s: None,
+    }
+}
+
 #[test]
 fn the_sample_noise_is_the_white_part_of_the_errors() {
     let n = 20_000;
@@ -221,18 +237,7 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
     let error: Vec<f64> = (0..n)
         .map(|i| 1e-3 * i as f64 + 0.02 * unit.sample(&mut rng))
         .collect();
-    let stream = Stream {
-        time_s: (0..n).map(|i| i as f64).collect(),
-        temp_c: vec![20.0; n],
-        voltage_v: vec![0.0; n],
-        rate_dps: vec![0.0; n],
-        lines: (2..n as u64 + 2).collect(),
-        step_s: 1.0,
-        time_issues: vec![],
-        handled: vec![],
-        history: 0,
-        after_s: None,
-    };
+    let stream = at_rest(n, 1.0);
     let noise = SampleNoise::from_streams(&[(&stream, &error)]).unwrap();
     assert!((noise.var.sqrt() - 0.02).abs() < 0.001, "{noise:?}");
     assert_eq!(noise.of_mean(60.0), noise.var / 60.0);
@@ -244,23 +249,35 @@ fn the_sample_noise_is_the_white_part_of_the_errors() {
 }
 
 #[test]
+fn an_output_quantized_coarser_than_its_noise_still_states_its_noise() {
+    // White noise of 0.3 LSB, quantized: most consecutive samples are alike, and the median of
+    // their differences' deviations is 0.
+    let n = 20_000;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let lsb = 1e-3;
+    let error: Vec<f64> = (0..n)
+        .map(|_| (0.3_f64 * unit.sample(&mut rng)).round() * lsb)
+        .collect();
+    let alike = error.windows(2).filter(|w| w[0] == w[1]).count();
+    assert!(alike > n / 2, "{alike}");
+    let stream = at_rest(n, 1.0);
+    let noise = SampleNoise::from_streams(&[(&stream, &error)]).unwrap();
+    // The quantized output's own spread: white, so a sample's noise.
+    let own = fog_data::stats::spread(&error);
+    assert!(
+        (noise.var.sqrt() / own - 1.0).abs() < 0.05,
+        "{noise:?} against {own}"
+    );
+}
+
+#[test]
 fn streams_at_other_rates_pool_their_noise_as_a_density() {
     // One sensor's white noise, 0.02 a sample at 1 s: 0.02·√2 at 0.5 s, each in its own log.
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     let unit = Gauss::new(0.0, 1.0).unwrap();
     let log = |n: usize, step_s: f64, sd: f64, rng: &mut rand_chacha::ChaCha8Rng| {
-        let stream = Stream {
-            time_s: (0..n).map(|i| i as f64 * step_s).collect(),
-            temp_c: vec![20.0; n],
-            voltage_v: vec![0.0; n],
-            rate_dps: vec![0.0; n],
-            lines: (2..n as u64 + 2).collect(),
-            step_s,
-            time_issues: vec![],
-            handled: vec![],
-            history: 0,
-            after_s: None,
-        };
+        let stream = at_rest(n, step_s);
         let error: Vec<f64> = (0..n).map(|_| sd * unit.sample(rng)).collect();
         (stream, error)
     };
