@@ -435,7 +435,7 @@ class Calibration(Record):
     """σ_w: one sample's white noise, output units (a point's, the GP's level, where `sample_interval_s` is 0: no log showed a sample's)."""
 
     scale_repeatability_ppm: float
-    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, measured on a training stream's power-ons left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their floor holds it) and the outputs move, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as for the bias."""
+    """The scale factor of another power-on (run-to-run scale-factor repeatability), ppm of the output: as stated by `--scale-repeatability`, measured on a training stream's power-ons left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their floor holds it) and the outputs move, assumed (`scale` in `assumed`: [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as for the bias (measured, an upper figure as the bias's is)."""
 
     sources: list[SourceSummary]
     """Each test."""
@@ -453,7 +453,7 @@ class Calibration(Record):
     """√c_d: drift of unknown rate, output units per h."""
 
     turn_on_std: float
-    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in `measured`), or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too."""
+    """The bias of another power-on (run-to-run repeatability), output units: as stated by `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in `measured`), or, where nothing states or measures it, assumed (`turn-on` in `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out (several logs or tables) measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance: the calibration's power-on was a draw too. Measured, it is that variance over 2 as the power-ons left out show it, widened for their number: an upper figure, not a 1σ to set beside a datasheet's."""
 
     walk_fitted_std: float | None
     """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""

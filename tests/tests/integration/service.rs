@@ -767,6 +767,21 @@ fn a_stream_of_several_power_ons_measures_another_ones_bias() {
             .any(|s| s["source"] == "power-on"),
         "{calibration}"
     );
+    // Each power-on's mean taken out of its residuals is a number fitted on them, as the terms
+    // are: the small-sample factor counts both. The terms fitted are those listed and those
+    // whose fit a larger figure replaced (the Allan deviation's walk, the prior's growth).
+    let number = |key: &str| calibration[key].as_f64().unwrap();
+    let replaced = ["walk_fitted_std", "extrapolation_fitted_std"]
+        .iter()
+        .filter(|key| !calibration[**key].is_null())
+        .count();
+    let fitted = (calibration["fitted_terms"].as_array().unwrap().len() + replaced) as f64;
+    let dof = (number("effective") - fitted - number("power_ons_left_out")).max(2.0);
+    let factor = trainer::analysis::uncertainty::small_sample_factor(dof);
+    assert!(
+        (number("inflation") / factor - 1.0).abs() < 1e-9,
+        "{calibration}"
+    );
     // 80 °/h is 0.0222 °/s; four draws measure it within a factor of three.
     let measured = calibration["turn_on_std"].as_f64().unwrap();
     assert!((0.0074..0.067).contains(&measured), "{calibration}");

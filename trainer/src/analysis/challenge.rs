@@ -538,11 +538,11 @@ pub struct ChallengeSummary {
 /// The σ a held-out stream should meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SigmaTarget {
-    /// ±2σ covers at least this share of its 60 s means,
+    /// The least share of its 60 s means ±2σ covers.
     pub coverage_min: f64,
-    /// and at most this share (more says the σ is wider than its errors need),
+    /// The most share of them ±2σ covers: more says the σ is wider than its errors need.
     pub coverage_max: f64,
-    /// at a median σ at most this many times their RMS error.
+    /// The largest median σ over their RMS error.
     pub sharpness_max: f64,
 }
 

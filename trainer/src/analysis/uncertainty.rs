@@ -30,8 +30,8 @@
 //! itself uncertain: the predictive distribution of the next error is a Student t, whose 95 %
 //! interval is wider than ±2σ of the point estimate. The model-error terms are scaled by
 //! (t₀.₉₇₅(ν)/1.96)², ν the effective number of independent residuals (each series' count reduced
-//! by its lag-1 autocorrelation) less the terms fitted, at least 2. With hundreds of residuals
-//! that factor is 1.
+//! by its lag-1 autocorrelation) less the terms fitted and the power-ons' means taken out of
+//! their residuals, at least 2. With hundreds of residuals that factor is 1.
 //!
 //! **A walk is one path.** A forward split scores one stretch of the bias's random walk, which
 //! may have wandered far less than the walk does. Where the training log's reference holds still
@@ -265,18 +265,19 @@ impl SampleNoise {
     }
 
     /// From the per-sample errors of one sensor's streams (`(stream, error)` each, `error[i]` NaN
-    /// where not scored): half the variance of the differences of consecutive scored samples,
+    /// where not scored): half the variance of the differences of consecutive scored samples
+    /// (the clock running forward by at most 1.5 steps: not across a gap or a power-on),
     /// robustly (1.4826 × their median absolute deviation), which a drift slower than a sample
-    /// leaves out (their RMS where more than half are alike, as on an output quantized coarser
-    /// than its noise). At the sample interval of the stream with the most differences, each
-    /// stream's differences scaled to it as white noise scales (a sample's variance inversely
-    /// in proportion to its interval: one noise density), so that a log recorded at another
-    /// rate counts alike. `None` with fewer than 10 differences.
+    /// leaves out (their standard deviation where more than half are exactly alike, as on an
+    /// output quantized coarser than its noise). At the sample interval of the stream with the
+    /// most differences, each stream's differences scaled to it as white noise scales (a
+    /// sample's variance inversely in proportion to its interval: one noise density), so that a
+    /// log recorded at another rate counts alike. `None` with fewer than 10 differences.
     pub fn from_streams(streams: &[(&Stream, &[f64])]) -> Option<Self> {
         let differences = |stream: &Stream, error: &[f64]| -> Vec<f64> {
             let gap = 1.5 * stream.step_s;
             (1..stream.len())
-                .filter(|&i| stream.time_s[i] - stream.time_s[i - 1] <= gap)
+                .filter(|&i| (0.0..=gap).contains(&(stream.time_s[i] - stream.time_s[i - 1])))
                 .map(|i| error[i] - error[i - 1])
                 .filter(|v| v.is_finite())
                 .collect()
@@ -299,8 +300,8 @@ impl SampleNoise {
         let m = median(&d);
         let mad = median(&d.iter().map(|v| (v - m).abs()).collect::<Vec<_>>());
         // An output quantized coarser than its noise changes in fewer than half its samples, and
-        // the median of its differences' deviations is 0 though its steps are noise: their RMS
-        // states them then, never a noise of 0.
+        // the median of its differences' deviations is 0 though its steps are noise: their
+        // standard deviation states them then, not 0 while any differ.
         let robust = if mad > 0.0 { 1.4826 * mad } else { spread(&d) };
         let sd = robust / std::f64::consts::SQRT_2;
         Some(Self {
@@ -372,9 +373,11 @@ pub struct Calibration {
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
     /// `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in
     /// `measured`), or, where nothing states or measures it, assumed (`turn-on` in
-    /// `assumed`: [`Calibration::assume_turn_on`]). 0 where a table's runs left out measured it
-    /// (it is in the model error) or a datasheet states 0. The blob carries twice its variance:
-    /// the calibration's power-on was a draw too.
+    /// `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out (several logs or
+    /// tables) measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance:
+    /// the calibration's power-on was a draw too. Measured, it is that variance over 2 as the
+    /// power-ons left out show it, widened for their number: an upper figure, not a 1σ to set
+    /// beside a datasheet's.
     pub turn_on_std: f64,
     /// Where a training stream's power-ons were left out in turn ([`ResidualSource::PowerOn`]):
     /// how many. Their residuals enter the other terms each less its power-on's mean; another
@@ -385,7 +388,7 @@ pub struct Calibration {
     /// left out (`scale` in `measured`), or, where nothing states it, no runs are pooled (their
     /// floor holds it) and the outputs move, assumed (`scale` in `assumed`:
     /// [`Calibration::assume_scale`]); 0: none of these. The blob carries twice its variance, as
-    /// for the bias.
+    /// for the bias (measured, an upper figure as the bias's is).
     pub scale_repeatability_ppm: f64,
     /// The out-of-sample residuals' model error in proportion to the output inside the trained
     /// range (nearer it than 5 % of a width: a 60 s mean over a table's sweep holds its extreme
@@ -700,7 +703,7 @@ const SPLIT_MARGIN: f64 = 3.84;
 
 /// (t₀.₉₇₅(ν)/1.96)²: how much wider a variance estimated on ν degrees of freedom must be for
 /// its 95% interval (module doc).
-fn small_sample_factor(dof: f64) -> f64 {
+pub fn small_sample_factor(dof: f64) -> f64 {
     match (StudentsT::new(0.0, 1.0, dof), Normal::new(0.0, 1.0)) {
         (Ok(t), Ok(n)) => (t.inverse_cdf(0.975) / n.inverse_cdf(0.975)).powi(2),
         _ => 1.0,
