@@ -56,8 +56,7 @@ pub struct ErrorModel {
     /// where nothing states it, as the trainer assumes it (the model error's floor), or measured
     /// on a training log's power-ons left out in turn (each one's mean error, predicted from the
     /// others); 0 where runs left out (several logs or tables) measured it (it is then in the
-    /// floor). Every
-    /// power-on in service is another one, so it holds at every sample.
+    /// floor). Every power-on in service is another one, so it holds at every sample.
     pub turn_on_var: f32,
     /// Model error on a heating/cooling state the calibration did not hold, at a full swing
     /// (l = 1), output units².

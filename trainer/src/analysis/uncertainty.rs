@@ -374,10 +374,10 @@ pub struct Calibration {
     /// `--repeatability`, measured on a training stream's power-ons left out (`turn-on` in
     /// `measured`), or, where nothing states or measures it, assumed (`turn-on` in
     /// `assumed`: [`Calibration::assume_turn_on`]). 0 where runs left out (several logs or
-    /// tables) measured it (it is in the model error) or a datasheet states 0. The blob carries twice its variance:
-    /// the calibration's power-on was a draw too. Measured, it is that variance over 2 as the
-    /// power-ons left out show it, widened for their number: an upper figure, not a 1σ to set
-    /// beside a datasheet's.
+    /// tables) measured it (it is in the model error) or a datasheet states 0. The blob carries
+    /// twice its variance: the calibration's power-on was a draw too. Measured, it is that
+    /// variance over 2 as the power-ons left out show it, widened for their number: an upper
+    /// figure, not a 1σ to set beside a datasheet's.
     pub turn_on_std: f64,
     /// Where a training stream's power-ons were left out in turn ([`ResidualSource::PowerOn`]):
     /// how many. Their residuals enter the other terms each less its power-on's mean; another
@@ -656,11 +656,9 @@ pub fn split_by_output(c2: &[f64], y: &[f64], noise_std: f64) -> (f64, f64) {
     }
     let nf = c2.len() as f64;
     let mean_c2 = c2.iter().sum::<f64>() / nf;
-    let mean_y = y.iter().sum::<f64>() / nf;
-    let spread = (y.iter().map(|v| (v - mean_y).powi(2)).sum::<f64>() / nf).sqrt();
     let mean_u = y.iter().map(|v| v * v).sum::<f64>() / nf;
     // False for a NaN noise as well.
-    let moves = spread > terms::MOVES * noise_std;
+    let moves = spread(&y) > terms::MOVES * noise_std;
     if !moves || mean_c2 <= 0.0 || mean_u <= 0.0 {
         return (mean_c2, 0.0);
     }
