@@ -717,3 +717,73 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
             .contains("(datasheet: the bias at 1.000e0")
     );
 }
+
+#[test]
+fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
+    use super::streams::stream_series;
+    use crate::data::points::Points;
+    use crate::models::gp::{GpConfig, GpModel};
+    // A table over 0…20 °C at −10…10 °/s, and its blob.
+    let (mut t, mut v, mut w, mut g) = (vec![], vec![], vec![], vec![]);
+    for k in 0..11 {
+        for rate in [-10.0, -5.0, 0.0, 5.0, 10.0] {
+            t.push(2.0 * k as f64);
+            w.push(rate);
+            v.push(0.05 * rate + 1e-3 * 2.0 * k as f64);
+            g.push(k.to_string());
+        }
+    }
+    let points = Points::new(t, v, w, g, None, true, None);
+    let model = GpModel::fit(points.inputs(), &points.target(), &GpConfig::default()).unwrap();
+    let blob = export::to_blob(&model, points.features()).unwrap();
+    let fw = fog_data::replay::decode(&blob).unwrap();
+    let k = export::temperature_input(fw.features()).unwrap();
+    let [lo, hi] = fw.trained_range(k).unwrap();
+    // Two minutes at 1 Hz turning at 5 °/s, the gyro reading 5.2: the first at 10 °C, the second
+    // at 40 °C, a width beyond the range.
+    let mut stream = at_rest(120, 1.0);
+    for i in 0..120 {
+        stream.temp_c[i] = if i < 60 { 10.0 } else { 40.0 };
+        stream.rate_dps[i] = 5.0;
+        stream.voltage_v[i] = 0.26 + 1e-3 * stream.temp_c[i];
+    }
+    let hours: Vec<f64> = (0..120).map(|i| 1.0 + i as f64 / 3600.0).collect();
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let series = stream_series(ResidualSource::Stream, &blob, &stream, &hours, noise).unwrap();
+    let [inside, beyond] = series.residuals.as_slice() else {
+        panic!("{:?}", series.residuals);
+    };
+    // e(x)² is the firmware's: 0 inside, the temperature's distance in widths beyond.
+    assert_eq!(inside.excess2, 0.0);
+    let width = f64::from(hi - lo);
+    let e2 = ((40.0 - f64::from(hi)) / width).powi(2);
+    assert!(
+        e2 > 0.5 && (beyond.excess2 / e2 - 1.0).abs() < 1e-4,
+        "{} {e2}",
+        beyond.excess2
+    );
+    // Each minute's error is the firmware's mean less the reference, its hours their mean, its
+    // base variance at least the noise of a minute's mean.
+    let predicted = fog_data::replay::means(&*fw, &stream);
+    for (r, part) in [(inside, 0..60), (beyond, 60..120)] {
+        let n = part.len() as f64;
+        let error = part
+            .clone()
+            .map(|i| f64::from(predicted.rate_dps[i]) - 5.0)
+            .sum::<f64>()
+            / n;
+        assert!(
+            (r.error - error).abs() <= 1e-6 * error.abs(),
+            "{} {error}",
+            r.error
+        );
+        assert!((error - 0.2).abs() < 0.02, "{error}");
+        let h = part.map(|i| hours[i]).sum::<f64>() / n;
+        assert!((r.hours - h).abs() < 1e-12);
+        assert!(r.base_var >= noise.of_mean(n));
+        assert_eq!(r.output, 5.0);
+    }
+}
