@@ -1,4 +1,4 @@
-use super::streams::{hours_from, hours_on};
+use super::streams::{hours_from, hours_on, stream_series};
 use super::terms::{calibrate, effective};
 use super::*;
 use firmware_core::model::Conditions;
@@ -720,7 +720,6 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
 
 #[test]
 fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
-    use super::streams::stream_series;
     use crate::data::points::Points;
     use crate::models::gp::{GpConfig, GpModel};
     // A table over 0…20 °C at −10…10 °/s, and its blob.
@@ -739,36 +738,44 @@ fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
     let fw = fog_data::replay::decode(&blob).unwrap();
     let k = export::temperature_input(fw.features()).unwrap();
     let [lo, hi] = fw.trained_range(k).unwrap();
-    // Two minutes at 1 Hz turning at 5 °/s, the gyro reading 5.2: the first at 10 °C, the second
-    // at 40 °C, a width beyond the range.
-    let mut stream = at_rest(120, 1.0);
-    for i in 0..120 {
-        stream.temp_c[i] = if i < 60 { 10.0 } else { 40.0 };
+    // Two minutes at 2 Hz turning at 5 °/s, the gyro reading 5.2: the first at 10 °C, the second
+    // at 50 °C, one and a half widths beyond the range.
+    let mut stream = at_rest(240, 0.5);
+    for i in 0..240 {
+        stream.temp_c[i] = if i < 120 { 10.0 } else { 50.0 };
         stream.rate_dps[i] = 5.0;
         stream.voltage_v[i] = 0.26 + 1e-3 * stream.temp_c[i];
     }
-    let hours: Vec<f64> = (0..120).map(|i| 1.0 + i as f64 / 3600.0).collect();
-    let noise = SampleNoise {
-        var: 1e-6,
-        interval_s: 1.0,
+    let hours: Vec<f64> = (0..240).map(|i| 1.0 + i as f64 / 7200.0).collect();
+    let series = |var: f64| {
+        let noise = SampleNoise {
+            var,
+            interval_s: 0.5,
+        };
+        stream_series(ResidualSource::Stream, &blob, &stream, &hours, noise).unwrap()
     };
-    let series = stream_series(ResidualSource::Stream, &blob, &stream, &hours, noise).unwrap();
-    let [inside, beyond] = series.residuals.as_slice() else {
-        panic!("{:?}", series.residuals);
+    let (noisy, quiet) = (series(6.0), series(0.0));
+    let [inside, beyond] = noisy.residuals.as_slice() else {
+        panic!("{:?}", noisy.residuals);
     };
-    // e(x)² is the firmware's: 0 inside, the temperature's distance in widths beyond.
+    // e(x)² is the firmware's: 0 inside, the temperature's distance in widths, squared, beyond.
     assert_eq!(inside.excess2, 0.0);
     let width = f64::from(hi - lo);
-    let e2 = ((40.0 - f64::from(hi)) / width).powi(2);
+    let e2 = ((50.0 - f64::from(hi)) / width).powi(2);
     assert!(
-        e2 > 0.5 && (beyond.excess2 / e2 - 1.0).abs() < 1e-4,
+        e2 > 2.0 && (beyond.excess2 / e2 - 1.0).abs() < 1e-4,
         "{} {e2}",
         beyond.excess2
     );
-    // Each minute's error is the firmware's mean less the reference, its hours their mean, its
-    // base variance at least the noise of a minute's mean.
-    let predicted = fog_data::replay::means(&*fw, &stream);
-    for (r, part) in [(inside, 0..60), (beyond, 60..120)] {
+    // Each minute's error is the firmware's mean less the reference, its hours their mean, and
+    // its base variance the latent one and the noise of a mean over its 60 s: 6 × 0.5 / 60.
+    let predicted = fog_data::replay::means(&fw, &stream);
+    for ((r, q), part) in noisy
+        .residuals
+        .iter()
+        .zip(&quiet.residuals)
+        .zip([0..120, 120..240])
+    {
         let n = part.len() as f64;
         let error = part
             .clone()
@@ -780,10 +787,16 @@ fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
             "{} {error}",
             r.error
         );
+        // The fixture's own check: the gyro reads 0.2 °/s high.
         assert!((error - 0.2).abs() < 0.02, "{error}");
         let h = part.map(|i| hours[i]).sum::<f64>() / n;
         assert!((r.hours - h).abs() < 1e-12);
-        assert!(r.base_var >= noise.of_mean(n));
+        assert!(
+            (r.base_var - q.base_var - 0.05).abs() < 1e-9,
+            "{} {}",
+            r.base_var,
+            q.base_var
+        );
         assert_eq!(r.output, 5.0);
     }
 }
