@@ -1,4 +1,4 @@
-use super::streams::{hours_from, hours_on, stream_series};
+use super::streams::{hours_from, hours_on};
 use super::terms::{calibrate, effective};
 use super::*;
 use firmware_core::model::Conditions;
@@ -8,6 +8,7 @@ use rand_distr::{Distribution, Normal as Gauss};
 mod beyond;
 mod power_ons;
 mod scale;
+mod streams;
 mod walk;
 
 fn residuals(n: usize, seed: u64, sd: impl Fn(f64, f64) -> f64) -> Vec<Residual> {
@@ -716,87 +717,4 @@ fn a_stated_tempco_replaces_the_assumed_growth_and_raises_a_smaller_fitted_one()
             .describe("°/s")
             .contains("(datasheet: the bias at 1.000e0")
     );
-}
-
-#[test]
-fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
-    use crate::data::points::Points;
-    use crate::models::gp::{GpConfig, GpModel};
-    // A table over 0…20 °C at −10…10 °/s, and its blob.
-    let (mut t, mut v, mut w, mut g) = (vec![], vec![], vec![], vec![]);
-    for k in 0..11 {
-        for rate in [-10.0, -5.0, 0.0, 5.0, 10.0] {
-            t.push(2.0 * k as f64);
-            w.push(rate);
-            v.push(0.05 * rate + 1e-3 * 2.0 * k as f64);
-            g.push(k.to_string());
-        }
-    }
-    let points = Points::new(t, v, w, g, None, true, None);
-    let model = GpModel::fit(points.inputs(), &points.target(), &GpConfig::default()).unwrap();
-    let blob = export::to_blob(&model, points.features()).unwrap();
-    let fw = fog_data::replay::decode(&blob).unwrap();
-    let k = export::temperature_input(fw.features()).unwrap();
-    let [lo, hi] = fw.trained_range(k).unwrap();
-    // Two minutes at 2 Hz turning at 5 °/s, the gyro reading 5.2: the first at 10 °C, the second
-    // at 50 °C, one and a half widths beyond the range.
-    let mut stream = at_rest(240, 0.5);
-    for i in 0..240 {
-        stream.temp_c[i] = if i < 120 { 10.0 } else { 50.0 };
-        stream.rate_dps[i] = 5.0;
-        stream.voltage_v[i] = 0.26 + 1e-3 * stream.temp_c[i];
-    }
-    let hours: Vec<f64> = (0..240).map(|i| 1.0 + i as f64 / 7200.0).collect();
-    let series = |var: f64| {
-        let noise = SampleNoise {
-            var,
-            interval_s: 0.5,
-        };
-        stream_series(ResidualSource::Stream, &blob, &stream, &hours, noise).unwrap()
-    };
-    let (noisy, quiet) = (series(6.0), series(0.0));
-    let [inside, beyond] = noisy.residuals.as_slice() else {
-        panic!("{:?}", noisy.residuals);
-    };
-    // e(x)² is the firmware's: 0 inside, the temperature's distance in widths, squared, beyond.
-    assert_eq!(inside.excess2, 0.0);
-    let width = f64::from(hi - lo);
-    let e2 = ((50.0 - f64::from(hi)) / width).powi(2);
-    assert!(
-        e2 > 2.0 && (beyond.excess2 / e2 - 1.0).abs() < 1e-4,
-        "{} {e2}",
-        beyond.excess2
-    );
-    // Each minute's error is the firmware's mean less the reference, its hours their mean, and
-    // its base variance the latent one and the noise of a mean over its 60 s: 6 × 0.5 / 60.
-    let predicted = fog_data::replay::means(&fw, &stream);
-    for ((r, q), part) in noisy
-        .residuals
-        .iter()
-        .zip(&quiet.residuals)
-        .zip([0..120, 120..240])
-    {
-        let n = part.len() as f64;
-        let error = part
-            .clone()
-            .map(|i| f64::from(predicted.rate_dps[i]) - 5.0)
-            .sum::<f64>()
-            / n;
-        assert!(
-            (r.error - error).abs() <= 1e-6 * error.abs(),
-            "{} {error}",
-            r.error
-        );
-        // The fixture's own check: the gyro reads 0.2 °/s high.
-        assert!((error - 0.2).abs() < 0.02, "{error}");
-        let h = part.map(|i| hours[i]).sum::<f64>() / n;
-        assert!((r.hours - h).abs() < 1e-12);
-        assert!(
-            (r.base_var - q.base_var - 0.05).abs() < 1e-9,
-            "{} {}",
-            r.base_var,
-            q.base_var
-        );
-        assert_eq!(r.output, 5.0);
-    }
 }
