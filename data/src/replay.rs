@@ -613,9 +613,10 @@ pub struct Score {
     /// against its error, over the 60 s blocks at least half of whose samples are such (null
     /// where none is), as `sigma_60s_in_range` is counted.
     pub sigma_60s_beyond: Option<Coverage>,
-    /// Samples without a reference (compensated, not scored).
+    /// Samples without a reference (compensated, not scored), but for faults and handled
+    /// windows: `n`, `n_fault`, `n_handled` and `n_unscored` add up to the window's samples.
     pub n_unscored: usize,
-    /// Samples flagged extrapolating.
+    /// Samples scored that are flagged extrapolating.
     pub n_extrapolating: usize,
     /// Samples flagged degraded (a stateful input's history not trusted: time jumps, a stuck
     /// temperature sensor).
@@ -624,7 +625,8 @@ pub struct Score {
     pub n_fault: usize,
     /// Time problems in the stream.
     pub time_issues: Vec<TimeIssue>,
-    /// Samples in windows where the unit was handled (compensated, not scored).
+    /// Samples in windows where the unit was handled (compensated, not scored), but for faults;
+    /// each once, where windows overlap.
     pub n_handled: usize,
     /// Those windows.
     pub handled: Vec<Handled>,
@@ -696,21 +698,40 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         (block_errors(stream, &comp.rate_dps, &blocks), sigmas)
     };
     let (means, mean_sigmas) = block_means(&scored);
+    // A part: the blocks scored at least half of whose samples are of `status`, each the mean
+    // of those samples alone.
     let part = |status: Status| {
-        let samples: Vec<usize> = scored
-            .iter()
-            .copied()
-            .filter(|&i| comp.status[i] == status)
+        let blocks: Vec<Vec<usize>> = stream
+            .half_filled_blocks(&scored)
+            .into_iter()
+            .filter_map(|b| {
+                let of: Vec<usize> = b
+                    .iter()
+                    .copied()
+                    .filter(|&i| comp.status[i] == status)
+                    .collect();
+                (!of.is_empty() && 2 * of.len() >= b.len()).then_some(of)
+            })
             .collect();
-        let (means, sigmas) = block_means(&samples);
+        let sigmas: Vec<f64> = blocks
+            .iter()
+            .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
+            .collect();
+        let means = block_errors(stream, &comp.rate_dps, &blocks);
         let coverage = (!means.is_empty()).then(|| Coverage::of(&means, &sigmas));
         (means, coverage)
     };
     let (means_in_range, sigma_60s_in_range) = part(Status::Valid);
     let (_, sigma_60s_beyond) = part(Status::Extrapolating);
-    // The counts are the window's: the history before it is replayed, not scored.
+    // The counts are the window's: the history before it is replayed, not scored. Each sample
+    // left out is counted once: a fault, else one in a handled window, else one without a
+    // reference.
     let inside = stream.inside();
     let flagged = |status: Status| inside.clone().filter(|&i| comp.status[i] == status).count();
+    let in_window = stream.handled_rows();
+    let fault = |i: usize| comp.status[i] == Status::Fault;
+    // A handled row has no reference left, whatever window it was found in.
+    let handled = |i: usize| in_window[i] && !stream.rate_dps[i].is_finite() && !fault(i);
     Score {
         n,
         rmse_dps: rms(&errors),
@@ -726,9 +747,12 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
         sigma_60s_beyond,
         n_unscored: inside
             .clone()
-            .filter(|&i| !stream.rate_dps[i].is_finite())
+            .filter(|&i| !stream.rate_dps[i].is_finite() && !fault(i) && !handled(i))
             .count(),
-        n_extrapolating: flagged(Status::Extrapolating),
+        n_extrapolating: scored
+            .iter()
+            .filter(|&&i| comp.status[i] == Status::Extrapolating)
+            .count(),
         n_degraded: flagged(Status::Degraded),
         n_fault: flagged(Status::Fault),
         time_issues: stream
@@ -737,7 +761,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             .filter(|t| stream.lines[inside.clone()].contains(&t.line()))
             .cloned()
             .collect(),
-        n_handled: stream.handled.iter().map(|h| h.n).sum(),
+        n_handled: inside.clone().filter(|&i| handled(i)).count(),
         handled: stream.handled.clone(),
     }
 }

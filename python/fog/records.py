@@ -1637,16 +1637,16 @@ class Score(Record):
     """Samples flagged degraded (a stateful input's history not trusted: time jumps, a stuck temperature sensor)."""
 
     n_extrapolating: int
-    """Samples flagged extrapolating."""
+    """Samples scored that are flagged extrapolating."""
 
     n_fault: int
     """Samples flagged fault."""
 
     n_handled: int
-    """Samples in windows where the unit was handled (compensated, not scored)."""
+    """Samples in windows where the unit was handled (compensated, not scored), but for faults; each once, where windows overlap."""
 
     n_unscored: int
-    """Samples without a reference (compensated, not scored)."""
+    """Samples without a reference (compensated, not scored), but for faults and handled windows: `n`, `n_fault`, `n_handled` and `n_unscored` add up to the window's samples."""
 
     rmse_60s_dps: float
     """RMSE of 60 s block means, °/s."""

@@ -361,3 +361,44 @@ fn a_window_before_the_calibrations_data_counts_its_hours_back_from_its_end() {
     assert!((1200..2400).all(|i| own[i].to_bits() == service[i].to_bits()));
     assert!(own[1199] + 5e-4 < service[1199] && own[2400] + 5e-4 < service[2400]);
 }
+
+#[test]
+fn each_sample_left_out_is_counted_once_and_a_block_goes_where_most_of_it_lies() {
+    // Two minutes at 1 Hz, at rest. The first: one row without a reference, a window handled
+    // (10…20 s) holding a fault, and a fault with a reference. The second: half its rows
+    // without a reference, 20 of the other 30 beyond the trained range.
+    let mut rate = vec![0.0; 120];
+    rate[5] = f64::NAN;
+    for r in &mut rate[60..90] {
+        *r = f64::NAN;
+    }
+    let mut s = stream(&rate, 1.0);
+    s.exclude(&["10:20".parse().unwrap()]).unwrap();
+    let mut status = vec![Status::Valid; 120];
+    status[15] = Status::Fault;
+    status[30] = Status::Fault;
+    for st in &mut status[90..110] {
+        *st = Status::Extrapolating;
+    }
+    let comp = Compensated {
+        rate_dps: vec![0.01; 120],
+        bias_var: vec![1e-4; 120],
+        noise_var: vec![1e-4; 120],
+        status,
+        error: ErrorModel {
+            sample_interval_s: 1.0,
+            ..ErrorModel::noise_only(1e-4)
+        },
+    };
+    let sc = score(&s, &comp);
+    assert_eq!(
+        (sc.n, sc.n_fault, sc.n_handled, sc.n_unscored),
+        (78, 2, 9, 31)
+    );
+    assert_eq!(sc.n + sc.n_fault + sc.n_handled + sc.n_unscored, 120);
+    assert_eq!(sc.n_extrapolating, 20);
+    // The first block lies inside the range; the second, 30 rows scored, mostly beyond it.
+    assert_eq!(sc.n_blocks, 2);
+    assert_eq!(sc.sigma_60s_in_range.map(|c| c.n), Some(1));
+    assert_eq!(sc.sigma_60s_beyond.map(|c| c.n), Some(1));
+}
