@@ -1,5 +1,5 @@
 //! The 60 s blocks every score and diagnosis averages over, cut one way: counted from a
-//! stream's first sample, in time order. A block mean is where a gyro's white noise has fallen
+//! stream's first sample, and again from wherever its clock runs back, in file order. A block mean is where a gyro's white noise has fallen
 //! below its drift, so the drift can be scored and seen. A stream's own are
 //! `Stream::half_filled_blocks`.
 
@@ -8,9 +8,10 @@
 pub const BLOCK_S: f64 = 60.0;
 
 /// The samples `idx` grouped into [`BLOCK_S`] blocks counted from the first sample of `time_s`,
-/// in time order (every block, however few samples it holds). A clock that runs back (a log of
+/// in file order (every block, however few samples it holds). A clock that runs back (a log of
 /// power-ons each timed from its own start) starts the count again from there: a block holds
-/// one stretch of the clock, so its mean is never of two power-ons at the same minute.
+/// one stretch of the clock, so its mean is never of two power-ons at the same minute. A gap
+/// does not start it again: a block can span a power-off shorter than itself.
 pub fn group(time_s: &[f64], idx: &[usize]) -> Vec<Vec<usize>> {
     // Each sample's stretch, and the stretch's first time.
     let mut stretch = Vec::with_capacity(time_s.len());

@@ -616,7 +616,8 @@ pub struct Score {
     /// Samples without a reference (compensated, not scored), but for faults and handled
     /// windows: `n`, `n_fault`, `n_handled` and `n_unscored` add up to the window's samples.
     pub n_unscored: usize,
-    /// Samples scored that are flagged extrapolating.
+    /// Samples of the window flagged extrapolating, scored or not (as `n_degraded` and
+    /// `n_fault` count the window's).
     pub n_extrapolating: usize,
     /// Samples flagged degraded (a stateful input's history not trusted: time jumps, a stuck
     /// temperature sensor).
@@ -749,10 +750,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
             .clone()
             .filter(|&i| !stream.rate_dps[i].is_finite() && !fault(i) && !handled(i))
             .count(),
-        n_extrapolating: scored
-            .iter()
-            .filter(|&&i| comp.status[i] == Status::Extrapolating)
-            .count(),
+        n_extrapolating: flagged(Status::Extrapolating),
         n_degraded: flagged(Status::Degraded),
         n_fault: flagged(Status::Fault),
         time_issues: stream

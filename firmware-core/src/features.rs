@@ -49,7 +49,7 @@
 //!
 //! [`compute`] returns the health of its inputs as a [`Status`]; the model takes the worse of it
 //! and its own (`Extrapolating` beyond the trained range). Each fault has one behaviour, and the
-//! state always recovers (tests below, one per scenario):
+//! state always recovers (tests in `features/tests.rs`, one per scenario):
 //!
 //! | what the sample shows | status | state |
 //! |---|---|---|
@@ -58,7 +58,7 @@
 //! | time jumping ahead by more than max(60 s, 20 steps) (lost samples, a stalled logger) | `Degraded` | filters advance exactly over the gap, for a temperature moving in a straight line across it |
 //! | temperature bit-identical for 600 s (a stuck sensor; real ones show their noise) | `Degraded` while stuck | filters follow the stuck reading |
 //! | a changed sample rate | `Valid` | filters advance by the actual Δt: exact |
-//! | after [`FeatureState::power_on`], a time no later than the last one (the clock passed stopped while the gyro was off: a time since power-on, a counter that restarted) | `Degraded` until the filters settle | starts again from this sample, as after a reset (the time off is unknown) |
+//! | after [`FeatureState::power_on`], a time no later than the last one (the clock passed stopped while the gyro was off: a time since power-on, a counter that restarted) | `Degraded` until the filters settle | starts again from this sample, as after a reset (the time off is unknown), the calibration run still marked ([`FeatureState::calibration_run`]) |
 //!
 //! After a time anomaly (and a power-on with the state kept, after more than such a jump), and
 //! after a stuck sensor frees itself, outputs stay `Degraded` for three time constants of the
@@ -118,8 +118,9 @@ pub struct FeatureState {
     times: Option<(f64, f64)>,
     /// The last regular step between samples, s (0 until there is one).
     step_s: f64,
-    /// The last temperature reading's bits, and the time since power-on from which it has held
-    /// (negative: from before the power-on, where the state was kept through it).
+    /// The last temperature reading's bits, and the time since power-on from which it has held:
+    /// negative where it held before a power-on with the state kept, moved back by the time it
+    /// was read then (the time off is not counted).
     held: (u32, f64),
     /// Outputs are degraded until this time since power-on, s.
     settle_until_s: f64,
@@ -150,8 +151,9 @@ impl FeatureState {
     /// The samples to come are of the power-on the model was calibrated on (its held-out part,
     /// on the rig): its turn-on bias and scale are in the model, so the model error leaves out the
     /// terms for another power-on's ([`crate::blob::ErrorModel::turn_on_var`],
-    /// [`crate::blob::ErrorModel::scale_var`]) until the next power-on or reset. In service every
-    /// power-on is another, and nothing calls this.
+    /// [`crate::blob::ErrorModel::scale_var`]) until the next power-on or reset (a power-on whose
+    /// clock did not run, which starts the state again, keeps it marked: it was marked after
+    /// that power-on). In service every power-on is another, and nothing calls this.
     pub fn calibration_run(&mut self) {
         self.calibration_run = true;
     }

@@ -1637,7 +1637,7 @@ class Score(Record):
     """Samples flagged degraded (a stateful input's history not trusted: time jumps, a stuck temperature sensor)."""
 
     n_extrapolating: int
-    """Samples scored that are flagged extrapolating."""
+    """Samples of the window flagged extrapolating, scored or not (as `n_degraded` and `n_fault` count the window's)."""
 
     n_fault: int
     """Samples flagged fault."""
