@@ -688,23 +688,22 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
     let errors: Vec<f64> = scored.iter().map(|&i| err(i)).collect();
     let sigmas: Vec<f64> = scored.iter().map(|&i| comp.std_dps(i)).collect();
     let sigma_samples = Coverage::of(&errors, &sigmas);
-    // Each 60 s block's mean error and the σ the firmware states for that mean, over the blocks
-    // at least half filled with `samples`.
-    let block_means = |samples: &[usize]| {
-        let blocks = stream.half_filled_blocks(samples);
+    // The 60 s blocks at least half filled with scored samples, and each block's mean error and
+    // the σ the firmware states for that mean.
+    let blocks = stream.half_filled_blocks(&scored);
+    let block_means = |blocks: &[Vec<usize>]| {
         let sigmas: Vec<f64> = blocks
             .iter()
             .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
             .collect();
-        (block_errors(stream, &comp.rate_dps, &blocks), sigmas)
+        (block_errors(stream, &comp.rate_dps, blocks), sigmas)
     };
-    let (means, mean_sigmas) = block_means(&scored);
-    // A part: the blocks scored at least half of whose samples are of `status`, each the mean
-    // of those samples alone.
+    let (means, mean_sigmas) = block_means(&blocks);
+    // A part: the blocks at least half of whose samples are of `status`, each the mean of those
+    // samples alone.
     let part = |status: Status| {
-        let blocks: Vec<Vec<usize>> = stream
-            .half_filled_blocks(&scored)
-            .into_iter()
+        let of_status: Vec<Vec<usize>> = blocks
+            .iter()
             .filter_map(|b| {
                 let of: Vec<usize> = b
                     .iter()
@@ -714,11 +713,7 @@ pub fn score(stream: &Stream, comp: &Compensated) -> Score {
                 (!of.is_empty() && 2 * of.len() >= b.len()).then_some(of)
             })
             .collect();
-        let sigmas: Vec<f64> = blocks
-            .iter()
-            .map(|b| comp.mean_std_dps(b, b.len() as f64 * stream.step_s))
-            .collect();
-        let means = block_errors(stream, &comp.rate_dps, &blocks);
+        let (means, sigmas) = block_means(&of_status);
         let coverage = (!means.is_empty()).then(|| Coverage::of(&means, &sigmas));
         (means, coverage)
     };
