@@ -22,6 +22,7 @@
 //! # scale_repeatability = 300       # the scale factor's, ppm
 //! # tempco = 0.005                  # the bias's change per °C, beyond the trained range
 //! # hysteresis = 0.02               # the gap between heating and cooling at one temperature
+//! # sensor_lag = 90                 # s the temperature sensor lags the sensing element by
 //! ```
 //!
 //! A channel's datasheet ([`Datasheet`]) is what the σ of its blob takes where one power-on's
@@ -243,6 +244,7 @@ struct Entry {
     scale_repeatability: Option<f64>,
     tempco: Option<f64>,
     hysteresis: Option<f64>,
+    sensor_lag: Option<f64>,
 }
 
 /// What a raw output measures.
@@ -355,6 +357,7 @@ impl Channels {
                 scale_repeatability: e.scale_repeatability,
                 tempco: e.tempco,
                 hysteresis: e.hysteresis,
+                sensor_lag_s: e.sensor_lag,
             };
             if let Err(e) = datasheet.check() {
                 return Err(invalid(format!("channel '{name}': {e}")));

@@ -29,6 +29,15 @@ pub fn extent(v: impl IntoIterator<Item = f64>) -> (f64, f64) {
         })
 }
 
+/// The value at quantile `q` ∈ [0, 1] of `sorted` (ascending), the nearest rank: no
+/// interpolation between two values. NaN for no values.
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+    match sorted.len() {
+        0 => f64::NAN,
+        n => sorted[((q.clamp(0.0, 1.0) * (n - 1) as f64).round() as usize).min(n - 1)],
+    }
+}
+
 /// Median; NaN for no values.
 pub fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
@@ -116,5 +125,11 @@ mod tests {
         let l = Line::fit([(0.0, 1.0), (1.0, 3.0), (2.0, 5.0)]).unwrap();
         assert_eq!((l.intercept, l.slope, l.at(3.0)), (1.0, 2.0, 7.0));
         assert_eq!(Line::fit([(1.0, 1.0), (1.0, 2.0)]), None);
+        let sorted = [1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(
+            [0.0, 0.25, 0.6, 1.0, 2.0].map(|q| quantile(&sorted, q)),
+            [1.0, 2.0, 3.0, 5.0, 5.0]
+        );
+        assert!(quantile(&[], 0.5).is_nan());
     }
 }

@@ -1,11 +1,11 @@
 //! The model blob: the one definition of what the trainer exports and the firmware loads.
 //!
-//! # Layout (format version 8)
+//! # Layout (format version 9)
 //!
 //! ```text
 //! offset size  field
 //!  0      4    magic "FOGB"
-//!  4      2    format version, u16 little-endian (8)
+//!  4      2    format version, u16 little-endian (9)
 //!  6      2    m: number of centres, u16 LE
 //!  8      1    d: number of inputs
 //!  9      1    p: number of prior-mean monomials
@@ -19,8 +19,8 @@
 //! refused by a typed error before anything is decoded. The CRC covers the header after the magic,
 //! so a flipped bit in the sequence number or the sizes is caught like one in the payload; the
 //! magic is outside it because a calibration slot writes it last, as its commit
-//! ([`crate::slots`]). Version 7, 6 and 5 blobs (the same header, an error model of eleven, ten and
-//! six numbers; version 5 without limits or rule beyond the range), version 4
+//! ([`crate::slots`]). Version 8, 7, 6 and 5 blobs (the same header, an error model of twelve,
+//! eleven, ten and six numbers; version 5 without limits or rule beyond the range), version 4
 //! blobs (no error model) and version 3 blobs (18-byte header without the sequence, CRC over the
 //! payload alone, read as sequence 0) are still read: the error model's terms they lack are 0 (4
 //! and 3 get [`ErrorModel::noise_only`] with their noise variance), their [`Limits`] the
@@ -28,7 +28,7 @@
 //! elements): the `d` input features (enum index, then the f32 parameter of the stateful ones),
 //! the `p·d` prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32;
 //! then what the mean does beyond the trained range ([`Beyond`], one byte), the [`ErrorModel`],
-//! twelve little-endian f32 in its field order, and the [`Limits`], three.
+//! eighteen little-endian f32 in its field order, and the [`Limits`], three.
 //! The flat array:
 //!
 //! ```text
@@ -65,8 +65,10 @@
 //! turn-on and heating/cooling-leg terms, and the sensor's [`Limits`] (what a reading that cannot
 //! be true is: the only `Fault` a reading can be). Version 7 adds the error model's scale term:
 //! another power-on's scale factor, an error that grows with the rate. Version 8 adds the scale part
-//! of the error beyond the trained range, which grows with the rate too. A change of this layout bumps
-//! [`FORMAT_VERSION`]; a golden-bytes test pins the encoding.
+//! of the error beyond the trained range, which grows with the rate too. Version 9 adds the heating
+//! term: the error of a heating rate outside the band the calibration held, where a temperature
+//! sensor lags the sensing element. A change of this layout bumps [`FORMAT_VERSION`]; a
+//! golden-bytes test pins the encoding.
 
 use core::fmt;
 use core::marker::PhantomData;
@@ -84,10 +86,12 @@ pub use service::{Beyond, ErrorModel, Limits};
 
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"FOGB";
-/// The format version this crate writes (it also reads [`V7`], [`V6`], [`V5`], [`V4`] and
-/// [`V3`]).
-pub const FORMAT_VERSION: u16 = 8;
-/// The previous format version, still read: an error model of eleven numbers, no scale part of
+/// The format version this crate writes (it also reads [`V8`], [`V7`], [`V6`], [`V5`], [`V4`]
+/// and [`V3`]).
+pub const FORMAT_VERSION: u16 = 9;
+/// The previous format version, still read: an error model of twelve numbers, no heating term.
+pub const V8: u16 = 8;
+/// The format version before it, still read: an error model of eleven numbers, no scale part of
 /// the extrapolation.
 pub const V7: u16 = 7;
 /// The format version before it, still read: an error model of ten numbers, no scale term.
@@ -301,7 +305,7 @@ where
     let fields = serde::Deserializer::deserialize_tuple(
         &mut decoder,
         match version {
-            FORMAT_VERSION | V7 | V6 => 6,
+            FORMAT_VERSION | V8 | V7 | V6 => 6,
             V5 => 4,
             _ => 3,
         },
@@ -322,7 +326,7 @@ where
     }
 }
 
-/// The fields after the numbers in a blob of format 6 or 7: the rule beyond the range, an error
+/// The fields after the numbers in a blob of format 6, 7 or 8: the rule beyond the range, an error
 /// model of `N` numbers (`from` fills in the terms that format lacks) and the limits.
 fn older_tail<'de, A: SeqAccess<'de>, const N: usize>(
     seq: &mut A,
@@ -370,6 +374,7 @@ where
                 Some(seq.next_element()?.ok_or_else(|| missing(4))?),
                 seq.next_element()?.ok_or_else(|| missing(5))?,
             ),
+            V8 => older_tail(&mut seq, ErrorModel::from_v8)?,
             V7 => older_tail(&mut seq, ErrorModel::from_v7)?,
             V6 => older_tail(&mut seq, ErrorModel::from_v6)?,
             V5 => {
@@ -591,8 +596,10 @@ pub fn declared_len(bytes: &[u8]) -> Option<usize> {
     let magic = le::<4>(bytes, 0).ok()?;
     let version = u16::from_le_bytes(le(bytes, 4).ok()?);
     let (len_at, header_len) = match (magic, version) {
-        (MAGIC, FORMAT_VERSION | V7 | V6 | V5 | V4)
-        | (unit::MAGIC, unit::VERSION | unit::V3 | unit::V2 | unit::V1) => (LEN_AT, HEADER_LEN),
+        (MAGIC, FORMAT_VERSION | V8 | V7 | V6 | V5 | V4)
+        | (unit::MAGIC, unit::VERSION | unit::V4 | unit::V3 | unit::V2 | unit::V1) => {
+            (LEN_AT, HEADER_LEN)
+        }
         (MAGIC, V3) => (10, V3_HEADER_LEN),
         _ => return None,
     };
@@ -630,8 +637,8 @@ pub fn read_sealed(bytes: &[u8]) -> Result<Sealed<'_>, BlobError> {
     let version = u16::from_le_bytes(le(bytes, 4)?);
     // (length, CRC, payload) offsets of the two layouts; V3 has no sequence.
     let (len_at, crc_at, header_len, sequence) = match (magic, version) {
-        (MAGIC, FORMAT_VERSION | V7 | V6 | V5 | V4)
-        | (unit::MAGIC, unit::VERSION | unit::V3 | unit::V2 | unit::V1) => (
+        (MAGIC, FORMAT_VERSION | V8 | V7 | V6 | V5 | V4)
+        | (unit::MAGIC, unit::VERSION | unit::V4 | unit::V3 | unit::V2 | unit::V1) => (
             LEN_AT,
             CRC_AT,
             HEADER_LEN,
@@ -670,7 +677,7 @@ pub fn read_sealed(bytes: &[u8]) -> Result<Sealed<'_>, BlobError> {
 
 /// A checked header: dimensions, sequence and the payload bytes it covers.
 pub struct Header<'a> {
-    /// Format version ([`FORMAT_VERSION`], [`V7`], [`V6`], [`V5`], [`V4`] or [`V3`]).
+    /// Format version ([`FORMAT_VERSION`], [`V8`], [`V7`], [`V6`], [`V5`], [`V4`] or [`V3`]).
     pub version: u16,
     /// Model sizes.
     pub dims: Dims,
@@ -688,7 +695,8 @@ fn le<const N: usize>(bytes: &[u8], at: usize) -> Result<[u8; N], BlobError> {
 }
 
 /// Checks magic, version, payload length and CRC of a model blob; returns the dimensions, the
-/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V7`], [`V6`], [`V5`], [`V4`] and [`V3`]; a
+/// sequence and the payload. Reads [`FORMAT_VERSION`], [`V8`], [`V7`], [`V6`], [`V5`], [`V4`] and
+/// [`V3`]; a
 /// unit blob is not a model blob ([`BlobError::BadMagic`]: [`unit::read_header`] reads it).
 pub fn read_header(bytes: &[u8]) -> Result<Header<'_>, BlobError> {
     let sealed = read_sealed(bytes)?;

@@ -20,6 +20,10 @@
 //!
 //! Filters start at the first reading (rate 0, coil at the sensor, play centred). Temperature and
 //! gyro output pass through unchanged.
+//! Whatever the model's inputs, the state also tracks what the model error reads
+//! ([`crate::blob::ErrorModel`]): the time since power-on, the heating/cooling state
+//! ([`FeatureState::leg`], a play of [`LEG_WIDTH_C`]) and the heating rate
+//! ([`FeatureState::heating_rate`], a `TemperatureRate` of [`HEATING_TAU_S`]).
 //!
 //! # Power cycles
 //!
@@ -129,6 +133,8 @@ pub struct FeatureState {
     filters: [f32; MAX_FEATURES],
     /// The heating/cooling play's position, °C ([`FeatureState::leg`]).
     play: f32,
+    /// The temperature low-passed over [`HEATING_TAU_S`], °C ([`FeatureState::heating_rate`]).
+    heating: f32,
     /// The samples are of the calibration's own power-on ([`FeatureState::calibration_run`]).
     calibration_run: bool,
 }
@@ -181,6 +187,26 @@ impl FeatureState {
         }
     }
 
+    /// The heating rate of the last sample computed, °C/min: the derivative of the temperature
+    /// reading through a first-order low-pass of [`HEATING_TAU_S`], as the `TemperatureRate`
+    /// input (starting again from rest at a power-on; 0 before the first sample). What the model
+    /// error's heating term reads ([`crate::blob::ErrorModel`]), whatever the model's inputs.
+    pub fn heating_rate(&self) -> f32 {
+        match self.times {
+            Some(_) => (f32::from_bits(self.held.0) - self.heating) / HEATING_TAU_S * 60.0,
+            None => 0.0,
+        }
+    }
+
+    /// The temperature reading and heating rate of the last sample computed (°C, °C/min), once
+    /// the rate has settled after the power-on ([`HEATING_SETTLE_S`]; `None` before): what the
+    /// model error's heating term reads. A rate that starts from rest reads a warm-up's first
+    /// minutes as far slower than it is, a rate no lag turns into an error.
+    pub fn heating(&self) -> Option<(f32, f32)> {
+        (self.times.is_some() && self.time_on_s() >= HEATING_SETTLE_S)
+            .then(|| (f32::from_bits(self.held.0), self.heating_rate()))
+    }
+
     fn leg_of(&self, t: f32) -> f32 {
         ((t - self.play) / LEG_WIDTH_C).clamp(-1.0, 1.0)
     }
@@ -190,6 +216,14 @@ impl FeatureState {
 /// temperature sensor's noise and quantization (0.0625 °C steps on the common digital ones), and
 /// narrow against a thermal cycle's swing, so a leg is known within a degree of its turn.
 pub const LEG_WIDTH_C: f32 = 1.0;
+
+/// Time constant of the heating rate the model error reads, s ([`FeatureState::heating_rate`]):
+/// long against a temperature sensor's noise and quantization (0.0625 °C steps read over 2 min
+/// are 0.03 °C/min), short against a warm-up's or a thermal ramp's change of rate.
+pub const HEATING_TAU_S: f32 = 120.0;
+/// Time since power-on from which the heating rate is read into the model error, s: three of its
+/// time constants, after which a rate that started from rest is within 5 % of a ramp's.
+pub const HEATING_SETTLE_S: f64 = 3.0 * HEATING_TAU_S as f64;
 
 /// First-order filter gain for a step of `dt_s` with time constant `tau_s`.
 fn gain(dt_s: f32, tau_s: f32) -> f32 {
@@ -281,6 +315,12 @@ pub fn compute(
     } else {
         state.play.clamp(t - LEG_WIDTH_C, t + LEG_WIDTH_C)
     };
+    if first || warm {
+        // At a power-on the rate starts again from rest, as the `TemperatureRate` input's.
+        state.heating = t;
+    } else {
+        advance(&mut state.heating, HEATING_TAU_S);
+    }
     state.times = Some((on, sample.time_s));
     let settle = settle_s(features);
     if first || t.to_bits() != state.held.0 {

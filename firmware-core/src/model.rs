@@ -235,6 +235,7 @@ pub(crate) fn read_numbers<const D: usize, const E: usize>(
     let error_numbers = match version {
         blob::V6 => ErrorModel::V6_NUMBERS,
         blob::V7 => ErrorModel::V7_NUMBERS,
+        blob::V8 => ErrorModel::V8_NUMBERS,
         _ => ErrorModel::NUMBERS,
     };
     read.limits

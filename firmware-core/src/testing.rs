@@ -68,6 +68,12 @@ impl Reference {
                 leg_max: 1.0,
                 scale_var: 4e-6,
                 extrapolation_scale_var: 5e-5,
+                heating_var: 2e-4,
+                heating_scale_var: 1e-4,
+                heating_rate_at_0c: 0.0,
+                heating_rate_per_c: 0.0,
+                heating_rate_min: -0.5,
+                heating_rate_max: 0.5,
             },
         }
     }
@@ -248,8 +254,8 @@ pub fn as_v4(blob: &[u8]) -> Vec<u8> {
     v4
 }
 
-/// The same model as a blob of `version`, 6 or 7: the error model without its last numbers (the
-/// extrapolation's scale part; at 6 the scale term too).
+/// The same model as a blob of `version`, 6, 7 or 8: the error model without its last numbers (the
+/// heating term; at 7 the extrapolation's scale part too; at 6 the scale term too).
 fn without_last(blob: &[u8], version: u16, numbers: usize) -> Vec<u8> {
     let dropped = 4 * (ErrorModel::NUMBERS - numbers);
     let at = blob.len() - 4 * blob::Limits::NUMBERS - dropped;
@@ -260,14 +266,20 @@ fn without_last(blob: &[u8], version: u16, numbers: usize) -> Vec<u8> {
     old
 }
 
-/// The same model as a version-7 blob: the error model without its last number, the
-/// extrapolation's scale part.
+/// The same model as a version-8 blob: the error model without its last five numbers, the
+/// heating term and its band.
+pub fn as_v8(blob: &[u8]) -> Vec<u8> {
+    without_last(blob, blob::V8, ErrorModel::V8_NUMBERS)
+}
+
+/// The same model as a version-7 blob: the error model without its last six numbers, the
+/// heating term and the extrapolation's scale part.
 pub fn as_v7(blob: &[u8]) -> Vec<u8> {
     without_last(blob, blob::V7, ErrorModel::V7_NUMBERS)
 }
 
-/// The same model as a version-6 blob: the error model without its last two numbers, the scale
-/// term and the extrapolation's scale part.
+/// The same model as a version-6 blob: the error model without its last seven numbers, the scale
+/// term, the extrapolation's scale part and the heating term.
 pub fn as_v6(blob: &[u8]) -> Vec<u8> {
     without_last(blob, blob::V6, ErrorModel::V6_NUMBERS)
 }

@@ -398,6 +398,9 @@ class Calibration(Record):
     floor_std: float
     """√c₀: model error everywhere, output units: in a run where the training data hold one (a stream), else on the table's points."""
 
+    heating: Heating
+    """The heating rates the training held and the model error outside them (module [`heating`])."""
+
     hysteresis: float | None
     """The gap between the heating and the cooling leg at one temperature, output units, as stated by `--hysteresis` or the channel's `hysteresis` in a channels file (a datasheet's thermal hysteresis; null: not stated): the error of a full swing onto a leg the training did not hold ([`Calibration::set_hysteresis`])."""
 
@@ -1361,6 +1364,44 @@ class Handled(Record):
     """Start and end, s from the first sample."""
 
 
+class Heating(Record):
+    """The heating rates the training held and the model error outside them (`calibration.heating` in the JSON)."""
+
+    band: HeatingBand | None
+    """The band of heating rates the training stream held (`None`: not known, as for a rate table's soaks: no term)."""
+
+    scale_ppm_per_c_per_min: float
+    """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag."""
+
+    scale_slope_ppm_per_c: float
+    """Its part in proportion to the output, ppm of the output per °C (0: none shows, as at rest)."""
+
+    sensor_lag_s: float | None
+    """How far the temperature sensor lags the sensing element, s: as stated (`--sensor-lag`, a channel's `sensor_lag`), else, where the band is known, [`ASSUMED_LAG_S`] (`heating` in `assumed`); null: neither, no term."""
+
+    slope_per_c: float
+    """The model's change per °C of the temperature reading over the training samples with a reference, its part alike at every output, output units per °C (RMS; 0: not known)."""
+
+    std_per_c_per_min: float
+    """The model error per °C/min of heating rate beyond the band, output units: `slope_per_c` times the lag (0: no term)."""
+
+
+class HeatingBand(Record):
+    """The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a temperature T."""
+
+    max: float
+    """The band's upper edge about the line, °C/min."""
+
+    min: float
+    """The band's lower edge about the line, °C/min."""
+
+    rate_at_0c: float
+    """The line's rate at 0 °C, °C/min."""
+
+    rate_per_c: float
+    """The line's change per °C, °C/min per °C."""
+
+
 class HeldOutFigures(Record):
     """The held-out part of a report, as data."""
 
@@ -2025,7 +2066,7 @@ ReportRecord._nested = {"channels": ChannelFigures}
 AllanRecord._nested = {"channels": ChannelEntryTrainerAllan}
 AgreementReport._nested = {"grid_beyond": Agreement, "grid_inside": Agreement, "training": Agreement}
 BasisChoice._nested = {"scores": BasisScore}
-Calibration._nested = {"before": Coverage, "coverage": Coverage, "sources": SourceSummary}
+Calibration._nested = {"before": Coverage, "coverage": Coverage, "heating": Heating, "sources": SourceSummary}
 Case._nested = {"sigma_60s": Coverage}
 ChannelEntry._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "budget": Report, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extension": (Extension, ExtensionFit), "firmware_agreement": AgreementReport, "forward_check": ForwardCheck, "handled": Handled, "hyperparameters": Hyperparameters, "pool_check": PoolCheck, "prior_mean": PolyPrior, "sparse": SparseFit, "starts": StartReport, "table_diagnosis": TableDiagnosis}
 ChannelEntryTrainerDiagnose._nested = {"diagnosis": Diagnosis}
@@ -2042,6 +2083,7 @@ ExtensionFit._nested = {"extension": Extension, "fits": CauseFit, "point_offsets
 Fig2._nested = {"per_rate": RateLineFit, "worst": RateLineFit}
 FittedTerm._nested = {"candidate": Candidate}
 ForwardCheck._nested = {"legs": LegCheck, "sight": Sight, "temperature": TemperatureCheck}
+Heating._nested = {"band": HeatingBand}
 HeldOutFigures._nested = {"investigation": Investigation}
 Investigation._nested = {"basis_choice": BasisChoice, "beyond": BeyondChoice, "calibration": Calibration, "centres_choice": Choice, "diagnosis": Diagnosis, "extended_score": Score, "extension": ExtensionFit, "forward_check": ForwardCheck, "static_calibration": Calibration, "static_score": Score, "train_handled": Handled}
 LegCheck._nested = {"sight": Sight}
@@ -2122,6 +2164,8 @@ __all__ = [
     "ForwardCheck",
     "GroupRmse",
     "Handled",
+    "Heating",
+    "HeatingBand",
     "HeldOutFigures",
     "Hyperparameters",
     "Investigation",

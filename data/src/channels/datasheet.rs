@@ -24,12 +24,16 @@ impl InvalidFigure {
 /// from one power-on to the next is no sensor's.
 const MAX_PPM: f64 = 1e6;
 
+/// The longest sensor lag a σ states, s: a sensor a day behind its element reads no temperature of
+/// it at all.
+const MAX_LAG_S: f64 = 86_400.0;
+
 /// What a datasheet states that one power-on's calibration data cannot show (docs/uncertainty.md,
 /// "What the data cannot show"), as `fit` and `investigate` take it, from their flags or a
 /// channels file's channel, in the channel's quantity's unit (°/s, m/s²). Each `None` where it
 /// is not stated: then measured where the data show it, else assumed (another power-on's bias,
 /// the growth beyond the range, the leg not trained; the scale factor where the residuals err in
-/// proportion to the output, else left out and said).
+/// proportion to the output, else left out and said; a sensor lag of 30 s).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Datasheet {
     /// The bias's run-to-run repeatability, 1σ (`--repeatability`).
@@ -40,6 +44,9 @@ pub struct Datasheet {
     pub tempco: Option<f64>,
     /// The gap between the heating and the cooling leg at one temperature (`--hysteresis`).
     pub hysteresis: Option<f64>,
+    /// How far the temperature sensor lags the sensing element, s (`--sensor-lag`): the time
+    /// constant of the heat's path from one to the other.
+    pub sensor_lag_s: Option<f64>,
 }
 
 impl Datasheet {
@@ -58,11 +65,12 @@ impl Datasheet {
             scale_repeatability: self.scale_repeatability.or(other.scale_repeatability),
             tempco: self.tempco.or(other.tempco),
             hysteresis: self.hysteresis.or(other.hysteresis),
+            sensor_lag_s: self.sensor_lag_s.or(other.sensor_lag_s),
         }
     }
 
     /// The first figure that cannot be one: each is a number not below 0, the scale factor's at
-    /// most 10⁶ ppm (100 %).
+    /// most 10⁶ ppm (100 %), the sensor lag at most a day.
     pub fn check(&self) -> Result<(), InvalidFigure> {
         let plain = |v: Option<f64>| v.is_none_or(|t| t.is_finite() && t >= 0.0);
         let invalid = |field, why| Err(InvalidFigure { field, why });
@@ -86,6 +94,14 @@ impl Datasheet {
                 "hysteresis",
                 "must be a number not below 0, in the channel's units",
             )
+        } else if !self
+            .sensor_lag_s
+            .is_none_or(|s| (0.0..=MAX_LAG_S).contains(&s))
+        {
+            invalid(
+                "sensor_lag",
+                "must be a time constant in seconds: a number from 0 to 86400 (a day)",
+            )
         } else {
             Ok(())
         }
@@ -108,6 +124,7 @@ mod tests {
             scale_repeatability: Some(800.0),
             tempco: Some(0.05),
             hysteresis: None,
+            sensor_lag_s: Some(90.0),
         };
         assert_eq!(
             channel.or(command),
@@ -116,6 +133,7 @@ mod tests {
                 scale_repeatability: Some(300.0),
                 tempco: Some(0.03),
                 hysteresis: None,
+                sensor_lag_s: Some(90.0),
             }
         );
         // A 0 means the same in every unit; the ppm are no channel's units.
@@ -124,6 +142,7 @@ mod tests {
             scale_repeatability: Some(300.0),
             tempco: Some(0.0),
             hysteresis: Some(0.0),
+            sensor_lag_s: Some(30.0),
         };
         assert!(!alike.in_one_channels_units());
         assert!(channel.in_one_channels_units());
@@ -148,5 +167,11 @@ mod tests {
             ..Datasheet::default()
         };
         assert_eq!(bad(negative), Some("hysteresis"));
+        let late = Datasheet {
+            sensor_lag_s: Some(1e6),
+            ..Datasheet::default()
+        };
+        assert_eq!(bad(late), Some("sensor_lag"));
+        assert_eq!(late.check().unwrap_err().flag(), "--sensor-lag");
     }
 }

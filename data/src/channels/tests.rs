@@ -122,7 +122,7 @@ fn a_bad_channels_file_says_what_is_wrong() {
 fn a_channel_states_its_own_datasheet() {
     let text = IMU.replace(
         "reference = \"-9.80665\"",
-        "reference = \"-9.80665\"\nfull_scale = 160\ntempco = 0.001\nhysteresis = 0.002",
+        "reference = \"-9.80665\"\nfull_scale = 160\ntempco = 0.001\nhysteresis = 0.002\nsensor_lag = 90",
     );
     let c = Channels::parse(Path::new("imu.toml"), &text).unwrap();
     let [gx, az, _] = &c.list[..] else { panic!() };
@@ -133,6 +133,7 @@ fn a_channel_states_its_own_datasheet() {
         Datasheet {
             tempco: Some(0.001),
             hysteresis: Some(0.002),
+            sensor_lag_s: Some(90.0),
             ..Datasheet::default()
         }
     );

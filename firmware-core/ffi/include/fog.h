@@ -41,10 +41,10 @@
 // every target).
 #define FOG_UNIT_WORDS ((((FOG_UNIT_NUMBERS + 1) / 2) + (36 * FOG_UNIT_MAX_CHANNELS)) + 40)
 
-// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 232 bytes for
-// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time check below holds it to
-// the real size on every target).
-#define FOG_MODEL_WORDS (((FOG_MODEL_FLOATS + 1) / 2) + 29)
+// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 256 bytes for
+// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time
+// check below holds it to the real size on every target).
+#define FOG_MODEL_WORDS (((FOG_MODEL_FLOATS + 1) / 2) + 32)
 
 // 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
 // the feature pipeline's memory and the reset marker.

@@ -68,12 +68,12 @@ type UnitInner = StaticUnit<
     FOG_UNIT_NUMBERS,
 >;
 
-/// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 232 bytes for
-/// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time check below holds it to
-/// the real size on every target).
+/// 8-byte words of a [`FogModel`]: the model's flat array (4 bytes a number) and 256 bytes for
+/// its sizes, features, exponents, error model, limits and the decoded marker (a compile-time
+/// check below holds it to the real size on every target).
 // Rounding up by hand: cbindgen writes the expression into the header, where no method exists.
 #[allow(clippy::manual_div_ceil)]
-pub const FOG_MODEL_WORDS: usize = (FOG_MODEL_FLOATS + 1) / 2 + 29;
+pub const FOG_MODEL_WORDS: usize = (FOG_MODEL_FLOATS + 1) / 2 + 32;
 /// 8-byte words of a [`FogState`]: the variance's scratch (a number per centre) and 256 bytes for
 /// the feature pipeline's memory and the reset marker.
 #[allow(clippy::manual_div_ceil)]

@@ -10,17 +10,17 @@ use crate::error::BlobError;
 
 /// What the variance of a compensated sample holds besides the GP's latent variance (format
 /// version 5, the turn-on and leg terms version 6, the scale term version 7, the extrapolation's
-/// scale part version 8): the white noise of
-/// one sample, and the model error the trainer measured on its own training data, predicting it
-/// forward in time, beyond the temperatures fitted and across the groups left out, or, where those
-/// data could not show a term, the prior it stated instead (docs/design.md §4, "The σ contract").
-/// All variances but the two scale terms' (relative²) are in output units² (°/s²); the evaluator
-/// ([`crate::model`]) adds, at inputs x, compensated output y, t hours since power-on and
-/// heating/cooling state s,
+/// scale part version 8, the heating term version 9): the white noise of one sample, and the model
+/// error the trainer measured on its own training data, predicting it forward in time, beyond the
+/// temperatures fitted and across the groups left out, or, where those data could not show a
+/// term, the prior it stated instead (docs/design.md §4, "The σ contract"). All variances but
+/// the three scale terms' (relative²) are in output units² (°/s²); the evaluator
+/// ([`crate::model`]) adds, at inputs x, compensated output y, t hours since power-on,
+/// heating/cooling state s and heating rate r at temperature T,
 ///
 /// ```text
 /// bias variance  = latent(x) + floor + (extrapolation + extrapolation_scale·y²)·e(x)²
-///                  + walk·t + trend·t² + leg·l(s)²
+///                  + walk·t + trend·t² + leg·l(s)² + (heating + heating_scale·y²)·h(T, r)²
 ///                  + turn_on + scale·y²          (the last two on another power-on only)
 ///                  + f(x)²
 /// noise variance = sample_noise (one sample of sample_interval_s)
@@ -32,7 +32,11 @@ use crate::error::BlobError;
 /// doc: no number of its own, the blob's coefficient states it), and
 /// l(s) the distance of the state s ∈ [−1, 1] ([`crate::features::FeatureState::leg`]: +1 after
 /// heating, −1 after cooling) outside the states trained, [leg_min, leg_max], over the full
-/// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest).
+/// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest), and
+/// h(T, r) how far the heating rate r ([`crate::features::FeatureState::heating_rate`], °C/min)
+/// lies outside the band of rates the calibration held at T: r less the band's line
+/// (`heating_rate_at_0c + heating_rate_per_c · T`), beyond [`Self::heating_rate_min`,
+/// `heating_rate_max`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -77,11 +81,31 @@ pub struct ErrorModel {
     /// width of temperature; e(x)² counts every input's distance, so beyond the trained rates
     /// (the output's own input) it grows as y²·e² there too, as y⁴: wide, never narrow.
     pub extrapolation_scale_var: f32,
+    /// Model error per °C/min of heating rate outside the band the calibration held, squared
+    /// (output units² per (°C/min)²): a temperature sensor that lags the sensing element by τ
+    /// reads it wrong by τ·r, which a calibration at one rate per temperature folds into its
+    /// model and a rate unlike it undoes (the trainer writes (slope · τ)², the slope the model's
+    /// change per °C, its part alike at every output, τ the sensor lag). 0: no such term.
+    pub heating_var: f32,
+    /// The same error's part in proportion to the output, relative² per (°C/min)² (at output y,
+    /// `heating_scale_var · y² · h²`): a scale factor that changes with temperature, read at the
+    /// wrong one, errs in proportion to the rate.
+    pub heating_scale_var: f32,
+    /// The band's line: the heating rate at 0 °C, °C/min.
+    pub heating_rate_at_0c: f32,
+    /// The band's line: its change per °C, °C/min per °C.
+    pub heating_rate_per_c: f32,
+    /// The band's lower edge about its line, °C/min.
+    pub heating_rate_min: f32,
+    /// The band's upper edge about its line, °C/min (not below [`Self::heating_rate_min`]).
+    pub heating_rate_max: f32,
 }
 
 impl ErrorModel {
     /// Numbers in its encoding.
-    pub const NUMBERS: usize = 12;
+    pub const NUMBERS: usize = 18;
+    /// Numbers in its encoding of format [`super::V8`]: the first twelve.
+    pub const V8_NUMBERS: usize = 12;
     /// Numbers in its encoding of format [`super::V7`]: the first eleven.
     pub const V7_NUMBERS: usize = 11;
     /// Numbers in its encoding of format [`super::V6`]: the first ten.
@@ -93,20 +117,7 @@ impl ErrorModel {
     /// noise, at an unknown interval, and no model error. The evaluator's variances are then
     /// what they were for those blobs.
     pub const fn noise_only(noise_var: f32) -> Self {
-        Self {
-            sample_noise_var: noise_var,
-            sample_interval_s: 0.0,
-            floor_var: 0.0,
-            extrapolation_var: 0.0,
-            walk_var_per_h: 0.0,
-            trend_var_per_h2: 0.0,
-            turn_on_var: 0.0,
-            leg_var: 0.0,
-            leg_min: -1.0,
-            leg_max: 1.0,
-            scale_var: 0.0,
-            extrapolation_scale_var: 0.0,
-        }
+        Self::from_v5([noise_var, 0.0, 0.0, 0.0, 0.0, 0.0])
     }
 
     /// A format-[`super::V5`] error model's six numbers, with no turn-on, leg or scale term.
@@ -122,8 +133,15 @@ impl ErrorModel {
     }
 
     /// A format-[`super::V7`] error model's eleven numbers, with no scale part of the
-    /// extrapolation.
+    /// extrapolation and no heating term.
     pub const fn from_v7(v: [f32; Self::V7_NUMBERS]) -> Self {
+        Self::from_v8([
+            v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], 0.0,
+        ])
+    }
+
+    /// A format-[`super::V8`] error model's twelve numbers, with no heating term.
+    pub const fn from_v8(v: [f32; Self::V8_NUMBERS]) -> Self {
         Self {
             sample_noise_var: v[0],
             sample_interval_s: v[1],
@@ -136,7 +154,13 @@ impl ErrorModel {
             leg_min: v[8],
             leg_max: v[9],
             scale_var: v[10],
-            extrapolation_scale_var: 0.0,
+            extrapolation_scale_var: v[11],
+            heating_var: 0.0,
+            heating_scale_var: 0.0,
+            heating_rate_at_0c: 0.0,
+            heating_rate_per_c: 0.0,
+            heating_rate_min: 0.0,
+            heating_rate_max: 0.0,
         }
     }
 
@@ -155,11 +179,18 @@ impl ErrorModel {
             self.leg_max,
             self.scale_var,
             self.extrapolation_scale_var,
+            self.heating_var,
+            self.heating_scale_var,
+            self.heating_rate_at_0c,
+            self.heating_rate_per_c,
+            self.heating_rate_min,
+            self.heating_rate_max,
         ]
     }
 
     /// The index of its first non-finite number, else whether every number is in its domain
-    /// (variances and the interval not negative, −1 ≤ leg_min ≤ leg_max ≤ 1).
+    /// (variances and the interval not negative, −1 ≤ leg_min ≤ leg_max ≤ 1, the heating band's
+    /// edges in order).
     pub fn check(&self) -> Result<(), BlobError> {
         let numbers = self.numbers();
         if let Some(i) = numbers.iter().position(|v| !v.is_finite()) {
@@ -170,6 +201,9 @@ impl ErrorModel {
             && numbers.iter().take(8).all(|v| *v >= 0.0)
             && self.scale_var >= 0.0
             && self.extrapolation_scale_var >= 0.0
+            && self.heating_var >= 0.0
+            && self.heating_scale_var >= 0.0
+            && self.heating_rate_min <= self.heating_rate_max
         {
             Ok(())
         } else {
@@ -193,12 +227,23 @@ impl ErrorModel {
         ((self.leg_min - leg).max(leg - self.leg_max).max(0.0) * 0.5).min(1.0)
     }
 
+    /// h(T, r): how far the heating rate `rate` (°C/min) lies outside the band the calibration
+    /// held at the temperature `temp_c`, °C/min (0 inside it).
+    pub fn heating_excess(&self, temp_c: f32, rate: f32) -> f32 {
+        let about = rate - (self.heating_rate_at_0c + self.heating_rate_per_c * temp_c);
+        (self.heating_rate_min - about)
+            .max(about - self.heating_rate_max)
+            .max(0.0)
+    }
+
     /// The model error at `excess2` (e(x)², trained widths²) and compensated output `output` in
     /// the conditions `at`: hours since power-on, heating/cooling state (`None`: one the
-    /// calibration held, no leg term), and whether another power-on's bias and scale apply.
+    /// calibration held, no leg term), temperature and heating rate (`None`: a rate the
+    /// calibration held, no heating term), and whether another power-on's bias and scale apply.
     pub fn model_error(&self, excess2: f32, output: f32, at: crate::model::Conditions) -> f32 {
         let h = at.hours.max(0.0);
         let l = at.leg.map_or(0.0, |s| self.leg_excess(s));
+        let r = at.heating.map_or(0.0, |(t, r)| self.heating_excess(t, r));
         let turn_on = if at.another_power_on {
             self.turn_on_var + self.scale_var * output * output
         } else {
@@ -210,6 +255,7 @@ impl ErrorModel {
             + self.walk_var_per_h * h
             + self.trend_var_per_h2 * h * h
             + self.leg_var * l * l
+            + (self.heating_var + self.heating_scale_var * output * output) * r * r
     }
 }
 

@@ -1,6 +1,6 @@
 use super::*;
 use crate::error::Storage;
-use crate::model::Model;
+use crate::model::{Conditions, Model};
 use crate::testing::{Reference, as_v4};
 
 type Small = Model<2, 6, 64>;
@@ -17,7 +17,7 @@ const GOLDEN: [f32; 13] = [
 ];
 
 /// sample noise, interval, floor, extrapolation, walk, trend, turn-on, leg and its range, scale,
-/// the extrapolation's scale part.
+/// the extrapolation's scale part, the heating term and its band.
 const GOLDEN_ERROR: ErrorModel = ErrorModel {
     sample_noise_var: 1e-4,
     sample_interval_s: 0.5,
@@ -31,6 +31,23 @@ const GOLDEN_ERROR: ErrorModel = ErrorModel {
     leg_max: 1.0,
     scale_var: 7e-8,
     extrapolation_scale_var: 8e-7,
+    heating_var: 9e-6,
+    heating_scale_var: 1e-8,
+    heating_rate_at_0c: 0.1,
+    heating_rate_per_c: -0.01,
+    heating_rate_min: -0.2,
+    heating_rate_max: 0.3,
+};
+
+/// [`GOLDEN_ERROR`] as a blob before format 9 reads: no heating term, no band.
+const NO_HEATING: ErrorModel = ErrorModel {
+    heating_var: 0.0,
+    heating_scale_var: 0.0,
+    heating_rate_at_0c: 0.0,
+    heating_rate_per_c: 0.0,
+    heating_rate_min: 0.0,
+    heating_rate_max: 0.0,
+    ..GOLDEN_ERROR
 };
 
 /// A rated range and a full scale.
@@ -52,10 +69,10 @@ fn golden_bytes_pin_the_encoding() {
     };
     let dims = Dims { m: 1, d: 1, p: 1 };
     assert_eq!(dims.floats(), 13);
-    let mut buf = [0u8; 160];
+    let mut buf = [0u8; 200];
     let n = encode(dims, &payload, &mut buf).unwrap();
-    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 8, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-    expected.extend([122, 0, 0, 0]);
+    let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 9, 0, 1, 0, 1, 1, 0, 0, 0, 0];
+    expected.extend([146, 0, 0, 0]);
     let mut digest = CRC32.digest();
     digest.update(&expected[4..]);
     digest.update(&buf[HEADER_LEN..n]);
@@ -164,7 +181,7 @@ fn a_version_5_blob_still_decodes_without_turn_on_leg_or_scale_terms_and_with_th
             leg_max: 1.0,
             scale_var: 0.0,
             extrapolation_scale_var: 0.0,
-            ..GOLDEN_ERROR
+            ..NO_HEATING
         }
     );
     assert_eq!(model.limits(), Limits::DEFAULT);
@@ -198,7 +215,7 @@ fn a_version_6_blob_still_decodes_without_a_scale_term() {
         ErrorModel {
             scale_var: 0.0,
             extrapolation_scale_var: 0.0,
-            ..GOLDEN_ERROR
+            ..NO_HEATING
         }
     );
     let new = Small::decode(&good).unwrap();
@@ -225,7 +242,7 @@ fn a_version_7_blob_still_decodes_without_the_extrapolations_scale_part() {
         model.error_model(),
         ErrorModel {
             extrapolation_scale_var: 0.0,
-            ..GOLDEN_ERROR
+            ..NO_HEATING
         }
     );
     let new = Small::decode(&good).unwrap();
@@ -253,6 +270,44 @@ fn a_version_7_blob_still_decodes_without_the_extrapolations_scale_part() {
     assert_eq!(
         set_error_model(&mut old.clone(), &GOLDEN_ERROR),
         Err(BlobError::UnsupportedVersion(V7))
+    );
+}
+
+#[test]
+fn a_version_8_blob_still_decodes_without_a_heating_term() {
+    let (_, good, old) = golden_and_older(crate::testing::as_v8, V8);
+    let model = Small::decode(&old).unwrap();
+    assert_eq!(model.error_model(), NO_HEATING);
+    let new = Small::decode(&good).unwrap();
+    let mut scratch = [0.0f32; 5];
+    let x = [12.5, 0.4];
+    // The band at 12.5 °C is 0.1 − 0.125 + [−0.2, 0.3] °C/min: a rate of 0.1 lies inside it, one
+    // of 1.0 lies 0.725 above it.
+    let at = |rate| Conditions {
+        heating: Some((12.5, rate)),
+        ..Conditions::at_hours(0.0)
+    };
+    let inside = model.predict_in(&x, at(0.1), &mut scratch).unwrap();
+    assert_eq!(inside, new.predict_in(&x, at(0.1), &mut scratch).unwrap());
+    assert_eq!(inside, model.predict_in(&x, at(1.0), &mut scratch).unwrap());
+    let faster = new.predict_in(&x, at(1.0), &mut scratch).unwrap();
+    assert_eq!(faster.mean, inside.mean);
+    let part = (GOLDEN_ERROR.heating_var + GOLDEN_ERROR.heating_scale_var * inside.mean.powi(2))
+        * 0.725
+        * 0.725;
+    assert!(GOLDEN_ERROR.heating_scale_var * inside.mean.powi(2) > 1e-3 * part);
+    assert!(
+        (faster.bias_variance - inside.bias_variance - part).abs() <= 1e-3 * part,
+        "{inside:?} {faster:?} {part}"
+    );
+    // As far below the band: the same.
+    let slower = new
+        .predict_in(&x, at(-0.225 - 0.725), &mut scratch)
+        .unwrap();
+    assert!((slower.bias_variance - faster.bias_variance).abs() <= 1e-3 * part);
+    assert_eq!(
+        set_error_model(&mut old.clone(), &GOLDEN_ERROR),
+        Err(BlobError::UnsupportedVersion(V8))
     );
 }
 
@@ -371,6 +426,16 @@ fn the_error_model_is_checked_like_the_other_numbers() {
         ..GOLDEN_ERROR
     };
     assert_eq!(bad(extrapolation_scale), BlobError::InvalidParameter);
+    let heating = ErrorModel {
+        heating_var: -1e-8,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(heating), BlobError::InvalidParameter);
+    let band = ErrorModel {
+        heating_rate_min: 0.4,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(band), BlobError::InvalidParameter);
 }
 
 /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.

@@ -27,8 +27,9 @@
 //! name (at most [`NAME_BYTES`]), its [`Quantity`], its sizes m, d and p, and its model: the
 //! payload of a model blob of the current format ([`super::FORMAT_VERSION`], the layout of
 //! [`super`]) as a byte string. A channel's model is therefore exactly the model blob the trainer
-//! checked on its own, and decodes through the same code. Versions 3, 2 and 1, whose channels hold
-//! model payloads of format [`super::V7`], [`super::V6`] and [`super::V5`], are still read.
+//! checked on its own, and decodes through the same code. Versions 4, 3, 2 and 1, whose channels
+//! hold model payloads of format [`super::V8`], [`super::V7`], [`super::V6`] and [`super::V5`], are
+//! still read.
 
 use serde::{Deserialize, Serialize};
 
@@ -38,9 +39,12 @@ use crate::units::Quantity;
 
 /// First four bytes of a unit blob.
 pub const MAGIC: [u8; 4] = *b"FOGU";
-/// The unit format version this crate writes (it also reads [`V3`], [`V2`] and [`V1`]).
-pub const VERSION: u16 = 4;
+/// The unit format version this crate writes (it also reads [`V4`], [`V3`], [`V2`] and [`V1`]).
+pub const VERSION: u16 = 5;
 /// The previous unit format version, still read: its channels' models are of format
+/// [`super::V8`].
+pub const V4: u16 = 4;
+/// The unit format version before it, still read: its channels' models are of format
 /// [`super::V7`].
 pub const V3: u16 = 3;
 /// The unit format version before it, still read: its channels' models are of format
@@ -208,8 +212,9 @@ pub struct UnitHeader<'a> {
     pub most_centres: usize,
     /// Sequence number.
     pub sequence: u32,
-    /// The format of its channels' model payloads: [`FORMAT_VERSION`], or [`super::V7`],
-    /// [`super::V6`] and [`super::V5`] in a unit blob of version [`V3`], [`V2`] and [`V1`].
+    /// The format of its channels' model payloads: [`FORMAT_VERSION`], or [`super::V8`],
+    /// [`super::V7`], [`super::V6`] and [`super::V5`] in a unit blob of version [`V4`], [`V3`],
+    /// [`V2`] and [`V1`].
     pub model_version: u16,
     /// The CRC-checked payload.
     pub payload: &'a [u8],
@@ -237,6 +242,7 @@ pub fn read_header(bytes: &[u8]) -> Result<UnitHeader<'_>, BlobError> {
             V1 => super::V5,
             V2 => super::V6,
             V3 => super::V7,
+            V4 => super::V8,
             _ => FORMAT_VERSION,
         },
         payload: sealed.payload,

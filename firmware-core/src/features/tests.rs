@@ -66,6 +66,48 @@ fn the_leg_follows_heating_and_cooling_whatever_the_inputs() {
 }
 
 #[test]
+fn the_heating_rate_is_a_temperature_rate_whatever_the_inputs_and_starts_again_at_power_on() {
+    let features = [Feature::TemperatureRate {
+        tau_s: HEATING_TAU_S,
+    }];
+    let (mut state, mut rate) = (FeatureState::default(), FeatureState::default());
+    assert_eq!((state.heating_rate(), state.heating()), (0.0, None));
+    let (mut none, mut out) = ([0.0f32; 1], [0.0f32; 1]);
+    let mut run = |state: &mut FeatureState, rate: &mut FeatureState, from: u32, n: u32| {
+        for k in from..from + n {
+            let s = at(f64::from(k), 20.0 + 1.5 * k as f32 / 60.0);
+            assert_ne!(
+                compute(&[Feature::Voltage], &s, state, &mut none),
+                Status::Fault
+            );
+            assert_ne!(compute(&features, &s, rate, &mut out), Status::Fault);
+            // The same filter as the model's input of that time constant, bit for bit, read into
+            // the model error once it has settled after the power-on.
+            assert_eq!(state.heating_rate(), out[0]);
+            let settled = state.time_on_s() >= HEATING_SETTLE_S;
+            assert_eq!(state.heating(), settled.then_some((s.temp_c, out[0])));
+        }
+    };
+    run(&mut state, &mut rate, 0, 900);
+    assert!(state.heating().is_some());
+    assert!(
+        (state.heating_rate() - 1.5).abs() < 0.01,
+        "{}",
+        state.heating_rate()
+    );
+    // A fault leaves it as it was.
+    let before = state.heating_rate();
+    let bad = at(900.0, f32::NAN);
+    assert_eq!(compute(&[], &bad, &mut state, &mut []), Status::Fault);
+    assert_eq!(state.heating_rate(), before);
+    // A power-on with the state kept: from rest again, as the input.
+    state.power_on();
+    rate.power_on();
+    run(&mut state, &mut rate, 1000, 1);
+    assert_eq!((state.heating_rate(), state.heating()), (0.0, None));
+}
+
+#[test]
 fn temperature_rate_settles_on_the_ramp_rate() {
     let out = ramp(&[Feature::TemperatureRate { tau_s: 60.0 }], 0.8, 1200);
     // The 1 s steps lag the continuous filter by half a step: 0.8·(1 − 0.5/60).

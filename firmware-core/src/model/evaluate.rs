@@ -73,8 +73,8 @@ impl Prediction {
     }
 }
 
-/// What the model error reads of a sample besides its inputs: the hours since power-on and the
-/// heating/cooling state ([`ErrorModel`]).
+/// What the model error reads of a sample besides its inputs: the hours since power-on, the
+/// heating/cooling state and the heating rate ([`ErrorModel`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Conditions {
@@ -83,17 +83,22 @@ pub struct Conditions {
     /// Heating/cooling state in [−1, 1] ([`FeatureState::leg`]); `None`: one the calibration
     /// held (no leg term).
     pub leg: Option<f32>,
+    /// Temperature reading (°C) and heating rate (°C/min, [`FeatureState::heating_rate`]);
+    /// `None`: a rate the calibration held (no heating term).
+    pub heating: Option<(f32, f32)>,
     /// Whether another power-on's bias and scale apply (the turn-on and scale terms): always in
     /// service; not on the calibration's own power-on ([`FeatureState::calibration_run`]).
     pub another_power_on: bool,
 }
 
 impl Conditions {
-    /// `hours` after power-on, on a heating/cooling state the calibration held.
+    /// `hours` after power-on, on a heating/cooling state and a heating rate the calibration
+    /// held.
     pub const fn at_hours(hours: f32) -> Self {
         Self {
             hours,
             leg: None,
+            heating: None,
             another_power_on: true,
         }
     }
@@ -103,6 +108,7 @@ impl Conditions {
         Self {
             hours: (state.time_on_s() / SECONDS_PER_HOUR) as f32,
             leg: Some(state.leg()),
+            heating: state.heating(),
             another_power_on: !state.in_calibration_run(),
         }
     }

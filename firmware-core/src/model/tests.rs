@@ -51,10 +51,12 @@ fn compensate_runs_the_feature_pipeline() {
     let p = m
         .compensate(&sample, &mut FeatureState::default(), &mut scratch)
         .unwrap();
-    // The first sample: power-on, the heating/cooling play centred (state 0).
+    // The first sample: power-on, the heating/cooling play centred (state 0), no heating rate
+    // read until it has settled.
     let at = Conditions {
         hours: 0.0,
         leg: Some(0.0),
+        heating: None,
         another_power_on: true,
     };
     assert_eq!(p, m.predict_in(&[12.5, 0.4], at, &mut scratch).unwrap());
@@ -394,6 +396,7 @@ fn a_heating_cooling_state_the_calibration_did_not_hold_grows_the_variance() {
             Conditions {
                 hours: 1.0,
                 leg,
+                heating: None,
                 another_power_on: true,
             },
             &mut scratch,
@@ -411,6 +414,57 @@ fn a_heating_cooling_state_the_calibration_did_not_hold_grows_the_variance() {
         "{grown} {expected}"
     );
     assert_eq!(cooling.mean, trained.mean);
+}
+
+#[test]
+fn a_heating_rate_outside_the_calibrations_band_grows_the_variance() {
+    let r = Reference::small();
+    let m = Small::decode(&r.blob()).unwrap();
+    let mut scratch = [0.0f32; 5];
+    // Trained on −0.5…0.5 °C/min at every temperature: heating at 2 °C/min for ten minutes (five
+    // of the heating rate's time constants) reads as 2 °C/min less e⁻⁵ of it, and half a step's
+    // lag of the 1 s samples held over their step.
+    let mut state = FeatureState::default();
+    let mut last = None;
+    for i in 0..=600 {
+        let sample = Sample {
+            time_s: f64::from(i),
+            temp_c: 10.0 + 2.0 * i as f32 / 60.0,
+            output: 0.4,
+        };
+        last = Some((
+            sample,
+            m.compensate(&sample, &mut state, &mut scratch).unwrap(),
+        ));
+    }
+    let (sample, p) = last.unwrap();
+    let (temp, rate) = state.heating().unwrap();
+    assert_eq!(temp, sample.temp_c);
+    assert!((rate - 2.0).abs() < 0.03, "{rate}");
+    let x = [sample.temp_c, sample.output];
+    let at = |heating| Conditions {
+        heating,
+        ..Conditions::of(&state)
+    };
+    assert_eq!(
+        p,
+        m.predict_in(&x, at(Some((temp, rate))), &mut scratch)
+            .unwrap()
+    );
+    let held = m
+        .predict_in(&x, at(Some((temp, 0.5))), &mut scratch)
+        .unwrap();
+    assert_eq!(held, m.predict_in(&x, at(None), &mut scratch).unwrap());
+    let grown = p.bias_variance - held.bias_variance;
+    let expected = (r.error.heating_var + r.error.heating_scale_var * p.mean * p.mean)
+        * (rate - 0.5)
+        * (rate - 0.5);
+    assert!(r.error.heating_scale_var * p.mean * p.mean > 1e-3 * expected);
+    assert!(
+        (grown - expected).abs() < 1e-3 * expected,
+        "{grown} {expected}"
+    );
+    assert_eq!(p.mean, held.mean);
 }
 
 #[test]

@@ -358,8 +358,8 @@ fn every_defect_of_a_unit_blob_has_its_error() {
 #[test]
 fn golden_bytes_pin_the_unit_header() {
     let (blob, models) = three();
-    // magic, version 4, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
-    assert_eq!(&blob[..14], b"FOGU\x04\x00\x03\x02\x05\x00\x00\x00\x00\x00");
+    // magic, version 5, 3 channels, 2 inputs at most, 5 centres at most, sequence 0.
+    assert_eq!(&blob[..14], b"FOGU\x05\x00\x03\x02\x05\x00\x00\x00\x00\x00");
     let len = u32::from_le_bytes(blob[14..18].try_into().unwrap()) as usize;
     assert_eq!(blob.len(), HEADER_LEN + len);
     // Payload: 3·49 numbers (varint 147 = 0x93 0x01), the ID, the range, 3 channels.
@@ -482,6 +482,26 @@ fn a_version_3_unit_blob_still_decodes_its_channels_of_format_7() {
     let mut scratch = [0.0f32; 5];
     let x = [12.5f32, 0.3];
     let alone = Small::decode(&crate::testing::as_v7(&models[0])).unwrap();
+    assert_eq!(
+        unit.predict_at(0, &x, 1.0, &mut scratch).unwrap().unwrap(),
+        alone.predict_at(&x, 1.0, &mut scratch).unwrap()
+    );
+}
+
+#[test]
+fn a_version_4_unit_blob_still_decodes_its_channels_of_format_8() {
+    let (_, models) = three();
+    let old = as_old(&models, 4, crate::testing::as_v8);
+    let mut unit = Three::new();
+    unit.decode_into(&old).unwrap();
+    for (ch, m) in unit.channels().iter().zip(&models) {
+        let alone = Small::decode(&crate::testing::as_v8(m)).unwrap();
+        assert_eq!(ch.error_model(), alone.error_model());
+        assert_eq!(ch.error_model().heating_var, 0.0);
+    }
+    let mut scratch = [0.0f32; 5];
+    let x = [12.5f32, 0.3];
+    let alone = Small::decode(&crate::testing::as_v8(&models[0])).unwrap();
     assert_eq!(
         unit.predict_at(0, &x, 1.0, &mut scratch).unwrap().unwrap(),
         alone.predict_at(&x, 1.0, &mut scratch).unwrap()

@@ -87,8 +87,8 @@ fn an_extended_blob_is_the_static_model_plus_its_additive_terms() {
 /// A blob of format 4, written before blobs carried an error model, still loads and compensates
 /// as it did: its noise variance is its sample noise and it adds no model error (issue 44). The
 /// same model of format 5 (before blobs carried limits), of format 6 (before the scale term), of
-/// format 7 (before the extrapolation's scale part) and of format 8 gives the same means and
-/// variances.
+/// format 7 (before the extrapolation's scale part), of format 8 (before the heating term) and of
+/// format 9 gives the same means and variances.
 #[test]
 fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
     let old = include_bytes!("../../../firmware-core/doc/gyro-v4.bin");
@@ -102,7 +102,12 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
         a.error_model(),
         firmware_core::ErrorModel::noise_only(noise)
     );
-    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 8);
+    assert_eq!(firmware_core::blob::read_header(new).unwrap().version, 9);
+    let v8 = include_bytes!("../../../firmware-core/doc/gyro-v8.bin");
+    assert_eq!(firmware_core::blob::read_header(v8).unwrap().version, 8);
+    let f = fog_data::replay::decode(v8).unwrap();
+    assert_eq!(f.error_model(), b.error_model());
+    assert_eq!((f.beyond(), f.limits()), (b.beyond(), b.limits()));
     let v7 = include_bytes!("../../../firmware-core/doc/gyro-v7.bin");
     assert_eq!(firmware_core::blob::read_header(v7).unwrap().version, 7);
     let e = fog_data::replay::decode(v7).unwrap();
@@ -127,6 +132,7 @@ fn a_format_4_blob_still_loads_with_the_variance_it_stated() {
         assert_eq!(c.predict(&[t, v], &mut scratch).unwrap(), pb);
         assert_eq!(d.predict(&[t, v], &mut scratch).unwrap(), pb);
         assert_eq!(e.predict(&[t, v], &mut scratch).unwrap(), pb);
+        assert_eq!(f.predict(&[t, v], &mut scratch).unwrap(), pb);
         assert_eq!(pa.noise_variance, noise);
         assert!((pa.mean - pb.mean).abs() < 1e-3, "{t} {v}: {pa:?} {pb:?}");
         // No model error: the bias variance is the latent one at any time since power-on.

@@ -26,10 +26,11 @@ fn a_reading_far_colder_than_any_trained_is_compensated_never_a_fault() {
     let calibration = &one(&fit)["calibration"];
     assert_eq!(calibration["residuals"], 0, "{calibration}");
     // No residual to fit on, a warm-up heats only and it is one power-on: the floor, the growth
-    // beyond the range, the cooling leg and another power-on's bias are all assumed, and said.
+    // beyond the range, the cooling leg, another power-on's bias and the sensor's lag are all
+    // assumed, and said.
     assert_eq!(
         calibration["assumed"],
-        serde_json::json!(["floor", "extrapolation", "leg", "turn-on"]),
+        serde_json::json!(["floor", "extrapolation", "leg", "turn-on", "heating"]),
         "{calibration}"
     );
     let replay = |model: &str, name: &str| {
@@ -595,9 +596,9 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
     assert!(!crate::assumes(&told, "leg"), "{told}");
     let covered = cooling(&stated, "s.json");
     assert!((0.85..=0.99).contains(&covered), "{covered}");
-    // Its one channel's model, as a model blob of its own (still read), without the leg's term
-    // and without another power-on's assumed bias and scale: what the run's residuals alone
-    // state.
+    // Its one channel's model, as a model blob of its own (still read), without the leg's term,
+    // without another power-on's assumed bias and scale and without the assumed sensor lag: what
+    // the run's residuals alone state.
     let mut bytes = model_blob(&std::fs::read(&blob).unwrap());
     let fw = fog_data::replay::decode(&bytes).unwrap();
     assert!(fw.error_model().turn_on_var > 0.0);
@@ -605,6 +606,7 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
         leg_var: 0.0,
         turn_on_var: 0.0,
         scale_var: 0.0,
+        heating_var: 0.0,
         ..fw.error_model()
     };
     firmware_core::blob::set_error_model(&mut bytes, &without).unwrap();

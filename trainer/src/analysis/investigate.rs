@@ -220,6 +220,10 @@ pub fn calibrate(
             )),
     );
     calibration.set_legs(&uncertainty::streams::legs(train));
+    calibration.set_heating(
+        &uncertainty::heating::rates(train),
+        uncertainty::heating::slopes(&fw, train, noise.var.sqrt()),
+    );
     Ok(calibration)
 }
 

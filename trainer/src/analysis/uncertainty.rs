@@ -76,7 +76,8 @@
 //! [`Calibration::state`]): the bias's and the scale factor's run-to-run repeatability, the
 //! bias's temperature coefficient (the growth beyond the range: a part's bound, where the
 //! model's own trend over a narrow band says nothing of a bias that turns over beyond it), and
-//! the gap between the heating and the cooling leg. Each takes the place of the term assumed
+//! the gap between the heating and the cooling leg, and how far the temperature sensor lags the
+//! sensing element ([`heating`]: no term without it). Each takes the place of the term assumed
 //! (beyond a range the mean is not held at, the growth its rule assumes stays beside the
 //! datasheet's: [`Calibration::set_tempco`]).
 
@@ -93,6 +94,7 @@ use crate::firmware::export::{self, ExportError};
 use crate::models::gp::GpModel;
 use firmware_core::blob::Beyond;
 
+pub mod heating;
 mod stated;
 pub mod streams;
 pub mod tables;
@@ -462,6 +464,9 @@ pub struct Calibration {
     /// thermal hysteresis; null: not stated): the error of a full swing onto a leg the training
     /// did not hold ([`Calibration::set_hysteresis`]).
     pub hysteresis: Option<f64>,
+    /// The heating rates the training held and the model error outside them (module
+    /// [`heating`]).
+    pub heating: heating::Heating,
 }
 
 /// What the σ assumes where the training data cannot show a term (module doc), output units².
@@ -773,6 +778,7 @@ impl Calibration {
             legs_trained: None,
             leg_std: 0.0,
             hysteresis: None,
+            heating: heating::Heating::default(),
         }
     }
 

@@ -359,6 +359,16 @@ pub(super) struct DatasheetArgs {
     /// quantity (else each channel's `hysteresis` in the channels file).
     #[arg(long, value_name = "BAND")]
     hysteresis: Option<f64>,
+    /// How far the temperature sensor lags the sensing element, s (the time constant of the
+    /// heat's path between them, as a datasheet or a step test gives it): the model reads the
+    /// sensor, wrong by the lag times the heating rate, and a calibration at one heating rate
+    /// per temperature folds that into its model; at a rate outside the band the training held
+    /// the σ carries the model's change per °C over the lag times that rate's excess (default:
+    /// 30 s assumed, said in the σ line, as for a sensor off the die of an IMU; one power-on's
+    /// calibration cannot show a lag, and a FOG's coil lags its housing's sensor by minutes; 0:
+    /// no term). For every channel (else each channel's `sensor_lag` in the channels file).
+    #[arg(long, value_name = "SECONDS")]
+    sensor_lag: Option<f64>,
 }
 
 impl DatasheetArgs {
@@ -369,6 +379,7 @@ impl DatasheetArgs {
             scale_repeatability: self.scale_repeatability,
             tempco: self.tempco,
             hysteresis: self.hysteresis,
+            sensor_lag_s: self.sensor_lag,
         }
     }
 }

@@ -276,10 +276,52 @@ mod tests {
         assert!(back.iter().all(|(_, _, b)| b == GYRO));
     }
 
+    /// `to` with the heating term and band of `from`.
+    fn heating_of(
+        from: firmware_core::ErrorModel,
+        to: firmware_core::ErrorModel,
+    ) -> firmware_core::ErrorModel {
+        firmware_core::ErrorModel {
+            heating_var: from.heating_var,
+            heating_rate_at_0c: from.heating_rate_at_0c,
+            heating_rate_per_c: from.heating_rate_per_c,
+            heating_rate_min: from.heating_rate_min,
+            heating_rate_max: from.heating_rate_max,
+            ..to
+        }
+    }
+
+    /// A unit blob of version 4 (channels of format 8) gives its channels back as blobs of that
+    /// format, with the same fit's error model but for the heating band, which the current
+    /// version states, and the same predictions where no heating rate is read.
+    #[test]
+    fn a_version_4_units_channels_come_back_without_the_heating_band() {
+        let new = channel_blobs(include_bytes!("../../../firmware-core/doc/imu.bin")).unwrap();
+        let old = channel_blobs(include_bytes!("../../../firmware-core/doc/imu-v4.bin")).unwrap();
+        assert_eq!(old.len(), new.len());
+        let mut scratch = vec![0.0f32; 256];
+        for ((name, _, a), (_, _, b)) in old.iter().zip(&new) {
+            let version = firmware_core::blob::read_header(a).unwrap().version;
+            assert_eq!(version, firmware_core::blob::V8, "{name}");
+            let (a, b) = (replay::decode(a).unwrap(), replay::decode(b).unwrap());
+            let (ea, eb) = (a.error_model(), b.error_model());
+            assert_eq!(ea.heating_var, 0.0, "{name}");
+            assert!(eb.heating_rate_max > eb.heating_rate_min, "{name}");
+            assert_eq!(heating_of(eb, ea), eb, "{name}");
+            let x = vec![20.0f32; a.dims().d];
+            assert_eq!(
+                a.predict(&x, &mut scratch).unwrap(),
+                b.predict(&x, &mut scratch).unwrap(),
+                "{name}"
+            );
+        }
+    }
+
     /// A unit blob of version 2 or 3 (channels of format 6 or 7) gives its channels back as blobs
     /// of that format, which compute what the same fit's unit of the current version computes (the
     /// assumed extrapolation term aside, changed since, another power-on's bias, assumed since,
-    /// and the walk, read since from the training log's Allan deviation where it is larger).
+    /// the walk, read since from the training log's Allan deviation where it is larger, and the
+    /// heating band, stated since).
     #[test]
     fn an_older_units_channels_come_back_in_their_own_format() {
         use firmware_core::blob::{FORMAT_VERSION, V6, V7};
@@ -323,7 +365,7 @@ mod tests {
                     extrapolation_scale_var: eb.extrapolation_scale_var,
                     turn_on_var: eb.turn_on_var,
                     walk_var_per_h: eb.walk_var_per_h,
-                    ..ea
+                    ..heating_of(eb, ea)
                 };
                 assert_eq!(ea, eb, "{name}");
                 // Beyond the range (every input at 20): the same mean, noise and status; the

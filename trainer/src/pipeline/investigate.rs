@@ -123,7 +123,7 @@ impl InvestigatePlan {
             inv.calibration.describe(unit)
         ));
         let stated = self.sheet.scale_repeatability.is_some();
-        if let Some(line) = inv.calibration.scale_skipped_line(stated) {
+        for line in inv.calibration.skipped_lines(stated) {
             messages.result(&line);
         }
         let scored_as = if self.calibration_run {

@@ -132,20 +132,27 @@ impl Calibration {
         })
     }
 
-    /// The line a command says where [`Self::scale_skipped`] has a reason.
-    pub fn scale_skipped_line(&self, stated: bool) -> Option<String> {
-        self.scale_skipped(stated).map(|why| {
+    /// The lines a command says for the terms the σ leaves out, each with why: another
+    /// power-on's scale factor where [`Self::scale_skipped`] has a reason (`stated`: a
+    /// datasheet's was given), and a heating rate unlike the calibration's
+    /// ([`Self::heating_skipped_line`]).
+    pub fn skipped_lines(&self, stated: bool) -> Vec<String> {
+        let scale = self.scale_skipped(stated).map(|why| {
             format!(
                 "skipped: the scale factor of another power-on ({why}; --scale-repeatability \
                  states a datasheet's run-to-run σ, in ppm)"
             )
-        })
+        });
+        scale
+            .into_iter()
+            .chain(self.heating_skipped_line())
+            .collect()
     }
 
     /// States what `sheet` states for the blob this calibration is for, `blob`, whose mean
     /// follows `rule` beyond the trained range, and assumes another power-on's bias and scale
     /// where nothing states or measures them ([`Self::turn_on`], [`Self::scale`]): the one place
-    /// every shipped σ takes a datasheet's figures.
+    /// every shipped σ takes a datasheet's figures (the sensor lag: [`Self::set_sensor_lag`]).
     pub fn state(
         &mut self,
         sheet: &Datasheet,
@@ -159,6 +166,7 @@ impl Calibration {
             .filter(|w| *w > 0.0);
         self.turn_on(sheet.repeatability);
         self.scale(sheet.scale_repeatability);
+        self.set_sensor_lag(sheet.sensor_lag_s);
         if let Some(per_c) = sheet.tempco {
             let width = self.trained_width_c.ok_or(ExportError::NoTemperature)?;
             self.set_tempco(per_c, width, rule == Beyond::Hold);

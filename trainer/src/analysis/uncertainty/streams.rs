@@ -150,6 +150,16 @@ pub fn legs(stream: &Stream) -> Vec<(f32, f64)> {
 /// (`firmware_core::FeatureState::leg`), the state carried through the whole stream; `None`
 /// where the firmware refuses the sample.
 pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
+    tracked(stream, firmware_core::FeatureState::leg)
+}
+
+/// What `read` reads of the firmware's feature state after each sample of `stream` (the
+/// conditions the model error reads whatever the model's inputs), the state carried through the
+/// whole stream; `None` where the firmware refuses the sample.
+pub fn tracked<T>(
+    stream: &Stream,
+    read: impl Fn(&firmware_core::FeatureState) -> T,
+) -> Vec<Option<T>> {
     let mut state = firmware_core::FeatureState::default();
     (0..stream.len())
         .map(|i| {
@@ -159,7 +169,7 @@ pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
                 output: 0.0,
             };
             let health = firmware_core::features::compute(&[], &sample, &mut state, &mut []);
-            (health != firmware_core::Status::Fault).then(|| state.leg())
+            (health != firmware_core::Status::Fault).then(|| read(&state))
         })
         .collect()
 }

@@ -227,6 +227,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         legs_trained: None,
         leg_std: 0.0,
         hysteresis: None,
+        heating: super::heating::Heating::default(),
     }
 }
 

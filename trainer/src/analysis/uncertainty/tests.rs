@@ -6,6 +6,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
 mod beyond;
+mod heating;
 mod power_ons;
 mod scale;
 mod streams;
@@ -386,9 +387,8 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
     assert_eq!((e.leg_min, e.leg_max), (lo, hi));
     // A full cooling state lies (0.204 + 1)/2 of a swing beyond the states trained.
     let at = |leg| Conditions {
-        hours: 0.0,
         leg: Some(leg),
-        another_power_on: true,
+        ..Conditions::at_hours(0.0)
     };
     let added = e.model_error(0.0, 0.0, at(-1.0)) - e.model_error(0.0, 0.0, at(0.5));
     let share = f64::from(lo + 1.0) / 2.0;

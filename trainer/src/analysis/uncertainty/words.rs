@@ -89,7 +89,7 @@ impl Calibration {
         } else {
             String::new()
         };
-        self.describe_terms(units) + &leg + &turn_on + &scale
+        self.describe_terms(units) + &leg + &turn_on + &scale + &self.heating_in_words(units)
     }
 
     /// The residuals' sources, each kind counted once (several series of one kind together).

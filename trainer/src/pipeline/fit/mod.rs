@@ -323,7 +323,7 @@ impl FitPlan {
             );
         }
         let stated = self.service.sheet.scale_repeatability.is_some();
-        if let Some(line) = calibration.scale_skipped_line(stated) {
+        for line in calibration.skipped_lines(stated) {
             messages.result(&line);
         }
         summary.calibration = Some(calibration);

@@ -1,0 +1,272 @@
+//! The heating term: the error of a heating rate unlike the calibration's, where the temperature
+//! sensor lags the sensing element.
+//!
+//! A sensor that lags the element by τ reads it wrong by about τ·r at a heating rate r. A
+//! calibration that met one rate per temperature (a warm-up heats fast when cold and slowly when
+//! warm) folds that reading error into its model, and meets no other: in service a warm-up on a
+//! colder day, or a rate table's self-heating, passes the same reading at another rate, and the
+//! model is wrong by its change per °C times τ times the difference. One power-on's data cannot
+//! show it: the rate is a function of the temperature there, so the model cannot tell them apart
+//! (on the simulated board whose second IMU's sensor lags by 90 s, another warm-up's 60 s means
+//! were covered 62–69 % without it). So a stated lag (`--sensor-lag`, a datasheet's or a step
+//! test's) sets it, and with none a lag of [`ASSUMED_LAG_S`] is assumed and said.
+//!
+//! The band of rates the training held at each temperature is a line through the (temperature,
+//! heating rate) of its samples with a reference (least squares; none from the power-on's first
+//! minutes, while the rate settles from rest: the firmware reads no term there either), between
+//! the 0.5 % and 99.5 % quantiles of the rates about it, widened by 0.05 °C/min: a rate inside it
+//! is one the model was fitted at. The firmware reads the heating rate through the same filter as
+//! the trainer (`firmware_core::FeatureState::heating_rate`) and adds `(heating_var +
+//! heating_scale_var · y²) · h²`, h the rate's distance beyond the band
+//! (`firmware_core::ErrorModel::heating_excess`) and y the output: the model's change per °C over its training samples, told apart by their
+//! reference outputs into a part alike at every output and one in proportion to it (as the
+//! growth beyond the range is, [`super::split_by_output`]: a gyro's scale factor changes with
+//! temperature, so at 80 °/s its model changes per °C many times what it does at rest), times
+//! the lag, squared.
+
+use fog_data::replay::{self, HostModel};
+use fog_data::stream::Stream;
+use serde::Serialize;
+
+use fog_data::stats::{Line, extent, mean, quantile};
+
+use super::Calibration;
+
+/// How far the band reaches beyond the training's rates, °C/min: a temperature sensor's noise and
+/// quantization through the heating rate's filter (0.0625 °C steps over its 2 min are 0.03
+/// °C/min), so a soak is a band, not a line.
+const MARGIN: f64 = 0.05;
+/// The share of the training's rates about the line left outside the band at each end.
+const TAIL: f64 = 0.005;
+/// The temperature step of the model's change per °C, °C: both ways from each sample.
+const STEP_C: f64 = 0.5;
+/// Most samples whose change per °C is told apart by the output (every k-th of a longer log):
+/// the split's likelihood is searched on a grid, a pass over them per step.
+const MOST_SLOPES: usize = 5000;
+/// Seconds per minute: a lag in seconds times a rate in °C/min.
+const S_PER_MIN: f64 = 60.0;
+/// The sensor lag assumed where none is stated, s (a judgement): of the lags PHYSICS.md gives, a
+/// die sensor's seconds, a board sensor's minute or two beside the part, a FOG coil's 5–20
+/// minutes behind its housing's sensor, the short end of a sensor off the die. On the simulated
+/// board (docs/uncertainty.md) it took the lagging IMU's gyro z from 62–69 % to 76–84 % and
+/// widened the other IMU's σ by up to 1.14×; the MEMS log, the service challenge and the
+/// simulated chamber and ramps did not change. A FOG whose coil lags further needs its lag stated.
+pub const ASSUMED_LAG_S: f64 = 30.0;
+
+/// The heating rates the training held and the model error outside them (`calibration.heating`
+/// in the JSON).
+#[derive(Debug, Clone, Default, Serialize, schemars::JsonSchema)]
+pub struct Heating {
+    /// The band of heating rates the training stream held (`None`: not known, as for a rate
+    /// table's soaks: no term).
+    pub band: Option<HeatingBand>,
+    /// The model's change per °C of the temperature reading over the training samples with a
+    /// reference, its part alike at every output, output units per °C (RMS; 0: not known).
+    pub slope_per_c: f64,
+    /// Its part in proportion to the output, ppm of the output per °C (0: none shows, as at
+    /// rest).
+    pub scale_slope_ppm_per_c: f64,
+    /// How far the temperature sensor lags the sensing element, s: as stated (`--sensor-lag`, a
+    /// channel's `sensor_lag`), else, where the band is known, [`ASSUMED_LAG_S`] (`heating` in
+    /// `assumed`); null: neither, no term.
+    pub sensor_lag_s: Option<f64>,
+    /// The model error per °C/min of heating rate beyond the band, output units: `slope_per_c`
+    /// times the lag (0: no term).
+    pub std_per_c_per_min: f64,
+    /// Its part in proportion to the output, ppm of the output per °C/min:
+    /// `scale_slope_ppm_per_c` times the lag.
+    pub scale_ppm_per_c_per_min: f64,
+}
+
+/// The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a
+/// temperature T.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
+pub struct HeatingBand {
+    /// The line's rate at 0 °C, °C/min.
+    pub rate_at_0c: f64,
+    /// The line's change per °C, °C/min per °C.
+    pub rate_per_c: f64,
+    /// The band's lower edge about the line, °C/min.
+    pub min: f64,
+    /// The band's upper edge about the line, °C/min.
+    pub max: f64,
+}
+
+impl HeatingBand {
+    /// The band of `samples` (temperature °C, heating rate °C/min; module doc), `None` for none.
+    /// The line is flat where the temperatures span under 0.5 °C: their rates then say
+    /// nothing of a change with temperature.
+    pub fn of(samples: &[(f64, f64)]) -> Option<Self> {
+        if samples.is_empty() {
+            return None;
+        }
+        let (lo, hi) = extent(samples.iter().map(|(t, _)| *t));
+        let flat = || Line {
+            intercept: mean(&samples.iter().map(|(_, r)| *r).collect::<Vec<_>>()),
+            slope: 0.0,
+        };
+        let line = Line::fit(samples.iter().copied())
+            .filter(|_| hi - lo >= STEP_C)
+            .unwrap_or_else(flat);
+        let mut about: Vec<f64> = samples.iter().map(|(t, r)| r - line.at(*t)).collect();
+        about.sort_by(f64::total_cmp);
+        Some(Self {
+            rate_at_0c: line.intercept,
+            rate_per_c: line.slope,
+            min: quantile(&about, TAIL) - MARGIN,
+            max: quantile(&about, 1.0 - TAIL) + MARGIN,
+        })
+    }
+}
+
+impl Calibration {
+    /// States the heating rates the training stream held (`samples`: each referenced sample's
+    /// temperature and heating rate, [`rates`]) and the model's change per °C over them, told
+    /// apart into its part alike at every output and its part in proportion to it (`slope`:
+    /// output units and relative, per °C, [`slopes`]), into the blob's band; the term itself
+    /// waits for the lag ([`Self::set_sensor_lag`]).
+    pub fn set_heating(&mut self, samples: &[(f64, f64)], slope: (f64, f64)) {
+        self.heating.band = HeatingBand::of(samples);
+        self.heating.slope_per_c = slope.0;
+        self.heating.scale_slope_ppm_per_c = slope.1 * 1e6;
+        if let Some(b) = self.heating.band {
+            self.error_model.heating_rate_at_0c = b.rate_at_0c as f32;
+            self.error_model.heating_rate_per_c = b.rate_per_c as f32;
+            self.error_model.heating_rate_min = b.min as f32;
+            self.error_model.heating_rate_max = b.max as f32;
+        }
+        self.apply_lag();
+    }
+
+    /// States how far the temperature sensor lags the sensing element, `stated` seconds, or, with
+    /// none, assumes [`ASSUMED_LAG_S`] where the band is known (`heating` in `assumed`): the model
+    /// error per °C/min beyond the band is the model's change per °C over that lag (module doc).
+    /// Where the band is not known there is no term ([`Self::heating_skipped_line`] says so).
+    pub fn set_sensor_lag(&mut self, stated: Option<f64>) {
+        self.assumed.retain(|name| *name != "heating");
+        let assumed = stated.is_none() && self.heating.band.is_some();
+        self.heating.sensor_lag_s = if assumed { Some(ASSUMED_LAG_S) } else { stated };
+        self.apply_lag();
+        if assumed && self.heating_shows() {
+            self.assumed.push("heating");
+        }
+    }
+
+    fn apply_lag(&mut self) {
+        let minutes = match (self.heating.band, self.heating.sensor_lag_s) {
+            (Some(_), Some(lag)) => lag / S_PER_MIN,
+            _ => 0.0,
+        };
+        let (std, ppm) = (
+            self.heating.slope_per_c * minutes,
+            self.heating.scale_slope_ppm_per_c * minutes,
+        );
+        self.heating.std_per_c_per_min = std;
+        self.heating.scale_ppm_per_c_per_min = ppm;
+        self.error_model.heating_var = (std * std) as f32;
+        self.error_model.heating_scale_var = ((ppm * 1e-6).powi(2)) as f32;
+    }
+
+    /// Whether the heating term adds anything.
+    fn heating_shows(&self) -> bool {
+        self.heating.std_per_c_per_min > 0.0 || self.heating.scale_ppm_per_c_per_min > 0.0
+    }
+
+    /// The heating term in the σ line, where there is one.
+    pub(super) fn heating_in_words(&self, units: &str) -> String {
+        match (self.heating.band, self.heating.sensor_lag_s) {
+            (Some(b), Some(lag)) if self.heating_shows() => {
+                let h = &self.heating;
+                let change = format!(
+                    "times the model's change per °C, {:.3e} {units} and {:.0} ppm of the output",
+                    h.slope_per_c, h.scale_slope_ppm_per_c
+                );
+                let source = if self.assumed.contains(&"heating") {
+                    format!(
+                        "assumed: a sensor lag of {lag} s, {change}; --sensor-lag states the \
+                         sensor's"
+                    )
+                } else {
+                    format!("the stated sensor lag, {lag} s, {change}")
+                };
+                format!(
+                    "; at a heating rate outside the band the training held ({:+.2}…{:+.2} \
+                     °C/min about {:.2} {:+.3}·T), {:.3e} {units} and {:.0} ppm of the output \
+                     more per °C/min ({source})",
+                    b.min,
+                    b.max,
+                    b.rate_at_0c,
+                    b.rate_per_c,
+                    h.std_per_c_per_min,
+                    h.scale_ppm_per_c_per_min,
+                )
+            }
+            _ => String::new(),
+        }
+    }
+
+    /// The line a command says where a heating rate unlike the calibration's adds nothing to the
+    /// σ, and why; `None` where it adds its term.
+    pub fn heating_skipped_line(&self) -> Option<String> {
+        let why = match (self.heating.band, self.heating.sensor_lag_s) {
+            (None, Some(_)) => {
+                "the training's heating rates are not known, as for a rate table's soaks: the \
+                 stated sensor lag is not used"
+            }
+            (None, None) => {
+                "the training's heating rates are not known, as for a rate table's soaks"
+            }
+            (Some(_), _) if self.heating_shows() => return None,
+            (Some(_), _) => {
+                "the sensor lag stated is 0, or the model does not change with \
+                             temperature"
+            }
+        };
+        Some(format!(
+            "skipped: the error of a heating rate unlike the calibration's ({why})"
+        ))
+    }
+}
+
+/// The temperature and heating rate of every sample of `stream` with a reference whose rate the
+/// firmware reads into the model error (`firmware_core::FeatureState::heating`: settled after
+/// the power-on), the state carried through the whole stream.
+pub fn rates(stream: &Stream) -> Vec<(f64, f64)> {
+    super::streams::tracked(stream, firmware_core::FeatureState::heating)
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| stream.rate_dps[*i].is_finite())
+        .filter_map(|(_, read)| read.flatten())
+        .map(|(t, r)| (f64::from(t), f64::from(r)))
+        .collect()
+}
+
+/// `model`'s change per °C of the temperature reading over the samples of `stream` with a
+/// reference, told apart by their reference outputs into a part alike at every output (output
+/// units per °C, RMS) and one in proportion to the output (relative, per °C), as
+/// [`super::split_by_output`] tells the growth beyond the range apart (`noise_std`: one sample's
+/// noise, below which the outputs do not move). Its means are replayed with every reading
+/// 0.5 °C warmer and colder: a constant offset, so the heating rates stay and a coil
+/// estimate moves with the reading.
+pub fn slopes(model: &HostModel, stream: &Stream, noise_std: f64) -> (f64, f64) {
+    let shifted = |by: f64| {
+        let mut s = stream.clone();
+        s.temp_c.iter_mut().for_each(|t| *t += by);
+        replay::means(model, &s).rate_dps
+    };
+    let (up, down) = (shifted(STEP_C), shifted(-STEP_C));
+    let referenced: Vec<usize> = (0..stream.len())
+        .filter(|&i| stream.rate_dps[i].is_finite())
+        .collect();
+    let every = referenced.len().div_ceil(MOST_SLOPES).max(1);
+    let (c2, y): (Vec<f64>, Vec<f64>) = referenced
+        .iter()
+        .step_by(every)
+        .map(|&i| {
+            let d = (f64::from(up[i]) - f64::from(down[i])) / (2.0 * STEP_C);
+            (d * d, stream.rate_dps[i])
+        })
+        .unzip();
+    let (a, b) = super::split_by_output(&c2, &y, noise_std);
+    (a.sqrt(), b.sqrt())
+}

@@ -1,0 +1,135 @@
+//! The heating term: the band of heating rates a training stream held, as the firmware reads
+//! them, and the model error a stated sensor lag puts outside it.
+
+use super::*;
+use crate::analysis::uncertainty::heating::{ASSUMED_LAG_S, HeatingBand, rates};
+
+/// A warm-up read at 1 Hz: from 10 °C, heating at 2 °C/min and slowing by 0.1 °C/min each
+/// minute (a rate that falls as the temperature rises), for 15 minutes, then a soak.
+fn warm_up() -> Stream {
+    let n = 1800;
+    let mut temp = Vec::with_capacity(n);
+    let mut t = 10.0;
+    for i in 0..n {
+        temp.push(t);
+        let minute = i as f64 / 60.0;
+        t += (2.0 - 0.1 * minute).max(0.0) / 60.0;
+    }
+    Stream::from_columns(
+        (0..n).map(|i| i as f64).collect(),
+        temp,
+        vec![0.0; n],
+        vec![0.0; n],
+    )
+    .unwrap()
+}
+
+#[test]
+fn the_band_is_the_rates_the_training_held_at_each_temperature() {
+    let stream = warm_up();
+    let samples = rates(&stream);
+    // The firmware's filter: at power-on the rate starts from rest, and is read from 6 minutes
+    // on, when it follows the rate two minutes (its time constant) late: at minute 10, minute
+    // 8's 1.2 °C/min.
+    assert_eq!(samples.len(), stream.len() - 360);
+    assert!((samples[240].1 - 1.2).abs() < 0.02, "{:?}", samples[240]);
+    let band = HeatingBand::of(&samples).unwrap();
+    // Heating slows as it warms: the line falls with the temperature.
+    assert!(band.rate_per_c < 0.0, "{band:?}");
+    assert!(
+        band.min < -MARGIN_AT_LEAST && band.max > MARGIN_AT_LEAST,
+        "{band:?}"
+    );
+    // Every rate but the 0.5 % at each end lies inside it.
+    let about = |(t, r): (f64, f64)| r - (band.rate_at_0c + band.rate_per_c * t);
+    let outside = samples
+        .iter()
+        .filter(|s| !(band.min..=band.max).contains(&about(**s)))
+        .count();
+    assert!(outside <= samples.len() / 100, "{outside}");
+    // At one temperature, a flat line: rates say nothing of a change with it.
+    let soak: Vec<(f64, f64)> = (0..100).map(|i| (25.0, 0.01 * (i % 3) as f64)).collect();
+    let flat = HeatingBand::of(&soak).unwrap();
+    assert_eq!(flat.rate_per_c, 0.0);
+    let (lo, hi) = (flat.rate_at_0c + flat.min, flat.rate_at_0c + flat.max);
+    assert!(
+        (lo + 0.05).abs() < 1e-12 && (hi - 0.07).abs() < 1e-12,
+        "{flat:?}"
+    );
+    assert_eq!(HeatingBand::of(&[]), None);
+}
+
+/// The band's margin is at least this, °C/min.
+const MARGIN_AT_LEAST: f64 = 0.049;
+
+#[test]
+fn a_sensor_lag_stated_or_assumed_sets_the_term_outside_the_band() {
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let stream = warm_up();
+    let mut c = calibrate(&[], noise, Prior::NONE);
+    // A model that changes 0.02 °/s per °C: 90 s of lag are 1.5 min, 0.03 °/s per °C/min.
+    c.set_heating(&rates(&stream), (0.02, 0.0));
+    assert_eq!(c.error_model.heating_var, 0.0);
+    let band = c.heating.band.unwrap();
+    assert_eq!(c.error_model.heating_rate_min, band.min as f32);
+    assert_eq!(c.error_model.heating_rate_per_c, band.rate_per_c as f32);
+    // None stated: 30 s assumed, and said.
+    c.set_sensor_lag(None);
+    assert!((c.heating.std_per_c_per_min - 0.01).abs() < 1e-12);
+    assert_eq!(c.heating.sensor_lag_s, Some(ASSUMED_LAG_S));
+    assert!(c.assumed.contains(&"heating"));
+    assert!(c.skipped_lines(true).is_empty());
+    let words = c.describe("°/s");
+    assert!(words.contains("assumed: a sensor lag of 30 s") && words.contains("--sensor-lag"));
+    c.set_sensor_lag(Some(90.0));
+    assert!(!c.assumed.contains(&"heating"));
+    assert!((c.heating.std_per_c_per_min - 0.03).abs() < 1e-12);
+    assert_eq!(c.error_model.heating_var, (0.03f64 * 0.03) as f32);
+    assert_eq!(c.error_model.heating_scale_var, 0.0);
+    assert!(c.skipped_lines(true).is_empty());
+    let words = c.describe("°/s");
+    assert!(words.contains("the stated sensor lag, 90 s"), "{words}");
+    // At 12 °C heating 1 °C/min faster than the band allows: 0.03 °/s more, in quadrature.
+    let e = c.error_model;
+    let top = e.heating_rate_at_0c + e.heating_rate_per_c * 12.0 + e.heating_rate_max;
+    let at = |rate| Conditions {
+        heating: Some((12.0, rate)),
+        ..Conditions::at_hours(0.0)
+    };
+    let grown = e.model_error(0.0, 0.0, at(top + 1.0)) - e.model_error(0.0, 0.0, at(top));
+    assert!((f64::from(grown) / 9e-4 - 1.0).abs() < 1e-4, "{grown}");
+    // A model whose change per °C grows with the output, 100 ppm of it per °C: 150 ppm of the
+    // output per °C/min beyond the band at 90 s.
+    c.set_heating(&rates(&stream), (0.02, 100e-6));
+    assert!((c.heating.scale_ppm_per_c_per_min - 150.0).abs() < 1e-9);
+    assert_eq!(c.error_model.heating_scale_var, (150e-6f64 * 150e-6) as f32);
+    let y = 50.0f32;
+    let scaled = e.model_error(0.0, y, at(top + 1.0)) - e.model_error(0.0, y, at(top));
+    assert!((f64::from(scaled) / 9e-4 - 1.0).abs() < 1e-4, "{scaled}");
+    let e = c.error_model;
+    let scaled = e.model_error(0.0, y, at(top + 1.0)) - e.model_error(0.0, y, at(top));
+    let expected = 9e-4 + (150e-6 * 50.0f64).powi(2);
+    assert!(
+        (f64::from(scaled) / expected - 1.0).abs() < 1e-4,
+        "{scaled}"
+    );
+    // Without the training's rates (a rate table's soaks) a stated lag has nothing to be
+    // outside of: no term, and the line says the lag is not used.
+    let mut table = calibrate(&[], noise, Prior::NONE);
+    table.set_sensor_lag(Some(90.0));
+    assert_eq!(table.error_model.heating_var, 0.0);
+    let line = table.skipped_lines(true).join("\n");
+    assert!(line.contains("not used"), "{line}");
+    table.set_sensor_lag(None);
+    assert!(table.assumed.is_empty() && table.heating.sensor_lag_s.is_none());
+    let line = table.skipped_lines(true).join("\n");
+    assert!(line.contains("are not known"), "{line}");
+    // A stated 0: no term, said.
+    c.set_sensor_lag(Some(0.0));
+    assert_eq!(c.error_model.heating_var, 0.0);
+    let line = c.skipped_lines(true).join("\n");
+    assert!(line.contains("is 0"), "{line}");
+}
