@@ -28,7 +28,7 @@
 //! elements): the `d` input features (enum index, then the f32 parameter of the stateful ones),
 //! the `p·d` prior-mean exponents (u8, row per monomial), and one flat array of little-endian f32;
 //! then what the mean does beyond the trained range ([`Beyond`], one byte), the [`ErrorModel`],
-//! eighteen little-endian f32 in its field order, and the [`Limits`], three.
+//! twenty little-endian f32 in its field order, and the [`Limits`], three.
 //! The flat array:
 //!
 //! ```text

@@ -74,6 +74,8 @@ impl Reference {
                 heating_rate_per_c: 0.0,
                 heating_rate_min: -0.5,
                 heating_rate_max: 0.5,
+                heating_temp_min_c: -30.0,
+                heating_temp_max_c: 60.0,
             },
         }
     }
@@ -266,19 +268,19 @@ fn without_last(blob: &[u8], version: u16, numbers: usize) -> Vec<u8> {
     old
 }
 
-/// The same model as a version-8 blob: the error model without its last five numbers, the
+/// The same model as a version-8 blob: the error model without its last eight numbers, the
 /// heating term and its band.
 pub fn as_v8(blob: &[u8]) -> Vec<u8> {
     without_last(blob, blob::V8, ErrorModel::V8_NUMBERS)
 }
 
-/// The same model as a version-7 blob: the error model without its last six numbers, the
+/// The same model as a version-7 blob: the error model without its last nine numbers, the
 /// heating term and the extrapolation's scale part.
 pub fn as_v7(blob: &[u8]) -> Vec<u8> {
     without_last(blob, blob::V7, ErrorModel::V7_NUMBERS)
 }
 
-/// The same model as a version-6 blob: the error model without its last seven numbers, the scale
+/// The same model as a version-6 blob: the error model without its last ten numbers, the scale
 /// term, the extrapolation's scale part and the heating term.
 pub fn as_v6(blob: &[u8]) -> Vec<u8> {
     without_last(blob, blob::V6, ErrorModel::V6_NUMBERS)

@@ -1371,7 +1371,7 @@ class Heating(Record):
     """The band of heating rates the training stream held (`None`: not known, as for a rate table's soaks: no term)."""
 
     scale_ppm_per_c_per_min: float
-    """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag."""
+    """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag in minutes."""
 
     scale_slope_ppm_per_c: float
     """Its part in proportion to the output, ppm of the output per °C (0: none shows, as at rest)."""
@@ -1383,11 +1383,11 @@ class Heating(Record):
     """The model's change per °C of the temperature reading over the training samples with a reference, its part alike at every output, output units per °C (RMS; 0: not known)."""
 
     std_per_c_per_min: float
-    """The model error per °C/min of heating rate beyond the band, output units: `slope_per_c` times the lag (0: no term)."""
+    """The model error per °C/min of heating rate beyond the band, output units: `slope_per_c` times the lag in minutes (0: no term)."""
 
 
 class HeatingBand(Record):
-    """The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a temperature T."""
+    """The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a temperature T, held within the temperatures it was read at, `[temp_min_c, temp_max_c]`."""
 
     max: float
     """The band's upper edge about the line, °C/min."""
@@ -1400,6 +1400,12 @@ class HeatingBand(Record):
 
     rate_per_c: float
     """The line's change per °C, °C/min per °C."""
+
+    temp_max_c: float
+    """The warmest, °C."""
+
+    temp_min_c: float
+    """The coldest temperature of its samples, °C: colder, the line is read here."""
 
 
 class HeldOutFigures(Record):

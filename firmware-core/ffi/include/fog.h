@@ -35,7 +35,7 @@
 // and regenerate the header.
 #define FOG_UNIT_NUMBERS (FOG_UNIT_MAX_CHANNELS * ((((((7 * FOG_MAX_INPUTS) + FOG_MAX_MONOMIALS) + 2) + (140 * FOG_MAX_INPUTS)) + 140) + ((140 * 141) / 2)))
 
-// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 232 bytes per channel for
+// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 240 bytes per channel for
 // its name, sizes, features, exponents, error model and limits, and 256 for the sensor's ID, the shared
 // features and the decoded marker (a compile-time check below holds it to the real size on
 // every target).

@@ -51,7 +51,7 @@ pub const FOG_UNIT_MAX_CHANNELS: usize = 6;
 /// and regenerate the header.
 pub const FOG_UNIT_NUMBERS: usize = FOG_UNIT_MAX_CHANNELS
     * (7 * FOG_MAX_INPUTS + FOG_MAX_MONOMIALS + 2 + 140 * FOG_MAX_INPUTS + 140 + 140 * 141 / 2);
-/// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 232 bytes per channel for
+/// 8-byte words of a [`FogUnit`]: its numbers (4 bytes each), about 240 bytes per channel for
 /// its name, sizes, features, exponents, error model and limits, and 256 for the sensor's ID, the shared
 /// features and the decoded marker (a compile-time check below holds it to the real size on
 /// every target).
@@ -513,7 +513,9 @@ unsafe fn decoded<'a, S: Holds + 'a>(storage: *const S) -> Result<&'a S::Inner, 
 }
 
 /// Marks a [`FogState`] that `fog_state_reset` initialized: its last word, outside the `State`.
-const RESET: u64 = 0x464F_475F_5354_4154;
+/// "FOG_ST" and the layout's number, 2 since the feature state tracks the heating rate: a state
+/// an earlier build stored is refused (`FogErrNoState`), not read in another layout.
+const RESET: u64 = 0x464F_475F_5354_0002;
 
 const _: () = assert!(size_of::<State>() < 8 * (FOG_STATE_WORDS - 1));
 

@@ -35,8 +35,8 @@ use crate::error::BlobError;
 /// swing 2 (0.5 on a cooling leg after a heating-only calibration that started at rest), and
 /// h(T, r) how far the heating rate r ([`crate::features::FeatureState::heating_rate`], °C/min)
 /// lies outside the band of rates the calibration held at T: r less the band's line
-/// (`heating_rate_at_0c + heating_rate_per_c · T`), beyond [`Self::heating_rate_min`,
-/// `heating_rate_max`].
+/// (`heating_rate_at_0c + heating_rate_per_c · T`, T held within the temperatures the band was
+/// read over), beyond [`Self::heating_rate_min`, `heating_rate_max`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -99,11 +99,16 @@ pub struct ErrorModel {
     pub heating_rate_min: f32,
     /// The band's upper edge about its line, °C/min (not below [`Self::heating_rate_min`]).
     pub heating_rate_max: f32,
+    /// The coldest temperature the band was read at, °C: colder, the line is read here (a
+    /// warm-up's line, continued far beyond its temperatures, would move by °C/min).
+    pub heating_temp_min_c: f32,
+    /// The warmest, °C (not below [`Self::heating_temp_min_c`]).
+    pub heating_temp_max_c: f32,
 }
 
 impl ErrorModel {
     /// Numbers in its encoding.
-    pub const NUMBERS: usize = 18;
+    pub const NUMBERS: usize = 20;
     /// Numbers in its encoding of format [`super::V8`]: the first twelve.
     pub const V8_NUMBERS: usize = 12;
     /// Numbers in its encoding of format [`super::V7`]: the first eleven.
@@ -161,6 +166,8 @@ impl ErrorModel {
             heating_rate_per_c: 0.0,
             heating_rate_min: 0.0,
             heating_rate_max: 0.0,
+            heating_temp_min_c: 0.0,
+            heating_temp_max_c: 0.0,
         }
     }
 
@@ -185,6 +192,8 @@ impl ErrorModel {
             self.heating_rate_per_c,
             self.heating_rate_min,
             self.heating_rate_max,
+            self.heating_temp_min_c,
+            self.heating_temp_max_c,
         ]
     }
 
@@ -204,6 +213,7 @@ impl ErrorModel {
             && self.heating_var >= 0.0
             && self.heating_scale_var >= 0.0
             && self.heating_rate_min <= self.heating_rate_max
+            && self.heating_temp_min_c <= self.heating_temp_max_c
         {
             Ok(())
         } else {
@@ -230,7 +240,8 @@ impl ErrorModel {
     /// h(T, r): how far the heating rate `rate` (°C/min) lies outside the band the calibration
     /// held at the temperature `temp_c`, °C/min (0 inside it).
     pub fn heating_excess(&self, temp_c: f32, rate: f32) -> f32 {
-        let about = rate - (self.heating_rate_at_0c + self.heating_rate_per_c * temp_c);
+        let t = temp_c.clamp(self.heating_temp_min_c, self.heating_temp_max_c);
+        let about = rate - (self.heating_rate_at_0c + self.heating_rate_per_c * t);
         (self.heating_rate_min - about)
             .max(about - self.heating_rate_max)
             .max(0.0)

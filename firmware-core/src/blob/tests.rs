@@ -37,6 +37,8 @@ const GOLDEN_ERROR: ErrorModel = ErrorModel {
     heating_rate_per_c: -0.01,
     heating_rate_min: -0.2,
     heating_rate_max: 0.3,
+    heating_temp_min_c: 0.0,
+    heating_temp_max_c: 30.0,
 };
 
 /// [`GOLDEN_ERROR`] as a blob before format 9 reads: no heating term, no band.
@@ -47,6 +49,8 @@ const NO_HEATING: ErrorModel = ErrorModel {
     heating_rate_per_c: 0.0,
     heating_rate_min: 0.0,
     heating_rate_max: 0.0,
+    heating_temp_min_c: 0.0,
+    heating_temp_max_c: 0.0,
     ..GOLDEN_ERROR
 };
 
@@ -72,7 +76,7 @@ fn golden_bytes_pin_the_encoding() {
     let mut buf = [0u8; 200];
     let n = encode(dims, &payload, &mut buf).unwrap();
     let mut expected: Vec<u8> = vec![b'F', b'O', b'G', b'B', 9, 0, 1, 0, 1, 1, 0, 0, 0, 0];
-    expected.extend([146, 0, 0, 0]);
+    expected.extend([154, 0, 0, 0]);
     let mut digest = CRC32.digest();
     digest.update(&expected[4..]);
     digest.update(&buf[HEADER_LEN..n]);
@@ -305,6 +309,20 @@ fn a_version_8_blob_still_decodes_without_a_heating_term() {
         .predict_in(&x, at(-0.225 - 0.725), &mut scratch)
         .unwrap();
     assert!((slower.bias_variance - faster.bias_variance).abs() <= 1e-3 * part);
+    // Beyond the temperatures the band was read at, its line is read at their edge: at 50 °C
+    // as at 30 °C, where 1.0 °C/min lies 0.9 above it (the line continued would give 1.1).
+    let mut warm = |t: f32, rate| {
+        let at = Conditions {
+            heating: Some((t, rate)),
+            ..Conditions::at_hours(0.0)
+        };
+        new.predict_in(&x, at, &mut scratch).unwrap().bias_variance
+    };
+    assert_eq!(warm(50.0, 1.0), warm(30.0, 1.0));
+    let e = GOLDEN_ERROR;
+    assert!((e.heating_excess(50.0, 1.0) - 0.9).abs() < 1e-6);
+    // At −20 °C, the line at 0 °C: −1.0 °C/min lies 0.9 below its lower edge, 0.1 − 0.2.
+    assert!((e.heating_excess(-20.0, -1.0) - 0.9).abs() < 1e-6);
     assert_eq!(
         set_error_model(&mut old.clone(), &GOLDEN_ERROR),
         Err(BlobError::UnsupportedVersion(V8))
@@ -436,6 +454,11 @@ fn the_error_model_is_checked_like_the_other_numbers() {
         ..GOLDEN_ERROR
     };
     assert_eq!(bad(band), BlobError::InvalidParameter);
+    let temps = ErrorModel {
+        heating_temp_min_c: 40.0,
+        ..GOLDEN_ERROR
+    };
+    assert_eq!(bad(temps), BlobError::InvalidParameter);
 }
 
 /// The same model as a version-3 blob: 18-byte header, CRC over the payload alone.

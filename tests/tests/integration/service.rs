@@ -607,6 +607,7 @@ fn a_heating_only_calibration_states_a_sigma_that_covers_the_cooling_leg() {
         turn_on_var: 0.0,
         scale_var: 0.0,
         heating_var: 0.0,
+        heating_scale_var: 0.0,
         ..fw.error_model()
     };
     firmware_core::blob::set_error_model(&mut bytes, &without).unwrap();

@@ -283,6 +283,9 @@ mod tests {
     ) -> firmware_core::ErrorModel {
         firmware_core::ErrorModel {
             heating_var: from.heating_var,
+            heating_scale_var: from.heating_scale_var,
+            heating_temp_min_c: from.heating_temp_min_c,
+            heating_temp_max_c: from.heating_temp_max_c,
             heating_rate_at_0c: from.heating_rate_at_0c,
             heating_rate_per_c: from.heating_rate_per_c,
             heating_rate_min: from.heating_rate_min,

@@ -49,8 +49,9 @@ const S_PER_MIN: f64 = 60.0;
 /// die sensor's seconds, a board sensor's minute or two beside the part, a FOG coil's 5–20
 /// minutes behind its housing's sensor, the short end of a sensor off the die. On the simulated
 /// board (docs/uncertainty.md) it took the lagging IMU's gyro z from 62–69 % to 76–84 % and
-/// widened the other IMU's σ by up to 1.14×; the MEMS log, the service challenge and the
-/// simulated chamber and ramps did not change. A FOG whose coil lags further needs its lag stated.
+/// widened the other IMU's σ by up to 1.14×; the MEMS log's forward split, the service
+/// challenge, the simulated chamber, ramps and room logs did not change. A FOG whose coil lags
+/// further needs its lag stated.
 pub const ASSUMED_LAG_S: f64 = 30.0;
 
 /// The heating rates the training held and the model error outside them (`calibration.heating`
@@ -71,15 +72,19 @@ pub struct Heating {
     /// `assumed`); null: neither, no term.
     pub sensor_lag_s: Option<f64>,
     /// The model error per °C/min of heating rate beyond the band, output units: `slope_per_c`
-    /// times the lag (0: no term).
+    /// times the lag in minutes (0: no term).
     pub std_per_c_per_min: f64,
     /// Its part in proportion to the output, ppm of the output per °C/min:
-    /// `scale_slope_ppm_per_c` times the lag.
+    /// `scale_slope_ppm_per_c` times the lag in minutes.
     pub scale_ppm_per_c_per_min: f64,
+    /// The lag stated, s (`None`: none, and [`ASSUMED_LAG_S`] is assumed where the band is
+    /// known): kept apart from `sensor_lag_s`, so the band and the lag may be stated in any order.
+    #[serde(skip)]
+    stated_lag_s: Option<f64>,
 }
 
 /// The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a
-/// temperature T.
+/// temperature T, held within the temperatures it was read at, `[temp_min_c, temp_max_c]`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct HeatingBand {
     /// The line's rate at 0 °C, °C/min.
@@ -90,6 +95,10 @@ pub struct HeatingBand {
     pub min: f64,
     /// The band's upper edge about the line, °C/min.
     pub max: f64,
+    /// The coldest temperature of its samples, °C: colder, the line is read here.
+    pub temp_min_c: f64,
+    /// The warmest, °C.
+    pub temp_max_c: f64,
 }
 
 impl HeatingBand {
@@ -115,6 +124,8 @@ impl HeatingBand {
             rate_per_c: line.slope,
             min: quantile(&about, TAIL) - MARGIN,
             max: quantile(&about, 1.0 - TAIL) + MARGIN,
+            temp_min_c: lo,
+            temp_max_c: hi,
         })
     }
 }
@@ -123,18 +134,26 @@ impl Calibration {
     /// States the heating rates the training stream held (`samples`: each referenced sample's
     /// temperature and heating rate, [`rates`]) and the model's change per °C over them, told
     /// apart into its part alike at every output and its part in proportion to it (`slope`:
-    /// output units and relative, per °C, [`slopes`]), into the blob's band; the term itself
-    /// waits for the lag ([`Self::set_sensor_lag`]).
+    /// output units and relative, per °C, [`slopes`]), into the blob's band, with the term at
+    /// the lag stated or assumed ([`Self::set_sensor_lag`]).
     pub fn set_heating(&mut self, samples: &[(f64, f64)], slope: (f64, f64)) {
         self.heating.band = HeatingBand::of(samples);
         self.heating.slope_per_c = slope.0;
         self.heating.scale_slope_ppm_per_c = slope.1 * 1e6;
-        if let Some(b) = self.heating.band {
-            self.error_model.heating_rate_at_0c = b.rate_at_0c as f32;
-            self.error_model.heating_rate_per_c = b.rate_per_c as f32;
-            self.error_model.heating_rate_min = b.min as f32;
-            self.error_model.heating_rate_max = b.max as f32;
-        }
+        let b = self.heating.band.unwrap_or(HeatingBand {
+            rate_at_0c: 0.0,
+            rate_per_c: 0.0,
+            min: 0.0,
+            max: 0.0,
+            temp_min_c: 0.0,
+            temp_max_c: 0.0,
+        });
+        self.error_model.heating_rate_at_0c = b.rate_at_0c as f32;
+        self.error_model.heating_rate_per_c = b.rate_per_c as f32;
+        self.error_model.heating_rate_min = b.min as f32;
+        self.error_model.heating_rate_max = b.max as f32;
+        self.error_model.heating_temp_min_c = b.temp_min_c as f32;
+        self.error_model.heating_temp_max_c = b.temp_max_c as f32;
         self.apply_lag();
     }
 
@@ -143,16 +162,16 @@ impl Calibration {
     /// error per °C/min beyond the band is the model's change per °C over that lag (module doc).
     /// Where the band is not known there is no term ([`Self::heating_skipped_line`] says so).
     pub fn set_sensor_lag(&mut self, stated: Option<f64>) {
-        self.assumed.retain(|name| *name != "heating");
-        let assumed = stated.is_none() && self.heating.band.is_some();
-        self.heating.sensor_lag_s = if assumed { Some(ASSUMED_LAG_S) } else { stated };
+        self.heating.stated_lag_s = stated;
         self.apply_lag();
-        if assumed && self.heating_shows() {
-            self.assumed.push("heating");
-        }
     }
 
+    /// The term at the band and the lag as they now stand, and whether it is assumed.
     fn apply_lag(&mut self) {
+        self.assumed.retain(|name| *name != "heating");
+        let stated = self.heating.stated_lag_s;
+        let assumed = stated.is_none() && self.heating.band.is_some();
+        self.heating.sensor_lag_s = if assumed { Some(ASSUMED_LAG_S) } else { stated };
         let minutes = match (self.heating.band, self.heating.sensor_lag_s) {
             (Some(_), Some(lag)) => lag / S_PER_MIN,
             _ => 0.0,
@@ -165,6 +184,9 @@ impl Calibration {
         self.heating.scale_ppm_per_c_per_min = ppm;
         self.error_model.heating_var = (std * std) as f32;
         self.error_model.heating_scale_var = ((ppm * 1e-6).powi(2)) as f32;
+        if assumed && self.heating_shows() {
+            self.assumed.push("heating");
+        }
     }
 
     /// Whether the heating term adds anything.
@@ -208,18 +230,15 @@ impl Calibration {
     /// The line a command says where a heating rate unlike the calibration's adds nothing to the
     /// σ, and why; `None` where it adds its term.
     pub fn heating_skipped_line(&self) -> Option<String> {
+        const UNKNOWN: &str = "the training's heating rates are not known: a rate table's soaks, \
+                               logs pooled, or power-ons too short, under 6 minutes, for the \
+                               rate to settle";
         let why = match (self.heating.band, self.heating.sensor_lag_s) {
-            (None, Some(_)) => {
-                "the training's heating rates are not known, as for a rate table's soaks: the \
-                 stated sensor lag is not used"
-            }
-            (None, None) => {
-                "the training's heating rates are not known, as for a rate table's soaks"
-            }
+            (None, Some(_)) => format!("{UNKNOWN}; the stated sensor lag is not used"),
+            (None, None) => UNKNOWN.to_owned(),
             (Some(_), _) if self.heating_shows() => return None,
             (Some(_), _) => {
-                "the sensor lag stated is 0, or the model does not change with \
-                             temperature"
+                "the sensor lag is 0, or the model does not change with temperature".to_owned()
             }
         };
         Some(format!(

@@ -155,14 +155,20 @@ pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
 
 /// What `read` reads of the firmware's feature state after each sample of `stream` (the
 /// conditions the model error reads whatever the model's inputs), the state carried through the
-/// whole stream; `None` where the firmware refuses the sample.
+/// whole stream and powered on again at each of its restarts, as every replay does
+/// (`fog_data::replay::restarts`); `None` where the firmware refuses the sample.
 pub fn tracked<T>(
     stream: &Stream,
     read: impl Fn(&firmware_core::FeatureState) -> T,
 ) -> Vec<Option<T>> {
     let mut state = firmware_core::FeatureState::default();
-    (0..stream.len())
-        .map(|i| {
+    replay::restarts(stream)
+        .into_iter()
+        .enumerate()
+        .map(|(i, restart)| {
+            if restart {
+                state.power_on();
+            }
             let sample = firmware_core::Sample {
                 time_s: stream.time_s[i],
                 temp_c: stream.temp_c[i] as f32,
