@@ -1368,7 +1368,7 @@ class Heating(Record):
     """The heating rates the training held and the model error outside them (`calibration.heating` in the JSON)."""
 
     band: HeatingBand | None
-    """The band of heating rates the training stream held (`None`: not known, as for a rate table's soaks: no term)."""
+    """The band of heating rates the training stream held (`None`: not known, no term: a rate table's soaks, logs pooled, power-ons under 6 minutes)."""
 
     scale_ppm_per_c_per_min: float
     """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag in minutes."""

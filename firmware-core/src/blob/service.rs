@@ -199,7 +199,7 @@ impl ErrorModel {
 
     /// The index of its first non-finite number, else whether every number is in its domain
     /// (variances and the interval not negative, −1 ≤ leg_min ≤ leg_max ≤ 1, the heating band's
-    /// edges in order).
+    /// edges and its temperatures in order).
     pub fn check(&self) -> Result<(), BlobError> {
         let numbers = self.numbers();
         if let Some(i) = numbers.iter().position(|v| !v.is_finite()) {
@@ -240,7 +240,10 @@ impl ErrorModel {
     /// h(T, r): how far the heating rate `rate` (°C/min) lies outside the band the calibration
     /// held at the temperature `temp_c`, °C/min (0 inside it).
     pub fn heating_excess(&self, temp_c: f32, rate: f32) -> f32 {
-        let t = temp_c.clamp(self.heating_temp_min_c, self.heating_temp_max_c);
+        // max/min, not clamp: a hand-built model whose edges are out of order must not panic.
+        let t = temp_c
+            .max(self.heating_temp_min_c)
+            .min(self.heating_temp_max_c);
         let about = rate - (self.heating_rate_at_0c + self.heating_rate_per_c * t);
         (self.heating_rate_min - about)
             .max(about - self.heating_rate_max)

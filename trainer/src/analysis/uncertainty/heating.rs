@@ -58,8 +58,8 @@ pub const ASSUMED_LAG_S: f64 = 30.0;
 /// in the JSON).
 #[derive(Debug, Clone, Default, Serialize, schemars::JsonSchema)]
 pub struct Heating {
-    /// The band of heating rates the training stream held (`None`: not known, as for a rate
-    /// table's soaks: no term).
+    /// The band of heating rates the training stream held (`None`: not known, no term: a rate
+    /// table's soaks, logs pooled, power-ons under 6 minutes).
     pub band: Option<HeatingBand>,
     /// The model's change per °C of the temperature reading over the training samples with a
     /// reference, its part alike at every output, output units per °C (RMS; 0: not known).
@@ -249,7 +249,8 @@ impl Calibration {
 
 /// The temperature and heating rate of every sample of `stream` with a reference whose rate the
 /// firmware reads into the model error (`firmware_core::FeatureState::heating`: settled after
-/// the power-on), the state carried through the whole stream.
+/// the power-on), the state carried through the whole stream and its power-ons
+/// ([`super::streams::tracked`]).
 pub fn rates(stream: &Stream) -> Vec<(f64, f64)> {
     super::streams::tracked(stream, firmware_core::FeatureState::heating)
         .into_iter()

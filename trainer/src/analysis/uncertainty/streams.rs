@@ -132,8 +132,8 @@ pub fn errors(model: &HostModel, stream: &Stream) -> Vec<f64> {
 }
 
 /// The heating/cooling state of every sample of `stream` with a reference, as the firmware tracks
-/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream, with the
-/// sample's temperature.
+/// it (`firmware_core::FeatureState::leg`), the state carried through the whole stream and its
+/// power-ons ([`tracked`]), with the sample's temperature.
 pub fn legs(stream: &Stream) -> Vec<(f32, f64)> {
     leg_states(stream)
         .into_iter()
@@ -147,8 +147,8 @@ pub fn legs(stream: &Stream) -> Vec<(f32, f64)> {
 }
 
 /// The heating/cooling state of every sample of `stream` as the firmware tracks it
-/// (`firmware_core::FeatureState::leg`), the state carried through the whole stream; `None`
-/// where the firmware refuses the sample.
+/// (`firmware_core::FeatureState::leg`), the state carried through the whole stream and its
+/// power-ons ([`tracked`]); `None` where the firmware refuses the sample.
 pub fn leg_states(stream: &Stream) -> Vec<Option<f32>> {
     tracked(stream, firmware_core::FeatureState::leg)
 }

@@ -5,7 +5,7 @@ use super::*;
 use crate::analysis::uncertainty::heating::{ASSUMED_LAG_S, HeatingBand, rates};
 
 /// A warm-up read at 1 Hz: from 10 °C, heating at 2 °C/min and slowing by 0.1 °C/min each
-/// minute (a rate that falls as the temperature rises), for 15 minutes, then a soak.
+/// minute (a rate that falls as the temperature rises), for 20 minutes, then a soak.
 fn warm_up() -> Stream {
     let n = 1800;
     let mut temp = Vec::with_capacity(n);
@@ -67,13 +67,17 @@ fn a_sensor_lag_stated_or_assumed_sets_the_term_outside_the_band() {
     };
     let stream = warm_up();
     let mut c = calibrate(&[], noise, Prior::NONE);
-    // A lag stated before the band is known waits for it: no term, said as not used.
-    c.set_sensor_lag(Some(0.0));
+    // A lag stated before the band is known waits for it: no term, said as not used; then
+    // the band comes and the stated lag sets the term, none assumed. A model that changes
+    // 0.02 °/s per °C: 90 s of lag are 1.5 min, 0.03 °/s per °C/min.
+    c.set_sensor_lag(Some(90.0));
     assert_eq!(c.error_model.heating_var, 0.0);
     assert!(c.skipped_lines(true).join("").contains("not used"));
-    c.set_sensor_lag(None);
-    // A model that changes 0.02 °/s per °C: 90 s of lag are 1.5 min, 0.03 °/s per °C/min.
     c.set_heating(&rates(&stream), (0.02, 0.0));
+    assert!((c.heating.std_per_c_per_min - 0.03).abs() < 1e-12);
+    assert_eq!(c.heating.sensor_lag_s, Some(90.0));
+    assert!(!c.assumed.contains(&"heating"));
+    c.set_sensor_lag(None);
     let band = c.heating.band.unwrap();
     assert_eq!(c.error_model.heating_rate_min, band.min as f32);
     assert_eq!(c.error_model.heating_rate_per_c, band.rate_per_c as f32);
@@ -134,7 +138,7 @@ fn a_sensor_lag_stated_or_assumed_sets_the_term_outside_the_band() {
     assert!(line.contains("is 0"), "{line}");
 }
 
-/// A log of two power-ons, the second 10 °C colder than the first ended, its clock started
+/// A log of two power-ons, the second 12 °C colder than the first ended, its clock started
 /// again: the heating rate starts from rest at each power-on, as the firmware's replay has it,
 /// and no sample of a power-on's first 6 minutes is read into the band.
 #[test]
