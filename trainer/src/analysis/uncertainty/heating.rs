@@ -85,7 +85,7 @@ pub struct Heating {
 
 /// The heating rates a calibration held: `rate_at_0c + rate_per_c · T + [min, max]` °C/min at a
 /// temperature T, held within the temperatures it was read at, `[temp_min_c, temp_max_c]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, schemars::JsonSchema)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct HeatingBand {
     /// The line's rate at 0 °C, °C/min.
     pub rate_at_0c: f64,
@@ -140,14 +140,7 @@ impl Calibration {
         self.heating.band = HeatingBand::of(samples);
         self.heating.slope_per_c = slope.0;
         self.heating.scale_slope_ppm_per_c = slope.1 * 1e6;
-        let b = self.heating.band.unwrap_or(HeatingBand {
-            rate_at_0c: 0.0,
-            rate_per_c: 0.0,
-            min: 0.0,
-            max: 0.0,
-            temp_min_c: 0.0,
-            temp_max_c: 0.0,
-        });
+        let b = self.heating.band.unwrap_or_default();
         self.error_model.heating_rate_at_0c = b.rate_at_0c as f32;
         self.error_model.heating_rate_per_c = b.rate_per_c as f32;
         self.error_model.heating_rate_min = b.min as f32;
