@@ -6,6 +6,7 @@ mod cli;
 mod diagnosis;
 mod docs;
 mod firmware;
+mod heating;
 mod layers;
 mod m4;
 mod paper;

@@ -1,7 +1,7 @@
 //! A stream's out-of-sample residuals, as the firmware predicts them.
 
 use super::*;
-use crate::analysis::uncertainty::streams::stream_series;
+use crate::analysis::uncertainty::streams::{leg_states, stream_series, tracked};
 
 #[test]
 fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
@@ -84,4 +84,43 @@ fn a_streams_residuals_are_its_minutes_as_the_firmware_predicts_them() {
         );
         assert_eq!(r.output, 5.0);
     }
+}
+
+/// A log of two power-ons, read once with a clock that ran on through the power-off (a gap) and
+/// once with one that started again (time jumps back), as every replay reads them
+/// (`fog_data::replay::restarts`): the gyro is powered on again at the gap, and the
+/// heating/cooling state is kept across it (a leg persists through a power-off as through a
+/// soak); where the clock started again, the state starts afresh, as after a reset. No sample is
+/// refused. The second power-on starts where the first stopped heating and cools from there.
+#[test]
+fn the_heating_cooling_state_crosses_a_power_off_as_the_replay_reads_it() {
+    let n = 1200;
+    let temp: Vec<f64> = (0..2 * n)
+        .map(|i| {
+            let k = (i % n) as f64 / n as f64;
+            if i < n {
+                20.0 + 10.0 * k
+            } else {
+                30.0 - 10.0 * k
+            }
+        })
+        .collect();
+    let states = |time: Vec<f64>| {
+        let stream =
+            Stream::from_columns(time, temp.clone(), vec![0.0; 2 * n], vec![0.0; 2 * n]).unwrap();
+        let states = leg_states(&stream);
+        assert!(states.iter().all(Option::is_some), "a sample refused");
+        let on = tracked(&stream, firmware_core::FeatureState::time_on_s);
+        (states.into_iter().flatten().collect::<Vec<f32>>(), on)
+    };
+    let (ran_on, on) = states((0..2 * n).map(|i| (i + (i / n) * 3600) as f64).collect());
+    assert_eq!(on[n], Some(0.0), "powered on again at the gap");
+    assert_eq!(on[n - 1], Some((n - 1) as f64));
+    assert_eq!(ran_on[n - 1], 1.0, "heated");
+    assert_eq!(ran_on[n], 1.0, "the play kept across the power-off");
+    assert_eq!(ran_on[2 * n - 1], -1.0, "cooled");
+    let (again, _) = states((0..2 * n).map(|i| (i % n) as f64).collect());
+    assert_eq!(again[..n], ran_on[..n]);
+    assert_eq!(again[n], 0.0, "started afresh");
+    assert_eq!(again[2 * n - 1], -1.0, "cooled");
 }
