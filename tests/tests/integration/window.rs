@@ -89,8 +89,9 @@ fn earlier_half(dir: &std::path::Path, log: &str, blob: &str) -> serde_json::Val
 /// The nominal gyro's bias walks over a day and a half; the diagnosis takes a line through it
 /// for a time drift. Fitted on the later half, that line's time since power-on is the log's
 /// (36 h on), and replayed on the earlier half it follows the line back to the power-on, its σ
-/// growing by what the line added there: 85 % within ±2σ at sharpness 0.62 (the line's hours
-/// counted from the window's start, a power-on that never was: 68 % at 0.51).
+/// growing by what the line added there and by the bias's walk: 94 % within ±2σ at sharpness
+/// 0.77 (85 % at 0.62 with the walk read in sample alone; the line's hours counted from the
+/// window's start, a power-on that never was, covered 68 % at 0.51 then).
 #[test]
 fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on() {
     let dir = tempfile::tempdir().unwrap();
@@ -116,7 +117,30 @@ fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on()
         sigma["within_2sigma"].as_f64().unwrap(),
         sigma["sharpness"].as_f64().unwrap(),
     );
-    assert!(covered >= 0.8 && sharpness <= 1.0, "{sigma}");
+    assert!(covered >= 0.9 && sharpness <= 1.0, "{sigma}");
+}
+
+/// Seed 41's later half ships a time drift too, whose line takes up what the walk did over the
+/// hours fitted: the errors of the model fitted on the whole half show no walk in their Allan
+/// deviation, and the forward split scored a stretch that happened not to wander. The forward
+/// split's model, over the part it was not fitted on, shows one (0.59 (°/h)/√h; the simulator
+/// drew 0.3, and the part scored carries the model's miss too): it ships, and the earlier half
+/// is covered 98 % at sharpness 1.13, where without it the σ had no walk (88 %, 0.78).
+#[test]
+fn a_walk_the_models_own_fit_takes_up_ships_as_its_forward_split_reads_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = room(dir.path(), "41", &[]);
+    let (blob, fit) = fitted(dir.path(), &room, "drift", &["--features", "auto"]);
+    let calibration = &fit["calibration"];
+    let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
+    assert!((0.3..1.2).contains(&walk), "{walk} (°/h)/√h");
+    assert_eq!(calibration["walk_fitted_std"], 0.0, "{calibration}");
+    let sigma = &earlier_half(dir.path(), &room.log, &blob)["sigma_60s"];
+    let (covered, sharpness) = (
+        sigma["within_2sigma"].as_f64().unwrap(),
+        sigma["sharpness"].as_f64().unwrap(),
+    );
+    assert!(covered >= 0.9 && sharpness <= 1.5, "{sigma}");
 }
 
 /// Random unit 5's later half starts its heating/cooling play where the room's swing keeps it,
@@ -141,8 +165,9 @@ fn a_model_fitted_on_a_logs_later_half_does_no_harm_on_its_earlier_half() {
 
 /// A forward split inside the nominal gyro's later half shows no walk of its bias: the stretch
 /// it scores happened not to wander. The Allan deviation of the model's errors over the whole
-/// half reads the rate random walk the simulator drew (0.3 (°/h)/√h; it reads 0.46), and that
-/// ships, the split's fit kept beside it.
+/// half reads the rate random walk the simulator drew (0.3 (°/h)/√h; it reads 0.46), and that of
+/// the forward split's model over the part it was not fitted on reads 0.65: the larger ships, the
+/// split's fit kept beside it.
 #[test]
 fn a_walk_one_stretch_hides_ships_as_the_allan_deviation_reads_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -151,7 +176,7 @@ fn a_walk_one_stretch_hides_ships_as_the_allan_deviation_reads_it() {
     let calibration = &fit["calibration"];
     let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
     let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
-    assert!((0.3..0.6).contains(&walk), "{walk} (°/h)/√h");
+    assert!((0.3..1.0).contains(&walk), "{walk} (°/h)/√h");
     assert!(fitted < 0.5 * walk, "{calibration}");
     assert_eq!(calibration["measured"][0], "walk", "{calibration}");
 }

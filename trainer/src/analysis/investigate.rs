@@ -133,9 +133,10 @@ pub struct Choice {
 /// ±80 °/s in its temperature split, and the term fitted there, one number for every rate, made
 /// its σ 8.4× its RMS error on the colder day (1.03 so). Their extrapolation term is then the
 /// GP's miss, not the shipped rule's: under another rule it is assumed (`Prior::follows`).
-/// The bias's random walk is also read from the Allan deviation of `shipped_blob`'s errors over
-/// the training stream, where its reference holds still
-/// ([`uncertainty::streams::allan_walk`]): where the splits fit less, it ships.
+/// The bias's random walk is also read from an Allan deviation, where the training stream's
+/// reference holds still ([`uncertainty::streams::allan_walk`]): of `shipped_blob`'s errors over
+/// the whole stream, and of the forward split's model's over the part it was not fitted on, the
+/// larger; where the splits fit less, it ships.
 pub fn calibrate(
     (points, static_model, static_blob): (&Points, &GpModel, &[u8]),
     shipped_blob: &[u8],
@@ -187,10 +188,7 @@ pub fn calibrate(
             // Where power-ons are left out, the others' residuals keep to the power-ons their
             // models saw: the bias of one they did not is measured on the power-ons.
             for split in splits.iter().filter(|s| s.source != ResidualSource::Leg) {
-                let blob = match kind {
-                    Shipped::Static => Some(&split.static_blob),
-                    Shipped::Extended => split.extended_blob.as_ref(),
-                };
+                let blob = split_blob(split, kind);
                 let scored = if power_ons.is_empty() || split.source == ResidualSource::PowerOn {
                     split.scored.clone()
                 } else {
@@ -208,16 +206,28 @@ pub fn calibrate(
             }
         }
     }
+    // The walk the shipped model's errors show over the whole log, and the one the forward
+    // split's model shows over the part it did not see: the larger.
+    let mut walk = uncertainty::streams::allan_walk(train, errors, noise.var.sqrt());
+    for split in splits
+        .iter()
+        .filter(|s| s.source == ResidualSource::Forward)
+    {
+        if let Some(blob) = split_blob(split, kind) {
+            let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
+            walk = walk.max(uncertainty::streams::allan_walk(
+                &split.scored,
+                later,
+                noise.var.sqrt(),
+            ));
+        }
+    }
     let mut calibration = uncertainty::terms::calibrate(
         &series,
         noise,
         uncertainty::Prior::of(static_model, points)
             .for_rule(beyond)
-            .with_walk(uncertainty::streams::allan_walk(
-                train,
-                errors,
-                noise.var.sqrt(),
-            )),
+            .with_walk(walk),
     );
     calibration.set_legs(&uncertainty::streams::legs(train));
     calibration.set_heating(
@@ -225,6 +235,15 @@ pub fn calibrate(
         uncertainty::heating::slopes(&fw, train, noise.var.sqrt()),
     );
     Ok(calibration)
+}
+
+/// The blob of `split`'s model of `kind`, fitted without its scored part: the static model's, or
+/// the extension's where one was fitted.
+fn split_blob(split: &Split, kind: Shipped) -> Option<&[u8]> {
+    match kind {
+        Shipped::Static => Some(&split.static_blob),
+        Shipped::Extended => split.extended_blob.as_deref(),
+    }
 }
 
 /// Diagnoses `train` against the static `model` (fitted on `points`), fits the named causes' (or

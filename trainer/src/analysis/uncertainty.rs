@@ -35,10 +35,11 @@
 //!
 //! **A walk is one path.** A forward split scores one stretch of the bias's random walk, which
 //! may have wandered far less than the walk does. Where the training log's reference holds still
-//! (a log at rest) and the shipped model's errors over it show a rate random walk in their Allan
-//! deviation (its +½ slope) larger than the split fitted, or where there is no split, the
-//! Allan's ships, read from those in-sample errors (`walk` in `measured`; `walk_fitted_std`
-//! keeps the split's).
+//! (a log at rest), the walk is also read from an Allan deviation (its +½ slope), at every
+//! cluster time at once: of the shipped model's errors over the whole log, and of the forward
+//! split's model's errors over the part it was not fitted on (in sample, the model's own fit
+//! takes part of the walk up). Where the larger is more than the split fitted, or where there is
+//! no split, it ships (`walk` in `measured`; `walk_fitted_std` keeps the split's).
 //!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
@@ -494,9 +495,10 @@ pub struct Prior {
     /// (a split's blob as exported, a table's left-out point by the GP): only then is an
     /// extrapolation term fitted on them a measure of its miss there ([`Prior::for_rule`]).
     pub follows: bool,
-    /// The bias's random walk, output units² per hour: the rate random walk the model leaves on
-    /// its training log, read from their Allan deviation (`streams::allan_walk`); 0 where none
-    /// is read: a rate table's points, a log whose reference moves, one whose Allan deviation
+    /// The bias's random walk, output units² per hour: the rate random walk read from the Allan
+    /// deviation of the model's errors on its training log, and of the forward split's model's
+    /// over the part it was not fitted on, the larger (`streams::allan_walk`); 0 where none is
+    /// read: a rate table's points, a log whose reference moves, one whose Allan deviation
     /// shows no slope +½ (too short), and the logs of a calibration on several (`fit --stream A
     /// --stream B`, `--pool`), whose power-ons measure the walk their splits see.
     pub walk_var_per_h: f64,

@@ -73,15 +73,16 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
 }
 
 /// The bias's random walk a model leaves on `stream`, output units² per hour, from its `errors`
-/// there ([`errors`]): the rate random walk K of their Allan deviation (IEEE 952's +½ slope
-/// after the bottom, over the stretches without a gap or a power cycle), K² per hour; 0 where
-/// the log is too short to show a slope +½, or where its reference does not hold still as a log
-/// at rest does. It is read from the errors of the model fitted on the whole log, not from
-/// out-of-sample residuals: over the whole log it reads the walk at every lag up to a third of
-/// the log at once, where a forward split scores one stretch of it. On 24 fits of the simulated
-/// room logs (one half of a three-day static log each) the split's walk was 0 on 7 and up to
-/// 4.7× the simulator's on others, the Allan deviation's within 0.3–1.5× of it on 17 and 2.6× on
-/// one, none on 6.
+/// there ([`errors`]; NaN where not scored): the rate random walk K of their Allan deviation
+/// (IEEE 952's +½ slope after the bottom, over the stretches without a gap, a NaN or a power
+/// cycle), K² per hour; 0 where the stretches are too short to show a slope +½, or where the
+/// reference does not hold still as a log at rest does. It reads the walk at every lag up to a
+/// third of a stretch at once, where a forward split's fit scores one path of it: on 24 fits of
+/// the simulated room logs (one half of a three-day static log each) the split's walk was 0 on 7
+/// and up to 4.7× the simulator's on others. `investigate::calibrate` reads it on the errors of
+/// the model fitted on the whole log, and of the forward split's model over the part that model
+/// was not fitted on, out of sample: in sample, the model's own fit takes part of the walk up
+/// (docs/uncertainty.md, "The walk from the Allan deviation").
 pub fn allan_walk(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
     if !holds_still(&stream.rate_dps, noise_std) {
         return 0.0;
