@@ -462,7 +462,7 @@ class Calibration(Record):
     """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""
 
     walk_std_per_sqrt_h: float
-    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk from its Allan deviation where that is larger ([`Prior::walk_var_per_h`])."""
+    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where that is larger, from the Allan deviation of a model's errors over it (the shipped model's over the whole log, or the forward split's over the part it was not fitted on, the larger: [`Prior::walk_var_per_h`])."""
 
 
 class Candidate(Record):

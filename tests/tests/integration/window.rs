@@ -122,10 +122,11 @@ fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on()
 
 /// Seed 41's later half ships a time drift too, whose line takes up what the walk did over the
 /// hours fitted: the errors of the model fitted on the whole half show no walk in their Allan
-/// deviation, and the forward split scored a stretch that happened not to wander. The forward
-/// split's model, over the part it was not fitted on, shows one (0.59 (°/h)/√h; the simulator
-/// drew 0.3, and the part scored carries the model's miss too): it ships, and the earlier half
-/// is covered 98 % at sharpness 1.13, where without it the σ had no walk (88 %, 0.78).
+/// deviation, and the forward split's residuals fit no growth in time. The Allan deviation of
+/// the forward split's model's errors, over the part it was not fitted on, shows one (0.59
+/// (°/h)/√h; the simulator drew 0.3, and the part scored carries the model's miss too): it
+/// ships, and the earlier half is covered 98 % at sharpness 1.13, where without it the σ had no
+/// walk (88 %, 0.78).
 #[test]
 fn a_walk_the_models_own_fit_takes_up_ships_as_its_forward_split_reads_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -134,7 +135,8 @@ fn a_walk_the_models_own_fit_takes_up_ships_as_its_forward_split_reads_it() {
     let calibration = &fit["calibration"];
     let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
     assert!((0.3..1.2).contains(&walk), "{walk} (°/h)/√h");
-    assert_eq!(calibration["walk_fitted_std"], 0.0, "{calibration}");
+    let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
+    assert!(fitted < 0.1 * walk, "{calibration}");
     let sigma = &earlier_half(dir.path(), &room.log, &blob)["sigma_60s"];
     let (covered, sharpness) = (
         sigma["within_2sigma"].as_f64().unwrap(),
@@ -176,7 +178,7 @@ fn a_walk_one_stretch_hides_ships_as_the_allan_deviation_reads_it() {
     let calibration = &fit["calibration"];
     let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
     let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
-    assert!((0.3..1.0).contains(&walk), "{walk} (°/h)/√h");
+    assert!((0.3..0.8).contains(&walk), "{walk} (°/h)/√h");
     assert!(fitted < 0.5 * walk, "{calibration}");
     assert_eq!(calibration["measured"][0], "walk", "{calibration}");
 }

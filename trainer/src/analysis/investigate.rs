@@ -145,7 +145,7 @@ pub fn calibrate(
     splits: &[Split],
     beyond: &BeyondChoice,
 ) -> anyhow::Result<Calibration> {
-    let fw = fog_data::replay::decode(shipped_blob)?;
+    let fw = replay::decode(shipped_blob)?;
     let errors = uncertainty::streams::errors(&fw, train);
     let noise = SampleNoise::from_streams(&[(train, &errors)]).unwrap_or(SampleNoise {
         var: f64::from(fw.variances()[1]),
@@ -206,19 +206,23 @@ pub fn calibrate(
             }
         }
     }
-    // The walk the shipped model's errors show over the whole log, and the one the forward
-    // split's model shows over the part it did not see: the larger.
-    let mut walk = uncertainty::streams::allan_walk(train, errors, noise.var.sqrt());
+    // The walk the shipped model's errors show over the whole log, and, where the σ is fitted on
+    // the splits, the one the forward split's model shows over the part it was not fitted on:
+    // the larger. (A table's static model never saw the stream: its errors are out of sample.)
+    let noise_std = noise.var.sqrt();
+    let mut walk = uncertainty::streams::allan_walk(train, errors, noise_std);
+    let on_splits = !(points.soaked && matches!(kind, Shipped::Static));
     for split in splits
         .iter()
-        .filter(|s| s.source == ResidualSource::Forward)
+        .filter(|s| on_splits && s.source == ResidualSource::Forward)
     {
         if let Some(blob) = split_blob(split, kind) {
             let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
-            walk = walk.max(uncertainty::streams::allan_walk(
+            walk = walk.max(uncertainty::streams::part_walk(
+                train,
                 &split.scored,
                 later,
-                noise.var.sqrt(),
+                noise_std,
             ));
         }
     }

@@ -1,7 +1,8 @@
 //! The residuals of a stream: a model fitted on part of a log and replayed through the firmware's
 //! own evaluation on the rest, with the covariates the error model grows by (the hours since the
-//! data it saw, the heating/cooling state); and what a model's errors over a whole log show: one
-//! sample's noise, and the bias's random walk.
+//! data it saw, the heating/cooling state); and what a model's errors over a log show: one
+//! sample's noise, and the bias's random walk (over the whole log, or the part a split's model
+//! did not see).
 
 use firmware_core::ErrorModel;
 use firmware_core::units::SECONDS_PER_HOUR;
@@ -95,6 +96,17 @@ pub fn allan_walk(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
         }
     }
     rate_random_walk(&stream.time_s, &e)
+}
+
+/// [`allan_walk`] of `errors` over `part`, a part of `train` (its reference NaN elsewhere, as a
+/// forward split's scored stream): read only where the whole of `train`'s reference holds
+/// still, as [`allan_walk`] asks of the log it reads; a log that rests only in its later part
+/// moved where its models were fitted.
+pub fn part_walk(train: &Stream, part: &Stream, errors: Vec<f64>, noise_std: f64) -> f64 {
+    if !holds_still(&train.rate_dps, noise_std) {
+        return 0.0;
+    }
+    allan_walk(part, errors, noise_std)
 }
 
 /// Whether a log's `reference` holds still, as a log at rest does: its spread under ten times

@@ -1,8 +1,8 @@
-//! The bias's random walk: one stretch of it in a forward split, the whole log in its Allan
-//! deviation.
+//! The bias's random walk: one stretch of it in a forward split, a log or a part of it in its
+//! Allan deviation.
 
 use super::*;
-use crate::analysis::uncertainty::streams::{allan_walk, holds_still, rate_random_walk};
+use crate::analysis::uncertainty::streams::{allan_walk, holds_still, part_walk, rate_random_walk};
 use fog_data::stream::Stream;
 
 #[test]
@@ -129,4 +129,48 @@ fn the_walk_is_read_only_where_the_reference_holds_still() {
     let stream = at_rest(n, n, |i| if (i / 90) % 2 == 0 { 80.0 } else { -80.0 });
     let walk: Vec<f64> = (0..n).map(|i| (i as f64).sqrt() * 1e-4).collect();
     assert_eq!(allan_walk(&stream, walk, 1e-3), 0.0);
+}
+
+/// Three days at rest: white noise of 1e-3 per sample and a walk of K = 0.5 (°/h)/√h, as
+/// errors; a forward split scores the last day (errors and reference NaN before it).
+fn walking_split(rate: impl Fn(usize) -> f64) -> (Stream, Stream, Vec<f64>) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+    let unit = Gauss::new(0.0, 1.0).unwrap();
+    let n = 3 * 86_400;
+    let step = 0.5 / 3600.0 / 3600.0_f64.sqrt();
+    let mut walk = 0.0;
+    let cut = 2 * n / 3;
+    let errors = (0..n)
+        .map(|i| {
+            walk += step * unit.sample(&mut rng);
+            let e = walk + 1e-3 * unit.sample(&mut rng);
+            if i < cut { f64::NAN } else { e }
+        })
+        .collect();
+    let train = at_rest(n, n, rate);
+    let mut part = train.clone();
+    for r in &mut part.rate_dps[..cut] {
+        *r = f64::NAN;
+    }
+    (train, part, errors)
+}
+
+#[test]
+fn a_walk_is_read_on_the_part_a_split_scored() {
+    // The day scored is one stretch: its Allan deviation reads the walk there, within 30 %.
+    let (train, part, errors) = walking_split(|_| 0.0);
+    let read = part_walk(&train, &part, errors, 1e-3).sqrt() * 3600.0;
+    assert!((read / 0.5 - 1.0).abs() < 0.3, "read {read} (°/h)/√h");
+}
+
+#[test]
+fn a_part_at_rest_of_a_log_that_moved_reads_no_walk() {
+    // The rate table turned while the split's model was fitted and rests on the day scored: the
+    // part alone holds still, the log does not, and no walk is read.
+    let (train, part, errors) = walking_split(|i| if i < 86_400 { 80.0 } else { 0.0 });
+    assert!(
+        allan_walk(&part, errors.clone(), 1e-3) > 0.0,
+        "the part alone"
+    );
+    assert_eq!(part_walk(&train, &part, errors, 1e-3), 0.0);
 }
