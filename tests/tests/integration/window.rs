@@ -90,14 +90,23 @@ fn earlier_half(dir: &std::path::Path, log: &str, blob: &str) -> serde_json::Val
 /// for a time drift. Fitted on the later half, that line's time since power-on is the log's
 /// (36 h on), and replayed on the earlier half it follows the line back to the power-on, its σ
 /// growing by what the line added there and by the bias's walk: 94 % within ±2σ at sharpness
-/// 0.77 (85 % at 0.62 with the walk read in sample alone; the line's hours counted from the
-/// window's start, a power-on that never was, covered 68 % at 0.51 then).
+/// 0.77 (84.8 % at 0.62 with the walk read in sample alone; the line's hours counted from the
+/// window's start, a power-on that never was, covered 68 % at 0.51 then). The line takes up what
+/// the walk did over the hours fitted: the errors of the model fitted on the whole half show no
+/// walk in their Allan deviation, and the forward split's residuals fit no growth in time. The
+/// Allan deviation of the forward split's model's errors, over the part it was not fitted on,
+/// shows one (0.46 (°/h)/√h; the simulator drew 0.3), and it ships.
 #[test]
 fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on() {
     let dir = tempfile::tempdir().unwrap();
     let room = room(dir.path(), "31", &[]);
     let (blob, fit) = fitted(dir.path(), &room, "drift", &["--features", "auto"]);
     assert_eq!(fit["shipped"], "extended", "{}", fit["verdict"]);
+    let calibration = &fit["calibration"];
+    let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
+    assert!((0.3..1.2).contains(&walk), "{walk} (°/h)/√h");
+    let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
+    assert!(fitted < 0.1 * walk, "{calibration}");
     let terms = fit["extension"]["extension"]["terms"].as_array().unwrap();
     let time_on = terms
         .iter()
@@ -118,51 +127,6 @@ fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on()
         sigma["sharpness"].as_f64().unwrap(),
     );
     assert!(covered >= 0.9 && sharpness <= 1.0, "{sigma}");
-}
-
-/// Seed 41's later half ships a time drift too, whose line takes up what the walk did over the
-/// hours fitted: the errors of the model fitted on the whole half show no walk in their Allan
-/// deviation, and the forward split's residuals fit no growth in time. The Allan deviation of
-/// the forward split's model's errors, over the part it was not fitted on, shows one (0.59
-/// (°/h)/√h; the simulator drew 0.3, and the part scored carries the model's miss too): it
-/// ships, and the earlier half is covered 98 % at sharpness 1.13, where without it the σ had no
-/// walk (88 %, 0.78).
-#[test]
-fn a_walk_the_models_own_fit_takes_up_ships_as_its_forward_split_reads_it() {
-    let dir = tempfile::tempdir().unwrap();
-    let room = room(dir.path(), "41", &[]);
-    let (blob, fit) = fitted(dir.path(), &room, "drift", &["--features", "auto"]);
-    let calibration = &fit["calibration"];
-    let walk = calibration["walk_std_per_sqrt_h"].as_f64().unwrap() * 3600.0;
-    assert!((0.3..1.2).contains(&walk), "{walk} (°/h)/√h");
-    let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
-    assert!(fitted < 0.1 * walk, "{calibration}");
-    let sigma = &earlier_half(dir.path(), &room.log, &blob)["sigma_60s"];
-    let (covered, sharpness) = (
-        sigma["within_2sigma"].as_f64().unwrap(),
-        sigma["sharpness"].as_f64().unwrap(),
-    );
-    assert!(covered >= 0.9 && sharpness <= 1.5, "{sigma}");
-}
-
-/// Random unit 5's later half starts its heating/cooling play where the room's swing keeps it,
-/// on the cooling side; from its cold power-on the earlier half warms. Fitted on a window that
-/// started the play afresh, a heating/cooling state shipped and missed the earlier half by
-/// 156 °/h against the static model's 7.9. Fitted on its history, what ships does no harm there
-/// (a time drift: 3.3 °/h).
-#[test]
-fn a_model_fitted_on_a_logs_later_half_does_no_harm_on_its_earlier_half() {
-    let dir = tempfile::tempdir().unwrap();
-    let room = room(dir.path(), "51", &["--unit", "random", "--unit-seed", "5"]);
-    let (auto, _) = fitted(dir.path(), &room, "auto", &["--features", "auto"]);
-    let (fixed, _) = fitted(dir.path(), &room, "static", &[]);
-    let rmse = |blob: &str| {
-        earlier_half(dir.path(), &room.log, blob)["rmse_60s_dps"]
-            .as_f64()
-            .unwrap()
-    };
-    let (shipped, static_model) = (rmse(&auto), rmse(&fixed));
-    assert!(shipped <= 1.05 * static_model, "{shipped} {static_model}");
 }
 
 /// A forward split inside the nominal gyro's later half shows no walk of its bias: the stretch

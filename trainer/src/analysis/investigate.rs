@@ -135,8 +135,9 @@ pub struct Choice {
 /// GP's miss, not the shipped rule's: under another rule it is assumed (`Prior::follows`).
 /// The bias's random walk is also read from an Allan deviation, where the training stream's
 /// reference holds still ([`uncertainty::streams::allan_walk`]): of `shipped_blob`'s errors over
-/// the whole stream, and of the forward split's model's over the part it was not fitted on, the
-/// larger; where the splits fit less, it ships.
+/// the whole stream, and, where the σ is fitted on the splits (not a table's static model), of
+/// the forward split's model's over the part it was not fitted on
+/// ([`uncertainty::streams::part_walk`]), the larger; where the splits fit less, it ships.
 pub fn calibrate(
     (points, static_model, static_blob): (&Points, &GpModel, &[u8]),
     shipped_blob: &[u8],
@@ -212,18 +213,20 @@ pub fn calibrate(
     let noise_std = noise.var.sqrt();
     let mut walk = uncertainty::streams::allan_walk(train, errors, noise_std);
     let on_splits = !(points.soaked && matches!(kind, Shipped::Static));
-    for split in splits
-        .iter()
-        .filter(|s| on_splits && s.source == ResidualSource::Forward)
-    {
-        if let Some(blob) = split_blob(split, kind) {
-            let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
-            walk = walk.max(uncertainty::streams::part_walk(
-                train,
-                &split.scored,
-                later,
-                noise_std,
-            ));
+    if on_splits && uncertainty::streams::holds_still(&train.rate_dps, noise_std) {
+        for split in splits
+            .iter()
+            .filter(|s| s.source == ResidualSource::Forward)
+        {
+            if let Some(blob) = split_blob(split, kind) {
+                let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
+                walk = walk.max(uncertainty::streams::part_walk(
+                    train,
+                    &split.scored,
+                    later,
+                    noise_std,
+                ));
+            }
         }
     }
     let mut calibration = uncertainty::terms::calibrate(
@@ -236,7 +239,7 @@ pub fn calibrate(
     calibration.set_legs(&uncertainty::streams::legs(train));
     calibration.set_heating(
         &uncertainty::heating::rates(train),
-        uncertainty::heating::slopes(&fw, train, noise.var.sqrt()),
+        uncertainty::heating::slopes(&fw, train, noise_std),
     );
     Ok(calibration)
 }

@@ -38,8 +38,9 @@
 //! (a log at rest), the walk is also read from an Allan deviation (its +½ slope), at every
 //! cluster time at once: of the shipped model's errors over the whole log, and of the forward
 //! split's model's errors over the part it was not fitted on (in sample, the model's own fit
-//! takes part of the walk up). Where the larger is more than the split fitted, or where there is
-//! no split, it ships (`walk` in `measured`; `walk_fitted_std` keeps the split's).
+//! takes part of the walk up; a table's static model never saw the stream, so its errors are
+//! read alone). Where the larger is more than the split fitted, or where there is no split, it
+//! ships (`walk` in `measured`; `walk_fitted_std` keeps the split's).
 //!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
@@ -498,11 +499,12 @@ pub struct Prior {
     /// extrapolation term fitted on them a measure of its miss there ([`Prior::for_rule`]).
     pub follows: bool,
     /// The bias's random walk, output units² per hour: the rate random walk read from the Allan
-    /// deviation of the model's errors on its training log, and of the forward split's model's
-    /// over the part it was not fitted on, the larger (`streams::allan_walk`); 0 where none is
-    /// read: a rate table's points, a log whose reference moves, one whose Allan deviation
-    /// shows no slope +½ (too short), and the logs of a calibration on several (`fit --stream A
-    /// --stream B`, `--pool`), whose power-ons measure the walk their splits see.
+    /// deviation of the model's errors on its training log, and (but for a table's static
+    /// model) of the forward split's model's over the part it was not fitted on, the larger
+    /// (`streams::allan_walk`, `streams::part_walk`); 0 where none is read: a rate table's
+    /// points, a log whose reference moves, one whose Allan deviation shows no slope +½ (too
+    /// short), and the logs of a calibration on several (`fit --stream A --stream B`), whose
+    /// power-ons measure the walk their splits see.
     pub walk_var_per_h: f64,
 }
 

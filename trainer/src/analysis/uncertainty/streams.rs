@@ -80,10 +80,10 @@ pub fn sample_noise(model: &HostModel, streams: &[&Stream]) -> Option<SampleNois
 /// reference does not hold still as a log at rest does. It reads the walk at every lag up to a
 /// third of a stretch at once, where a forward split's fit scores one path of it: on 24 fits of
 /// the simulated room logs (one half of a three-day static log each) the split's walk was 0 on 7
-/// and up to 4.7× the simulator's on others. `investigate::calibrate` reads it on the errors of
-/// the model fitted on the whole log, and of the forward split's model over the part that model
-/// was not fitted on, out of sample: in sample, the model's own fit takes part of the walk up
-/// (docs/uncertainty.md, "The walk from the Allan deviation").
+/// and up to 4.7× the simulator's on others. `investigate::calibrate` reads it on the shipped
+/// model's errors over the whole log, and ([`part_walk`]) on the forward split's model's over
+/// the part that model was not fitted on, out of sample: in sample, a model fitted on the log
+/// takes part of the walk up (docs/uncertainty.md, "The walk from the Allan deviation").
 pub fn allan_walk(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
     if !holds_still(&stream.rate_dps, noise_std) {
         return 0.0;
@@ -115,7 +115,7 @@ pub fn part_walk(train: &Stream, part: &Stream, errors: Vec<f64>, noise_std: f64
 /// table's cycles), which the Allan deviation cannot tell from a walk: read there, it left the
 /// simulated chamber, ramp and warm-up runs' σ up to 1.8, 2.2 and 2.4× wider held out. False
 /// for a log without a reference, or a noise that is not a number.
-pub(super) fn holds_still(reference: &[f64], noise_std: f64) -> bool {
+pub(crate) fn holds_still(reference: &[f64], noise_std: f64) -> bool {
     let finite: Vec<f64> = reference
         .iter()
         .copied()

@@ -100,9 +100,10 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
     // (or more) than the walk does: where it fits less than the training log's Allan deviation
     // reads ([`Prior::walk_var_per_h`]), or shows none, the Allan's stands. (On twelve simulated
     // room logs, the σ of the earlier half fitted on the later covered 80.5 % of its 60 s means
-    // with the split's walk alone, when the Allan's was added, and covers 86.0 % with it read on
-    // the shipped model's errors, 93.1 % read on the forward split's model's too.) The other terms keep their fit beside the split's
-    // walk: a trend it fitted in the walk's place stays beside the Allan's (wide, never narrow).
+    // with the split's walk alone, 86.0 % with the Allan deviation's read on the shipped model's
+    // errors, and covers 93.1 % with it read on the forward split's model's too.) The other
+    // terms keep their fit beside the split's walk: a trend it fitted in the walk's place stays
+    // beside the Allan's (wide, never narrow).
     let allan_walk = c[WALK] < prior.walk_var_per_h;
     let walk_fitted_std = (allan_walk && seen[WALK]).then(|| c[WALK].sqrt());
     if allan_walk {

@@ -131,8 +131,9 @@ fn the_walk_is_read_only_where_the_reference_holds_still() {
     assert_eq!(allan_walk(&stream, walk, 1e-3), 0.0);
 }
 
-/// Three days at rest: white noise of 1e-3 per sample and a walk of K = 0.5 (°/h)/√h, as
-/// errors; a forward split scores the last day (errors and reference NaN before it).
+/// Three days at 1 Hz with `rate` as the reference: white noise of 1e-3 per sample and a walk of
+/// K = 0.5 (°/h)/√h as errors; a forward split scores the last day (errors and reference NaN
+/// before it).
 fn walking_split(rate: impl Fn(usize) -> f64) -> (Stream, Stream, Vec<f64>) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
     let unit = Gauss::new(0.0, 1.0).unwrap();
@@ -165,7 +166,7 @@ fn a_walk_is_read_on_the_part_a_split_scored() {
 
 #[test]
 fn a_part_at_rest_of_a_log_that_moved_reads_no_walk() {
-    // The rate table turned while the split's model was fitted and rests on the day scored: the
+    // The table spun at 80 °/s on the first day and rests from then on, the day scored too: the
     // part alone holds still, the log does not, and no walk is read.
     let (train, part, errors) = walking_split(|i| if i < 86_400 { 80.0 } else { 0.0 });
     assert!(
