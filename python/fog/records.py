@@ -414,7 +414,7 @@ class Calibration(Record):
     """The heating/cooling states the training stream held (0.5 % quantiles; a side that reached a leg whose states span less than half the trained temperatures, no further than 0: [`Calibration::set_legs`]; `None`: not known, as for a rate table's soaks, and no leg term)."""
 
     measured: list[str]
-    """Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean errors; the scale, their residuals' error in proportion to the output as `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error where its rates are alike in both signs. A datasheet's figure takes their place. And the walk (`walk`), where it is the training log's rate random walk, read from its Allan deviation ([`Prior::walk_var_per_h`]), not fitted."""
+    """Another power-on's bias (`turn-on`) and scale factor (`scale`), where measured on the power-ons left out (`power_ons_left_out`): the bias, the mean of their squared mean errors; the scale, their residuals' error in proportion to the output as `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error where its rates are alike in both signs. A datasheet's figure takes their place. And the walk (`walk`), where it is the training log's rate random walk, read from an Allan deviation (`walk_read`: [`Prior::walk_var_per_h`]), not fitted."""
 
     note: str | None
     """Why there is no error model measured, when there is none."""
@@ -461,8 +461,11 @@ class Calibration(Record):
     walk_fitted_std: float | None
     """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""
 
+    walk_read: str | None
+    """Whose errors the walk that ships was read on, by their Allan deviation (null: none ships)."""
+
     walk_std_per_sqrt_h: float
-    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where that is larger, from the Allan deviation of a model's errors over it (the shipped model's over the whole log, or the forward split's over the part it was not fitted on, the larger: [`Prior::walk_var_per_h`])."""
+    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where that is larger, from the Allan deviation of a model's errors over it (`walk_read` says whose: [`Prior::walk_var_per_h`])."""
 
 
 class Candidate(Record):

@@ -1,65 +1,16 @@
 //! The Cortex-M4F build under QEMU against the host replay, over a full simulated stream (issue 4).
 //! Needs `qemu-system-arm` and the `thumbv7em-none-eabihf` target (`.ci/run` installs both).
 
-use firmware_sim::gyro::{effects::Effect, paper, plant::GyroParams, stream};
 use firmware_sim::{c_replay, qemu};
 use fog_data::replay;
-use trainer::data::points::POINT_FEATURES;
-use trainer::models::gp::{GpConfig, GpModel};
 
-use crate::paper::points;
-
-#[test]
-fn cortex_m4_under_qemu_reproduces_the_host_replay_bit_for_bit() {
-    let params = GyroParams::nominal();
-    let train = points(&paper::run(&params, Effect::None, 41, false));
-    let model = GpModel::fit(train.inputs(), &train.target(), &GpConfig::default()).unwrap();
-    let blob = trainer::firmware::export::to_blob(&model, &POINT_FEATURES).unwrap();
-    let firmware = fog_data::replay::decode(&blob).unwrap();
-
-    let dir = tempfile::tempdir().unwrap();
-    let csv = dir.path().join("s.csv");
-    let rows = stream::run(&params, &stream::StreamConfig::default(), Effect::None, 42);
-    std::fs::write(&csv, firmware_sim::gyro::output::stream_csv(&rows)).unwrap();
-    let data = fog_data::stream::Stream::load(&csv, &[]).unwrap();
-    assert!(data.len() > 25_000, "a full stream: {} samples", data.len());
-
-    let host = replay::replay(&firmware, &data);
-    let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
-    let m4 = qemu::run(&image, &blob, &[&data]).unwrap();
-    let agreement = qemu::compare(&host, &m4.compensated[0]);
-    assert!(agreement.max_abs_mean_diff <= 1e-6, "{agreement:?}");
-    assert_eq!(agreement.identical, data.len(), "{agreement:?}");
-    assert!(agreement.statuses_equal);
-    // The cost figures are measured, not invented: the calibration loop confirms QEMU's clock,
-    // and the mean path of the 140-point model lies between its arithmetic minimum (one expf and
-    // 3·d multiply-adds per centre) and twice that. Instruction counts under -icount are exact,
-    // so this is not a timing test.
-    assert!(
-        (m4.cost.instructions_per_tick - 40.0).abs() < 0.5,
-        "{:?}",
-        m4.cost
-    );
-    let dims = firmware.dims();
-    let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
-    assert!(m4.cost.exp_instructions > 20.0, "{:?}", m4.cost);
-    assert!(
-        m4.cost.mean_instructions > minimum && m4.cost.mean_instructions < 2.0 * minimum,
-        "{:?} against a minimum of {minimum}",
-        m4.cost
-    );
-    assert!(
-        m4.cost.full_instructions > m4.cost.mean_instructions,
-        "{:?}",
-        m4.cost
-    );
-}
+use crate::{at, sim};
 
 /// The command-line path of an extension (static fit, `diagnose`, `fit --features`) and its blob on
-/// the Cortex-M4F: a stateful input and a refitted GP run there as they do on the host.
+/// the Cortex-M4F over a full simulated stream: a stateful input and a refitted GP run there as
+/// they do on the host, bit for bit, at a cost QEMU measures.
 #[test]
 fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
-    use crate::{at, sim};
     let dir = tempfile::tempdir().unwrap();
     let p = |name| at(dir.path(), name);
     let effect = ["--effect", "hysteresis", "--strength", "20"];
@@ -128,12 +79,35 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
             .any(|f| matches!(f, firmware_core::Feature::ThermalState { .. }))
     );
     let data = fog_data::stream::Stream::load(std::path::Path::new(&p("s.csv")), &[]).unwrap();
+    assert!(data.len() > 25_000, "a full stream: {} samples", data.len());
     let host = replay::replay(&firmware, &data);
     let image = qemu::build_image(&firmware_sim::source_tree::locate(None).unwrap()).unwrap();
     let m4 = qemu::run(&image, &blob, &[&data]).unwrap();
     let agreement = qemu::compare(&host, &m4.compensated[0]);
     assert_eq!(agreement.identical, data.len(), "{agreement:?}");
     assert!(agreement.statuses_equal);
+    // The cost figures are measured, not invented: the calibration loop confirms QEMU's clock,
+    // and the mean path of the 140-point model lies between its arithmetic minimum (one expf and
+    // 3·d multiply-adds per centre) and twice that. Instruction counts under -icount are exact,
+    // so this is not a timing test.
+    assert!(
+        (m4.cost.instructions_per_tick - 40.0).abs() < 0.5,
+        "{:?}",
+        m4.cost
+    );
+    let dims = firmware.dims();
+    let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
+    assert!(m4.cost.exp_instructions > 20.0, "{:?}", m4.cost);
+    assert!(
+        m4.cost.mean_instructions > minimum && m4.cost.mean_instructions < 2.0 * minimum,
+        "{:?} against a minimum of {minimum}",
+        m4.cost
+    );
+    assert!(
+        m4.cost.full_instructions > m4.cost.mean_instructions,
+        "{:?}",
+        m4.cost
+    );
     // The C program too: its thermal state goes through the stream's power cycles as the host's.
     let c = c_replay::run(&c_replay::build().unwrap(), &blob, &[&data]).unwrap();
     let agreement = qemu::compare(&host, &c[0]);

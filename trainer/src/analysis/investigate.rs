@@ -18,6 +18,7 @@ use crate::analysis::beyond::{self, BeyondChoice};
 use crate::analysis::capacity;
 use crate::analysis::diagnose::{self, Diagnosis, Residual, joined};
 use crate::analysis::extend::{self, Extended, ExtensionFit};
+use crate::analysis::uncertainty::streams::WalkReading;
 use crate::analysis::uncertainty::{self, Calibration, ResidualSource, SampleNoise};
 use crate::data::points::Points;
 use crate::firmware::export::{self, Extension};
@@ -211,7 +212,10 @@ pub fn calibrate(
     // the splits, the one the forward split's model shows over the part it was not fitted on:
     // the larger. (A table's static model never saw the stream: its errors are out of sample.)
     let noise_std = noise.var.sqrt();
-    let mut walk = uncertainty::streams::allan_walk(train, errors, noise_std);
+    let mut walk = (
+        uncertainty::streams::allan_walk(train, errors, noise_std),
+        WalkReading::InSample,
+    );
     let on_splits = !(points.soaked && matches!(kind, Shipped::Static));
     if on_splits && uncertainty::streams::holds_still(&train.rate_dps, noise_std) {
         for split in splits
@@ -220,12 +224,10 @@ pub fn calibrate(
         {
             if let Some(blob) = split_blob(split, kind) {
                 let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
-                walk = walk.max(uncertainty::streams::part_walk(
-                    train,
-                    &split.scored,
-                    later,
-                    noise_std,
-                ));
+                let part = uncertainty::streams::part_walk(train, &split.scored, later, noise_std);
+                if part > walk.0 {
+                    walk = (part, WalkReading::OutOfSample);
+                }
             }
         }
     }
@@ -234,8 +236,9 @@ pub fn calibrate(
         noise,
         uncertainty::Prior::of(static_model, points)
             .for_rule(beyond)
-            .with_walk(walk),
+            .with_walk(walk.0),
     );
+    calibration.walk_read = calibration.measured.contains(&"walk").then_some(walk.1);
     calibration.set_legs(&uncertainty::streams::legs(train));
     calibration.set_heating(
         &uncertainty::heating::rates(train),

@@ -367,13 +367,14 @@ pub struct Calibration {
     /// instead, as fitted.
     pub extrapolation_fitted_std: Option<f64>,
     /// √c_w: random walk, output units per √h: fitted, or the training log's rate random walk
-    /// where that is larger, from the Allan deviation of a model's errors over it (the shipped
-    /// model's over the whole log, or the forward split's over the part it was not fitted on,
-    /// the larger: [`Prior::walk_var_per_h`]).
+    /// where that is larger, from the Allan deviation of a model's errors over it (`walk_read`
+    /// says whose: [`Prior::walk_var_per_h`]).
     pub walk_std_per_sqrt_h: f64,
     /// The walk the residuals fitted where the training log's Allan deviation read a larger one,
     /// which ships (null where the fit ships or none was fitted).
     pub walk_fitted_std: Option<f64>,
+    /// Whose errors the walk that ships was read on, by their Allan deviation (null: none ships).
+    pub walk_read: Option<streams::WalkReading>,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
     /// The bias of another power-on (run-to-run repeatability), output units: as stated by
@@ -451,8 +452,8 @@ pub struct Calibration {
     /// `residual_scale_ppm` is fitted on all; each widened by the small-sample factor for one
     /// degree of freedom fewer than power-ons. A scale factor moves no power-on's mean error
     /// where its rates are alike in both signs. A datasheet's figure takes their place. And the
-    /// walk (`walk`), where it is the training log's rate random walk, read from its Allan
-    /// deviation ([`Prior::walk_var_per_h`]), not fitted.
+    /// walk (`walk`), where it is the training log's rate random walk, read from an Allan
+    /// deviation (`walk_read`: [`Prior::walk_var_per_h`]), not fitted.
     pub measured: Vec<&'static str>,
     /// The heating/cooling states the training stream held (0.5 % quantiles; a side that reached
     /// a leg whose states span less than half the trained temperatures, no further than 0:
@@ -759,6 +760,7 @@ impl Calibration {
             extrapolation_fitted_std: None,
             walk_std_per_sqrt_h: prior.walk_var_per_h.sqrt(),
             walk_fitted_std: None,
+            walk_read: None,
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             power_ons_left_out: None,
