@@ -462,10 +462,10 @@ class Calibration(Record):
     """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""
 
     walk_read: str | None
-    """Whose errors the walk that ships was read on, by their Allan deviation (null: none ships)."""
+    """Whose errors the shipped walk was read on by their Allan deviation (null: fitted, or none)."""
 
     walk_std_per_sqrt_h: float
-    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where that is larger, from the Allan deviation of a model's errors over it (`walk_read` says whose: [`Prior::walk_var_per_h`])."""
+    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where larger, by the Allan deviation of `walk_read`'s errors ([`Prior::walk_var_per_h`])."""
 
 
 class Candidate(Record):

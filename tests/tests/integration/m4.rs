@@ -4,7 +4,7 @@
 use firmware_sim::{c_replay, qemu};
 use fog_data::replay;
 
-use crate::{at, sim};
+use crate::{at, one, sim, trainer};
 
 /// The command-line path of an extension (static fit, `diagnose`, `fit --features`) and its blob on
 /// the Cortex-M4F over a full simulated stream: a stateful input and a refitted GP run there as
@@ -26,8 +26,8 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
     ]
     .concat())
     .unwrap();
-    crate::trainer(&["fit", "--points", &p("p.csv"), "--out", &p("static.bin")]).unwrap();
-    crate::trainer(&[
+    trainer(&["fit", "--points", &p("p.csv"), "--out", &p("static.bin")]).unwrap();
+    trainer(&[
         "diagnose",
         "--model",
         &p("static.bin"),
@@ -37,8 +37,8 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         &p("d.json"),
     ])
     .unwrap();
-    assert_eq!(crate::one(p("d.json"))["diagnosis"]["cause"], "hysteresis");
-    crate::trainer(&[
+    assert_eq!(one(p("d.json"))["diagnosis"]["cause"], "hysteresis");
+    trainer(&[
         "fit",
         "--points",
         &p("p.csv"),
@@ -55,7 +55,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         &p("ext.json"),
     ])
     .unwrap();
-    let summary = crate::one(p("ext.json"));
+    let summary = one(p("ext.json"));
     let rmse = &summary["extension"]["train_rmse_60s_dps"];
     assert!(
         rmse[1].as_f64().unwrap() < rmse[0].as_f64().unwrap() / 3.0,

@@ -110,7 +110,7 @@ fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on()
     let fitted = calibration["walk_fitted_std"].as_f64().unwrap() * 3600.0;
     assert!(fitted < 0.1 * walk, "{calibration}");
     assert_eq!(calibration["measured"][0], "walk", "{calibration}");
-    assert_eq!(calibration["walk_read"], "out-of-sample", "{calibration}");
+    assert_eq!(calibration["walk_read"], "forward-split", "{calibration}");
     let terms = fit["extension"]["extension"]["terms"].as_array().unwrap();
     let time_on = terms
         .iter()
@@ -158,7 +158,7 @@ fn a_model_fitted_on_a_logs_later_half_does_no_harm_on_its_earlier_half() {
 /// earlier half the static model ships, and its errors read no walk; the forward split's model
 /// read over the part it did not fit would read one (0.36 (°/h)/√h).
 #[test]
-fn a_tables_static_model_beside_a_log_at_rest_reads_its_walk_on_its_own_errors_alone() {
+fn a_tables_static_model_beside_a_log_at_rest_reads_no_forward_split_for_its_walk() {
     let dir = tempfile::tempdir().unwrap();
     let room = room(dir.path(), "31", &[]);
     let (table, out, fit) = (

@@ -214,7 +214,7 @@ pub fn calibrate(
     let noise_std = noise.var.sqrt();
     let mut walk = (
         uncertainty::streams::allan_walk(train, errors, noise_std),
-        WalkReading::InSample,
+        WalkReading::ShippedModel,
     );
     let on_splits = !(points.soaked && matches!(kind, Shipped::Static));
     if on_splits && uncertainty::streams::holds_still(&train.rate_dps, noise_std) {
@@ -226,7 +226,7 @@ pub fn calibrate(
                 let later = uncertainty::streams::errors(&*replay::decode(blob)?, &split.scored);
                 let part = uncertainty::streams::part_walk(train, &split.scored, later, noise_std);
                 if part > walk.0 {
-                    walk = (part, WalkReading::OutOfSample);
+                    walk = (part, WalkReading::ForwardSplit);
                 }
             }
         }
@@ -236,9 +236,8 @@ pub fn calibrate(
         noise,
         uncertainty::Prior::of(static_model, points)
             .for_rule(beyond)
-            .with_walk(walk.0),
+            .with_walk(walk.0, walk.1),
     );
-    calibration.walk_read = calibration.measured.contains(&"walk").then_some(walk.1);
     calibration.set_legs(&uncertainty::streams::legs(train));
     calibration.set_heating(
         &uncertainty::heating::rates(train),

@@ -40,7 +40,7 @@
 //! split's model's errors over the part it was not fitted on (in sample, the model's own fit
 //! takes part of the walk up; a table's static model never saw the stream, so its errors are
 //! read alone). Where the larger is more than the split fitted, or where there is no split, it
-//! ships (`walk` in `measured`; `walk_fitted_std` keeps the split's).
+//! ships (`walk` in `measured`, whose errors in `walk_read`; `walk_fitted_std` keeps the split's).
 //!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
@@ -367,13 +367,12 @@ pub struct Calibration {
     /// instead, as fitted.
     pub extrapolation_fitted_std: Option<f64>,
     /// √c_w: random walk, output units per √h: fitted, or the training log's rate random walk
-    /// where that is larger, from the Allan deviation of a model's errors over it (`walk_read`
-    /// says whose: [`Prior::walk_var_per_h`]).
+    /// where larger, by the Allan deviation of `walk_read`'s errors ([`Prior::walk_var_per_h`]).
     pub walk_std_per_sqrt_h: f64,
     /// The walk the residuals fitted where the training log's Allan deviation read a larger one,
     /// which ships (null where the fit ships or none was fitted).
     pub walk_fitted_std: Option<f64>,
-    /// Whose errors the walk that ships was read on, by their Allan deviation (null: none ships).
+    /// Whose errors the shipped walk was read on by their Allan deviation (null: fitted, or none).
     pub walk_read: Option<streams::WalkReading>,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
@@ -503,10 +502,11 @@ pub struct Prior {
     /// deviation of the model's errors on its training log, and (but for a table's static
     /// model) of the forward split's model's over the part it was not fitted on, the larger
     /// (`streams::allan_walk`, `streams::part_walk`); 0 where none is read: a rate table's
-    /// points, a log whose reference moves, one whose Allan deviation shows no slope +½ (too
-    /// short), and the logs of a calibration on several (`fit --stream A --stream B`), whose
-    /// power-ons measure the walk their splits see.
+    /// points, a log whose reference moves or too short for a slope +½, and the logs of a
+    /// calibration on several, whose power-ons measure the walk their splits see.
     pub walk_var_per_h: f64,
+    /// Whose errors `walk_var_per_h` was read on.
+    pub walk_read: streams::WalkReading,
 }
 
 impl Prior {
@@ -519,6 +519,7 @@ impl Prior {
         rule_share: 1.0,
         follows: true,
         walk_var_per_h: 0.0,
+        walk_read: streams::WalkReading::ShippedModel,
     };
 
     /// The prior of `model` fitted on `points` (module doc): what it changes over one width of
@@ -599,16 +600,15 @@ impl Prior {
             floor_var,
             extrapolation_var,
             extrapolation_parts,
-            rule_share: 1.0,
-            follows: true,
-            walk_var_per_h: 0.0,
+            ..Self::NONE
         }
     }
 
-    /// This prior with the bias's random walk `walk_var_per_h` (output units² per hour).
-    pub fn with_walk(self, walk_var_per_h: f64) -> Self {
+    /// This prior with the bias's random walk (output units² per hour) read on `walk_read`'s errors.
+    pub fn with_walk(self, walk_var_per_h: f64, walk_read: streams::WalkReading) -> Self {
         Self {
             walk_var_per_h,
+            walk_read,
             ..self
         }
     }
@@ -760,7 +760,7 @@ impl Calibration {
             extrapolation_fitted_std: None,
             walk_std_per_sqrt_h: prior.walk_var_per_h.sqrt(),
             walk_fitted_std: None,
-            walk_read: None,
+            walk_read: (prior.walk_var_per_h > 0.0).then_some(prior.walk_read),
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             power_ons_left_out: None,

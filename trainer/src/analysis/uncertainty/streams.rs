@@ -98,17 +98,6 @@ pub fn allan_walk(stream: &Stream, mut e: Vec<f64>, noise_std: f64) -> f64 {
     rate_random_walk(&stream.time_s, &e)
 }
 
-/// Whose errors a walk was read on, by their Allan deviation ([`allan_walk`], [`part_walk`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
-#[serde(rename_all = "kebab-case")]
-pub enum WalkReading {
-    /// The shipped model's, over the whole training log: in sample, where the model's fit may
-    /// have taken part of the walk up.
-    InSample,
-    /// The forward split's model's, over the part of the log it was not fitted on.
-    OutOfSample,
-}
-
 /// [`allan_walk`] of `errors` over `part`, a part of `train` (its reference NaN elsewhere, as a
 /// forward split's scored stream): read only where the whole of `train`'s reference holds
 /// still, as [`allan_walk`] asks of the log it reads; a log that rests only in its later part
@@ -118,6 +107,18 @@ pub fn part_walk(train: &Stream, part: &Stream, errors: Vec<f64>, noise_std: f64
         return 0.0;
     }
     allan_walk(part, errors, noise_std)
+}
+
+/// Whose errors a walk was read on, by their Allan deviation ([`allan_walk`], [`part_walk`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum WalkReading {
+    /// The shipped model's, over the whole training log: in sample, where the model was fitted
+    /// on that log and its fit may have taken part of the walk up; out of sample for a rate
+    /// table's static model beside a stream, which never saw the stream.
+    ShippedModel,
+    /// The forward split's model's, over the part of the log it was not fitted on.
+    ForwardSplit,
 }
 
 /// Whether a log's `reference` holds still, as a log at rest does: its spread under ten times

@@ -115,7 +115,7 @@ const PRIOR: Prior = Prior {
     extrapolation_parts: (5e-4, 2e-7),
     rule_share: 1.0,
     follows: true,
-    walk_var_per_h: 0.0,
+    ..Prior::NONE
 };
 
 #[test]

@@ -180,20 +180,22 @@ impl Calibration {
         let noise = self.noise_in_words();
         let allan = self.measured.contains(&"walk");
         let read = match self.walk_read {
-            Some(WalkReading::OutOfSample) => {
-                "the forward split's model's errors over the part it was not fitted on"
+            Some(WalkReading::ForwardSplit) => {
+                "the Allan deviation of the forward split's model's errors over the part it was \
+                 not fitted on"
             }
-            _ => "the shipped model's errors over it",
+            Some(WalkReading::ShippedModel) => "the Allan deviation of the shipped model's errors",
+            None => "its Allan deviation",
         };
         let walk = match (allan, self.walk_fitted_std) {
             (true, Some(fit)) => format!(
-                "{:.3e} per √h (the training log's rate random walk, from the Allan deviation of \
-                 {read}; the residuals fitted {fit:.3e}, one stretch of it)",
+                "{:.3e} per √h (the training log's rate random walk, from {read}; the residuals \
+                 fitted {fit:.3e}, one stretch of it)",
                 self.walk_std_per_sqrt_h
             ),
             (true, None) => format!(
-                "{:.3e} per √h (the training log's rate random walk, from the Allan deviation of \
-                 {read}; the residuals fitted none)",
+                "{:.3e} per √h (the training log's rate random walk, from {read}; the residuals \
+                 fitted none)",
                 self.walk_std_per_sqrt_h
             ),
             (false, _) => format!("{:.3e} per √h", self.walk_std_per_sqrt_h),
@@ -201,8 +203,7 @@ impl Calibration {
         let Some(c) = &self.coverage else {
             let walk = if allan {
                 format!(
-                    ", {:.3e} per √h (the training log's rate random walk, from the Allan \
-                     deviation of {read})",
+                    ", {:.3e} per √h (the training log's rate random walk, from {read})",
                     self.walk_std_per_sqrt_h
                 )
             } else {

@@ -14,7 +14,7 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
         extrapolation_parts: (9e-4, 0.0),
         rule_share: 1.0,
         follows: true,
-        walk_var_per_h: 0.0,
+        ..Prior::NONE
     };
     let noise = SampleNoise {
         var: 1.0,
@@ -71,7 +71,7 @@ fn residuals_a_tenth_of_a_width_out_cannot_lower_the_growth_a_width_out() {
         extrapolation_parts: (4e-4, 1e-6),
         rule_share: 0.8,
         follows: true,
-        walk_var_per_h: 0.0,
+        ..Prior::NONE
     };
     let noise = SampleNoise {
         var: 1e-6,

@@ -2,7 +2,9 @@
 //! Allan deviation.
 
 use super::*;
-use crate::analysis::uncertainty::streams::{allan_walk, holds_still, part_walk, rate_random_walk};
+use crate::analysis::uncertainty::streams::{
+    WalkReading, allan_walk, holds_still, part_walk, rate_random_walk,
+};
 use fog_data::stream::Stream;
 
 #[test]
@@ -43,26 +45,48 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
         interval_s: 1.0,
     };
     let walk = 4e-4;
-    let c = calibrate(&series, noise, PRIOR.with_walk(walk));
+    let c = calibrate(
+        &series,
+        noise,
+        PRIOR.with_walk(walk, WalkReading::ForwardSplit),
+    );
     assert_eq!(c.error_model.walk_var_per_h, walk as f32, "{c:?}");
     let fitted = c.walk_fitted_std.expect("the split's walk kept");
     assert!(fitted * fitted < walk, "{fitted}");
     assert!(!c.fitted_terms.contains(&"walk"), "{c:?}");
-    assert!(c.describe("°/s").contains("Allan deviation"));
+    // The σ line says whose errors the Allan deviation read.
+    assert_eq!(c.walk_read, Some(WalkReading::ForwardSplit));
+    assert!(
+        c.describe("°/s")
+            .contains("Allan deviation of the forward split's model's errors over the part")
+    );
     // A walk the split fits larger than the Allan deviation's ships as fitted.
     let grows = residuals(600, 3, |_, h| (1e-4 + 0.01 * h).sqrt());
     let series = [Series {
         source: ResidualSource::Forward,
         residuals: grows,
     }];
-    let c = calibrate(&series, noise, PRIOR.with_walk(1e-5));
+    let c = calibrate(
+        &series,
+        noise,
+        PRIOR.with_walk(1e-5, WalkReading::ShippedModel),
+    );
     assert!(c.error_model.walk_var_per_h > 1e-5, "{c:?}");
     assert_eq!(c.walk_fitted_std, None);
+    assert_eq!(c.walk_read, None);
     // With too few residuals for any fit, the Allan deviation's walk is stated all the same.
-    let c = calibrate(&series[..0], noise, PRIOR.with_walk(walk));
+    let c = calibrate(
+        &series[..0],
+        noise,
+        PRIOR.with_walk(walk, WalkReading::ShippedModel),
+    );
     assert_eq!(c.error_model.walk_var_per_h, walk as f32);
     assert_eq!(c.measured, ["walk"]);
-    assert!(c.describe("°/s").contains("Allan deviation"));
+    assert_eq!(c.walk_read, Some(WalkReading::ShippedModel));
+    assert!(
+        c.describe("°/s")
+            .contains("from the Allan deviation of the shipped model's errors)")
+    );
     // Residuals that never reach the walk's covariate fit none: the Allan's ships, and no fit is
     // said to be beside it.
     let mut early = residuals(600, 3, |_, _| 0.01);
@@ -73,7 +97,11 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
         source: ResidualSource::Forward,
         residuals: early,
     }];
-    let c = calibrate(&series, noise, PRIOR.with_walk(walk));
+    let c = calibrate(
+        &series,
+        noise,
+        PRIOR.with_walk(walk, WalkReading::ShippedModel),
+    );
     assert_eq!(c.error_model.walk_var_per_h, walk as f32);
     assert_eq!(c.walk_fitted_std, None);
     assert!(
