@@ -462,10 +462,10 @@ class Calibration(Record):
     """The walk the residuals fitted where the training log's Allan deviation read a larger one, which ships (null where the fit ships or none was fitted)."""
 
     walk_read: str | None
-    """Whose errors the shipped walk was read on by their Allan deviation (null: fitted, or none)."""
+    """Whose errors the Allan walk was read on: `whole-log` or `forward-split` (null: not shipped)."""
 
     walk_std_per_sqrt_h: float
-    """√c_w: random walk, output units per √h: fitted, or the training log's rate random walk where larger, by the Allan deviation of `walk_read`'s errors ([`Prior::walk_var_per_h`])."""
+    """√c_w: random walk, output units per √h: fitted, or where larger the training log's rate random walk, by the Allan deviation of the errors `walk_read` names ([`Prior`])."""
 
 
 class Candidate(Record):

@@ -96,6 +96,7 @@ fn an_extended_model_from_the_command_line_runs_bit_for_bit_on_the_m4() {
         m4.cost
     );
     let dims = firmware.dims();
+    assert_eq!(dims.m, 140, "{dims:?}");
     let minimum = dims.m as f64 * m4.cost.minimum_per_centre(dims.d);
     assert!(m4.cost.exp_instructions > 20.0, "{:?}", m4.cost);
     assert!(

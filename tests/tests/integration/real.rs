@@ -88,6 +88,13 @@ fn the_mems_thermal_cycle_loads_and_is_investigated_forward_in_time() {
             "z" => assert!(stated == 0.01 && !assumed, "{calibration}"),
             _ => assert!(stated > 0.0 && assumed, "{calibration}"),
         }
+        // A walk read from an Allan deviation ships named by whose errors it was read on.
+        let allan = calibration["measured"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|t| t == "walk");
+        assert_eq!(allan, !calibration["walk_read"].is_null(), "{calibration}");
         if axis == "x" {
             // The held-out part is the calibration's own power-on, scored as
             // `replay --calibration-run` scores it: without the turn-on term the blob assumes

@@ -95,9 +95,8 @@ fn earlier_half(dir: &std::path::Path, log: &str, blob: &str) -> serde_json::Val
 /// the walk did over the hours fitted: the errors of the model fitted on the whole half show no
 /// walk in their Allan deviation, and the forward split's residuals fit no growth in time. The
 /// Allan deviation of the forward split's model's errors, over the part it was not fitted on,
-/// shows one (0.46 (°/h)/√h; the simulator drew 0.3), and it ships as the walk the σ measured.
-/// (The static model of the same half reads 0.46 in sample and 0.65 out of sample, and ships the
-/// larger; the uncertainty module's walk tests hold each reading on logs of their own.)
+/// shows one (0.46 (°/h)/√h; the simulator drew 0.3), and it ships as the walk the σ measured,
+/// named as the forward split's.
 #[test]
 fn a_drift_fitted_on_a_logs_later_half_counts_its_hours_from_the_logs_power_on() {
     let dir = tempfile::tempdir().unwrap();

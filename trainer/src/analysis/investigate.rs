@@ -214,7 +214,7 @@ pub fn calibrate(
     let noise_std = noise.var.sqrt();
     let mut walk = (
         uncertainty::streams::allan_walk(train, errors, noise_std),
-        WalkReading::ShippedModel,
+        WalkReading::WholeLog,
     );
     let on_splits = !(points.soaked && matches!(kind, Shipped::Static));
     if on_splits && uncertainty::streams::holds_still(&train.rate_dps, noise_std) {

@@ -40,7 +40,7 @@
 //! split's model's errors over the part it was not fitted on (in sample, the model's own fit
 //! takes part of the walk up; a table's static model never saw the stream, so its errors are
 //! read alone). Where the larger is more than the split fitted, or where there is no split, it
-//! ships (`walk` in `measured`, whose errors in `walk_read`; `walk_fitted_std` keeps the split's).
+//! ships (`walk` in `measured`, `walk_read` names whose errors, `walk_fitted_std` the split's).
 //!
 //! **What the data cannot show, the σ assumes** ([`Prior`]). Absence of evidence is not a measured
 //! zero: where the training data hold too few out-of-sample residuals for any term (a 30-minute
@@ -366,13 +366,13 @@ pub struct Calibration {
     /// fitted). What they showed near the edge: a datasheet's `tempco` that states less ships it
     /// instead, as fitted.
     pub extrapolation_fitted_std: Option<f64>,
-    /// √c_w: random walk, output units per √h: fitted, or the training log's rate random walk
-    /// where larger, by the Allan deviation of `walk_read`'s errors ([`Prior::walk_var_per_h`]).
+    /// √c_w: random walk, output units per √h: fitted, or where larger the training log's rate
+    /// random walk, by the Allan deviation of the errors `walk_read` names ([`Prior`]).
     pub walk_std_per_sqrt_h: f64,
     /// The walk the residuals fitted where the training log's Allan deviation read a larger one,
     /// which ships (null where the fit ships or none was fitted).
     pub walk_fitted_std: Option<f64>,
-    /// Whose errors the shipped walk was read on by their Allan deviation (null: fitted, or none).
+    /// Whose errors the Allan walk was read on: `whole-log` or `forward-split` (null: not shipped).
     pub walk_read: Option<streams::WalkReading>,
     /// √c_d: drift of unknown rate, output units per h.
     pub trend_std_per_h: f64,
@@ -505,8 +505,8 @@ pub struct Prior {
     /// points, a log whose reference moves or too short for a slope +½, and the logs of a
     /// calibration on several, whose power-ons measure the walk their splits see.
     pub walk_var_per_h: f64,
-    /// Whose errors `walk_var_per_h` was read on.
-    pub walk_read: streams::WalkReading,
+    /// Whose errors `walk_var_per_h` was read on (`None`: not said).
+    pub walk_read: Option<streams::WalkReading>,
 }
 
 impl Prior {
@@ -519,7 +519,7 @@ impl Prior {
         rule_share: 1.0,
         follows: true,
         walk_var_per_h: 0.0,
-        walk_read: streams::WalkReading::ShippedModel,
+        walk_read: None,
     };
 
     /// The prior of `model` fitted on `points` (module doc): what it changes over one width of
@@ -604,11 +604,11 @@ impl Prior {
         }
     }
 
-    /// This prior with the bias's random walk (output units² per hour) read on `walk_read`'s errors.
-    pub fn with_walk(self, walk_var_per_h: f64, walk_read: streams::WalkReading) -> Self {
+    /// This prior with the bias's random walk (output units² per hour) read on `read`'s errors.
+    pub fn with_walk(self, walk_var_per_h: f64, read: streams::WalkReading) -> Self {
         Self {
             walk_var_per_h,
-            walk_read,
+            walk_read: Some(read),
             ..self
         }
     }
@@ -760,7 +760,7 @@ impl Calibration {
             extrapolation_fitted_std: None,
             walk_std_per_sqrt_h: prior.walk_var_per_h.sqrt(),
             walk_fitted_std: None,
-            walk_read: (prior.walk_var_per_h > 0.0).then_some(prior.walk_read),
+            walk_read: prior.walk_read.filter(|_| prior.walk_var_per_h > 0.0),
             trend_std_per_h: 0.0,
             turn_on_std: 0.0,
             power_ons_left_out: None,

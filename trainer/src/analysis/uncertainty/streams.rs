@@ -113,10 +113,10 @@ pub fn part_walk(train: &Stream, part: &Stream, errors: Vec<f64>, noise_std: f64
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum WalkReading {
-    /// The shipped model's, over the whole training log: in sample, where the model was fitted
+    /// The calibrated model's, over the whole training log: in sample, where the model was fitted
     /// on that log and its fit may have taken part of the walk up; out of sample for a rate
     /// table's static model beside a stream, which never saw the stream.
-    ShippedModel,
+    WholeLog,
     /// The forward split's model's, over the part of the log it was not fitted on.
     ForwardSplit,
 }

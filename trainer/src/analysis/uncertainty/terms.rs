@@ -195,7 +195,7 @@ pub fn calibrate(series: &[Series], noise: SampleNoise, prior: Prior) -> Calibra
         extrapolation_fitted_std,
         walk_std_per_sqrt_h: c[WALK].sqrt(),
         walk_fitted_std,
-        walk_read: allan_walk.then_some(prior.walk_read),
+        walk_read: prior.walk_read.filter(|_| allan_walk),
         trend_std_per_h: c[4].sqrt(),
         turn_on_std: (turn_on_var.unwrap_or(0.0) / OWN_DRAW).sqrt(),
         power_ons_left_out: power_ons.as_ref().map(Vec::len),

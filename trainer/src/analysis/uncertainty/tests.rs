@@ -113,8 +113,6 @@ const PRIOR: Prior = Prior {
     floor_var: 4e-6,
     extrapolation_var: 9e-4,
     extrapolation_parts: (5e-4, 2e-7),
-    rule_share: 1.0,
-    follows: true,
     ..Prior::NONE
 };
 

@@ -184,7 +184,7 @@ impl Calibration {
                 "the Allan deviation of the forward split's model's errors over the part it was \
                  not fitted on"
             }
-            Some(WalkReading::ShippedModel) => "the Allan deviation of the shipped model's errors",
+            Some(WalkReading::WholeLog) => "the Allan deviation of the model's errors over it",
             None => "its Allan deviation",
         };
         let walk = match (allan, self.walk_fitted_std) {

@@ -12,8 +12,6 @@ fn residuals_just_beyond_the_range_cannot_rule_out_a_growth_far_beyond_it() {
         floor_var: 0.0,
         extrapolation_var: 9e-4,
         extrapolation_parts: (9e-4, 0.0),
-        rule_share: 1.0,
-        follows: true,
         ..Prior::NONE
     };
     let noise = SampleNoise {
@@ -70,7 +68,6 @@ fn residuals_a_tenth_of_a_width_out_cannot_lower_the_growth_a_width_out() {
         extrapolation_var: 9e-4,
         extrapolation_parts: (4e-4, 1e-6),
         rule_share: 0.8,
-        follows: true,
         ..Prior::NONE
     };
     let noise = SampleNoise {

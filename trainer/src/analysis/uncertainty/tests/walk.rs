@@ -66,11 +66,7 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
         source: ResidualSource::Forward,
         residuals: grows,
     }];
-    let c = calibrate(
-        &series,
-        noise,
-        PRIOR.with_walk(1e-5, WalkReading::ShippedModel),
-    );
+    let c = calibrate(&series, noise, PRIOR.with_walk(1e-5, WalkReading::WholeLog));
     assert!(c.error_model.walk_var_per_h > 1e-5, "{c:?}");
     assert_eq!(c.walk_fitted_std, None);
     assert_eq!(c.walk_read, None);
@@ -78,14 +74,14 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
     let c = calibrate(
         &series[..0],
         noise,
-        PRIOR.with_walk(walk, WalkReading::ShippedModel),
+        PRIOR.with_walk(walk, WalkReading::WholeLog),
     );
     assert_eq!(c.error_model.walk_var_per_h, walk as f32);
     assert_eq!(c.measured, ["walk"]);
-    assert_eq!(c.walk_read, Some(WalkReading::ShippedModel));
+    assert_eq!(c.walk_read, Some(WalkReading::WholeLog));
     assert!(
         c.describe("°/s")
-            .contains("from the Allan deviation of the shipped model's errors)")
+            .contains("from the Allan deviation of the model's errors over it)")
     );
     // Residuals that never reach the walk's covariate fit none: the Allan's ships, and no fit is
     // said to be beside it.
@@ -97,11 +93,7 @@ fn a_walk_the_split_fits_too_small_ships_the_allan_deviations() {
         source: ResidualSource::Forward,
         residuals: early,
     }];
-    let c = calibrate(
-        &series,
-        noise,
-        PRIOR.with_walk(walk, WalkReading::ShippedModel),
-    );
+    let c = calibrate(&series, noise, PRIOR.with_walk(walk, WalkReading::WholeLog));
     assert_eq!(c.error_model.walk_var_per_h, walk as f32);
     assert_eq!(c.walk_fitted_std, None);
     assert!(
