@@ -1371,7 +1371,7 @@ class Heating(Record):
     """The heating rates the training held and the model error outside them (`calibration.heating` in the JSON)."""
 
     band: HeatingBand | None
-    """The band of heating rates the training stream held (`None`: not known, no term: a rate table's soaks, logs pooled, power-ons under 6 minutes)."""
+    """The band of heating rates the training held (`None`: not known, no term: logs pooled, power-ons under 6 minutes): a stream's samples', or a rate table's points' ([`table_rates`])."""
 
     scale_ppm_per_c_per_min: float
     """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag in minutes."""
@@ -1383,7 +1383,10 @@ class Heating(Record):
     """How far the temperature sensor lags the sensing element, s: as stated (`--sensor-lag`, a channel's `sensor_lag`), else, where the band is known, [`ASSUMED_LAG_S`] (`heating` in `assumed`); null: neither, no term."""
 
     slope_per_c: float
-    """The model's change per °C of the temperature reading over the training samples with a reference, its part alike at every output, output units per °C (RMS; 0: not known)."""
+    """The model's change per °C of the temperature reading over the training samples with a reference (a rate table's points), its part alike at every output, output units per °C (RMS; 0: not known)."""
+
+    soaks_assumed: bool
+    """Whether the band is a rate table's points taken as soaks, their times not read ([`table_rates`])."""
 
     std_per_c_per_min: float
     """The model error per °C/min of heating rate beyond the band, output units: `slope_per_c` times the lag in minutes (0: no term)."""

@@ -88,3 +88,57 @@ fn a_stated_sensor_lag_widens_the_sigma_of_another_warm_up_and_covers_more() {
         "±2σ coverage with the lag stated: {stated:?}"
     );
 }
+
+/// A rate table's model met no heating rate but its soaks': its σ grows at any other, as a log's
+/// does. The paper table's model replayed on a chamber stream that hides a thermal-rate effect
+/// (a drift that follows the heating rate, which soaks never show) covers more of the stream's
+/// 60 s means with the 30 s assumed than with `--sensor-lag 0` (51 % against 17 %, both too
+/// narrow: the effect is no sensor lag), at the same RMS error, and no wider than its errors.
+#[test]
+fn a_rate_tables_model_widens_its_sigma_at_heating_rates_its_soaks_never_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (points, stream) = (at(d, "p.csv"), at(d, "s.csv"));
+    sim(&["generate", "paper", "--seed", "1", "--out", &points, "-q"]).unwrap();
+    let effect = ["--effect", "thermal-rate", "--out", &stream, "-q"];
+    sim(&[&["generate", "stream", "--seed", "2"][..], &effect].concat()).unwrap();
+    // (coverage, RMS error, sharpness) of the stream's 60 s means, and the fit's calibration.
+    let run = |lag: &[&str], name: &str| {
+        let (blob, fit, replay) = (
+            at(d, &format!("{name}.bin")),
+            at(d, &format!("{name}.fit.json")),
+            at(d, &format!("{name}.replay.json")),
+        );
+        let out = ["--out", &blob, "--json", &fit, "-q"];
+        trainer(&[&["fit", "--points", &points][..], lag, &out].concat()).unwrap();
+        sim(&[
+            "replay", "--model", &blob, "--stream", &stream, "--json", &replay, "-q",
+        ])
+        .unwrap();
+        let replay = json(&replay);
+        let s = &replay["channels"][0]["sigma_60s"];
+        let figures = [
+            s["within_2sigma"].as_f64().unwrap(),
+            s["rmse"].as_f64().unwrap(),
+            s["sharpness"].as_f64().unwrap(),
+        ];
+        (figures, json(&fit)["channels"][0]["calibration"].clone())
+    };
+    let (none, c_none) = run(&["--sensor-lag", "0"], "none");
+    let (assumed, c_assumed) = run(&[], "assumed");
+    // No times in the table: its points are taken as soaks, and the fit says so.
+    let heating = &c_assumed["heating"];
+    assert_eq!(heating["soaks_assumed"], true, "{heating}");
+    assert_eq!(heating["band"]["rate_at_0c"], 0.0, "{heating}");
+    assert_eq!(heating["band"]["max"], 0.05, "{heating}");
+    assert!(assumes(&c_assumed, "heating"), "{c_assumed}");
+    assert!(!assumes(&c_none, "heating"), "{c_none}");
+    assert_eq!(none[1], assumed[1], "the term moves no mean");
+    assert!(
+        assumed[0] >= none[0] + 0.2,
+        "±2σ coverage, no term / assumed: {none:?} {assumed:?}"
+    );
+    // Still narrower than the errors of an effect that is no lag (sharpness 0.25): the term
+    // states a lag, not whatever a table cannot show.
+    assert!(assumed[2] < 0.5, "sharpness: {assumed:?}");
+}

@@ -40,8 +40,8 @@ pub struct Points {
     /// stream block taken while the temperature moved.
     pub soaked: bool,
     /// When each point was recorded, s, increasing row by row: a table recorded in time order
-    /// (`--map time_s=…`), whose transients [`crate::analysis::table`] can diagnose. `None`
-    /// otherwise.
+    /// (`--map time_s=…`), whose transients [`crate::analysis::table`] can diagnose and whose
+    /// heating rates the σ reads (`uncertainty::heating::table_rates`). `None` otherwise.
     pub time_s: Option<Vec<f64>>,
     /// What the reference measures, and so the unit every figure of these points is stated in:
     /// a gyro's rate (°/s) unless a unit's channels file says its channel is an accelerometer.
@@ -463,7 +463,8 @@ impl Points {
         self.group.extend(other.group);
         self.run.extend(other.run.iter().map(|r| r + first));
         self.soaked &= other.soaked;
-        // Two recordings joined are no longer one time series.
+        // Two recordings joined are no longer one time series (their heating rates are then
+        // taken as soaks).
         self.time_s = None;
         self.inputs = OnceLock::new();
         Ok(self)

@@ -15,10 +15,12 @@
 //! heating rate) of its samples with a reference (least squares; none from the power-on's first
 //! minutes, while the rate settles from rest: the firmware reads no term there either), between
 //! the 0.5 % and 99.5 % quantiles of the rates about it, widened by 0.05 °C/min: a rate inside it
-//! is one the model was fitted at. The firmware reads the heating rate through the same filter as
-//! the trainer (`firmware_core::FeatureState::heating_rate`) and adds `(heating_var +
-//! heating_scale_var · y²) · h²`, h the rate's distance beyond the band
-//! (`firmware_core::ErrorModel::heating_excess`) and y the output: the model's change per °C over its training samples, told apart by their
+//! is one the model was fitted at. A rate table's points give theirs ([`table_rates`]: soaks,
+//! unless their times say otherwise), and its model's change per °C at them ([`table_slopes`]).
+//! The firmware reads the heating rate through the same filter as the trainer
+//! (`firmware_core::FeatureState::heating_rate`) and adds `(heating_var + heating_scale_var · y²)
+//! · h²`, h the rate's distance beyond the band (`firmware_core::ErrorModel::heating_excess`) and
+//! y the output: the model's change per °C over its training samples, told apart by their
 //! reference outputs into a part alike at every output and one in proportion to it (as the
 //! growth beyond the range is, [`super::split_by_output`]: a gyro's scale factor changes with
 //! temperature, so at 80 °/s its model changes per °C many times what it does at rest), times
@@ -31,6 +33,8 @@ use serde::Serialize;
 use fog_data::stats::{Line, extent, mean, quantile};
 
 use super::Calibration;
+use crate::data::points::Points;
+use crate::models::gp::GpModel;
 
 /// How far the band reaches beyond the training's rates, °C/min: a temperature sensor's noise and
 /// quantization through the heating rate's filter (0.0625 °C steps over its 2 min are 0.03
@@ -58,11 +62,16 @@ pub const ASSUMED_LAG_S: f64 = 30.0;
 /// in the JSON).
 #[derive(Debug, Clone, Default, Serialize, schemars::JsonSchema)]
 pub struct Heating {
-    /// The band of heating rates the training stream held (`None`: not known, no term: a rate
-    /// table's soaks, logs pooled, power-ons under 6 minutes).
+    /// The band of heating rates the training held (`None`: not known, no term: logs pooled,
+    /// power-ons under 6 minutes): a stream's samples', or a rate table's points'
+    /// ([`table_rates`]).
     pub band: Option<HeatingBand>,
+    /// Whether the band is a rate table's points taken as soaks, their times not read
+    /// ([`table_rates`]).
+    pub soaks_assumed: bool,
     /// The model's change per °C of the temperature reading over the training samples with a
-    /// reference, its part alike at every output, output units per °C (RMS; 0: not known).
+    /// reference (a rate table's points), its part alike at every output, output units per °C
+    /// (RMS; 0: not known).
     pub slope_per_c: f64,
     /// Its part in proportion to the output, ppm of the output per °C (0: none shows, as at
     /// rest).
@@ -138,6 +147,7 @@ impl Calibration {
     /// the lag stated or assumed ([`Self::set_sensor_lag`]).
     pub fn set_heating(&mut self, samples: &[(f64, f64)], slope: (f64, f64)) {
         self.heating.band = HeatingBand::of(samples);
+        self.heating.soaks_assumed = false;
         self.heating.slope_per_c = slope.0;
         self.heating.scale_slope_ppm_per_c = slope.1 * 1e6;
         let b = self.heating.band.unwrap_or_default();
@@ -157,6 +167,13 @@ impl Calibration {
     pub fn set_sensor_lag(&mut self, stated: Option<f64>) {
         self.heating.stated_lag_s = stated;
         self.apply_lag();
+    }
+
+    /// [`Self::set_heating`] for a rate table's `points` ([`table_rates`]), `slope` as
+    /// [`table_slopes`] gives it.
+    pub fn set_table_heating(&mut self, points: &Points, slope: (f64, f64)) {
+        self.set_heating(&table_rates(points), slope);
+        self.heating.soaks_assumed = points.time_s.is_none() && self.heating.band.is_some();
     }
 
     /// The term at the band and the lag as they now stand, and whether it is assumed.
@@ -204,10 +221,16 @@ impl Calibration {
                 } else {
                     format!("the stated sensor lag, {lag} s, {change}")
                 };
+                let soaks = if h.soaks_assumed {
+                    ": the table's points taken as soaks, their times not read (--map \
+                     time_s=… reads one run's)"
+                } else {
+                    ""
+                };
                 format!(
                     "; at a heating rate outside the band the training held ({:+.2}…{:+.2} \
-                     °C/min about {:.2} {:+.3}·T), {:.3e} {units} and {:.0} ppm of the output \
-                     more per °C/min ({source})",
+                     °C/min about {:.2} {:+.3}·T{soaks}), {:.3e} {units} and {:.0} ppm of the \
+                     output more per °C/min ({source})",
                     b.min,
                     b.max,
                     b.rate_at_0c,
@@ -223,9 +246,8 @@ impl Calibration {
     /// The line a command says where a heating rate unlike the calibration's adds nothing to the
     /// σ, and why; `None` where it adds its term.
     pub fn heating_skipped_line(&self) -> Option<String> {
-        const UNKNOWN: &str = "the training's heating rates are not known: a rate table's soaks, \
-                               logs pooled, or power-ons too short, under 6 minutes, for the \
-                               rate to settle";
+        const UNKNOWN: &str = "the training's heating rates are not known: logs pooled, or \
+                               power-ons too short, under 6 minutes, for the rate to settle";
         let why = match (self.heating.band, self.heating.sensor_lag_s) {
             (None, Some(_)) => format!("{UNKNOWN}; the stated sensor lag is not used"),
             (None, None) => UNKNOWN.to_owned(),
@@ -281,5 +303,75 @@ pub fn slopes(model: &HostModel, stream: &Stream, noise_std: f64) -> (f64, f64) 
         })
         .unzip();
     let (a, b) = super::split_by_output(&c2, &y, noise_std);
+    (a.sqrt(), b.sqrt())
+}
+
+/// The temperature and heating rate (°C/min) of each point of a rate table. Where the points
+/// carry their times (`--map time_s=…`), each point's rate to the nearest row of its run at
+/// least the firmware's filter time before it ([`firmware_core::features::HEATING_TAU_S`]) and
+/// to the one as far after it, the slower of the two. Over two minutes a sensor's quantization
+/// moves the rate by no more than the band's margin (0.0625 °C steps are 0.03 °C/min), as
+/// through the firmware's filter, where rows seconds apart would read each step as a rate. A
+/// point at a plateau's edge reads its plateau, not the chamber's step to the next, and a
+/// turntable that drifts reads its drift. Without times, 0: the points are taken as soaks, as a
+/// rate table holds them (a table that drifted gives its times to be read right; runs pooled
+/// keep none, as one series).
+pub fn table_rates(points: &Points) -> Vec<(f64, f64)> {
+    let n = points.len();
+    let Some(time_s) = &points.time_s else {
+        return points.temp_c.iter().map(|&t| (t, 0.0)).collect();
+    };
+    let apart = f64::from(firmware_core::features::HEATING_TAU_S);
+    let rate = |a: usize, b: usize| {
+        (points.temp_c[b] - points.temp_c[a]) / (time_s[b] - time_s[a]) * S_PER_MIN
+    };
+    let same_run = |a: usize, b: usize| points.run[a] == points.run[b];
+    (0..n)
+        .filter_map(|i| {
+            let before = (0..i)
+                .rev()
+                .take_while(|&a| same_run(a, i))
+                .find(|&a| time_s[i] - time_s[a] >= apart)
+                .map(|a| rate(a, i));
+            let after = (i + 1..n)
+                .take_while(|&b| same_run(i, b))
+                .find(|&b| time_s[b] - time_s[i] >= apart)
+                .map(|b| rate(i, b));
+            let r = match (before, after) {
+                (Some(b), Some(a)) => Some(if b.abs() <= a.abs() { b } else { a }),
+                (one, other) => one.or(other),
+            };
+            r.map(|r| (points.temp_c[i], r))
+        })
+        .collect()
+}
+
+/// `model`'s change per °C of its temperature input at each of `points`, told apart by their
+/// reference outputs into a part alike at every output and one in proportion to it, as
+/// [`slopes`] tells a stream's samples apart (`noise_std`: a point's noise). A bias model's GP
+/// reads no output (its scale factor is given): its change is alike at every rate, as
+/// [`super::Prior::of`] takes its growth.
+pub fn table_slopes(model: &GpModel, points: &Points, noise_std: f64) -> (f64, f64) {
+    let Some(k) = points.features().iter().position(|f| f.is_temperature()) else {
+        return (0.0, 0.0);
+    };
+    let c2: Vec<f64> = points
+        .inputs()
+        .row_iter()
+        .map(|row| {
+            let mut at: Vec<f64> = row.iter().copied().collect();
+            let t = at[k];
+            at[k] = t + STEP_C;
+            let up = model.predict_mean(&at);
+            at[k] = t - STEP_C;
+            let d = (up - model.predict_mean(&at)) / (2.0 * STEP_C);
+            d * d
+        })
+        .collect();
+    let (a, b) = if points.scale_factor.is_some() {
+        (mean(&c2), 0.0)
+    } else {
+        super::split_by_output(&c2, &points.rate_dps, noise_std)
+    };
     (a.sqrt(), b.sqrt())
 }

@@ -196,3 +196,17 @@ pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64
     ));
     (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
 }
+
+/// States in `calibration` the heating rates a rate table's `points` were fitted at
+/// ([`super::heating::table_rates`]: soaks, unless their times say otherwise) and `model`'s
+/// change per °C there (at a point's noise, the GP's), so that a blob fitted on them states its σ
+/// growing at a heating rate unlike the table's, as a log's does. Points that are a stream's
+/// (not soaked) state none: their log's band is [`super::heating::rates`]'s. `loo`, which ships
+/// no blob and states no lag, leaves it out.
+pub fn state_table_heating(calibration: &mut Calibration, points: &Points, model: &GpModel) {
+    if points.soaked {
+        let noise_std = table_noise(points, model).var.sqrt();
+        let slopes = super::heating::table_slopes(model, points, noise_std);
+        calibration.set_table_heating(points, slopes);
+    }
+}

@@ -289,18 +289,18 @@ impl FitPlan {
         };
         let (mut blob, mut calibration, exported_from) = match shipped {
             Some(s) => s,
-            None => (
-                static_blob.clone(),
-                uncertainty::tables::pooled_calibration(
+            None => {
+                let mut calibration = uncertainty::tables::pooled_calibration(
                     &points,
                     &model,
                     &gp,
                     Some(&beyond),
                     self.stream_points(streams, (&points, &firmware, pooled), messages)?
                         .as_ref(),
-                )?,
-                None,
-            ),
+                )?;
+                uncertainty::tables::state_table_heating(&mut calibration, &points, &model);
+                (static_blob.clone(), calibration, None)
+            }
         };
         messages.result(&format!("beyond the trained range: {}", beyond.verdict));
         blob = self.service.apply(&blob, &mut calibration, beyond.rule)?;

@@ -2,7 +2,8 @@
 //! them, and the model error a stated sensor lag puts outside it.
 
 use super::*;
-use crate::analysis::uncertainty::heating::{ASSUMED_LAG_S, HeatingBand, rates};
+use crate::analysis::uncertainty::heating::{ASSUMED_LAG_S, HeatingBand, rates, table_rates};
+use crate::data::points::Points;
 
 /// A warm-up read at 1 Hz: from 10 °C, heating at 2 °C/min and slowing by 0.1 °C/min each
 /// minute (a rate that falls as the temperature rises), for 20 minutes, then a soak.
@@ -120,16 +121,16 @@ fn a_sensor_lag_stated_or_assumed_sets_the_term_outside_the_band() {
         (f64::from(scaled) / expected - 1.0).abs() < 1e-4,
         "{scaled}"
     );
-    // Without the training's rates (a rate table's soaks) a stated lag has nothing to be
-    // outside of: no term, and the line says the lag is not used.
-    let mut table = calibrate(&[], noise, Prior::NONE);
-    table.set_sensor_lag(Some(90.0));
-    assert_eq!(table.error_model.heating_var, 0.0);
-    let line = table.skipped_lines(true).join("\n");
+    // Without the training's rates (logs pooled) a stated lag has nothing to be outside of: no
+    // term, and the line says the lag is not used.
+    let mut pooled = calibrate(&[], noise, Prior::NONE);
+    pooled.set_sensor_lag(Some(90.0));
+    assert_eq!(pooled.error_model.heating_var, 0.0);
+    let line = pooled.skipped_lines(true).join("\n");
     assert!(line.contains("not used"), "{line}");
-    table.set_sensor_lag(None);
-    assert!(table.assumed.is_empty() && table.heating.sensor_lag_s.is_none());
-    let line = table.skipped_lines(true).join("\n");
+    pooled.set_sensor_lag(None);
+    assert!(pooled.assumed.is_empty() && pooled.heating.sensor_lag_s.is_none());
+    let line = pooled.skipped_lines(true).join("\n");
     assert!(line.contains("are not known"), "{line}");
     // A stated 0: no term, said.
     c.set_sensor_lag(Some(0.0));
@@ -161,4 +162,82 @@ fn each_power_on_of_a_log_starts_the_rate_again_as_the_replay_does() {
         "{:?}",
         samples.iter().map(|(_, r)| *r).fold(f64::NAN, f64::max)
     );
+}
+
+/// A rate table's points at `temp_c`, recorded at `time_s` where given.
+fn table(temp_c: &[f64], time_s: Option<Vec<f64>>) -> Points {
+    let n = temp_c.len();
+    let group = vec!["a".to_owned(); n];
+    Points::new(
+        temp_c.to_vec(),
+        vec![0.4; n],
+        vec![0.0; n],
+        group,
+        None,
+        true,
+        time_s,
+    )
+}
+
+#[test]
+fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
+    // Two plateaus of three points 10 minutes apart, the chamber stepping 20 °C between them in
+    // an hour: each plateau's edge reads its plateau (0), not the step (0.33 °C/min).
+    let plateaus = [10.0, 10.0, 10.0, 30.0, 30.0, 30.0];
+    let times = vec![0.0, 600.0, 1200.0, 4800.0, 5400.0, 6000.0];
+    let read = table_rates(&table(&plateaus, Some(times)));
+    assert_eq!(read.len(), 6);
+    assert!(read.iter().all(|&(_, r)| r == 0.0), "{read:?}");
+    // A turntable that drifts 2.5 °C every 10 minutes reads 0.25 °C/min at every point.
+    let drift: Vec<f64> = (0..6).map(|i| 40.0 + 2.5 * f64::from(i)).collect();
+    let every_ten_minutes = (0..6).map(|i| 600.0 * f64::from(i)).collect();
+    let read = table_rates(&table(&drift, Some(every_ten_minutes)));
+    assert!(
+        read.iter().all(|&(_, r)| (r - 0.25).abs() < 1e-12),
+        "{read:?}"
+    );
+    // Rows 20 s apart heating 0.1 °C/min, read by a sensor of 0.0625 °C steps: two rows in a
+    // row read a step as 0.19 °C/min or none; rows two minutes apart read 0.09–0.13.
+    let quantized: Vec<f64> = (0..60)
+        .map(|i| (20.0 + f64::from(i) / 30.0 / 0.0625).floor() * 0.0625)
+        .collect();
+    let rows = (0..60).map(|i| 20.0 * f64::from(i)).collect();
+    let read = table_rates(&table(&quantized, Some(rows)));
+    assert_eq!(read.len(), 60);
+    assert!(
+        read.iter().all(|&(_, r)| (r - 0.1).abs() < 0.04),
+        "{read:?}"
+    );
+    // A run's rows read no other run's: the second of two runs 10 minutes apart, 10 °C warmer,
+    // reads its own single row as none.
+    let mut runs = table(
+        &[10.0, 10.0, 10.0, 20.0],
+        Some(vec![0.0, 600.0, 1200.0, 1800.0]),
+    );
+    runs.run = vec![0, 0, 0, 1];
+    let read = table_rates(&runs);
+    assert_eq!(read.len(), 3, "{read:?}");
+    assert!(read.iter().all(|&(_, r)| r == 0.0), "{read:?}");
+    // Without times, soaks: the band is 0 ± its margin, and the σ line says it was assumed.
+    let points = table(&drift, None);
+    assert!(table_rates(&points).iter().all(|&(_, r)| r == 0.0));
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 0.0,
+    };
+    let mut c = calibrate(&[], noise, Prior::NONE);
+    c.set_table_heating(&points, (0.02, 0.0));
+    let band = c.heating.band.unwrap();
+    assert_eq!((band.rate_at_0c, band.rate_per_c), (0.0, 0.0));
+    assert!(
+        band.min < 0.0 && band.max > 0.0 && band.max < 0.1,
+        "{band:?}"
+    );
+    assert!(c.heating.soaks_assumed && c.assumed.contains(&"heating"));
+    let words = c.describe("°/s");
+    assert!(words.contains("taken as soaks"), "{words}");
+    // A stream's band read after it (a table's model beside a log) is the log's own.
+    c.set_heating(&rates(&warm_up()), (0.02, 0.0));
+    assert!(!c.heating.soaks_assumed);
+    assert!(!c.describe("°/s").contains("taken as soaks"));
 }
