@@ -47,6 +47,10 @@ const STEP_C: f64 = 0.5;
 /// Most samples whose change per °C is told apart by the output (every k-th of a longer log):
 /// the split's likelihood is searched on a grid, a pass over them per step.
 const MOST_SLOPES: usize = 5000;
+/// Filter times ([`firmware_core::features::HEATING_TAU_S`]) beyond which a table's row says
+/// nothing of the heating rate at another ([`table_rates`]): after four, the filter keeps 2 % of
+/// a reading.
+const FORGOTTEN: f64 = 4.0;
 /// Seconds per minute: a lag in seconds times a rate in °C/min.
 const S_PER_MIN: f64 = 60.0;
 /// The sensor lag assumed where none is stated, s (a judgement): of the lags PHYSICS.md gives, a
@@ -313,35 +317,47 @@ pub fn slopes(model: &HostModel, stream: &Stream, noise_std: f64) -> (f64, f64) 
 /// moves the rate by no more than the band's margin (0.0625 °C steps are 0.03 °C/min), as
 /// through the firmware's filter, where rows seconds apart would read each step as a rate. A
 /// point at a plateau's edge reads its plateau, not the chamber's step to the next, and a
-/// turntable that drifts reads its drift. Without times, 0: the points are taken as soaks, as a
+/// turntable that drifts reads its drift. A row further than four filter times away is none
+/// (`FORGOTTEN`): the filter has forgotten it, and it says nothing of the rate at the point (a
+/// table of one row per plateau would read the chamber's ramps between them); a point with none
+/// either side is a soak, 0. Without times, 0 for every point: the points are taken as soaks, as a
 /// rate table holds them (a table that drifted gives its times to be read right; runs pooled
-/// keep none, as one series).
+/// keep none: they are no longer one series).
 pub fn table_rates(points: &Points) -> Vec<(f64, f64)> {
     let n = points.len();
     let Some(time_s) = &points.time_s else {
         return points.temp_c.iter().map(|&t| (t, 0.0)).collect();
     };
     let apart = f64::from(firmware_core::features::HEATING_TAU_S);
+    let near = |dt: f64| (apart..=FORGOTTEN * apart).contains(&dt);
     let rate = |a: usize, b: usize| {
         (points.temp_c[b] - points.temp_c[a]) / (time_s[b] - time_s[a]) * S_PER_MIN
     };
     let same_run = |a: usize, b: usize| points.run[a] == points.run[b];
     (0..n)
-        .filter_map(|i| {
+        .map(|i| {
             let before = (0..i)
                 .rev()
                 .take_while(|&a| same_run(a, i))
                 .find(|&a| time_s[i] - time_s[a] >= apart)
+                .filter(|&a| near(time_s[i] - time_s[a]))
                 .map(|a| rate(a, i));
             let after = (i + 1..n)
                 .take_while(|&b| same_run(i, b))
                 .find(|&b| time_s[b] - time_s[i] >= apart)
+                .filter(|&b| near(time_s[b] - time_s[i]))
                 .map(|b| rate(i, b));
             let r = match (before, after) {
-                (Some(b), Some(a)) => Some(if b.abs() <= a.abs() { b } else { a }),
-                (one, other) => one.or(other),
+                (Some(b), Some(a)) => {
+                    if b.abs() <= a.abs() {
+                        b
+                    } else {
+                        a
+                    }
+                }
+                (one, other) => one.or(other).unwrap_or(0.0),
             };
-            r.map(|r| (points.temp_c[i], r))
+            (points.temp_c[i], r)
         })
         .collect()
 }

@@ -201,8 +201,8 @@ pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64
 /// ([`super::heating::table_rates`]: soaks, unless their times say otherwise) and `model`'s
 /// change per °C there (at a point's noise, the GP's), so that a blob fitted on them states its σ
 /// growing at a heating rate unlike the table's, as a log's does. Points that are a stream's
-/// (not soaked) state none: their log's band is [`super::heating::rates`]'s. `loo`, which ships
-/// no blob and states no lag, leaves it out.
+/// (not soaked) state none (one log fitted alone states its own, [`super::heating::rates`];
+/// logs pooled, none). `loo`, which ships no blob and states no lag, leaves it out.
 pub fn state_table_heating(calibration: &mut Calibration, points: &Points, model: &GpModel) {
     if points.soaked {
         let noise_std = table_noise(points, model).var.sqrt();

@@ -181,17 +181,20 @@ fn table(temp_c: &[f64], time_s: Option<Vec<f64>>) -> Points {
 
 #[test]
 fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
-    // Two plateaus of three points 10 minutes apart, the chamber stepping 20 °C between them in
-    // an hour: each plateau's edge reads its plateau (0), not the step (0.33 °C/min).
+    // Two plateaus of three points 3 minutes apart, the chamber stepping 20 °C between them in 6
+    // minutes: each plateau's edge reads its plateau (0), not the step (3.3 °C/min).
     let plateaus = [10.0, 10.0, 10.0, 30.0, 30.0, 30.0];
-    let times = vec![0.0, 600.0, 1200.0, 4800.0, 5400.0, 6000.0];
+    let times = vec![0.0, 180.0, 360.0, 720.0, 900.0, 1080.0];
     let read = table_rates(&table(&plateaus, Some(times)));
     assert_eq!(read.len(), 6);
     assert!(read.iter().all(|&(_, r)| r == 0.0), "{read:?}");
-    // A turntable that drifts 2.5 °C every 10 minutes reads 0.25 °C/min at every point.
-    let drift: Vec<f64> = (0..6).map(|i| 40.0 + 2.5 * f64::from(i)).collect();
-    let every_ten_minutes = (0..6).map(|i| 600.0 * f64::from(i)).collect();
-    let read = table_rates(&table(&drift, Some(every_ten_minutes)));
+    // One row per plateau, half an hour apart: each a soak, not the ramps between them.
+    let one_each = table(&[10.0, 30.0, 50.0], Some(vec![0.0, 1800.0, 3600.0]));
+    assert!(table_rates(&one_each).iter().all(|&(_, r)| r == 0.0));
+    // A turntable that drifts 1.25 °C every 5 minutes reads 0.25 °C/min at every point.
+    let drift: Vec<f64> = (0..6).map(|i| 40.0 + 1.25 * f64::from(i)).collect();
+    let every_five_minutes = (0..6).map(|i| 300.0 * f64::from(i)).collect();
+    let read = table_rates(&table(&drift, Some(every_five_minutes)));
     assert!(
         read.iter().all(|&(_, r)| (r - 0.25).abs() < 1e-12),
         "{read:?}"
@@ -199,7 +202,7 @@ fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
     // Rows 20 s apart heating 0.1 °C/min, read by a sensor of 0.0625 °C steps: two rows in a
     // row read a step as 0.19 °C/min or none; rows two minutes apart read 0.09–0.13.
     let quantized: Vec<f64> = (0..60)
-        .map(|i| (20.0 + f64::from(i) / 30.0 / 0.0625).floor() * 0.0625)
+        .map(|i| ((20.0 + f64::from(i) / 30.0) / 0.0625).floor() * 0.0625)
         .collect();
     let rows = (0..60).map(|i| 20.0 * f64::from(i)).collect();
     let read = table_rates(&table(&quantized, Some(rows)));
@@ -208,16 +211,19 @@ fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
         read.iter().all(|&(_, r)| (r - 0.1).abs() < 0.04),
         "{read:?}"
     );
-    // A run's rows read no other run's: the second of two runs 10 minutes apart, 10 °C warmer,
-    // reads its own single row as none.
+    // A run's rows read no other run's: a drifting run, then a run of one row 27.5 °C warmer
+    // 5 minutes later, which reads as a soak (without the runs told apart, 5.5 °C/min).
     let mut runs = table(
-        &[10.0, 10.0, 10.0, 20.0],
-        Some(vec![0.0, 600.0, 1200.0, 1800.0]),
+        &[10.0, 11.25, 12.5, 40.0],
+        Some(vec![0.0, 300.0, 600.0, 900.0]),
     );
     runs.run = vec![0, 0, 0, 1];
     let read = table_rates(&runs);
-    assert_eq!(read.len(), 3, "{read:?}");
-    assert!(read.iter().all(|&(_, r)| r == 0.0), "{read:?}");
+    assert!(
+        read[..3].iter().all(|&(_, r)| (r - 0.25).abs() < 1e-12),
+        "{read:?}"
+    );
+    assert_eq!(read[3].1, 0.0, "{read:?}");
     // Without times, soaks: the band is 0 ± its margin, and the σ line says it was assumed.
     let points = table(&drift, None);
     assert!(table_rates(&points).iter().all(|&(_, r)| r == 0.0));
