@@ -347,17 +347,11 @@ pub fn table_rates(points: &Points) -> Vec<(f64, f64)> {
                 .find(|&b| time_s[b] - time_s[i] >= apart)
                 .filter(|&b| near(time_s[b] - time_s[i]))
                 .map(|b| rate(i, b));
-            let r = match (before, after) {
-                (Some(b), Some(a)) => {
-                    if b.abs() <= a.abs() {
-                        b
-                    } else {
-                        a
-                    }
-                }
-                (one, other) => one.or(other).unwrap_or(0.0),
-            };
-            (points.temp_c[i], r)
+            let slower = before
+                .into_iter()
+                .chain(after)
+                .min_by(|x, y| x.abs().total_cmp(&y.abs()));
+            (points.temp_c[i], slower.unwrap_or(0.0))
         })
         .collect()
 }
