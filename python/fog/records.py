@@ -1371,7 +1371,7 @@ class Heating(Record):
     """The heating rates the training held and the model error outside them (`calibration.heating` in the JSON)."""
 
     band: HeatingBand | None
-    """The band of heating rates the training held (`None`: not known, no term: logs pooled, power-ons under 6 minutes): a stream's samples', or a rate table's points' ([`table_rates`])."""
+    """The band of heating rates the training held (`None`: not known, no term: power-ons under 6 minutes): a stream's samples', a rate table's points' ([`table_rates`]), or those of logs pooled, with a table's where one is pooled with them."""
 
     scale_ppm_per_c_per_min: float
     """Its part in proportion to the output, ppm of the output per °C/min: `scale_slope_ppm_per_c` times the lag in minutes."""

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use trainer::analysis::evaluate::{self, EvalConfig, Method, across_runs};
 use trainer::analysis::table::{self, Transients};
+use trainer::analysis::uncertainty::heating::{HeatingBand, table_rates};
 use trainer::data::points::Points;
 use trainer::models::gp::{GpConfig, GpModel};
 
@@ -282,6 +283,11 @@ fn the_fog_runs_transient_is_found_from_the_training_sweeps_and_harms_neither_ru
     let sigma = e.sigma_groups.unwrap();
     assert!((0.85..=0.99).contains(&sigma.within_2sigma), "{sigma:?}");
     assert!(sigma.sharpness < 1.5, "{sigma:?}");
+    // With its times, the heating rates the Oct run's model states it was fitted at (what `fit`
+    // carries into its blob): the turntable's drift, −0.27…+0.39 °C/min about its line
+    // (docs/uncertainty.md), not the soaks its points are taken as without them.
+    let band = HeatingBand::of(&table_rates(&oct)).unwrap();
+    assert!(band.min < -0.2 && band.max > 0.3, "{band:?}");
 }
 
 /// Issue 19's offsets: on the Oct run a static GP without them spends its temperature length

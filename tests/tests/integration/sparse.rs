@@ -101,6 +101,13 @@ fn a_pooled_stream_fits_sparse_and_its_blob_runs_bit_for_bit_on_the_m4() {
     // interval, not the GP's level on the points (undivided over a mean).
     let calibration = &fit["calibration"];
     assert_eq!(calibration["sample_interval_s"], 1.0, "{calibration}");
+    // It states the heating rates of the points it holds, the stream's samples' and the table's
+    // rows', taken as soaks (pooled, the table keeps no times); the soaks' heating/cooling
+    // states are not known, so no leg is stated.
+    let heating = &calibration["heating"];
+    assert!(heating["band"].is_object(), "{heating}");
+    assert_eq!(heating["soaks_assumed"], true, "{heating}");
+    assert!(calibration["legs_trained"].is_null(), "{calibration}");
     // The f32 firmware follows the f64 host as closely as for exact models (issue 3: 1e-5 °/s,
     // 1e-3 relative variance). This model reaches 8.7e-6 and 7.3e-6 (docs/performance.md: how
     // close to f32's limit a sparse model sits).

@@ -355,8 +355,8 @@ pub(super) struct DatasheetArgs {
     /// units, as a datasheet gives it (its thermal hysteresis): on a leg the training did not
     /// hold, the σ carries it (default: assumed as large as the training data's own
     /// out-of-sample error, said in the σ line; no term where the training held both legs, or
-    /// where its states are not known: a rate table's soaks, logs pooled). For channels of one
-    /// quantity (else each channel's `hysteresis` in the channels file).
+    /// where its states are not known: a rate table's soaks, alone or pooled with logs). For
+    /// channels of one quantity (else each channel's `hysteresis` in the channels file).
     #[arg(long, value_name = "BAND")]
     hysteresis: Option<f64>,
     /// How far the temperature sensor lags the sensing element, s (the time constant of the

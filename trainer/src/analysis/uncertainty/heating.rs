@@ -16,7 +16,7 @@
 //! minutes, while the rate settles from rest: the firmware reads no term there either), between
 //! the 0.5 % and 99.5 % quantiles of the rates about it, widened by 0.05 °C/min: a rate inside it
 //! is one the model was fitted at. A rate table's points give theirs ([`table_rates`]: soaks,
-//! unless their times say otherwise), and its model's change per °C at them ([`table_slopes`]).
+//! unless their times say otherwise), and its model's change per °C at them ([`Changes`]).
 //! The firmware reads the heating rate through the same filter as the trainer
 //! (`firmware_core::FeatureState::heating_rate`) and adds `(heating_var + heating_scale_var · y²)
 //! · h²`, h the rate's distance beyond the band (`firmware_core::ErrorModel::heating_excess`) and
@@ -66,9 +66,9 @@ pub const ASSUMED_LAG_S: f64 = 30.0;
 /// in the JSON).
 #[derive(Debug, Clone, Default, Serialize, schemars::JsonSchema)]
 pub struct Heating {
-    /// The band of heating rates the training held (`None`: not known, no term: logs pooled,
-    /// power-ons under 6 minutes): a stream's samples', or a rate table's points'
-    /// ([`table_rates`]).
+    /// The band of heating rates the training held (`None`: not known, no term: power-ons under
+    /// 6 minutes): a stream's samples', a rate table's points' ([`table_rates`]), or those of
+    /// logs pooled, with a table's where one is pooled with them.
     pub band: Option<HeatingBand>,
     /// Whether the band is a rate table's points taken as soaks, their times not read
     /// ([`table_rates`]).
@@ -119,6 +119,15 @@ impl HeatingBand {
     /// The line is flat where the temperatures span under 0.5 °C: their rates then say
     /// nothing of a change with temperature.
     pub fn of(samples: &[(f64, f64)]) -> Option<Self> {
+        Self::of_parts(&[samples])
+    }
+
+    /// The band of several sources' samples (a rate table's points, each log's samples): one
+    /// line through them all, and about it the widest of each source's quantiles, so that a
+    /// table's few soaks beside a log's thousands of samples, or a short log beside a long one,
+    /// stay inside the band as each would alone.
+    pub fn of_parts(parts: &[&[(f64, f64)]]) -> Option<Self> {
+        let samples: Vec<(f64, f64)> = parts.iter().flat_map(|p| p.iter().copied()).collect();
         if samples.is_empty() {
             return None;
         }
@@ -130,13 +139,18 @@ impl HeatingBand {
         let line = Line::fit(samples.iter().copied())
             .filter(|_| hi - lo >= STEP_C)
             .unwrap_or_else(flat);
-        let mut about: Vec<f64> = samples.iter().map(|(t, r)| r - line.at(*t)).collect();
-        about.sort_by(f64::total_cmp);
+        let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+        for part in parts.iter().filter(|p| !p.is_empty()) {
+            let mut about: Vec<f64> = part.iter().map(|(t, r)| r - line.at(*t)).collect();
+            about.sort_by(f64::total_cmp);
+            min = min.min(quantile(&about, TAIL));
+            max = max.max(quantile(&about, 1.0 - TAIL));
+        }
         Some(Self {
             rate_at_0c: line.intercept,
             rate_per_c: line.slope,
-            min: quantile(&about, TAIL) - MARGIN,
-            max: quantile(&about, 1.0 - TAIL) + MARGIN,
+            min: min - MARGIN,
+            max: max + MARGIN,
             temp_min_c: lo,
             temp_max_c: hi,
         })
@@ -150,7 +164,12 @@ impl Calibration {
     /// output units and relative, per °C, [`slopes`]), into the blob's band, with the term at
     /// the lag stated or assumed ([`Self::set_sensor_lag`]).
     pub fn set_heating(&mut self, samples: &[(f64, f64)], slope: (f64, f64)) {
-        self.heating.band = HeatingBand::of(samples);
+        self.set_band(HeatingBand::of(samples), slope);
+    }
+
+    /// The band and the model's change per °C at it, as [`Self::set_heating`] states them.
+    fn set_band(&mut self, band: Option<HeatingBand>, slope: (f64, f64)) {
+        self.heating.band = band;
         self.heating.soaks_assumed = false;
         self.heating.slope_per_c = slope.0;
         self.heating.scale_slope_ppm_per_c = slope.1 * 1e6;
@@ -173,11 +192,18 @@ impl Calibration {
         self.apply_lag();
     }
 
-    /// [`Self::set_heating`] for a rate table's `points` ([`table_rates`]), `slope` as
-    /// [`table_slopes`] gives it.
-    pub fn set_table_heating(&mut self, points: &Points, slope: (f64, f64)) {
-        self.set_heating(&table_rates(points), slope);
-        self.heating.soaks_assumed = points.time_s.is_none() && self.heating.band.is_some();
+    /// [`Self::set_heating`] at the rates a fit on a rate table, or on logs pooled, was fitted at
+    /// (`parts`: a table's [`table_rates`], each log's [`rates`]; the band
+    /// [`HeatingBand::of_parts`]), `soaks_assumed` where a table's points among them are taken
+    /// as soaks, their times not read.
+    pub fn set_fitted_heating(
+        &mut self,
+        parts: &[&[(f64, f64)]],
+        slope: (f64, f64),
+        soaks_assumed: bool,
+    ) {
+        self.set_band(HeatingBand::of_parts(parts), slope);
+        self.heating.soaks_assumed = soaks_assumed && self.heating.band.is_some();
     }
 
     /// The term at the band and the lag as they now stand, and whether it is assumed.
@@ -227,7 +253,7 @@ impl Calibration {
                 };
                 let soaks = if h.soaks_assumed {
                     ": the table's points taken as soaks, their times not read (--map \
-                     time_s=… reads one run's)"
+                     time_s=… reads them where one table is fitted, not pooled)"
                 } else {
                     ""
                 };
@@ -250,8 +276,8 @@ impl Calibration {
     /// The line a command says where a heating rate unlike the calibration's adds nothing to the
     /// σ, and why; `None` where it adds its term.
     pub fn heating_skipped_line(&self) -> Option<String> {
-        const UNKNOWN: &str = "the training's heating rates are not known: logs pooled, or \
-                               power-ons too short, under 6 minutes, for the rate to settle";
+        const UNKNOWN: &str = "the training's heating rates are not known: its power-ons too \
+                               short, under 6 minutes, for the rate to settle";
         let why = match (self.heating.band, self.heating.sensor_lag_s) {
             (None, Some(_)) => format!("{UNKNOWN}; the stated sensor lag is not used"),
             (None, None) => UNKNOWN.to_owned(),
@@ -284,30 +310,102 @@ pub fn rates(stream: &Stream) -> Vec<(f64, f64)> {
 /// reference, told apart by their reference outputs into a part alike at every output (output
 /// units per °C, RMS) and one in proportion to the output (relative, per °C), as
 /// [`super::split_by_output`] tells the growth beyond the range apart (`noise_std`: one sample's
-/// noise, below which the outputs do not move). Its means are replayed with every reading
-/// 0.5 °C warmer and colder: a constant offset, so the heating rates stay and a coil
-/// estimate moves with the reading.
+/// noise, below which the outputs do not move).
 pub fn slopes(model: &HostModel, stream: &Stream, noise_std: f64) -> (f64, f64) {
-    let shifted = |by: f64| {
-        let mut s = stream.clone();
-        s.temp_c.iter_mut().for_each(|t| *t += by);
-        replay::means(model, &s).rate_dps
-    };
-    let (up, down) = (shifted(STEP_C), shifted(-STEP_C));
-    let referenced: Vec<usize> = (0..stream.len())
-        .filter(|&i| stream.rate_dps[i].is_finite())
-        .collect();
-    let every = referenced.len().div_ceil(MOST_SLOPES).max(1);
-    let (c2, y): (Vec<f64>, Vec<f64>) = referenced
-        .iter()
-        .step_by(every)
-        .map(|&i| {
-            let d = (f64::from(up[i]) - f64::from(down[i])) / (2.0 * STEP_C);
-            (d * d, stream.rate_dps[i])
-        })
-        .unzip();
-    let (a, b) = super::split_by_output(&c2, &y, noise_std);
-    (a.sqrt(), b.sqrt())
+    Changes::of_stream(model, stream).split(noise_std)
+}
+
+/// A model's squared change per °C at the samples (or points) it was fitted on, beside their
+/// reference outputs: what [`slopes`] tells apart at one log's samples, and what a fit on logs
+/// pooled, or on a table with logs, tells apart over all of them together ([`Changes::extend`]).
+#[derive(Debug, Clone, Default)]
+pub struct Changes {
+    /// The change per °C, squared, at each sample.
+    per_c2: Vec<f64>,
+    /// Its reference output.
+    output: Vec<f64>,
+    /// Whether the model reads no output (a bias model, its scale factor given): its change is
+    /// alike at every rate.
+    bias_only: bool,
+}
+
+impl Changes {
+    /// At the samples of `stream` with a reference (every k-th of a longer log, 5,000 at most),
+    /// `model`'s means replayed with every reading 0.5 °C warmer and colder: a constant offset,
+    /// so the heating rates stay and a coil estimate moves with the reading.
+    pub fn of_stream(model: &HostModel, stream: &Stream) -> Self {
+        let shifted = |by: f64| {
+            let mut s = stream.clone();
+            s.temp_c.iter_mut().for_each(|t| *t += by);
+            replay::means(model, &s).rate_dps
+        };
+        let (up, down) = (shifted(STEP_C), shifted(-STEP_C));
+        let referenced: Vec<usize> = (0..stream.len())
+            .filter(|&i| stream.rate_dps[i].is_finite())
+            .collect();
+        let every = referenced.len().div_ceil(MOST_SLOPES).max(1);
+        let (per_c2, output) = referenced
+            .iter()
+            .step_by(every)
+            .map(|&i| {
+                let d = (f64::from(up[i]) - f64::from(down[i])) / (2.0 * STEP_C);
+                (d * d, stream.rate_dps[i])
+            })
+            .unzip();
+        Self {
+            per_c2,
+            output,
+            bias_only: false,
+        }
+    }
+
+    /// At each of a rate table's `points`, `model`'s change per °C of its temperature input
+    /// (none without one). A bias model's GP reads no output (its scale factor is given).
+    pub fn of_points(model: &GpModel, points: &Points) -> Self {
+        let Some(k) = points.features().iter().position(|f| f.is_temperature()) else {
+            return Self::default();
+        };
+        let per_c2 = points
+            .inputs()
+            .row_iter()
+            .map(|row| {
+                let mut at: Vec<f64> = row.iter().copied().collect();
+                let t = at[k];
+                at[k] = t + STEP_C;
+                let up = model.predict_mean(&at);
+                at[k] = t - STEP_C;
+                let d = (up - model.predict_mean(&at)) / (2.0 * STEP_C);
+                d * d
+            })
+            .collect();
+        Self {
+            per_c2,
+            output: points.rate_dps.clone(),
+            bias_only: points.scale_factor.is_some(),
+        }
+    }
+
+    /// These and `other`'s together, of one model (a bias model's stays alike at every rate).
+    pub fn extend(&mut self, other: Self) {
+        self.per_c2.extend(other.per_c2);
+        self.output.extend(other.output);
+        self.bias_only |= other.bias_only;
+    }
+
+    /// The part alike at every output (output units per °C, RMS) and the one in proportion to it
+    /// (relative, per °C), `noise_std` the noise below which the outputs do not move; (0, 0) for
+    /// none.
+    pub fn split(&self, noise_std: f64) -> (f64, f64) {
+        if self.per_c2.is_empty() {
+            return (0.0, 0.0);
+        }
+        let (a, b) = if self.bias_only {
+            (mean(&self.per_c2), 0.0)
+        } else {
+            super::split_by_output(&self.per_c2, &self.output, noise_std)
+        };
+        (a.sqrt(), b.sqrt())
+    }
 }
 
 /// The temperature and heating rate (°C/min) of each point of a rate table. Where the points
@@ -354,34 +452,4 @@ pub fn table_rates(points: &Points) -> Vec<(f64, f64)> {
             (points.temp_c[i], slower.unwrap_or(0.0))
         })
         .collect()
-}
-
-/// `model`'s change per °C of its temperature input at each of `points`, told apart by their
-/// reference outputs into a part alike at every output and one in proportion to it, as
-/// [`slopes`] tells a stream's samples apart (`noise_std`: a point's noise). A bias model's GP
-/// reads no output (its scale factor is given): its change is alike at every rate, as
-/// [`super::Prior::of`] takes its growth.
-pub fn table_slopes(model: &GpModel, points: &Points, noise_std: f64) -> (f64, f64) {
-    let Some(k) = points.features().iter().position(|f| f.is_temperature()) else {
-        return (0.0, 0.0);
-    };
-    let c2: Vec<f64> = points
-        .inputs()
-        .row_iter()
-        .map(|row| {
-            let mut at: Vec<f64> = row.iter().copied().collect();
-            let t = at[k];
-            at[k] = t + STEP_C;
-            let up = model.predict_mean(&at);
-            at[k] = t - STEP_C;
-            let d = (up - model.predict_mean(&at)) / (2.0 * STEP_C);
-            d * d
-        })
-        .collect();
-    let (a, b) = if points.scale_factor.is_some() {
-        (mean(&c2), 0.0)
-    } else {
-        super::split_by_output(&c2, &points.rate_dps, noise_std)
-    };
-    (a.sqrt(), b.sqrt())
 }

@@ -284,7 +284,8 @@ impl Calibration {
     }
 
     /// Whether the training held one heating/cooling leg only ([`Self::set_legs`]); false
-    /// where it held both, or its states are not known (a rate table's soaks, logs pooled).
+    /// where it held both, or its states are not known (a rate table's soaks, alone or pooled
+    /// with logs).
     pub fn one_leg(&self) -> bool {
         self.legs_trained
             .is_some_and(|(lo, hi)| !(lo <= -BOTH_LEGS && hi >= BOTH_LEGS))

@@ -4,6 +4,10 @@
 
 use firmware_core::model::Conditions;
 
+use fog_data::replay::HostModel;
+use fog_data::stream::Stream;
+
+use super::heating::{self, Changes};
 use super::terms::calibrate;
 use super::{Calibration, Prior, Residual, ResidualSource, SampleNoise, Series};
 use crate::analysis::beyond::BeyondChoice;
@@ -197,16 +201,52 @@ pub fn point_sigma(model: &GpModel, calibration: &Calibration, x: &[f64]) -> f64
     (p.latent_var + f64::from(calibration.error_model.sample_noise_var) + error).sqrt()
 }
 
-/// States in `calibration` the heating rates a rate table's `points` were fitted at
-/// ([`super::heating::table_rates`]: soaks, unless their times say otherwise) and `model`'s
-/// change per °C there (at a point's noise, the GP's), so that a blob fitted on them states its σ
-/// growing at a heating rate unlike the table's, as a log's does. Points that are a stream's
-/// (not soaked) state none (one log fitted alone states its own, [`super::heating::rates`];
-/// logs pooled, none). `loo`, which ships no blob and states no lag, leaves it out.
-pub fn state_table_heating(calibration: &mut Calibration, points: &Points, model: &GpModel) {
-    if points.soaked {
-        let noise_std = table_noise(points, model).var.sqrt();
-        let slopes = super::heating::table_slopes(model, points, noise_std);
-        calibration.set_table_heating(points, slopes);
+/// States in `calibration` the heating rates and heating/cooling states a pooled fit's `model`
+/// was fitted at, so that its blob's σ grows at a heating rate and on a leg unlike them, as one
+/// log's does: a rate table's rows ([`super::heating::table_rates`]: soaks, unless their times
+/// say otherwise) and the `logs` whose samples `points` hold after them (each log's own rates
+/// and states, read from its own power-on: [`super::heating::rates`],
+/// [`super::streams::legs`]), the band the widest of each one's
+/// ([`super::heating::HeatingBand::of_parts`]), with `model`'s change per °C over them all
+/// (`firmware`: its blob). The legs are stated only where no table's rows are among the points:
+/// a soak's state is not known. Points that are a stream's with none of their logs given state
+/// none. `loo`, which ships no blob and states no lag, leaves it out.
+pub fn state_fitted_conditions(
+    calibration: &mut Calibration,
+    (points, model, firmware): (&Points, &GpModel, &HostModel),
+    logs: &[&Stream],
+) {
+    let first = points.runs().saturating_sub(logs.len());
+    let rows: Vec<usize> = (0..points.len())
+        .filter(|&i| points.run[i] < first)
+        .collect();
+    let table =
+        (!rows.is_empty() && (!logs.is_empty() || points.soaked)).then(|| points.select(&rows));
+    let mut parts = Vec::new();
+    let mut changes = Changes::default();
+    if let Some(t) = &table {
+        parts.push(heating::table_rates(t));
+        changes = Changes::of_points(model, t);
     }
+    let mut states = Vec::new();
+    for log in logs {
+        parts.push(heating::rates(log));
+        changes.extend(Changes::of_stream(firmware, log));
+        states.extend(super::streams::legs(log));
+    }
+    if table.is_none() {
+        calibration.set_legs(&states);
+    }
+    if parts.iter().all(Vec::is_empty) {
+        return;
+    }
+    // A table's change is told apart at its points' noise, the logs' at one sample's.
+    let noise_std = if logs.is_empty() {
+        table_noise(points, model).var.sqrt()
+    } else {
+        calibration.sample_noise_std
+    };
+    let parts: Vec<&[(f64, f64)]> = parts.iter().map(Vec::as_slice).collect();
+    let soaks = table.as_ref().is_some_and(|t| t.time_s.is_none());
+    calibration.set_fitted_heating(&parts, changes.split(noise_std), soaks);
 }

@@ -434,7 +434,7 @@ fn a_calibration_on_one_leg_assumes_the_other_and_on_both_needs_no_leg_term() {
         both.describe("°/s")
             .contains("held both heating and cooling")
     );
-    // Where the training's states are not known (a table's soaks, logs pooled), no leg term
+    // Where the training's states are not known (a table's soaks), no leg term
     // either, and the σ line says the figure went unused.
     let mut unknown = calibrate(&series, noise, Prior::NONE);
     unknown.set_hysteresis(0.01);

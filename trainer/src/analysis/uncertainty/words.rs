@@ -26,8 +26,8 @@ impl Calibration {
                     .to_owned()
             }
             (false, Some(_)) => "; no leg term: the training's heating/cooling states are not \
-                                 known (a rate table's soaks, or logs pooled; the datasheet's \
-                                 heating/cooling gap not used)"
+                                 known (a rate table's soaks, alone or pooled with logs; the \
+                                 datasheet's heating/cooling gap not used)"
                 .to_owned(),
             (false, None) => String::new(),
         };

@@ -298,7 +298,18 @@ impl FitPlan {
                     self.stream_points(streams, (&points, &firmware, pooled), messages)?
                         .as_ref(),
                 )?;
-                uncertainty::tables::state_table_heating(&mut calibration, &points, &model);
+                // The logs the shipped points hold: all of them without a table, or pooled with
+                // one and shipped so; a table shipped alone beside them holds none.
+                let fitted: Vec<&Stream> = if self.source.points.is_none() || pooled {
+                    streams.iter().map(|(_, s)| s).collect()
+                } else {
+                    Vec::new()
+                };
+                uncertainty::tables::state_fitted_conditions(
+                    &mut calibration,
+                    (&points, &model, &firmware),
+                    &fitted,
+                );
                 (static_blob.clone(), calibration, None)
             }
         };

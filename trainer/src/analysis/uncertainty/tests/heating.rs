@@ -58,6 +58,28 @@ fn the_band_is_the_rates_the_training_held_at_each_temperature() {
         "{flat:?}"
     );
     assert_eq!(HeatingBand::of(&[]), None);
+    // A table's few soaks beside the warm-up's thousands of samples, at the warm-up's
+    // temperatures: taken as one set, they fall into its tail and out of the band; as parts,
+    // each one's quantiles count, and every soak lies inside.
+    let soaks: Vec<(f64, f64)> = (0..6).map(|i| (12.0 + 4.0 * f64::from(i), 0.0)).collect();
+    let inside = |band: &HeatingBand| {
+        soaks
+            .iter()
+            .all(|s| (band.min..=band.max).contains(&about_of(band, *s)))
+    };
+    let pooled: Vec<(f64, f64)> = samples.iter().chain(&soaks).copied().collect();
+    assert!(!inside(&HeatingBand::of(&pooled).unwrap()));
+    let parts = HeatingBand::of_parts(&[&samples, &soaks]).unwrap();
+    assert!(inside(&parts), "{parts:?}");
+    assert_eq!(
+        HeatingBand::of_parts(&[&samples]),
+        HeatingBand::of(&samples)
+    );
+}
+
+/// A rate's distance from `band`'s line at its temperature, °C/min.
+fn about_of(band: &HeatingBand, (t, r): (f64, f64)) -> f64 {
+    r - (band.rate_at_0c + band.rate_per_c * t)
 }
 
 #[test]
@@ -121,16 +143,16 @@ fn a_sensor_lag_stated_or_assumed_sets_the_term_outside_the_band() {
         (f64::from(scaled) / expected - 1.0).abs() < 1e-4,
         "{scaled}"
     );
-    // Without the training's rates (logs pooled) a stated lag has nothing to be outside of: no
-    // term, and the line says the lag is not used.
-    let mut pooled = calibrate(&[], noise, Prior::NONE);
-    pooled.set_sensor_lag(Some(90.0));
-    assert_eq!(pooled.error_model.heating_var, 0.0);
-    let line = pooled.skipped_lines(true).join("\n");
+    // Without the training's rates (power-ons too short) a stated lag has nothing to be outside
+    // of: no term, and the line says the lag is not used.
+    let mut short = calibrate(&[], noise, Prior::NONE);
+    short.set_sensor_lag(Some(90.0));
+    assert_eq!(short.error_model.heating_var, 0.0);
+    let line = short.skipped_lines(true).join("\n");
     assert!(line.contains("not used"), "{line}");
-    pooled.set_sensor_lag(None);
-    assert!(pooled.assumed.is_empty() && pooled.heating.sensor_lag_s.is_none());
-    let line = pooled.skipped_lines(true).join("\n");
+    short.set_sensor_lag(None);
+    assert!(short.assumed.is_empty() && short.heating.sensor_lag_s.is_none());
+    let line = short.skipped_lines(true).join("\n");
     assert!(line.contains("are not known"), "{line}");
     // A stated 0: no term, said.
     c.set_sensor_lag(Some(0.0));
@@ -232,7 +254,7 @@ fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
         interval_s: 0.0,
     };
     let mut c = calibrate(&[], noise, Prior::NONE);
-    c.set_table_heating(&points, (0.02, 0.0));
+    c.set_fitted_heating(&[&table_rates(&points)], (0.02, 0.0), true);
     let band = c.heating.band.unwrap();
     assert_eq!((band.rate_at_0c, band.rate_per_c), (0.0, 0.0));
     assert!(
