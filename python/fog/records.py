@@ -1386,7 +1386,7 @@ class Heating(Record):
     """The model's change per °C of the temperature reading over the training samples with a reference (a rate table's points), its part alike at every output, output units per °C (RMS; 0: not known)."""
 
     soaks_assumed: bool
-    """Whether the band is a rate table's points taken as soaks, their times not read ([`table_rates`])."""
+    """Whether the band holds a rate table's points taken as soaks, their times not read ([`table_rates`])."""
 
     std_per_c_per_min: float
     """The model error per °C/min of heating rate beyond the band, output units: `slope_per_c` times the lag in minutes (0: no term)."""

@@ -70,7 +70,7 @@ pub struct Heating {
     /// 6 minutes): a stream's samples', a rate table's points' ([`table_rates`]), or those of
     /// logs pooled, with a table's where one is pooled with them.
     pub band: Option<HeatingBand>,
-    /// Whether the band is a rate table's points taken as soaks, their times not read
+    /// Whether the band holds a rate table's points taken as soaks, their times not read
     /// ([`table_rates`]).
     pub soaks_assumed: bool,
     /// The model's change per °C of the temperature reading over the training samples with a

@@ -240,7 +240,7 @@ pub fn state_fitted_conditions(
     if parts.iter().all(Vec::is_empty) {
         return;
     }
-    // A table's change is told apart at its points' noise, the logs' at one sample's.
+    // Without logs, told apart at a table point's noise; with them, all at one sample's.
     let noise_std = if logs.is_empty() {
         table_noise(points, model).var.sqrt()
     } else {

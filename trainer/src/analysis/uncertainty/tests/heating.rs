@@ -71,10 +71,12 @@ fn the_band_is_the_rates_the_training_held_at_each_temperature() {
     assert!(!inside(&HeatingBand::of(&pooled).unwrap()));
     let parts = HeatingBand::of_parts(&[&samples, &soaks]).unwrap();
     assert!(inside(&parts), "{parts:?}");
+    // An empty part counts for nothing; no samples at all, no band.
     assert_eq!(
-        HeatingBand::of_parts(&[&samples]),
+        HeatingBand::of_parts(&[&samples, &[]]),
         HeatingBand::of(&samples)
     );
+    assert_eq!(HeatingBand::of_parts(&[&[], &[]]), None);
 }
 
 /// A rate's distance from `band`'s line at its temperature, °C/min.
@@ -268,4 +270,77 @@ fn a_tables_points_state_their_rates_as_soaks_without_their_times() {
     c.set_heating(&rates(&warm_up()), (0.02, 0.0));
     assert!(!c.heating.soaks_assumed);
     assert!(!c.describe("°/s").contains("taken as soaks"));
+}
+
+/// What a fit on a table, on logs pooled, or on both states it was fitted at
+/// ([`crate::analysis::uncertainty::tables::state_fitted_conditions`]): a timed table's rates
+/// (not soaks), an untimed one's soaks (said), the logs' rates and legs, and no legs where a
+/// table's rows are among the points (a soak's state is not known).
+#[test]
+fn a_fit_states_the_rates_and_legs_of_the_table_and_logs_it_holds() {
+    use crate::analysis::uncertainty::tables::state_fitted_conditions;
+    use crate::models::gp::{GpConfig, GpModel};
+    // A turntable drifting 0.25 °C/min over 10…23.75 °C, a row a minute at −10…10 °/s.
+    let (mut t, mut v, mut w, mut g, mut s) = (vec![], vec![], vec![], vec![], vec![]);
+    for minute in 0..55 {
+        let temp = 10.0 + 0.25 * f64::from(minute);
+        let rate = [-10.0, -5.0, 0.0, 5.0, 10.0][minute as usize % 5];
+        t.push(temp);
+        w.push(rate);
+        v.push(0.05 * rate + 1e-3 * temp);
+        g.push((minute / 5).to_string());
+        s.push(60.0 * f64::from(minute));
+    }
+    let timed = Points::new(t, v, w, g, None, true, Some(s));
+    let model = GpModel::fit(timed.inputs(), &timed.target(), &GpConfig::default()).unwrap();
+    let blob = export::to_blob(&model, timed.features()).unwrap();
+    let fw = fog_data::replay::decode(&blob).unwrap();
+    let noise = SampleNoise {
+        var: 1e-6,
+        interval_s: 1.0,
+    };
+    let stated = |points: &Points, logs: &[&Stream]| {
+        let mut c = calibrate(&[], noise, Prior::NONE);
+        state_fitted_conditions(&mut c, (points, &model, &*fw), logs);
+        c
+    };
+    // The rates the band holds at a temperature, °C/min.
+    let rates_at = |c: &Calibration, t: f64| {
+        let b = c.heating.band.unwrap();
+        let line = b.rate_at_0c + b.rate_per_c * t;
+        (line + b.min, line + b.max)
+    };
+    // The table alone, with its times: its drift, no soaks; without them, soaks, said.
+    let c = stated(&timed, &[]);
+    assert!(!c.heating.soaks_assumed, "{:?}", c.heating);
+    assert!(rates_at(&c, 15.0).0 > 0.1, "{:?}", c.heating);
+    assert!(c.legs_trained.is_none());
+    let mut untimed = timed.clone();
+    untimed.time_s = None;
+    let c = stated(&untimed, &[]);
+    assert!(c.heating.soaks_assumed, "{:?}", c.heating);
+    assert!(rates_at(&c, 15.0).0 < 0.0, "{:?}", c.heating);
+    // Points that are a log's alone (run 0, the log given): its rates, near 1.5 °C/min where it
+    // is cold, and its legs (heating only).
+    let log = warm_up();
+    let c = stated(&untimed, &[&log]);
+    assert!(!c.heating.soaks_assumed, "{:?}", c.heating);
+    assert!(rates_at(&c, 20.0).1 > 1.0, "{:?}", c.heating);
+    assert!(
+        c.legs_trained.is_some_and(|(lo, _)| lo >= 0.0),
+        "{:?}",
+        c.legs_trained
+    );
+    // The table's rows (run 0) pooled with the log's points (run 1): the soaks and the log's
+    // rates in one band, and no legs.
+    let mut pooled = untimed.clone();
+    pooled.run[50..].iter_mut().for_each(|r| *r = 1);
+    let c = stated(&pooled, &[&log]);
+    let (lo, hi) = rates_at(&c, 20.0);
+    assert!(
+        c.heating.soaks_assumed && lo < 0.0 && hi > 1.0,
+        "{:?}",
+        c.heating
+    );
+    assert!(c.legs_trained.is_none());
 }
