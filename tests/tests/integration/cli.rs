@@ -79,6 +79,15 @@ fn generate_fit_loo_reproduce_end_to_end() {
                 .all(|g| g["temp_c"].is_number() && g["rmse_dps"].is_number())
         );
         rmse.insert(method, l["rmse_dps"].as_f64().unwrap());
+        // `loo` ships no blob and states no sensor lag: no heating band either (`fit` on the
+        // same table states its soaks').
+        if method == "gpr" {
+            let heating = &l["calibration"]["heating"];
+            assert!(
+                heating["band"].is_null() && heating["sensor_lag_s"].is_null(),
+                "{heating}"
+            );
+        }
     }
     // The paper's ordering on its own kind of data: GPR well below the two-step model.
     assert!(rmse["gpr"] < 1.5e-3, "GPR LOO {}", rmse["gpr"]);
